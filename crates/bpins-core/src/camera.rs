@@ -1,0 +1,235 @@
+//! Camera geometry: pixel ↔ ray for pinhole and fisheye projections, and the
+//! meridional (p, s) basis of each ray.
+//!
+//! Source: CONVENTIONS.md "Pixels and projection". Frame: camera (x columns, y rows
+//! down, z optical axis). Units: pixels for image coordinates, the focal length in
+//! pixels `f_px = f / pitch`; normalised coordinates are in focal lengths.
+//!
+//! * Pinhole: `x_n = (u − c_x)/f_px`, `y_n = (v − c_y)/f_px`, ray ∝ `(x_n, y_n, 1)`.
+//! * Fisheye: the field angle θ maps to `r = f_px·g(θ)`: equidistant `g = θ`,
+//!   equisolid `2 sin(θ/2)`, stereographic `2 tan(θ/2)`; pinhole is `tan θ`.
+//!
+//! Cannot: model decentred lenses or thin-prism distortion; rays beyond the
+//! projection's domain (θ ≥ 90° for pinhole, ≥ 180° for the fisheyes) are `None`.
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+/// Lens projection `r = f_px·g(θ)` (CONVENTIONS.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Projection {
+    Pinhole,
+    Equidistant,
+    Equisolid,
+    Stereographic,
+}
+
+impl Projection {
+    pub const ALL: [Projection; 4] = [
+        Projection::Pinhole,
+        Projection::Equidistant,
+        Projection::Equisolid,
+        Projection::Stereographic,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Projection::Pinhole => "pinhole",
+            Projection::Equidistant => "equidistant",
+            Projection::Equisolid => "equisolid",
+            Projection::Stereographic => "stereographic",
+        }
+    }
+
+    /// `g(θ)`: normalised image radius (focal lengths) of field angle `theta_rad`.
+    pub fn radius_from_angle(self, theta_rad: f64) -> f64 {
+        match self {
+            Projection::Pinhole => theta_rad.tan(),
+            Projection::Equidistant => theta_rad,
+            Projection::Equisolid => 2.0 * (0.5 * theta_rad).sin(),
+            Projection::Stereographic => 2.0 * (0.5 * theta_rad).tan(),
+        }
+    }
+
+    /// `g⁻¹(r)`: field angle (radians) of normalised radius `r`; `None` outside the domain.
+    pub fn angle_from_radius(self, r: f64) -> Option<f64> {
+        let t = match self {
+            Projection::Pinhole => r.atan(),
+            Projection::Equidistant => r,
+            Projection::Equisolid => {
+                if r > 2.0 {
+                    return None;
+                }
+                2.0 * (0.5 * r).asin()
+            }
+            Projection::Stereographic => 2.0 * (0.5 * r).atan(),
+        };
+        (t < std::f64::consts::PI).then_some(t)
+    }
+}
+
+/// Intrinsics of one camera: projection, focal length and principal point in pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Intrinsics {
+    pub projection: Projection,
+    /// Focal length in pixels, `f / pitch`.
+    pub f_px: f64,
+    /// Principal point (x, y) in pixels, pixel centres at integers.
+    pub cx_px: f64,
+    pub cy_px: f64,
+}
+
+impl Intrinsics {
+    /// Normalised image coordinates (focal lengths) of pixel `(u, v)`.
+    #[inline]
+    pub fn normalised(&self, u_px: f64, v_px: f64) -> (f64, f64) {
+        ((u_px - self.cx_px) / self.f_px, (v_px - self.cy_px) / self.f_px)
+    }
+
+    /// Unit ray (camera frame) seen by the point at normalised coordinates `(x_n, y_n)`.
+    #[inline]
+    pub fn ray_from_normalised(&self, x_n: f64, y_n: f64) -> DVec3 {
+        match self.projection {
+            Projection::Pinhole => DVec3::new(x_n, y_n, 1.0).normalize(),
+            p => {
+                let r = (x_n * x_n + y_n * y_n).sqrt();
+                if r == 0.0 {
+                    return DVec3::Z;
+                }
+                // Beyond the domain the ray is clamped to the rim; callers mask by
+                // `in_domain` where it matters.
+                let theta = p.angle_from_radius(r).unwrap_or(std::f64::consts::PI);
+                let (st, ct) = theta.sin_cos();
+                DVec3::new(st * x_n / r, st * y_n / r, ct)
+            }
+        }
+    }
+
+    /// Unit ray (camera frame) seen by pixel `(u, v)`.
+    #[inline]
+    pub fn ray(&self, u_px: f64, v_px: f64) -> DVec3 {
+        let (x_n, y_n) = self.normalised(u_px, v_px);
+        self.ray_from_normalised(x_n, y_n)
+    }
+
+    /// Pixel `(u, v)` where the camera-frame direction `d` images; `None` when the
+    /// projection cannot image it.
+    pub fn project(&self, d: DVec3) -> Option<(f64, f64)> {
+        let d = d.normalize();
+        let rho = (d.x * d.x + d.y * d.y).sqrt();
+        let theta = rho.atan2(d.z);
+        if self.projection == Projection::Pinhole && d.z <= 0.0 {
+            return None;
+        }
+        if rho == 0.0 {
+            return Some((self.cx_px, self.cy_px));
+        }
+        let r = self.projection.radius_from_angle(theta);
+        Some((
+            self.cx_px + self.f_px * r * d.x / rho,
+            self.cy_px + self.f_px * r * d.y / rho,
+        ))
+    }
+}
+
+/// The meridional basis of a unit camera-frame ray `d`, and the doubled radial
+/// angle 2β of its image point.
+///
+/// `p` (meridional) lies in the plane of the optical axis and the ray, pointing away
+/// from the axis; `s = d × p` (sagittal). In the image an ideal lens maps `p` onto the
+/// radial direction from the principal point and `s` onto the tangential one, so a
+/// field `e_p·p + e_s·s` has AoE `atan2(−e_s, e_p)` (CONVENTIONS.md, AoE).
+/// On the axis (β undefined) the basis is the camera's x, y and β = 0.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeridionalBasis {
+    pub p: DVec3,
+    pub s: DVec3,
+    /// cos 2β and sin 2β, β = image angle of the radial direction.
+    pub cos2b: f64,
+    pub sin2b: f64,
+}
+
+#[inline]
+pub fn meridional_basis(d: DVec3) -> MeridionalBasis {
+    let rho2 = d.x * d.x + d.y * d.y;
+    if rho2 == 0.0 {
+        return MeridionalBasis {
+            p: DVec3::X,
+            s: DVec3::Y,
+            cos2b: 1.0,
+            sin2b: 0.0,
+        };
+    }
+    let rho = rho2.sqrt();
+    let (ca, sa) = (d.x / rho, d.y / rho); // radial direction in pixel axes (y down)
+    MeridionalBasis {
+        p: DVec3::new(d.z * ca, d.z * sa, -rho),
+        s: DVec3::new(-sa, ca, 0.0),
+        // β = atan2(−sa, ca): cos 2β = ca² − sa², sin 2β = −2·ca·sa.
+        cos2b: ca * ca - sa * sa,
+        sin2b: -2.0 * ca * sa,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn intr(p: Projection) -> Intrinsics {
+        Intrinsics {
+            projection: p,
+            f_px: 580.0,
+            cx_px: 305.5,
+            cy_px: 255.5,
+        }
+    }
+
+    #[test]
+    fn project_inverts_ray_for_every_projection() {
+        for p in Projection::ALL {
+            let c = intr(p);
+            for (u, v) in [(0.0, 0.0), (611.0, 511.0), (305.5, 255.5), (100.0, 400.0)] {
+                let (u2, v2) = c.project(c.ray(u, v)).unwrap();
+                assert!((u2 - u).abs() < 1e-9 && (v2 - v).abs() < 1e-9, "{p:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn pinhole_ray_matches_the_convention_formula() {
+        let c = intr(Projection::Pinhole);
+        let d = c.ray(405.5, 155.5);
+        let want = DVec3::new(100.0 / 580.0, -100.0 / 580.0, 1.0).normalize();
+        assert!((d - want).length() < 1e-15);
+    }
+
+    #[test]
+    fn fisheye_radius_follows_g_of_theta() {
+        let th = 0.7;
+        assert!((Projection::Equidistant.radius_from_angle(th) - th).abs() < 1e-15);
+        assert!((Projection::Equisolid.radius_from_angle(th) - 2.0 * (th / 2.0).sin()).abs() < 1e-15);
+        assert!((Projection::Stereographic.radius_from_angle(th) - 2.0 * (th / 2.0).tan()).abs() < 1e-15);
+        for p in Projection::ALL {
+            let r = p.radius_from_angle(th);
+            assert!((p.angle_from_radius(r).unwrap() - th).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn meridional_basis_is_orthonormal_and_right_handed() {
+        let c = intr(Projection::Equisolid);
+        for (u, v) in [(0.0, 0.0), (500.0, 30.0), (306.0, 255.5)] {
+            let d = c.ray(u, v);
+            let b = meridional_basis(d);
+            assert!((b.p.length() - 1.0).abs() < 1e-12);
+            assert!((b.s.length() - 1.0).abs() < 1e-12);
+            assert!(b.p.dot(d).abs() < 1e-12 && b.s.dot(d).abs() < 1e-12 && b.p.dot(b.s).abs() < 1e-12);
+            assert!((d.cross(b.p) - b.s).length() < 1e-12);
+            // 2β agrees with the radial angle of the pixel about the principal point.
+            let beta = crate::conventions::image_angle_rad(u - c.cx_px, v - c.cy_px);
+            assert!(((2.0 * beta).cos() - b.cos2b).abs() < 1e-12);
+            assert!(((2.0 * beta).sin() - b.sin2b).abs() < 1e-12);
+        }
+    }
+}

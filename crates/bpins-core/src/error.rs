@@ -1,0 +1,34 @@
+//! Typed errors of the core library. Every error that comes from user input names
+//! the file and the key or frame it is about.
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error("{path}: {message}")]
+    Capture { path: PathBuf, message: String },
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("unknown effect `{name}`; known effects: {known}")]
+    UnknownEffect { name: String, known: String },
+    #[error("effect `{effect}` has no parameter `{param}`; its parameters: {known}")]
+    UnknownParam {
+        effect: String,
+        param: String,
+        known: String,
+    },
+    #[error("effect parameter `{spec}`: {message}")]
+    BadParam { spec: String, message: String },
+    #[error("invalid model: {0}")]
+    Model(String),
+    #[error("heading extraction failed: {0}")]
+    Heading(String),
+    #[error("sun position: {0}")]
+    Sun(String),
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,3 @@
+//! The sky: sun position and the polarization pattern.
+
+pub mod sun;
