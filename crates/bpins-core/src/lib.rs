@@ -11,9 +11,16 @@
 
 pub mod camera;
 pub mod capture;
+pub mod chain;
 pub mod conventions;
+pub mod effects;
 pub mod error;
+pub mod heading;
+pub mod noise;
+pub mod recon;
 pub mod sensor;
+pub mod simulate;
 pub mod sky;
+pub mod stokes;
 
 pub use error::{Error, Result};

@@ -1,3 +1,6 @@
 //! The sky: sun position and the polarization pattern.
 
+pub mod rayleigh;
 pub mod sun;
+
+pub use rayleigh::sky_stokes;

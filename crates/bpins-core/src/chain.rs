@@ -1,0 +1,254 @@
+//! The per-pixel measurement chain: sky → camera ray → lens → analyzer → sensor.
+//!
+//! Every function here is pure and per pixel — the CPU reference of the WGSL chain,
+//! with the same names and argument order (`shaders/chain.wgsl` in the GPU issue).
+//! [`ChainFrame`] holds what is constant over one frame (computed once on the host);
+//! the drivers in [`crate::simulate`] map these functions over pixels with rayon.
+//!
+//! ```text
+//! pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β       camera frame
+//!   sky_stokes(sun, d_max, d)        Rayleigh, meridional frame          (sky::rayleigh)
+//!   lens_diattenuation(ρ₂, r², S)    lens Mueller, meridional frame      (effects)
+//!   meridional_to_image(S, 2β)       rotate to the image x frame          (stokes)
+//!   analyzer_intensity(S, θ_k, ε_k)  micro-polarizer k                    (stokes)
+//!   × g(1 + gain_k)                  photo-signal in DN                   (sensor)
+//!   sensor_dn(signal, pixel, k)      PRNU, offsets, DSNU, read+shot noise, rounding
+//! ```
+//!
+//! Effects enter through the frame's parameters ([`Model`] folded by the registry)
+//! and, for lens effects, through their per-pixel functions called here in order.
+
+use crate::camera::{meridional_basis, Intrinsics};
+use crate::conventions::{enu_from_az_el_deg, level_from_camera, world_from_camera};
+use crate::effects::lens_diattenuation::lens_diattenuation;
+use crate::effects::Model;
+use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
+use crate::sensor::{Channel, Response};
+use crate::sky::sky_stokes;
+use crate::stokes::{analyzer_intensity, meridional_to_image, Analyzer, Stokes};
+use glam::DVec3;
+
+/// What one frame looks at: the sun, the camera's orientation and the sky's d_max.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scene {
+    /// Sun azimuth from North toward East, degrees.
+    pub sun_az_deg: f64,
+    /// Sun elevation above the horizon, degrees.
+    pub sun_el_deg: f64,
+    /// Camera heading ψ (azimuth of the image top), degrees.
+    pub heading_deg: f64,
+    /// Frame tilt about camera x then y, degrees.
+    pub tilt_x_deg: f64,
+    pub tilt_y_deg: f64,
+    /// Peak degree of linear polarization of the sky (Rayleigh d_max).
+    pub dmax: f64,
+}
+
+/// Which draw of the noise a frame uses: (seed, trial, frame).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NoiseIndex {
+    pub seed: u64,
+    pub trial: u32,
+    pub frame: u32,
+}
+
+/// Everything the per-pixel chain needs that is constant over one frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChainFrame {
+    /// The camera as it really is (nominal + geometry effects).
+    pub intr: Intrinsics,
+    /// Unit sun direction in the true camera frame.
+    pub sun_cam: DVec3,
+    pub dmax: f64,
+    pub lens_rho2: f64,
+    /// True analyzers by channel index (0, 45, 90, 135).
+    pub analyzers: [Analyzer; 4],
+    /// DN per unit radiance of each channel: g·(1 + gain_k).
+    pub gain_dn: [f64; 4],
+    /// Black level plus each channel's offset, DN.
+    pub offset_dn: [f64; 4],
+    pub response: Response,
+    /// Temporal noise key of this frame; fixed-pattern key of this trial.
+    pub key: FrameKey,
+    pub fixed_key: FrameKey,
+}
+
+impl ChainFrame {
+    /// Builds the frame: folds `model` into the nominal camera and the scene.
+    pub fn new(model: &Model, nominal: &Intrinsics, scene: &Scene, response: &Response, noise: NoiseIndex) -> Self {
+        // True camera: nominal intrinsics with the principal point moved.
+        let intr = Intrinsics {
+            cx_px: nominal.cx_px + model.pp_offset_px[0],
+            cy_px: nominal.cy_px + model.pp_offset_px[1],
+            ..*nominal
+        };
+        // True orientation: the frame's, then the camera's tilt on its mount.
+        let world_from_cam = world_from_camera(scene.heading_deg, scene.tilt_x_deg, scene.tilt_y_deg)
+            * level_from_camera(model.mount_tilt_deg[0], model.mount_tilt_deg[1]);
+        let sun_cam = world_from_cam.transpose() * enu_from_az_el_deg(scene.sun_az_deg, scene.sun_el_deg);
+        let analyzers = Channel::ALL.map(|c| Analyzer::at(c.angle_deg(), model.analyzer_delta_deg[c.index()], model.analyzer_eps[c.index()]));
+        ChainFrame {
+            intr,
+            sun_cam,
+            dmax: scene.dmax,
+            lens_rho2: model.lens_rho2,
+            analyzers,
+            gain_dn: model.channel_gain.map(|g| g * response.gain_dn),
+            offset_dn: model.channel_offset_dn.map(|o| o + response.black_level_dn),
+            response: *response,
+            key: FrameKey::new(noise.seed, noise.trial, noise.frame),
+            fixed_key: FrameKey::new(noise.seed, noise.trial, FIXED_PATTERN_FRAME),
+        }
+    }
+
+    /// A frame with unit gain, no black level and no noise: DN = radiance behind the analyzer.
+    pub fn noise_free(model: &Model, nominal: &Intrinsics, scene: &Scene) -> Self {
+        let idx = NoiseIndex { seed: 0, trial: 0, frame: 0 };
+        ChainFrame::new(model, nominal, scene, &Response::ideal(1.0), idx)
+    }
+}
+
+/// Stokes vector (image frame) reaching the analyzer of pixel `(u, v)`, noise-free.
+#[inline(always)]
+pub fn pixel_stokes(f: &ChainFrame, u: f64, v: f64) -> Stokes {
+    // Pixel → ray through the true camera; r² in focal lengths for the lens effects.
+    let (x_n, y_n) = f.intr.normalised(u, v);
+    let r2 = x_n * x_n + y_n * y_n;
+    let d = f.intr.ray_from_normalised(x_n, y_n);
+    let b = meridional_basis(d);
+    // Skylight along the ray, in its meridional frame.
+    let s = sky_stokes(f.sun_cam, f.dmax, d, &b);
+    // Lens Mueller matrices act in the meridional frame.
+    let s = lens_diattenuation(f.lens_rho2, r2, s);
+    // Rotate from the meridional frame to the image x frame.
+    meridional_to_image(s, b.cos2b, b.sin2b)
+}
+
+/// Photo-signal in DN of channel `ch` (index) for Stokes `s`: analyzer, then gain.
+#[inline(always)]
+pub fn pixel_signal_dn(f: &ChainFrame, s: Stokes, ch: usize) -> f64 {
+    analyzer_intensity(s, &f.analyzers[ch]) * f.gain_dn[ch]
+}
+
+/// The sensor's output DN for `signal_dn` at linear pixel index `pixel`, channel `ch`:
+/// PRNU, offsets, DSNU, read + shot noise, then rounding and clipping (sensor.rs).
+#[inline(always)]
+pub fn sensor_dn(f: &ChainFrame, signal_dn: f64, pixel: u32, ch: usize) -> f64 {
+    let r = &f.response;
+    let chu = ch as u32;
+    // Gain non-uniformity (fixed pattern).
+    let mut sig = signal_dn;
+    if r.prnu > 0.0 {
+        sig *= 1.0 + r.prnu * f.fixed_key.normal(pixel, chu, stream::PRNU);
+    }
+    // Black level, channel offset and offset non-uniformity (fixed pattern).
+    let mut dn = sig + f.offset_dn[ch];
+    if r.dsnu_dn > 0.0 {
+        dn += r.dsnu_dn * f.fixed_key.normal(pixel, chu, stream::DSNU);
+    }
+    // Temporal noise: read noise plus shot noise of variance K·signal.
+    let var = r.read_noise_dn * r.read_noise_dn + r.system_gain_dn_per_e * sig.max(0.0);
+    if var > 0.0 {
+        dn += var.sqrt() * f.key.normal(pixel, chu, stream::TEMPORAL);
+    }
+    // Rounding (half up, as WGSL floor(x + 0.5)) and clipping to the ADC range.
+    if r.quantize {
+        dn = (dn + 0.5).floor().clamp(0.0, r.full_scale_dn());
+    }
+    dn
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::camera::Projection;
+    use crate::effects::EffectSet;
+
+    /// The sample captures' camera: 612 × 512, 13.8 µm, 8 mm pinhole.
+    pub fn intrinsics() -> Intrinsics {
+        Intrinsics { projection: Projection::Pinhole, f_px: 8000.0 / 13.8, cx_px: 305.5, cy_px: 255.5 }
+    }
+
+    pub fn scene() -> Scene {
+        Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 }
+    }
+
+    pub fn ideal_frame(model: &Model) -> ChainFrame {
+        ChainFrame::noise_free(model, &intrinsics(), &scene())
+    }
+
+    pub fn stokes_at(f: &ChainFrame, u: f64, v: f64) -> Stokes {
+        pixel_stokes(f, u, v)
+    }
+
+    #[test]
+    fn every_registered_effect_at_neutral_gives_bitwise_the_ideal_chain() {
+        let ideal = ideal_frame(&Model::default());
+        for e in crate::effects::REGISTRY {
+            let mut set = EffectSet::new();
+            set.enable(e.name).unwrap();
+            let f = ideal_frame(&set.model());
+            for (u, v) in [(0.0, 0.0), (305.5, 255.5), (611.0, 511.0), (17.0, 400.0)] {
+                let (a, b) = (pixel_stokes(&f, u, v), pixel_stokes(&ideal, u, v));
+                assert_eq!(a, b, "{}", e.name);
+                for ch in 0..4 {
+                    assert_eq!(pixel_signal_dn(&f, a, ch), pixel_signal_dn(&ideal, b, ch), "{}", e.name);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn noise_free_sensor_is_gain_plus_offset() {
+        let mut set = EffectSet::new();
+        set.set("channel_response", "gain45", 0.1).unwrap();
+        set.set("channel_response", "offset45_dn", 2.0).unwrap();
+        let resp = Response { black_level_dn: 64.0, ..Response::ideal(1000.0) };
+        let f = ChainFrame::new(&set.model(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 1, trial: 0, frame: 0 });
+        let s = pixel_stokes(&f, 100.0, 100.0);
+        let sig = pixel_signal_dn(&f, s, 1);
+        let want = 1000.0 * 1.1 * analyzer_intensity(s, &f.analyzers[1]);
+        assert!((sig - want).abs() < 1e-9);
+        assert!((sensor_dn(&f, sig, 7, 1) - (want + 66.0)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn sensor_noise_has_the_emva_variance() {
+        let resp = Response {
+            read_noise_dn: 2.0,
+            system_gain_dn_per_e: 0.5,
+            black_level_dn: 100.0,
+            ..Response::ideal(1.0)
+        };
+        let f = ChainFrame::new(&Model::default(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 3, trial: 1, frame: 2 });
+        let n = 100_000;
+        let signal = 1000.0;
+        let (mut s1, mut s2) = (0.0, 0.0);
+        for p in 0..n {
+            let x = sensor_dn(&f, signal, p, 0) - 1100.0;
+            s1 += x;
+            s2 += x * x;
+        }
+        let var = s2 / n as f64 - (s1 / n as f64).powi(2);
+        let want = 4.0 + 0.5 * signal;
+        assert!((var / want - 1.0).abs() < 0.02, "variance {var} DN², want {want}");
+    }
+
+    #[test]
+    fn quantization_rounds_half_up_and_clips() {
+        let resp = Response { quantize: true, bit_depth: 8, ..Response::ideal(1.0) };
+        let f = ChainFrame::new(&Model::default(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
+        assert_eq!(sensor_dn(&f, 2.5, 0, 0), 3.0);
+        assert_eq!(sensor_dn(&f, 2.49, 0, 0), 2.0);
+        assert_eq!(sensor_dn(&f, 300.0, 0, 0), 255.0);
+        assert_eq!(sensor_dn(&f, -4.0, 0, 0), 0.0);
+    }
+
+    #[test]
+    fn same_key_same_noise_other_frame_other_noise() {
+        let resp = Response { read_noise_dn: 1.0, ..Response::ideal(1.0) };
+        let mk = |frame| ChainFrame::new(&Model::default(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 5, trial: 0, frame });
+        assert_eq!(sensor_dn(&mk(0), 10.0, 3, 1), sensor_dn(&mk(0), 10.0, 3, 1));
+        assert_ne!(sensor_dn(&mk(0), 10.0, 3, 1), sensor_dn(&mk(1), 10.0, 3, 1));
+    }
+}

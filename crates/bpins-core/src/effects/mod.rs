@@ -1,0 +1,283 @@
+//! The effect registry: every physical effect between the sky and the DN values is
+//! one module here, one [`EffectDef`] and one line in [`REGISTRY`].
+//!
+//! An effect declares its parameters (name with unit suffix, unit, neutral value,
+//! range) and folds its values into the chain's parameter block [`Model`]; effects
+//! that act per pixel also expose a pure function that the chain calls at a fixed
+//! place (`chain::pixel_stokes`) — the same name as its WGSL twin. From this registry
+//! come the CLI listing (`bpins effects`), the `--effect name.param=value` parser, the
+//! parameter list of a fit and the registry-wide tests below. At neutral values every
+//! effect leaves the chain exactly as the ideal one (tested for all).
+//!
+//! Catalog: shared/spec/EFFECTS.md. This module holds the seed's four error sources
+//! and `mount_tilt`; the rest of the catalog is added the same way.
+
+pub mod array_rotation;
+pub mod channel_response;
+pub mod lens_diattenuation;
+pub mod mount_tilt;
+pub mod principal_point;
+
+use crate::error::{Error, Result};
+
+/// Where in the chain an effect acts (for listings and documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Camera geometry: which ray a pixel sees.
+    Geometry,
+    /// The sky pattern itself.
+    Sky,
+    /// Lens Mueller matrix, in each ray's meridional frame.
+    Lens,
+    /// The micro-polarizer analyzers.
+    Analyzer,
+    /// The CMOS response.
+    Sensor,
+}
+
+impl Stage {
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Geometry => "geometry",
+            Stage::Sky => "sky",
+            Stage::Lens => "lens",
+            Stage::Analyzer => "analyzer",
+            Stage::Sensor => "sensor",
+        }
+    }
+}
+
+/// One parameter of an effect.
+#[derive(Debug, PartialEq)]
+pub struct ParamSpec {
+    /// Name as used in files and on the command line, unit as suffix.
+    pub name: &'static str,
+    /// Unit: "px", "deg", "DN" or "1" (dimensionless).
+    pub unit: &'static str,
+    /// The value at which the effect vanishes.
+    pub neutral: f64,
+    /// Physically meaningful range (inclusive).
+    pub min: f64,
+    pub max: f64,
+    pub doc: &'static str,
+}
+
+/// One physical effect.
+#[derive(Debug)]
+pub struct EffectDef {
+    pub name: &'static str,
+    /// One line: what it does.
+    pub summary: &'static str,
+    /// Where the equation comes from.
+    pub source: &'static str,
+    pub stage: Stage,
+    pub params: &'static [ParamSpec],
+    /// Adds this effect's parameter `values` (in `params` order) into `model`.
+    pub apply: fn(values: &[f64], model: &mut Model),
+}
+
+impl EffectDef {
+    pub fn param_index(&self, name: &str) -> Option<usize> {
+        self.params.iter().position(|p| p.name == name)
+    }
+
+    pub fn neutral_values(&self) -> Vec<f64> {
+        self.params.iter().map(|p| p.neutral).collect()
+    }
+}
+
+/// Every effect bpins knows, in chain order. Adding an effect: one module, one line here.
+pub static REGISTRY: &[&EffectDef] = &[
+    &principal_point::EFFECT,
+    &mount_tilt::EFFECT,
+    &lens_diattenuation::EFFECT,
+    &array_rotation::EFFECT,
+    &channel_response::EFFECT,
+];
+
+/// Looks an effect up by name.
+pub fn find(name: &str) -> Result<&'static EffectDef> {
+    REGISTRY
+        .iter()
+        .copied()
+        .find(|e| e.name == name)
+        .ok_or_else(|| Error::UnknownEffect {
+            name: name.to_string(),
+            known: REGISTRY.iter().map(|e| e.name).collect::<Vec<_>>().join(", "),
+        })
+}
+
+/// The chain's parameter block: the ideal chain plus what enabled effects fold in.
+/// `Model::default()` is the ideal chain. Angles in degrees, offsets in DN and px.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    /// True principal point minus nominal, (x, y) px.
+    pub pp_offset_px: [f64; 2],
+    /// Camera tilt on its mount about camera x then y, degrees.
+    pub mount_tilt_deg: [f64; 2],
+    /// Lens diattenuation ρ = rho2 · r² (r in focal lengths), meridional frame.
+    pub lens_rho2: f64,
+    /// Each analyzer's angle minus nominal, degrees, by channel index (0, 45, 90, 135).
+    pub analyzer_delta_deg: [f64; 4],
+    /// Each analyzer's ε = 1/ER.
+    pub analyzer_eps: [f64; 4],
+    /// Relative gain of each channel (1 + gain_k); channel 0 is the reference.
+    pub channel_gain: [f64; 4],
+    /// Offset of each channel, DN, added to the black level.
+    pub channel_offset_dn: [f64; 4],
+}
+
+impl Default for Model {
+    fn default() -> Self {
+        Model {
+            pp_offset_px: [0.0; 2],
+            mount_tilt_deg: [0.0; 2],
+            lens_rho2: 0.0,
+            analyzer_delta_deg: [0.0; 4],
+            analyzer_eps: [0.0; 4],
+            channel_gain: [1.0; 4],
+            channel_offset_dn: [0.0; 4],
+        }
+    }
+}
+
+/// A set of enabled effects with their values.
+#[derive(Clone, Debug, Default)]
+pub struct EffectSet {
+    entries: Vec<(&'static EffectDef, Vec<f64>)>,
+}
+
+impl EffectSet {
+    pub fn new() -> Self {
+        EffectSet::default()
+    }
+
+    /// Enables `name` at neutral values (no-op when already enabled).
+    pub fn enable(&mut self, name: &str) -> Result<()> {
+        let def = find(name)?;
+        if !self.entries.iter().any(|(d, _)| d.name == def.name) {
+            self.entries.push((def, def.neutral_values()));
+        }
+        Ok(())
+    }
+
+    /// Sets `effect.param` to `value`, enabling the effect.
+    pub fn set(&mut self, effect: &str, param: &str, value: f64) -> Result<()> {
+        let def = find(effect)?;
+        let idx = def.param_index(param).ok_or_else(|| Error::UnknownParam {
+            effect: effect.to_string(),
+            param: param.to_string(),
+            known: def.params.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
+        })?;
+        let spec = &def.params[idx];
+        if !value.is_finite() || value < spec.min || value > spec.max {
+            return Err(Error::BadParam {
+                spec: format!("{effect}.{param}={value}"),
+                message: format!("must lie in [{}, {}] {}", spec.min, spec.max, spec.unit),
+            });
+        }
+        self.enable(effect)?;
+        let entry = self.entries.iter_mut().find(|(d, _)| d.name == def.name).expect("just enabled");
+        entry.1[idx] = value;
+        Ok(())
+    }
+
+    /// Parses `effect.param=value` (as given to `--effect`) and applies it.
+    pub fn parse_assignment(&mut self, spec: &str) -> Result<()> {
+        let bad = |m: &str| Error::BadParam {
+            spec: spec.to_string(),
+            message: m.to_string(),
+        };
+        let (lhs, rhs) = spec.split_once('=').ok_or_else(|| bad("expected effect.param=value"))?;
+        let (effect, param) = lhs.trim().split_once('.').ok_or_else(|| bad("expected effect.param=value"))?;
+        let value: f64 = rhs.trim().parse().map_err(|_| bad("the value is not a number"))?;
+        self.set(effect.trim(), param.trim(), value)
+    }
+
+    /// Value of `effect.param` if the effect is enabled.
+    pub fn get(&self, effect: &str, param: &str) -> Option<f64> {
+        let (def, vals) = self.entries.iter().find(|(d, _)| d.name == effect)?;
+        def.param_index(param).map(|i| vals[i])
+    }
+
+    /// Enabled effects with their values, in the order they were enabled.
+    pub fn iter(&self) -> impl Iterator<Item = (&'static EffectDef, &[f64])> {
+        self.entries.iter().map(|(d, v)| (*d, v.as_slice()))
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// The chain's parameter block with every enabled effect folded in.
+    pub fn model(&self) -> Model {
+        let mut m = Model::default();
+        for (def, vals) in &self.entries {
+            (def.apply)(vals, &mut m);
+        }
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_unique_snake_case_with_units() {
+        let mut names: Vec<_> = REGISTRY.iter().map(|e| e.name).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), REGISTRY.len());
+        for e in REGISTRY {
+            assert!(e.name.chars().all(|c| c.is_ascii_lowercase() || c == '_'), "{}", e.name);
+            assert!(!e.summary.is_empty() && !e.source.is_empty(), "{}: doc", e.name);
+            assert!(!e.params.is_empty(), "{}", e.name);
+            for p in e.params {
+                assert!(["px", "deg", "DN", "1"].contains(&p.unit), "{}.{}", e.name, p.name);
+                let suffix_ok = match p.unit {
+                    "px" => p.name.ends_with("_px"),
+                    "deg" => p.name.ends_with("_deg"),
+                    "DN" => p.name.ends_with("_dn"),
+                    _ => true,
+                };
+                assert!(suffix_ok, "{}.{} lacks its unit suffix", e.name, p.name);
+                assert!(p.min <= p.neutral && p.neutral <= p.max && !p.doc.is_empty());
+            }
+        }
+    }
+
+    #[test]
+    fn every_effect_at_neutral_is_the_ideal_model() {
+        for e in REGISTRY {
+            let mut set = EffectSet::new();
+            set.enable(e.name).unwrap();
+            assert_eq!(set.model(), Model::default(), "{}", e.name);
+        }
+    }
+
+    #[test]
+    fn every_effect_away_from_neutral_changes_the_model() {
+        for e in REGISTRY {
+            for p in e.params {
+                let mut set = EffectSet::new();
+                let v = if p.max > p.neutral { p.neutral + 0.5 * (p.max - p.neutral).min(1.0) } else { p.neutral - 0.5 };
+                set.set(e.name, p.name, v).unwrap();
+                assert_ne!(set.model(), Model::default(), "{}.{}", e.name, p.name);
+            }
+        }
+    }
+
+    #[test]
+    fn assignments_parse_and_bad_ones_are_named() {
+        let mut set = EffectSet::new();
+        set.parse_assignment("array_rotation.dtheta_deg=0.3").unwrap();
+        assert_eq!(set.get("array_rotation", "dtheta_deg"), Some(0.3));
+        let e = set.parse_assignment("no_such.x=1").unwrap_err().to_string();
+        assert!(e.contains("no_such") && e.contains("array_rotation"), "{e}");
+        let e = set.parse_assignment("array_rotation.dtheta=1").unwrap_err().to_string();
+        assert!(e.contains("dtheta_deg"), "{e}");
+        assert!(set.parse_assignment("array_rotation.dtheta_deg=abc").is_err());
+        assert!(set.parse_assignment("array_rotation.dtheta_deg=1e9").is_err());
+    }
+}

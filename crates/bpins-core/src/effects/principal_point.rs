@@ -1,0 +1,58 @@
+//! # `principal_point` — the true principal point is off its nominal position
+//!
+//! ```text
+//! (c_x, c_y)_true = (c_x, c_y)_nominal + (dx_px, dy_px)
+//! ```
+//!
+//! Source: seed paper §2.3, eq. 8 (coordinate deviation of the principal point, δβ).
+//! Frame: image, pixels (x right, y down). The sensor samples rays through the true
+//! principal point, while reconstruction computes β = atan2(−(v − c_y), u − c_x) and
+//! the rays from the nominal one, so AoE = α − β errs by about δ/r at radius r.
+//!
+//! | param   | unit | neutral | range      |
+//! |---------|------|---------|------------|
+//! | `dx_px` | px   | 0       | ±10 000    |
+//! | `dy_px` | px   | 0       | ±10 000    |
+//!
+//! Cannot: a principal point that moves with focus, or a tilted sensor (Scheimpflug).
+
+use super::{EffectDef, Model, ParamSpec, Stage};
+
+pub const EFFECT: EffectDef = EffectDef {
+    name: "principal_point",
+    summary: "true principal point = nominal + (dx, dy)",
+    source: "seed paper §2.3 eq. 8",
+    stage: Stage::Geometry,
+    params: &[
+        ParamSpec { name: "dx_px", unit: "px", neutral: 0.0, min: -1e4, max: 1e4, doc: "offset along image x (columns)" },
+        ParamSpec { name: "dy_px", unit: "px", neutral: 0.0, min: -1e4, max: 1e4, doc: "offset along image y (rows, down)" },
+    ],
+    apply,
+};
+
+fn apply(v: &[f64], m: &mut Model) {
+    m.pp_offset_px[0] += v[0];
+    m.pp_offset_px[1] += v[1];
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::chain::tests::{ideal_frame, stokes_at};
+    use crate::effects::EffectSet;
+
+    #[test]
+    fn shifting_the_principal_point_shifts_the_pattern_with_it() {
+        // The sky seen at pixel (u, v) with a (+3, −2) px offset equals the ideal sky
+        // at (u − 3, v + 2): the whole pattern moves with the principal point.
+        let mut set = EffectSet::new();
+        set.set("principal_point", "dx_px", 3.0).unwrap();
+        set.set("principal_point", "dy_px", -2.0).unwrap();
+        let shifted = ideal_frame(&set.model());
+        let ideal = ideal_frame(&EffectSet::new().model());
+        for (u, v) in [(10.0, 20.0), (300.0, 200.0), (600.0, 500.0)] {
+            let a = stokes_at(&shifted, u, v);
+            let b = stokes_at(&ideal, u - 3.0, v + 2.0);
+            assert!((a.q - b.q).abs() < 1e-12 && (a.u - b.u).abs() < 1e-12 && (a.i - b.i).abs() < 1e-12);
+        }
+    }
+}

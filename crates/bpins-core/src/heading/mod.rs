@@ -1,0 +1,221 @@
+//! Heading extraction: from reconstructed Stokes samples to the camera's heading.
+//!
+//! Every sample is reduced to a few sums ([`HeadingSums`], one pass, no image kept),
+//! and each extractor solves from the sums — the same reduction runs on the GPU.
+//! Per sample, with the camera as the user believes it ([`HeadingContext`]):
+//!
+//! ```text
+//! ray d, basis (p, s), 2β  ← assumed intrinsics at the sample's pixel position
+//! (I, Q_p, U_p)            ← image → meridional frame; lens ρ inverted if known (eq. 13)
+//! AoE φ = ½ atan2(U_p, Q_p),  P = √(Q_p² + U_p²)           (seed eq. 5–6: φ = α − β)
+//! E-vector e = cos φ·p − sin φ·s                             camera frame
+//! ```
+//!
+//! Extractors (the seed does not state its own; PAPER.md):
+//! * [`Extractor::SunVector`] — least-squares sun vector: the sun is ⊥ every E-vector,
+//!   so it is the eigenvector of least eigenvalue of `Σ w e eᵀ`, w = P².
+//! * [`Extractor::MeridianLine`] — the solar meridian read off the AoE image as a line
+//!   through the assumed principal point, where AoE = ±90° (seed §3).
+//!
+//! Both report a 1σ from the scatter of their own residuals: a statistical
+//! uncertainty that assumes independent samples; systematic errors (a wrong
+//! principal point, a tilt) are not in it.
+
+mod eigen;
+pub mod meridian;
+pub mod sun_vector;
+
+use crate::camera::{meridional_basis, Intrinsics};
+use crate::effects::lens_diattenuation::lens_diattenuation_inverse;
+use crate::error::{Error, Result};
+use crate::recon::PolImage;
+use crate::stokes::{image_to_meridional, Stokes};
+use rayon::prelude::*;
+use std::ops::AddAssign;
+
+/// The heading extractors bpins offers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Extractor {
+    SunVector,
+    MeridianLine,
+}
+
+impl Extractor {
+    pub const ALL: [Extractor; 2] = [Extractor::SunVector, Extractor::MeridianLine];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Extractor::SunVector => "sun_vector",
+            Extractor::MeridianLine => "meridian_line",
+        }
+    }
+
+    pub fn describe(self) -> &'static str {
+        match self {
+            Extractor::SunVector => "least-squares sun vector over all E-vectors (weights P²)",
+            Extractor::MeridianLine => "solar meridian line through the assumed principal point, read off the AoE image",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Extractor> {
+        Extractor::ALL.into_iter().find(|e| e.name() == name)
+    }
+}
+
+/// What the extractor knows: the camera as believed, the sun and the tilt.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeadingContext {
+    /// Assumed intrinsics (nominal principal point unless calibrated).
+    pub intr: Intrinsics,
+    /// Known lens diattenuation `rho2`, inverted per sample (0: not compensated).
+    pub lens_rho2: f64,
+    pub sun_az_deg: f64,
+    pub sun_el_deg: f64,
+    /// Known tilt of the camera (frame reference plus mount), degrees.
+    pub tilt_x_deg: f64,
+    pub tilt_y_deg: f64,
+    /// Half-width of the AoE band around ±90° that the meridian line uses, degrees.
+    pub band_deg: f64,
+    /// Samples closer than this to the principal point are left out of the line fit
+    /// (β is undefined at the principal point), pixels.
+    pub r_min_px: f64,
+}
+
+impl HeadingContext {
+    /// A level camera with assumed intrinsics `intr` under the sun at (az, el).
+    pub fn new(intr: Intrinsics, sun_az_deg: f64, sun_el_deg: f64) -> Self {
+        HeadingContext {
+            intr,
+            lens_rho2: 0.0,
+            sun_az_deg,
+            sun_el_deg,
+            tilt_x_deg: 0.0,
+            tilt_y_deg: 0.0,
+            band_deg: 5.0,
+            r_min_px: 0.02 * intr.f_px,
+        }
+    }
+}
+
+/// One extractor's answer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeadingEstimate {
+    /// Heading ψ in [0°, 360°).
+    pub heading_deg: f64,
+    /// 1σ statistical uncertainty, degrees.
+    pub sigma_deg: f64,
+    /// Samples the extractor used.
+    pub samples: usize,
+}
+
+/// The sums both extractors solve from; additive over samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HeadingSums {
+    /// Σ w e eᵀ (camera frame): xx, xy, xz, yy, yz, zz.
+    pub scatter: [f64; 6],
+    /// Number of samples in the scatter.
+    pub n: f64,
+    /// Meridian band: Σ s², Σ s c, Σ c², Σ ψ s, Σ ψ c, Σ ψ², with s = sin 2β, c = cos 2β.
+    pub line: [f64; 6],
+    /// Number of samples in the band.
+    pub n_line: f64,
+}
+
+impl AddAssign for HeadingSums {
+    fn add_assign(&mut self, o: Self) {
+        for k in 0..6 {
+            self.scatter[k] += o.scatter[k];
+            self.line[k] += o.line[k];
+        }
+        self.n += o.n;
+        self.n_line += o.n_line;
+    }
+}
+
+impl HeadingSums {
+    /// Adds one sample: image-frame Stokes `s` at pixel position `(x_px, y_px)`.
+    #[inline(always)]
+    pub fn accumulate(&mut self, ctx: &HeadingContext, cos_2band: f64, x_px: f64, y_px: f64, s: Stokes) {
+        // Assumed ray and meridional basis at the sample.
+        let (x_n, y_n) = ctx.intr.normalised(x_px, y_px);
+        let d = ctx.intr.ray_from_normalised(x_n, y_n);
+        let b = meridional_basis(d);
+        // Image → meridional frame; undo a known lens diattenuation (seed eq. 13).
+        let mut sm = image_to_meridional(s, b.cos2b, b.sin2b);
+        if ctx.lens_rho2 != 0.0 {
+            sm = lens_diattenuation_inverse(ctx.lens_rho2, x_n * x_n + y_n * y_n, sm);
+        }
+        let p2 = sm.q * sm.q + sm.u * sm.u;
+        if !(p2 > 0.0 && sm.i > 0.0) {
+            return;
+        }
+        let pol = p2.sqrt();
+        let (c2, s2) = (sm.q / pol, sm.u / pol); // cos 2φ, sin 2φ
+        // Sun vector: w e eᵀ with e = cos φ p − sin φ s, w = P², without half angles:
+        // e eᵀ = ½(1 + cos 2φ) p pᵀ + ½(1 − cos 2φ) s sᵀ − ½ sin 2φ (p sᵀ + s pᵀ).
+        let (wa, wb, wc) = (0.5 * p2 * (1.0 + c2), 0.5 * p2 * (1.0 - c2), -0.5 * p2 * s2);
+        let (p, q) = (b.p, b.s);
+        let m = |i: usize, j: usize| wa * p[i] * p[j] + wb * q[i] * q[j] + wc * (p[i] * q[j] + q[i] * p[j]);
+        self.scatter[0] += m(0, 0);
+        self.scatter[1] += m(0, 1);
+        self.scatter[2] += m(0, 2);
+        self.scatter[3] += m(1, 1);
+        self.scatter[4] += m(1, 2);
+        self.scatter[5] += m(2, 2);
+        self.n += 1.0;
+        // Meridian line: ψ = AoE − 90°, so cos 2ψ = −cos 2φ; keep the band |ψ| < band.
+        let r2_px = (x_px - ctx.intr.cx_px).powi(2) + (y_px - ctx.intr.cy_px).powi(2);
+        if -c2 >= cos_2band && r2_px >= ctx.r_min_px * ctx.r_min_px {
+            let psi = 0.5 * (-s2).atan2(-c2);
+            let (sb, cb) = (b.sin2b, b.cos2b);
+            self.line[0] += sb * sb;
+            self.line[1] += sb * cb;
+            self.line[2] += cb * cb;
+            self.line[3] += psi * sb;
+            self.line[4] += psi * cb;
+            self.line[5] += psi * psi;
+            self.n_line += 1.0;
+        }
+    }
+
+    /// Sums over every valid sample of `img`; rows in parallel, added in row order
+    /// (bit-identical whatever the thread count).
+    pub fn from_image(img: &PolImage, ctx: &HeadingContext) -> HeadingSums {
+        let cos_2band = (2.0 * ctx.band_deg.to_radians()).cos();
+        let rows: Vec<HeadingSums> = (0..img.height)
+            .into_par_iter()
+            .map(|j| {
+                let mut acc = HeadingSums::default();
+                for i in 0..img.width {
+                    if let Some(s) = img.stokes(i, j) {
+                        let (x, y) = img.position_px(i, j);
+                        acc.accumulate(ctx, cos_2band, x, y, s);
+                    }
+                }
+                acc
+            })
+            .collect();
+        let mut total = HeadingSums::default();
+        for r in rows {
+            total += r;
+        }
+        total
+    }
+
+    /// Solves for the heading with `extractor`.
+    pub fn solve(&self, extractor: Extractor, ctx: &HeadingContext) -> Result<HeadingEstimate> {
+        match extractor {
+            Extractor::SunVector => sun_vector::solve(self, ctx),
+            Extractor::MeridianLine => meridian::solve(self, ctx),
+        }
+    }
+}
+
+/// Convenience: heading of one reconstructed image with one extractor.
+pub fn estimate(img: &PolImage, ctx: &HeadingContext, extractor: Extractor) -> Result<HeadingEstimate> {
+    HeadingSums::from_image(img, ctx).solve(extractor, ctx)
+}
+
+pub(crate) fn too_few(what: &str, n: f64) -> Error {
+    Error::Heading(format!("{what}: only {n} usable samples"))
+}
