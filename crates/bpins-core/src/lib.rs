@@ -16,6 +16,7 @@ pub mod conventions;
 pub mod effects;
 pub mod error;
 pub mod heading;
+pub mod montecarlo;
 pub mod noise;
 pub mod recon;
 pub mod sensor;

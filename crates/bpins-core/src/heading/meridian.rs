@@ -9,23 +9,35 @@
 //! ψ ≈ −(k/2)·sin 2(β − β_m) = A·sin 2β + B·cos 2β,   A = −(k/2)cos 2β_m,  B = (k/2) sin 2β_m
 //! ```
 //!
-//! a linear least-squares fit without intercept; `2β_m = atan2(B, −A)`. β comes from
-//! the assumed principal point, so an offset δ errs by ~δ/r: this extractor feels
-//! the principal point the way the seed paper's does. It assumes a level camera.
-//!
-//! The line gives the sun's azimuth up to 180°; the half is taken from the sun
-//! vector of the same samples. 1σ: from the fit's residuals, propagated to β_m.
+//! a linear least-squares fit without intercept; `2β_m = atan2(B, −A)`. Only the
+//! half-line toward the sun is fitted (the half is taken from the sun vector of the
+//! same samples): β comes from the assumed principal point, so an offset δ turns
+//! that half-line by ~δ/r, the way the seed paper's extractor feels it (a full line
+//! through the principal point would cancel it to first order). Samples lie in a
+//! disc inside the image, so the band is symmetric about the meridian and the
+//! noise-free estimate unbiased. It assumes a level camera.
+//! 1σ: from the fit's residuals, propagated to β_m.
 
-use super::{sun_vector, too_few, HeadingContext, HeadingEstimate, HeadingSums};
-use crate::conventions::{heading_deg_from_level_sun, level_from_camera, wrap_deg_180, wrap_deg_360};
+use super::{sector_centre_rad, sun_vector, too_few, HeadingContext, HeadingEstimate, HeadingSums, SECTORS};
+use crate::conventions::{image_angle_rad, wrap_deg_180, wrap_deg_360};
 use crate::error::{Error, Result};
 
 pub fn solve(sums: &HeadingSums, ctx: &HeadingContext) -> Result<HeadingEstimate> {
-    let n = sums.n_line;
-    if n < 3.0 {
-        return Err(too_few("meridian line (no samples with AoE near ±90°)", n));
+    // The sun's side of the image, from the sun vector of the same samples.
+    let (_, vecs) = sun_vector::sun_in_camera(sums, ctx)?;
+    let beta_sun = image_angle_rad(vecs[0].x, vecs[0].y);
+    let mut l = [0.0; 7];
+    for k in 0..SECTORS {
+        if (sector_centre_rad(k) - beta_sun).cos() > 0.0 {
+            for (a, b) in l.iter_mut().zip(&sums.line[k]) {
+                *a += b;
+            }
+        }
     }
-    let [ss, sc, cc, ps, pc, pp] = sums.line;
+    let [ss, sc, cc, ps, pc, pp, n] = l;
+    if n < 3.0 {
+        return Err(too_few("meridian line (no samples with AoE near ±90° on the sun's side)", n));
+    }
     let det = ss * cc - sc * sc;
     if det <= 1e-12 * (ss + cc).powi(2) {
         return Err(Error::Heading("meridian line: the band samples all lie on one radial line".into()));
@@ -44,17 +56,14 @@ pub fn solve(sums: &HeadingSums, ctx: &HeadingContext) -> Result<HeadingEstimate
     let (caa, cab, cbb) = (sigma2 * cc / det, -sigma2 * sc / det, sigma2 * ss / det);
     let (ja, jb) = (b / r2, -a / r2); // ∂(2β_m)/∂A, ∂(2β_m)/∂B
     let var_2beta = ja * ja * caa + 2.0 * ja * jb * cab + jb * jb * cbb;
-    // The meridian's image angle β_m; the sun lies along β_m or β_m + 180°.
-    let beta_m_deg = 0.5 * two_beta_m.to_degrees();
-    let candidates = [beta_m_deg, beta_m_deg + 180.0].map(|beta_s| wrap_deg_360(ctx.sun_az_deg + 90.0 - beta_s));
-    // Pick the half the sun vector points to.
-    let (_, vecs) = sun_vector::sun_in_camera(sums, ctx)?;
-    let sv = heading_deg_from_level_sun(level_from_camera(ctx.tilt_x_deg, ctx.tilt_y_deg) * vecs[0], ctx.sun_az_deg);
-    let heading_deg = if wrap_deg_180(candidates[0] - sv).abs() <= wrap_deg_180(candidates[1] - sv).abs() {
-        candidates[0]
-    } else {
-        candidates[1]
-    };
+    // The meridian's image angle β_m (mod 180°): the sun's half-line is the one
+    // within 90° of the sun vector's image direction.
+    let mut beta_s_deg = 0.5 * two_beta_m.to_degrees();
+    if wrap_deg_180(beta_s_deg - beta_sun.to_degrees()).abs() > 90.0 {
+        beta_s_deg += 180.0;
+    }
+    // Image angle β_s of the sun's direction ↔ heading (conventions): ψ = A + 90° − β_s.
+    let heading_deg = wrap_deg_360(ctx.sun_az_deg + 90.0 - beta_s_deg);
     Ok(HeadingEstimate {
         heading_deg,
         sigma_deg: 0.5 * var_2beta.max(0.0).sqrt().to_degrees(),

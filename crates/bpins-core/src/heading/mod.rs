@@ -14,8 +14,9 @@
 //! Extractors (the seed does not state its own; PAPER.md):
 //! * [`Extractor::SunVector`] — least-squares sun vector: the sun is ⊥ every E-vector,
 //!   so it is the eigenvector of least eigenvalue of `Σ w e eᵀ`, w = P².
-//! * [`Extractor::MeridianLine`] — the solar meridian read off the AoE image as a line
-//!   through the assumed principal point, where AoE = ±90° (seed §3).
+//! * [`Extractor::MeridianLine`] — the solar meridian read off the AoE image as a
+//!   half-line from the assumed principal point toward the sun, where AoE = ±90°
+//!   (seed §3).
 //!
 //! Both report a 1σ from the scatter of their own residuals: a statistical
 //! uncertainty that assumes independent samples; systematic errors (a wrong
@@ -76,14 +77,19 @@ pub struct HeadingContext {
     pub tilt_y_deg: f64,
     /// Half-width of the AoE band around ±90° that the meridian line uses, degrees.
     pub band_deg: f64,
-    /// Samples closer than this to the principal point are left out of the line fit
-    /// (β is undefined at the principal point), pixels.
+    /// The line fit uses samples between these radii from the principal point, pixels:
+    /// β is undefined at the principal point, and a disc inside the image keeps the
+    /// band mirror-symmetric about any line through the principal point (no bias from
+    /// the frame's corners).
     pub r_min_px: f64,
+    pub r_max_px: f64,
 }
 
 impl HeadingContext {
-    /// A level camera with assumed intrinsics `intr` under the sun at (az, el).
-    pub fn new(intr: Intrinsics, sun_az_deg: f64, sun_el_deg: f64) -> Self {
+    /// A level camera with assumed intrinsics `intr`, an image of `width_px × height_px`
+    /// pixels, under the sun at (az, el).
+    pub fn new(intr: Intrinsics, width_px: usize, height_px: usize, sun_az_deg: f64, sun_el_deg: f64) -> Self {
+        let r_max_px = intr.cx_px.min(intr.cy_px).min(width_px as f64 - 1.0 - intr.cx_px).min(height_px as f64 - 1.0 - intr.cy_px);
         HeadingContext {
             intr,
             lens_rho2: 0.0,
@@ -93,6 +99,7 @@ impl HeadingContext {
             tilt_y_deg: 0.0,
             band_deg: 5.0,
             r_min_px: 0.02 * intr.f_px,
+            r_max_px: r_max_px.max(0.0),
         }
     }
 }
@@ -108,27 +115,39 @@ pub struct HeadingEstimate {
     pub samples: usize,
 }
 
+/// Angular sectors (by β about the principal point) the band sums are kept in, so
+/// the meridian line can use the sun's half only, chosen at solve time.
+pub const SECTORS: usize = 16;
+
 /// The sums both extractors solve from; additive over samples.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HeadingSums {
     /// Σ w e eᵀ (camera frame): xx, xy, xz, yy, yz, zz.
     pub scatter: [f64; 6],
     /// Number of samples in the scatter.
     pub n: f64,
-    /// Meridian band: Σ s², Σ s c, Σ c², Σ ψ s, Σ ψ c, Σ ψ², with s = sin 2β, c = cos 2β.
-    pub line: [f64; 6],
-    /// Number of samples in the band.
-    pub n_line: f64,
+    /// Meridian band per sector: Σ s², Σ s c, Σ c², Σ ψ s, Σ ψ c, Σ ψ², count;
+    /// s = sin 2β, c = cos 2β, ψ = AoE − 90° in radians.
+    pub line: [[f64; 7]; SECTORS],
+}
+
+impl Default for HeadingSums {
+    fn default() -> Self {
+        HeadingSums { scatter: [0.0; 6], n: 0.0, line: [[0.0; 7]; SECTORS] }
+    }
 }
 
 impl AddAssign for HeadingSums {
     fn add_assign(&mut self, o: Self) {
         for k in 0..6 {
             self.scatter[k] += o.scatter[k];
-            self.line[k] += o.line[k];
         }
         self.n += o.n;
-        self.n_line += o.n_line;
+        for (a, b) in self.line.iter_mut().zip(&o.line) {
+            for k in 0..7 {
+                a[k] += b[k];
+            }
+        }
     }
 }
 
@@ -164,17 +183,19 @@ impl HeadingSums {
         self.scatter[5] += m(2, 2);
         self.n += 1.0;
         // Meridian line: ψ = AoE − 90°, so cos 2ψ = −cos 2φ; keep the band |ψ| < band.
-        let r2_px = (x_px - ctx.intr.cx_px).powi(2) + (y_px - ctx.intr.cy_px).powi(2);
-        if -c2 >= cos_2band && r2_px >= ctx.r_min_px * ctx.r_min_px {
+        let (dx, dy) = (x_px - ctx.intr.cx_px, y_px - ctx.intr.cy_px);
+        let r2_px = dx * dx + dy * dy;
+        if -c2 >= cos_2band && r2_px >= ctx.r_min_px * ctx.r_min_px && r2_px <= ctx.r_max_px * ctx.r_max_px {
             let psi = 0.5 * (-s2).atan2(-c2);
             let (sb, cb) = (b.sin2b, b.cos2b);
-            self.line[0] += sb * sb;
-            self.line[1] += sb * cb;
-            self.line[2] += cb * cb;
-            self.line[3] += psi * sb;
-            self.line[4] += psi * cb;
-            self.line[5] += psi * psi;
-            self.n_line += 1.0;
+            let l = &mut self.line[sector_of(crate::conventions::image_angle_rad(dx, dy))];
+            l[0] += sb * sb;
+            l[1] += sb * cb;
+            l[2] += cb * cb;
+            l[3] += psi * sb;
+            l[4] += psi * cb;
+            l[5] += psi * psi;
+            l[6] += 1.0;
         }
     }
 
@@ -214,6 +235,18 @@ impl HeadingSums {
 /// Convenience: heading of one reconstructed image with one extractor.
 pub fn estimate(img: &PolImage, ctx: &HeadingContext, extractor: Extractor) -> Result<HeadingEstimate> {
     HeadingSums::from_image(img, ctx).solve(extractor, ctx)
+}
+
+/// Sector of image angle `beta_rad` (any value), 0..SECTORS.
+#[inline]
+pub fn sector_of(beta_rad: f64) -> usize {
+    let t = beta_rad.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU;
+    ((t * SECTORS as f64) as usize).min(SECTORS - 1)
+}
+
+/// Centre image angle of sector `k`, radians.
+pub fn sector_centre_rad(k: usize) -> f64 {
+    (k as f64 + 0.5) * std::f64::consts::TAU / SECTORS as f64
 }
 
 pub(crate) fn too_few(what: &str, n: f64) -> Error {
