@@ -26,12 +26,8 @@ pub enum Projection {
 }
 
 impl Projection {
-    pub const ALL: [Projection; 4] = [
-        Projection::Pinhole,
-        Projection::Equidistant,
-        Projection::Equisolid,
-        Projection::Stereographic,
-    ];
+    pub const ALL: [Projection; 4] =
+        [Projection::Pinhole, Projection::Equidistant, Projection::Equisolid, Projection::Stereographic];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -126,10 +122,7 @@ impl Intrinsics {
             return Some((self.cx_px, self.cy_px));
         }
         let r = self.projection.radius_from_angle(theta);
-        Some((
-            self.cx_px + self.f_px * r * d.x / rho,
-            self.cy_px + self.f_px * r * d.y / rho,
-        ))
+        Some((self.cx_px + self.f_px * r * d.x / rho, self.cy_px + self.f_px * r * d.y / rho))
     }
 }
 
@@ -154,12 +147,7 @@ pub struct MeridionalBasis {
 pub fn meridional_basis(d: DVec3) -> MeridionalBasis {
     let rho2 = d.x * d.x + d.y * d.y;
     if rho2 == 0.0 {
-        return MeridionalBasis {
-            p: DVec3::X,
-            s: DVec3::Y,
-            cos2b: 1.0,
-            sin2b: 0.0,
-        };
+        return MeridionalBasis { p: DVec3::X, s: DVec3::Y, cos2b: 1.0, sin2b: 0.0 };
     }
     let rho = rho2.sqrt();
     let (ca, sa) = (d.x / rho, d.y / rho); // radial direction in pixel axes (y down)
@@ -177,12 +165,7 @@ mod tests {
     use super::*;
 
     fn intr(p: Projection) -> Intrinsics {
-        Intrinsics {
-            projection: p,
-            f_px: 580.0,
-            cx_px: 305.5,
-            cy_px: 255.5,
-        }
+        Intrinsics { projection: p, f_px: 580.0, cx_px: 305.5, cy_px: 255.5 }
     }
 
     #[test]

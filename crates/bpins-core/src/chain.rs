@@ -86,7 +86,8 @@ impl ChainFrame {
         let world_from_cam = world_from_camera(scene.heading_deg, scene.tilt_x_deg, scene.tilt_y_deg)
             * level_from_camera(model.mount_tilt_deg[0], model.mount_tilt_deg[1]);
         let sun_cam = world_from_cam.transpose() * enu_from_az_el_deg(scene.sun_az_deg, scene.sun_el_deg);
-        let analyzers = Channel::ALL.map(|c| Analyzer::at(c.angle_deg(), model.analyzer_delta_deg[c.index()], model.analyzer_eps[c.index()]));
+        let analyzers = Channel::ALL
+            .map(|c| Analyzer::at(c.angle_deg(), model.analyzer_delta_deg[c.index()], model.analyzer_eps[c.index()]));
         ChainFrame {
             intr,
             sun_cam,
@@ -204,7 +205,8 @@ pub(crate) mod tests {
         set.set("channel_response", "gain45", 0.1).unwrap();
         set.set("channel_response", "offset45_dn", 2.0).unwrap();
         let resp = Response { black_level_dn: 64.0, ..Response::ideal(1000.0) };
-        let f = ChainFrame::new(&set.model(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 1, trial: 0, frame: 0 });
+        let f =
+            ChainFrame::new(&set.model(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 1, trial: 0, frame: 0 });
         let s = pixel_stokes(&f, 100.0, 100.0);
         let sig = pixel_signal_dn(&f, s, 1);
         let want = 1000.0 * 1.1 * analyzer_intensity(s, &f.analyzers[1]);
@@ -214,13 +216,15 @@ pub(crate) mod tests {
 
     #[test]
     fn sensor_noise_has_the_emva_variance() {
-        let resp = Response {
-            read_noise_dn: 2.0,
-            system_gain_dn_per_e: 0.5,
-            black_level_dn: 100.0,
-            ..Response::ideal(1.0)
-        };
-        let f = ChainFrame::new(&Model::default(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 3, trial: 1, frame: 2 });
+        let resp =
+            Response { read_noise_dn: 2.0, system_gain_dn_per_e: 0.5, black_level_dn: 100.0, ..Response::ideal(1.0) };
+        let f = ChainFrame::new(
+            &Model::default(),
+            &intrinsics(),
+            &scene(),
+            &resp,
+            NoiseIndex { seed: 3, trial: 1, frame: 2 },
+        );
         let n = 100_000;
         let signal = 1000.0;
         let (mut s1, mut s2) = (0.0, 0.0);
@@ -237,7 +241,13 @@ pub(crate) mod tests {
     #[test]
     fn quantization_rounds_half_up_and_clips() {
         let resp = Response { quantize: true, bit_depth: 8, ..Response::ideal(1.0) };
-        let f = ChainFrame::new(&Model::default(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
+        let f = ChainFrame::new(
+            &Model::default(),
+            &intrinsics(),
+            &scene(),
+            &resp,
+            NoiseIndex { seed: 0, trial: 0, frame: 0 },
+        );
         assert_eq!(sensor_dn(&f, 2.5, 0, 0), 3.0);
         assert_eq!(sensor_dn(&f, 2.49, 0, 0), 2.0);
         assert_eq!(sensor_dn(&f, 300.0, 0, 0), 255.0);
@@ -247,7 +257,9 @@ pub(crate) mod tests {
     #[test]
     fn same_key_same_noise_other_frame_other_noise() {
         let resp = Response { read_noise_dn: 1.0, ..Response::ideal(1.0) };
-        let mk = |frame| ChainFrame::new(&Model::default(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 5, trial: 0, frame });
+        let mk = |frame| {
+            ChainFrame::new(&Model::default(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 5, trial: 0, frame })
+        };
         assert_eq!(sensor_dn(&mk(0), 10.0, 3, 1), sensor_dn(&mk(0), 10.0, 3, 1));
         assert_ne!(sensor_dn(&mk(0), 10.0, 3, 1), sensor_dn(&mk(1), 10.0, 3, 1));
     }

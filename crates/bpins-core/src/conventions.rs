@@ -71,11 +71,7 @@ pub fn az_el_deg_from_enu(v: DVec3) -> (f64, f64) {
 /// Rotation taking level-camera coordinates to ENU for heading ψ (`heading_deg`).
 pub fn world_from_level_camera(heading_deg: f64) -> DMat3 {
     let (s, c) = heading_deg.to_radians().sin_cos();
-    DMat3::from_cols(
-        DVec3::new(-c, s, 0.0),
-        DVec3::new(-s, -c, 0.0),
-        DVec3::new(0.0, 0.0, 1.0),
-    )
+    DMat3::from_cols(DVec3::new(-c, s, 0.0), DVec3::new(-s, -c, 0.0), DVec3::new(0.0, 0.0, 1.0))
 }
 
 /// `Rx(tilt_x) · Ry(tilt_y)`: the camera's tilt about its own x then y axis,

@@ -16,11 +16,7 @@ pub enum Error {
     #[error("unknown effect `{name}`; known effects: {known}")]
     UnknownEffect { name: String, known: String },
     #[error("effect `{effect}` has no parameter `{param}`; its parameters: {known}")]
-    UnknownParam {
-        effect: String,
-        param: String,
-        known: String,
-    },
+    UnknownParam { effect: String, param: String, known: String },
     #[error("effect parameter `{spec}`: {message}")]
     BadParam { spec: String, message: String },
     #[error("invalid model: {0}")]

@@ -18,6 +18,7 @@ pub mod error;
 pub mod heading;
 pub mod montecarlo;
 pub mod noise;
+pub mod pipeline;
 pub mod recon;
 pub mod sensor;
 pub mod simulate;

@@ -137,7 +137,12 @@ impl SweepConfig {
         } else {
             crate::conventions::image_centre_px(self.width_px as u32, self.height_px as u32)
         };
-        Intrinsics { projection: Projection::Pinhole, f_px: self.focal_length_mm * 1000.0 / self.pixel_pitch_um, cx_px: cx, cy_px: cy }
+        Intrinsics {
+            projection: Projection::Pinhole,
+            f_px: self.focal_length_mm * 1000.0 / self.pixel_pitch_um,
+            cx_px: cx,
+            cy_px: cy,
+        }
     }
 
     pub fn trials_per_source(&self) -> usize {
@@ -216,11 +221,24 @@ pub fn run_trial(cfg: &SweepConfig, source: Source, trial: usize) -> Result<Tria
     let rho2 = d.rho_corner / cfg.corner_r2();
     set.set("lens_diattenuation", "rho2", rho2)?;
     let model = set.model();
-    let scene = Scene { sun_az_deg: d.sun_az_deg, sun_el_deg: cfg.sun_el_deg, heading_deg: 0.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: cfg.dmax };
+    let scene = Scene {
+        sun_az_deg: d.sun_az_deg,
+        sun_el_deg: cfg.sun_el_deg,
+        heading_deg: 0.0,
+        tilt_x_deg: 0.0,
+        tilt_y_deg: 0.0,
+        dmax: cfg.dmax,
+    };
     // Gain: the nominal sensor's peak response is `peak_dn` (paper: 153 DN).
     let peak = peak_intensity(&Default::default(), &nominal, &scene, w, h, 8);
     let resp = Response { dsnu_dn: d.dsnu_dn, ..Response::ideal(cfg.peak_dn / peak) };
-    let frame = ChainFrame::new(&model, &nominal, &scene, &resp, NoiseIndex { seed: cfg.seed, trial: trial as u32, frame: source as u32 });
+    let frame = ChainFrame::new(
+        &model,
+        &nominal,
+        &scene,
+        &resp,
+        NoiseIndex { seed: cfg.seed, trial: trial as u32, frame: source as u32 },
+    );
     // The inversion assumes nominal analyzers and principal point (the errors are unknown).
     let rec = Reconstructor::new(&Default::default(), 0.0, &cfg.channels)?;
     let ctx_unknown = HeadingContext::new(nominal, w, h, scene.sun_az_deg, scene.sun_el_deg);
@@ -278,11 +296,14 @@ pub fn summarise(results: &[TrialResult]) -> Vec<Row> {
             for &known in variants {
                 let errs: Vec<f64> = of_source
                     .iter()
-                    .flat_map(|r| r.errors.iter().filter(|(x, k, _)| *x == e && Some(*k) == known.or(Some(false))).map(|t| t.2))
+                    .flat_map(|r| {
+                        r.errors.iter().filter(|(x, k, _)| *x == e && Some(*k) == known.or(Some(false))).map(|t| t.2)
+                    })
                     .collect();
                 let n = errs.len();
                 let mean = errs.iter().sum::<f64>() / n as f64;
-                let var = if n > 1 { errs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64 } else { 0.0 };
+                let var =
+                    if n > 1 { errs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64 } else { 0.0 };
                 // The paper's figures are for its eq. 13 inversion, which knows ρ.
                 let (pm, ps) = if known == Some(false) { (None, None) } else { source.paper_deg() };
                 rows.push(Row {
@@ -303,7 +324,11 @@ pub fn summarise(results: &[TrialResult]) -> Vec<Row> {
 
 /// Runs the whole sweep: every source, `trials_per_source` trials each, calling
 /// `progress(done, total)` after each trial.
-pub fn run_sweep(cfg: &SweepConfig, sources: &[Source], progress: &(dyn Fn(usize, usize) + Sync)) -> Result<Vec<TrialResult>> {
+pub fn run_sweep(
+    cfg: &SweepConfig,
+    sources: &[Source],
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Vec<TrialResult>> {
     let per = cfg.trials_per_source();
     let total = per * sources.len();
     let mut out = Vec::with_capacity(total);
@@ -321,7 +346,14 @@ mod tests {
     use super::*;
 
     fn small() -> SweepConfig {
-        SweepConfig { width_px: 306, height_px: 256, pixel_pitch_um: 13.8, trials_per_azimuth: 2, sun_azimuths_deg: vec![10.0, 50.0], ..SweepConfig::default() }
+        SweepConfig {
+            width_px: 306,
+            height_px: 256,
+            pixel_pitch_um: 13.8,
+            trials_per_azimuth: 2,
+            sun_azimuths_deg: vec![10.0, 50.0],
+            ..SweepConfig::default()
+        }
     }
 
     #[test]
@@ -360,7 +392,11 @@ mod tests {
     fn sweep_is_reproducible_and_thread_count_independent() {
         let c = small();
         let run = |threads| {
-            rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| run_sweep(&c, &[Source::ChannelResponse], &|_, _| {}).unwrap())
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| run_sweep(&c, &[Source::ChannelResponse], &|_, _| {}).unwrap())
         };
         let (a, b) = (run(1), run(2));
         assert_eq!(a, b);

@@ -48,7 +48,12 @@ impl Reconstructor {
         };
         let rows_a: Vec<DVec3> = ch.iter().map(|&c| a_row(c)).collect();
         let mut rows = [[0.0; 4]; 3];
-        let singular = || Error::Model(format!("analyzer angles {:?} cannot resolve Q and U", ch.iter().map(|c| c.angle_deg()).collect::<Vec<_>>()));
+        let singular = || {
+            Error::Model(format!(
+                "analyzer angles {:?} cannot resolve Q and U",
+                ch.iter().map(|c| c.angle_deg()).collect::<Vec<_>>()
+            ))
+        };
         if ch.len() == 3 {
             // Square: invert A (its rows are the channels).
             let a = DMat3::from_cols(rows_a[0], rows_a[1], rows_a[2]).transpose();
@@ -132,7 +137,14 @@ const INVALID: [f64; 3] = [f64::NAN; 3];
 
 /// Reconstructs 2 × 2 superpixels of a DoFP mosaic (`dn`, row-major `w × h`).
 /// `full_scale_dn` masks saturated samples (use `f64::INFINITY` for unquantised data).
-pub fn superpixels(dn: &[f32], w: usize, h: usize, mosaic: &[[Channel; 2]; 2], rec: &Reconstructor, full_scale_dn: f64) -> PolImage {
+pub fn superpixels(
+    dn: &[f32],
+    w: usize,
+    h: usize,
+    mosaic: &[[Channel; 2]; 2],
+    rec: &Reconstructor,
+    full_scale_dn: f64,
+) -> PolImage {
     let (tw, th) = (w / 2, h / 2);
     let mut iqu = vec![INVALID; tw * th];
     iqu.par_chunks_mut(tw.max(1)).enumerate().for_each(|(j, row)| {
@@ -156,7 +168,14 @@ pub fn superpixels(dn: &[f32], w: usize, h: usize, mosaic: &[[Channel; 2]; 2], r
 }
 
 /// Demosaics a DoFP mosaic bilinearly per channel and reconstructs every pixel.
-pub fn demosaic(dn: &[f32], w: usize, h: usize, mosaic: &[[Channel; 2]; 2], rec: &Reconstructor, full_scale_dn: f64) -> PolImage {
+pub fn demosaic(
+    dn: &[f32],
+    w: usize,
+    h: usize,
+    mosaic: &[[Channel; 2]; 2],
+    rec: &Reconstructor,
+    full_scale_dn: f64,
+) -> PolImage {
     let mut iqu = vec![INVALID; w * h];
     // Channel k samples the sub-lattice (u_k + 2m, v_k + 2n).
     let mut offsets = [(0usize, 0usize); 4];
@@ -182,7 +201,8 @@ pub fn demosaic(dn: &[f32], w: usize, h: usize, mosaic: &[[Channel; 2]; 2], rec:
                 let at = |m: usize, n: usize| dn[(ov + 2 * n) * w + ou + 2 * m] as f64;
                 let taps = [at(m0, n0), at(m1, n0), at(m0, n1), at(m1, n1)];
                 ok &= taps.iter().all(|&x| dn_is_valid(x, full_scale_dn));
-                d[c.index()] = (1.0 - fb) * ((1.0 - fa) * taps[0] + fa * taps[1]) + fb * ((1.0 - fa) * taps[2] + fa * taps[3]);
+                d[c.index()] =
+                    (1.0 - fb) * ((1.0 - fa) * taps[0] + fa * taps[1]) + fb * ((1.0 - fa) * taps[2] + fa * taps[3]);
             }
             if ok {
                 let s = rec.stokes(&d);
@@ -194,7 +214,13 @@ pub fn demosaic(dn: &[f32], w: usize, h: usize, mosaic: &[[Channel; 2]; 2], rec:
 }
 
 /// Reconstructs a colocated image: one plane per channel, each `w × h` row-major.
-pub fn colocated(planes: &[(Channel, &[f32])], w: usize, h: usize, rec: &Reconstructor, full_scale_dn: f64) -> PolImage {
+pub fn colocated(
+    planes: &[(Channel, &[f32])],
+    w: usize,
+    h: usize,
+    rec: &Reconstructor,
+    full_scale_dn: f64,
+) -> PolImage {
     let mut iqu = vec![INVALID; w * h];
     iqu.par_chunks_mut(w.max(1)).enumerate().for_each(|(v, row)| {
         for (u, out) in row.iter_mut().enumerate() {
@@ -216,7 +242,15 @@ pub fn colocated(planes: &[(Channel, &[f32])], w: usize, h: usize, rec: &Reconst
 
 /// Reconstructs any layout's frame (`planes`: one mosaic plane for DoFP, one per
 /// listed channel for colocated). `demosaic_full` picks demosaicing over superpixels.
-pub fn reconstruct(layout: &Layout, planes: &[(Channel, &[f32])], w: usize, h: usize, rec: &Reconstructor, full_scale_dn: f64, demosaic_full: bool) -> PolImage {
+pub fn reconstruct(
+    layout: &Layout,
+    planes: &[(Channel, &[f32])],
+    w: usize,
+    h: usize,
+    rec: &Reconstructor,
+    full_scale_dn: f64,
+    demosaic_full: bool,
+) -> PolImage {
     match layout {
         Layout::Dofp { mosaic } if demosaic_full => demosaic(planes[0].1, w, h, mosaic, rec, full_scale_dn),
         Layout::Dofp { mosaic } => superpixels(planes[0].1, w, h, mosaic, rec, full_scale_dn),
@@ -273,8 +307,12 @@ mod tests {
         let s = Stokes::new(100.0, 20.0, -30.0, 0.0);
         let ch = channels_of(s, &Model::default()).map(|x| x + 10.0);
         let (w, h) = (6, 4);
-        let mosaic: Vec<f32> = (0..w * h).map(|p| ch[Layout::dofp_channel(&DEFAULT_MOSAIC, p % w, p / w).index()] as f32).collect();
-        for img in [superpixels(&mosaic, w, h, &DEFAULT_MOSAIC, &rec, 4095.0), demosaic(&mosaic, w, h, &DEFAULT_MOSAIC, &rec, 4095.0)] {
+        let mosaic: Vec<f32> =
+            (0..w * h).map(|p| ch[Layout::dofp_channel(&DEFAULT_MOSAIC, p % w, p / w).index()] as f32).collect();
+        for img in [
+            superpixels(&mosaic, w, h, &DEFAULT_MOSAIC, &rec, 4095.0),
+            demosaic(&mosaic, w, h, &DEFAULT_MOSAIC, &rec, 4095.0),
+        ] {
             assert_eq!(img.valid_count(), img.width * img.height);
             for &[i, q, u] in &img.iqu {
                 assert!((i - 100.0).abs() < 1e-4 && (q - 20.0).abs() < 1e-4 && (u + 30.0).abs() < 1e-4);

@@ -88,10 +88,26 @@ mod tests {
 
     #[test]
     fn mosaic_is_bit_identical_whatever_the_thread_count() {
-        let resp = Response { read_noise_dn: 1.0, system_gain_dn_per_e: 0.1, quantize: true, bit_depth: 12, ..Response::ideal(3000.0) };
-        let f = ChainFrame::new(&Model::default(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 11, trial: 0, frame: 0 });
+        let resp = Response {
+            read_noise_dn: 1.0,
+            system_gain_dn_per_e: 0.1,
+            quantize: true,
+            bit_depth: 12,
+            ..Response::ideal(3000.0)
+        };
+        let f = ChainFrame::new(
+            &Model::default(),
+            &intrinsics(),
+            &scene(),
+            &resp,
+            NoiseIndex { seed: 11, trial: 0, frame: 0 },
+        );
         let run = |threads| {
-            rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| render_mosaic(&f, 612, 64, &DEFAULT_MOSAIC))
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| render_mosaic(&f, 612, 64, &DEFAULT_MOSAIC))
         };
         assert_eq!(run(1), run(3));
     }

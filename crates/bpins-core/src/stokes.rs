@@ -46,23 +46,13 @@ impl Stokes {
 /// the polarization angle grows by β, `(Q, U) ← R(2β)·(Q_p, U_p)`.
 #[inline(always)]
 pub fn meridional_to_image(s: Stokes, cos2b: f64, sin2b: f64) -> Stokes {
-    Stokes {
-        i: s.i,
-        q: s.q * cos2b - s.u * sin2b,
-        u: s.q * sin2b + s.u * cos2b,
-        v: s.v,
-    }
+    Stokes { i: s.i, q: s.q * cos2b - s.u * sin2b, u: s.q * sin2b + s.u * cos2b, v: s.v }
 }
 
 /// Image frame → meridional frame, the inverse of [`meridional_to_image`].
 #[inline(always)]
 pub fn image_to_meridional(s: Stokes, cos2b: f64, sin2b: f64) -> Stokes {
-    Stokes {
-        i: s.i,
-        q: s.q * cos2b + s.u * sin2b,
-        u: -s.q * sin2b + s.u * cos2b,
-        v: s.v,
-    }
+    Stokes { i: s.i, q: s.q * cos2b + s.u * sin2b, u: -s.q * sin2b + s.u * cos2b, v: s.v }
 }
 
 /// One analyzer channel as the chain sees it: `cos 2θ`, `sin 2θ` of its true angle θ
@@ -87,11 +77,7 @@ impl Analyzer {
         };
         let off = 2.0 * (nominal_deg - 45.0 * (nominal_deg / 45.0).round()) + 2.0 * delta_deg;
         let (so, co) = off.to_radians().sin_cos();
-        Analyzer {
-            cos2t: cn * co - sn * so,
-            sin2t: sn * co + cn * so,
-            eps,
-        }
+        Analyzer { cos2t: cn * co - sn * so, sin2t: sn * co + cn * so, eps }
     }
 }
 

@@ -77,7 +77,6 @@ fn fisheye_projections_and_demosaicing_recover_the_heading() {
             assert!(err.abs() < 0.1, "{p:?} {e:?}: {err}°");
         }
     }
-
 }
 
 #[test]
@@ -104,7 +103,8 @@ fn principal_point_offset_hits_the_meridian_line_harder() {
 #[test]
 fn colocated_three_channel_sensor_recovers_the_heading() {
     let intr = camera(Projection::Pinhole);
-    let scene = Scene { sun_az_deg: 30.0, sun_el_deg: 5.0, heading_deg: 0.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+    let scene =
+        Scene { sun_az_deg: 30.0, sun_el_deg: 5.0, heading_deg: 0.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
     let ch = [Channel::C0, Channel::C45, Channel::C90];
     let f = ChainFrame::noise_free(&Model::default(), &intr, &scene);
     let planes = render_colocated(&f, W, H, &ch);

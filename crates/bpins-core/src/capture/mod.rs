@@ -1,2 +1,287 @@
 //! Capture bundles (`bpins-capture/1`, shared/spec/CAPTURE.md): reading, validating
-//! and writing. (Being written.)
+//! and writing.
+//!
+//! A capture is a folder holding `capture.toml` and the frame images it names.
+//! [`Capture::load`] parses (`spec.rs`) and validates (`validate.rs`) `capture.toml`
+//! and checks that every frame file exists; [`Capture::read_frame`] decodes and
+//! checks one image (`images.rs`, `exr.rs`); [`Capture::write`] writes a new capture
+//! into a new folder (`toml_out.rs` writes the toml). Conventions (pixels, angles,
+//! mosaic) are those of CONVENTIONS.md.
+//!
+//! Nothing is ever written into a capture: `write` refuses a folder that already
+//! holds `capture.toml`, any target inside the capture being written from, and any
+//! image file that already exists. It checks everything before it writes anything
+//! and writes `capture.toml` last, so a folder with `capture.toml` is complete (an
+//! I/O failure midway leaves images without `capture.toml`). Every error names the
+//! file (`capture.toml` or the image) and the key or frame.
+
+/// `return Err(Error::Capture { path, message: format!(…) })`.
+macro_rules! bail {
+    ($path:expr, $($fmt:tt)+) => {
+        return Err($crate::capture::images::err($path, format!($($fmt)+)))
+    };
+}
+
+mod exr;
+mod images;
+mod spec;
+mod toml_out;
+mod validate;
+
+use std::fs;
+use std::io::Write;
+use std::path::{Component, Path, PathBuf};
+
+pub use exr::{read_exr_layers, write_exr_layers, ExrLayers};
+pub use spec::FORMAT;
+
+use crate::camera::{Intrinsics, Projection};
+use crate::sensor::{Channel, Geometry, Layout};
+use crate::sky::sun::SunPosition;
+use crate::{Error, Result};
+use images::err;
+use spec::frame_label;
+
+/// A capture: where it lies, what took it, and what is known about each frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Capture {
+    /// The capture folder (as given to [`Capture::load`]).
+    pub dir: PathBuf,
+    pub sensor: SensorSpec,
+    pub lens: LensSpec,
+    pub frames: Vec<FrameSpec>,
+}
+
+/// `[sensor]` of `capture.toml`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SensorSpec {
+    pub layout: Layout,
+    pub geometry: Geometry,
+    /// 1 … 16; default 16.
+    pub bit_depth: u32,
+    /// Default 0.
+    pub black_level_dn: f64,
+}
+
+impl SensorSpec {
+    /// Largest DN the sensor outputs, `2^bit_depth − 1`.
+    pub fn full_scale_dn(&self) -> f64 {
+        2f64.powf(f64::from(self.bit_depth)) - 1.0
+    }
+
+    /// The analyzer channels the sensor measures: all four for dofp, in angle order;
+    /// the listed ones, in file order, for colocated.
+    pub fn channels(&self) -> Vec<Channel> {
+        match &self.layout {
+            Layout::Dofp { .. } => Channel::ALL.to_vec(),
+            Layout::Colocated { channels } => channels.clone(),
+        }
+    }
+}
+
+/// `[lens]` of `capture.toml`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LensSpec {
+    pub projection: Projection,
+    pub focal_length_mm: f64,
+    /// Nominal principal point (x, y) in pixels; default the image centre
+    /// `((W−1)/2, (H−1)/2)`.
+    pub principal_point_px: (f64, f64),
+}
+
+/// One `[[frames]]` entry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameSpec {
+    /// The image file, relative to the capture folder, as written in the toml.
+    pub file: PathBuf,
+    /// Given, or resolved from time and place by NREL SPA at load.
+    pub sun: SunPosition,
+    /// Reference heading, degrees, where known.
+    pub heading_deg: Option<f64>,
+    pub tilt_x_deg: Option<f64>,
+    pub tilt_y_deg: Option<f64>,
+}
+
+/// The pixels of one frame, in DN.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FrameData {
+    /// dofp: the raw mosaic, row-major (`dn[v·W + u]`).
+    Mosaic { width_px: u32, height_px: u32, dn: Vec<f32> },
+    /// colocated: one row-major plane per channel, in `[sensor] channels` order.
+    Colocated { width_px: u32, height_px: u32, channels: Vec<(Channel, Vec<f32>)> },
+}
+
+impl FrameData {
+    /// `(width_px, height_px)`.
+    pub fn size_px(&self) -> (u32, u32) {
+        match self {
+            FrameData::Mosaic { width_px, height_px, .. } | FrameData::Colocated { width_px, height_px, .. } => {
+                (*width_px, *height_px)
+            }
+        }
+    }
+}
+
+impl Capture {
+    /// Reads and validates `dir/capture.toml` (`dir` may also be the `capture.toml`
+    /// file itself) and checks that every frame file exists. Images are not decoded.
+    pub fn load(dir: &Path) -> Result<Capture> {
+        let dir = match dir.file_name() {
+            Some(n) if n == "capture.toml" && dir.is_file() => match dir.parent() {
+                Some(p) if !p.as_os_str().is_empty() => p,
+                _ => Path::new("."),
+            },
+            _ => dir,
+        };
+        let toml_path = dir.join("capture.toml");
+        let bytes = fs::read(&toml_path).map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => {
+                err(&toml_path, "not found: a capture is a folder holding capture.toml (shared/spec/CAPTURE.md)")
+            }
+            _ => Error::Io { path: toml_path.clone(), source: e },
+        })?;
+        let text = String::from_utf8(bytes).map_err(|_| err(&toml_path, "not UTF-8 text"))?;
+        let capture = spec::parse(dir, &toml_path, &text)?;
+        validate::validate(&capture, &toml_path)?;
+        for (i, f) in capture.frames.iter().enumerate() {
+            let p = dir.join(&f.file);
+            if !p.is_file() {
+                let what = if p.exists() { "is not a file" } else { "does not exist" };
+                bail!(&toml_path, "{}: {} {what}", frame_label(i, Some(&f.file)), p.display());
+            }
+        }
+        Ok(capture)
+    }
+
+    /// `capture.toml` of this capture.
+    pub fn toml_path(&self) -> PathBuf {
+        self.dir.join("capture.toml")
+    }
+
+    /// Decodes frame `index` and checks its size, pixel format and values.
+    pub fn read_frame(&self, index: usize) -> Result<FrameData> {
+        let f = self.frames.get(index).ok_or_else(|| {
+            err(
+                &self.toml_path(),
+                format!("frame index {index} is out of range: the capture has {} frames", self.frames.len()),
+            )
+        })?;
+        let path = self.dir.join(&f.file);
+        let label = frame_label(index, Some(&f.file));
+        let g = &self.sensor.geometry;
+        let size = (g.width_px, g.height_px);
+        let full = self.sensor.full_scale_dn();
+        match &self.sensor.layout {
+            Layout::Dofp { .. } => Ok(FrameData::Mosaic {
+                width_px: g.width_px,
+                height_px: g.height_px,
+                dn: images::read_dofp(&path, &label, size, self.sensor.bit_depth, full)?,
+            }),
+            Layout::Colocated { channels } => Ok(FrameData::Colocated {
+                width_px: g.width_px,
+                height_px: g.height_px,
+                channels: images::read_colocated(&path, &label, size, channels, full)?,
+            }),
+        }
+    }
+
+    /// Writes this capture as a new capture in `out_dir`: `capture.toml` and one image
+    /// per frame at `out_dir/self.frames[i].file`, from `frames[i]`. dofp mosaics go
+    /// to 16-bit PNG/TIFF (rounded, clamped to [0, 65535]) or float EXR by the file's
+    /// extension; colocated frames to float EXR. Creates `out_dir` and subfolders.
+    /// Refuses (before writing anything) an `out_dir` holding `capture.toml`, one
+    /// inside the capture folder `self.dir`, an existing image file, and data that
+    /// would not read back (wrong size, layout or channels, non-finite values, DN
+    /// above full scale).
+    pub fn write(&self, out_dir: &Path, frames: &[FrameData]) -> Result<()> {
+        let toml_path = out_dir.join("capture.toml");
+        validate::validate(self, &toml_path)?;
+        if frames.len() != self.frames.len() {
+            bail!(&toml_path, "{} frames of data for {} [[frames]] entries", frames.len(), self.frames.len());
+        }
+        for (i, data) in frames.iter().enumerate() {
+            images::check_frame_data(self, i, data, &out_dir.join(&self.frames[i].file))?;
+        }
+        if toml_path.exists() {
+            bail!(&toml_path, "already exists: bpins never writes into a capture; choose a new folder");
+        }
+        if self.toml_path().is_file() {
+            let src = fs::canonicalize(&self.dir).map_err(|e| Error::Io { path: self.dir.clone(), source: e })?;
+            let targets =
+                std::iter::once(out_dir.to_path_buf()).chain(self.frames.iter().map(|f| out_dir.join(&f.file)));
+            for t in targets {
+                if resolve(&t)?.starts_with(&src) {
+                    bail!(&t, "is inside the capture {}; bpins never writes into a capture", self.dir.display());
+                }
+            }
+        }
+        for f in &self.frames {
+            let p = out_dir.join(&f.file);
+            if p.exists() {
+                bail!(&p, "already exists; bpins never overwrites capture files");
+            }
+        }
+        for (f, data) in self.frames.iter().zip(frames) {
+            let p = out_dir.join(&f.file);
+            if let Some(parent) = p.parent() {
+                fs::create_dir_all(parent).map_err(|e| Error::Io { path: parent.to_path_buf(), source: e })?;
+            }
+            match data {
+                FrameData::Mosaic { width_px, height_px, dn } => images::write_dofp(&p, *width_px, *height_px, dn)?,
+                FrameData::Colocated { width_px, height_px, channels } => {
+                    images::write_colocated(&p, *width_px, *height_px, channels)?
+                }
+            }
+        }
+        fs::create_dir_all(out_dir).map_err(|e| Error::Io { path: out_dir.to_path_buf(), source: e })?;
+        let text = self.to_toml_string().into_bytes();
+        let mut file =
+            fs::File::create_new(&toml_path).map_err(|e| Error::Io { path: toml_path.clone(), source: e })?;
+        file.write_all(&text)
+            .and_then(|_| file.sync_all())
+            .map_err(|e| Error::Io { path: toml_path.clone(), source: e })?;
+        Ok(())
+    }
+
+    /// `capture.toml` text of this capture, every default written out.
+    pub fn to_toml_string(&self) -> String {
+        toml_out::to_toml(self)
+    }
+
+    /// Focal length in pixels, `focal_length_mm · 1000 / pixel_pitch_um`.
+    pub fn focal_length_px(&self) -> f64 {
+        self.lens.focal_length_mm * 1000.0 / self.sensor.geometry.pixel_pitch_um
+    }
+
+    /// Nominal camera intrinsics of the capture (projection, f_px, principal point).
+    pub fn intrinsics(&self) -> Intrinsics {
+        Intrinsics {
+            projection: self.lens.projection,
+            f_px: self.focal_length_px(),
+            cx_px: self.lens.principal_point_px.0,
+            cy_px: self.lens.principal_point_px.1,
+        }
+    }
+}
+
+/// `p` made absolute, `..` resolved, and every existing prefix canonicalised.
+fn resolve(p: &Path) -> Result<PathBuf> {
+    let abs = std::path::absolute(p).map_err(|e| Error::Io { path: p.to_path_buf(), source: e })?;
+    let mut out = PathBuf::new();
+    for c in abs.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            c => out.push(c),
+        }
+        if out.exists() {
+            out = fs::canonicalize(&out).unwrap_or(out);
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests;

@@ -23,7 +23,14 @@ pub const EFFECT: EffectDef = EffectDef {
     summary: "every analyzer rotated by the same angle (seed: installation angle error)",
     source: "seed paper §2.2 eq. 9",
     stage: Stage::Analyzer,
-    params: &[ParamSpec { name: "dtheta_deg", unit: "deg", neutral: 0.0, min: -90.0, max: 90.0, doc: "rotation of the array, counter-clockwise as displayed" }],
+    params: &[ParamSpec {
+        name: "dtheta_deg",
+        unit: "deg",
+        neutral: 0.0,
+        min: -90.0,
+        max: 90.0,
+        doc: "rotation of the array, counter-clockwise as displayed",
+    }],
     apply,
 };
 

@@ -29,7 +29,14 @@ pub const EFFECT: EffectDef = EffectDef {
     summary: "seed lens Mueller matrix with rho = rho2 * r^2, meridional frame",
     source: "seed paper §2.2 eq. 10",
     stage: Stage::Lens,
-    params: &[ParamSpec { name: "rho2", unit: "1", neutral: 0.0, min: -50.0, max: 50.0, doc: "diattenuation per squared normalised radius" }],
+    params: &[ParamSpec {
+        name: "rho2",
+        unit: "1",
+        neutral: 0.0,
+        min: -50.0,
+        max: 50.0,
+        doc: "diattenuation per squared normalised radius",
+    }],
     apply,
 };
 
@@ -51,12 +58,7 @@ pub fn rho_at(rho2: f64, r2: f64) -> f64 {
 pub fn lens_diattenuation(rho2: f64, r2: f64, s: Stokes) -> Stokes {
     let rho = rho_at(rho2, r2);
     let c = (1.0 - rho * rho).sqrt();
-    Stokes {
-        i: s.i + rho * s.q,
-        q: rho * s.i + s.q,
-        u: c * s.u,
-        v: c * s.v,
-    }
+    Stokes { i: s.i + rho * s.q, q: rho * s.i + s.q, u: c * s.u, v: c * s.v }
 }
 
 /// Inverts the lens Mueller matrix (seed eq. 13: reconstruction with ρ known).
@@ -65,12 +67,7 @@ pub fn lens_diattenuation_inverse(rho2: f64, r2: f64, s: Stokes) -> Stokes {
     let rho = rho_at(rho2, r2);
     let det = 1.0 - rho * rho;
     let c = det.sqrt();
-    Stokes {
-        i: (s.i - rho * s.q) / det,
-        q: (s.q - rho * s.i) / det,
-        u: s.u / c,
-        v: s.v / c,
-    }
+    Stokes { i: (s.i - rho * s.q) / det, q: (s.q - rho * s.i) / det, u: s.u / c, v: s.v / c }
 }
 
 #[cfg(test)]
@@ -124,7 +121,9 @@ mod tests {
             // Off the meridian the angle does move.
             let d = r.transpose() * enu_from_az_el_deg(sc.sun_az_deg + 60.0, el);
             let (u, v) = lens.intr.project(d).unwrap();
-            let da = wrap_deg_90(stokes_at(&lens, u, v).aop_rad().to_degrees() - stokes_at(&ideal, u, v).aop_rad().to_degrees());
+            let da = wrap_deg_90(
+                stokes_at(&lens, u, v).aop_rad().to_degrees() - stokes_at(&ideal, u, v).aop_rad().to_degrees(),
+            );
             moved_elsewhere |= da.abs() > 1e-3;
         }
         assert!(moved_elsewhere);

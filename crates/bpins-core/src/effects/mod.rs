@@ -97,14 +97,10 @@ pub static REGISTRY: &[&EffectDef] = &[
 
 /// Looks an effect up by name.
 pub fn find(name: &str) -> Result<&'static EffectDef> {
-    REGISTRY
-        .iter()
-        .copied()
-        .find(|e| e.name == name)
-        .ok_or_else(|| Error::UnknownEffect {
-            name: name.to_string(),
-            known: REGISTRY.iter().map(|e| e.name).collect::<Vec<_>>().join(", "),
-        })
+    REGISTRY.iter().copied().find(|e| e.name == name).ok_or_else(|| Error::UnknownEffect {
+        name: name.to_string(),
+        known: REGISTRY.iter().map(|e| e.name).collect::<Vec<_>>().join(", "),
+    })
 }
 
 /// The chain's parameter block: the ideal chain plus what enabled effects fold in.
@@ -184,10 +180,7 @@ impl EffectSet {
 
     /// Parses `effect.param=value` (as given to `--effect`) and applies it.
     pub fn parse_assignment(&mut self, spec: &str) -> Result<()> {
-        let bad = |m: &str| Error::BadParam {
-            spec: spec.to_string(),
-            message: m.to_string(),
-        };
+        let bad = |m: &str| Error::BadParam { spec: spec.to_string(), message: m.to_string() };
         let (lhs, rhs) = spec.split_once('=').ok_or_else(|| bad("expected effect.param=value"))?;
         let (effect, param) = lhs.trim().split_once('.').ok_or_else(|| bad("expected effect.param=value"))?;
         let value: f64 = rhs.trim().parse().map_err(|_| bad("the value is not a number"))?;
@@ -261,7 +254,8 @@ mod tests {
         for e in REGISTRY {
             for p in e.params {
                 let mut set = EffectSet::new();
-                let v = if p.max > p.neutral { p.neutral + 0.5 * (p.max - p.neutral).min(1.0) } else { p.neutral - 0.5 };
+                let v =
+                    if p.max > p.neutral { p.neutral + 0.5 * (p.max - p.neutral).min(1.0) } else { p.neutral - 0.5 };
                 set.set(e.name, p.name, v).unwrap();
                 assert_ne!(set.model(), Model::default(), "{}.{}", e.name, p.name);
             }

@@ -26,8 +26,22 @@ pub const EFFECT: EffectDef = EffectDef {
     source: "CONVENTIONS.md (tilt), EFFECTS.md",
     stage: Stage::Geometry,
     params: &[
-        ParamSpec { name: "tilt_x_deg", unit: "deg", neutral: 0.0, min: -45.0, max: 45.0, doc: "rotation about camera x" },
-        ParamSpec { name: "tilt_y_deg", unit: "deg", neutral: 0.0, min: -45.0, max: 45.0, doc: "rotation about camera y" },
+        ParamSpec {
+            name: "tilt_x_deg",
+            unit: "deg",
+            neutral: 0.0,
+            min: -45.0,
+            max: 45.0,
+            doc: "rotation about camera x",
+        },
+        ParamSpec {
+            name: "tilt_y_deg",
+            unit: "deg",
+            neutral: 0.0,
+            min: -45.0,
+            max: 45.0,
+            doc: "rotation about camera y",
+        },
     ],
     apply,
 };

@@ -24,8 +24,22 @@ pub const EFFECT: EffectDef = EffectDef {
     source: "seed paper §2.3 eq. 8",
     stage: Stage::Geometry,
     params: &[
-        ParamSpec { name: "dx_px", unit: "px", neutral: 0.0, min: -1e4, max: 1e4, doc: "offset along image x (columns)" },
-        ParamSpec { name: "dy_px", unit: "px", neutral: 0.0, min: -1e4, max: 1e4, doc: "offset along image y (rows, down)" },
+        ParamSpec {
+            name: "dx_px",
+            unit: "px",
+            neutral: 0.0,
+            min: -1e4,
+            max: 1e4,
+            doc: "offset along image x (columns)",
+        },
+        ParamSpec {
+            name: "dy_px",
+            unit: "px",
+            neutral: 0.0,
+            min: -1e4,
+            max: 1e4,
+            doc: "offset along image y (rows, down)",
+        },
     ],
     apply,
 };

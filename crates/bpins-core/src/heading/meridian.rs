@@ -64,9 +64,5 @@ pub fn solve(sums: &HeadingSums, ctx: &HeadingContext) -> Result<HeadingEstimate
     }
     // Image angle β_s of the sun's direction ↔ heading (conventions): ψ = A + 90° − β_s.
     let heading_deg = wrap_deg_360(ctx.sun_az_deg + 90.0 - beta_s_deg);
-    Ok(HeadingEstimate {
-        heading_deg,
-        sigma_deg: 0.5 * var_2beta.max(0.0).sqrt().to_degrees(),
-        samples: n as usize,
-    })
+    Ok(HeadingEstimate { heading_deg, sigma_deg: 0.5 * var_2beta.max(0.0).sqrt().to_degrees(), samples: n as usize })
 }

@@ -54,7 +54,9 @@ impl Extractor {
     pub fn describe(self) -> &'static str {
         match self {
             Extractor::SunVector => "least-squares sun vector over all E-vectors (weights P²)",
-            Extractor::MeridianLine => "solar meridian line through the assumed principal point, read off the AoE image",
+            Extractor::MeridianLine => {
+                "solar meridian line through the assumed principal point, read off the AoE image"
+            }
         }
     }
 
@@ -89,7 +91,8 @@ impl HeadingContext {
     /// A level camera with assumed intrinsics `intr`, an image of `width_px × height_px`
     /// pixels, under the sun at (az, el).
     pub fn new(intr: Intrinsics, width_px: usize, height_px: usize, sun_az_deg: f64, sun_el_deg: f64) -> Self {
-        let r_max_px = intr.cx_px.min(intr.cy_px).min(width_px as f64 - 1.0 - intr.cx_px).min(height_px as f64 - 1.0 - intr.cy_px);
+        let r_max_px =
+            intr.cx_px.min(intr.cy_px).min(width_px as f64 - 1.0 - intr.cx_px).min(height_px as f64 - 1.0 - intr.cy_px);
         HeadingContext {
             intr,
             lens_rho2: 0.0,
@@ -170,8 +173,8 @@ impl HeadingSums {
         }
         let pol = p2.sqrt();
         let (c2, s2) = (sm.q / pol, sm.u / pol); // cos 2φ, sin 2φ
-        // Sun vector: w e eᵀ with e = cos φ p − sin φ s, w = P², without half angles:
-        // e eᵀ = ½(1 + cos 2φ) p pᵀ + ½(1 − cos 2φ) s sᵀ − ½ sin 2φ (p sᵀ + s pᵀ).
+                                                 // Sun vector: w e eᵀ with e = cos φ p − sin φ s, w = P², without half angles:
+                                                 // e eᵀ = ½(1 + cos 2φ) p pᵀ + ½(1 − cos 2φ) s sᵀ − ½ sin 2φ (p sᵀ + s pᵀ).
         let (wa, wb, wc) = (0.5 * p2 * (1.0 + c2), 0.5 * p2 * (1.0 - c2), -0.5 * p2 * s2);
         let (p, q) = (b.p, b.s);
         let m = |i: usize, j: usize| wa * p[i] * p[j] + wb * q[i] * q[j] + wc * (p[i] * q[j] + q[i] * p[j]);

@@ -26,7 +26,9 @@ pub(crate) fn sun_in_camera(sums: &HeadingSums, ctx: &HeadingContext) -> Result<
     let m = DMat3::from_cols(DVec3::new(s[0], s[1], s[2]), DVec3::new(s[1], s[3], s[4]), DVec3::new(s[2], s[4], s[5]));
     let (vals, mut vecs) = symmetric_eigen(m);
     if !(vals[1] > vals[0]) {
-        return Err(Error::Heading("sun vector: the E-vectors do not determine a sun direction (degenerate scatter)".into()));
+        return Err(Error::Heading(
+            "sun vector: the E-vectors do not determine a sun direction (degenerate scatter)".into(),
+        ));
     }
     // Sun above the horizon (sign of the known elevation; level if ~0).
     let level = level_from_camera(ctx.tilt_x_deg, ctx.tilt_y_deg);
@@ -51,9 +53,5 @@ pub fn solve(sums: &HeadingSums, ctx: &HeadingContext) -> Result<HeadingEstimate
     let t_cam = level.transpose() * t_level;
     let sigma0_sq = (vals[0].max(0.0)) / (sums.n - 2.0);
     let var_t: f64 = (1..3).map(|k| t_cam.dot(vecs[k]).powi(2) * sigma0_sq / (vals[k] - vals[0])).sum();
-    Ok(HeadingEstimate {
-        heading_deg,
-        sigma_deg: (var_t.sqrt() / horiz).to_degrees(),
-        samples: sums.n as usize,
-    })
+    Ok(HeadingEstimate { heading_deg, sigma_deg: (var_t.sqrt() / horiz).to_degrees(), samples: sums.n as usize })
 }

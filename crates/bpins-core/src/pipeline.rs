@@ -1,0 +1,173 @@
+//! Captures through the chain: simulate a whole capture from a model, and read the
+//! heading of every frame of a capture. The glue between `capture` (files) and the
+//! per-pixel physics; the CLI and the tests call these.
+
+use crate::camera::Intrinsics;
+use crate::capture::{Capture, FrameData, FrameSpec};
+use crate::chain::{ChainFrame, NoiseIndex, Scene};
+use crate::effects::Model;
+use crate::error::{Error, Result};
+use crate::heading::{Extractor, HeadingContext, HeadingEstimate, HeadingSums};
+use crate::recon::{self, PolImage, Reconstructor};
+use crate::sensor::{Layout, Response};
+use crate::simulate::{peak_intensity, render_colocated, render_mosaic};
+
+/// How a DoFP mosaic becomes Stokes samples (colocated captures ignore it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReconMode {
+    /// 2 × 2 tiles → one sample at the tile centre (fast; four rays per sample, so a
+    /// bias of a few hundredths of a degree where the pattern has a gradient).
+    Superpixel,
+    /// Bilinear per channel onto every pixel (each sample at its own ray).
+    Demosaic,
+}
+
+impl ReconMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            ReconMode::Superpixel => "superpixel",
+            ReconMode::Demosaic => "demosaic",
+        }
+    }
+}
+
+/// The intrinsics a capture declares, moved by a known principal-point offset.
+pub fn assumed_intrinsics(c: &Capture, known: &Model) -> Intrinsics {
+    let i = c.intrinsics();
+    Intrinsics { cx_px: i.cx_px + known.pp_offset_px[0], cy_px: i.cy_px + known.pp_offset_px[1], ..i }
+}
+
+/// What the heading extractors know about frame `f`: the capture's camera (plus
+/// `known` calibrations), the sun, and the frame's reference tilt plus a known mount tilt.
+pub fn heading_context(c: &Capture, f: &FrameSpec, known: &Model) -> HeadingContext {
+    let g = &c.sensor.geometry;
+    let mut ctx = HeadingContext::new(
+        assumed_intrinsics(c, known),
+        g.width_px as usize,
+        g.height_px as usize,
+        f.sun.azimuth_deg,
+        f.sun.elevation_deg,
+    );
+    ctx.tilt_x_deg = f.tilt_x_deg.unwrap_or(0.0) + known.mount_tilt_deg[0];
+    ctx.tilt_y_deg = f.tilt_y_deg.unwrap_or(0.0) + known.mount_tilt_deg[1];
+    ctx.lens_rho2 = known.lens_rho2;
+    ctx
+}
+
+/// Reconstructs one frame's Stokes samples, undoing the `known` analyzer and channel errors.
+pub fn reconstruct_frame(c: &Capture, data: &FrameData, known: &Model, mode: ReconMode) -> Result<PolImage> {
+    let rec = Reconstructor::new(known, c.sensor.black_level_dn, &c.sensor.channels())?;
+    let full = c.sensor.full_scale_dn();
+    Ok(match (data, &c.sensor.layout) {
+        (FrameData::Mosaic { width_px, height_px, dn }, Layout::Dofp { mosaic }) => {
+            let (w, h) = (*width_px as usize, *height_px as usize);
+            match mode {
+                ReconMode::Superpixel => recon::superpixels(dn, w, h, mosaic, &rec, full),
+                ReconMode::Demosaic => recon::demosaic(dn, w, h, mosaic, &rec, full),
+            }
+        }
+        (FrameData::Colocated { width_px, height_px, channels }, Layout::Colocated { .. }) => {
+            let planes: Vec<_> = channels.iter().map(|(ch, p)| (*ch, p.as_slice())).collect();
+            recon::colocated(&planes, *width_px as usize, *height_px as usize, &rec, full)
+        }
+        _ => return Err(Error::Model("frame data does not match the capture's sensor layout".into())),
+    })
+}
+
+/// Heading of frame `index` with each extractor in `extractors`.
+pub fn frame_headings(
+    c: &Capture,
+    index: usize,
+    known: &Model,
+    mode: ReconMode,
+    extractors: &[Extractor],
+) -> Result<Vec<(Extractor, Result<HeadingEstimate>)>> {
+    let data = c.read_frame(index)?;
+    let img = reconstruct_frame(c, &data, known, mode)?;
+    let ctx = heading_context(c, &c.frames[index], known);
+    let sums = HeadingSums::from_image(&img, &ctx);
+    Ok(extractors.iter().map(|&e| (e, sums.solve(e, &ctx))).collect())
+}
+
+/// Sensor settings of a simulation beyond what `capture.toml` records.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimSensor {
+    /// Peak photo-signal of the brightest channel over the first frame, as a
+    /// fraction of full scale above the black level.
+    pub peak_fraction: f64,
+    pub read_noise_dn: f64,
+    pub system_gain_dn_per_e: f64,
+    pub dsnu_dn: f64,
+    pub prnu: f64,
+    /// Peak degree of polarization of the sky.
+    pub dmax: f64,
+    pub seed: u64,
+}
+
+/// The scene of frame `f` (heading and tilt default to 0 where not given).
+pub fn scene_of(f: &FrameSpec, dmax: f64) -> Scene {
+    Scene {
+        sun_az_deg: f.sun.azimuth_deg,
+        sun_el_deg: f.sun.elevation_deg,
+        heading_deg: f.heading_deg.unwrap_or(0.0),
+        tilt_x_deg: f.tilt_x_deg.unwrap_or(0.0),
+        tilt_y_deg: f.tilt_y_deg.unwrap_or(0.0),
+        dmax,
+    }
+}
+
+/// The response of a simulated capture: gain set so the first frame's nominal peak
+/// sits at `peak_fraction` of the range above black.
+pub fn sim_response(c: &Capture, s: &SimSensor) -> Result<Response> {
+    let first = c.frames.first().ok_or_else(|| Error::Model("a capture needs at least one frame".into()))?;
+    let g = &c.sensor.geometry;
+    let peak = peak_intensity(
+        &Model::default(),
+        &c.intrinsics(),
+        &scene_of(first, s.dmax),
+        g.width_px as usize,
+        g.height_px as usize,
+        8,
+    );
+    let full = c.sensor.full_scale_dn();
+    if !(s.peak_fraction > 0.0 && s.peak_fraction <= 1.0) {
+        return Err(Error::Model(format!("peak fraction {} must lie in (0, 1]", s.peak_fraction)));
+    }
+    Ok(Response {
+        gain_dn: s.peak_fraction * (full - c.sensor.black_level_dn) / peak,
+        black_level_dn: c.sensor.black_level_dn,
+        read_noise_dn: s.read_noise_dn,
+        system_gain_dn_per_e: s.system_gain_dn_per_e,
+        dsnu_dn: s.dsnu_dn,
+        prnu: s.prnu,
+        bit_depth: c.sensor.bit_depth,
+        quantize: true,
+    })
+}
+
+/// Simulates frame `index` of capture `c` under `model` (the truth).
+pub fn simulate_frame(c: &Capture, index: usize, model: &Model, resp: &Response, s: &SimSensor) -> FrameData {
+    let g = &c.sensor.geometry;
+    let (w, h) = (g.width_px as usize, g.height_px as usize);
+    let scene = scene_of(&c.frames[index], s.dmax);
+    let f = ChainFrame::new(
+        model,
+        &c.intrinsics(),
+        &scene,
+        resp,
+        NoiseIndex { seed: s.seed, trial: 0, frame: index as u32 },
+    );
+    match &c.sensor.layout {
+        Layout::Dofp { mosaic } => {
+            FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn: render_mosaic(&f, w, h, mosaic) }
+        }
+        Layout::Colocated { channels } => {
+            let planes = render_colocated(&f, w, h, channels);
+            FrameData::Colocated {
+                width_px: g.width_px,
+                height_px: g.height_px,
+                channels: channels.iter().copied().zip(planes).collect(),
+            }
+        }
+    }
+}
