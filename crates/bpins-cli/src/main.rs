@@ -1,1 +1,99 @@
-fn main() {}
+//! `bpins`: the command-line interface. One file per subcommand; errors are
+//! `anyhow` with context here, typed in the library; `main` returns an exit code.
+
+mod cmd_effects;
+mod cmd_heading;
+mod cmd_run;
+mod cmd_simulate;
+mod progress;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "bpins",
+    version,
+    about = "Bionic polarization imaging navigation sensor: model, Monte Carlo, heading from captures"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The seed paper's Monte Carlo (Table 3): every error source, every extractor.
+    Run(cmd_run::Args),
+    /// Simulate a capture (bpins-capture/1) or one EXR frame, with any effect.
+    Simulate(cmd_simulate::Args),
+    /// Heading of every frame of a capture, against its reference heading.
+    Heading(cmd_heading::Args),
+    /// List the effects bpins models, with their parameters.
+    Effects(cmd_effects::Args),
+}
+
+/// Compute backend. The GPU twin is a separate issue; only the CPU exists yet.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Backend {
+    /// The rayon reference implementation.
+    Cpu,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run(a) => cmd_run::run(a),
+        Command::Simulate(a) => cmd_simulate::run(a),
+        Command::Heading(a) => cmd_heading::run(a),
+        Command::Effects(a) => cmd_effects::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Writes `value` as pretty JSON to `path`, with context on failure.
+pub fn write_json(path: &std::path::Path, value: &serde_json::Value) -> anyhow::Result<()> {
+    use anyhow::Context;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let text = serde_json::to_string_pretty(value).context("serialising JSON")?;
+    std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))
+}
+
+/// Refuses an output path inside `capture_dir`: bpins never writes into a capture.
+pub fn ensure_outside(out: &std::path::Path, capture_dir: &std::path::Path) -> anyhow::Result<()> {
+    let abs = |p: &std::path::Path| -> std::path::PathBuf {
+        // Resolve the longest existing ancestor, then append the rest.
+        let mut existing = p.to_path_buf();
+        let mut rest = Vec::new();
+        while !existing.exists() {
+            match (existing.file_name(), existing.parent()) {
+                (Some(n), Some(parent)) => {
+                    rest.push(n.to_os_string());
+                    existing = if parent.as_os_str().is_empty() { ".".into() } else { parent.to_path_buf() };
+                }
+                _ => break,
+            }
+        }
+        let mut r = std::fs::canonicalize(&existing).unwrap_or(existing);
+        for n in rest.iter().rev() {
+            r.push(n);
+        }
+        r
+    };
+    if abs(out).starts_with(abs(capture_dir)) {
+        anyhow::bail!(
+            "{}: is inside the capture {}; bpins never writes into a capture",
+            out.display(),
+            capture_dir.display()
+        );
+    }
+    Ok(())
+}
