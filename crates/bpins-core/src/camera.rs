@@ -109,6 +109,42 @@ impl Intrinsics {
         self.ray_from_normalised(x_n, y_n)
     }
 
+    /// Ray, meridional basis and normalised radius of pixel `(u, v)` in one go.
+    ///
+    /// Computed from the radial direction `(cos a, sin a)` and the field angle θ
+    /// rather than from the normalised ray, which keeps the two square roots
+    /// independent (the per-pixel hot path): `d = (sin θ cos a, sin θ sin a, cos θ)`,
+    /// `p = (cos θ cos a, cos θ sin a, −sin θ)`, `s = (−sin a, cos a, 0)`.
+    #[inline(always)]
+    pub fn geometry(&self, u_px: f64, v_px: f64) -> RayGeometry {
+        let (x_n, y_n) = self.normalised(u_px, v_px);
+        let r2 = x_n * x_n + y_n * y_n;
+        if r2 == 0.0 {
+            let b = MeridionalBasis { p: DVec3::X, s: DVec3::Y, cos2b: 1.0, sin2b: 0.0 };
+            return RayGeometry { d: DVec3::Z, basis: b, r2 };
+        }
+        let inv_r = 1.0 / r2.sqrt();
+        let (ca, sa) = (x_n * inv_r, y_n * inv_r);
+        let (st, ct) = match self.projection {
+            Projection::Pinhole => {
+                // tan θ = r: cos θ = 1/√(1 + r²), sin θ = r cos θ.
+                let ct = 1.0 / (1.0 + r2).sqrt();
+                (r2 * inv_r * ct, ct)
+            }
+            p => p.angle_from_radius(r2 * inv_r).unwrap_or(std::f64::consts::PI).sin_cos(),
+        };
+        RayGeometry {
+            d: DVec3::new(st * ca, st * sa, ct),
+            basis: MeridionalBasis {
+                p: DVec3::new(ct * ca, ct * sa, -st),
+                s: DVec3::new(-sa, ca, 0.0),
+                cos2b: ca * ca - sa * sa,
+                sin2b: -2.0 * ca * sa,
+            },
+            r2,
+        }
+    }
+
     /// Pixel `(u, v)` where the camera-frame direction `d` images; `None` when the
     /// projection cannot image it.
     pub fn project(&self, d: DVec3) -> Option<(f64, f64)> {
@@ -124,6 +160,15 @@ impl Intrinsics {
         let r = self.projection.radius_from_angle(theta);
         Some((self.cx_px + self.f_px * r * d.x / rho, self.cy_px + self.f_px * r * d.y / rho))
     }
+}
+
+/// A pixel's unit ray `d` (camera frame), its meridional basis and its squared
+/// normalised radius `r2` (focal lengths²), from [`Intrinsics::geometry`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayGeometry {
+    pub d: DVec3,
+    pub basis: MeridionalBasis,
+    pub r2: f64,
 }
 
 /// The meridional basis of a unit camera-frame ray `d`, and the doubled radial
@@ -149,8 +194,9 @@ pub fn meridional_basis(d: DVec3) -> MeridionalBasis {
     if rho2 == 0.0 {
         return MeridionalBasis { p: DVec3::X, s: DVec3::Y, cos2b: 1.0, sin2b: 0.0 };
     }
-    let rho = rho2.sqrt();
-    let (ca, sa) = (d.x / rho, d.y / rho); // radial direction in pixel axes (y down)
+    let inv_rho = 1.0 / rho2.sqrt();
+    let rho = rho2 * inv_rho;
+    let (ca, sa) = (d.x * inv_rho, d.y * inv_rho); // radial direction in pixel axes (y down)
     MeridionalBasis {
         p: DVec3::new(d.z * ca, d.z * sa, -rho),
         s: DVec3::new(-sa, ca, 0.0),
@@ -196,6 +242,23 @@ mod tests {
         for p in Projection::ALL {
             let r = p.radius_from_angle(th);
             assert!((p.angle_from_radius(r).unwrap() - th).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn geometry_agrees_with_ray_and_basis_for_every_projection() {
+        for p in Projection::ALL {
+            let c = intr(p);
+            for (u, v) in [(0.0, 0.0), (500.0, 30.0), (306.0, 255.5), (305.5, 255.5)] {
+                let g = c.geometry(u, v);
+                let d = c.ray(u, v);
+                let b = meridional_basis(d);
+                assert!((g.d - d).length() < 1e-12, "{p:?}");
+                assert!((g.basis.p - b.p).length() < 1e-12 && (g.basis.s - b.s).length() < 1e-12, "{p:?}");
+                assert!((g.basis.cos2b - b.cos2b).abs() < 1e-12 && (g.basis.sin2b - b.sin2b).abs() < 1e-12);
+                let (x, y) = c.normalised(u, v);
+                assert_eq!(g.r2, x * x + y * y);
+            }
         }
     }
 

@@ -7,6 +7,7 @@
 //!
 //! ```text
 //! pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β       camera frame
+//!   ray_stokes(frame, ray):
 //!   sky_stokes(sun, d_max, d)        Rayleigh, meridional frame          (sky::rayleigh)
 //!   lens_diattenuation(ρ₂, r², S)    lens Mueller, meridional frame      (effects)
 //!   meridional_to_image(S, 2β)       rotate to the image x frame          (stokes)
@@ -18,11 +19,12 @@
 //! Effects enter through the frame's parameters ([`Model`] folded by the registry)
 //! and, for lens effects, through their per-pixel functions called here in order.
 
-use crate::camera::{meridional_basis, Intrinsics};
+use crate::camera::{Intrinsics, RayGeometry};
 use crate::conventions::{enu_from_az_el_deg, level_from_camera, world_from_camera};
 use crate::effects::lens_diattenuation::lens_diattenuation;
 use crate::effects::Model;
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
+
 use crate::sensor::{Channel, Response};
 use crate::sky::sky_stokes;
 use crate::stokes::{analyzer_intensity, meridional_to_image, Analyzer, Stokes};
@@ -112,17 +114,19 @@ impl ChainFrame {
 /// Stokes vector (image frame) reaching the analyzer of pixel `(u, v)`, noise-free.
 #[inline(always)]
 pub fn pixel_stokes(f: &ChainFrame, u: f64, v: f64) -> Stokes {
-    // Pixel → ray through the true camera; r² in focal lengths for the lens effects.
-    let (x_n, y_n) = f.intr.normalised(u, v);
-    let r2 = x_n * x_n + y_n * y_n;
-    let d = f.intr.ray_from_normalised(x_n, y_n);
-    let b = meridional_basis(d);
+    // Pixel → ray through the true camera.
+    ray_stokes(f, &f.intr.geometry(u, v))
+}
+
+/// Stokes vector (image frame) arriving along the true ray `g`, noise-free.
+#[inline(always)]
+pub fn ray_stokes(f: &ChainFrame, g: &RayGeometry) -> Stokes {
     // Skylight along the ray, in its meridional frame.
-    let s = sky_stokes(f.sun_cam, f.dmax, d, &b);
-    // Lens Mueller matrices act in the meridional frame.
-    let s = lens_diattenuation(f.lens_rho2, r2, s);
+    let s = sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis);
+    // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
+    let s = lens_diattenuation(f.lens_rho2, g.r2, s);
     // Rotate from the meridional frame to the image x frame.
-    meridional_to_image(s, b.cos2b, b.sin2b)
+    meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
 }
 
 /// Photo-signal in DN of channel `ch` (index) for Stokes `s`: analyzer, then gain.
@@ -131,27 +135,68 @@ pub fn pixel_signal_dn(f: &ChainFrame, s: Stokes, ch: usize) -> f64 {
     analyzer_intensity(s, &f.analyzers[ch]) * f.gain_dn[ch]
 }
 
-/// The sensor's output DN for `signal_dn` at linear pixel index `pixel`, channel `ch`:
+/// The standard normal draws one sensor sample uses (0 where the response has no
+/// such noise, so nothing is drawn for it).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SensorNoise {
+    pub temporal: f64,
+    pub dsnu: f64,
+    pub prnu: f64,
+}
+
+/// Draws the noise of channel `ch` at linear pixel index `pixel`.
+#[inline(always)]
+pub fn sensor_noise(f: &ChainFrame, pixel: u32, ch: usize) -> SensorNoise {
+    let r = &f.response;
+    let c = ch as u32;
+    SensorNoise {
+        temporal: if r.read_noise_dn > 0.0 || r.system_gain_dn_per_e > 0.0 {
+            f.key.normal(pixel, c, stream::TEMPORAL)
+        } else {
+            0.0
+        },
+        dsnu: if r.dsnu_dn > 0.0 { f.fixed_key.normal(pixel, c, stream::DSNU) } else { 0.0 },
+        prnu: if r.prnu > 0.0 { f.fixed_key.normal(pixel, c, stream::PRNU) } else { 0.0 },
+    }
+}
+
+/// [`sensor_noise`] for all four channels of one pixel: the same numbers, two
+/// Box–Muller transforms per stream instead of four.
+#[inline(always)]
+pub fn sensor_noise4(f: &ChainFrame, pixel: u32) -> [SensorNoise; 4] {
+    let r = &f.response;
+    let mut n = [SensorNoise::default(); 4];
+    let mut fill = |key: &crate::noise::FrameKey, st: u32, set: fn(&mut SensorNoise, f64)| {
+        for pair in 0..2 {
+            let (a, b) = key.normal_pair(pixel, pair, st);
+            set(&mut n[2 * pair as usize], a);
+            set(&mut n[2 * pair as usize + 1], b);
+        }
+    };
+    if r.read_noise_dn > 0.0 || r.system_gain_dn_per_e > 0.0 {
+        fill(&f.key, stream::TEMPORAL, |s, x| s.temporal = x);
+    }
+    if r.dsnu_dn > 0.0 {
+        fill(&f.fixed_key, stream::DSNU, |s, x| s.dsnu = x);
+    }
+    if r.prnu > 0.0 {
+        fill(&f.fixed_key, stream::PRNU, |s, x| s.prnu = x);
+    }
+    n
+}
+
+/// The sensor's output DN for `signal_dn` on channel `ch` with the draws `n`:
 /// PRNU, offsets, DSNU, read + shot noise, then rounding and clipping (sensor.rs).
 #[inline(always)]
-pub fn sensor_dn(f: &ChainFrame, signal_dn: f64, pixel: u32, ch: usize) -> f64 {
+pub fn sensor_dn(f: &ChainFrame, signal_dn: f64, ch: usize, n: &SensorNoise) -> f64 {
     let r = &f.response;
-    let chu = ch as u32;
     // Gain non-uniformity (fixed pattern).
-    let mut sig = signal_dn;
-    if r.prnu > 0.0 {
-        sig *= 1.0 + r.prnu * f.fixed_key.normal(pixel, chu, stream::PRNU);
-    }
+    let sig = signal_dn * (1.0 + r.prnu * n.prnu);
     // Black level, channel offset and offset non-uniformity (fixed pattern).
-    let mut dn = sig + f.offset_dn[ch];
-    if r.dsnu_dn > 0.0 {
-        dn += r.dsnu_dn * f.fixed_key.normal(pixel, chu, stream::DSNU);
-    }
+    let mut dn = sig + f.offset_dn[ch] + r.dsnu_dn * n.dsnu;
     // Temporal noise: read noise plus shot noise of variance K·signal.
     let var = r.read_noise_dn * r.read_noise_dn + r.system_gain_dn_per_e * sig.max(0.0);
-    if var > 0.0 {
-        dn += var.sqrt() * f.key.normal(pixel, chu, stream::TEMPORAL);
-    }
+    dn += var.sqrt() * n.temporal;
     // Rounding (half up, as WGSL floor(x + 0.5)) and clipping to the ADC range.
     if r.quantize {
         dn = (dn + 0.5).floor().clamp(0.0, r.full_scale_dn());
@@ -211,7 +256,7 @@ pub(crate) mod tests {
         let sig = pixel_signal_dn(&f, s, 1);
         let want = 1000.0 * 1.1 * analyzer_intensity(s, &f.analyzers[1]);
         assert!((sig - want).abs() < 1e-9);
-        assert!((sensor_dn(&f, sig, 7, 1) - (want + 66.0)).abs() < 1e-9);
+        assert!((sensor_dn(&f, sig, 1, &sensor_noise(&f, 7, 1)) - (want + 66.0)).abs() < 1e-9);
     }
 
     #[test]
@@ -229,7 +274,7 @@ pub(crate) mod tests {
         let signal = 1000.0;
         let (mut s1, mut s2) = (0.0, 0.0);
         for p in 0..n {
-            let x = sensor_dn(&f, signal, p, 0) - 1100.0;
+            let x = sensor_dn(&f, signal, 0, &sensor_noise(&f, p, 0)) - 1100.0;
             s1 += x;
             s2 += x * x;
         }
@@ -248,10 +293,10 @@ pub(crate) mod tests {
             &resp,
             NoiseIndex { seed: 0, trial: 0, frame: 0 },
         );
-        assert_eq!(sensor_dn(&f, 2.5, 0, 0), 3.0);
-        assert_eq!(sensor_dn(&f, 2.49, 0, 0), 2.0);
-        assert_eq!(sensor_dn(&f, 300.0, 0, 0), 255.0);
-        assert_eq!(sensor_dn(&f, -4.0, 0, 0), 0.0);
+        assert_eq!(sensor_dn(&f, 2.5, 0, &SensorNoise::default()), 3.0);
+        assert_eq!(sensor_dn(&f, 2.49, 0, &SensorNoise::default()), 2.0);
+        assert_eq!(sensor_dn(&f, 300.0, 0, &SensorNoise::default()), 255.0);
+        assert_eq!(sensor_dn(&f, -4.0, 0, &SensorNoise::default()), 0.0);
     }
 
     #[test]
@@ -260,7 +305,29 @@ pub(crate) mod tests {
         let mk = |frame| {
             ChainFrame::new(&Model::default(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 5, trial: 0, frame })
         };
-        assert_eq!(sensor_dn(&mk(0), 10.0, 3, 1), sensor_dn(&mk(0), 10.0, 3, 1));
-        assert_ne!(sensor_dn(&mk(0), 10.0, 3, 1), sensor_dn(&mk(1), 10.0, 3, 1));
+        let dn = |frame| {
+            let f = mk(frame);
+            sensor_dn(&f, 10.0, 1, &sensor_noise(&f, 3, 1))
+        };
+        assert_eq!(dn(0), dn(0));
+        assert_ne!(dn(0), dn(1));
+    }
+
+    #[test]
+    fn four_channel_noise_draws_the_same_numbers_as_one_channel() {
+        let resp = Response { read_noise_dn: 1.0, dsnu_dn: 2.0, prnu: 0.01, ..Response::ideal(1.0) };
+        let f = ChainFrame::new(
+            &Model::default(),
+            &intrinsics(),
+            &scene(),
+            &resp,
+            NoiseIndex { seed: 5, trial: 2, frame: 1 },
+        );
+        for p in [0, 17, 90_001] {
+            let four = sensor_noise4(&f, p);
+            for ch in 0..4 {
+                assert_eq!(four[ch], sensor_noise(&f, p, ch));
+            }
+        }
     }
 }

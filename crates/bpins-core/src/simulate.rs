@@ -4,7 +4,7 @@
 //! bit-identical whatever the thread count.
 
 use crate::camera::Intrinsics;
-use crate::chain::{pixel_signal_dn, pixel_stokes, sensor_dn, ChainFrame, Scene};
+use crate::chain::{pixel_signal_dn, pixel_stokes, sensor_dn, sensor_noise, sensor_noise4, ChainFrame, Scene};
 use crate::effects::Model;
 use crate::sensor::{Channel, Layout};
 use rayon::prelude::*;
@@ -17,7 +17,8 @@ pub fn render_mosaic(f: &ChainFrame, w: usize, h: usize, mosaic: &[[Channel; 2];
             let ch = Layout::dofp_channel(mosaic, u, v).index();
             let s = pixel_stokes(f, u as f64, v as f64);
             let signal = pixel_signal_dn(f, s, ch);
-            *px = sensor_dn(f, signal, (v * w + u) as u32, ch) as f32;
+            let pixel = (v * w + u) as u32;
+            *px = sensor_dn(f, signal, ch, &sensor_noise(f, pixel, ch)) as f32;
         }
     });
     out
@@ -32,10 +33,11 @@ pub fn render_colocated(f: &ChainFrame, w: usize, h: usize, channels: &[Channel]
             (0..w)
                 .map(|u| {
                     let s = pixel_stokes(f, u as f64, v as f64);
+                    let noise = sensor_noise4(f, (v * w + u) as u32);
                     let mut o = [0f32; 4];
                     for (k, c) in channels.iter().enumerate() {
                         let ch = c.index();
-                        o[k] = sensor_dn(f, pixel_signal_dn(f, s, ch), (v * w + u) as u32, ch) as f32;
+                        o[k] = sensor_dn(f, pixel_signal_dn(f, s, ch), ch, &noise[ch]) as f32;
                     }
                     o
                 })

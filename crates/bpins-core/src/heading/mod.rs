@@ -26,7 +26,7 @@ mod eigen;
 pub mod meridian;
 pub mod sun_vector;
 
-use crate::camera::{meridional_basis, Intrinsics};
+use crate::camera::{Intrinsics, RayGeometry};
 use crate::effects::lens_diattenuation::lens_diattenuation_inverse;
 use crate::error::{Error, Result};
 use crate::recon::PolImage;
@@ -159,23 +159,36 @@ impl HeadingSums {
     #[inline(always)]
     pub fn accumulate(&mut self, ctx: &HeadingContext, cos_2band: f64, x_px: f64, y_px: f64, s: Stokes) {
         // Assumed ray and meridional basis at the sample.
-        let (x_n, y_n) = ctx.intr.normalised(x_px, y_px);
-        let d = ctx.intr.ray_from_normalised(x_n, y_n);
-        let b = meridional_basis(d);
+        let g = ctx.intr.geometry(x_px, y_px);
+        self.accumulate_at(ctx, cos_2band, &g, x_px, y_px, s);
+    }
+
+    /// [`Self::accumulate`] with the assumed ray `g` of the sample already computed.
+    #[inline(always)]
+    pub fn accumulate_at(
+        &mut self,
+        ctx: &HeadingContext,
+        cos_2band: f64,
+        g: &RayGeometry,
+        x_px: f64,
+        y_px: f64,
+        s: Stokes,
+    ) {
+        let b = &g.basis;
         // Image → meridional frame; undo a known lens diattenuation (seed eq. 13).
         let mut sm = image_to_meridional(s, b.cos2b, b.sin2b);
         if ctx.lens_rho2 != 0.0 {
-            sm = lens_diattenuation_inverse(ctx.lens_rho2, x_n * x_n + y_n * y_n, sm);
+            sm = lens_diattenuation_inverse(ctx.lens_rho2, g.r2, sm);
         }
         let p2 = sm.q * sm.q + sm.u * sm.u;
         if !(p2 > 0.0 && sm.i > 0.0) {
             return;
         }
         let pol = p2.sqrt();
-        let (c2, s2) = (sm.q / pol, sm.u / pol); // cos 2φ, sin 2φ
-                                                 // Sun vector: w e eᵀ with e = cos φ p − sin φ s, w = P², without half angles:
-                                                 // e eᵀ = ½(1 + cos 2φ) p pᵀ + ½(1 − cos 2φ) s sᵀ − ½ sin 2φ (p sᵀ + s pᵀ).
-        let (wa, wb, wc) = (0.5 * p2 * (1.0 + c2), 0.5 * p2 * (1.0 - c2), -0.5 * p2 * s2);
+        // Sun vector: w e eᵀ with e = cos φ p − sin φ s, w = P², without half angles:
+        // e eᵀ = ½(1 + cos 2φ) p pᵀ + ½(1 − cos 2φ) s sᵀ − ½ sin 2φ (p sᵀ + s pᵀ),
+        // and P² cos 2φ = P·Q_p, P² sin 2φ = P·U_p.
+        let (wa, wb, wc) = (0.5 * (p2 + pol * sm.q), 0.5 * (p2 - pol * sm.q), -0.5 * pol * sm.u);
         let (p, q) = (b.p, b.s);
         let m = |i: usize, j: usize| wa * p[i] * p[j] + wb * q[i] * q[j] + wc * (p[i] * q[j] + q[i] * p[j]);
         self.scatter[0] += m(0, 0);
@@ -185,11 +198,11 @@ impl HeadingSums {
         self.scatter[4] += m(1, 2);
         self.scatter[5] += m(2, 2);
         self.n += 1.0;
-        // Meridian line: ψ = AoE − 90°, so cos 2ψ = −cos 2φ; keep the band |ψ| < band.
+        // Meridian line: ψ = AoE − 90°, so cos 2ψ = −cos 2φ = −Q_p/P; keep the band |ψ| < band.
         let (dx, dy) = (x_px - ctx.intr.cx_px, y_px - ctx.intr.cy_px);
         let r2_px = dx * dx + dy * dy;
-        if -c2 >= cos_2band && r2_px >= ctx.r_min_px * ctx.r_min_px && r2_px <= ctx.r_max_px * ctx.r_max_px {
-            let psi = 0.5 * (-s2).atan2(-c2);
+        if -sm.q >= cos_2band * pol && r2_px >= ctx.r_min_px * ctx.r_min_px && r2_px <= ctx.r_max_px * ctx.r_max_px {
+            let psi = 0.5 * (-sm.u).atan2(-sm.q);
             let (sb, cb) = (b.sin2b, b.cos2b);
             let l = &mut self.line[sector_of(crate::conventions::image_angle_rad(dx, dy))];
             l[0] += sb * sb;

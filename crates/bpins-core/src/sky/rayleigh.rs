@@ -20,27 +20,21 @@ use crate::stokes::Stokes;
 use glam::DVec3;
 
 /// Stokes vector of the Rayleigh sky seen along unit ray `view` (meridional frame of
-/// `basis`), for the unit sun direction `sun` in the same frame.
+/// `basis`), for the unit sun direction `sun` in the same frame (both must be unit).
 #[inline(always)]
 pub fn sky_stokes(sun: DVec3, dmax: f64, view: DVec3, basis: &MeridionalBasis) -> Stokes {
     // Scattering angle between sun and view.
     let cg = sun.dot(view);
     let cg2 = cg * cg;
     let radiance = 0.5 * (1.0 + cg2);
-    let dolp = dmax * (1.0 - cg2) / (1.0 + cg2);
     // E-vector perpendicular to the scattering plane, in the meridional basis.
     let e = sun.cross(view);
     let ep = e.dot(basis.p);
     let es = e.dot(basis.s);
-    let n2 = ep * ep + es * es;
-    if n2 == 0.0 {
-        return Stokes::new(radiance, 0.0, 0.0, 0.0); // looking at the sun or anti-sun
-    }
-    // AoE φ = atan2(−e_s, e_p): cos 2φ and sin 2φ without trigonometry.
-    let cos2phi = (ep * ep - es * es) / n2;
-    let sin2phi = -2.0 * ep * es / n2;
-    let p = radiance * dolp;
-    Stokes::new(radiance, p * cos2phi, p * sin2phi, 0.0)
+    // AoE φ = atan2(−e_s, e_p) with |e|² = e_p² + e_s² = sin²γ (unit sun and view), and
+    // polarized radiance I·d = ½ d_max sin²γ: so I·d·cos 2φ = ½ d_max (e_p² − e_s²) and
+    // I·d·sin 2φ = −d_max e_p e_s — no division, and 0 toward the sun or anti-sun.
+    Stokes::new(radiance, 0.5 * dmax * (ep * ep - es * es), -dmax * ep * es, 0.0)
 }
 
 #[cfg(test)]
