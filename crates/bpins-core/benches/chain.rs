@@ -1,1 +1,86 @@
-fn main() {}
+//! Criterion benchmarks (`cargo bench -p bpins-core`): the full-frame chain and the
+//! paper sweep. Figures and the machine they came from go to BENCHMARKS.md.
+//!
+//! * `frame/dofp_2048x2448_sky_to_heading`: one full IMX250MZR-size DoFP frame,
+//!   sky → DN (read + shot noise, 12-bit rounding) → 2×2 superpixel Stokes →
+//!   both heading extractors. Target on the 2-core dev machine: ≤ 60 ms.
+//! * `frame/stage_*`: the same frame split into its stages.
+//! * `sweep/trial_*`: one seed-paper trial (1224 × 1024 colocated) per source.
+//! * `sweep/paper_800_trials`: `bpins run` with the paper's 20 trials per azimuth.
+//!   Target ≤ 30 s. Ten samples of it take several minutes.
+
+use bpins_core::camera::{Intrinsics, Projection};
+use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::effects::Model;
+use bpins_core::heading::{Extractor, HeadingContext, HeadingSums};
+use bpins_core::montecarlo::{run_sweep, run_trial, Source, SweepConfig};
+use bpins_core::recon::{superpixels, Reconstructor};
+use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
+use bpins_core::simulate::render_mosaic;
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::hint::black_box;
+use std::time::Duration;
+
+const W: usize = 2448;
+const H: usize = 2048;
+
+fn frame_setup() -> (ChainFrame, Reconstructor, HeadingContext) {
+    // IMX250MZR: 3.45 µm pixels behind an 8 mm lens.
+    let intr = Intrinsics { projection: Projection::Pinhole, f_px: 8000.0 / 3.45, cx_px: 1223.5, cy_px: 1023.5 };
+    let scene =
+        Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+    let resp = Response {
+        gain_dn: 3000.0,
+        black_level_dn: 64.0,
+        read_noise_dn: 1.0,
+        system_gain_dn_per_e: 0.1,
+        bit_depth: 12,
+        quantize: true,
+        ..Response::ideal(1.0)
+    };
+    let f = ChainFrame::new(&Model::default(), &intr, &scene, &resp, NoiseIndex { seed: 1, trial: 0, frame: 0 });
+    let rec = Reconstructor::new(&Model::default(), 64.0, &Channel::ALL).expect("four channels");
+    let ctx = HeadingContext::new(intr, W, H, scene.sun_az_deg, scene.sun_el_deg);
+    (f, rec, ctx)
+}
+
+fn frame(c: &mut Criterion) {
+    let (f, rec, ctx) = frame_setup();
+    let mut g = c.benchmark_group("frame");
+    g.sample_size(20).measurement_time(Duration::from_secs(8));
+    g.bench_function("dofp_2048x2448_sky_to_heading", |b| {
+        b.iter(|| {
+            let dn = render_mosaic(&f, W, H, &DEFAULT_MOSAIC);
+            let img = superpixels(&dn, W, H, &DEFAULT_MOSAIC, &rec, 4095.0);
+            let sums = HeadingSums::from_image(&img, &ctx);
+            black_box(Extractor::ALL.map(|e| sums.solve(e, &ctx).expect("heading")))
+        })
+    });
+    let dn = render_mosaic(&f, W, H, &DEFAULT_MOSAIC);
+    let img = superpixels(&dn, W, H, &DEFAULT_MOSAIC, &rec, 4095.0);
+    g.bench_function("stage_sky_to_dn", |b| b.iter(|| black_box(render_mosaic(&f, W, H, &DEFAULT_MOSAIC))));
+    g.bench_function("stage_dn_to_stokes", |b| {
+        b.iter(|| black_box(superpixels(&dn, W, H, &DEFAULT_MOSAIC, &rec, 4095.0)))
+    });
+    g.bench_function("stage_stokes_to_heading", |b| b.iter(|| black_box(HeadingSums::from_image(&img, &ctx))));
+    g.finish();
+}
+
+fn sweep(c: &mut Criterion) {
+    let cfg = SweepConfig::default();
+    let mut g = c.benchmark_group("sweep");
+    g.sample_size(10).measurement_time(Duration::from_secs(5));
+    for s in Source::ALL {
+        g.bench_function(format!("trial_{}", s.name()), |b| {
+            b.iter(|| black_box(run_trial(&cfg, s, 7).expect("trial")))
+        });
+    }
+    g.warm_up_time(Duration::from_millis(1)).measurement_time(Duration::from_secs(30));
+    g.bench_function("paper_800_trials", |b| {
+        b.iter(|| black_box(run_sweep(&cfg, &Source::ALL, &|_, _| {}).expect("sweep")))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, frame, sweep);
+criterion_main!(benches);

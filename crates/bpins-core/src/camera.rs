@@ -119,12 +119,11 @@ impl Intrinsics {
     pub fn geometry(&self, u_px: f64, v_px: f64) -> RayGeometry {
         let (x_n, y_n) = self.normalised(u_px, v_px);
         let r2 = x_n * x_n + y_n * y_n;
-        if r2 == 0.0 {
-            let b = MeridionalBasis { p: DVec3::X, s: DVec3::Y, cos2b: 1.0, sin2b: 0.0 };
-            return RayGeometry { d: DVec3::Z, basis: b, r2 };
-        }
-        let inv_r = 1.0 / r2.sqrt();
-        let (ca, sa) = (x_n * inv_r, y_n * inv_r);
+        // Branch-free (so row loops vectorize): on the axis the radial direction
+        // defaults to image +x (β = 0) and θ = 0.
+        let on_axis = r2 == 0.0;
+        let inv_r = if on_axis { 0.0 } else { 1.0 / r2.sqrt() };
+        let (ca, sa) = if on_axis { (1.0, 0.0) } else { (x_n * inv_r, y_n * inv_r) };
         let (st, ct) = match self.projection {
             Projection::Pinhole => {
                 // tan θ = r: cos θ = 1/√(1 + r²), sin θ = r cos θ.
@@ -133,16 +132,37 @@ impl Intrinsics {
             }
             p => p.angle_from_radius(r2 * inv_r).unwrap_or(std::f64::consts::PI).sin_cos(),
         };
-        RayGeometry {
-            d: DVec3::new(st * ca, st * sa, ct),
-            basis: MeridionalBasis {
-                p: DVec3::new(ct * ca, ct * sa, -st),
-                s: DVec3::new(-sa, ca, 0.0),
-                cos2b: ca * ca - sa * sa,
-                sin2b: -2.0 * ca * sa,
-            },
-            r2,
+        ray_geometry(ca, sa, st, ct, r2)
+    }
+
+    /// The rays of a row of samples at `y_px`, sample `i` at x = `x0_px + step_px·i`,
+    /// into `out` (its length is the row's). The projection is dispatched once per
+    /// row, so the pinhole loop is branch-free and the compiler vectorizes it.
+    pub fn geometry_row(&self, y_px: f64, x0_px: f64, step_px: f64, out: &mut [RayGeometry]) {
+        match self.projection {
+            Projection::Pinhole => {
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = self.geometry_pinhole(x0_px + step_px * i as f64, y_px);
+                }
+            }
+            _ => {
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = self.geometry(x0_px + step_px * i as f64, y_px);
+                }
+            }
         }
+    }
+
+    /// [`Self::geometry`] for a pinhole camera (no dispatch on the projection).
+    #[inline(always)]
+    fn geometry_pinhole(&self, u_px: f64, v_px: f64) -> RayGeometry {
+        let (x_n, y_n) = self.normalised(u_px, v_px);
+        let r2 = x_n * x_n + y_n * y_n;
+        let on_axis = r2 == 0.0;
+        let inv_r = if on_axis { 0.0 } else { 1.0 / r2.sqrt() };
+        let (ca, sa) = if on_axis { (1.0, 0.0) } else { (x_n * inv_r, y_n * inv_r) };
+        let ct = 1.0 / (1.0 + r2).sqrt();
+        ray_geometry(ca, sa, r2 * inv_r * ct, ct, r2)
     }
 
     /// Pixel `(u, v)` where the camera-frame direction `d` images; `None` when the
@@ -169,6 +189,21 @@ pub struct RayGeometry {
     pub d: DVec3,
     pub basis: MeridionalBasis,
     pub r2: f64,
+}
+
+/// Ray and basis from the radial direction (cos a, sin a) and field angle (sin θ, cos θ).
+#[inline(always)]
+fn ray_geometry(ca: f64, sa: f64, st: f64, ct: f64, r2: f64) -> RayGeometry {
+    RayGeometry {
+        d: DVec3::new(st * ca, st * sa, ct),
+        basis: MeridionalBasis {
+            p: DVec3::new(ct * ca, ct * sa, -st),
+            s: DVec3::new(-sa, ca, 0.0),
+            cos2b: ca * ca - sa * sa,
+            sin2b: -2.0 * ca * sa,
+        },
+        r2,
+    }
 }
 
 /// The meridional basis of a unit camera-frame ray `d`, and the doubled radial
@@ -258,6 +293,18 @@ mod tests {
                 assert!((g.basis.cos2b - b.cos2b).abs() < 1e-12 && (g.basis.sin2b - b.sin2b).abs() < 1e-12);
                 let (x, y) = c.normalised(u, v);
                 assert_eq!(g.r2, x * x + y * y);
+            }
+        }
+    }
+
+    #[test]
+    fn row_geometry_is_bitwise_the_per_pixel_geometry() {
+        for p in Projection::ALL {
+            let c = intr(p);
+            let mut out = vec![c.geometry(0.0, 0.0); 40];
+            c.geometry_row(255.5, 290.5, 0.5, &mut out);
+            for (i, g) in out.iter().enumerate() {
+                assert_eq!(*g, c.geometry(290.5 + 0.5 * i as f64, 255.5), "{p:?} {i}");
             }
         }
     }

@@ -31,11 +31,12 @@ use crate::chain::{pixel_signal_dn, ray_stokes, sensor_dn, sensor_noise4, ChainF
 use crate::conventions::{wrap_deg_180, xy_from_paper_row_col};
 use crate::effects::EffectSet;
 use crate::error::Result;
-use crate::heading::{Extractor, HeadingContext, HeadingSums};
+use crate::heading::{Extractor, HeadingContext, HeadingSums, RowScratch};
 use crate::noise::{stream, FrameKey};
 use crate::recon::Reconstructor;
 use crate::sensor::{Channel, Response};
 use crate::simulate::peak_intensity;
+use crate::stokes::Stokes;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -246,30 +247,48 @@ pub fn run_trial(cfg: &SweepConfig, source: Source, trial: usize) -> Result<Tria
     let with_known = source.involves_lens();
     let cos_2band = (2.0 * ctx_unknown.band_deg.to_radians()).cos();
     let chans: Vec<usize> = cfg.channels.iter().map(|c| c.index()).collect();
-    let same_camera = frame.intr == nominal;
     let rows: Vec<(HeadingSums, HeadingSums)> = (0..h)
         .into_par_iter()
-        .map(|v| {
-            let (mut a, mut b) = (HeadingSums::default(), HeadingSums::default());
-            for u in 0..w {
-                let (x, y) = (u as f64, v as f64);
-                // The true ray; the assumed one is the same unless the principal point moved.
-                let g_true = frame.intr.geometry(x, y);
-                let g_assumed = if same_camera { g_true } else { nominal.geometry(x, y) };
-                let s = ray_stokes(&frame, &g_true);
-                let noise = sensor_noise4(&frame, (v * w + u) as u32);
-                let mut dn = [0.0; 4];
-                for &ch in &chans {
-                    dn[ch] = sensor_dn(&frame, pixel_signal_dn(&frame, s, ch), ch, &noise[ch]);
+        .map_init(
+            || {
+                (
+                    vec![frame.intr.geometry(0.0, 0.0); w],
+                    vec![[0.0; 4]; w],
+                    vec![Stokes::default(); w],
+                    RowScratch::default(),
+                )
+            },
+            |(geo, signal, stokes, scratch), v| {
+                let y = v as f64;
+                // Sky → analyzers along each true ray (vectorized row loops).
+                frame.intr.geometry_row(y, 0.0, 1.0, geo);
+                for (g, sig) in geo.iter().zip(signal.iter_mut()) {
+                    let s = ray_stokes(&frame, g);
+                    *sig = [
+                        pixel_signal_dn(&frame, s, 0),
+                        pixel_signal_dn(&frame, s, 1),
+                        pixel_signal_dn(&frame, s, 2),
+                        pixel_signal_dn(&frame, s, 3),
+                    ];
                 }
-                let m = rec.stokes(&dn);
-                a.accumulate_at(&ctx_unknown, cos_2band, &g_assumed, x, y, m);
+                // Sensor response with noise, then the Stokes inversion.
+                for (u, (sig, out)) in signal.iter().zip(stokes.iter_mut()).enumerate() {
+                    let noise = sensor_noise4(&frame, (v * w + u) as u32);
+                    let mut dn = [0.0; 4];
+                    for &ch in &chans {
+                        dn[ch] = sensor_dn(&frame, sig[ch], ch, &noise[ch]);
+                    }
+                    *out = rec.stokes(&dn);
+                }
+                // Heading sums along the assumed rays.
+                let (mut a, mut b) = (HeadingSums::default(), HeadingSums::default());
+                a.accumulate_row(&ctx_unknown, cos_2band, y, 0.0, 1.0, stokes, scratch);
                 if with_known {
-                    b.accumulate_at(&ctx_known, cos_2band, &g_assumed, x, y, m);
+                    b.accumulate_row(&ctx_known, cos_2band, y, 0.0, 1.0, stokes, scratch);
                 }
-            }
-            (a, b)
-        })
+                (a, b)
+            },
+        )
         .collect();
     let (mut unknown, mut known) = (HeadingSums::default(), HeadingSums::default());
     for (a, b) in rows {

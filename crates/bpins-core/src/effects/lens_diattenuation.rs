@@ -50,7 +50,7 @@ pub const RHO_LIMIT: f64 = 0.999;
 /// ρ at squared normalised radius `r2`, clamped to ±[`RHO_LIMIT`].
 #[inline(always)]
 pub fn rho_at(rho2: f64, r2: f64) -> f64 {
-    (rho2 * r2).clamp(-RHO_LIMIT, RHO_LIMIT)
+    (rho2 * r2).max(-RHO_LIMIT).min(RHO_LIMIT)
 }
 
 /// Applies the lens Mueller matrix to a meridional-frame Stokes vector.

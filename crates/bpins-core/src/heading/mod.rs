@@ -174,36 +174,50 @@ impl HeadingSums {
         y_px: f64,
         s: Stokes,
     ) {
-        let b = &g.basis;
-        // Image → meridional frame; undo a known lens diattenuation (seed eq. 13).
-        let mut sm = image_to_meridional(s, b.cos2b, b.sin2b);
-        if ctx.lens_rho2 != 0.0 {
-            sm = lens_diattenuation_inverse(ctx.lens_rho2, g.r2, sm);
+        self.add(ctx, cos_2band, x_px, y_px, &contribution(ctx, g, s));
+    }
+
+    /// Adds a whole row of samples at `y_px`, sample `i` at `x0_px + step_px·i`
+    /// (NaN Stokes are skipped). The per-sample work runs as branch-free loops that
+    /// the compiler vectorizes, then the sums are added in sample order.
+    pub fn accumulate_row(
+        &mut self,
+        ctx: &HeadingContext,
+        cos_2band: f64,
+        y_px: f64,
+        x0_px: f64,
+        step_px: f64,
+        stokes: &[Stokes],
+        scratch: &mut RowScratch,
+    ) {
+        let n = stokes.len();
+        scratch.geo.resize(n, ctx.intr.geometry(x0_px, y_px));
+        scratch.contrib.resize(n, Contribution::default());
+        ctx.intr.geometry_row(y_px, x0_px, step_px, &mut scratch.geo[..n]);
+        for ((c, g), s) in scratch.contrib[..n].iter_mut().zip(&scratch.geo[..n]).zip(stokes) {
+            *c = contribution(ctx, g, *s);
         }
-        let p2 = sm.q * sm.q + sm.u * sm.u;
-        if !(p2 > 0.0 && sm.i > 0.0) {
+        for (i, c) in scratch.contrib[..n].iter().enumerate() {
+            self.add(ctx, cos_2band, x0_px + step_px * i as f64, y_px, c);
+        }
+    }
+
+    /// Adds one sample's contribution: the scatter, and the meridian band where
+    /// ψ = AoE − 90° lies within the band (cos 2ψ = −cos 2φ = −Q_p/P).
+    #[inline(always)]
+    fn add(&mut self, ctx: &HeadingContext, cos_2band: f64, x_px: f64, y_px: f64, c: &Contribution) {
+        for k in 0..6 {
+            self.scatter[k] += c.m[k];
+        }
+        self.n += c.n;
+        if c.n == 0.0 || -c.qp < cos_2band * c.pol {
             return;
         }
-        let pol = p2.sqrt();
-        // Sun vector: w e eᵀ with e = cos φ p − sin φ s, w = P², without half angles:
-        // e eᵀ = ½(1 + cos 2φ) p pᵀ + ½(1 − cos 2φ) s sᵀ − ½ sin 2φ (p sᵀ + s pᵀ),
-        // and P² cos 2φ = P·Q_p, P² sin 2φ = P·U_p.
-        let (wa, wb, wc) = (0.5 * (p2 + pol * sm.q), 0.5 * (p2 - pol * sm.q), -0.5 * pol * sm.u);
-        let (p, q) = (b.p, b.s);
-        let m = |i: usize, j: usize| wa * p[i] * p[j] + wb * q[i] * q[j] + wc * (p[i] * q[j] + q[i] * p[j]);
-        self.scatter[0] += m(0, 0);
-        self.scatter[1] += m(0, 1);
-        self.scatter[2] += m(0, 2);
-        self.scatter[3] += m(1, 1);
-        self.scatter[4] += m(1, 2);
-        self.scatter[5] += m(2, 2);
-        self.n += 1.0;
-        // Meridian line: ψ = AoE − 90°, so cos 2ψ = −cos 2φ = −Q_p/P; keep the band |ψ| < band.
         let (dx, dy) = (x_px - ctx.intr.cx_px, y_px - ctx.intr.cy_px);
         let r2_px = dx * dx + dy * dy;
-        if -sm.q >= cos_2band * pol && r2_px >= ctx.r_min_px * ctx.r_min_px && r2_px <= ctx.r_max_px * ctx.r_max_px {
-            let psi = 0.5 * (-sm.u).atan2(-sm.q);
-            let (sb, cb) = (b.sin2b, b.cos2b);
+        if r2_px >= ctx.r_min_px * ctx.r_min_px && r2_px <= ctx.r_max_px * ctx.r_max_px {
+            let psi = 0.5 * (-c.up).atan2(-c.qp);
+            let (sb, cb) = (c.sin2b, c.cos2b);
             let l = &mut self.line[sector_of(crate::conventions::image_angle_rad(dx, dy))];
             l[0] += sb * sb;
             l[1] += sb * cb;
@@ -221,14 +235,12 @@ impl HeadingSums {
         let cos_2band = (2.0 * ctx.band_deg.to_radians()).cos();
         let rows: Vec<HeadingSums> = (0..img.height)
             .into_par_iter()
-            .map(|j| {
+            .map_init(RowScratch::default, |scratch, j| {
                 let mut acc = HeadingSums::default();
-                for i in 0..img.width {
-                    if let Some(s) = img.stokes(i, j) {
-                        let (x, y) = img.position_px(i, j);
-                        acc.accumulate(ctx, cos_2band, x, y, s);
-                    }
-                }
+                let row: Vec<Stokes> =
+                    (0..img.width).map(|i| img.stokes(i, j).unwrap_or(Stokes::new(f64::NAN, 0.0, 0.0, 0.0))).collect();
+                let (x0, y) = img.position_px(0, j);
+                acc.accumulate_row(ctx, cos_2band, y, x0, img.step_px, &row, scratch);
                 acc
             })
             .collect();
@@ -245,6 +257,57 @@ impl HeadingSums {
             Extractor::SunVector => sun_vector::solve(self, ctx),
             Extractor::MeridianLine => meridian::solve(self, ctx),
         }
+    }
+}
+
+/// Reusable buffers of [`HeadingSums::accumulate_row`].
+#[derive(Clone, Debug, Default)]
+pub struct RowScratch {
+    pub geo: Vec<RayGeometry>,
+    pub contrib: Vec<Contribution>,
+}
+
+/// What one sample adds: its scatter terms, whether it counts (`n` = 1 or 0), and
+/// what the meridian band needs (Q_p, U_p, P and 2β of its assumed ray).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Contribution {
+    pub m: [f64; 6],
+    pub n: f64,
+    pub qp: f64,
+    pub up: f64,
+    pub pol: f64,
+    pub cos2b: f64,
+    pub sin2b: f64,
+}
+
+/// One sample's contribution: image-frame Stokes `s` seen along the assumed ray `g`.
+/// Pure and branch-free (invalid or unpolarized samples contribute zero).
+#[inline(always)]
+pub fn contribution(ctx: &HeadingContext, g: &RayGeometry, s: Stokes) -> Contribution {
+    let b = &g.basis;
+    // Image → meridional frame; undo a known lens diattenuation (seed eq. 13).
+    let mut sm = image_to_meridional(s, b.cos2b, b.sin2b);
+    if ctx.lens_rho2 != 0.0 {
+        sm = lens_diattenuation_inverse(ctx.lens_rho2, g.r2, sm);
+    }
+    let p2 = sm.q * sm.q + sm.u * sm.u;
+    let valid = p2 > 0.0 && sm.i > 0.0; // false for NaN (masked) samples
+    let pol = p2.sqrt();
+    // Sun vector: w e eᵀ with e = cos φ p − sin φ s, w = P², without half angles:
+    // e eᵀ = ½(1 + cos 2φ) p pᵀ + ½(1 − cos 2φ) s sᵀ − ½ sin 2φ (p sᵀ + s pᵀ),
+    // and P² cos 2φ = P·Q_p, P² sin 2φ = P·U_p.
+    let (wa, wb, wc) = (0.5 * (p2 + pol * sm.q), 0.5 * (p2 - pol * sm.q), -0.5 * pol * sm.u);
+    let (p, q) = (b.p, b.s);
+    let m = |i: usize, j: usize| wa * p[i] * p[j] + wb * q[i] * q[j] + wc * (p[i] * q[j] + q[i] * p[j]);
+    let terms = [m(0, 0), m(0, 1), m(0, 2), m(1, 1), m(1, 2), m(2, 2)];
+    Contribution {
+        m: if valid { terms } else { [0.0; 6] },
+        n: if valid { 1.0 } else { 0.0 },
+        qp: sm.q,
+        up: sm.u,
+        pol,
+        cos2b: b.cos2b,
+        sin2b: b.sin2b,
     }
 }
 
