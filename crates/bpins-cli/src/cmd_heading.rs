@@ -1,6 +1,6 @@
 //! `bpins heading CAPTURE`: per frame the heading, its 1σ, the reference and the error.
 
-use crate::{ensure_outside, write_json};
+use crate::{ensure_not_in_capture, write_json};
 use anyhow::{bail, Context};
 use bpins_core::capture::Capture;
 use bpins_core::conventions::wrap_deg_180;
@@ -61,7 +61,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let capture = Capture::load(&a.capture)?;
     if let Some(p) = &a.json {
-        ensure_outside(p, &capture.dir)?;
+        ensure_not_in_capture(p)?;
     }
     println!(
         "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10}  sun az/el (°), source",

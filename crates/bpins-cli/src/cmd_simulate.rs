@@ -166,9 +166,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if effects_text.is_empty() { "none".to_string() } else { effects_text.join(", ") }
     );
     if let Some(path) = &a.exr {
+        crate::ensure_not_in_capture(path)?;
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
         return write_dump(&capture, &model, &resp, &sim, path);
     }
     let out = a.out.as_ref().expect("clap requires --out without --exr");
+    if let Some(parent) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        crate::ensure_not_in_capture(parent)?;
+    }
     let pb = crate::progress::bar(capture.frames.len() as u64, "frames");
     let frames: Vec<FrameData> = (0..capture.frames.len())
         .map(|i| {

@@ -67,33 +67,11 @@ pub fn write_json(path: &std::path::Path, value: &serde_json::Value) -> anyhow::
     std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))
 }
 
-/// Refuses an output path inside `capture_dir`: bpins never writes into a capture.
-pub fn ensure_outside(out: &std::path::Path, capture_dir: &std::path::Path) -> anyhow::Result<()> {
-    let abs = |p: &std::path::Path| -> std::path::PathBuf {
-        // Resolve the longest existing ancestor, then append the rest.
-        let mut existing = p.to_path_buf();
-        let mut rest = Vec::new();
-        while !existing.exists() {
-            match (existing.file_name(), existing.parent()) {
-                (Some(n), Some(parent)) => {
-                    rest.push(n.to_os_string());
-                    existing = if parent.as_os_str().is_empty() { ".".into() } else { parent.to_path_buf() };
-                }
-                _ => break,
-            }
-        }
-        let mut r = std::fs::canonicalize(&existing).unwrap_or(existing);
-        for n in rest.iter().rev() {
-            r.push(n);
-        }
-        r
-    };
-    if abs(out).starts_with(abs(capture_dir)) {
-        anyhow::bail!(
-            "{}: is inside the capture {}; bpins never writes into a capture",
-            out.display(),
-            capture_dir.display()
-        );
+/// Refuses an output path that lies in a capture (a folder holding capture.toml):
+/// bpins never writes into a capture.
+pub fn ensure_not_in_capture(out: &std::path::Path) -> anyhow::Result<()> {
+    if let Some(c) = bpins_core::capture::enclosing_capture(out)? {
+        anyhow::bail!("{}: is inside the capture {}; bpins never writes into a capture", out.display(), c.display());
     }
     Ok(())
 }

@@ -7,7 +7,8 @@ use std::path::PathBuf;
 pub enum Error {
     #[error("{path}: {message}")]
     Capture { path: PathBuf, message: String },
-    #[error("{path}: cannot read: {source}")]
+    /// A file-system operation on `path` failed; the OS error is the source.
+    #[error("{path}")]
     Io {
         path: PathBuf,
         #[source]

@@ -265,6 +265,14 @@ impl Capture {
 }
 
 /// `p` made absolute, `..` resolved, and every existing prefix canonicalised.
+/// The capture folder (one holding `capture.toml`) that `path` lies in or is, if
+/// any: outputs must never go there. `..` and symbolic links are resolved first.
+pub fn enclosing_capture(path: &Path) -> Result<Option<PathBuf>> {
+    let resolved = resolve(path)?;
+    Ok(resolved.ancestors().find(|a| a.join("capture.toml").is_file()).map(Path::to_path_buf))
+}
+
+/// `p` made absolute, `..` and `.` removed, and every existing prefix canonicalized.
 fn resolve(p: &Path) -> Result<PathBuf> {
     let abs = std::path::absolute(p).map_err(|e| Error::Io { path: p.to_path_buf(), source: e })?;
     let mut out = PathBuf::new();
