@@ -136,18 +136,33 @@ impl Intrinsics {
     }
 
     /// The rays of a row of samples at `y_px`, sample `i` at x = `x0_px + step_px·i`,
-    /// into `out` (its length is the row's). The projection is dispatched once per
-    /// row, so the pinhole loop is branch-free and the compiler vectorizes it.
+    /// into `out` (its length is the row's).
     pub fn geometry_row(&self, y_px: f64, x0_px: f64, step_px: f64, out: &mut [RayGeometry]) {
+        self.map_row(y_px, x0_px, step_px, out, |_, g| *g);
+    }
+
+    /// Row kernel: `out[i] = f(i, &geometry(x0_px + step_px·i, y_px))` for a row of
+    /// samples. The projection is dispatched once per row, so with `f` inlined and
+    /// branch-free the pinhole loop has no branch and the compiler vectorizes it
+    /// (the ray never goes to memory: keep `T` small, a few f64).
+    #[inline(always)]
+    pub fn map_row<T>(
+        &self,
+        y_px: f64,
+        x0_px: f64,
+        step_px: f64,
+        out: &mut [T],
+        mut f: impl FnMut(usize, &RayGeometry) -> T,
+    ) {
         match self.projection {
             Projection::Pinhole => {
                 for (i, o) in out.iter_mut().enumerate() {
-                    *o = self.geometry_pinhole(x0_px + step_px * i as f64, y_px);
+                    *o = f(i, &self.geometry_pinhole(x0_px + step_px * i as f64, y_px));
                 }
             }
             _ => {
                 for (i, o) in out.iter_mut().enumerate() {
-                    *o = self.geometry(x0_px + step_px * i as f64, y_px);
+                    *o = f(i, &self.geometry(x0_px + step_px * i as f64, y_px));
                 }
             }
         }

@@ -189,19 +189,134 @@ pub fn sensor_noise4(f: &ChainFrame, pixel: u32) -> [SensorNoise; 4] {
 /// PRNU, offsets, DSNU, read + shot noise, then rounding and clipping (sensor.rs).
 #[inline(always)]
 pub fn sensor_dn(f: &ChainFrame, signal_dn: f64, ch: usize, n: &SensorNoise) -> f64 {
-    let r = &f.response;
+    sensor_response(&f.response, f.offset_dn[ch], signal_dn, n)
+}
+
+/// [`sensor_dn`] with the channel's offset (black level + offset_k) already looked up.
+#[inline(always)]
+fn sensor_response(r: &Response, offset_dn: f64, signal_dn: f64, n: &SensorNoise) -> f64 {
     // Gain non-uniformity (fixed pattern).
     let sig = signal_dn * (1.0 + r.prnu * n.prnu);
     // Black level, channel offset and offset non-uniformity (fixed pattern).
-    let mut dn = sig + f.offset_dn[ch] + r.dsnu_dn * n.dsnu;
+    let mut dn = sig + offset_dn + r.dsnu_dn * n.dsnu;
     // Temporal noise: read noise plus shot noise of variance K·signal.
     let var = r.read_noise_dn * r.read_noise_dn + r.system_gain_dn_per_e * sig.max(0.0);
     dn += var.sqrt() * n.temporal;
-    // Rounding (half up, as WGSL floor(x + 0.5)) and clipping to the ADC range.
+    // Rounding (half up, as WGSL floor(x + 0.5)) and clipping to the ADC range
+    // (max/min rather than clamp: branch-free, so row loops vectorize).
     if r.quantize {
-        dn = (dn + 0.5).floor().clamp(0.0, r.full_scale_dn());
+        dn = (dn + 0.5).floor().max(0.0).min(r.full_scale_dn());
     }
     dn
+}
+
+// ---------------------------------------------------------------------------
+// Row kernels: the per-pixel functions above mapped over one row of pixels, as
+// branch-free loops with small outputs that the compiler vectorizes. Each gives
+// bitwise the per-pixel composition it names (tested below); the drivers call them.
+// ---------------------------------------------------------------------------
+
+/// Row kernel: `out[u] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), chans[u & 1])`
+/// for pixels `u = 0..out.len()` of row `v_px` (a DoFP row alternates two channels;
+/// give the same channel twice for one).
+pub fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
+    let (a0, a1) = (f.analyzers[chans[0]], f.analyzers[chans[1]]);
+    let (g0, g1) = (f.gain_dn[chans[0]], f.gain_dn[chans[1]]);
+    f.intr.map_row(v_px, 0.0, 1.0, out, |u, g| {
+        let s = ray_stokes(f, g);
+        let even = u & 1 == 0;
+        let a = if even { a0 } else { a1 };
+        // pixel_signal_dn: analyzer, then gain.
+        analyzer_intensity(s, &a) * if even { g0 } else { g1 }
+    });
+}
+
+/// Row kernel: `out[u][ch] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), ch)`, all
+/// four channels (colocated).
+pub fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
+    f.intr.map_row(v_px, 0.0, 1.0, out, |_, g| {
+        let s = ray_stokes(f, g);
+        [0, 1, 2, 3].map(|ch| pixel_signal_dn(f, s, ch))
+    });
+}
+
+/// Scratch rows of standard normals for [`sensor_dn_row`] and [`sensor_dn4_row`].
+#[derive(Clone, Debug, Default)]
+pub struct NoiseRows {
+    one: [Vec<f64>; 3],
+    four: [Vec<[f64; 4]>; 3],
+}
+
+/// Which noise streams the response draws (temporal, DSNU, PRNU), as [`sensor_noise`].
+fn streams_drawn(r: &Response) -> [bool; 3] {
+    [r.read_noise_dn > 0.0 || r.system_gain_dn_per_e > 0.0, r.dsnu_dn > 0.0, r.prnu > 0.0]
+}
+
+/// The key and stream of each of [`SensorNoise`]'s draws.
+fn stream_keys(f: &ChainFrame) -> [(&FrameKey, u32); 3] {
+    [(&f.key, stream::TEMPORAL), (&f.fixed_key, stream::DSNU), (&f.fixed_key, stream::PRNU)]
+}
+
+/// Row kernel: `out[u] = sensor_dn(f, signal[u], ch, &sensor_noise(f, pixel0 + u, ch))`
+/// with `ch = chans[u & 1]` (a DoFP row), rounded to f32.
+pub fn sensor_dn_row(
+    f: &ChainFrame,
+    pixel0: u32,
+    chans: [usize; 2],
+    signal: &[f64],
+    scratch: &mut NoiseRows,
+    out: &mut [f32],
+) {
+    let n = signal.len();
+    // Draw the streams the response needs; zeros elsewhere, as sensor_noise.
+    for ((buf, drawn), (key, st)) in scratch.one.iter_mut().zip(streams_drawn(&f.response)).zip(stream_keys(f)) {
+        buf.clear();
+        buf.resize(n, 0.0);
+        if drawn {
+            key.normal_row(pixel0, chans.map(|c| c as u32), st, buf);
+        }
+    }
+    let [t, d, p] = &scratch.one;
+    let (o0, o1) = (f.offset_dn[chans[0]], f.offset_dn[chans[1]]);
+    let r = &f.response;
+    let draws = t.iter().zip(d).zip(p);
+    for (u, ((o, &sig), ((&temporal, &dsnu), &prnu))) in out.iter_mut().zip(signal).zip(draws).enumerate() {
+        let offset = if u & 1 == 0 { o0 } else { o1 };
+        *o = sensor_response(r, offset, sig, &SensorNoise { temporal, dsnu, prnu }) as f32;
+    }
+}
+
+/// Row kernel: for the channels with `used[ch]`, `out[u][ch] = sensor_dn(f,
+/// signal[u][ch], ch, &sensor_noise4(f, pixel0 + u)[ch])`; 0 for the others (colocated).
+pub fn sensor_dn4_row(
+    f: &ChainFrame,
+    pixel0: u32,
+    used: [bool; 4],
+    signal: &[[f64; 4]],
+    scratch: &mut NoiseRows,
+    out: &mut [[f64; 4]],
+) {
+    let n = signal.len();
+    for ((buf, drawn), (key, st)) in scratch.four.iter_mut().zip(streams_drawn(&f.response)).zip(stream_keys(f)) {
+        buf.clear();
+        buf.resize(n, [0.0; 4]);
+        if drawn {
+            key.normal4_row(pixel0, st, buf);
+        }
+    }
+    let [t, d, p] = &scratch.four;
+    let r = &f.response;
+    for (o, (sig, ((t, d), p))) in out.iter_mut().zip(signal.iter().zip(t.iter().zip(d).zip(p))) {
+        *o = [0, 1, 2, 3].map(|ch| {
+            let n = SensorNoise { temporal: t[ch], dsnu: d[ch], prnu: p[ch] };
+            let dn = sensor_response(r, f.offset_dn[ch], sig[ch], &n);
+            if used[ch] {
+                dn
+            } else {
+                0.0
+            }
+        });
+    }
 }
 
 #[cfg(test)]
@@ -327,6 +442,66 @@ pub(crate) mod tests {
             let four = sensor_noise4(&f, p);
             for ch in 0..4 {
                 assert_eq!(four[ch], sensor_noise(&f, p, ch));
+            }
+        }
+    }
+
+    fn noisy_frame(quantize: bool) -> ChainFrame {
+        let mut set = EffectSet::new();
+        set.set("channel_response", "offset90_dn", 3.0).unwrap();
+        set.set("array_rotation", "dtheta_deg", 0.3).unwrap();
+        set.set("lens_diattenuation", "rho2", 0.4).unwrap();
+        let resp = Response {
+            black_level_dn: 64.0,
+            read_noise_dn: 1.5,
+            system_gain_dn_per_e: 0.2,
+            dsnu_dn: 0.7,
+            prnu: 0.01,
+            bit_depth: 12,
+            quantize,
+            ..Response::ideal(3000.0)
+        };
+        ChainFrame::new(&set.model(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 9, trial: 4, frame: 2 })
+    }
+
+    #[test]
+    fn dofp_row_kernels_are_bitwise_the_per_pixel_chain() {
+        for quantize in [false, true] {
+            let f = noisy_frame(quantize);
+            let (w, v) = (612usize, 37usize);
+            let mut sig = vec![0.0; w];
+            let mut dn = vec![0f32; w];
+            let mut scratch = NoiseRows::default();
+            for chans in [[2, 1], [3, 0]] {
+                signal_row(&f, v as f64, chans, &mut sig);
+                sensor_dn_row(&f, (v * w) as u32, chans, &sig, &mut scratch, &mut dn);
+                for u in 0..w {
+                    let ch = chans[u & 1];
+                    let want = pixel_signal_dn(&f, pixel_stokes(&f, u as f64, v as f64), ch);
+                    assert_eq!(sig[u], want, "signal at {u}");
+                    let p = (v * w + u) as u32;
+                    assert_eq!(dn[u], sensor_dn(&f, want, ch, &sensor_noise(&f, p, ch)) as f32, "DN at {u}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn colocated_row_kernels_are_bitwise_the_per_pixel_chain() {
+        let f = noisy_frame(false);
+        let (w, v) = (300usize, 200usize);
+        let mut sig = vec![[0.0; 4]; w];
+        let mut dn = vec![[0.0; 4]; w];
+        let used = [true, true, false, true];
+        signal4_row(&f, v as f64, &mut sig);
+        sensor_dn4_row(&f, (v * w) as u32, used, &sig, &mut NoiseRows::default(), &mut dn);
+        for u in 0..w {
+            let s = pixel_stokes(&f, u as f64, v as f64);
+            let noise = sensor_noise4(&f, (v * w + u) as u32);
+            for ch in 0..4 {
+                assert_eq!(sig[u][ch], pixel_signal_dn(&f, s, ch));
+                let want = if used[ch] { sensor_dn(&f, sig[u][ch], ch, &noise[ch]) } else { 0.0 };
+                assert_eq!(dn[u][ch], want);
             }
         }
     }

@@ -4,7 +4,9 @@
 //! bit-identical whatever the thread count.
 
 use crate::camera::Intrinsics;
-use crate::chain::{pixel_signal_dn, pixel_stokes, sensor_dn, sensor_noise, sensor_noise4, ChainFrame, Scene};
+use crate::chain::{
+    pixel_signal_dn, pixel_stokes, sensor_dn4_row, sensor_dn_row, signal4_row, signal_row, ChainFrame, NoiseRows, Scene,
+};
 use crate::effects::Model;
 use crate::sensor::{Channel, Layout};
 use rayon::prelude::*;
@@ -12,42 +14,42 @@ use rayon::prelude::*;
 /// Renders a DoFP mosaic (`w × h`, row-major DN): each pixel its own ray and analyzer.
 pub fn render_mosaic(f: &ChainFrame, w: usize, h: usize, mosaic: &[[Channel; 2]; 2]) -> Vec<f32> {
     let mut out = vec![0f32; w * h];
-    out.par_chunks_mut(w.max(1)).enumerate().for_each(|(v, row)| {
-        for (u, px) in row.iter_mut().enumerate() {
-            let ch = Layout::dofp_channel(mosaic, u, v).index();
-            let s = pixel_stokes(f, u as f64, v as f64);
-            let signal = pixel_signal_dn(f, s, ch);
-            let pixel = (v * w + u) as u32;
-            *px = sensor_dn(f, signal, ch, &sensor_noise(f, pixel, ch)) as f32;
-        }
-    });
+    out.par_chunks_mut(w.max(1)).enumerate().for_each_init(
+        || (vec![0.0; w], NoiseRows::default()),
+        |(signal, scratch), (v, row)| {
+            let chans = [0, 1].map(|u| Layout::dofp_channel(mosaic, u, v).index());
+            // Sky → lens → analyzer → photo-signal along each true ray.
+            signal_row(f, v as f64, chans, &mut signal[..row.len()]);
+            // Sensor: non-uniformities, offsets, noise, rounding.
+            sensor_dn_row(f, (v * w) as u32, chans, &signal[..row.len()], scratch, row);
+        },
+    );
     out
 }
 
 /// Renders a colocated frame: one `w × h` plane per channel in `channels`.
 pub fn render_colocated(f: &ChainFrame, w: usize, h: usize, channels: &[Channel]) -> Vec<Vec<f32>> {
-    let mut planes = vec![vec![0f32; w * h]; channels.len()];
-    let rows: Vec<Vec<[f32; 4]>> = (0..h)
+    let mut used = [false; 4];
+    for c in channels {
+        used[c.index()] = true;
+    }
+    let rows: Vec<Vec<[f64; 4]>> = (0..h)
         .into_par_iter()
-        .map(|v| {
-            (0..w)
-                .map(|u| {
-                    let s = pixel_stokes(f, u as f64, v as f64);
-                    let noise = sensor_noise4(f, (v * w + u) as u32);
-                    let mut o = [0f32; 4];
-                    for (k, c) in channels.iter().enumerate() {
-                        let ch = c.index();
-                        o[k] = sensor_dn(f, pixel_signal_dn(f, s, ch), ch, &noise[ch]) as f32;
-                    }
-                    o
-                })
-                .collect()
-        })
+        .map_init(
+            || (vec![[0.0; 4]; w], NoiseRows::default()),
+            |(signal, scratch), v| {
+                let mut dn = vec![[0.0; 4]; w];
+                signal4_row(f, v as f64, signal);
+                sensor_dn4_row(f, (v * w) as u32, used, signal, scratch, &mut dn);
+                dn
+            },
+        )
         .collect();
+    let mut planes = vec![vec![0f32; w * h]; channels.len()];
     for (v, row) in rows.iter().enumerate() {
-        for (u, o) in row.iter().enumerate() {
-            for (k, plane) in planes.iter_mut().enumerate() {
-                plane[v * w + u] = o[k];
+        for (u, dn) in row.iter().enumerate() {
+            for (plane, c) in planes.iter_mut().zip(channels) {
+                plane[v * w + u] = dn[c.index()] as f32;
             }
         }
     }
