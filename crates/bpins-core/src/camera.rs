@@ -168,6 +168,25 @@ impl Intrinsics {
         }
     }
 
+    /// Row kernel driver: calls `f(i, &geometry(x0_px + step_px·i, y_px))` for `i < n`,
+    /// the projection dispatched once per row (as [`Self::map_row`], for kernels that
+    /// write several outputs per sample).
+    #[inline(always)]
+    pub fn for_row(&self, y_px: f64, x0_px: f64, step_px: f64, n: usize, mut f: impl FnMut(usize, &RayGeometry)) {
+        match self.projection {
+            Projection::Pinhole => {
+                for i in 0..n {
+                    f(i, &self.geometry_pinhole(x0_px + step_px * i as f64, y_px));
+                }
+            }
+            _ => {
+                for i in 0..n {
+                    f(i, &self.geometry(x0_px + step_px * i as f64, y_px));
+                }
+            }
+        }
+    }
+
     /// [`Self::geometry`] for a pinhole camera (no dispatch on the projection).
     #[inline(always)]
     fn geometry_pinhole(&self, u_px: f64, v_px: f64) -> RayGeometry {

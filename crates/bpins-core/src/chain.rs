@@ -222,22 +222,38 @@ fn sensor_response(r: &Response, offset_dn: f64, signal_dn: f64, n: &SensorNoise
 pub fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
     let (a0, a1) = (f.analyzers[chans[0]], f.analyzers[chans[1]]);
     let (g0, g1) = (f.gain_dn[chans[0]], f.gain_dn[chans[1]]);
-    f.intr.map_row(v_px, 0.0, 1.0, out, |u, g| {
-        let s = ray_stokes(f, g);
-        let even = u & 1 == 0;
-        let a = if even { a0 } else { a1 };
-        // pixel_signal_dn: analyzer, then gain.
-        analyzer_intensity(s, &a) * if even { g0 } else { g1 }
-    });
+    // (Closures forced inline: a call in the row loop stops it vectorizing.)
+    f.intr.map_row(
+        v_px,
+        0.0,
+        1.0,
+        out,
+        #[inline(always)]
+        |u, g| {
+            let s = ray_stokes(f, g);
+            let even = u & 1 == 0;
+            let a = if even { a0 } else { a1 };
+            // pixel_signal_dn: analyzer, then gain.
+            analyzer_intensity(s, &a) * if even { g0 } else { g1 }
+        },
+    );
 }
 
 /// Row kernel: `out[u][ch] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), ch)`, all
 /// four channels (colocated).
 pub fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
-    f.intr.map_row(v_px, 0.0, 1.0, out, |_, g| {
-        let s = ray_stokes(f, g);
-        [0, 1, 2, 3].map(|ch| pixel_signal_dn(f, s, ch))
-    });
+    f.intr.map_row(
+        v_px,
+        0.0,
+        1.0,
+        out,
+        #[inline(always)]
+        |_, g| {
+            let s = ray_stokes(f, g);
+            // (Spelled out: `array::map` is not always inlined, and a call stops vectorizing.)
+            [pixel_signal_dn(f, s, 0), pixel_signal_dn(f, s, 1), pixel_signal_dn(f, s, 2), pixel_signal_dn(f, s, 3)]
+        },
+    );
 }
 
 /// Scratch rows of standard normals for [`sensor_dn_row`] and [`sensor_dn4_row`].
@@ -307,7 +323,7 @@ pub fn sensor_dn4_row(
     let [t, d, p] = &scratch.four;
     let r = &f.response;
     for (o, (sig, ((t, d), p))) in out.iter_mut().zip(signal.iter().zip(t.iter().zip(d).zip(p))) {
-        *o = [0, 1, 2, 3].map(|ch| {
+        let dn = |ch: usize| {
             let n = SensorNoise { temporal: t[ch], dsnu: d[ch], prnu: p[ch] };
             let dn = sensor_response(r, f.offset_dn[ch], sig[ch], &n);
             if used[ch] {
@@ -315,7 +331,8 @@ pub fn sensor_dn4_row(
             } else {
                 0.0
             }
-        });
+        };
+        *o = [dn(0), dn(1), dn(2), dn(3)];
     }
 }
 

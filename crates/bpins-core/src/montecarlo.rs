@@ -27,7 +27,7 @@
 //! the thread count, and a trial can be re-run alone.
 
 use crate::camera::{Intrinsics, Projection};
-use crate::chain::{pixel_signal_dn, ray_stokes, sensor_dn, sensor_noise4, ChainFrame, NoiseIndex, Scene};
+use crate::chain::{sensor_dn4_row, signal4_row, ChainFrame, NoiseIndex, NoiseRows, Scene};
 use crate::conventions::{wrap_deg_180, xy_from_paper_row_col};
 use crate::effects::EffectSet;
 use crate::error::Result;
@@ -246,39 +246,30 @@ pub fn run_trial(cfg: &SweepConfig, source: Source, trial: usize) -> Result<Tria
     let ctx_known = HeadingContext { lens_rho2: rho2, ..ctx_unknown };
     let with_known = source.involves_lens();
     let cos_2band = (2.0 * ctx_unknown.band_deg.to_radians()).cos();
-    let chans: Vec<usize> = cfg.channels.iter().map(|c| c.index()).collect();
+    let mut used = [false; 4];
+    for c in &cfg.channels {
+        used[c.index()] = true;
+    }
     let rows: Vec<(HeadingSums, HeadingSums)> = (0..h)
         .into_par_iter()
         .map_init(
             || {
                 (
-                    vec![frame.intr.geometry(0.0, 0.0); w],
+                    vec![[0.0; 4]; w],
                     vec![[0.0; 4]; w],
                     vec![Stokes::default(); w],
+                    NoiseRows::default(),
                     RowScratch::default(),
                 )
             },
-            |(geo, signal, stokes, scratch), v| {
+            |(signal, dn, stokes, noise, scratch), v| {
                 let y = v as f64;
-                // Sky → analyzers along each true ray (vectorized row loops).
-                frame.intr.geometry_row(y, 0.0, 1.0, geo);
-                for (g, sig) in geo.iter().zip(signal.iter_mut()) {
-                    let s = ray_stokes(&frame, g);
-                    *sig = [
-                        pixel_signal_dn(&frame, s, 0),
-                        pixel_signal_dn(&frame, s, 1),
-                        pixel_signal_dn(&frame, s, 2),
-                        pixel_signal_dn(&frame, s, 3),
-                    ];
-                }
+                // Sky → analyzers along each true ray (vectorized row kernels).
+                signal4_row(&frame, y, signal);
                 // Sensor response with noise, then the Stokes inversion.
-                for (u, (sig, out)) in signal.iter().zip(stokes.iter_mut()).enumerate() {
-                    let noise = sensor_noise4(&frame, (v * w + u) as u32);
-                    let mut dn = [0.0; 4];
-                    for &ch in &chans {
-                        dn[ch] = sensor_dn(&frame, sig[ch], ch, &noise[ch]);
-                    }
-                    *out = rec.stokes(&dn);
+                sensor_dn4_row(&frame, (v * w) as u32, used, signal, noise, dn);
+                for (out, dn) in stokes.iter_mut().zip(dn.iter()) {
+                    *out = rec.stokes(dn);
                 }
                 // Heading sums along the assumed rays.
                 let (mut a, mut b) = (HeadingSums::default(), HeadingSums::default());

@@ -178,8 +178,9 @@ impl HeadingSums {
     }
 
     /// Adds a whole row of samples at `y_px`, sample `i` at `x0_px + step_px·i`
-    /// (NaN Stokes are skipped). The per-sample work runs as branch-free loops that
-    /// the compiler vectorizes, then the sums are added in sample order.
+    /// (NaN Stokes are skipped); bitwise a loop of [`Self::accumulate`]. The
+    /// per-sample work runs as one branch-free loop that the compiler vectorizes,
+    /// into columns (structure of arrays); then the sums are added in sample order.
     pub fn accumulate_row(
         &mut self,
         ctx: &HeadingContext,
@@ -191,14 +192,45 @@ impl HeadingSums {
         scratch: &mut RowScratch,
     ) {
         let n = stokes.len();
-        scratch.geo.resize(n, ctx.intr.geometry(x0_px, y_px));
-        scratch.contrib.resize(n, Contribution::default());
-        ctx.intr.geometry_row(y_px, x0_px, step_px, &mut scratch.geo[..n]);
-        for ((c, g), s) in scratch.contrib[..n].iter_mut().zip(&scratch.geo[..n]).zip(stokes) {
-            *c = contribution(ctx, g, *s);
+        if n == 0 {
+            return;
         }
-        for (i, c) in scratch.contrib[..n].iter().enumerate() {
-            self.add(ctx, cos_2band, x0_px + step_px * i as f64, y_px, c);
+        scratch.cols.resize(COLS * n, 0.0);
+        let mut it = scratch.cols.chunks_exact_mut(n);
+        let cols: [&mut [f64]; COLS] = std::array::from_fn(|_| &mut it.next().expect("COLS columns")[..n]);
+        let [m0, m1, m2, m3, m4, m5, valid, band, qp, up, c2b, s2b] = cols;
+        let stokes = &stokes[..n];
+        let (r_min2, r_max2) = (ctx.r_min_px * ctx.r_min_px, ctx.r_max_px * ctx.r_max_px);
+        // Per sample (vectorized): contribution along the assumed ray, and whether the
+        // sample falls in the meridian band (as `add` decides it).
+        ctx.intr.for_row(
+            y_px,
+            x0_px,
+            step_px,
+            n,
+            #[inline(always)]
+            |i, g| {
+                let c = contribution(ctx, g, stokes[i]);
+                [m0[i], m1[i], m2[i], m3[i], m4[i], m5[i]] = c.m;
+                valid[i] = c.n;
+                let (dx, dy) = (x0_px + step_px * i as f64 - ctx.intr.cx_px, y_px - ctx.intr.cy_px);
+                let r2_px = dx * dx + dy * dy;
+                let in_band = c.n != 0.0 && !(-c.qp < cos_2band * c.pol) && r2_px >= r_min2 && r2_px <= r_max2;
+                band[i] = if in_band { 1.0 } else { 0.0 };
+                (qp[i], up[i], c2b[i], s2b[i]) = (c.qp, c.up, c.cos2b, c.sin2b);
+            },
+        );
+        // The scatter, in sample order.
+        for i in 0..n {
+            for (acc, m) in self.scatter.iter_mut().zip([&m0, &m1, &m2, &m3, &m4, &m5]) {
+                *acc += m[i];
+            }
+            self.n += valid[i];
+        }
+        // The meridian band (few samples), in sample order.
+        for i in (0..n).filter(|&i| band[i] != 0.0) {
+            let (dx, dy) = (x0_px + step_px * i as f64 - ctx.intr.cx_px, y_px - ctx.intr.cy_px);
+            self.add_band(dx, dy, qp[i], up[i], c2b[i], s2b[i]);
         }
     }
 
@@ -216,17 +248,24 @@ impl HeadingSums {
         let (dx, dy) = (x_px - ctx.intr.cx_px, y_px - ctx.intr.cy_px);
         let r2_px = dx * dx + dy * dy;
         if r2_px >= ctx.r_min_px * ctx.r_min_px && r2_px <= ctx.r_max_px * ctx.r_max_px {
-            let psi = 0.5 * (-c.up).atan2(-c.qp);
-            let (sb, cb) = (c.sin2b, c.cos2b);
-            let l = &mut self.line[sector_of(crate::conventions::image_angle_rad(dx, dy))];
-            l[0] += sb * sb;
-            l[1] += sb * cb;
-            l[2] += cb * cb;
-            l[3] += psi * sb;
-            l[4] += psi * cb;
-            l[5] += psi * psi;
-            l[6] += 1.0;
+            self.add_band(dx, dy, c.qp, c.up, c.cos2b, c.sin2b);
         }
+    }
+
+    /// Adds a band sample at `(dx, dy)` px from the principal point to its sector's
+    /// line sums: ψ = AoE − 90° = ½ atan2(−U_p, −Q_p), regressed on (sin 2β, cos 2β).
+    #[inline(always)]
+    fn add_band(&mut self, dx: f64, dy: f64, qp: f64, up: f64, cos2b: f64, sin2b: f64) {
+        let psi = 0.5 * (-up).atan2(-qp);
+        let (sb, cb) = (sin2b, cos2b);
+        let l = &mut self.line[sector_of(crate::conventions::image_angle_rad(dx, dy))];
+        l[0] += sb * sb;
+        l[1] += sb * cb;
+        l[2] += cb * cb;
+        l[3] += psi * sb;
+        l[4] += psi * cb;
+        l[5] += psi * psi;
+        l[6] += 1.0;
     }
 
     /// Sums over every valid sample of `img`; rows in parallel, added in row order
@@ -235,14 +274,19 @@ impl HeadingSums {
         let cos_2band = (2.0 * ctx.band_deg.to_radians()).cos();
         let rows: Vec<HeadingSums> = (0..img.height)
             .into_par_iter()
-            .map_init(RowScratch::default, |scratch, j| {
-                let mut acc = HeadingSums::default();
-                let row: Vec<Stokes> =
-                    (0..img.width).map(|i| img.stokes(i, j).unwrap_or(Stokes::new(f64::NAN, 0.0, 0.0, 0.0))).collect();
-                let (x0, y) = img.position_px(0, j);
-                acc.accumulate_row(ctx, cos_2band, y, x0, img.step_px, &row, scratch);
-                acc
-            })
+            .map_init(
+                || (RowScratch::default(), Vec::new()),
+                |(scratch, row), j| {
+                    let mut acc = HeadingSums::default();
+                    row.clear();
+                    row.extend(
+                        (0..img.width).map(|i| img.stokes(i, j).unwrap_or(Stokes::new(f64::NAN, 0.0, 0.0, 0.0))),
+                    );
+                    let (x0, y) = img.position_px(0, j);
+                    acc.accumulate_row(ctx, cos_2band, y, x0, img.step_px, row, scratch);
+                    acc
+                },
+            )
             .collect();
         let mut total = HeadingSums::default();
         for r in rows {
@@ -260,11 +304,14 @@ impl HeadingSums {
     }
 }
 
-/// Reusable buffers of [`HeadingSums::accumulate_row`].
+/// Columns of [`HeadingSums::accumulate_row`]'s scratch: the six scatter terms, n,
+/// in band, Q_p, U_p, cos 2β, sin 2β.
+const COLS: usize = 12;
+
+/// Reusable buffers of [`HeadingSums::accumulate_row`] (per-sample columns).
 #[derive(Clone, Debug, Default)]
 pub struct RowScratch {
-    pub geo: Vec<RayGeometry>,
-    pub contrib: Vec<Contribution>,
+    cols: Vec<f64>,
 }
 
 /// What one sample adds: its scatter terms, whether it counts (`n` = 1 or 0), and
@@ -330,4 +377,47 @@ pub fn sector_centre_rad(k: usize) -> f64 {
 
 pub(crate) fn too_few(what: &str, n: f64) -> Error {
     Error::Heading(format!("{what}: only {n} usable samples"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Projection;
+    use crate::chain::{pixel_stokes, ChainFrame, Scene};
+    use crate::effects::EffectSet;
+
+    #[test]
+    fn row_sums_are_bitwise_the_per_sample_sums() {
+        let mut set = EffectSet::new();
+        set.set("lens_diattenuation", "rho2", 0.8).unwrap();
+        let scene = Scene {
+            sun_az_deg: 40.0,
+            sun_el_deg: 25.0,
+            heading_deg: 30.0,
+            tilt_x_deg: 0.0,
+            tilt_y_deg: 0.0,
+            dmax: 0.6,
+        };
+        for p in Projection::ALL {
+            let intr = Intrinsics { projection: p, f_px: 400.0, cx_px: 305.5, cy_px: 255.5 };
+            let f = ChainFrame::noise_free(&set.model(), &intr, &scene);
+            for rho2 in [0.0, 0.8] {
+                let ctx = HeadingContext { lens_rho2: rho2, ..HeadingContext::new(intr, 612, 512, 40.0, 25.0) };
+                let cos_2band = (2.0 * ctx.band_deg.to_radians()).cos();
+                let (mut row, mut one) = (HeadingSums::default(), HeadingSums::default());
+                let mut scratch = RowScratch::default();
+                for y in [3.5, 100.5, 255.5, 400.5] {
+                    let (x0, step) = (0.5, 2.0);
+                    let mut s: Vec<Stokes> = (0..306).map(|i| pixel_stokes(&f, x0 + step * i as f64, y)).collect();
+                    s[7].i = f64::NAN; // a masked sample
+                    row.accumulate_row(&ctx, cos_2band, y, x0, step, &s, &mut scratch);
+                    for (i, s) in s.iter().enumerate() {
+                        one.accumulate(&ctx, cos_2band, x0 + step * i as f64, y, *s);
+                    }
+                }
+                assert_eq!(row, one, "{p:?} ρ₂ {rho2}");
+                assert!(row.line.iter().map(|l| l[6]).sum::<f64>() > 10.0, "{p:?}: band samples");
+            }
+        }
+    }
 }
