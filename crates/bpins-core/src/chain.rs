@@ -261,6 +261,8 @@ pub fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
 pub struct NoiseRows {
     one: [Vec<f64>; 3],
     four: [Vec<[f64; 4]>; 3],
+    /// Whether `four[k]` holds zeros (its stream is not drawn).
+    four_zero: [bool; 3],
 }
 
 /// Which noise streams the response draws (temporal, DSNU, PRNU), as [`sensor_noise`].
@@ -313,12 +315,18 @@ pub fn sensor_dn4_row(
     out: &mut [[f64; 4]],
 ) {
     let n = signal.len();
-    for ((buf, drawn), (key, st)) in scratch.four.iter_mut().zip(streams_drawn(&f.response)).zip(stream_keys(f)) {
-        buf.clear();
-        buf.resize(n, [0.0; 4]);
+    for (((buf, zero), drawn), (key, st)) in
+        scratch.four.iter_mut().zip(&mut scratch.four_zero).zip(streams_drawn(&f.response)).zip(stream_keys(f))
+    {
         if drawn {
+            buf.resize(n, [0.0; 4]);
             key.normal4_row(pixel0, st, buf);
+        } else if !(*zero && buf.len() == n) {
+            // Zeros, as sensor_noise4 (kept from row to row while the stream is off).
+            buf.clear();
+            buf.resize(n, [0.0; 4]);
         }
+        *zero = !drawn;
     }
     let [t, d, p] = &scratch.four;
     let r = &f.response;
@@ -505,20 +513,23 @@ pub(crate) mod tests {
 
     #[test]
     fn colocated_row_kernels_are_bitwise_the_per_pixel_chain() {
-        let f = noisy_frame(false);
         let (w, v) = (300usize, 200usize);
         let mut sig = vec![[0.0; 4]; w];
         let mut dn = vec![[0.0; 4]; w];
         let used = [true, true, false, true];
-        signal4_row(&f, v as f64, &mut sig);
-        sensor_dn4_row(&f, (v * w) as u32, used, &sig, &mut NoiseRows::default(), &mut dn);
-        for u in 0..w {
-            let s = pixel_stokes(&f, u as f64, v as f64);
-            let noise = sensor_noise4(&f, (v * w + u) as u32);
-            for ch in 0..4 {
-                assert_eq!(sig[u][ch], pixel_signal_dn(&f, s, ch));
-                let want = if used[ch] { sensor_dn(&f, sig[u][ch], ch, &noise[ch]) } else { 0.0 };
-                assert_eq!(dn[u][ch], want);
+        // One scratch for a noisy, a noise-free and a noisy frame again: no stale draws.
+        let mut scratch = NoiseRows::default();
+        for f in [noisy_frame(false), ideal_frame(&Model::default()), noisy_frame(true)] {
+            signal4_row(&f, v as f64, &mut sig);
+            sensor_dn4_row(&f, (v * w) as u32, used, &sig, &mut scratch, &mut dn);
+            for u in 0..w {
+                let s = pixel_stokes(&f, u as f64, v as f64);
+                let noise = sensor_noise4(&f, (v * w + u) as u32);
+                for ch in 0..4 {
+                    assert_eq!(sig[u][ch], pixel_signal_dn(&f, s, ch));
+                    let want = if used[ch] { sensor_dn(&f, sig[u][ch], ch, &noise[ch]) } else { 0.0 };
+                    assert_eq!(dn[u][ch], want);
+                }
             }
         }
     }

@@ -137,6 +137,7 @@ const INVALID: [f64; 3] = [f64::NAN; 3];
 
 /// Reconstructs 2 × 2 superpixels of a DoFP mosaic (`dn`, row-major `w × h`).
 /// `full_scale_dn` masks saturated samples (use `f64::INFINITY` for unquantised data).
+/// Each tile is bitwise [`superpixel`]; a row of tiles runs as one branch-free loop.
 pub fn superpixels(
     dn: &[f32],
     w: usize,
@@ -147,24 +148,68 @@ pub fn superpixels(
 ) -> PolImage {
     let (tw, th) = (w / 2, h / 2);
     let mut iqu = vec![INVALID; tw * th];
+    // Tile position (0: top left, 1: top right, 2: bottom left, 3: bottom right) each
+    // channel is read from; 4 where the mosaic lacks the channel (it reads 0).
+    let mut pos = [4usize; 4];
+    for (dv, mrow) in mosaic.iter().enumerate() {
+        for (du, c) in mrow.iter().enumerate() {
+            pos[c.index()] = 2 * dv + du;
+        }
+    }
     iqu.par_chunks_mut(tw.max(1)).enumerate().for_each(|(j, row)| {
-        for (i, out) in row.iter_mut().enumerate() {
-            let mut d = [0.0; 4];
-            let mut ok = true;
-            for (dv, mrow) in mosaic.iter().enumerate() {
-                for (du, c) in mrow.iter().enumerate() {
-                    let x = dn[(2 * j + dv) * w + 2 * i + du] as f64;
-                    ok &= dn_is_valid(x, full_scale_dn);
-                    d[c.index()] = x;
+        let top = &dn[2 * j * w..][..2 * tw];
+        let bottom = &dn[(2 * j + 1) * w..][..2 * tw];
+        for (out, (t, b)) in row.iter_mut().zip(top.chunks_exact(2).zip(bottom.chunks_exact(2))) {
+            let x = [t[0] as f64, t[1] as f64, b[0] as f64, b[1] as f64];
+            let ok = x.iter().fold(true, |ok, &x| ok & dn_is_valid(x, full_scale_dn));
+            // Gather by channel with selects (the positions are fixed over the frame).
+            let at = |p: usize| {
+                if p == 0 {
+                    x[0]
+                } else if p == 1 {
+                    x[1]
+                } else if p == 2 {
+                    x[2]
+                } else if p == 3 {
+                    x[3]
+                } else {
+                    0.0
                 }
-            }
-            if ok {
-                let s = rec.stokes(&d);
-                *out = [s.i, s.q, s.u];
-            }
+            };
+            let s = rec.stokes(&[at(pos[0]), at(pos[1]), at(pos[2]), at(pos[3])]);
+            *out = if ok { [s.i, s.q, s.u] } else { INVALID };
         }
     });
     PolImage { width: tw, height: th, origin_px: 0.5, step_px: 2.0, iqu }
+}
+
+/// (I, Q, U) of the 2 × 2 tile `(i, j)` of a DoFP mosaic (`dn`, row-major, `w` wide);
+/// NaN if any of its samples is clipped or saturated. The per-tile reference of
+/// [`superpixels`].
+pub fn superpixel(
+    dn: &[f32],
+    w: usize,
+    mosaic: &[[Channel; 2]; 2],
+    rec: &Reconstructor,
+    full_scale_dn: f64,
+    i: usize,
+    j: usize,
+) -> [f64; 3] {
+    let mut d = [0.0; 4];
+    let mut ok = true;
+    for (dv, mrow) in mosaic.iter().enumerate() {
+        for (du, c) in mrow.iter().enumerate() {
+            let x = dn[(2 * j + dv) * w + 2 * i + du] as f64;
+            ok &= dn_is_valid(x, full_scale_dn);
+            d[c.index()] = x;
+        }
+    }
+    if ok {
+        let s = rec.stokes(&d);
+        [s.i, s.q, s.u]
+    } else {
+        INVALID
+    }
 }
 
 /// Demosaics a DoFP mosaic bilinearly per channel and reconstructs every pixel.
@@ -320,6 +365,27 @@ mod tests {
         }
         let sp = superpixels(&mosaic, w, h, &DEFAULT_MOSAIC, &rec, 4095.0);
         assert_eq!(sp.position_px(1, 1), (2.5, 2.5));
+    }
+
+    #[test]
+    fn superpixels_are_bitwise_the_per_tile_reference() {
+        let rec = Reconstructor::new(&Model::default(), 64.0, &Channel::ALL).unwrap();
+        let (w, h) = (14, 6);
+        let mosaic: Vec<f32> = (0..w * h).map(|p| (64 + (p * 37) % 4000) as f32).collect();
+        let mut mosaic = mosaic;
+        mosaic[17] = 4095.0; // saturated
+        mosaic[40] = 0.0; // clipped
+        let mirrored = [[Channel::C45, Channel::C90], [Channel::C0, Channel::C135]];
+        for m in [DEFAULT_MOSAIC, mirrored] {
+            let img = superpixels(&mosaic, w, h, &m, &rec, 4095.0);
+            for j in 0..h / 2 {
+                for i in 0..w / 2 {
+                    let (a, b) = (img.iqu[j * img.width + i], superpixel(&mosaic, w, &m, &rec, 4095.0, i, j));
+                    assert!(a == b || (a[0].is_nan() && b[0].is_nan()), "{a:?} {b:?}");
+                }
+            }
+            assert_eq!(img.valid_count(), 21 - 2);
+        }
     }
 
     #[test]

@@ -191,6 +191,28 @@ impl HeadingSums {
         stokes: &[Stokes],
         scratch: &mut RowScratch,
     ) {
+        // One loop per case of the known lens (a constant ρ₂ = 0 drops its inversion
+        // from the loop rather than computing and discarding it per sample).
+        if ctx.lens_rho2 != 0.0 {
+            self.accumulate_row_in(ctx, cos_2band, y_px, x0_px, step_px, stokes, scratch);
+        } else {
+            let ctx = HeadingContext { lens_rho2: 0.0, ..*ctx };
+            self.accumulate_row_in(&ctx, cos_2band, y_px, x0_px, step_px, stokes, scratch);
+        }
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn accumulate_row_in(
+        &mut self,
+        ctx: &HeadingContext,
+        cos_2band: f64,
+        y_px: f64,
+        x0_px: f64,
+        step_px: f64,
+        stokes: &[Stokes],
+        scratch: &mut RowScratch,
+    ) {
         let n = stokes.len();
         if n == 0 {
             return;
@@ -279,9 +301,14 @@ impl HeadingSums {
                 |(scratch, row), j| {
                     let mut acc = HeadingSums::default();
                     row.clear();
-                    row.extend(
-                        (0..img.width).map(|i| img.stokes(i, j).unwrap_or(Stokes::new(f64::NAN, 0.0, 0.0, 0.0))),
-                    );
+                    // As `img.stokes(i, j)`, NaN intensity where invalid.
+                    row.extend(img.iqu[j * img.width..][..img.width].iter().map(|&[i, q, u]| {
+                        if i.is_nan() {
+                            Stokes::new(f64::NAN, 0.0, 0.0, 0.0)
+                        } else {
+                            Stokes::new(i, q, u, 0.0)
+                        }
+                    }));
                     let (x0, y) = img.position_px(0, j);
                     acc.accumulate_row(ctx, cos_2band, y, x0, img.step_px, row, scratch);
                     acc
