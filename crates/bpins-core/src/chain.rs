@@ -261,7 +261,8 @@ pub fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
 pub struct NoiseRows {
     one: [Vec<f64>; 3],
     four: [Vec<[f64; 4]>; 3],
-    /// Whether `four[k]` holds zeros (its stream is not drawn).
+    /// Whether `one[k]`, `four[k]` hold zeros (their stream is not drawn).
+    one_zero: [bool; 3],
     four_zero: [bool; 3],
 }
 
@@ -286,13 +287,19 @@ pub fn sensor_dn_row(
     out: &mut [f32],
 ) {
     let n = signal.len();
-    // Draw the streams the response needs; zeros elsewhere, as sensor_noise.
-    for ((buf, drawn), (key, st)) in scratch.one.iter_mut().zip(streams_drawn(&f.response)).zip(stream_keys(f)) {
-        buf.clear();
-        buf.resize(n, 0.0);
+    // Draw the streams the response needs; zeros elsewhere, as sensor_noise (kept
+    // from row to row while the stream is off).
+    for (((buf, zero), drawn), (key, st)) in
+        scratch.one.iter_mut().zip(&mut scratch.one_zero).zip(streams_drawn(&f.response)).zip(stream_keys(f))
+    {
         if drawn {
+            buf.resize(n, 0.0);
             key.normal_row(pixel0, chans.map(|c| c as u32), st, buf);
+        } else if !(*zero && buf.len() == n) {
+            buf.clear();
+            buf.resize(n, 0.0);
         }
+        *zero = !drawn;
     }
     let [t, d, p] = &scratch.one;
     let (o0, o1) = (f.offset_dn[chans[0]], f.offset_dn[chans[1]]);
@@ -491,12 +498,12 @@ pub(crate) mod tests {
 
     #[test]
     fn dofp_row_kernels_are_bitwise_the_per_pixel_chain() {
-        for quantize in [false, true] {
-            let f = noisy_frame(quantize);
+        // One scratch for a noisy, a noise-free and a noisy frame again: no stale draws.
+        let mut scratch = NoiseRows::default();
+        for f in [noisy_frame(false), ideal_frame(&Model::default()), noisy_frame(true)] {
             let (w, v) = (612usize, 37usize);
             let mut sig = vec![0.0; w];
             let mut dn = vec![0f32; w];
-            let mut scratch = NoiseRows::default();
             for chans in [[2, 1], [3, 0]] {
                 signal_row(&f, v as f64, chans, &mut sig);
                 sensor_dn_row(&f, (v * w) as u32, chans, &sig, &mut scratch, &mut dn);

@@ -118,24 +118,77 @@ impl FrameKey {
     }
 }
 
-/// Pixels per chunk of the row kernels. A chunk is hashed and transformed in u32 and
-/// f32 only (8 AVX2 lanes per vector), then widened to f64 in a loop of its own:
-/// mixing f64 into the hash loop would halve its vector width.
+/// Pixels per chunk of the row kernels. A chunk is hashed lane-parallel (u32, 8 AVX2
+/// lanes per vector, [`pcg4d_lanes`]) and transformed in f32, then widened to f64:
+/// two vectors in flight hide the latency of pcg4d's serial chain of multiplies.
 const LANES: usize = 16;
 
+/// [`pcg4d`] of `LANES` independent inputs, `v[word][lane]`, step by step over all
+/// lanes, so each step is independent vector operations.
+#[inline(always)]
+fn pcg4d_lanes(v: &mut [[u32; LANES]; 4]) {
+    for w in v.iter_mut() {
+        for x in w.iter_mut() {
+            *x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        }
+    }
+    mix_lanes(v);
+    for w in v.iter_mut() {
+        for x in w.iter_mut() {
+            *x ^= *x >> 16;
+        }
+    }
+    mix_lanes(v);
+}
+
+/// pcg4d's mixing round, `v.x += v.y·v.w; v.y += v.z·v.x; v.z += v.x·v.y; v.w += v.y·v.z`.
+#[inline(always)]
+fn mix_lanes(v: &mut [[u32; LANES]; 4]) {
+    let [x, y, z, w] = v;
+    for l in 0..LANES {
+        x[l] = x[l].wrapping_add(y[l].wrapping_mul(w[l]));
+    }
+    for l in 0..LANES {
+        y[l] = y[l].wrapping_add(z[l].wrapping_mul(x[l]));
+    }
+    for l in 0..LANES {
+        z[l] = z[l].wrapping_add(x[l].wrapping_mul(y[l]));
+    }
+    for l in 0..LANES {
+        w[l] = w[l].wrapping_add(y[l].wrapping_mul(z[l]));
+    }
+}
+
 impl FrameKey {
+    /// [`Self::bits`] of the `LANES` pixels `pixel0 + l`, pair `pair(l)` (lane-parallel).
+    #[inline(always)]
+    fn bits_lanes(&self, pixel0: u32, pair: impl Fn(usize) -> u32, stream: u32) -> [[u32; LANES]; 4] {
+        let k = self.0;
+        let mut v = [[0u32; LANES]; 4];
+        for l in 0..LANES {
+            v[0][l] = pixel0.wrapping_add(l as u32) ^ k[0];
+            v[1][l] = (pair(l) | (stream << 4)) ^ k[1];
+            v[2][l] = k[2];
+            v[3][l] = k[3];
+        }
+        pcg4d_lanes(&mut v);
+        pcg4d_lanes(&mut v);
+        v
+    }
+
     /// Row kernel: `out[i] = self.normal(pixel0 + i, channels[i & 1], stream)` — a DoFP
     /// row alternates two channels (give the same one twice for a single channel).
     /// Branch-free, so the compiler vectorizes the hashes and the Box–Muller.
     pub fn normal_row(&self, pixel0: u32, channels: [u32; 2], stream: u32, out: &mut [f64]) {
         let mut x = [0f32; LANES];
+        // LANES is even: lane parity is pixel parity.
+        let ch = |l: usize| if l & 1 == 0 { channels[0] } else { channels[1] };
         for (c, chunk) in out.chunks_mut(LANES).enumerate() {
+            let h = self.bits_lanes(pixel0.wrapping_add((c * LANES) as u32), |l| ch(l) >> 1, stream);
             for (l, x) in x.iter_mut().enumerate() {
-                let i = c * LANES + l;
-                let ch = if i & 1 == 0 { channels[0] } else { channels[1] };
-                let (r, s, cs) = box_muller_parts(self.bits(pixel0.wrapping_add(i as u32), ch >> 1, stream));
+                let (r, s, cs) = box_muller_parts([h[0][l], h[1][l], h[2][l], h[3][l]]);
                 // normal(): the cosine branch for even channels, the sine for odd.
-                *x = r * if ch & 1 == 0 { cs } else { s };
+                *x = r * if ch(l) & 1 == 0 { cs } else { s };
             }
             for (o, x) in chunk.iter_mut().zip(&x) {
                 *o = *x as f64;
@@ -148,12 +201,13 @@ impl FrameKey {
     pub fn normal4_row(&self, pixel0: u32, stream: u32, out: &mut [[f64; 4]]) {
         let mut x = [[0f32; LANES]; 4];
         for (c, chunk) in out.chunks_mut(LANES).enumerate() {
+            let p0 = pixel0.wrapping_add((c * LANES) as u32);
             for pair in 0..2 {
-                let (xc, xs) = x.split_at_mut(2 * pair + 1);
-                for (l, (xc, xs)) in xc[2 * pair].iter_mut().zip(xs[0].iter_mut()).enumerate() {
-                    let p = pixel0.wrapping_add((c * LANES + l) as u32);
-                    let (r, s, cs) = box_muller_parts(self.bits(p, pair as u32, stream));
-                    (*xc, *xs) = (r * cs, r * s);
+                let h = self.bits_lanes(p0, |_| pair as u32, stream);
+                for l in 0..LANES {
+                    let (r, s, cs) = box_muller_parts([h[0][l], h[1][l], h[2][l], h[3][l]]);
+                    x[2 * pair][l] = r * cs;
+                    x[2 * pair + 1][l] = r * s;
                 }
             }
             for (l, o) in chunk.iter_mut().enumerate() {
