@@ -220,6 +220,15 @@ fn sensor_response(r: &Response, offset_dn: f64, signal_dn: f64, n: &SensorNoise
 /// for pixels `u = 0..out.len()` of row `v_px` (a DoFP row alternates two channels;
 /// give the same channel twice for one).
 pub fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
+    if f.lens_rho2 != 0.0 {
+        signal_row_in::<true>(f, v_px, chans, out)
+    } else {
+        signal_row_in::<false>(f, v_px, chans, out)
+    }
+}
+
+#[inline(always)]
+fn signal_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
     let (a0, a1) = (f.analyzers[chans[0]], f.analyzers[chans[1]]);
     let (g0, g1) = (f.gain_dn[chans[0]], f.gain_dn[chans[1]]);
     // (Closures forced inline: a call in the row loop stops it vectorizing.)
@@ -230,7 +239,7 @@ pub fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64])
         out,
         #[inline(always)]
         |u, g| {
-            let s = ray_stokes(f, g);
+            let s = ray_stokes_in::<LENS>(f, g);
             let even = u & 1 == 0;
             let a = if even { a0 } else { a1 };
             // pixel_signal_dn: analyzer, then gain.
@@ -242,6 +251,15 @@ pub fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64])
 /// Row kernel: `out[u][ch] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), ch)`, all
 /// four channels (colocated).
 pub fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
+    if f.lens_rho2 != 0.0 {
+        signal4_row_in::<true>(f, v_px, out)
+    } else {
+        signal4_row_in::<false>(f, v_px, out)
+    }
+}
+
+#[inline(always)]
+fn signal4_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
     f.intr.map_row(
         v_px,
         0.0,
@@ -249,11 +267,24 @@ pub fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
         out,
         #[inline(always)]
         |_, g| {
-            let s = ray_stokes(f, g);
+            let s = ray_stokes_in::<LENS>(f, g);
             // (Spelled out: `array::map` is not always inlined, and a call stops vectorizing.)
             [pixel_signal_dn(f, s, 0), pixel_signal_dn(f, s, 1), pixel_signal_dn(f, s, 2), pixel_signal_dn(f, s, 3)]
         },
     );
+}
+
+/// [`ray_stokes`] for the row kernels, `LENS = false` only where `f.lens_rho2 == 0`.
+/// Then the lens is the identity and is skipped — bitwise the same: ρ = 0·r² = 0 for
+/// the finite r² of any pixel, so c = √(1 − ρ²) = 1, I + ρQ = I, ρI + Q = Q (the sky's
+/// Q is never −0), c·U = U.
+#[inline(always)]
+fn ray_stokes_in<const LENS: bool>(f: &ChainFrame, g: &RayGeometry) -> Stokes {
+    if LENS {
+        return ray_stokes(f, g);
+    }
+    let s = sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis);
+    meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
 }
 
 /// Scratch rows of standard normals for [`sensor_dn_row`] and [`sensor_dn4_row`].
