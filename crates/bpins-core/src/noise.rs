@@ -165,6 +165,7 @@ impl FrameKey {
     fn bits_lanes(&self, pixel0: u32, pair: impl Fn(usize) -> u32, stream: u32) -> [[u32; LANES]; 4] {
         let k = self.0;
         let mut v = [[0u32; LANES]; 4];
+        #[allow(clippy::needless_range_loop)] // v[word][lane]: lane-major on purpose
         for l in 0..LANES {
             v[0][l] = pixel0.wrapping_add(l as u32) ^ k[0];
             v[1][l] = (pair(l) | (stream << 4)) ^ k[1];
@@ -249,8 +250,8 @@ pub fn ln_f32(x: f32) -> f32 {
     p = p * f - 1.666_805_8e-1;
     p = p * f + 2.000_071_4e-1;
     p = p * f - 2.499_999_4e-1;
-    p = p * f + 3.333_333_1e-1;
-    // ln 2 split into 0.693359375 (exact in a few bits) and a small correction.
+    p = p * f + 3.333_333e-1; // Cephes 3.3333331174E-1, the same f32
+                              // ln 2 split into 0.693359375 (exact in a few bits) and a small correction.
     let y = f * z * p + e * -2.121_944_4e-4 - 0.5 * z;
     f + y + e * 0.693_359_4
 }

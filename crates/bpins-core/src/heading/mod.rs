@@ -237,6 +237,8 @@ impl HeadingSums {
                 valid[i] = c.n;
                 let (dx, dy) = (x0_px + step_px * i as f64 - ctx.intr.cx_px, y_px - ctx.intr.cy_px);
                 let r2_px = dx * dx + dy * dy;
+                // `!(a < b)` as in `add` (not `a >= b`: the same for NaN).
+                #[allow(clippy::neg_cmp_op_on_partial_ord)]
                 let in_band = c.n != 0.0 && !(-c.qp < cos_2band * c.pol) && r2_px >= r_min2 && r2_px <= r_max2;
                 band[i] = if in_band { 1.0 } else { 0.0 };
                 (qp[i], up[i], c2b[i], s2b[i]) = (c.qp, c.up, c.cos2b, c.sin2b);
