@@ -3,8 +3,13 @@
 //!
 //! * `frame/dofp_2048x2448_sky_to_heading`: one full IMX250MZR-size DoFP frame,
 //!   sky → DN (read + shot noise, 12-bit rounding) → 2×2 superpixel Stokes →
-//!   both heading extractors. Target on the 2-core dev machine: ≤ 60 ms.
-//! * `frame/stage_*`: the same frame split into its stages.
+//!   heading sums → both heading extractors, fused per tile row
+//!   (`simulate::mosaic_heading_sums`: no mosaic or Stokes image is kept).
+//!   Target on the 2-core dev machine: ≤ 60 ms.
+//! * `frame/dofp_2048x2448_via_mosaic`: the same frame through the whole-image
+//!   stages (`render_mosaic` → `superpixels` → `HeadingSums::from_image`); the same
+//!   sums, bitwise.
+//! * `frame/stage_*`: the unfused frame split into its stages.
 //! * `sweep/trial_*`: one seed-paper trial (1224 × 1024 colocated) per source.
 //! * `sweep/paper_800_trials`: `bpins run` with the paper's 20 trials per azimuth.
 //!   Target ≤ 30 s. Ten samples of it take several minutes.
@@ -16,7 +21,7 @@ use bpins_core::heading::{Extractor, HeadingContext, HeadingSums};
 use bpins_core::montecarlo::{run_sweep, run_trial, Source, SweepConfig};
 use bpins_core::recon::{superpixels, Reconstructor};
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::render_mosaic;
+use bpins_core::simulate::{mosaic_heading_sums, render_mosaic};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use std::time::Duration;
@@ -49,6 +54,12 @@ fn frame(c: &mut Criterion) {
     let mut g = c.benchmark_group("frame");
     g.sample_size(20).measurement_time(Duration::from_secs(8));
     g.bench_function("dofp_2048x2448_sky_to_heading", |b| {
+        b.iter(|| {
+            let sums = mosaic_heading_sums(&f, W, H, &DEFAULT_MOSAIC, &rec, 4095.0, &ctx);
+            black_box(Extractor::ALL.map(|e| sums.solve(e, &ctx).expect("heading")))
+        })
+    });
+    g.bench_function("dofp_2048x2448_via_mosaic", |b| {
         b.iter(|| {
             let dn = render_mosaic(&f, W, H, &DEFAULT_MOSAIC);
             let img = superpixels(&dn, W, H, &DEFAULT_MOSAIC, &rec, 4095.0);

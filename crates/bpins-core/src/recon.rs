@@ -148,6 +148,58 @@ pub fn superpixels(
 ) -> PolImage {
     let (tw, th) = (w / 2, h / 2);
     let mut iqu = vec![INVALID; tw * th];
+    iqu.par_chunks_mut(tw.max(1)).enumerate().for_each(|(j, row)| {
+        superpixel_row(&dn[2 * j * w..][..2 * tw], &dn[(2 * j + 1) * w..][..2 * tw], mosaic, rec, full_scale_dn, row);
+    });
+    PolImage { width: tw, height: th, origin_px: 0.5, step_px: 2.0, iqu }
+}
+
+/// Row kernel of [`superpixels`]: the tiles of one tile row, from its two mosaic rows
+/// `top` and `bottom` (DN, at least `2·out.len()` long each), into `out`.
+pub fn superpixel_row(
+    top: &[f32],
+    bottom: &[f32],
+    mosaic: &[[Channel; 2]; 2],
+    rec: &Reconstructor,
+    full_scale_dn: f64,
+    out: &mut [[f64; 3]],
+) {
+    tile_row(top, bottom, mosaic, rec, full_scale_dn, out, |ok, s| if ok { [s.i, s.q, s.u] } else { INVALID });
+}
+
+/// [`superpixel_row`] into Stokes vectors as [`PolImage::stokes`] reads them back
+/// (and [`crate::heading::HeadingSums::from_image`] passes them on): `(I, Q, U, 0)`,
+/// or `(NaN, 0, 0, 0)` where the tile is invalid.
+pub fn superpixel_stokes_row(
+    top: &[f32],
+    bottom: &[f32],
+    mosaic: &[[Channel; 2]; 2],
+    rec: &Reconstructor,
+    full_scale_dn: f64,
+    out: &mut [Stokes],
+) {
+    // A valid tile's DN are finite, so its I is never NaN: `ok` is `!I.is_nan()`.
+    tile_row(top, bottom, mosaic, rec, full_scale_dn, out, |ok, s| {
+        if ok {
+            Stokes::new(s.i, s.q, s.u, 0.0)
+        } else {
+            Stokes::new(f64::NAN, 0.0, 0.0, 0.0)
+        }
+    });
+}
+
+/// The branch-free tile loop of [`superpixel_row`]: `out[i] = make(ok, stokes)` for
+/// tile `i`, each tile bitwise [`superpixel`].
+#[inline(always)]
+fn tile_row<T>(
+    top: &[f32],
+    bottom: &[f32],
+    mosaic: &[[Channel; 2]; 2],
+    rec: &Reconstructor,
+    full_scale_dn: f64,
+    out: &mut [T],
+    make: impl Fn(bool, Stokes) -> T,
+) {
     // Tile position (0: top left, 1: top right, 2: bottom left, 3: bottom right) each
     // channel is read from; 4 where the mosaic lacks the channel (it reads 0).
     let mut pos = [4usize; 4];
@@ -156,31 +208,27 @@ pub fn superpixels(
             pos[c.index()] = 2 * dv + du;
         }
     }
-    iqu.par_chunks_mut(tw.max(1)).enumerate().for_each(|(j, row)| {
-        let top = &dn[2 * j * w..][..2 * tw];
-        let bottom = &dn[(2 * j + 1) * w..][..2 * tw];
-        for (out, (t, b)) in row.iter_mut().zip(top.chunks_exact(2).zip(bottom.chunks_exact(2))) {
-            let x = [t[0] as f64, t[1] as f64, b[0] as f64, b[1] as f64];
-            let ok = x.iter().fold(true, |ok, &x| ok & dn_is_valid(x, full_scale_dn));
-            // Gather by channel with selects (the positions are fixed over the frame).
-            let at = |p: usize| {
-                if p == 0 {
-                    x[0]
-                } else if p == 1 {
-                    x[1]
-                } else if p == 2 {
-                    x[2]
-                } else if p == 3 {
-                    x[3]
-                } else {
-                    0.0
-                }
-            };
-            let s = rec.stokes(&[at(pos[0]), at(pos[1]), at(pos[2]), at(pos[3])]);
-            *out = if ok { [s.i, s.q, s.u] } else { INVALID };
-        }
-    });
-    PolImage { width: tw, height: th, origin_px: 0.5, step_px: 2.0, iqu }
+    let n = out.len();
+    let (top, bottom) = (&top[..2 * n], &bottom[..2 * n]);
+    for (out, (t, b)) in out.iter_mut().zip(top.chunks_exact(2).zip(bottom.chunks_exact(2))) {
+        let x = [t[0] as f64, t[1] as f64, b[0] as f64, b[1] as f64];
+        let ok = x.iter().fold(true, |ok, &x| ok & dn_is_valid(x, full_scale_dn));
+        // Gather by channel with selects (the positions are fixed over the frame).
+        let at = |p: usize| {
+            if p == 0 {
+                x[0]
+            } else if p == 1 {
+                x[1]
+            } else if p == 2 {
+                x[2]
+            } else if p == 3 {
+                x[3]
+            } else {
+                0.0
+            }
+        };
+        *out = make(ok, rec.stokes(&[at(pos[0]), at(pos[1]), at(pos[2]), at(pos[3])]));
+    }
 }
 
 /// (I, Q, U) of the 2 × 2 tile `(i, j)` of a DoFP mosaic (`dn`, row-major, `w` wide);

@@ -8,7 +8,10 @@ use crate::chain::{
     pixel_signal_dn, pixel_stokes, sensor_dn4_row, sensor_dn_row, signal4_row, signal_row, ChainFrame, NoiseRows, Scene,
 };
 use crate::effects::Model;
+use crate::heading::{HeadingContext, HeadingSums, RowScratch};
+use crate::recon::{superpixel_stokes_row, Reconstructor};
 use crate::sensor::{Channel, Layout};
+use crate::stokes::Stokes;
 use rayon::prelude::*;
 
 /// Renders a DoFP mosaic (`w × h`, row-major DN): each pixel its own ray and analyzer.
@@ -25,6 +28,57 @@ pub fn render_mosaic(f: &ChainFrame, w: usize, h: usize, mosaic: &[[Channel; 2];
         },
     );
     out
+}
+
+/// Heading sums of a DoFP frame (`w × h`) reconstructed as 2 × 2 superpixels, fused:
+/// bitwise `HeadingSums::from_image(&superpixels(&render_mosaic(f, w, h, mosaic), w, h,
+/// mosaic, rec, full_scale_dn), ctx)`, without the mosaic or the Stokes image.
+///
+/// Per tile row (in parallel, each with its own small row buffers): the two pixel
+/// rows' DN as [`render_mosaic`] renders them, that row's superpixels, then its sums;
+/// the rows' sums are added in row order (bit-identical whatever the thread count).
+/// An odd last row or column belongs to no tile and is not rendered.
+pub fn mosaic_heading_sums(
+    f: &ChainFrame,
+    w: usize,
+    h: usize,
+    mosaic: &[[Channel; 2]; 2],
+    rec: &Reconstructor,
+    full_scale_dn: f64,
+    ctx: &HeadingContext,
+) -> HeadingSums {
+    let (tw, th) = (w / 2, h / 2);
+    let cos_2band = HeadingSums::cos_2band(ctx);
+    HeadingSums::sum_rows(th, FusedRows::default, |s, j| {
+        s.signal.resize(w, 0.0);
+        for (dv, dn) in s.dn.iter_mut().enumerate() {
+            // As render_mosaic's row v.
+            let v = 2 * j + dv;
+            let chans = [0, 1].map(|u| Layout::dofp_channel(mosaic, u, v).index());
+            dn.resize(w, 0.0);
+            signal_row(f, v as f64, chans, &mut s.signal);
+            sensor_dn_row(f, (v * w) as u32, chans, &s.signal, &mut s.noise, dn);
+        }
+        // As superpixels' row j, read back as from_image does.
+        s.stokes.resize(tw, Stokes::default());
+        superpixel_stokes_row(&s.dn[0], &s.dn[1], mosaic, rec, full_scale_dn, &mut s.stokes);
+        // As PolImage::position_px(0, j) of a superpixel image.
+        let (x0, step) = (0.5, 2.0);
+        let y = 0.5 + step * j as f64;
+        let mut acc = HeadingSums::default();
+        acc.accumulate_row(ctx, cos_2band, y, x0, step, &s.stokes, &mut s.heading);
+        acc
+    })
+}
+
+/// Row buffers of [`mosaic_heading_sums`] (one set per rayon job).
+#[derive(Default)]
+struct FusedRows {
+    signal: Vec<f64>,
+    noise: NoiseRows,
+    dn: [Vec<f32>; 2],
+    stokes: Vec<Stokes>,
+    heading: RowScratch,
 }
 
 /// Renders a colocated frame: one `w × h` plane per channel in `channels`.
@@ -114,6 +168,50 @@ mod tests {
                 .install(|| render_mosaic(&f, 612, 64, &DEFAULT_MOSAIC))
         };
         assert_eq!(run(1), run(3));
+    }
+
+    #[test]
+    fn fused_heading_sums_are_bitwise_the_mosaic_path_whatever_the_thread_count() {
+        use crate::heading::{HeadingContext, HeadingSums};
+        use crate::recon::superpixels;
+        let resp = Response {
+            gain_dn: 3000.0,
+            black_level_dn: 64.0,
+            read_noise_dn: 1.0,
+            system_gain_dn_per_e: 0.1,
+            quantize: true,
+            bit_depth: 12,
+            ..Response::ideal(1.0)
+        };
+        let mut set = crate::effects::EffectSet::new();
+        set.set("lens_diattenuation", "rho2", 0.8).unwrap();
+        let mirrored = [[Channel::C45, Channel::C90], [Channel::C0, Channel::C135]];
+        let noise = NoiseIndex { seed: 11, trial: 0, frame: 0 };
+        for (model, mosaic, rho2, (w, h)) in [
+            (Model::default(), DEFAULT_MOSAIC, 0.0, (612, 512)),
+            (Model::default(), DEFAULT_MOSAIC, 0.0, (611, 301)),
+            (set.model(), mirrored, 0.8, (612, 512)),
+            (Model::default(), DEFAULT_MOSAIC, 0.0, (1, 7)),
+        ] {
+            let f = ChainFrame::new(&model, &intrinsics(), &scene(), &resp, noise);
+            let rec = Reconstructor::new(&model, 64.0, &Channel::ALL).unwrap();
+            let ctx = HeadingContext { lens_rho2: rho2, ..HeadingContext::new(intrinsics(), w, h, 40.0, 25.0) };
+            let fs = resp.full_scale_dn();
+            let reference =
+                HeadingSums::from_image(&superpixels(&render_mosaic(&f, w, h, &mosaic), w, h, &mosaic, &rec, fs), &ctx);
+            let run = |threads| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| mosaic_heading_sums(&f, w, h, &mosaic, &rec, fs, &ctx))
+            };
+            assert_eq!(run(1), reference, "{w} × {h}");
+            assert_eq!(run(3), reference, "{w} × {h}");
+            if w > 2 {
+                assert!(reference.n > 0.0 && reference.line.iter().map(|l| l[6]).sum::<f64>() > 10.0);
+            }
+        }
     }
 
     #[test]

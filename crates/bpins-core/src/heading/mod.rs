@@ -295,28 +295,43 @@ impl HeadingSums {
     /// Sums over every valid sample of `img`; rows in parallel, added in row order
     /// (bit-identical whatever the thread count).
     pub fn from_image(img: &PolImage, ctx: &HeadingContext) -> HeadingSums {
-        let cos_2band = (2.0 * ctx.band_deg.to_radians()).cos();
-        let rows: Vec<HeadingSums> = (0..img.height)
-            .into_par_iter()
-            .map_init(
-                || (RowScratch::default(), Vec::new()),
-                |(scratch, row), j| {
-                    let mut acc = HeadingSums::default();
-                    row.clear();
-                    // As `img.stokes(i, j)`, NaN intensity where invalid.
-                    row.extend(img.iqu[j * img.width..][..img.width].iter().map(|&[i, q, u]| {
-                        if i.is_nan() {
-                            Stokes::new(f64::NAN, 0.0, 0.0, 0.0)
-                        } else {
-                            Stokes::new(i, q, u, 0.0)
-                        }
-                    }));
-                    let (x0, y) = img.position_px(0, j);
-                    acc.accumulate_row(ctx, cos_2band, y, x0, img.step_px, row, scratch);
-                    acc
-                },
-            )
-            .collect();
+        let cos_2band = Self::cos_2band(ctx);
+        HeadingSums::sum_rows(
+            img.height,
+            || (RowScratch::default(), Vec::with_capacity(img.width)),
+            |(scratch, row), j| {
+                let mut acc = HeadingSums::default();
+                row.clear();
+                // As `img.stokes(i, j)`, NaN intensity where invalid.
+                row.extend(img.iqu[j * img.width..][..img.width].iter().map(|&[i, q, u]| {
+                    if i.is_nan() {
+                        Stokes::new(f64::NAN, 0.0, 0.0, 0.0)
+                    } else {
+                        Stokes::new(i, q, u, 0.0)
+                    }
+                }));
+                let (x0, y) = img.position_px(0, j);
+                acc.accumulate_row(ctx, cos_2band, y, x0, img.step_px, row, scratch);
+                acc
+            },
+        )
+    }
+
+    /// cos 2·band of the meridian band test, as [`Self::accumulate`] takes it.
+    pub fn cos_2band(ctx: &HeadingContext) -> f64 {
+        (2.0 * ctx.band_deg.to_radians()).cos()
+    }
+
+    /// Sums of `rows` rows, `row(scratch, j)` giving row `j`'s: rows in parallel (one
+    /// `init()` scratch per rayon job, reused over its rows), then added sequentially in
+    /// row order, so bit-identical whatever the thread count.
+    pub fn sum_rows<S, I, R>(rows: usize, init: I, row: R) -> HeadingSums
+    where
+        S: Send,
+        I: Fn() -> S + Sync + Send,
+        R: Fn(&mut S, usize) -> HeadingSums + Sync + Send,
+    {
+        let rows: Vec<HeadingSums> = (0..rows).into_par_iter().map_init(init, row).collect();
         let mut total = HeadingSums::default();
         for r in rows {
             total += r;
