@@ -26,7 +26,7 @@ enum Command {
     /// The seed paper's Monte Carlo (Table 3): every error source, every extractor.
     Run(cmd_run::Args),
     /// Simulate a capture (bpins-capture/1) or one EXR frame, with any effect.
-    Simulate(cmd_simulate::Args),
+    Simulate(Box<cmd_simulate::Args>),
     /// Heading of every frame of a capture, against its reference heading.
     Heading(cmd_heading::Args),
     /// List the effects bpins models, with their parameters.
@@ -44,7 +44,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(a) => cmd_run::run(a),
-        Command::Simulate(a) => cmd_simulate::run(a),
+        Command::Simulate(a) => cmd_simulate::run(*a),
         Command::Heading(a) => cmd_heading::run(a),
         Command::Effects(a) => cmd_effects::run(a),
     };

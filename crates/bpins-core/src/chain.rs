@@ -503,8 +503,8 @@ pub(crate) mod tests {
         );
         for p in [0, 17, 90_001] {
             let four = sensor_noise4(&f, p);
-            for ch in 0..4 {
-                assert_eq!(four[ch], sensor_noise(&f, p, ch));
+            for (ch, n) in four.iter().enumerate() {
+                assert_eq!(*n, sensor_noise(&f, p, ch));
             }
         }
     }

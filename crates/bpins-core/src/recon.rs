@@ -351,6 +351,28 @@ pub fn reconstruct(
     }
 }
 
+/// Maps of AoP α (degrees, (−90, 90]), DoLP (1) and AoE φ = α − β (degrees,
+/// (−90, 90], β about the principal point of `intr`), NaN where invalid.
+pub fn angle_maps(img: &PolImage, intr: &crate::camera::Intrinsics) -> [Vec<f32>; 3] {
+    use crate::conventions::{image_angle_rad, wrap_deg_90};
+    let n = img.width * img.height;
+    let (mut aop, mut dolp, mut aoe) = (vec![f32::NAN; n], vec![f32::NAN; n], vec![f32::NAN; n]);
+    for j in 0..img.height {
+        for i in 0..img.width {
+            if let Some(s) = img.stokes(i, j) {
+                let (x, y) = img.position_px(i, j);
+                let a = s.aop_rad().to_degrees();
+                let beta = image_angle_rad(x - intr.cx_px, y - intr.cy_px).to_degrees();
+                let k = j * img.width + i;
+                aop[k] = wrap_deg_90(a) as f32;
+                dolp[k] = s.dolp() as f32;
+                aoe[k] = wrap_deg_90(a - beta) as f32;
+            }
+        }
+    }
+    [aop, dolp, aoe]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -445,26 +467,4 @@ mod tests {
         assert!(sp.stokes(0, 0).is_none());
         assert!(sp.stokes(1, 1).is_some());
     }
-}
-
-/// Maps of AoP α (degrees, (−90, 90]), DoLP (1) and AoE φ = α − β (degrees,
-/// (−90, 90], β about the principal point of `intr`), NaN where invalid.
-pub fn angle_maps(img: &PolImage, intr: &crate::camera::Intrinsics) -> [Vec<f32>; 3] {
-    use crate::conventions::{image_angle_rad, wrap_deg_90};
-    let n = img.width * img.height;
-    let (mut aop, mut dolp, mut aoe) = (vec![f32::NAN; n], vec![f32::NAN; n], vec![f32::NAN; n]);
-    for j in 0..img.height {
-        for i in 0..img.width {
-            if let Some(s) = img.stokes(i, j) {
-                let (x, y) = img.position_px(i, j);
-                let a = s.aop_rad().to_degrees();
-                let beta = image_angle_rad(x - intr.cx_px, y - intr.cy_px).to_degrees();
-                let k = j * img.width + i;
-                aop[k] = wrap_deg_90(a) as f32;
-                dolp[k] = s.dolp() as f32;
-                aoe[k] = wrap_deg_90(a - beta) as f32;
-            }
-        }
-    }
-    [aop, dolp, aoe]
 }

@@ -181,6 +181,7 @@ impl HeadingSums {
     /// (NaN Stokes are skipped); bitwise a loop of [`Self::accumulate`]. The
     /// per-sample work runs as one branch-free loop that the compiler vectorizes,
     /// into columns (structure of arrays); then the sums are added in sample order.
+    #[allow(clippy::too_many_arguments)]
     pub fn accumulate_row(
         &mut self,
         ctx: &HeadingContext,

@@ -25,6 +25,7 @@ pub(crate) fn sun_in_camera(sums: &HeadingSums, ctx: &HeadingContext) -> Result<
     let s = sums.scatter;
     let m = DMat3::from_cols(DVec3::new(s[0], s[1], s[2]), DVec3::new(s[1], s[3], s[4]), DVec3::new(s[2], s[4], s[5]));
     let (vals, mut vecs) = symmetric_eigen(m);
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must take this branch too
     if !(vals[1] > vals[0]) {
         return Err(Error::Heading(
             "sun vector: the E-vectors do not determine a sun direction (degenerate scatter)".into(),
