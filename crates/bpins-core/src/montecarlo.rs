@@ -28,7 +28,7 @@
 
 use crate::camera::{Intrinsics, Projection};
 use crate::chain::{sensor_dn4_row, signal4_row, ChainFrame, NoiseIndex, NoiseRows, Scene};
-use crate::conventions::{wrap_deg_180, xy_from_paper_row_col};
+use crate::conventions::wrap_deg_180;
 use crate::effects::EffectSet;
 use crate::error::Result;
 use crate::heading::{Extractor, HeadingContext, HeadingSums, RowScratch};
@@ -131,13 +131,10 @@ impl Default for SweepConfig {
 }
 
 impl SweepConfig {
+    /// The nominal camera: pinhole, principal point at the image centre — for the
+    /// paper's sensor its (512.5, 612.5) 1-based row, column (tested).
     pub fn intrinsics(&self) -> Intrinsics {
-        let (cx, cy) = xy_from_paper_row_col(512.5, 612.5);
-        let (cx, cy) = if (self.width_px, self.height_px) == (1224, 1024) {
-            (cx, cy)
-        } else {
-            crate::conventions::image_centre_px(self.width_px as u32, self.height_px as u32)
-        };
+        let (cx, cy) = crate::conventions::image_centre_px(self.width_px as u32, self.height_px as u32);
         Intrinsics {
             projection: Projection::Pinhole,
             f_px: self.focal_length_mm * 1000.0 / self.pixel_pitch_um,
@@ -376,6 +373,7 @@ mod tests {
         let c = SweepConfig::default();
         let i = c.intrinsics();
         assert_eq!((i.cx_px, i.cy_px), (611.5, 511.5));
+        assert_eq!((i.cx_px, i.cy_px), crate::conventions::xy_from_paper_row_col(512.5, 612.5));
         assert!((i.f_px - 2318.84).abs() < 0.01);
         assert_eq!(c.trials_per_source(), 160);
         assert_eq!(c.sun_azimuths_deg, vec![10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0]);
