@@ -16,6 +16,9 @@
 //!   sensor_dn(signal, pixel, k)      PRNU, offsets, DSNU, read+shot noise, rounding
 //! ```
 //!
+//! `rows.rs` maps these functions over a row of pixels as loops the compiler
+//! vectorizes, bitwise equal to calling them pixel by pixel (tested there).
+//!
 //! Effects enter through the frame's parameters ([`Model`] folded by the registry)
 //! and, for lens effects, through their per-pixel functions called here in order.
 
@@ -29,6 +32,9 @@ use crate::sensor::{Channel, Response};
 use crate::sky::sky_stokes;
 use crate::stokes::{analyzer_intensity, meridional_to_image, Analyzer, Stokes};
 use glam::DVec3;
+
+mod rows;
+pub use rows::*;
 
 /// What one frame looks at: the sun, the camera's orientation and the sky's d_max.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -210,178 +216,6 @@ fn sensor_response(r: &Response, offset_dn: f64, signal_dn: f64, n: &SensorNoise
     dn
 }
 
-// ---------------------------------------------------------------------------
-// Row kernels: the per-pixel functions above mapped over one row of pixels, as
-// branch-free loops with small outputs that the compiler vectorizes. Each gives
-// bitwise the per-pixel composition it names (tested below); the drivers call them.
-// ---------------------------------------------------------------------------
-
-/// Row kernel: `out[u] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), chans[u & 1])`
-/// for pixels `u = 0..out.len()` of row `v_px` (a DoFP row alternates two channels;
-/// give the same channel twice for one).
-pub fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
-    if f.lens_rho2 != 0.0 {
-        signal_row_in::<true>(f, v_px, chans, out)
-    } else {
-        signal_row_in::<false>(f, v_px, chans, out)
-    }
-}
-
-#[inline(always)]
-fn signal_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
-    let (a0, a1) = (f.analyzers[chans[0]], f.analyzers[chans[1]]);
-    let (g0, g1) = (f.gain_dn[chans[0]], f.gain_dn[chans[1]]);
-    // (Closures forced inline: a call in the row loop stops it vectorizing.)
-    f.intr.map_row(
-        v_px,
-        0.0,
-        1.0,
-        out,
-        #[inline(always)]
-        |u, g| {
-            let s = ray_stokes_in::<LENS>(f, g);
-            let even = u & 1 == 0;
-            let a = if even { a0 } else { a1 };
-            // pixel_signal_dn: analyzer, then gain.
-            analyzer_intensity(s, &a) * if even { g0 } else { g1 }
-        },
-    );
-}
-
-/// Row kernel: `out[u][ch] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), ch)`, all
-/// four channels (colocated).
-pub fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
-    if f.lens_rho2 != 0.0 {
-        signal4_row_in::<true>(f, v_px, out)
-    } else {
-        signal4_row_in::<false>(f, v_px, out)
-    }
-}
-
-#[inline(always)]
-fn signal4_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
-    f.intr.map_row(
-        v_px,
-        0.0,
-        1.0,
-        out,
-        #[inline(always)]
-        |_, g| {
-            let s = ray_stokes_in::<LENS>(f, g);
-            // (Spelled out: `array::map` is not always inlined, and a call stops vectorizing.)
-            [pixel_signal_dn(f, s, 0), pixel_signal_dn(f, s, 1), pixel_signal_dn(f, s, 2), pixel_signal_dn(f, s, 3)]
-        },
-    );
-}
-
-/// [`ray_stokes`] for the row kernels, `LENS = false` only where `f.lens_rho2 == 0`.
-/// Then the lens is the identity and is skipped — bitwise the same: ρ = 0·r² = 0 for
-/// the finite r² of any pixel, so c = √(1 − ρ²) = 1, I + ρQ = I, ρI + Q = Q (the sky's
-/// Q is never −0), c·U = U.
-#[inline(always)]
-fn ray_stokes_in<const LENS: bool>(f: &ChainFrame, g: &RayGeometry) -> Stokes {
-    if LENS {
-        return ray_stokes(f, g);
-    }
-    let s = sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis);
-    meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
-}
-
-/// Scratch rows of standard normals for [`sensor_dn_row`] and [`sensor_dn4_row`].
-#[derive(Clone, Debug, Default)]
-pub struct NoiseRows {
-    one: [Vec<f64>; 3],
-    four: [Vec<[f64; 4]>; 3],
-    /// Whether `one[k]`, `four[k]` hold zeros (their stream is not drawn).
-    one_zero: [bool; 3],
-    four_zero: [bool; 3],
-}
-
-/// Which noise streams the response draws (temporal, DSNU, PRNU), as [`sensor_noise`].
-fn streams_drawn(r: &Response) -> [bool; 3] {
-    [r.read_noise_dn > 0.0 || r.system_gain_dn_per_e > 0.0, r.dsnu_dn > 0.0, r.prnu > 0.0]
-}
-
-/// The key and stream of each of [`SensorNoise`]'s draws.
-fn stream_keys(f: &ChainFrame) -> [(&FrameKey, u32); 3] {
-    [(&f.key, stream::TEMPORAL), (&f.fixed_key, stream::DSNU), (&f.fixed_key, stream::PRNU)]
-}
-
-/// Row kernel: `out[u] = sensor_dn(f, signal[u], ch, &sensor_noise(f, pixel0 + u, ch))`
-/// with `ch = chans[u & 1]` (a DoFP row), rounded to f32.
-pub fn sensor_dn_row(
-    f: &ChainFrame,
-    pixel0: u32,
-    chans: [usize; 2],
-    signal: &[f64],
-    scratch: &mut NoiseRows,
-    out: &mut [f32],
-) {
-    let n = signal.len();
-    // Draw the streams the response needs; zeros elsewhere, as sensor_noise (kept
-    // from row to row while the stream is off).
-    for (((buf, zero), drawn), (key, st)) in
-        scratch.one.iter_mut().zip(&mut scratch.one_zero).zip(streams_drawn(&f.response)).zip(stream_keys(f))
-    {
-        if drawn {
-            buf.resize(n, 0.0);
-            key.normal_row(pixel0, chans.map(|c| c as u32), st, buf);
-        } else if !(*zero && buf.len() == n) {
-            buf.clear();
-            buf.resize(n, 0.0);
-        }
-        *zero = !drawn;
-    }
-    let [t, d, p] = &scratch.one;
-    let (o0, o1) = (f.offset_dn[chans[0]], f.offset_dn[chans[1]]);
-    let r = &f.response;
-    let draws = t.iter().zip(d).zip(p);
-    for (u, ((o, &sig), ((&temporal, &dsnu), &prnu))) in out.iter_mut().zip(signal).zip(draws).enumerate() {
-        let offset = if u & 1 == 0 { o0 } else { o1 };
-        *o = sensor_response(r, offset, sig, &SensorNoise { temporal, dsnu, prnu }) as f32;
-    }
-}
-
-/// Row kernel: for the channels with `used[ch]`, `out[u][ch] = sensor_dn(f,
-/// signal[u][ch], ch, &sensor_noise4(f, pixel0 + u)[ch])`; 0 for the others (colocated).
-pub fn sensor_dn4_row(
-    f: &ChainFrame,
-    pixel0: u32,
-    used: [bool; 4],
-    signal: &[[f64; 4]],
-    scratch: &mut NoiseRows,
-    out: &mut [[f64; 4]],
-) {
-    let n = signal.len();
-    for (((buf, zero), drawn), (key, st)) in
-        scratch.four.iter_mut().zip(&mut scratch.four_zero).zip(streams_drawn(&f.response)).zip(stream_keys(f))
-    {
-        if drawn {
-            buf.resize(n, [0.0; 4]);
-            key.normal4_row(pixel0, st, buf);
-        } else if !(*zero && buf.len() == n) {
-            // Zeros, as sensor_noise4 (kept from row to row while the stream is off).
-            buf.clear();
-            buf.resize(n, [0.0; 4]);
-        }
-        *zero = !drawn;
-    }
-    let [t, d, p] = &scratch.four;
-    let r = &f.response;
-    for (o, (sig, ((t, d), p))) in out.iter_mut().zip(signal.iter().zip(t.iter().zip(d).zip(p))) {
-        let dn = |ch: usize| {
-            let n = SensorNoise { temporal: t[ch], dsnu: d[ch], prnu: p[ch] };
-            let dn = sensor_response(r, f.offset_dn[ch], sig[ch], &n);
-            if used[ch] {
-                dn
-            } else {
-                0.0
-            }
-        };
-        *o = [dn(0), dn(1), dn(2), dn(3)];
-    }
-}
-
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -505,69 +339,6 @@ pub(crate) mod tests {
             let four = sensor_noise4(&f, p);
             for (ch, n) in four.iter().enumerate() {
                 assert_eq!(*n, sensor_noise(&f, p, ch));
-            }
-        }
-    }
-
-    fn noisy_frame(quantize: bool) -> ChainFrame {
-        let mut set = EffectSet::new();
-        set.set("channel_response", "offset90_dn", 3.0).unwrap();
-        set.set("array_rotation", "dtheta_deg", 0.3).unwrap();
-        set.set("lens_diattenuation", "rho2", 0.4).unwrap();
-        let resp = Response {
-            black_level_dn: 64.0,
-            read_noise_dn: 1.5,
-            system_gain_dn_per_e: 0.2,
-            dsnu_dn: 0.7,
-            prnu: 0.01,
-            bit_depth: 12,
-            quantize,
-            ..Response::ideal(3000.0)
-        };
-        ChainFrame::new(&set.model(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 9, trial: 4, frame: 2 })
-    }
-
-    #[test]
-    fn dofp_row_kernels_are_bitwise_the_per_pixel_chain() {
-        // One scratch for a noisy, a noise-free and a noisy frame again: no stale draws.
-        let mut scratch = NoiseRows::default();
-        for f in [noisy_frame(false), ideal_frame(&Model::default()), noisy_frame(true)] {
-            let (w, v) = (612usize, 37usize);
-            let mut sig = vec![0.0; w];
-            let mut dn = vec![0f32; w];
-            for chans in [[2, 1], [3, 0]] {
-                signal_row(&f, v as f64, chans, &mut sig);
-                sensor_dn_row(&f, (v * w) as u32, chans, &sig, &mut scratch, &mut dn);
-                for u in 0..w {
-                    let ch = chans[u & 1];
-                    let want = pixel_signal_dn(&f, pixel_stokes(&f, u as f64, v as f64), ch);
-                    assert_eq!(sig[u], want, "signal at {u}");
-                    let p = (v * w + u) as u32;
-                    assert_eq!(dn[u], sensor_dn(&f, want, ch, &sensor_noise(&f, p, ch)) as f32, "DN at {u}");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn colocated_row_kernels_are_bitwise_the_per_pixel_chain() {
-        let (w, v) = (300usize, 200usize);
-        let mut sig = vec![[0.0; 4]; w];
-        let mut dn = vec![[0.0; 4]; w];
-        let used = [true, true, false, true];
-        // One scratch for a noisy, a noise-free and a noisy frame again: no stale draws.
-        let mut scratch = NoiseRows::default();
-        for f in [noisy_frame(false), ideal_frame(&Model::default()), noisy_frame(true)] {
-            signal4_row(&f, v as f64, &mut sig);
-            sensor_dn4_row(&f, (v * w) as u32, used, &sig, &mut scratch, &mut dn);
-            for u in 0..w {
-                let s = pixel_stokes(&f, u as f64, v as f64);
-                let noise = sensor_noise4(&f, (v * w + u) as u32);
-                for ch in 0..4 {
-                    assert_eq!(sig[u][ch], pixel_signal_dn(&f, s, ch));
-                    let want = if used[ch] { sensor_dn(&f, sig[u][ch], ch, &noise[ch]) } else { 0.0 };
-                    assert_eq!(dn[u][ch], want);
-                }
             }
         }
     }
