@@ -8,6 +8,43 @@
 //! The per-pixel physics are pure functions (CPU reference of the GPU shaders);
 //! rayon appears only in the drivers that map them over pixels and trials.
 //! Libraries never print: errors are typed ([`Error`]).
+//!
+//! # Example: a frame from sky to heading
+//!
+//! Simulate a small DoFP frame with a 0.3° rotated analyzer array, reconstruct it as
+//! a user would (nominal analyzers), and read the heading with both extractors:
+//!
+//! ```
+//! use bpins_core::camera::{Intrinsics, Projection};
+//! use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
+//! use bpins_core::conventions::wrap_deg_180;
+//! use bpins_core::effects::{EffectSet, Model};
+//! use bpins_core::heading::{estimate, Extractor, HeadingContext};
+//! use bpins_core::recon::{demosaic, Reconstructor};
+//! use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
+//! use bpins_core::simulate::render_mosaic;
+//!
+//! let (w, h) = (306, 256);
+//! let camera = Intrinsics { projection: Projection::Pinhole, f_px: 8000.0 / 27.6, cx_px: 152.5, cy_px: 127.5 };
+//! let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+//! let sensor = Response { gain_dn: 3000.0, black_level_dn: 64.0, read_noise_dn: 1.0, bit_depth: 12, quantize: true, ..Response::ideal(1.0) };
+//!
+//! let mut truth = EffectSet::new();
+//! truth.parse_assignment("array_rotation.dtheta_deg=0.3")?;
+//! let frame = ChainFrame::new(&truth.model(), &camera, &scene, &sensor, NoiseIndex { seed: 1, trial: 0, frame: 0 });
+//! let dn = render_mosaic(&frame, w, h, &DEFAULT_MOSAIC); // DN, 12-bit
+//!
+//! let rec = Reconstructor::new(&Model::default(), 64.0, &Channel::ALL)?;
+//! let stokes = demosaic(&dn, w, h, &DEFAULT_MOSAIC, &rec, 4095.0);
+//! let ctx = HeadingContext::new(camera, w, h, scene.sun_az_deg, scene.sun_el_deg);
+//! for e in Extractor::ALL {
+//!     let est = estimate(&stokes, &ctx, e)?;
+//!     let err = wrap_deg_180(est.heading_deg - scene.heading_deg);
+//!     // The unknown array rotation biases the heading by about its own angle.
+//!     assert!(err > 0.1 && err < 0.5, "{}: {err}°", e.name());
+//! }
+//! # Ok::<(), bpins_core::Error>(())
+//! ```
 
 pub mod camera;
 pub mod capture;
