@@ -135,12 +135,6 @@ impl Intrinsics {
         ray_geometry(ca, sa, st, ct, r2)
     }
 
-    /// The rays of a row of samples at `y_px`, sample `i` at x = `x0_px + step_px·i`,
-    /// into `out` (its length is the row's).
-    pub fn geometry_row(&self, y_px: f64, x0_px: f64, step_px: f64, out: &mut [RayGeometry]) {
-        self.map_row(y_px, x0_px, step_px, out, |_, g| *g);
-    }
-
     /// Row kernel: `out[i] = f(i, &geometry(x0_px + step_px·i, y_px))` for a row of
     /// samples. The projection is dispatched once per row, so with `f` inlined and
     /// branch-free the pinhole loop has no branch and the compiler vectorizes it
@@ -336,7 +330,7 @@ mod tests {
         for p in Projection::ALL {
             let c = intr(p);
             let mut out = vec![c.geometry(0.0, 0.0); 40];
-            c.geometry_row(255.5, 290.5, 0.5, &mut out);
+            c.map_row(255.5, 290.5, 0.5, &mut out, |_, g| *g);
             for (i, g) in out.iter().enumerate() {
                 assert_eq!(*g, c.geometry(290.5 + 0.5 * i as f64, 255.5), "{p:?} {i}");
             }

@@ -18,7 +18,7 @@
 
 use crate::effects::Model;
 use crate::error::{Error, Result};
-use crate::sensor::{dn_is_valid, Channel, Layout};
+use crate::sensor::{dn_is_valid, Channel};
 use crate::stokes::{Analyzer, Stokes};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
@@ -333,24 +333,6 @@ pub fn colocated(
     PolImage { width: w, height: h, origin_px: 0.0, step_px: 1.0, iqu }
 }
 
-/// Reconstructs any layout's frame (`planes`: one mosaic plane for DoFP, one per
-/// listed channel for colocated). `demosaic_full` picks demosaicing over superpixels.
-pub fn reconstruct(
-    layout: &Layout,
-    planes: &[(Channel, &[f32])],
-    w: usize,
-    h: usize,
-    rec: &Reconstructor,
-    full_scale_dn: f64,
-    demosaic_full: bool,
-) -> PolImage {
-    match layout {
-        Layout::Dofp { mosaic } if demosaic_full => demosaic(planes[0].1, w, h, mosaic, rec, full_scale_dn),
-        Layout::Dofp { mosaic } => superpixels(planes[0].1, w, h, mosaic, rec, full_scale_dn),
-        Layout::Colocated { .. } => colocated(planes, w, h, rec, full_scale_dn),
-    }
-}
-
 /// Maps of AoP α (degrees, (−90, 90]), DoLP (1) and AoE φ = α − β (degrees,
 /// (−90, 90], β about the principal point of `intr`), NaN where invalid.
 pub fn angle_maps(img: &PolImage, intr: &crate::camera::Intrinsics) -> [Vec<f32>; 3] {
@@ -377,7 +359,7 @@ pub fn angle_maps(img: &PolImage, intr: &crate::camera::Intrinsics) -> [Vec<f32>
 mod tests {
     use super::*;
     use crate::effects::EffectSet;
-    use crate::sensor::DEFAULT_MOSAIC;
+    use crate::sensor::{Layout, DEFAULT_MOSAIC};
 
     fn channels_of(s: Stokes, rec_model: &Model) -> [f64; 4] {
         Channel::ALL.map(|c| {

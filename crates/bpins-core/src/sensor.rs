@@ -125,11 +125,6 @@ impl Response {
     pub fn full_scale_dn(&self) -> f64 {
         ((1u64 << self.bit_depth) - 1) as f64
     }
-
-    /// Whether the response draws any random number.
-    pub fn is_noisy(&self) -> bool {
-        self.read_noise_dn > 0.0 || self.system_gain_dn_per_e > 0.0 || self.dsnu_dn > 0.0 || self.prnu > 0.0
-    }
 }
 
 /// Whether a measured DN is usable: neither clipped at zero nor saturated.

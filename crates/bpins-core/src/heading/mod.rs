@@ -160,21 +160,7 @@ impl HeadingSums {
     pub fn accumulate(&mut self, ctx: &HeadingContext, cos_2band: f64, x_px: f64, y_px: f64, s: Stokes) {
         // Assumed ray and meridional basis at the sample.
         let g = ctx.intr.geometry(x_px, y_px);
-        self.accumulate_at(ctx, cos_2band, &g, x_px, y_px, s);
-    }
-
-    /// [`Self::accumulate`] with the assumed ray `g` of the sample already computed.
-    #[inline(always)]
-    pub fn accumulate_at(
-        &mut self,
-        ctx: &HeadingContext,
-        cos_2band: f64,
-        g: &RayGeometry,
-        x_px: f64,
-        y_px: f64,
-        s: Stokes,
-    ) {
-        self.add(ctx, cos_2band, x_px, y_px, &contribution(ctx, g, s));
+        self.add(ctx, cos_2band, x_px, y_px, &contribution(ctx, &g, s));
     }
 
     /// Adds a whole row of samples at `y_px`, sample `i` at `x0_px + step_px·i`
