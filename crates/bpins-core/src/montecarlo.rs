@@ -27,17 +27,15 @@
 //! the thread count, and a trial can be re-run alone.
 
 use crate::camera::{Intrinsics, Projection};
-use crate::chain::{sensor_dn4_row, signal4_row, ChainFrame, NoiseIndex, NoiseRows, Scene};
+use crate::chain::{ChainFrame, NoiseIndex, Scene};
 use crate::conventions::wrap_deg_180;
 use crate::effects::EffectSet;
 use crate::error::Result;
-use crate::heading::{Extractor, HeadingContext, HeadingSums, RowScratch};
+use crate::heading::{Extractor, HeadingContext, HeadingSums};
 use crate::noise::{stream, FrameKey};
 use crate::recon::Reconstructor;
 use crate::sensor::{Channel, Response};
-use crate::simulate::peak_intensity;
-use crate::stokes::Stokes;
-use rayon::prelude::*;
+use crate::simulate::{colocated_heading_sums, peak_intensity};
 use serde::Serialize;
 
 /// The seed paper's error sources, and all of them combined.
@@ -207,92 +205,95 @@ pub fn draw(cfg: &SweepConfig, source: Source, trial: usize) -> TrialDraw {
     }
 }
 
+/// Everything one trial needs before its pixels are processed, built identically for
+/// both backends (the GPU twin maps the same chain over the same frame).
+#[derive(Clone, Debug)]
+pub struct TrialSetup {
+    pub source: Source,
+    pub trial: usize,
+    pub draw: TrialDraw,
+    pub scene: Scene,
+    /// The true chain of this trial (drawn errors folded in).
+    pub frame: ChainFrame,
+    /// The inversion: nominal analyzers (the errors are unknown).
+    pub rec: Reconstructor,
+    /// Channels the sensor has (the others are not reconstructed from).
+    pub used: [bool; 4],
+    /// Heading contexts: lens ρ unknown, and known (eq. 13) where the source has a lens.
+    pub ctx_unknown: HeadingContext,
+    pub ctx_known: Option<HeadingContext>,
+}
+
+/// Largest noise-free analyzer intensity of the nominal sensor under the sun at
+/// `sun_az_deg` (it sets the gain: the peak response is `cfg.peak_dn`). Depends on the
+/// azimuth only, so a driver may compute it once per azimuth.
+pub fn sweep_peak(cfg: &SweepConfig, sun_az_deg: f64) -> f64 {
+    let scene = sweep_scene(cfg, sun_az_deg);
+    peak_intensity(&Default::default(), &cfg.intrinsics(), &scene, cfg.width_px, cfg.height_px, 8)
+}
+
+fn sweep_scene(cfg: &SweepConfig, sun_az_deg: f64) -> Scene {
+    Scene { sun_az_deg, sun_el_deg: cfg.sun_el_deg, heading_deg: 0.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: cfg.dmax }
+}
+
+impl TrialSetup {
+    /// Trial `trial` of `source`, with `peak` = [`sweep_peak`] of its sun azimuth.
+    pub fn new(cfg: &SweepConfig, source: Source, trial: usize, peak: f64) -> Result<TrialSetup> {
+        let d = draw(cfg, source, trial);
+        let nominal = cfg.intrinsics();
+        let mut set = EffectSet::new();
+        set.set("principal_point", "dx_px", d.dx_px)?;
+        set.set("principal_point", "dy_px", d.dy_px)?;
+        set.set("array_rotation", "dtheta_deg", d.dtheta_deg)?;
+        let rho2 = d.rho_corner / cfg.corner_r2();
+        set.set("lens_diattenuation", "rho2", rho2)?;
+        let scene = sweep_scene(cfg, d.sun_az_deg);
+        // Gain: the nominal sensor's peak response is `peak_dn` (paper: 153 DN).
+        let resp = Response { dsnu_dn: d.dsnu_dn, ..Response::ideal(cfg.peak_dn / peak) };
+        let frame = ChainFrame::new(
+            &set.model(),
+            &nominal,
+            &scene,
+            &resp,
+            NoiseIndex { seed: cfg.seed, trial: trial as u32, frame: source as u32 },
+        );
+        let rec = Reconstructor::new(&Default::default(), 0.0, &cfg.channels)?;
+        let ctx_unknown =
+            HeadingContext::new(nominal, cfg.width_px, cfg.height_px, scene.sun_az_deg, scene.sun_el_deg);
+        let ctx_known = source.involves_lens().then_some(HeadingContext { lens_rho2: rho2, ..ctx_unknown });
+        let mut used = [false; 4];
+        for c in &cfg.channels {
+            used[c.index()] = true;
+        }
+        Ok(TrialSetup { source, trial, draw: d, scene, frame, rec, used, ctx_unknown, ctx_known })
+    }
+
+    /// The contexts the trial's sums are taken under: lens unknown, then known if any.
+    pub fn contexts(&self) -> Vec<HeadingContext> {
+        std::iter::once(self.ctx_unknown).chain(self.ctx_known).collect()
+    }
+
+    /// Solves every extractor from the trial's sums (`known` with ρ compensated).
+    pub fn finish(&self, unknown: &HeadingSums, known: Option<&HeadingSums>) -> Result<TrialResult> {
+        let mut errors = Vec::new();
+        for e in Extractor::ALL {
+            let est = unknown.solve(e, &self.ctx_unknown)?;
+            errors.push((e, false, wrap_deg_180(est.heading_deg - self.scene.heading_deg)));
+            if let (Some(ctx), Some(sums)) = (&self.ctx_known, known) {
+                let est = sums.solve(e, ctx)?;
+                errors.push((e, true, wrap_deg_180(est.heading_deg - self.scene.heading_deg)));
+            }
+        }
+        Ok(TrialResult { source: self.source, trial: self.trial, draw: self.draw, errors })
+    }
+}
+
 /// Runs one trial: simulate, reconstruct and extract, fused per pixel (no frame kept).
 pub fn run_trial(cfg: &SweepConfig, source: Source, trial: usize) -> Result<TrialResult> {
-    let d = draw(cfg, source, trial);
-    let nominal = cfg.intrinsics();
-    let (w, h) = (cfg.width_px, cfg.height_px);
-    let mut set = EffectSet::new();
-    set.set("principal_point", "dx_px", d.dx_px)?;
-    set.set("principal_point", "dy_px", d.dy_px)?;
-    set.set("array_rotation", "dtheta_deg", d.dtheta_deg)?;
-    let rho2 = d.rho_corner / cfg.corner_r2();
-    set.set("lens_diattenuation", "rho2", rho2)?;
-    let model = set.model();
-    let scene = Scene {
-        sun_az_deg: d.sun_az_deg,
-        sun_el_deg: cfg.sun_el_deg,
-        heading_deg: 0.0,
-        tilt_x_deg: 0.0,
-        tilt_y_deg: 0.0,
-        dmax: cfg.dmax,
-    };
-    // Gain: the nominal sensor's peak response is `peak_dn` (paper: 153 DN).
-    let peak = peak_intensity(&Default::default(), &nominal, &scene, w, h, 8);
-    let resp = Response { dsnu_dn: d.dsnu_dn, ..Response::ideal(cfg.peak_dn / peak) };
-    let frame = ChainFrame::new(
-        &model,
-        &nominal,
-        &scene,
-        &resp,
-        NoiseIndex { seed: cfg.seed, trial: trial as u32, frame: source as u32 },
-    );
-    // The inversion assumes nominal analyzers and principal point (the errors are unknown).
-    let rec = Reconstructor::new(&Default::default(), 0.0, &cfg.channels)?;
-    let ctx_unknown = HeadingContext::new(nominal, w, h, scene.sun_az_deg, scene.sun_el_deg);
-    let ctx_known = HeadingContext { lens_rho2: rho2, ..ctx_unknown };
-    let with_known = source.involves_lens();
-    let cos_2band = (2.0 * ctx_unknown.band_deg.to_radians()).cos();
-    let mut used = [false; 4];
-    for c in &cfg.channels {
-        used[c.index()] = true;
-    }
-    let rows: Vec<(HeadingSums, HeadingSums)> = (0..h)
-        .into_par_iter()
-        .map_init(
-            || {
-                (
-                    vec![[0.0; 4]; w],
-                    vec![[0.0; 4]; w],
-                    vec![Stokes::default(); w],
-                    NoiseRows::default(),
-                    RowScratch::default(),
-                )
-            },
-            |(signal, dn, stokes, noise, scratch), v| {
-                let y = v as f64;
-                // Sky → analyzers along each true ray (vectorized row kernels).
-                signal4_row(&frame, y, signal);
-                // Sensor response with noise, then the Stokes inversion.
-                sensor_dn4_row(&frame, (v * w) as u32, used, signal, noise, dn);
-                for (out, dn) in stokes.iter_mut().zip(dn.iter()) {
-                    *out = rec.stokes(dn);
-                }
-                // Heading sums along the assumed rays.
-                let (mut a, mut b) = (HeadingSums::default(), HeadingSums::default());
-                a.accumulate_row(&ctx_unknown, cos_2band, y, 0.0, 1.0, stokes, scratch);
-                if with_known {
-                    b.accumulate_row(&ctx_known, cos_2band, y, 0.0, 1.0, stokes, scratch);
-                }
-                (a, b)
-            },
-        )
-        .collect();
-    let (mut unknown, mut known) = (HeadingSums::default(), HeadingSums::default());
-    for (a, b) in rows {
-        unknown += a;
-        known += b;
-    }
-    let mut errors = Vec::new();
-    for e in Extractor::ALL {
-        let est = unknown.solve(e, &ctx_unknown)?;
-        errors.push((e, false, wrap_deg_180(est.heading_deg - scene.heading_deg)));
-        if with_known {
-            let est = known.solve(e, &ctx_known)?;
-            errors.push((e, true, wrap_deg_180(est.heading_deg - scene.heading_deg)));
-        }
-    }
-    Ok(TrialResult { source, trial, draw: d, errors })
+    let peak = sweep_peak(cfg, draw(cfg, source, trial).sun_az_deg);
+    let t = TrialSetup::new(cfg, source, trial, peak)?;
+    let sums = colocated_heading_sums(&t.frame, cfg.width_px, cfg.height_px, t.used, &t.rec, &t.contexts());
+    t.finish(&sums[0], sums.get(1))
 }
 
 /// Summarises trials into Table 3 rows: mean and sample standard deviation.

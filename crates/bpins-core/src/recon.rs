@@ -91,6 +91,12 @@ impl Reconstructor {
         })
     }
 
+    /// The map's parts, for the GPU twin: rows I, Q, U by channel index, 1/(1 + gain_k),
+    /// and black level + offset_k.
+    pub fn parts(&self) -> ([[f64; 4]; 3], [f64; 4], [f64; 4]) {
+        (self.rows, self.inv_gain, self.offset_dn)
+    }
+
     /// (I, Q, U) in DN from the channels' DN, indexed by channel (unused ones ignored).
     #[inline(always)]
     pub fn stokes(&self, dn: &[f64; 4]) -> Stokes {

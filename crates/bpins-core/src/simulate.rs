@@ -81,6 +81,53 @@ struct FusedRows {
     heading: RowScratch,
 }
 
+/// Heading sums of a colocated frame (`w × h`), one per context of `contexts`, fused
+/// per pixel row (no frame kept): every channel's DN (f64, unmasked: the Monte Carlo's
+/// sensor does not clip), the Stokes inversion `rec` of the `used` channels, then the
+/// sums along each context's assumed rays. Rows are added in row order (bit-identical
+/// whatever the thread count).
+pub fn colocated_heading_sums(
+    f: &ChainFrame,
+    w: usize,
+    h: usize,
+    used: [bool; 4],
+    rec: &Reconstructor,
+    contexts: &[HeadingContext],
+) -> Vec<HeadingSums> {
+    let rows: Vec<Vec<HeadingSums>> = (0..h)
+        .into_par_iter()
+        .map_init(
+            || (vec![[0.0; 4]; w], vec![[0.0; 4]; w], vec![Stokes::default(); w], NoiseRows::default(), RowScratch::default()),
+            |(signal, dn, stokes, noise, scratch), v| {
+                let y = v as f64;
+                // Sky → analyzers along each true ray (vectorized row kernels).
+                signal4_row(f, y, signal);
+                // Sensor response with noise, then the Stokes inversion.
+                sensor_dn4_row(f, (v * w) as u32, used, signal, noise, dn);
+                for (out, dn) in stokes.iter_mut().zip(dn.iter()) {
+                    *out = rec.stokes(dn);
+                }
+                // Heading sums along each context's assumed rays.
+                contexts
+                    .iter()
+                    .map(|ctx| {
+                        let mut acc = HeadingSums::default();
+                        acc.accumulate_row(ctx, HeadingSums::cos_2band(ctx), y, 0.0, 1.0, stokes, scratch);
+                        acc
+                    })
+                    .collect()
+            },
+        )
+        .collect();
+    let mut total = vec![HeadingSums::default(); contexts.len()];
+    for row in rows {
+        for (t, r) in total.iter_mut().zip(row) {
+            *t += r;
+        }
+    }
+    total
+}
+
 /// Renders a colocated frame: one `w × h` plane per channel in `channels`.
 pub fn render_colocated(f: &ChainFrame, w: usize, h: usize, channels: &[Channel]) -> Vec<Vec<f32>> {
     let mut used = [false; 4];

@@ -32,6 +32,7 @@ pub const EFFECT: EffectDef = EffectDef {
         doc: "rotation of the array, counter-clockwise as displayed",
     }],
     apply,
+    wgsl: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {

@@ -35,6 +35,7 @@ pub const EFFECT: EffectDef = EffectDef {
         ParamSpec { name: "offset135_dn", unit: "DN", neutral: 0.0, min: -1000.0, max: 1000.0, doc: "offset of the 135° channel" },
     ],
     apply,
+    wgsl: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {

@@ -38,6 +38,7 @@ pub const EFFECT: EffectDef = EffectDef {
         doc: "diattenuation per squared normalised radius",
     }],
     apply,
+    wgsl: Some(include_str!("../../../../shaders/effects/lens_diattenuation.wgsl")),
 };
 
 fn apply(v: &[f64], m: &mut Model) {

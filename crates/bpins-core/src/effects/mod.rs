@@ -74,6 +74,11 @@ pub struct EffectDef {
     pub params: &'static [ParamSpec],
     /// Adds this effect's parameter `values` (in `params` order) into `model`.
     pub apply: fn(values: &[f64], model: &mut Model),
+    /// The WGSL twin of the effect's per-pixel functions (`shaders/effects/<name>.wgsl`,
+    /// same function names), from which the GPU crate assembles its chain; `None` for
+    /// an effect that acts only through the frame's parameters (folded by `apply` on
+    /// the host, identically for both backends), which runs nothing per pixel.
+    pub wgsl: Option<&'static str>,
 }
 
 impl EffectDef {
@@ -238,6 +243,33 @@ mod tests {
                 assert!(p.min <= p.neutral && p.neutral <= p.max && !p.doc.is_empty());
             }
         }
+    }
+
+    #[test]
+    fn per_pixel_effects_have_their_wgsl_twin_and_only_they() {
+        // A per-pixel (lens) effect must carry its WGSL twin, defining a function of its
+        // own name; the files in shaders/effects are exactly the registry's twins.
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/effects");
+        let mut files: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".wgsl"))
+            .collect();
+        files.sort();
+        let mut twins = Vec::new();
+        for e in REGISTRY {
+            match e.wgsl {
+                Some(src) => {
+                    assert!(src.contains(&format!("fn {}(", e.name)), "{}: WGSL lacks fn {}", e.name, e.name);
+                    let on_disk = std::fs::read_to_string(dir.join(format!("{}.wgsl", e.name))).unwrap();
+                    assert_eq!(src, on_disk, "{}: registry WGSL is not shaders/effects/{}.wgsl", e.name, e.name);
+                    twins.push(format!("{}.wgsl", e.name));
+                }
+                None => assert_ne!(e.stage, Stage::Lens, "{}: a per-pixel effect needs its WGSL twin", e.name),
+            }
+        }
+        twins.sort();
+        assert_eq!(files, twins);
     }
 
     #[test]

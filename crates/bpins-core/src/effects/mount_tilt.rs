@@ -44,6 +44,7 @@ pub const EFFECT: EffectDef = EffectDef {
         },
     ],
     apply,
+    wgsl: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {

@@ -1,0 +1,236 @@
+//! `bpins agree`: seeded trials over every effect of the registry (one at a time, then
+//! all together) on both backends, compared stage by stage against [`crate::tolerance`].
+//!
+//! A trial draws the effect's parameters (±2 % of each range around neutral), a sun,
+//! a heading and one of the four projections (cycling with the trial), and renders the
+//! samples' 612 × 512 DoFP sensor with read, shot, DSNU and PRNU noise, 12-bit. Stages:
+//!
+//! | stage          | compared                                                    |
+//! |----------------|-------------------------------------------------------------|
+//! | `intensity`    | noise-free photo-signal of every pixel and channel, relative |
+//! | `aop_deg`      | AoP reaching the analyzers, where DoLP > 0.01                |
+//! | `dolp`         | DoLP reaching the analyzers                                  |
+//! | `dn`           | rounded DN, DoFP mosaic and all four colocated channels      |
+//! | `dn_off_fraction` | fraction of those DN that differ at all                   |
+//! | `heading_deg`  | both extractors, from superpixel sums and from colocated sums with the lens ρ unknown and known |
+
+use crate::sums::{SampleLayout, SumsJob};
+use crate::tolerance::*;
+use crate::{Gpu, Result};
+use bpins_core::camera::{Intrinsics, Projection};
+use bpins_core::chain::{pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
+use bpins_core::effects::{EffectSet, REGISTRY};
+use bpins_core::heading::{Extractor, HeadingContext, HeadingSums};
+use bpins_core::noise::{stream, FrameKey};
+use bpins_core::recon::Reconstructor;
+use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
+use bpins_core::simulate::{colocated_heading_sums, mosaic_heading_sums, peak_intensity, render_colocated, render_mosaic};
+use rayon::prelude::*;
+
+/// One stage's largest difference over every case and trial.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StageDiff {
+    pub stage: &'static str,
+    pub max_abs_diff: f64,
+    pub tolerance: f64,
+    pub unit: &'static str,
+    pub ok: bool,
+    /// The case and trial of the largest difference.
+    pub worst: String,
+}
+
+/// The stages in report order: (name, tolerance, unit).
+pub const STAGES: [(&str, f64, &str); 6] = [
+    ("intensity", INTENSITY_REL, "relative"),
+    ("aop_deg", AOP_DEG, "deg"),
+    ("dolp", DOLP_ABS, "1"),
+    ("dn", DN_MAX_ABS, "DN"),
+    ("dn_off_fraction", DN_OFF_FRACTION, "fraction of pixels"),
+    ("heading_deg", HEADING_DEG, "deg"),
+];
+
+/// A case: a name and the effect parameters it sets.
+#[derive(Clone, Debug)]
+pub struct Case {
+    pub name: String,
+    pub effects: Vec<&'static str>,
+}
+
+/// "ideal", every registry effect alone, then "all_effects".
+pub fn cases() -> Vec<Case> {
+    let mut v = vec![Case { name: "ideal".into(), effects: vec![] }];
+    v.extend(REGISTRY.iter().map(|e| Case { name: e.name.into(), effects: vec![e.name] }));
+    v.push(Case { name: "all_effects".into(), effects: REGISTRY.iter().map(|e| e.name).collect() });
+    v
+}
+
+/// The sensor of every trial: the samples' 612 × 512 DoFP camera.
+pub const WIDTH_PX: usize = 612;
+pub const HEIGHT_PX: usize = 512;
+
+/// What one trial of one case compares: the frame both backends render, and the
+/// inversion and contexts both reduce with.
+pub struct TrialFrame {
+    pub frame: ChainFrame,
+    pub rec: Reconstructor,
+    pub contexts: Vec<HeadingContext>,
+    pub label: String,
+}
+
+/// Builds trial `trial` of `case` under `seed` (pure function of its arguments).
+pub fn trial_frame(case: &Case, trial: u32, seed: u64) -> Result<TrialFrame> {
+    let key = FrameKey::new(seed, trial, 0xA9EE_0000 | fxhash(&case.name));
+    let mut k = 0u32;
+    let mut uniform = || {
+        k += 1;
+        key.uniform(k, 0, stream::TRIAL)
+    };
+    let mut set = EffectSet::new();
+    for name in &case.effects {
+        let e = bpins_core::effects::find(name)?;
+        for p in e.params {
+            let half = 0.02 * 0.5 * (p.max - p.min);
+            set.set(name, p.name, p.neutral + half * (2.0 * uniform() - 1.0))?;
+        }
+    }
+    let model = set.model();
+    let projection = Projection::ALL[trial as usize % 4];
+    let f_px = if projection == Projection::Pinhole { 8000.0 / 13.8 } else { 300.0 };
+    let nominal = Intrinsics { projection, f_px, cx_px: 305.5, cy_px: 255.5 };
+    let scene = Scene {
+        sun_az_deg: 360.0 * uniform(),
+        sun_el_deg: 20.0 + 50.0 * uniform(),
+        heading_deg: 360.0 * uniform(),
+        tilt_x_deg: 0.0,
+        tilt_y_deg: 0.0,
+        dmax: 0.6,
+    };
+    let peak = peak_intensity(&model, &nominal, &scene, WIDTH_PX, HEIGHT_PX, 8);
+    let response = Response {
+        gain_dn: 3000.0 / peak,
+        black_level_dn: 64.0,
+        read_noise_dn: 2.0,
+        system_gain_dn_per_e: 0.25,
+        dsnu_dn: 0.5,
+        prnu: 0.005,
+        bit_depth: 12,
+        quantize: true,
+    };
+    let frame = ChainFrame::new(&model, &nominal, &scene, &response, NoiseIndex { seed, trial, frame: 0 });
+    let rec = Reconstructor::new(&Default::default(), response.black_level_dn, &Channel::ALL)?;
+    let ctx = HeadingContext::new(nominal, WIDTH_PX, HEIGHT_PX, scene.sun_az_deg, scene.sun_el_deg);
+    let contexts = vec![ctx, HeadingContext { lens_rho2: model.lens_rho2, ..ctx }];
+    Ok(TrialFrame { frame, rec, contexts, label: format!("{} trial {trial} ({})", case.name, projection.name()) })
+}
+
+fn fxhash(s: &str) -> u32 {
+    s.bytes().fold(0x811c_9dc5u32, |h, b| (h ^ b as u32).wrapping_mul(0x0100_0193)) & 0xFFFF
+}
+
+/// Largest difference of each stage for one trial frame, in [`STAGES`] order.
+pub fn compare(gpu: &Gpu, t: &TrialFrame) -> Result<[f64; 6]> {
+    let (w, h) = (WIDTH_PX, HEIGHT_PX);
+    let f = &t.frame;
+    let mut d = [0.0f64; 6];
+    // Noise-free chain: photo-signal, AoP and DoLP per pixel.
+    let maps = gpu.chain_maps(std::slice::from_ref(f), w, h)?.remove(0);
+    let cpu: Vec<[f64; 3]> = (0..w * h)
+        .into_par_iter()
+        .map(|p| {
+            let s = pixel_stokes(f, (p % w) as f64, (p / w) as f64);
+            let g = &maps[p];
+            let mut rel: f64 = 0.0;
+            for ch in 0..4 {
+                let c = pixel_signal_dn(f, s, ch);
+                rel = rel.max((g.signal_dn[ch] as f64 - c).abs() / c.abs().max(1e-300));
+            }
+            let aop = if s.dolp() > AOP_MIN_DOLP {
+                aop_diff_deg(g.aop_deg as f64, s.aop_rad().to_degrees()).abs()
+            } else {
+                0.0
+            };
+            [rel, aop, (g.dolp as f64 - s.dolp()).abs()]
+        })
+        .collect();
+    for c in &cpu {
+        for k in 0..3 {
+            d[k] = d[k].max(c[k]);
+        }
+    }
+    // Rounded DN: DoFP mosaic and colocated channels.
+    let mut dn = vec![dn_diff(&render_mosaic(f, w, h, &DEFAULT_MOSAIC), &gpu.render_mosaic(std::slice::from_ref(f), w, h, &DEFAULT_MOSAIC)?[0])];
+    let gpu_planes = gpu.render_colocated(std::slice::from_ref(f), w, h, &Channel::ALL)?.remove(0);
+    for (c, g) in render_colocated(f, w, h, &Channel::ALL).iter().zip(&gpu_planes) {
+        dn.push(dn_diff(c, g));
+    }
+    for (max, frac) in dn {
+        d[3] = d[3].max(max);
+        d[4] = d[4].max(frac);
+    }
+    // Heading: superpixel sums (lens unknown), colocated sums (unknown and known).
+    let full_scale = f.response.full_scale_dn();
+    let cpu_sp = vec![mosaic_heading_sums(f, w, h, &DEFAULT_MOSAIC, &t.rec, full_scale, &t.contexts[0])];
+    let cpu_co = colocated_heading_sums(f, w, h, [true; 4], &t.rec, &t.contexts);
+    let gpu_sp = gpu.heading_sums(
+        &[SumsJob { frame: f, rec: &t.rec, mask_full_scale_dn: full_scale, contexts: vec![t.contexts[0]] }],
+        w,
+        h,
+        SampleLayout::Superpixels { mosaic: DEFAULT_MOSAIC },
+    )?;
+    let gpu_co = gpu.heading_sums(
+        &[SumsJob { frame: f, rec: &t.rec, mask_full_scale_dn: 0.0, contexts: t.contexts.clone() }],
+        w,
+        h,
+        SampleLayout::Colocated,
+    )?;
+    let pairs = cpu_sp.iter().zip(&gpu_sp[0]).map(|p| (p, &t.contexts[0])).chain(cpu_co.iter().zip(&gpu_co[0]).zip(&t.contexts));
+    for ((c, g), ctx) in pairs {
+        d[5] = d[5].max(heading_gap(c, g, ctx));
+    }
+    Ok(d)
+}
+
+/// Largest heading difference over the extractors; both failing alike is agreement.
+fn heading_gap(cpu: &HeadingSums, gpu: &HeadingSums, ctx: &HeadingContext) -> f64 {
+    Extractor::ALL
+        .iter()
+        .map(|&e| match (cpu.solve(e, ctx), gpu.solve(e, ctx)) {
+            (Ok(a), Ok(b)) => heading_diff_deg(a.heading_deg, b.heading_deg).abs(),
+            (Err(_), Err(_)) => 0.0,
+            _ => f64::INFINITY,
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The whole comparison: `trials` trials of every case, `progress(done, total)`.
+pub fn agree(gpu: &Gpu, trials: u32, seed: u64, progress: &dyn Fn(usize, usize)) -> Result<Vec<StageDiff>> {
+    let cases = cases();
+    let total = cases.len() * trials as usize;
+    let mut worst: Vec<(f64, String)> = vec![(0.0, String::new()); STAGES.len()];
+    let mut done = 0;
+    for case in &cases {
+        for trial in 0..trials {
+            let t = trial_frame(case, trial, seed)?;
+            let d = compare(gpu, &t)?;
+            for (k, x) in d.iter().enumerate() {
+                if !(*x <= worst[k].0) {
+                    worst[k] = (*x, t.label.clone());
+                }
+            }
+            done += 1;
+            progress(done, total);
+        }
+    }
+    Ok(STAGES
+        .iter()
+        .zip(worst)
+        .map(|(&(stage, tolerance, unit), (max, at))| StageDiff {
+            stage,
+            max_abs_diff: max,
+            tolerance,
+            unit,
+            ok: max <= tolerance,
+            worst: at,
+        })
+        .collect())
+}

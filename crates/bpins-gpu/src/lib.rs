@@ -1,0 +1,52 @@
+//! # bpins-gpu — the measurement chain as WGSL compute shaders
+//!
+//! The GPU twin of `bpins-core`: the same per-pixel chain (sky, projection, lens
+//! Mueller, effects, analyzers, sensor response with noise, Stokes, AoP/DoLP, heading
+//! sums) in `shaders/`, run through wgpu on Vulkan — Mesa lavapipe where there is no
+//! GPU, the vendor driver where there is. The CPU code is the reference: every WGSL
+//! function has a CPU twin of the same name, argument order and step comments.
+//!
+//! * Noise: the CPU's counter-based generator (`common/noise.wgsl`), so both backends
+//!   draw the same numbers and agree trial by trial.
+//! * Precision: the radiometric chain and the sums run in f64 (`SHADER_F64`); the
+//!   noise's transcendentals in f32 exactly as the CPU evaluates them.
+//! * Heading: reduced on the device (workgroup tree sums, then a per-frame reduce);
+//!   119 numbers per frame come back, never the frame.
+//! * Batches: many frames (trials) per dispatch, split where the device's buffer
+//!   limits require it.
+//!
+//! Tolerances between the backends are in [`tolerance`] (and `TOLERANCES.md`).
+
+mod device;
+pub mod agree;
+pub mod montecarlo;
+pub mod params;
+mod render;
+pub mod shaders;
+mod sums;
+pub mod tolerance;
+
+pub use device::Gpu;
+pub use render::ChainSample;
+pub use sums::{SampleLayout, SumsJob, SUMS_LEN};
+
+/// What can go wrong on the device.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no Vulkan adapter found ({0}); install a Vulkan driver (Debian: mesa-vulkan-drivers libvulkan1 for lavapipe)")]
+    NoAdapter(String),
+    #[error("the adapter {adapter} lacks {feature}, which the bpins kernels need")]
+    MissingFeature { adapter: String, feature: &'static str },
+    #[error("GPU device error: {0}")]
+    Device(String),
+    #[error("GPU out of memory: {0}")]
+    OutOfMemory(String),
+    #[error("shader error: {0}")]
+    Shader(String),
+    #[error("{what} needs a {bytes} B buffer; this device allows {limit} B per buffer")]
+    TooLarge { what: String, bytes: u64, limit: u64 },
+    #[error(transparent)]
+    Core(#[from] bpins_core::Error),
+}
+
+pub type Result<T> = std::result::Result<T, GpuError>;

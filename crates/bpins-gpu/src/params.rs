@@ -1,0 +1,234 @@
+//! Parameter blocks shared with WGSL: `#[repr(C)]` Pod structs built only from
+//! `[f32; 4]` and `[u32; 4]` (no vec3 padding traps). f64 values travel as (hi, lo)
+//! f32 pairs ([`Wide4`], reassembled by `wide()` in `shaders/common/math.wgsl`, exact to
+//! ~2⁻⁴⁸): the chain runs in f64 on the device, because rounding to DN agrees with the
+//! CPU only if the signal before rounding does to far better than f32's 6e-8.
+//!
+//! Keep every struct here in sync with the WGSL struct of the same name (named in each
+//! doc comment); `tests::layouts_match_wgsl` checks sizes and member offsets with naga.
+
+use bpins_core::camera::{Intrinsics, Projection};
+use bpins_core::chain::ChainFrame;
+use bpins_core::heading::HeadingContext;
+use bpins_core::recon::Reconstructor;
+use bpins_core::sensor::Channel;
+use bytemuck::{Pod, Zeroable};
+
+/// Four f64 values as f32 (hi, lo) pairs; WGSL `Wide4` in `common/math.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Wide4 {
+    pub hi: [f32; 4],
+    pub lo: [f32; 4],
+}
+
+impl Wide4 {
+    pub fn new(x: [f64; 4]) -> Self {
+        let hi = x.map(|v| v as f32);
+        let lo = [0, 1, 2, 3].map(|k| (x[k] - hi[k] as f64) as f32);
+        Wide4 { hi, lo }
+    }
+
+    /// The values as the shader reassembles them.
+    pub fn value(&self) -> [f64; 4] {
+        [0, 1, 2, 3].map(|k| self.hi[k] as f64 + self.lo[k] as f64)
+    }
+}
+
+/// The projection's id in WGSL (`PROJ_*` in `common/camera.wgsl`).
+pub fn projection_id(p: Projection) -> f64 {
+    match p {
+        Projection::Pinhole => 0.0,
+        Projection::Equidistant => 1.0,
+        Projection::Equisolid => 2.0,
+        Projection::Stereographic => 3.0,
+    }
+}
+
+/// (f_px, cx_px, cy_px, projection id), as WGSL `intrinsics_from` reads them.
+fn camera(i: &Intrinsics) -> Wide4 {
+    Wide4::new([i.f_px, i.cx_px, i.cy_px, projection_id(i.projection)])
+}
+
+/// One frame of the chain; WGSL `FrameParams` in `common/chain.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FrameParams {
+    pub camera: Wide4,
+    pub sun: Wide4,
+    pub lens: Wide4,
+    pub cos2t: Wide4,
+    pub sin2t: Wide4,
+    pub eps: Wide4,
+    pub gain_dn: Wide4,
+    pub offset_dn: Wide4,
+    pub noise: Wide4,
+    pub adc: Wide4,
+    pub key: [u32; 4],
+    pub fixed_key: [u32; 4],
+}
+
+impl From<&ChainFrame> for FrameParams {
+    fn from(f: &ChainFrame) -> Self {
+        let r = &f.response;
+        FrameParams {
+            camera: camera(&f.intr),
+            sun: Wide4::new([f.sun_cam.x, f.sun_cam.y, f.sun_cam.z, f.dmax]),
+            lens: Wide4::new([f.lens_rho2, 0.0, 0.0, 0.0]),
+            cos2t: Wide4::new(f.analyzers.map(|a| a.cos2t)),
+            sin2t: Wide4::new(f.analyzers.map(|a| a.sin2t)),
+            eps: Wide4::new(f.analyzers.map(|a| a.eps)),
+            gain_dn: Wide4::new(f.gain_dn),
+            offset_dn: Wide4::new(f.offset_dn),
+            noise: Wide4::new([r.read_noise_dn, r.system_gain_dn_per_e, r.dsnu_dn, r.prnu]),
+            adc: Wide4::new([if r.quantize { 1.0 } else { 0.0 }, r.full_scale_dn(), 0.0, 0.0]),
+            key: f.key.0,
+            fixed_key: f.fixed_key.0,
+        }
+    }
+}
+
+/// A Stokes inversion; WGSL `ReconParams` in `common/recon.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ReconParams {
+    pub row_i: Wide4,
+    pub row_q: Wide4,
+    pub row_u: Wide4,
+    pub inv_gain: Wide4,
+    pub offset_dn: Wide4,
+    pub valid: Wide4,
+    pub mosaic: [u32; 4],
+}
+
+impl ReconParams {
+    /// `rec` on a sensor with this `mosaic` (any, for colocated frames); samples with a
+    /// DN outside (0, mask_full_scale_dn) are masked, none when it is 0.
+    pub fn new(rec: &Reconstructor, mosaic: &[[Channel; 2]; 2], mask_full_scale_dn: f64) -> Self {
+        let (rows, inv_gain, offset_dn) = rec.parts();
+        ReconParams {
+            row_i: Wide4::new(rows[0]),
+            row_q: Wide4::new(rows[1]),
+            row_u: Wide4::new(rows[2]),
+            inv_gain: Wide4::new(inv_gain),
+            offset_dn: Wide4::new(offset_dn),
+            valid: Wide4::new([mask_full_scale_dn, 0.0, 0.0, 0.0]),
+            mosaic: mosaic_positions(mosaic),
+        }
+    }
+}
+
+/// Channel index at tile position `2·dv + du` (WGSL reads `mosaic[2·(v & 1) + (u & 1)]`).
+pub fn mosaic_positions(mosaic: &[[Channel; 2]; 2]) -> [u32; 4] {
+    [mosaic[0][0], mosaic[0][1], mosaic[1][0], mosaic[1][1]].map(|c| c.index() as u32)
+}
+
+/// Where a frame's samples sit: sample (i, j) at `(x0 + step·i, y0 + step·j)` px.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SampleGrid {
+    pub x0_px: f64,
+    pub y0_px: f64,
+    pub step_px: f64,
+}
+
+/// One heading context; WGSL `HeadingParams` in `common/heading.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct HeadingParams {
+    pub camera: Wide4,
+    pub band: Wide4,
+    pub grid: Wide4,
+}
+
+impl HeadingParams {
+    pub fn new(ctx: &HeadingContext, grid: SampleGrid) -> Self {
+        let cos_2band = bpins_core::heading::HeadingSums::cos_2band(ctx);
+        HeadingParams {
+            camera: camera(&ctx.intr),
+            band: Wide4::new([ctx.lens_rho2, cos_2band, ctx.r_min_px * ctx.r_min_px, ctx.r_max_px * ctx.r_max_px]),
+            grid: Wide4::new([grid.x0_px, grid.y0_px, grid.step_px, 1.0]),
+        }
+    }
+
+    /// A context slot that contributes nothing (frames with fewer contexts than the batch).
+    pub fn disabled() -> Self {
+        HeadingParams { grid: Wide4::new([0.0, 0.0, 1.0, 0.0]), ..Default::default() }
+    }
+}
+
+/// WGSL `RenderDims` in `kernels/render.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RenderDims {
+    pub size: [u32; 4],
+    pub mosaic: [u32; 4],
+}
+
+/// WGSL `SumsDims` in `kernels/sums.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SumsDims {
+    pub samples: [u32; 4],
+    pub image: [u32; 4],
+}
+
+/// WGSL `ReduceDims` in `kernels/reduce.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ReduceDims {
+    pub size: [u32; 4],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Size and member offsets of `name` in the WGSL module of `kernel`, by naga's layouter.
+    fn wgsl_layout(kernel: &str, name: &str) -> (u32, Vec<(String, u32)>) {
+        let src = crate::shaders::module_source(kernel).unwrap();
+        let module = naga::front::wgsl::parse_str(&src).unwrap();
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        for (handle, ty) in module.types.iter() {
+            if ty.name.as_deref() == Some(name) {
+                if let naga::TypeInner::Struct { members, span } = &ty.inner {
+                    let m = members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect();
+                    assert_eq!(layouter[handle].size, *span);
+                    return (*span, m);
+                }
+            }
+        }
+        panic!("struct {name} not in {kernel}");
+    }
+
+    macro_rules! check {
+        ($kernel:expr, $ty:ident, [$($field:ident),*]) => {{
+            let (size, members) = wgsl_layout($kernel, stringify!($ty));
+            assert_eq!(size as usize, std::mem::size_of::<$ty>(), "{} size", stringify!($ty));
+            let rust = vec![$((stringify!($field).to_string(), std::mem::offset_of!($ty, $field) as u32)),*];
+            assert_eq!(members, rust, "{} members and offsets", stringify!($ty));
+        }};
+    }
+
+    #[test]
+    fn layouts_match_wgsl() {
+        check!("render", Wide4, [hi, lo]);
+        check!("render", FrameParams, [camera, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, key, fixed_key]);
+        check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);
+        check!("sums", HeadingParams, [camera, band, grid]);
+        check!("render", RenderDims, [size, mosaic]);
+        check!("sums", SumsDims, [samples, image]);
+        check!("reduce", ReduceDims, [size]);
+    }
+
+    #[test]
+    fn wide_values_carry_f64_precision() {
+        for x in [0.1, 2318.840579710145, -1e-9, 4095.0, std::f64::consts::PI] {
+            let w = Wide4::new([x, -x, 0.0, 1.0]);
+            let back = w.value();
+            assert!((back[0] - x).abs() <= 1e-14 * x.abs(), "{x}: {}", back[0]);
+            assert_eq!(back[2], 0.0);
+            assert_eq!(back[3], 1.0);
+        }
+    }
+}

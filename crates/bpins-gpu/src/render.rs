@@ -1,0 +1,102 @@
+//! Driver of `shaders/kernels/render.wgsl`: whole frames rendered on the device and
+//! read back (for dumps and the parity checks). CPU twin: `bpins_core::simulate`.
+
+use crate::device::Gpu;
+use crate::params::{mosaic_positions, FrameParams, RenderDims};
+use crate::{GpuError, Result};
+use bpins_core::chain::ChainFrame;
+use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+
+/// Workgroup edge of the 2-D kernels (`@workgroup_size(16, 16, 1)`).
+pub(crate) const WG_EDGE: u32 = 16;
+
+/// Noise-free chain of one pixel, as `chain_maps` writes it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ChainSample {
+    /// Photo-signal of each channel (0°, 45°, 90°, 135°), DN.
+    pub signal_dn: [f32; 4],
+    /// AoP of the Stokes vector reaching the analyzers, degrees, image frame, (−90, 90].
+    pub aop_deg: f32,
+    pub dolp: f32,
+}
+
+impl Gpu {
+    /// How many items of `per_item_bytes` output fit one dispatch (device limits); an
+    /// error naming `what` when not even one does.
+    pub(crate) fn batch_size(&self, n: usize, per_item_bytes: u64, what: &str) -> Result<usize> {
+        let limit = self.max_binding_bytes();
+        if per_item_bytes > limit {
+            return Err(GpuError::TooLarge { what: what.to_string(), bytes: per_item_bytes, limit });
+        }
+        let by_z = self.limits.max_compute_workgroups_per_dimension as u64;
+        Ok(((limit / per_item_bytes.max(1)).min(by_z) as usize).clamp(1, n.max(1)))
+    }
+
+    /// Runs one `render.wgsl` entry over `frames` (`w × h` each) writing `per_pixel`
+    /// f32 per pixel; batches as the device's limits allow.
+    fn render(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        frames: &[ChainFrame],
+        w: usize,
+        h: usize,
+        mosaic: &[[Channel; 2]; 2],
+        per_pixel: usize,
+    ) -> Result<Vec<Vec<f32>>> {
+        let per_frame = (w * h * per_pixel) as u64 * 4;
+        let batch = self.batch_size(frames.len(), per_frame, &format!("a {w} × {h} px frame"))?;
+        let mut out = Vec::with_capacity(frames.len());
+        for chunk in frames.chunks(batch) {
+            let params: Vec<FrameParams> = chunk.iter().map(FrameParams::from).collect();
+            let dims = RenderDims { size: [w as u32, h as u32, chunk.len() as u32, 0], mosaic: mosaic_positions(mosaic) };
+            let (u, f) = (self.uniform("dims", &dims), self.storage("frames", &params));
+            let o = self.output("frames out", per_frame * chunk.len() as u64);
+            let group = self.bind(pipeline, &[&u, &f, &o]);
+            let groups = [(w as u32).div_ceil(WG_EDGE), (h as u32).div_ceil(WG_EDGE), chunk.len() as u32];
+            let data: Vec<f32> = self.run(&[(pipeline, &group, groups)], &o)?;
+            out.extend(data.chunks_exact(w * h * per_pixel).map(|c| c.to_vec()));
+        }
+        Ok(out)
+    }
+
+    /// DoFP mosaics (`w × h`, row-major DN), bitwise-comparable to
+    /// `bpins_core::simulate::render_mosaic` of each frame (tolerances: TOLERANCES.md).
+    pub fn render_mosaic(
+        &self,
+        frames: &[ChainFrame],
+        w: usize,
+        h: usize,
+        mosaic: &[[Channel; 2]; 2],
+    ) -> Result<Vec<Vec<f32>>> {
+        self.render(&self.pipelines.render_mosaic, frames, w, h, mosaic, 1)
+    }
+
+    /// Colocated frames: per frame, one `w × h` plane per channel of `channels` (as
+    /// `bpins_core::simulate::render_colocated`).
+    pub fn render_colocated(
+        &self,
+        frames: &[ChainFrame],
+        w: usize,
+        h: usize,
+        channels: &[Channel],
+    ) -> Result<Vec<Vec<Vec<f32>>>> {
+        let all = self.render(&self.pipelines.render_colocated, frames, w, h, &DEFAULT_MOSAIC, 4)?;
+        Ok(all
+            .iter()
+            .map(|px| channels.iter().map(|c| px.iter().skip(c.index()).step_by(4).copied().collect()).collect())
+            .collect())
+    }
+
+    /// The noise-free chain of every pixel of each frame (`w × h`, row-major).
+    pub fn chain_maps(&self, frames: &[ChainFrame], w: usize, h: usize) -> Result<Vec<Vec<ChainSample>>> {
+        let all = self.render(&self.pipelines.chain_maps, frames, w, h, &DEFAULT_MOSAIC, 6)?;
+        Ok(all
+            .iter()
+            .map(|px| {
+                px.chunks_exact(6)
+                    .map(|c| ChainSample { signal_dn: [c[0], c[1], c[2], c[3]], aop_deg: c[4], dolp: c[5] })
+                    .collect()
+            })
+            .collect())
+    }
+}

@@ -1,0 +1,116 @@
+//! Driver of `shaders/kernels/sums.wgsl` and `reduce.wgsl`: heading sums of whole
+//! frames reduced on the device; only 119 numbers per (frame, context) come back.
+//! CPU twins: `bpins_core::simulate::mosaic_heading_sums` (DoFP superpixels) and the
+//! per-trial loop of `bpins_core::montecarlo::run_trial` (colocated pixels).
+
+use crate::device::Gpu;
+use crate::params::{FrameParams, HeadingParams, ReconParams, ReduceDims, SampleGrid, SumsDims};
+use crate::render::WG_EDGE;
+use crate::Result;
+use bpins_core::chain::ChainFrame;
+use bpins_core::heading::{HeadingContext, HeadingSums, SECTORS};
+use bpins_core::recon::Reconstructor;
+use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+
+/// Values per (frame, context): 6 scatter terms, n, then 7 band sums per sector
+/// (`SUMS_LEN` in `common/heading.wgsl`).
+pub const SUMS_LEN: usize = 7 + 7 * SECTORS;
+
+/// How a frame's samples come from its pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SampleLayout {
+    /// DoFP mosaic reconstructed as 2 × 2 superpixels at the tile centres.
+    Superpixels { mosaic: [[Channel; 2]; 2] },
+    /// Colocated channels, one sample per pixel (DN kept in f64, as the Monte Carlo).
+    Colocated,
+}
+
+/// One frame to reduce: its chain, its Stokes inversion and the contexts (1 or more)
+/// its sums are accumulated under.
+#[derive(Clone, Debug)]
+pub struct SumsJob<'a> {
+    pub frame: &'a ChainFrame,
+    pub rec: &'a Reconstructor,
+    /// Samples with a DN outside (0, this) are masked; 0 masks nothing.
+    pub mask_full_scale_dn: f64,
+    pub contexts: Vec<HeadingContext>,
+}
+
+impl Gpu {
+    /// Heading sums of every job's frame (`w × h` px), one per context, in job order.
+    pub fn heading_sums(
+        &self,
+        jobs: &[SumsJob],
+        w: usize,
+        h: usize,
+        layout: SampleLayout,
+    ) -> Result<Vec<Vec<HeadingSums>>> {
+        let (sw, sh, grid, mosaic, layout_id) = match layout {
+            SampleLayout::Superpixels { mosaic } => {
+                (w / 2, h / 2, SampleGrid { x0_px: 0.5, y0_px: 0.5, step_px: 2.0 }, mosaic, 0)
+            }
+            SampleLayout::Colocated => (w, h, SampleGrid { x0_px: 0.0, y0_px: 0.0, step_px: 1.0 }, DEFAULT_MOSAIC, 1),
+        };
+        let n_ctx = jobs.iter().map(|j| j.contexts.len()).max().unwrap_or(0).max(1);
+        let (wg_x, wg_y) = ((sw as u32).div_ceil(WG_EDGE), (sh as u32).div_ceil(WG_EDGE));
+        let n_wg = (wg_x * wg_y) as u64;
+        let per_job = n_ctx as u64 * n_wg * SUMS_LEN as u64 * 8;
+        let batch = self.batch_size(jobs.len(), per_job, &format!("partial sums of a {w} × {h} px frame"))?;
+        let mut out = Vec::with_capacity(jobs.len());
+        for chunk in jobs.chunks(batch) {
+            let frames: Vec<FrameParams> = chunk.iter().map(|j| FrameParams::from(j.frame)).collect();
+            let recon: Vec<ReconParams> =
+                chunk.iter().map(|j| ReconParams::new(j.rec, &mosaic, j.mask_full_scale_dn)).collect();
+            let heading: Vec<HeadingParams> = chunk
+                .iter()
+                .flat_map(|j| {
+                    (0..n_ctx).map(move |c| match j.contexts.get(c) {
+                        Some(ctx) => HeadingParams::new(ctx, grid),
+                        None => HeadingParams::disabled(),
+                    })
+                })
+                .collect();
+            let dims = SumsDims {
+                samples: [sw as u32, sh as u32, n_ctx as u32, layout_id],
+                image: [w as u32, h as u32, wg_x, wg_y],
+            };
+            let n_jobs = (chunk.len() * n_ctx) as u32;
+            let rdims = ReduceDims { size: [n_wg as u32, n_jobs, 0, 0] };
+            let (u, f, r, hb) = (
+                self.uniform("sums dims", &dims),
+                self.storage("frames", &frames),
+                self.storage("recon", &recon),
+                self.storage("heading", &heading),
+            );
+            let partials = self.output("partials", per_job * chunk.len() as u64);
+            let sums = self.output("sums", n_jobs as u64 * SUMS_LEN as u64 * 8);
+            let ru = self.uniform("reduce dims", &rdims);
+            let p = &self.pipelines;
+            let g1 = self.bind(&p.frame_sums, &[&u, &f, &r, &hb, &partials]);
+            let g2 = self.bind(&p.reduce_partials, &[&ru, &partials, &sums]);
+            let data: Vec<f64> = self.run(
+                &[
+                    (&p.frame_sums, &g1, [wg_x, wg_y, chunk.len() as u32]),
+                    (&p.reduce_partials, &g2, [SUMS_LEN as u32, n_jobs, 1]),
+                ],
+                &sums,
+            )?;
+            for (j, job) in chunk.iter().enumerate() {
+                let of_job = &data[j * n_ctx * SUMS_LEN..][..n_ctx * SUMS_LEN];
+                out.push(of_job.chunks_exact(SUMS_LEN).take(job.contexts.len()).map(sums_from).collect());
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// `HeadingSums` from the kernel's SUMS_LEN values.
+fn sums_from(v: &[f64]) -> HeadingSums {
+    let mut s = HeadingSums::default();
+    s.scatter.copy_from_slice(&v[..6]);
+    s.n = v[6];
+    for (k, l) in s.line.iter_mut().enumerate() {
+        l.copy_from_slice(&v[7 + 7 * k..][..7]);
+    }
+    s
+}

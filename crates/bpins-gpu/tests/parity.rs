@@ -1,0 +1,85 @@
+//! Parity of the GPU twin with the CPU reference, on whatever Vulkan adapter exists
+//! (lavapipe in CI). Without an adapter these tests report themselves skipped, with
+//! the reason — except with `CI` set, where a missing adapter fails them.
+
+use bpins_core::montecarlo::{self, Source, SweepConfig};
+use bpins_gpu::agree::{cases, compare, trial_frame, STAGES};
+use bpins_gpu::Gpu;
+use std::sync::OnceLock;
+
+fn gpu() -> Option<&'static Gpu> {
+    static GPU: OnceLock<Result<Gpu, String>> = OnceLock::new();
+    match GPU.get_or_init(|| Gpu::new().map_err(|e| e.to_string())) {
+        Ok(g) => Some(g),
+        Err(e) if std::env::var_os("CI").is_some() => panic!("CI is set and the GPU twin cannot run: {e}"),
+        Err(e) => {
+            eprintln!("SKIPPED (no usable Vulkan adapter): {e}");
+            None
+        }
+    }
+}
+
+/// Runs `trials` trials of the case named `name` and asserts every stage's tolerance.
+fn assert_case_agrees(gpu: &Gpu, name: &str, trials: u32) {
+    let case = cases().into_iter().find(|c| c.name == name).unwrap();
+    for trial in 0..trials {
+        let t = trial_frame(&case, trial, 2026).unwrap();
+        let d = compare(gpu, &t).unwrap();
+        eprintln!("{}: {:?}", t.label, d);
+        for ((stage, tol, unit), x) in STAGES.iter().zip(d) {
+            assert!(x <= *tol, "{}: {stage} differs by {x:e} {unit} (tolerance {tol:e})", t.label);
+        }
+    }
+}
+
+#[test]
+fn every_registered_effect_agrees_on_both_backends() {
+    let Some(gpu) = gpu() else { return };
+    eprintln!("adapter: {}", gpu.adapter_name());
+    // One trial per projection for each effect of the registry.
+    for e in bpins_core::effects::REGISTRY {
+        assert_case_agrees(gpu, e.name, 4);
+    }
+}
+
+#[test]
+fn whole_chain_agrees_ideal_and_with_every_effect() {
+    let Some(gpu) = gpu() else { return };
+    assert_case_agrees(gpu, "ideal", 4);
+    assert_case_agrees(gpu, "all_effects", 4);
+}
+
+#[test]
+fn monte_carlo_trials_agree_trial_by_trial() {
+    let Some(gpu) = gpu() else { return };
+    // A small paper sweep: every source, two azimuths, three trials each.
+    let cfg = SweepConfig {
+        width_px: 306,
+        height_px: 256,
+        sun_azimuths_deg: vec![10.0, 50.0],
+        trials_per_azimuth: 3,
+        ..SweepConfig::default()
+    };
+    let cpu = montecarlo::run_sweep(&cfg, &Source::ALL, &|_, _| {}).unwrap();
+    let gpu_r = bpins_gpu::montecarlo::run_sweep(gpu, &cfg, &Source::ALL, &|_, _| {}).unwrap();
+    assert_eq!(cpu.len(), gpu_r.len());
+    for (c, g) in cpu.iter().zip(&gpu_r) {
+        assert_eq!((c.source, c.trial, c.draw), (g.source, g.trial, g.draw));
+        assert_eq!(c.errors.len(), g.errors.len());
+        for (a, b) in c.errors.iter().zip(&g.errors) {
+            assert_eq!((a.0, a.1), (b.0, b.1));
+            assert!((a.2 - b.2).abs() <= 1e-3, "{:?} trial {}: {:?} CPU {} GPU {}", c.source, c.trial, a.0, a.2, b.2);
+        }
+    }
+}
+
+#[test]
+fn oversized_frames_are_a_clear_error_not_a_panic() {
+    let Some(gpu) = gpu() else { return };
+    let case = &cases()[0];
+    let t = trial_frame(case, 0, 1).unwrap();
+    // 2^40 pixels cannot fit any device's buffer.
+    let e = gpu.render_mosaic(std::slice::from_ref(&t.frame), 1 << 20, 1 << 20, &bpins_core::sensor::DEFAULT_MOSAIC);
+    let msg = e.unwrap_err().to_string();
+    assert!(msg.contains("buffer"), "{msg}");
+}

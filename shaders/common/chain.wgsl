@@ -1,0 +1,119 @@
+// The per-pixel measurement chain: sky → camera ray → lens → analyzer → sensor.
+// CPU twin: crates/bpins-core/src/chain/mod.rs — same functions, names, argument
+// order and step comments. The host builds FrameParams from the CPU's ChainFrame
+// (crates/bpins-gpu/src/params.rs; keep the two structs in sync, a test checks the
+// layout). Effects folded on the host (principal_point, mount_tilt, array_rotation,
+// channel_response) arrive inside these fields; per-pixel effects are called below.
+//
+// pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β      camera frame
+//   sky_stokes → lens_diattenuation → meridional_to_image → analyzer_intensity
+//   → × g(1 + gain_k) → sensor_dn (PRNU, offsets, DSNU, read + shot noise, rounding)
+
+// Keep in sync with `FrameParams` in crates/bpins-gpu/src/params.rs.
+struct FrameParams {
+    camera: Wide4,     // f_px, cx_px, cy_px (true camera), projection id
+    sun: Wide4,        // unit sun vector in the true camera frame (x, y, z), d_max
+    lens: Wide4,       // lens_diattenuation rho2, 0, 0, 0
+    cos2t: Wide4,      // true analyzers by channel (0°, 45°, 90°, 135°): cos 2θ_k
+    sin2t: Wide4,      //   sin 2θ_k
+    eps: Wide4,        //   ε_k = 1/ER
+    gain_dn: Wide4,    // DN per unit radiance g·(1 + gain_k)
+    offset_dn: Wide4,  // black level + offset_k, DN
+    noise: Wide4,      // read_noise_dn, system_gain_dn_per_e, dsnu_dn, prnu
+    adc: Wide4,        // quantize (0/1), full_scale_dn, 0, 0
+    key: vec4<u32>,    // temporal noise key of this frame
+    fixed_key: vec4<u32>, // fixed-pattern key of this trial
+}
+
+struct ChainFrame {
+    intr: Intrinsics,
+    sun_cam: vec3<f64>,
+    dmax: f64,
+    lens_rho2: f64,
+    cos2t: vec4<f64>,
+    sin2t: vec4<f64>,
+    eps: vec4<f64>,
+    gain_dn: vec4<f64>,
+    offset_dn: vec4<f64>,
+    noise: vec4<f64>,
+    quantize: bool,
+    full_scale_dn: f64,
+    key: vec4<u32>,
+    fixed_key: vec4<u32>,
+}
+
+fn chain_frame(p: FrameParams) -> ChainFrame {
+    let sun = wide(p.sun);
+    let adc = wide(p.adc);
+    return ChainFrame(intrinsics_from(p.camera), sun.xyz, sun.w, wide(p.lens).x, wide(p.cos2t), wide(p.sin2t),
+        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, p.key, p.fixed_key);
+}
+
+// Stokes vector (image frame) reaching the analyzer of pixel (u, v), noise-free.
+fn pixel_stokes(f: ChainFrame, u: f64, v: f64) -> Stokes {
+    // Pixel → ray through the true camera.
+    return ray_stokes(f, geometry(f.intr, u, v));
+}
+
+// Stokes vector (image frame) arriving along the true ray g, noise-free.
+fn ray_stokes(f: ChainFrame, g: RayGeometry) -> Stokes {
+    // Skylight along the ray, in its meridional frame.
+    var s = sky_stokes(f.sun_cam, f.dmax, g.d, g.basis);
+    // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
+    s = lens_diattenuation(f.lens_rho2, g.r2, s);
+    // Rotate from the meridional frame to the image x frame.
+    return meridional_to_image(s, g.basis.cos2b, g.basis.sin2b);
+}
+
+// Photo-signal in DN of channel ch for Stokes s: analyzer, then gain.
+fn pixel_signal_dn(f: ChainFrame, s: Stokes, ch: u32) -> f64 {
+    return analyzer_intensity(s, Analyzer(f.cos2t[ch], f.sin2t[ch], f.eps[ch])) * f.gain_dn[ch];
+}
+
+struct SensorNoise {
+    temporal: f64,
+    dsnu: f64,
+    prnu: f64,
+}
+
+// Draws the noise of channel ch at linear pixel index `pixel` (0 where the response
+// has no such noise: nothing is drawn for it).
+fn sensor_noise(f: ChainFrame, pixel: u32, ch: u32) -> SensorNoise {
+    var n = SensorNoise(0.0lf, 0.0lf, 0.0lf);
+    if (f.noise.x > 0.0lf || f.noise.y > 0.0lf) {
+        n.temporal = normal(f.key, pixel, ch, STREAM_TEMPORAL);
+    }
+    if (f.noise.z > 0.0lf) {
+        n.dsnu = normal(f.fixed_key, pixel, ch, STREAM_DSNU);
+    }
+    if (f.noise.w > 0.0lf) {
+        n.prnu = normal(f.fixed_key, pixel, ch, STREAM_PRNU);
+    }
+    return n;
+}
+
+// The sensor's output DN for signal_dn on channel ch with the draws n.
+fn sensor_dn(f: ChainFrame, signal_dn: f64, ch: u32, n: SensorNoise) -> f64 {
+    // Gain non-uniformity (fixed pattern).
+    let sig = signal_dn * (1.0lf + f.noise.w * n.prnu);
+    // Black level, channel offset and offset non-uniformity (fixed pattern).
+    var dn = sig + f.offset_dn[ch] + f.noise.z * n.dsnu;
+    // Temporal noise: read noise plus shot noise of variance K·signal.
+    let variance = f.noise.x * f.noise.x + f.noise.y * max(sig, 0.0lf);
+    dn += sqrt(variance) * n.temporal;
+    // Rounding (half up) and clipping to the ADC range.
+    if (f.quantize) {
+        dn = min(max(floor(dn + 0.5lf), 0.0lf), f.full_scale_dn);
+    }
+    return dn;
+}
+
+// DN of DoFP pixel (u, v) of a w px wide frame: its own ray, its own analyzer (the
+// channel at its position in the 2 × 2 mosaic, `mosaic[2·(v mod 2) + (u mod 2)]`).
+fn mosaic_pixel_dn(f: ChainFrame, u: u32, v: u32, w: u32, mosaic: vec4<u32>) -> f64 {
+    let ch = mosaic[2u * (v & 1u) + (u & 1u)];
+    // Sky → lens → analyzer → photo-signal along the true ray.
+    let signal = pixel_signal_dn(f, pixel_stokes(f, f64(u), f64(v)), ch);
+    // Sensor: non-uniformities, offsets, noise, rounding.
+    return sensor_dn(f, signal, ch, sensor_noise(f, v * w + u, ch));
+}

@@ -1,0 +1,63 @@
+// Kernels that render frames: the per-pixel chain mapped over pixels and frames
+// (CPU twin: crates/bpins-core/src/simulate.rs `render_mosaic`, `render_colocated`,
+// and the noise-free chain for the parity checks). One invocation per pixel;
+// global id z is the frame of the batch.
+
+// Keep in sync with `RenderDims` in crates/bpins-gpu/src/params.rs.
+struct RenderDims {
+    size: vec4<u32>,   // width_px, height_px, frames, 0
+    mosaic: vec4<u32>, // channel index at tile position 2·(v mod 2) + (u mod 2)
+}
+
+@group(0) @binding(0) var<uniform> dims: RenderDims;
+@group(0) @binding(1) var<storage, read> frames: array<FrameParams>;
+@group(0) @binding(2) var<storage, read_write> out: array<f32>;
+
+@compute @workgroup_size(16, 16, 1)
+fn render_mosaic(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let w = dims.size.x;
+    let h = dims.size.y;
+    if (gid.x >= w || gid.y >= h || gid.z >= dims.size.z) {
+        return;
+    }
+    let f = chain_frame(frames[gid.z]);
+    out[(gid.z * h + gid.y) * w + gid.x] = f32(mosaic_pixel_dn(f, gid.x, gid.y, w, dims.mosaic));
+}
+
+// All four channels of colocated pixel (u, v): out[4·pixel + k].
+@compute @workgroup_size(16, 16, 1)
+fn render_colocated(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let w = dims.size.x;
+    let h = dims.size.y;
+    if (gid.x >= w || gid.y >= h || gid.z >= dims.size.z) {
+        return;
+    }
+    let f = chain_frame(frames[gid.z]);
+    let s = pixel_stokes(f, f64(gid.x), f64(gid.y));
+    let pixel = gid.y * w + gid.x;
+    let base = 4u * ((gid.z * h + gid.y) * w + gid.x);
+    for (var ch = 0u; ch < 4u; ch++) {
+        let signal = pixel_signal_dn(f, s, ch);
+        out[base + ch] = f32(sensor_dn(f, signal, ch, sensor_noise(f, pixel, ch)));
+    }
+}
+
+// Noise-free chain of pixel (u, v): the four channels' photo-signal (DN), then the
+// AoP (degrees, image frame) and DoLP of the Stokes vector reaching the analyzers:
+// out[6·pixel + k].
+@compute @workgroup_size(16, 16, 1)
+fn chain_maps(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let w = dims.size.x;
+    let h = dims.size.y;
+    if (gid.x >= w || gid.y >= h || gid.z >= dims.size.z) {
+        return;
+    }
+    let f = chain_frame(frames[gid.z]);
+    let s = pixel_stokes(f, f64(gid.x), f64(gid.y));
+    let base = 6u * ((gid.z * h + gid.y) * w + gid.x);
+    for (var ch = 0u; ch < 4u; ch++) {
+        out[base + ch] = f32(pixel_signal_dn(f, s, ch));
+    }
+    out[base + 4u] = f32(aop_rad(s) * DEG_PER_RAD_F64);
+    out[base + 5u] = f32(dolp(s));
+}
