@@ -3,7 +3,7 @@
 use crate::progress::bar;
 use crate::{write_json, Backend};
 use anyhow::Context;
-use bpins_core::montecarlo::{run_sweep, summarise, Row, Source, SweepConfig};
+use bpins_core::montecarlo::{summarise, Row, Source, SweepConfig};
 use bpins_core::sensor::Channel;
 use serde_json::json;
 use std::path::PathBuf;
@@ -45,10 +45,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         cfg.channels.len(),
         cfg.seed
     );
+    let engine = crate::backend::Engine::open(a.backend)?;
     let pb = bar(total, "trials");
     let t0 = std::time::Instant::now();
-    let results =
-        run_sweep(&cfg, &Source::ALL, &|done, _| pb.set_position(done as u64)).context("Monte Carlo sweep")?;
+    let results = engine
+        .run_sweep(&cfg, &Source::ALL, &|done, _| pb.set_position(done as u64))
+        .context("Monte Carlo sweep")?;
     pb.finish_and_clear();
     let rows = summarise(&results);
     print_table(&rows);

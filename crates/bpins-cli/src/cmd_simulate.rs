@@ -9,10 +9,9 @@ use bpins_core::capture::{write_exr_layers, Capture, FrameData, FrameSpec, LensS
 use bpins_core::chain::{ChainFrame, NoiseIndex};
 use bpins_core::conventions::image_centre_px;
 use bpins_core::effects::EffectSet;
-use bpins_core::pipeline::{reconstruct_frame, scene_of, sim_response, simulate_frame, ReconMode, SimSensor};
+use bpins_core::pipeline::{reconstruct_frame, scene_of, sim_chain_frame, sim_response, ReconMode, SimSensor};
 use bpins_core::recon::angle_maps;
 use bpins_core::sensor::{Channel, Geometry, Layout, DEFAULT_MOSAIC};
-use bpins_core::simulate::render_colocated;
 use bpins_core::sky::sun::{sun_from_time_place, SunPosition};
 use std::path::PathBuf;
 
@@ -165,25 +164,42 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         resp.gain_dn,
         if effects_text.is_empty() { "none".to_string() } else { effects_text.join(", ") }
     );
+    let engine = crate::backend::Engine::open(a.backend)?;
     if let Some(path) = &a.exr {
         crate::ensure_not_in_capture(path)?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
-        return write_dump(&capture, &model, &resp, &sim, path);
+        return write_dump(&engine, &capture, &model, &resp, &sim, path);
     }
     let out = a.out.as_ref().expect("clap requires --out without --exr");
     if let Some(parent) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         crate::ensure_not_in_capture(parent)?;
     }
     let pb = crate::progress::bar(capture.frames.len() as u64, "frames");
-    let frames: Vec<FrameData> = (0..capture.frames.len())
-        .map(|i| {
-            let f = simulate_frame(&capture, i, &model, &resp, &sim);
-            pb.inc(1);
-            f
-        })
-        .collect();
+    let mut frames: Vec<FrameData> = Vec::with_capacity(capture.frames.len());
+    let g = capture.sensor.geometry.clone();
+    let (w, h) = (g.width_px as usize, g.height_px as usize);
+    // A few frames per call: the GPU batches them, the bar moves.
+    for first in (0..capture.frames.len()).step_by(8) {
+        let chain: Vec<ChainFrame> = (first..capture.frames.len().min(first + 8))
+            .map(|i| sim_chain_frame(&capture, i, &model, &resp, &sim))
+            .collect();
+        match &capture.sensor.layout {
+            Layout::Dofp { mosaic } => {
+                for dn in engine.render_mosaic(&chain, w, h, mosaic)? {
+                    frames.push(FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn });
+                }
+            }
+            Layout::Colocated { channels } => {
+                for planes in engine.render_colocated(&chain, w, h, channels)? {
+                    let channels = channels.iter().copied().zip(planes).collect();
+                    frames.push(FrameData::Colocated { width_px: g.width_px, height_px: g.height_px, channels });
+                }
+            }
+        }
+        pb.set_position(frames.len() as u64);
+    }
     pb.finish_and_clear();
     let capture = Capture { dir: out.clone(), ..capture };
     capture.write(out, &frames)?;
@@ -249,6 +265,7 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
 /// One EXR: every channel at every pixel (as a colocated sensor would read it), and
 /// the angle maps reconstructed with the nominal model.
 fn write_dump(
+    engine: &crate::backend::Engine,
     c: &Capture,
     model: &bpins_core::effects::Model,
     resp: &bpins_core::sensor::Response,
@@ -264,7 +281,7 @@ fn write_dump(
         resp,
         NoiseIndex { seed: sim.seed, trial: 0, frame: 0 },
     );
-    let planes = render_colocated(&f, w, h, &Channel::ALL);
+    let planes = engine.render_colocated(std::slice::from_ref(&f), w, h, &Channel::ALL)?.remove(0);
     let colocated = Capture {
         sensor: SensorSpec { layout: Layout::Colocated { channels: Channel::ALL.to_vec() }, ..c.sensor.clone() },
         ..c.clone()

@@ -1,6 +1,8 @@
 //! `bpins`: the command-line interface. One file per subcommand; errors are
 //! `anyhow` with context here, typed in the library; `main` returns an exit code.
 
+mod backend;
+mod cmd_agree;
 mod cmd_effects;
 mod cmd_heading;
 mod cmd_run;
@@ -31,14 +33,11 @@ enum Command {
     Heading(cmd_heading::Args),
     /// List the effects bpins models, with their parameters.
     Effects(cmd_effects::Args),
+    /// Run seeded trials over every effect on the CPU and the GPU and compare them.
+    Agree(cmd_agree::Args),
 }
 
-/// Compute backend. The GPU twin is a separate issue; only the CPU exists yet.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Backend {
-    /// The rayon reference implementation.
-    Cpu,
-}
+pub use backend::Backend;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -47,6 +46,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => cmd_simulate::run(*a),
         Command::Heading(a) => cmd_heading::run(a),
         Command::Effects(a) => cmd_effects::run(a),
+        Command::Agree(a) => cmd_agree::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

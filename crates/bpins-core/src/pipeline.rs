@@ -145,18 +145,18 @@ pub fn sim_response(c: &Capture, s: &SimSensor) -> Result<Response> {
     })
 }
 
+/// The chain of frame `index` of capture `c` under `model` (the truth), as
+/// [`simulate_frame`] renders it (any backend can render it).
+pub fn sim_chain_frame(c: &Capture, index: usize, model: &Model, resp: &Response, s: &SimSensor) -> ChainFrame {
+    let scene = scene_of(&c.frames[index], s.dmax);
+    ChainFrame::new(model, &c.intrinsics(), &scene, resp, NoiseIndex { seed: s.seed, trial: 0, frame: index as u32 })
+}
+
 /// Simulates frame `index` of capture `c` under `model` (the truth).
 pub fn simulate_frame(c: &Capture, index: usize, model: &Model, resp: &Response, s: &SimSensor) -> FrameData {
     let g = &c.sensor.geometry;
     let (w, h) = (g.width_px as usize, g.height_px as usize);
-    let scene = scene_of(&c.frames[index], s.dmax);
-    let f = ChainFrame::new(
-        model,
-        &c.intrinsics(),
-        &scene,
-        resp,
-        NoiseIndex { seed: s.seed, trial: 0, frame: index as u32 },
-    );
+    let f = sim_chain_frame(c, index, model, resp, s);
     match &c.sensor.layout {
         Layout::Dofp { mosaic } => {
             FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn: render_mosaic(&f, w, h, mosaic) }
