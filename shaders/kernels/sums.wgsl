@@ -1,8 +1,8 @@
 // Heading sums of whole frames, reduced on the device: render → reconstruct →
 // contribution → per-workgroup tree sums. CPU twins: crates/bpins-core/src/simulate.rs
 // `mosaic_heading_sums` (DoFP superpixels) and montecarlo.rs `run_trial` (colocated).
-// One invocation per sample (a 2 × 2 tile or a colocated pixel); global id z is the
-// frame. Each workgroup writes SUMS_LEN partial sums per heading context; the
+// One invocation per K samples of a row (a sample is a 2 × 2 tile or a colocated
+// pixel); global id z is the frame. Each workgroup writes SUMS_LEN partial sums per heading context; the
 // `reduce_partials` kernel (reduce.wgsl) adds them per frame: no frame leaves the GPU.
 
 // Keep in sync with `SumsDims` in crates/bpins-gpu/src/params.rs.
@@ -80,6 +80,12 @@ fn colocated_sample(f: ChainFrame, rp: ReconParams, u: u32, v: u32) -> Sample {
     return Sample(reconstruct(rp, d), ok);
 }
 
+// Samples per invocation, along a row: each invocation sums K samples in registers,
+// so the workgroup's tree sums (and their barriers) are paid once per 16·K × 16 samples.
+const K: u32 = 32u;
+// Heading contexts per frame (lens ρ unknown and known); the host checks.
+const MAX_CTX: u32 = 2u;
+
 @compute @workgroup_size(16, 16, 1)
 fn frame_sums(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -87,63 +93,75 @@ fn frame_sums(
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
     let frame = gid.z;
-    let i = gid.x;
     let j = gid.y;
-    let in_frame = i < dims.samples.x && j < dims.samples.y;
     let f = chain_frame(frames[frame]);
     let rp = recon[frame];
-    var sample = Sample(Stokes(0.0lf, 0.0lf, 0.0lf, 0.0lf), false);
-    if (in_frame) {
+    let n_ctx = min(dims.samples.z, MAX_CTX);
+    // This invocation's sums per context: scatter + n, band sums per sector, and
+    // which sectors it touched (function-scope variables start at zero).
+    var scatter: array<array<f64, 7>, MAX_CTX>;
+    var band: array<array<array<f64, 7>, SECTORS>, MAX_CTX>;
+    var touched: array<u32, MAX_CTX>;
+    for (var s = 0u; s < K; s++) {
+        let i = gid.x * K + s;
+        if (i >= dims.samples.x || j >= dims.samples.y) {
+            break;
+        }
+        // The sample's Stokes vector: render its DN, reconstruct.
+        var sample: Sample;
         if (dims.samples.w == 0u) {
             sample = mosaic_sample(f, rp, i, j);
         } else {
             sample = colocated_sample(f, rp, i, j);
         }
+        for (var c = 0u; c < n_ctx; c++) {
+            let hp = heading[frame * dims.samples.z + c];
+            let grid = wide(hp.grid);
+            let hb = wide(hp.band);
+            let intr = intrinsics_from(hp.camera);
+            // Heading sums along the assumed ray at the sample's pixel position.
+            let x = grid.x + grid.z * f64(i);
+            let y = grid.y + grid.z * f64(j);
+            let con = contribution(hb.x, geometry(intr, x, y), sample.s, sample.ok && grid.w != 0.0lf);
+            for (var t = 0u; t < 6u; t++) {
+                scatter[c][t] += con.m[t];
+            }
+            scatter[c][6] += con.n;
+            // Meridian band, by sector of the sample's image angle.
+            let dx = x - intr.cx_px;
+            let dy = y - intr.cy_px;
+            if (in_band(hb, con, dx, dy)) {
+                let k = sector_of(image_angle_rad(dx, dy));
+                let terms = band_terms(con);
+                for (var t = 0u; t < 7u; t++) {
+                    band[c][k][t] += terms[t];
+                }
+                touched[c] |= 1u << k;
+            }
+        }
     }
-    let n_ctx = dims.samples.z;
+    // Workgroup sums, written as this workgroup's partials.
     let n_wg = dims.image.z * dims.image.w;
     let wg = wid.y * dims.image.z + wid.x;
     for (var c = 0u; c < n_ctx; c++) {
-        let hp = heading[frame * n_ctx + c];
-        let grid = wide(hp.grid);
-        let band = wide(hp.band);
-        let intr = intrinsics_from(hp.camera);
-        // Heading sums along the assumed ray at the sample's pixel position.
-        let x = grid.x + grid.z * f64(i);
-        let y = grid.y + grid.z * f64(j);
-        let con = contribution(band.x, geometry(intr, x, y), sample.s, in_frame && sample.ok && grid.w != 0.0lf);
-        let scatter = reduce7(li, array<f64, 7>(con.m[0], con.m[1], con.m[2], con.m[3], con.m[4], con.m[5], con.n));
-        // Meridian band: which sectors this workgroup's band samples fall in.
-        let dx = x - intr.cx_px;
-        let dy = y - intr.cy_px;
-        let inb = in_band(band, con, dx, dy);
-        var sector = 0u;
-        var terms = zeros7();
-        if (inb) {
-            sector = sector_of(image_angle_rad(dx, dy));
-            terms = band_terms(con);
-            atomicOr(&band_bits, 1u << sector);
-        }
+        let total = reduce7(li, scatter[c]);
+        atomicOr(&band_bits, touched[c]);
         workgroupBarrier();
         if (li == 0u) {
             band_mask = atomicLoad(&band_bits);
             atomicStore(&band_bits, 0u);
         }
         let mask = workgroupUniformLoad(&band_mask);
-        let base = ((frame * n_ctx + c) * n_wg + wg) * SUMS_LEN;
+        let base = ((frame * dims.samples.z + c) * n_wg + wg) * SUMS_LEN;
         if (li == 0u) {
-            for (var k = 0u; k < 7u; k++) {
-                partials[base + k] = scatter[k];
+            for (var t = 0u; t < 7u; t++) {
+                partials[base + t] = total[t];
             }
         }
         for (var k = 0u; k < SECTORS; k++) {
             var sums = zeros7();
             if (((mask >> k) & 1u) != 0u) {
-                var mine = zeros7();
-                if (inb && sector == k) {
-                    mine = terms;
-                }
-                sums = reduce7(li, mine);
+                sums = reduce7(li, band[c][k]);
             }
             if (li == 0u) {
                 for (var t = 0u; t < 7u; t++) {

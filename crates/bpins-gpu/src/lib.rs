@@ -41,6 +41,8 @@ pub enum GpuError {
     Device(String),
     #[error("GPU out of memory: {0}")]
     OutOfMemory(String),
+    #[error("not supported by the GPU backend: {0}")]
+    Unsupported(String),
     #[error("shader error: {0}")]
     Shader(String),
     #[error("{what} needs a {bytes} B buffer; this device allows {limit} B per buffer")]

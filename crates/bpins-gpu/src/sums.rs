@@ -6,7 +6,7 @@
 use crate::device::Gpu;
 use crate::params::{FrameParams, HeadingParams, ReconParams, ReduceDims, SampleGrid, SumsDims};
 use crate::render::WG_EDGE;
-use crate::Result;
+use crate::{GpuError, Result};
 use bpins_core::chain::ChainFrame;
 use bpins_core::heading::{HeadingContext, HeadingSums, SECTORS};
 use bpins_core::recon::Reconstructor;
@@ -15,6 +15,12 @@ use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
 /// Values per (frame, context): 6 scatter terms, n, then 7 band sums per sector
 /// (`SUMS_LEN` in `common/heading.wgsl`).
 pub const SUMS_LEN: usize = 7 + 7 * SECTORS;
+
+/// Samples one invocation sums, along a row (`K` in `kernels/sums.wgsl`).
+const SAMPLES_PER_INVOCATION: u32 = 32;
+
+/// Heading contexts a frame may carry (`MAX_CTX` in `kernels/sums.wgsl`).
+pub const MAX_CONTEXTS: usize = 2;
 
 /// How a frame's samples come from its pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,7 +58,13 @@ impl Gpu {
             SampleLayout::Colocated => (w, h, SampleGrid { x0_px: 0.0, y0_px: 0.0, step_px: 1.0 }, DEFAULT_MOSAIC, 1),
         };
         let n_ctx = jobs.iter().map(|j| j.contexts.len()).max().unwrap_or(0).max(1);
-        let (wg_x, wg_y) = ((sw as u32).div_ceil(WG_EDGE), (sh as u32).div_ceil(WG_EDGE));
+        if n_ctx > MAX_CONTEXTS {
+            return Err(GpuError::Unsupported(format!(
+                "{n_ctx} heading contexts for one frame; the sums kernel takes at most {MAX_CONTEXTS}"
+            )));
+        }
+        let wg_x = (sw as u32).div_ceil(WG_EDGE * SAMPLES_PER_INVOCATION);
+        let wg_y = (sh as u32).div_ceil(WG_EDGE);
         let n_wg = (wg_x * wg_y) as u64;
         let per_job = n_ctx as u64 * n_wg * SUMS_LEN as u64 * 8;
         let batch = self.batch_size(jobs.len(), per_job, &format!("partial sums of a {w} × {h} px frame"))?;
