@@ -44,6 +44,12 @@ fn atan2_f64(y: f64, x: f64) -> f64 {
     return a;
 }
 
+// An angle of period 180° wrapped into (−90°, 90°] (conventions::wrap_deg_90).
+fn wrap_deg_90(a_deg: f64) -> f64 {
+    let r = a_deg - 180.0lf * floor(a_deg / 180.0lf);
+    return select(r, r - 180.0lf, r > 90.0lf);
+}
+
 fn dot3(a: vec3<f64>, b: vec3<f64>) -> f64 {
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }

@@ -43,8 +43,9 @@ fn render_colocated(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 
 // Noise-free chain of pixel (u, v): the four channels' photo-signal (DN), then the
-// AoP (degrees, image frame) and DoLP of the Stokes vector reaching the analyzers:
-// out[6·pixel + k].
+// AoP (degrees, image frame), DoLP and AoE (degrees, AoP − β: from the radial
+// direction about the principal point) of the Stokes vector reaching the analyzers:
+// out[7·pixel + k]. CPU twin of the angles: recon::angle_maps.
 @compute @workgroup_size(16, 16, 1)
 fn chain_maps(@builtin(global_invocation_id) gid: vec3<u32>) {
     let w = dims.size.x;
@@ -54,10 +55,13 @@ fn chain_maps(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let f = chain_frame(frames[gid.z]);
     let s = pixel_stokes(f, f64(gid.x), f64(gid.y));
-    let base = 6u * ((gid.z * h + gid.y) * w + gid.x);
+    let base = 7u * ((gid.z * h + gid.y) * w + gid.x);
     for (var ch = 0u; ch < 4u; ch++) {
         out[base + ch] = f32(pixel_signal_dn(f, s, ch));
     }
-    out[base + 4u] = f32(aop_rad(s) * DEG_PER_RAD_F64);
+    let a = aop_rad(s) * DEG_PER_RAD_F64;
+    let beta = image_angle_rad(f64(gid.x) - f.intr.cx_px, f64(gid.y) - f.intr.cy_px) * DEG_PER_RAD_F64;
+    out[base + 4u] = f32(wrap_deg_90(a));
     out[base + 5u] = f32(dolp(s));
+    out[base + 6u] = f32(wrap_deg_90(a - beta));
 }

@@ -10,6 +10,7 @@
 //! | `intensity`    | noise-free photo-signal of every pixel and channel, relative |
 //! | `aop_deg`      | AoP reaching the analyzers, where DoLP > 0.01                |
 //! | `dolp`         | DoLP reaching the analyzers                                  |
+//! | `aoe_deg`      | AoE (AoP − β about the principal point), where DoLP > 0.01   |
 //! | `dn`           | rounded DN, DoFP mosaic and all four colocated channels      |
 //! | `dn_off_fraction` | fraction of those DN that differ at all                   |
 //! | `heading_deg`  | both extractors, from superpixel sums and from colocated sums with the lens ρ unknown and known |
@@ -18,6 +19,7 @@ use crate::sums::{SampleLayout, SumsJob};
 use crate::tolerance::*;
 use crate::{Gpu, Result};
 use bpins_core::camera::{Intrinsics, Projection};
+use bpins_core::conventions::{image_angle_rad, wrap_deg_90};
 use bpins_core::chain::{pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
 use bpins_core::effects::{EffectSet, REGISTRY};
 use bpins_core::heading::{Extractor, HeadingContext, HeadingSums};
@@ -40,10 +42,11 @@ pub struct StageDiff {
 }
 
 /// The stages in report order: (name, tolerance, unit).
-pub const STAGES: [(&str, f64, &str); 6] = [
+pub const STAGES: [(&str, f64, &str); 7] = [
     ("intensity", INTENSITY_REL, "relative"),
     ("aop_deg", AOP_DEG, "deg"),
     ("dolp", DOLP_ABS, "1"),
+    ("aoe_deg", AOP_DEG, "deg"),
     ("dn", DN_MAX_ABS, "DN"),
     ("dn_off_fraction", DN_OFF_FRACTION, "fraction of pixels"),
     ("heading_deg", HEADING_DEG, "deg"),
@@ -128,32 +131,39 @@ fn fxhash(s: &str) -> u32 {
 }
 
 /// Largest difference of each stage for one trial frame, in [`STAGES`] order.
-pub fn compare(gpu: &Gpu, t: &TrialFrame) -> Result<[f64; 6]> {
+pub fn compare(gpu: &Gpu, t: &TrialFrame) -> Result<[f64; 7]> {
     let (w, h) = (WIDTH_PX, HEIGHT_PX);
     let f = &t.frame;
-    let mut d = [0.0f64; 6];
+    let mut d = [0.0f64; 7];
     // Noise-free chain: photo-signal, AoP and DoLP per pixel.
     let maps = gpu.chain_maps(std::slice::from_ref(f), w, h)?.remove(0);
-    let cpu: Vec<[f64; 3]> = (0..w * h)
+    let cpu: Vec<[f64; 4]> = (0..w * h)
         .into_par_iter()
         .map(|p| {
-            let s = pixel_stokes(f, (p % w) as f64, (p / w) as f64);
+            let (u, v) = ((p % w) as f64, (p / w) as f64);
+            let s = pixel_stokes(f, u, v);
             let g = &maps[p];
             let mut rel: f64 = 0.0;
             for ch in 0..4 {
                 let c = pixel_signal_dn(f, s, ch);
                 rel = rel.max((g.signal_dn[ch] as f64 - c).abs() / c.abs().max(1e-300));
             }
-            let aop = if s.dolp() > AOP_MIN_DOLP {
-                aop_diff_deg(g.aop_deg as f64, s.aop_rad().to_degrees()).abs()
-            } else {
-                0.0
+            // AoP and AoE (as recon::angle_maps forms them) where the light is polarized.
+            let a = s.aop_rad().to_degrees();
+            let beta = image_angle_rad(u - f.intr.cx_px, v - f.intr.cy_px).to_degrees();
+            let polarized = s.dolp() > AOP_MIN_DOLP;
+            let angle = |gpu_deg: f32, cpu_deg: f64| {
+                if polarized {
+                    aop_diff_deg(gpu_deg as f64, wrap_deg_90(cpu_deg)).abs()
+                } else {
+                    0.0
+                }
             };
-            [rel, aop, (g.dolp as f64 - s.dolp()).abs()]
+            [rel, angle(g.aop_deg, a), (g.dolp as f64 - s.dolp()).abs(), angle(g.aoe_deg, a - beta)]
         })
         .collect();
     for c in &cpu {
-        for k in 0..3 {
+        for k in 0..4 {
             d[k] = d[k].max(c[k]);
         }
     }
@@ -164,8 +174,8 @@ pub fn compare(gpu: &Gpu, t: &TrialFrame) -> Result<[f64; 6]> {
         dn.push(dn_diff(c, g));
     }
     for (max, frac) in dn {
-        d[3] = d[3].max(max);
-        d[4] = d[4].max(frac);
+        d[4] = d[4].max(max);
+        d[5] = d[5].max(frac);
     }
     // Heading: superpixel sums (lens unknown), colocated sums (unknown and known).
     let full_scale = f.response.full_scale_dn();
@@ -185,7 +195,7 @@ pub fn compare(gpu: &Gpu, t: &TrialFrame) -> Result<[f64; 6]> {
     )?;
     let pairs = cpu_sp.iter().zip(&gpu_sp[0]).map(|p| (p, &t.contexts[0])).chain(cpu_co.iter().zip(&gpu_co[0]).zip(&t.contexts));
     for ((c, g), ctx) in pairs {
-        d[5] = d[5].max(heading_gap(c, g, ctx));
+        d[6] = d[6].max(heading_gap(c, g, ctx));
     }
     Ok(d)
 }

@@ -18,6 +18,8 @@ pub struct ChainSample {
     /// AoP of the Stokes vector reaching the analyzers, degrees, image frame, (−90, 90].
     pub aop_deg: f32,
     pub dolp: f32,
+    /// AoE: AoP − β (β the image angle about the true principal point), degrees, (−90, 90].
+    pub aoe_deg: f32,
 }
 
 impl Gpu {
@@ -89,12 +91,12 @@ impl Gpu {
 
     /// The noise-free chain of every pixel of each frame (`w × h`, row-major).
     pub fn chain_maps(&self, frames: &[ChainFrame], w: usize, h: usize) -> Result<Vec<Vec<ChainSample>>> {
-        let all = self.render(&self.pipelines.chain_maps, frames, w, h, &DEFAULT_MOSAIC, 6)?;
+        let all = self.render(&self.pipelines.chain_maps, frames, w, h, &DEFAULT_MOSAIC, 7)?;
         Ok(all
             .iter()
             .map(|px| {
-                px.chunks_exact(6)
-                    .map(|c| ChainSample { signal_dn: [c[0], c[1], c[2], c[3]], aop_deg: c[4], dolp: c[5] })
+                px.chunks_exact(7)
+                    .map(|c| ChainSample { signal_dn: [c[0], c[1], c[2], c[3]], aop_deg: c[4], dolp: c[5], aoe_deg: c[6] })
                     .collect()
             })
             .collect())
