@@ -14,6 +14,15 @@ pub enum Backend {
     Gpu,
 }
 
+impl Backend {
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Cpu => "cpu",
+            Backend::Gpu => "gpu",
+        }
+    }
+}
+
 /// An opened backend.
 pub enum Engine {
     Cpu,

@@ -32,7 +32,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         gpu.adapter_name()
     );
     let pb = crate::progress::bar((n_cases as u64) * a.trials as u64, "trials");
-    let stages = agree(&gpu, a.trials, a.seed, &|done, _| pb.set_position(done as u64)).context("comparing backends")?;
+    let stages =
+        agree(&gpu, a.trials, a.seed, &|done, _| pb.set_position(done as u64)).context("comparing backends")?;
     pb.finish_and_clear();
     println!("{:<16} {:>14} {:>11}  {:<19} {:<4} worst case", "stage", "max |Δ|", "tolerance", "unit", "ok");
     for s in &stages {

@@ -36,9 +36,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let total = (cfg.trials_per_source() * Source::ALL.len()) as u64;
     eprintln!(
-        "bpins run: {} trials on {:?} ({} per source), {}×{} px colocated, {} channels, seed {}",
+        "bpins run: {} trials on the {} backend ({} per source), {}×{} px colocated, {} channels, seed {}",
         total,
-        a.backend,
+        a.backend.name(),
         cfg.trials_per_source(),
         cfg.width_px,
         cfg.height_px,
@@ -48,16 +48,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let engine = crate::backend::Engine::open(a.backend)?;
     let pb = bar(total, "trials");
     let t0 = std::time::Instant::now();
-    let results = engine
-        .run_sweep(&cfg, &Source::ALL, &|done, _| pb.set_position(done as u64))
-        .context("Monte Carlo sweep")?;
+    let results =
+        engine.run_sweep(&cfg, &Source::ALL, &|done, _| pb.set_position(done as u64)).context("Monte Carlo sweep")?;
     pb.finish_and_clear();
     let rows = summarise(&results);
     print_table(&rows);
     eprintln!("{} trials in {:.1} s", total, t0.elapsed().as_secs_f64());
     if let Some(path) = &a.json {
         let v = json!({
-            "backend": format!("{:?}", a.backend).to_lowercase(),
+            "backend": a.backend.name(),
             "seed": cfg.seed,
             "trials_per_azimuth": cfg.trials_per_azimuth,
             "sun_azimuths_deg": cfg.sun_azimuths_deg,

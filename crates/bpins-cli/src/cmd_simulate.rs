@@ -159,8 +159,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .flat_map(|(d, v)| d.params.iter().zip(v).map(move |(p, x)| format!("{}.{}={} {}", d.name, p.name, x, p.unit)))
         .collect();
     eprintln!(
-        "bpins simulate ({:?}): gain {:.2} DN per unit radiance, effects: {}",
-        a.backend,
+        "bpins simulate ({} backend): gain {:.2} DN per unit radiance, effects: {}",
+        a.backend.name(),
         resp.gain_dn,
         if effects_text.is_empty() { "none".to_string() } else { effects_text.join(", ") }
     );
@@ -178,7 +178,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let pb = crate::progress::bar(capture.frames.len() as u64, "frames");
     let mut frames: Vec<FrameData> = Vec::with_capacity(capture.frames.len());
-    let g = capture.sensor.geometry.clone();
+    let g = capture.sensor.geometry;
     let (w, h) = (g.width_px as usize, g.height_px as usize);
     // A few frames per call: the GPU batches them, the bar moves.
     for first in (0..capture.frames.len()).step_by(8) {

@@ -568,7 +568,10 @@ fn gpu_run_gives_the_cpu_table_within_a_thousandth_of_a_degree() {
     let (g, c) = (gpu["rows"].as_array().unwrap(), cpu["rows"].as_array().unwrap());
     assert_eq!(g.len(), c.len());
     for (g, c) in g.iter().zip(c) {
-        assert_eq!((&g["source"], &g["extractor"], &g["lens_rho_known"]), (&c["source"], &c["extractor"], &c["lens_rho_known"]));
+        assert_eq!(
+            (&g["source"], &g["extractor"], &g["lens_rho_known"]),
+            (&c["source"], &c["extractor"], &c["lens_rho_known"])
+        );
         for key in ["mean_deg", "std_deg"] {
             let d = (f64_of(g, key) - f64_of(c, key)).abs();
             assert!(d <= 1e-3, "{} {} {key}: GPU and CPU differ by {d}°", g["source"], g["extractor"]);
@@ -620,4 +623,15 @@ fn gpu_simulate_writes_the_cpu_exr_dump() {
             assert!(max <= 1.0 && n_off <= 1, "{name}: {n_off} pixels differ, by up to {max} DN");
         }
     }
+}
+
+#[test]
+fn no_vulkan_adapter_is_a_clear_error_not_a_panic() {
+    // No Vulkan driver visible to the loader: `--backend gpu` must fail cleanly.
+    let envs = [("VK_ICD_FILENAMES", "/nonexistent/icd.json"), ("VK_DRIVER_FILES", "/nonexistent/icd.json")];
+    let r = bpins_env(&["run", "--backend", "gpu", "--trials-per-azimuth", "1"], &envs).fails();
+    r.stderr_has("GPU");
+    // A named adapter that does not exist: the error lists what exists.
+    let r = bpins_env(&["agree", "--trials", "1"], &[("BPINS_GPU_ADAPTER", "no-such-gpu-9000")]).fails();
+    r.stderr_has("no-such-gpu-9000");
 }

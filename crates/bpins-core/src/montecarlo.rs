@@ -258,8 +258,7 @@ impl TrialSetup {
             NoiseIndex { seed: cfg.seed, trial: trial as u32, frame: source as u32 },
         );
         let rec = Reconstructor::new(&Default::default(), 0.0, &cfg.channels)?;
-        let ctx_unknown =
-            HeadingContext::new(nominal, cfg.width_px, cfg.height_px, scene.sun_az_deg, scene.sun_el_deg);
+        let ctx_unknown = HeadingContext::new(nominal, cfg.width_px, cfg.height_px, scene.sun_az_deg, scene.sun_el_deg);
         let ctx_known = source.involves_lens().then_some(HeadingContext { lens_rho2: rho2, ..ctx_unknown });
         let mut used = [false; 4];
         for c in &cfg.channels {

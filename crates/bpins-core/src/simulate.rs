@@ -97,7 +97,15 @@ pub fn colocated_heading_sums(
     let rows: Vec<Vec<HeadingSums>> = (0..h)
         .into_par_iter()
         .map_init(
-            || (vec![[0.0; 4]; w], vec![[0.0; 4]; w], vec![Stokes::default(); w], NoiseRows::default(), RowScratch::default()),
+            || {
+                (
+                    vec![[0.0; 4]; w],
+                    vec![[0.0; 4]; w],
+                    vec![Stokes::default(); w],
+                    NoiseRows::default(),
+                    RowScratch::default(),
+                )
+            },
             |(signal, dn, stokes, noise, scratch), v| {
                 let y = v as f64;
                 // Sky → analyzers along each true ray (vectorized row kernels).

@@ -76,7 +76,7 @@ fn gpu_frame(c: &mut Criterion) {
     g.bench_function("dofp_2048x2448_sky_to_heading_batch8", |b| {
         b.iter(|| {
             let sums = gpu.heading_sums(&jobs, W, H, SampleLayout::Superpixels { mosaic: DEFAULT_MOSAIC }).unwrap();
-            black_box(sums.iter().map(|s| Extractor::ALL.map(|e| s[0].solve(e, &ctx).unwrap())).count())
+            black_box(sums.iter().map(|s| Extractor::ALL.map(|e| s[0].solve(e, &ctx).unwrap())).collect::<Vec<_>>())
         })
     });
     g.bench_function("dofp_2048x2448_render_batch8", |b| {

@@ -19,14 +19,16 @@ use crate::sums::{SampleLayout, SumsJob};
 use crate::tolerance::*;
 use crate::{Gpu, Result};
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::conventions::{image_angle_rad, wrap_deg_90};
 use bpins_core::chain::{pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
+use bpins_core::conventions::{image_angle_rad, wrap_deg_90};
 use bpins_core::effects::{EffectSet, REGISTRY};
 use bpins_core::heading::{Extractor, HeadingContext, HeadingSums};
 use bpins_core::noise::{stream, FrameKey};
 use bpins_core::recon::Reconstructor;
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::{colocated_heading_sums, mosaic_heading_sums, peak_intensity, render_colocated, render_mosaic};
+use bpins_core::simulate::{
+    colocated_heading_sums, mosaic_heading_sums, peak_intensity, render_colocated, render_mosaic,
+};
 use rayon::prelude::*;
 
 /// One stage's largest difference over every case and trial.
@@ -168,7 +170,10 @@ pub fn compare(gpu: &Gpu, t: &TrialFrame) -> Result<[f64; 7]> {
         }
     }
     // Rounded DN: DoFP mosaic and colocated channels.
-    let mut dn = vec![dn_diff(&render_mosaic(f, w, h, &DEFAULT_MOSAIC), &gpu.render_mosaic(std::slice::from_ref(f), w, h, &DEFAULT_MOSAIC)?[0])];
+    let mut dn = vec![dn_diff(
+        &render_mosaic(f, w, h, &DEFAULT_MOSAIC),
+        &gpu.render_mosaic(std::slice::from_ref(f), w, h, &DEFAULT_MOSAIC)?[0],
+    )];
     let gpu_planes = gpu.render_colocated(std::slice::from_ref(f), w, h, &Channel::ALL)?.remove(0);
     for (c, g) in render_colocated(f, w, h, &Channel::ALL).iter().zip(&gpu_planes) {
         dn.push(dn_diff(c, g));
@@ -179,7 +184,7 @@ pub fn compare(gpu: &Gpu, t: &TrialFrame) -> Result<[f64; 7]> {
     }
     // Heading: superpixel sums (lens unknown), colocated sums (unknown and known).
     let full_scale = f.response.full_scale_dn();
-    let cpu_sp = vec![mosaic_heading_sums(f, w, h, &DEFAULT_MOSAIC, &t.rec, full_scale, &t.contexts[0])];
+    let cpu_sp = [mosaic_heading_sums(f, w, h, &DEFAULT_MOSAIC, &t.rec, full_scale, &t.contexts[0])];
     let cpu_co = colocated_heading_sums(f, w, h, [true; 4], &t.rec, &t.contexts);
     let gpu_sp = gpu.heading_sums(
         &[SumsJob { frame: f, rec: &t.rec, mask_full_scale_dn: full_scale, contexts: vec![t.contexts[0]] }],
@@ -193,7 +198,11 @@ pub fn compare(gpu: &Gpu, t: &TrialFrame) -> Result<[f64; 7]> {
         h,
         SampleLayout::Colocated,
     )?;
-    let pairs = cpu_sp.iter().zip(&gpu_sp[0]).map(|p| (p, &t.contexts[0])).chain(cpu_co.iter().zip(&gpu_co[0]).zip(&t.contexts));
+    let pairs = cpu_sp
+        .iter()
+        .zip(&gpu_sp[0])
+        .map(|p| (p, &t.contexts[0]))
+        .chain(cpu_co.iter().zip(&gpu_co[0]).zip(&t.contexts));
     for ((c, g), ctx) in pairs {
         d[6] = d[6].max(heading_gap(c, g, ctx));
     }
@@ -223,7 +232,8 @@ pub fn agree(gpu: &Gpu, trials: u32, seed: u64, progress: &dyn Fn(usize, usize))
             let t = trial_frame(case, trial, seed)?;
             let d = compare(gpu, &t)?;
             for (k, x) in d.iter().enumerate() {
-                if !(*x <= worst[k].0) {
+                // (NaN counts as the worst difference.)
+                if x.is_nan() || *x > worst[k].0 {
                     worst[k] = (*x, t.label.clone());
                 }
             }

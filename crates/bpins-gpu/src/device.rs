@@ -26,20 +26,39 @@ pub(crate) struct Pipelines {
 
 impl Gpu {
     /// Opens the best Vulkan adapter (a discrete GPU before an integrated one before
-    /// Mesa lavapipe). Errors, never panics, when there is none or it lacks f64 shaders.
+    /// Mesa lavapipe), or the one whose name contains `$BPINS_GPU_ADAPTER`. Errors,
+    /// never panics, when there is none or it lacks f64 shaders.
     pub fn new() -> Result<Gpu> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends: wgpu::Backends::VULKAN,
             ..wgpu::InstanceDescriptor::new_without_display_handle()
         });
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let adapter = match std::env::var("BPINS_GPU_ADAPTER") {
+            // A named adapter: the first whose name contains the text (any case).
+            Ok(want) if !want.is_empty() => {
+                let all = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+                let names: Vec<String> = all.iter().map(|a| a.get_info().name).collect();
+                all.into_iter().find(|a| a.get_info().name.to_lowercase().contains(&want.to_lowercase())).ok_or_else(
+                    || {
+                        GpuError::NoAdapter(format!(
+                            "BPINS_GPU_ADAPTER={want} matches none of the Vulkan adapters [{}]",
+                            names.join(", ")
+                        ))
+                    },
+                )?
+            }
+            _ => pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                ..Default::default()
+            }))
+            .map_err(|e| GpuError::NoAdapter(e.to_string()))?,
+        };
         let info = adapter.get_info();
         if !adapter.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(GpuError::MissingFeature { adapter: info.name.clone(), feature: "SHADER_F64 (f64 in shaders)" });
+            return Err(GpuError::MissingFeature {
+                adapter: info.name.clone(),
+                feature: "SHADER_F64 (f64 in shaders)",
+            });
         }
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
@@ -67,7 +86,8 @@ impl Gpu {
     /// The adapter, as "name (driver, backend)".
     pub fn adapter_name(&self) -> String {
         let i = &self.info;
-        let driver = if i.driver_info.is_empty() { i.driver.clone() } else { format!("{} {}", i.driver, i.driver_info) };
+        let driver =
+            if i.driver_info.is_empty() { i.driver.clone() } else { format!("{} {}", i.driver, i.driver_info) };
         format!("{} ({}, {:?})", i.name, driver, i.backend)
     }
 
@@ -78,7 +98,7 @@ impl Gpu {
 
     /// Largest buffer one binding may hold, bytes.
     pub(crate) fn max_binding_bytes(&self) -> u64 {
-        (self.limits.max_storage_buffer_binding_size as u64).min(self.limits.max_buffer_size)
+        self.limits.max_storage_buffer_binding_size.min(self.limits.max_buffer_size)
     }
 
     pub(crate) fn storage<T: bytemuck::Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {

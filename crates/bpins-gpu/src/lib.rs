@@ -17,8 +17,8 @@
 //!
 //! Tolerances between the backends are in [`tolerance`] (and `TOLERANCES.md`).
 
-mod device;
 pub mod agree;
+mod device;
 pub mod montecarlo;
 pub mod params;
 mod render;
@@ -33,7 +33,9 @@ pub use sums::{SampleLayout, SumsJob, SUMS_LEN};
 /// What can go wrong on the device.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
-    #[error("no Vulkan adapter found ({0}); install a Vulkan driver (Debian: mesa-vulkan-drivers libvulkan1 for lavapipe)")]
+    #[error(
+        "no Vulkan adapter found ({0}); install a Vulkan driver (Debian: mesa-vulkan-drivers libvulkan1 for lavapipe)"
+    )]
     NoAdapter(String),
     #[error("the adapter {adapter} lacks {feature}, which the bpins kernels need")]
     MissingFeature { adapter: String, feature: &'static str },

@@ -213,7 +213,11 @@ mod tests {
     #[test]
     fn layouts_match_wgsl() {
         check!("render", Wide4, [hi, lo]);
-        check!("render", FrameParams, [camera, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, key, fixed_key]);
+        check!(
+            "render",
+            FrameParams,
+            [camera, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, key, fixed_key]
+        );
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);
         check!("sums", HeadingParams, [camera, band, grid]);
         check!("render", RenderDims, [size, mosaic]);

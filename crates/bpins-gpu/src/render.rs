@@ -50,7 +50,8 @@ impl Gpu {
         let mut out = Vec::with_capacity(frames.len());
         for chunk in frames.chunks(batch) {
             let params: Vec<FrameParams> = chunk.iter().map(FrameParams::from).collect();
-            let dims = RenderDims { size: [w as u32, h as u32, chunk.len() as u32, 0], mosaic: mosaic_positions(mosaic) };
+            let dims =
+                RenderDims { size: [w as u32, h as u32, chunk.len() as u32, 0], mosaic: mosaic_positions(mosaic) };
             let (u, f) = (self.uniform("dims", &dims), self.storage("frames", &params));
             let o = self.output("frames out", per_frame * chunk.len() as u64);
             let group = self.bind(pipeline, &[&u, &f, &o]);
@@ -96,7 +97,12 @@ impl Gpu {
             .iter()
             .map(|px| {
                 px.chunks_exact(7)
-                    .map(|c| ChainSample { signal_dn: [c[0], c[1], c[2], c[3]], aop_deg: c[4], dolp: c[5], aoe_deg: c[6] })
+                    .map(|c| ChainSample {
+                        signal_dn: [c[0], c[1], c[2], c[3]],
+                        aop_deg: c[4],
+                        dolp: c[5],
+                        aoe_deg: c[6],
+                    })
                     .collect()
             })
             .collect())
