@@ -6,14 +6,15 @@
 // channel_response) arrive inside these fields; per-pixel effects are called below.
 //
 // pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β      camera frame
-//   sky_stokes → lens_diattenuation → meridional_to_image → analyzer_intensity
+//   sky_stokes → lens_diattenuation → lens_retardance → vignetting → meridional_to_image
+//   → analyzer_intensity
 //   → × g(1 + gain_k) → sensor_dn (PRNU, offsets, DSNU, read + shot noise, rounding)
 
 // Keep in sync with `FrameParams` in crates/bpins-gpu/src/params.rs.
 struct FrameParams {
     camera: Wide4,     // f_px, cx_px, cy_px (true camera), projection id
     sun: Wide4,        // unit sun vector in the true camera frame (x, y, z), d_max
-    lens: Wide4,       // lens_diattenuation rho2, 0, 0, 0
+    lens: Wide4,       // lens_diattenuation rho2, lens_retardance delta2 (rad), vignetting v2, v4
     cos2t: Wide4,      // true analyzers by channel (0°, 45°, 90°, 135°): cos 2θ_k
     sin2t: Wide4,      //   sin 2θ_k
     eps: Wide4,        //   ε_k = 1/ER
@@ -30,6 +31,8 @@ struct ChainFrame {
     sun_cam: vec3<f64>,
     dmax: f64,
     lens_rho2: f64,
+    lens_delta2_rad: f64,
+    vignetting: vec2<f64>,
     cos2t: vec4<f64>,
     sin2t: vec4<f64>,
     eps: vec4<f64>,
@@ -45,7 +48,8 @@ struct ChainFrame {
 fn chain_frame(p: FrameParams) -> ChainFrame {
     let sun = wide(p.sun);
     let adc = wide(p.adc);
-    return ChainFrame(intrinsics_from(p.camera), sun.xyz, sun.w, wide(p.lens).x, wide(p.cos2t), wide(p.sin2t),
+    let lens = wide(p.lens);
+    return ChainFrame(intrinsics_from(p.camera), sun.xyz, sun.w, lens.x, lens.y, lens.zw, wide(p.cos2t), wide(p.sin2t),
         wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, p.key, p.fixed_key);
 }
 
@@ -61,6 +65,9 @@ fn ray_stokes(f: ChainFrame, g: RayGeometry) -> Stokes {
     var s = sky_stokes(f.sun_cam, f.dmax, g.d, g.basis);
     // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
     s = lens_diattenuation(f.lens_rho2, g.r2, s);
+    s = lens_retardance(f.lens_delta2_rad, g.r2, s);
+    // Radial falloff of the lens (a scalar).
+    s = vignetting(f.vignetting.x, f.vignetting.y, g.r2, s);
     // Rotate from the meridional frame to the image x frame.
     return meridional_to_image(s, g.basis.cos2b, g.basis.sin2b);
 }

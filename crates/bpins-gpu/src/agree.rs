@@ -1,7 +1,8 @@
 //! `bpins agree`: seeded trials over every effect of the registry (one at a time, then
 //! all together) on both backends, compared stage by stage against [`crate::tolerance`].
 //!
-//! A trial draws the effect's parameters (±2 % of each range around neutral), a sun,
+//! A trial draws the effect's parameters (within ±2 % of each range around neutral,
+//! inside the range), a sun,
 //! a heading and one of the four projections (cycling with the trial), and renders the
 //! samples' 612 × 512 DoFP sensor with read, shot, DSNU and PRNU noise, 12-bit. Stages:
 //!
@@ -94,8 +95,10 @@ pub fn trial_frame(case: &Case, trial: u32, seed: u64) -> Result<TrialFrame> {
     for name in &case.effects {
         let e = bpins_core::effects::find(name)?;
         for p in e.params {
+            // Within ±2 % of the range around neutral, inside the range.
             let half = 0.02 * 0.5 * (p.max - p.min);
-            set.set(name, p.name, p.neutral + half * (2.0 * uniform() - 1.0))?;
+            let (lo, hi) = ((p.neutral - half).max(p.min), (p.neutral + half).min(p.max));
+            set.set(name, p.name, lo + (hi - lo) * uniform())?;
         }
     }
     let model = set.model();

@@ -74,7 +74,7 @@ impl From<&ChainFrame> for FrameParams {
         FrameParams {
             camera: camera(&f.intr),
             sun: Wide4::new([f.sun_cam.x, f.sun_cam.y, f.sun_cam.z, f.dmax]),
-            lens: Wide4::new([f.lens_rho2, 0.0, 0.0, 0.0]),
+            lens: Wide4::new([f.lens_rho2, f.lens_delta2_rad, f.vignetting[0], f.vignetting[1]]),
             cos2t: Wide4::new(f.analyzers.map(|a| a.cos2t)),
             sin2t: Wide4::new(f.analyzers.map(|a| a.sin2t)),
             eps: Wide4::new(f.analyzers.map(|a| a.eps)),

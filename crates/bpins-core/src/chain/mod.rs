@@ -10,6 +10,8 @@
 //!   ray_stokes(frame, ray):
 //!   sky_stokes(sun, d_max, d)        Rayleigh, meridional frame          (sky::rayleigh)
 //!   lens_diattenuation(ρ₂, r², S)    lens Mueller, meridional frame      (effects)
+//!   lens_retardance(δ₂, r², S)       lens retarder, meridional frame     (effects)
+//!   vignetting(v₂, v₄, r², S)        radial falloff                      (effects)
 //!   meridional_to_image(S, 2β)       rotate to the image x frame          (stokes)
 //!   analyzer_intensity(S, θ_k, ε_k)  micro-polarizer k                    (stokes)
 //!   × g(1 + gain_k)                  photo-signal in DN                   (sensor)
@@ -25,6 +27,8 @@
 use crate::camera::{Intrinsics, RayGeometry};
 use crate::conventions::{enu_from_az_el_deg, level_from_camera, world_from_camera};
 use crate::effects::lens_diattenuation::lens_diattenuation;
+use crate::effects::lens_retardance::lens_retardance;
+use crate::effects::vignetting::vignetting;
 use crate::effects::Model;
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
 
@@ -69,6 +73,10 @@ pub struct ChainFrame {
     pub sun_cam: DVec3,
     pub dmax: f64,
     pub lens_rho2: f64,
+    /// Lens retardance per r², radians (`lens_retardance`).
+    pub lens_delta2_rad: f64,
+    /// Vignetting (v2, v4).
+    pub vignetting: [f64; 2],
     /// True analyzers by channel index (0, 45, 90, 135).
     pub analyzers: [Analyzer; 4],
     /// DN per unit radiance of each channel: g·(1 + gain_k).
@@ -84,8 +92,10 @@ pub struct ChainFrame {
 impl ChainFrame {
     /// Builds the frame: folds `model` into the nominal camera and the scene.
     pub fn new(model: &Model, nominal: &Intrinsics, scene: &Scene, response: &Response, noise: NoiseIndex) -> Self {
-        // True camera: nominal intrinsics with the principal point moved.
+        // True camera: nominal intrinsics with the principal point moved and the
+        // focal length scaled.
         let intr = Intrinsics {
+            f_px: nominal.f_px * (1.0 + model.focal_scale),
             cx_px: nominal.cx_px + model.pp_offset_px[0],
             cy_px: nominal.cy_px + model.pp_offset_px[1],
             ..*nominal
@@ -99,8 +109,11 @@ impl ChainFrame {
         ChainFrame {
             intr,
             sun_cam,
-            dmax: scene.dmax,
+            // The sky's true peak DoLP (sky_depolarization), at most 1.
+            dmax: (scene.dmax * model.sky_dmax_factor).min(1.0),
             lens_rho2: model.lens_rho2,
+            lens_delta2_rad: model.lens_delta2_deg.to_radians(),
+            vignetting: model.vignetting,
             analyzers,
             gain_dn: model.channel_gain.map(|g| g * response.gain_dn),
             offset_dn: model.channel_offset_dn.map(|o| o + response.black_level_dn),
@@ -108,6 +121,11 @@ impl ChainFrame {
             key: FrameKey::new(noise.seed, noise.trial, noise.frame),
             fixed_key: FrameKey::new(noise.seed, noise.trial, FIXED_PATTERN_FRAME),
         }
+    }
+
+    /// Whether any per-pixel lens effect is on (the row kernels skip them otherwise).
+    pub fn has_lens_effects(&self) -> bool {
+        self.lens_rho2 != 0.0 || self.lens_delta2_rad != 0.0 || self.vignetting != [0.0; 2]
     }
 
     /// A frame with unit gain, no black level and no noise: DN = radiance behind the analyzer.
@@ -131,6 +149,9 @@ pub fn ray_stokes(f: &ChainFrame, g: &RayGeometry) -> Stokes {
     let s = sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis);
     // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
     let s = lens_diattenuation(f.lens_rho2, g.r2, s);
+    let s = lens_retardance(f.lens_delta2_rad, g.r2, s);
+    // Radial falloff of the lens (a scalar).
+    let s = vignetting(f.vignetting[0], f.vignetting[1], g.r2, s);
     // Rotate from the meridional frame to the image x frame.
     meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
 }

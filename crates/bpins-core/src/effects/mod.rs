@@ -9,14 +9,20 @@
 //! parameter list of a fit and the registry-wide tests below. At neutral values every
 //! effect leaves the chain exactly as the ideal one (tested for all).
 //!
-//! Catalog: shared/spec/EFFECTS.md. This module holds the seed's four error sources
-//! and `mount_tilt`; the rest of the catalog is added the same way.
+//! Catalog: shared/spec/EFFECTS.md. Not yet here: `radial_distortion`, `crosstalk`
+//! and `sky_neutral_points` (added the same way).
 
+pub mod analyzer_angles;
 pub mod array_rotation;
 pub mod channel_response;
+pub mod extinction_ratio;
+pub mod focal_length;
 pub mod lens_diattenuation;
+pub mod lens_retardance;
 pub mod mount_tilt;
 pub mod principal_point;
+pub mod sky_depolarization;
+pub mod vignetting;
 
 use crate::error::{Error, Result};
 
@@ -94,9 +100,15 @@ impl EffectDef {
 /// Every effect bpins knows, in chain order. Adding an effect: one module, one line here.
 pub static REGISTRY: &[&EffectDef] = &[
     &principal_point::EFFECT,
+    &focal_length::EFFECT,
     &mount_tilt::EFFECT,
+    &sky_depolarization::EFFECT,
     &lens_diattenuation::EFFECT,
+    &lens_retardance::EFFECT,
+    &vignetting::EFFECT,
     &array_rotation::EFFECT,
+    &analyzer_angles::EFFECT,
+    &extinction_ratio::EFFECT,
     &channel_response::EFFECT,
 ];
 
@@ -114,6 +126,14 @@ pub fn find(name: &str) -> Result<&'static EffectDef> {
 pub struct Model {
     /// True principal point minus nominal, (x, y) px.
     pub pp_offset_px: [f64; 2],
+    /// True focal length = nominal · (1 + focal_scale).
+    pub focal_scale: f64,
+    /// Factor on the scene's sky d_max (1: as the scene says).
+    pub sky_dmax_factor: f64,
+    /// Lens retardance δ = lens_delta2_deg · r², degrees, meridional frame.
+    pub lens_delta2_deg: f64,
+    /// Vignetting (v2, v4): intensity × (1 + v2 r² + v4 r⁴).
+    pub vignetting: [f64; 2],
     /// Camera tilt on its mount about camera x then y, degrees.
     pub mount_tilt_deg: [f64; 2],
     /// Lens diattenuation ρ = rho2 · r² (r in focal lengths), meridional frame.
@@ -132,6 +152,10 @@ impl Default for Model {
     fn default() -> Self {
         Model {
             pp_offset_px: [0.0; 2],
+            focal_scale: 0.0,
+            sky_dmax_factor: 1.0,
+            lens_delta2_deg: 0.0,
+            vignetting: [0.0; 2],
             mount_tilt_deg: [0.0; 2],
             lens_rho2: 0.0,
             analyzer_delta_deg: [0.0; 4],

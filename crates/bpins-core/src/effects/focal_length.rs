@@ -1,0 +1,66 @@
+//! # `focal_length` — the true focal length differs from the nominal one
+//!
+//! ```text
+//! f_true = f_nominal · (1 + scale)                 pixels (f / pitch)
+//! ```
+//!
+//! Source: EFFECTS.md; pinhole and fisheye projections r = f·g(θ) (CONVENTIONS.md,
+//! "Pixels and projection"). Frame: camera. A pixel at radius ρ px from the
+//! principal point sees the field angle g⁻¹(ρ / f_true): a scale > 0 narrows the
+//! field, every ray closer to the axis. Folded on the host into the true camera of
+//! each frame (both backends run the same folded camera; no per-pixel twin).
+//!
+//! | param   | unit | neutral | range |
+//! |---------|------|---------|-------|
+//! | `scale` | 1    | 0       | ±0.5  |
+//!
+//! Cannot: a focal length that differs along x and y (anamorphic), or that varies
+//! over the field (that is `radial_distortion`).
+
+use super::{EffectDef, Model, ParamSpec, Stage};
+
+pub const EFFECT: EffectDef = EffectDef {
+    name: "focal_length",
+    summary: "true focal length = nominal · (1 + scale)",
+    source: "EFFECTS.md; CONVENTIONS.md projection r = f·g(θ)",
+    stage: Stage::Geometry,
+    params: &[ParamSpec {
+        name: "scale",
+        unit: "1",
+        neutral: 0.0,
+        min: -0.5,
+        max: 0.5,
+        doc: "relative error of the focal length",
+    }],
+    apply,
+    wgsl: None,
+};
+
+fn apply(v: &[f64], m: &mut Model) {
+    m.focal_scale += v[0];
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::chain::tests::{ideal_frame, intrinsics, scene, stokes_at};
+    use crate::chain::ChainFrame;
+    use crate::effects::{EffectSet, Model};
+
+    #[test]
+    fn a_pixel_sees_the_nominal_ray_of_the_pixel_scaled_toward_the_centre() {
+        let mut set = EffectSet::new();
+        set.set("focal_length", "scale", 0.1).unwrap();
+        let scaled = ideal_frame(&set.model());
+        let nominal = ideal_frame(&Model::default());
+        let (cx, cy) = (intrinsics().cx_px, intrinsics().cy_px);
+        for (u, v) in [(5.0, 7.0), (600.0, 20.0), (100.0, 500.0)] {
+            let a = stokes_at(&scaled, u, v);
+            let b = stokes_at(&nominal, cx + (u - cx) / 1.1, cy + (v - cy) / 1.1);
+            assert!((a.i - b.i).abs() < 1e-12 && (a.q - b.q).abs() < 1e-12 && (a.u - b.u).abs() < 1e-12);
+        }
+        // The principal point sees the same ray whatever the focal length.
+        assert_eq!(stokes_at(&scaled, cx, cy), stokes_at(&nominal, cx, cy));
+        let f = ChainFrame::noise_free(&set.model(), &intrinsics(), &scene());
+        assert!((f.intr.f_px - intrinsics().f_px * 1.1).abs() < 1e-9);
+    }
+}

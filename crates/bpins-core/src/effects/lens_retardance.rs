@@ -1,0 +1,100 @@
+//! # `lens_retardance` — the lens delays s against p (a linear retarder)
+//!
+//! ```text
+//! δ = delta2 · r²                         degrees, r: normalised radius (focal lengths)
+//! M = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, cos δ, sin δ], [0, 0, −sin δ, cos δ]]
+//!     on (I, Q_p, U_p, V), fast axis along p
+//! ```
+//!
+//! Source: EFFECTS.md; the linear retarder Mueller matrix with fast axis at 0°
+//! (D. Goldstein, *Polarized Light*, 3rd ed., §5.3) in each ray's **meridional**
+//! frame: oblique incidence on coated lens surfaces retards s against p, growing as
+//! r² to lowest order (zero on the axis by symmetry). Light polarized along p or s
+//! (U_p = 0, the solar meridian of a level camera) is untouched (tested); elsewhere
+//! part of U_p turns into circular V, which linear analyzers cannot see: the AoE turns
+//! toward p or s and the linear DoLP falls, while the total polarization
+//! Q² + U² + V² is kept (tested). Applied after `lens_diattenuation`, per pixel on
+//! both backends (`shaders/effects/lens_retardance.wgsl`).
+//!
+//! | param        | unit | neutral | range |
+//! |--------------|------|---------|-------|
+//! | `delta2_deg` | deg  | 0       | ±180  |
+//!
+//! Cannot: a retarder whose fast axis is not radial (stress birefringence, decentred
+//! elements), or circular retardance (optical activity).
+
+use super::{EffectDef, Model, ParamSpec, Stage};
+use crate::stokes::Stokes;
+
+pub const EFFECT: EffectDef = EffectDef {
+    name: "lens_retardance",
+    summary: "linear retarder in the meridional frame, retardance delta2 * r^2",
+    source: "EFFECTS.md; Goldstein, Polarized Light §5.3 (retarder Mueller matrix)",
+    stage: Stage::Lens,
+    params: &[ParamSpec {
+        name: "delta2_deg",
+        unit: "deg",
+        neutral: 0.0,
+        min: -180.0,
+        max: 180.0,
+        doc: "retardance per squared normalised radius",
+    }],
+    apply,
+    wgsl: Some(include_str!("../../../../shaders/effects/lens_retardance.wgsl")),
+};
+
+fn apply(v: &[f64], m: &mut Model) {
+    m.lens_delta2_deg += v[0];
+}
+
+/// Applies the retarder to a meridional-frame Stokes vector; `delta2_rad` per r².
+#[inline(always)]
+pub fn lens_retardance(delta2_rad: f64, r2: f64, s: Stokes) -> Stokes {
+    let (sd, cd) = (delta2_rad * r2).sin_cos();
+    Stokes { i: s.i, q: s.q, u: cd * s.u + sd * s.v, v: -sd * s.u + cd * s.v }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::tests::{ideal_frame, scene, stokes_at};
+    use crate::conventions::{enu_from_az_el_deg, wrap_deg_90};
+    use crate::effects::{EffectSet, Model};
+
+    #[test]
+    fn zero_strength_is_the_identity() {
+        let s = Stokes::new(1.0, 0.3, -0.2, 0.05);
+        assert_eq!(lens_retardance(0.0, 0.9, s), s);
+    }
+
+    #[test]
+    fn total_polarization_is_kept_and_u_turns_into_v() {
+        let s = Stokes::new(1.0, 0.3, -0.2, 0.0);
+        let t = lens_retardance(30f64.to_radians(), 1.0, s);
+        assert!(((t.q * t.q + t.u * t.u + t.v * t.v) - (0.09 + 0.04)).abs() < 1e-15);
+        assert!((t.u - (-0.2 * 30f64.to_radians().cos())).abs() < 1e-15);
+        assert_eq!((t.i, t.q), (s.i, s.q));
+    }
+
+    #[test]
+    fn the_solar_meridian_keeps_its_aoe_and_elsewhere_the_aoe_turns() {
+        let mut set = EffectSet::new();
+        set.set("lens_retardance", "delta2_deg", 40.0).unwrap();
+        let (ret, ideal) = (ideal_frame(&set.model()), ideal_frame(&Model::default()));
+        // A pixel on the solar meridian, sunward of the principal point (level camera).
+        let sc = scene();
+        let sun = crate::conventions::world_from_camera(sc.heading_deg, 0.0, 0.0).transpose()
+            * enu_from_az_el_deg(sc.sun_az_deg, sc.sun_el_deg);
+        let i = crate::chain::tests::intrinsics();
+        let (u, v) = i.project(sun).unwrap();
+        let (u, v) = (i.cx_px + 0.3 * (u - i.cx_px), i.cy_px + 0.3 * (v - i.cy_px));
+        let aoe = |f: &crate::chain::ChainFrame, u: f64, v: f64| {
+            let s = stokes_at(f, u, v);
+            let beta = crate::conventions::image_angle_rad(u - i.cx_px, v - i.cy_px).to_degrees();
+            wrap_deg_90(s.aop_rad().to_degrees() - beta)
+        };
+        assert!((aoe(&ret, u, v) - aoe(&ideal, u, v)).abs() < 1e-9);
+        // Off the meridian the AoE moves.
+        assert!((aoe(&ret, 40.0, 480.0) - aoe(&ideal, 40.0, 480.0)).abs() > 0.01);
+    }
+}

@@ -1,0 +1,81 @@
+//! # `vignetting` — the lens passes less light toward the edge of the field
+//!
+//! ```text
+//! S_out = S_in · (1 + v2·r² + v4·r⁴)        r: normalised radius (focal lengths)
+//! ```
+//!
+//! Source: EFFECTS.md; the even polynomial of radial falloff (natural cos⁴θ falloff
+//! and mechanical vignetting, to fourth order in r). A non-polarizing attenuation:
+//! every Stokes component scales alike, so no AoP and no DoLP moves (tested), only
+//! intensity and with it the SNR. Frame: any (a scalar). Units: dimensionless.
+//! Per pixel on both backends (`shaders/effects/vignetting.wgsl`), after the lens
+//! Mueller matrices.
+//!
+//! | param | unit | neutral | range |
+//! |-------|------|---------|-------|
+//! | `v2`  | 1    | 0       | ±2    |
+//! | `v4`  | 1    | 0       | ±2    |
+//!
+//! (The factor is clamped at 0 where the polynomial would go negative.)
+//!
+//! Cannot: a falloff that is not rotationally symmetric about the principal point,
+//! or that depends on polarization (that is `lens_diattenuation`).
+
+use super::{EffectDef, Model, ParamSpec, Stage};
+use crate::stokes::Stokes;
+
+pub const EFFECT: EffectDef = EffectDef {
+    name: "vignetting",
+    summary: "intensity × (1 + v2 r² + v4 r⁴), no polarization change",
+    source: "EFFECTS.md; radial falloff polynomial",
+    stage: Stage::Lens,
+    params: &[
+        ParamSpec { name: "v2", unit: "1", neutral: 0.0, min: -2.0, max: 2.0, doc: "falloff per r²" },
+        ParamSpec { name: "v4", unit: "1", neutral: 0.0, min: -2.0, max: 2.0, doc: "falloff per r⁴" },
+    ],
+    apply,
+    wgsl: Some(include_str!("../../../../shaders/effects/vignetting.wgsl")),
+};
+
+fn apply(v: &[f64], m: &mut Model) {
+    m.vignetting[0] += v[0];
+    m.vignetting[1] += v[1];
+}
+
+/// Applies the radial falloff at squared normalised radius `r2` (any frame).
+#[inline(always)]
+pub fn vignetting(v2: f64, v4: f64, r2: f64, s: Stokes) -> Stokes {
+    let k = (1.0 + v2 * r2 + v4 * r2 * r2).max(0.0);
+    Stokes { i: k * s.i, q: k * s.q, u: k * s.u, v: k * s.v }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::tests::{ideal_frame, intrinsics, stokes_at};
+    use crate::effects::{EffectSet, Model};
+
+    #[test]
+    fn intensity_falls_as_the_polynomial_and_no_angle_moves() {
+        let mut set = EffectSet::new();
+        set.set("vignetting", "v2", -0.3).unwrap();
+        set.set("vignetting", "v4", 0.1).unwrap();
+        let (vig, ideal) = (ideal_frame(&set.model()), ideal_frame(&Model::default()));
+        let i = intrinsics();
+        for (u, v) in [(5.0, 7.0), (305.5, 255.5), (600.0, 20.0)] {
+            let (a, b) = (stokes_at(&vig, u, v), stokes_at(&ideal, u, v));
+            let (x, y) = i.normalised(u, v);
+            let r2 = x * x + y * y;
+            assert!((a.i / b.i - (1.0 - 0.3 * r2 + 0.1 * r2 * r2)).abs() < 1e-12);
+            assert!((a.dolp() - b.dolp()).abs() < 1e-12);
+            assert!((a.aop_rad() - b.aop_rad()).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn zero_strength_is_the_identity_and_the_factor_never_goes_negative() {
+        let s = Stokes::new(1.0, 0.3, -0.2, 0.0);
+        assert_eq!(vignetting(0.0, 0.0, 0.7, s), s);
+        assert_eq!(vignetting(-2.0, 0.0, 1.0, s).i, 0.0);
+    }
+}
