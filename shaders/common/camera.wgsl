@@ -15,12 +15,26 @@ struct Intrinsics {
     f_px: f64,
     cx_px: f64,
     cy_px: f64,
+    distortion: vec2<f64>, // radial (k1, k2): distorted = ideal·(1 + k1 r² + k2 r⁴)
 }
 
-// (f_px, cx_px, cy_px, projection) as the host packs them.
-fn intrinsics_from(w: Wide4) -> Intrinsics {
+// (f_px, cx_px, cy_px, projection) and (k1, k2, 0, 0) as the host packs them.
+fn intrinsics_from(w: Wide4, k: Wide4) -> Intrinsics {
     let x = wide(w);
-    return Intrinsics(u32(w.hi.w), x.x, x.y, x.z);
+    return Intrinsics(u32(w.hi.w), x.x, x.y, x.z, wide(k).xy);
+}
+
+// Ideal normalised coordinates of the distorted ones: r·(1 + k1 r² + k2 r⁴) = r_d by
+// twelve Newton steps from r = r_d, direction unchanged (camera::undistort).
+fn undistort(k: vec2<f64>, xd: f64, yd: f64) -> vec2<f64> {
+    let rd = sqrt(xd * xd + yd * yd);
+    var r = rd;
+    for (var n = 0; n < 12; n++) {
+        let r2 = r * r;
+        r -= (r * (1.0lf + k.x * r2 + k.y * r2 * r2) - rd) / (1.0lf + 3.0lf * k.x * r2 + 5.0lf * k.y * r2 * r2);
+    }
+    let scale = select(1.0lf, r / rd, rd > 0.0lf);
+    return vec2<f64>(xd * scale, yd * scale);
 }
 
 struct MeridionalBasis {
@@ -43,8 +57,14 @@ fn ray_geometry(ca: f64, sa: f64, st: f64, ct: f64, r2: f64) -> RayGeometry {
 
 // Ray, meridional basis and squared normalised radius of pixel (u, v).
 fn geometry(intr: Intrinsics, u_px: f64, v_px: f64) -> RayGeometry {
-    let xn = (u_px - intr.cx_px) / intr.f_px;
-    let yn = (v_px - intr.cy_px) / intr.f_px;
+    var xn = (u_px - intr.cx_px) / intr.f_px;
+    var yn = (v_px - intr.cy_px) / intr.f_px;
+    // The lens's radial distortion removed (radial_distortion).
+    if (any(intr.distortion != vec2<f64>(0.0lf))) {
+        let n = undistort(intr.distortion, xn, yn);
+        xn = n.x;
+        yn = n.y;
+    }
     let r2 = xn * xn + yn * yn;
     // On the axis the radial direction defaults to image +x (β = 0) and θ = 0.
     let on_axis = r2 == 0.0lf;

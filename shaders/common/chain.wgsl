@@ -13,6 +13,7 @@
 // Keep in sync with `FrameParams` in crates/bpins-gpu/src/params.rs.
 struct FrameParams {
     camera: Wide4,     // f_px, cx_px, cy_px (true camera), projection id
+    distortion: Wide4, // radial distortion k1, k2 of the true camera, 0, 0
     sun: Wide4,        // unit sun vector in the true camera frame (x, y, z), d_max
     lens: Wide4,       // lens_diattenuation rho2, lens_retardance delta2 (rad), vignetting v2, v4
     cos2t: Wide4,      // true analyzers by channel (0°, 45°, 90°, 135°): cos 2θ_k
@@ -49,7 +50,7 @@ fn chain_frame(p: FrameParams) -> ChainFrame {
     let sun = wide(p.sun);
     let adc = wide(p.adc);
     let lens = wide(p.lens);
-    return ChainFrame(intrinsics_from(p.camera), sun.xyz, sun.w, lens.x, lens.y, lens.zw, wide(p.cos2t), wide(p.sin2t),
+    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, lens.x, lens.y, lens.zw, wide(p.cos2t), wide(p.sin2t),
         wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, p.key, p.fixed_key);
 }
 

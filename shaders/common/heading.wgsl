@@ -13,6 +13,7 @@ const SUMS_LEN: u32 = 119u;
 // Keep in sync with `HeadingParams` in crates/bpins-gpu/src/params.rs.
 struct HeadingParams {
     camera: Wide4,  // assumed f_px, cx_px, cy_px, projection id
+    distortion: Wide4, // assumed radial distortion k1, k2, 0, 0
     band: Wide4,    // known lens rho2 (0: not compensated), cos 2·band, r_min_px², r_max_px²
     grid: Wide4,    // sample (i, j) sits at (x0 + step·i, y0 + step·j) px: x0, y0, step, enabled (0/1)
 }

@@ -118,7 +118,7 @@ fn frame_sums(
             let hp = heading[frame * dims.samples.z + c];
             let grid = wide(hp.grid);
             let hb = wide(hp.band);
-            let intr = intrinsics_from(hp.camera);
+            let intr = intrinsics_from(hp.camera, hp.distortion);
             // Heading sums along the assumed ray at the sample's pixel position.
             let x = grid.x + grid.z * f64(i);
             let y = grid.y + grid.z * f64(j);

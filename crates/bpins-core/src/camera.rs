@@ -74,12 +74,32 @@ pub struct Intrinsics {
     /// Principal point (x, y) in pixels, pixel centres at integers.
     pub cx_px: f64,
     pub cy_px: f64,
+    /// Radial distortion (k1, k2) of the normalised image coordinates:
+    /// distorted = ideal·(1 + k1 r² + k2 r⁴), r the ideal radius (`radial_distortion`).
+    pub distortion: [f64; 2],
 }
 
 impl Intrinsics {
-    /// Normalised image coordinates (focal lengths) of pixel `(u, v)`.
+    /// Ideal (distortion-free) camera: projection, focal length and principal point.
+    pub fn new(projection: Projection, f_px: f64, cx_px: f64, cy_px: f64) -> Self {
+        Intrinsics { projection, f_px, cx_px, cy_px, distortion: [0.0; 2] }
+    }
+
+    /// Normalised image coordinates (focal lengths) of pixel `(u, v)`, the lens's
+    /// radial distortion removed (what the projection maps to a field angle).
     #[inline]
     pub fn normalised(&self, u_px: f64, v_px: f64) -> (f64, f64) {
+        let (x, y) = self.normalised_distorted(u_px, v_px);
+        if self.distortion == [0.0; 2] {
+            (x, y)
+        } else {
+            undistort(self.distortion, x, y)
+        }
+    }
+
+    /// Normalised coordinates of pixel `(u, v)` as imaged (distortion not removed).
+    #[inline(always)]
+    fn normalised_distorted(&self, u_px: f64, v_px: f64) -> (f64, f64) {
         ((u_px - self.cx_px) / self.f_px, (v_px - self.cy_px) / self.f_px)
     }
 
@@ -149,7 +169,7 @@ impl Intrinsics {
         mut f: impl FnMut(usize, &RayGeometry) -> T,
     ) {
         match self.projection {
-            Projection::Pinhole => {
+            Projection::Pinhole if self.distortion == [0.0; 2] => {
                 for (i, o) in out.iter_mut().enumerate() {
                     *o = f(i, &self.geometry_pinhole(x0_px + step_px * i as f64, y_px));
                 }
@@ -168,7 +188,7 @@ impl Intrinsics {
     #[inline(always)]
     pub fn for_row(&self, y_px: f64, x0_px: f64, step_px: f64, n: usize, mut f: impl FnMut(usize, &RayGeometry)) {
         match self.projection {
-            Projection::Pinhole => {
+            Projection::Pinhole if self.distortion == [0.0; 2] => {
                 for i in 0..n {
                     f(i, &self.geometry_pinhole(x0_px + step_px * i as f64, y_px));
                 }
@@ -181,10 +201,10 @@ impl Intrinsics {
         }
     }
 
-    /// [`Self::geometry`] for a pinhole camera (no dispatch on the projection).
+    /// [`Self::geometry`] for a pinhole camera without distortion (no dispatch).
     #[inline(always)]
     fn geometry_pinhole(&self, u_px: f64, v_px: f64) -> RayGeometry {
-        let (x_n, y_n) = self.normalised(u_px, v_px);
+        let (x_n, y_n) = self.normalised_distorted(u_px, v_px);
         let r2 = x_n * x_n + y_n * y_n;
         let on_axis = r2 == 0.0;
         let inv_r = if on_axis { 0.0 } else { 1.0 / r2.sqrt() };
@@ -206,8 +226,27 @@ impl Intrinsics {
             return Some((self.cx_px, self.cy_px));
         }
         let r = self.projection.radius_from_angle(theta);
+        // Radial distortion of the ideal normalised radius.
+        let [k1, k2] = self.distortion;
+        let r = r * (1.0 + k1 * r * r + k2 * r * r * r * r);
         Some((self.cx_px + self.f_px * r * d.x / rho, self.cy_px + self.f_px * r * d.y / rho))
     }
+}
+
+/// Ideal normalised coordinates of the distorted ones `(x_d, y_d)`: the radius r with
+/// r·(1 + k1 r² + k2 r⁴) = r_d by twelve Newton steps from r = r_d (a fixed count, so
+/// the WGSL twin takes the same steps), the direction unchanged. Meaningful where the
+/// distortion is monotonic over the image (1 + 3 k1 r² + 5 k2 r⁴ > 0).
+#[inline(always)]
+pub fn undistort(k: [f64; 2], x_d: f64, y_d: f64) -> (f64, f64) {
+    let rd = (x_d * x_d + y_d * y_d).sqrt();
+    let mut r = rd;
+    for _ in 0..12 {
+        let r2 = r * r;
+        r -= (r * (1.0 + k[0] * r2 + k[1] * r2 * r2) - rd) / (1.0 + 3.0 * k[0] * r2 + 5.0 * k[1] * r2 * r2);
+    }
+    let scale = if rd > 0.0 { r / rd } else { 1.0 };
+    (x_d * scale, y_d * scale)
 }
 
 /// A pixel's unit ray `d` (camera frame), its meridional basis and its squared
@@ -274,7 +313,7 @@ mod tests {
     use super::*;
 
     fn intr(p: Projection) -> Intrinsics {
-        Intrinsics { projection: p, f_px: 580.0, cx_px: 305.5, cy_px: 255.5 }
+        Intrinsics { projection: p, f_px: 580.0, cx_px: 305.5, cy_px: 255.5, distortion: [0.0; 2] }
     }
 
     #[test]

@@ -25,7 +25,7 @@
 //! use bpins_core::simulate::render_mosaic;
 //!
 //! let (w, h) = (306, 256);
-//! let camera = Intrinsics { projection: Projection::Pinhole, f_px: 8000.0 / 27.6, cx_px: 152.5, cy_px: 127.5 };
+//! let camera = Intrinsics { projection: Projection::Pinhole, f_px: 8000.0 / 27.6, cx_px: 152.5, cy_px: 127.5, distortion: [0.0; 2] };
 //! let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
 //! let sensor = Response { gain_dn: 3000.0, black_level_dn: 64.0, read_noise_dn: 1.0, bit_depth: 12, quantize: true, ..Response::ideal(1.0) };
 //!

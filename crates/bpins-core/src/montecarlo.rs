@@ -138,6 +138,7 @@ impl SweepConfig {
             f_px: self.focal_length_mm * 1000.0 / self.pixel_pitch_um,
             cx_px: cx,
             cy_px: cy,
+            distortion: [0.0; 2],
         }
     }
 

@@ -18,7 +18,7 @@ fn camera(p: Projection) -> Intrinsics {
         Projection::Pinhole => 8000.0 / 13.8,
         _ => 300.0,
     };
-    Intrinsics { projection: p, f_px, cx_px: 305.5, cy_px: 255.5 }
+    Intrinsics { projection: p, f_px, cx_px: 305.5, cy_px: 255.5, distortion: [0.0; 2] }
 }
 
 fn sensor(model: &Model, intr: &Intrinsics, scene: &Scene) -> Response {

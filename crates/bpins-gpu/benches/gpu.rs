@@ -31,7 +31,13 @@ const BATCH: usize = 8;
 
 /// The CPU bench's frame (bpins-core/benches/chain.rs), frame index `k` of a batch.
 fn frame(k: u32) -> (ChainFrame, Reconstructor, HeadingContext) {
-    let intr = Intrinsics { projection: Projection::Pinhole, f_px: 8000.0 / 3.45, cx_px: 1223.5, cy_px: 1023.5 };
+    let intr = Intrinsics {
+        projection: Projection::Pinhole,
+        f_px: 8000.0 / 3.45,
+        cx_px: 1223.5,
+        cy_px: 1023.5,
+        distortion: [0.0; 2],
+    };
     let scene =
         Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
     let resp = Response {

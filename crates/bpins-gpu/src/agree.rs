@@ -104,7 +104,7 @@ pub fn trial_frame(case: &Case, trial: u32, seed: u64) -> Result<TrialFrame> {
     let model = set.model();
     let projection = Projection::ALL[trial as usize % 4];
     let f_px = if projection == Projection::Pinhole { 8000.0 / 13.8 } else { 300.0 };
-    let nominal = Intrinsics { projection, f_px, cx_px: 305.5, cy_px: 255.5 };
+    let nominal = Intrinsics { projection, f_px, cx_px: 305.5, cy_px: 255.5, distortion: [0.0; 2] };
     let scene = Scene {
         sun_az_deg: 360.0 * uniform(),
         sun_el_deg: 20.0 + 50.0 * uniform(),

@@ -50,11 +50,17 @@ fn camera(i: &Intrinsics) -> Wide4 {
     Wide4::new([i.f_px, i.cx_px, i.cy_px, projection_id(i.projection)])
 }
 
+/// (k1, k2, 0, 0): the camera's radial distortion.
+fn distortion(i: &Intrinsics) -> Wide4 {
+    Wide4::new([i.distortion[0], i.distortion[1], 0.0, 0.0])
+}
+
 /// One frame of the chain; WGSL `FrameParams` in `common/chain.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FrameParams {
     pub camera: Wide4,
+    pub distortion: Wide4,
     pub sun: Wide4,
     pub lens: Wide4,
     pub cos2t: Wide4,
@@ -73,6 +79,7 @@ impl From<&ChainFrame> for FrameParams {
         let r = &f.response;
         FrameParams {
             camera: camera(&f.intr),
+            distortion: distortion(&f.intr),
             sun: Wide4::new([f.sun_cam.x, f.sun_cam.y, f.sun_cam.z, f.dmax]),
             lens: Wide4::new([f.lens_rho2, f.lens_delta2_rad, f.vignetting[0], f.vignetting[1]]),
             cos2t: Wide4::new(f.analyzers.map(|a| a.cos2t)),
@@ -136,6 +143,7 @@ pub struct SampleGrid {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct HeadingParams {
     pub camera: Wide4,
+    pub distortion: Wide4,
     pub band: Wide4,
     pub grid: Wide4,
 }
@@ -145,6 +153,7 @@ impl HeadingParams {
         let cos_2band = bpins_core::heading::HeadingSums::cos_2band(ctx);
         HeadingParams {
             camera: camera(&ctx.intr),
+            distortion: distortion(&ctx.intr),
             band: Wide4::new([ctx.lens_rho2, cos_2band, ctx.r_min_px * ctx.r_min_px, ctx.r_max_px * ctx.r_max_px]),
             grid: Wide4::new([grid.x0_px, grid.y0_px, grid.step_px, 1.0]),
         }
@@ -216,10 +225,10 @@ mod tests {
         check!(
             "render",
             FrameParams,
-            [camera, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, key, fixed_key]
+            [camera, distortion, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, key, fixed_key]
         );
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);
-        check!("sums", HeadingParams, [camera, band, grid]);
+        check!("sums", HeadingParams, [camera, distortion, band, grid]);
         check!("render", RenderDims, [size, mosaic]);
         check!("sums", SumsDims, [samples, image]);
         check!("reduce", ReduceDims, [size]);

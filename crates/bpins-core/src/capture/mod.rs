@@ -260,6 +260,7 @@ impl Capture {
             f_px: self.focal_length_px(),
             cx_px: self.lens.principal_point_px.0,
             cy_px: self.lens.principal_point_px.1,
+            distortion: [0.0; 2],
         }
     }
 }

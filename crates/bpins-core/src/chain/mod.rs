@@ -92,10 +92,11 @@ pub struct ChainFrame {
 impl ChainFrame {
     /// Builds the frame: folds `model` into the nominal camera and the scene.
     pub fn new(model: &Model, nominal: &Intrinsics, scene: &Scene, response: &Response, noise: NoiseIndex) -> Self {
-        // True camera: nominal intrinsics with the principal point moved and the
-        // focal length scaled.
+        // True camera: nominal intrinsics with the principal point moved, the focal
+        // length scaled and the lens's radial distortion.
         let intr = Intrinsics {
             f_px: nominal.f_px * (1.0 + model.focal_scale),
+            distortion: [nominal.distortion[0] + model.distortion[0], nominal.distortion[1] + model.distortion[1]],
             cx_px: nominal.cx_px + model.pp_offset_px[0],
             cy_px: nominal.cy_px + model.pp_offset_px[1],
             ..*nominal
@@ -245,7 +246,13 @@ pub(crate) mod tests {
 
     /// The sample captures' camera: 612 × 512, 13.8 µm, 8 mm pinhole.
     pub fn intrinsics() -> Intrinsics {
-        Intrinsics { projection: Projection::Pinhole, f_px: 8000.0 / 13.8, cx_px: 305.5, cy_px: 255.5 }
+        Intrinsics {
+            projection: Projection::Pinhole,
+            f_px: 8000.0 / 13.8,
+            cx_px: 305.5,
+            cy_px: 255.5,
+            distortion: [0.0; 2],
+        }
     }
 
     pub fn scene() -> Scene {

@@ -9,8 +9,8 @@
 //! parameter list of a fit and the registry-wide tests below. At neutral values every
 //! effect leaves the chain exactly as the ideal one (tested for all).
 //!
-//! Catalog: shared/spec/EFFECTS.md. Not yet here: `radial_distortion`, `crosstalk`
-//! and `sky_neutral_points` (added the same way).
+//! Catalog: shared/spec/EFFECTS.md. Not yet here: `crosstalk` and `sky_neutral_points`
+//! (added the same way).
 
 pub mod analyzer_angles;
 pub mod array_rotation;
@@ -21,6 +21,7 @@ pub mod lens_diattenuation;
 pub mod lens_retardance;
 pub mod mount_tilt;
 pub mod principal_point;
+pub mod radial_distortion;
 pub mod sky_depolarization;
 pub mod vignetting;
 
@@ -101,6 +102,7 @@ impl EffectDef {
 pub static REGISTRY: &[&EffectDef] = &[
     &principal_point::EFFECT,
     &focal_length::EFFECT,
+    &radial_distortion::EFFECT,
     &mount_tilt::EFFECT,
     &sky_depolarization::EFFECT,
     &lens_diattenuation::EFFECT,
@@ -128,6 +130,8 @@ pub struct Model {
     pub pp_offset_px: [f64; 2],
     /// True focal length = nominal · (1 + focal_scale).
     pub focal_scale: f64,
+    /// Radial distortion (k1, k2) of the normalised coordinates.
+    pub distortion: [f64; 2],
     /// Factor on the scene's sky d_max (1: as the scene says).
     pub sky_dmax_factor: f64,
     /// Lens retardance δ = lens_delta2_deg · r², degrees, meridional frame.
@@ -153,6 +157,7 @@ impl Default for Model {
         Model {
             pp_offset_px: [0.0; 2],
             focal_scale: 0.0,
+            distortion: [0.0; 2],
             sky_dmax_factor: 1.0,
             lens_delta2_deg: 0.0,
             vignetting: [0.0; 2],

@@ -430,7 +430,7 @@ mod tests {
             dmax: 0.6,
         };
         for p in Projection::ALL {
-            let intr = Intrinsics { projection: p, f_px: 400.0, cx_px: 305.5, cy_px: 255.5 };
+            let intr = Intrinsics { projection: p, f_px: 400.0, cx_px: 305.5, cy_px: 255.5, distortion: [0.0; 2] };
             let f = ChainFrame::noise_free(&set.model(), &intr, &scene);
             for rho2 in [0.0, 0.8] {
                 let ctx = HeadingContext { lens_rho2: rho2, ..HeadingContext::new(intr, 612, 512, 40.0, 25.0) };

@@ -1,0 +1,83 @@
+//! # `radial_distortion` — the lens bends rays radially (Brown's even polynomial)
+//!
+//! ```text
+//! (x_d, y_d) = (x, y) · (1 + k1 r² + k2 r⁴),   r² = x² + y²   normalised coords (focal lengths)
+//! ```
+//!
+//! Source: EFFECTS.md; D. C. Brown, "Decentering distortion of lenses",
+//! Photogrammetric Engineering 32(3) 1966 (the radial terms). Frame: the image plane
+//! in focal lengths, (x, y) the ideal coordinates the projection maps to a field
+//! angle, (x_d, y_d) where the ray actually lands. A pixel is inverted to its ideal
+//! coordinates by a fixed count of Newton steps (`camera::undistort`); directions
+//! about the principal point are kept, so the meridional frame and every AoE about
+//! the principal point are unchanged — only which field angle a radius sees. Lens
+//! effects that grow with r use the ideal r. Folded on the host into the true
+//! camera's intrinsics; the per-pixel inversion is part of the camera geometry on
+//! both backends (`shaders/common/camera.wgsl`, `undistort`).
+//!
+//! | param | unit | neutral | range |
+//! |-------|------|---------|-------|
+//! | `k1`  | 1    | 0       | ±1    |
+//! | `k2`  | 1    | 0       | ±1    |
+//!
+//! Cannot: decentring or thin-prism distortion, or a distortion that is not monotonic
+//! over the image (1 + 3 k1 r² + 5 k2 r⁴ must stay positive).
+
+use super::{EffectDef, Model, ParamSpec, Stage};
+
+pub const EFFECT: EffectDef = EffectDef {
+    name: "radial_distortion",
+    summary: "distorted = ideal * (1 + k1 r^2 + k2 r^4), normalised coordinates",
+    source: "EFFECTS.md; Brown 1966 (radial terms)",
+    stage: Stage::Geometry,
+    params: &[
+        ParamSpec { name: "k1", unit: "1", neutral: 0.0, min: -1.0, max: 1.0, doc: "radial distortion per r²" },
+        ParamSpec { name: "k2", unit: "1", neutral: 0.0, min: -1.0, max: 1.0, doc: "radial distortion per r⁴" },
+    ],
+    apply,
+    wgsl: None,
+};
+
+fn apply(v: &[f64], m: &mut Model) {
+    m.distortion[0] += v[0];
+    m.distortion[1] += v[1];
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::camera::undistort;
+    use crate::chain::tests::{ideal_frame, intrinsics, stokes_at};
+    use crate::effects::{EffectSet, Model};
+
+    #[test]
+    fn undistort_inverts_the_polynomial() {
+        let k = [-0.2, 0.05];
+        for (x, y) in [(0.3, -0.1), (0.0, 0.5), (-0.45, 0.4), (0.0, 0.0)] {
+            let r2: f64 = x * x + y * y;
+            let f = 1.0 + k[0] * r2 + k[1] * r2 * r2;
+            let (ux, uy) = undistort(k, x * f, y * f);
+            assert!((ux - x).abs() < 1e-14 && (uy - y).abs() < 1e-14, "({x}, {y}) → ({ux}, {uy})");
+        }
+        assert_eq!(undistort([0.0, 0.0], 0.3, 0.2), (0.3, 0.2));
+    }
+
+    #[test]
+    fn a_pixel_sees_the_ray_of_its_undistorted_position_and_the_centre_is_fixed() {
+        let mut set = EffectSet::new();
+        set.set("radial_distortion", "k1", -0.15).unwrap();
+        set.set("radial_distortion", "k2", 0.02).unwrap();
+        let (dist, ideal) = (ideal_frame(&set.model()), ideal_frame(&Model::default()));
+        let i = intrinsics();
+        for (u, v) in [(5.0, 7.0), (600.0, 20.0), (100.0, 500.0)] {
+            let (xd, yd) = ((u - i.cx_px) / i.f_px, (v - i.cy_px) / i.f_px);
+            let (x, y) = undistort([-0.15, 0.02], xd, yd);
+            let (a, b) = (stokes_at(&dist, u, v), stokes_at(&ideal, i.cx_px + x * i.f_px, i.cy_px + y * i.f_px));
+            assert!((a.i - b.i).abs() < 1e-12 && (a.q - b.q).abs() < 1e-12 && (a.u - b.u).abs() < 1e-12);
+        }
+        assert_eq!(stokes_at(&dist, i.cx_px, i.cy_px), stokes_at(&ideal, i.cx_px, i.cy_px));
+        // Projecting a ray lands where the distorted camera sees it.
+        let d = dist.intr.ray(40.0, 480.0);
+        let (u, v) = dist.intr.project(d).unwrap();
+        assert!((u - 40.0).abs() < 1e-9 && (v - 480.0).abs() < 1e-9, "({u}, {v})");
+    }
+}
