@@ -23,6 +23,12 @@ struct FrameParams {
     offset_dn: Wide4,  // black level + offset_k, DN
     noise: Wide4,      // read_noise_dn, system_gain_dn_per_e, dsnu_dn, prnu
     adc: Wide4,        // quantize (0/1), full_scale_dn, 0, 0
+    np_east: Wide4,    // sky_neutral_points: world East in the camera frame, on (0/1)
+    np_north: Wide4,   //   world North, 0
+    np_up: Wide4,      //   world Up, 0
+    np_half01: Wide4,  //   (cos θ_P/2, sin θ_P/2) of the sun's pair
+    np_half23: Wide4,  //   and of the anti-sun's pair
+    np_eia: Wide4,     //   cos A, sin A, 0, 0
     key: vec4<u32>,    // temporal noise key of this frame
     fixed_key: vec4<u32>, // fixed-pattern key of this trial
 }
@@ -42,6 +48,8 @@ struct ChainFrame {
     noise: vec4<f64>,
     quantize: bool,
     full_scale_dn: f64,
+    neutral_on: bool,
+    neutral: NeutralPoints,
     key: vec4<u32>,
     fixed_key: vec4<u32>,
 }
@@ -50,8 +58,14 @@ fn chain_frame(p: FrameParams) -> ChainFrame {
     let sun = wide(p.sun);
     let adc = wide(p.adc);
     let lens = wide(p.lens);
+    let east = wide(p.np_east);
+    let h01 = wide(p.np_half01);
+    let h23 = wide(p.np_half23);
+    let np = NeutralPoints(east.xyz, wide(p.np_north).xyz, wide(p.np_up).xyz,
+        array<vec2<f64>, 4>(h01.xy, h01.zw, h23.xy, h23.zw), wide(p.np_eia).xy);
     return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, lens.x, lens.y, lens.zw, wide(p.cos2t), wide(p.sin2t),
-        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, p.key, p.fixed_key);
+        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, east.w != 0.0lf, np, p.key,
+        p.fixed_key);
 }
 
 // Stokes vector (image frame) reaching the analyzer of pixel (u, v), noise-free.
@@ -62,8 +76,13 @@ fn pixel_stokes(f: ChainFrame, u: f64, v: f64) -> Stokes {
 
 // Stokes vector (image frame) arriving along the true ray g, noise-free.
 fn ray_stokes(f: ChainFrame, g: RayGeometry) -> Stokes {
-    // Skylight along the ray, in its meridional frame.
-    var s = sky_stokes(f.sun_cam, f.dmax, g.d, g.basis);
+    // Skylight along the ray, in its meridional frame (Rayleigh, or the quartic sky).
+    var s: Stokes;
+    if (f.neutral_on) {
+        s = sky_neutral_points(f.neutral, f.sun_cam, f.dmax, g.d, g.basis);
+    } else {
+        s = sky_stokes(f.sun_cam, f.dmax, g.d, g.basis);
+    }
     // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
     s = lens_diattenuation(f.lens_rho2, g.r2, s);
     s = lens_retardance(f.lens_delta2_rad, g.r2, s);

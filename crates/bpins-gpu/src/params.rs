@@ -70,6 +70,12 @@ pub struct FrameParams {
     pub offset_dn: Wide4,
     pub noise: Wide4,
     pub adc: Wide4,
+    pub np_east: Wide4,
+    pub np_north: Wide4,
+    pub np_up: Wide4,
+    pub np_half01: Wide4,
+    pub np_half23: Wide4,
+    pub np_eia: Wide4,
     pub key: [u32; 4],
     pub fixed_key: [u32; 4],
 }
@@ -89,6 +95,18 @@ impl From<&ChainFrame> for FrameParams {
             offset_dn: Wide4::new(f.offset_dn),
             noise: Wide4::new([r.read_noise_dn, r.system_gain_dn_per_e, r.dsnu_dn, r.prnu]),
             adc: Wide4::new([if r.quantize { 1.0 } else { 0.0 }, r.full_scale_dn(), 0.0, 0.0]),
+            np_east: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.east.x, n.east.y, n.east.z, 1.0])),
+            np_north: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.north.x, n.north.y, n.north.z, 0.0])),
+            np_up: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.up.x, n.up.y, n.up.z, 0.0])),
+            np_half01: f.neutral.map_or_else(Wide4::default, |n| {
+                let h = n.half_angles;
+                Wide4::new([h[0][0], h[0][1], h[1][0], h[1][1]])
+            }),
+            np_half23: f.neutral.map_or_else(Wide4::default, |n| {
+                let h = n.half_angles;
+                Wide4::new([h[2][0], h[2][1], h[3][0], h[3][1]])
+            }),
+            np_eia: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.eia[0], n.eia[1], 0.0, 0.0])),
             key: f.key.0,
             fixed_key: f.fixed_key.0,
         }
@@ -225,7 +243,10 @@ mod tests {
         check!(
             "render",
             FrameParams,
-            [camera, distortion, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, key, fixed_key]
+            [
+                camera, distortion, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, np_east, np_north,
+                np_up, np_half01, np_half23, np_eia, key, fixed_key
+            ]
         );
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);
         check!("sums", HeadingParams, [camera, distortion, band, grid]);

@@ -9,6 +9,7 @@
 //! pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β       camera frame
 //!   ray_stokes(frame, ray):
 //!   sky_stokes(sun, d_max, d)        Rayleigh, meridional frame          (sky::rayleigh)
+//!    or sky_neutral_points(…)        the quartic sky, where it is on     (effects)
 //!   lens_diattenuation(ρ₂, r², S)    lens Mueller, meridional frame      (effects)
 //!   lens_retardance(δ₂, r², S)       lens retarder, meridional frame     (effects)
 //!   vignetting(v₂, v₄, r², S)        radial falloff                      (effects)
@@ -28,6 +29,7 @@ use crate::camera::{Intrinsics, RayGeometry};
 use crate::conventions::{enu_from_az_el_deg, level_from_camera, world_from_camera};
 use crate::effects::lens_diattenuation::lens_diattenuation;
 use crate::effects::lens_retardance::lens_retardance;
+use crate::effects::sky_neutral_points::{sky_neutral_points, NeutralPoints};
 use crate::effects::vignetting::vignetting;
 use crate::effects::Model;
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
@@ -73,6 +75,8 @@ pub struct ChainFrame {
     pub sun_cam: DVec3,
     pub dmax: f64,
     pub lens_rho2: f64,
+    /// The quartic sky's frame constants where `sky_neutral_points` is on.
+    pub neutral: Option<NeutralPoints>,
     /// Lens retardance per r², radians (`lens_retardance`).
     pub lens_delta2_rad: f64,
     /// Vignetting (v2, v4).
@@ -113,6 +117,8 @@ impl ChainFrame {
             // The sky's true peak DoLP (sky_depolarization), at most 1.
             dmax: (scene.dmax * model.sky_dmax_factor).min(1.0),
             lens_rho2: model.lens_rho2,
+            neutral: (model.neutral_separation_deg != 0.0)
+                .then(|| NeutralPoints::new(&world_from_cam, sun_cam, model.neutral_separation_deg.to_radians())),
             lens_delta2_rad: model.lens_delta2_deg.to_radians(),
             vignetting: model.vignetting,
             analyzers,
@@ -124,9 +130,9 @@ impl ChainFrame {
         }
     }
 
-    /// Whether any per-pixel lens effect is on (the row kernels skip them otherwise).
-    pub fn has_lens_effects(&self) -> bool {
-        self.lens_rho2 != 0.0 || self.lens_delta2_rad != 0.0 || self.vignetting != [0.0; 2]
+    /// Whether any per-pixel effect is on (the row kernels skip them otherwise).
+    pub fn has_pixel_effects(&self) -> bool {
+        self.neutral.is_some() || self.lens_rho2 != 0.0 || self.lens_delta2_rad != 0.0 || self.vignetting != [0.0; 2]
     }
 
     /// A frame with unit gain, no black level and no noise: DN = radiance behind the analyzer.
@@ -146,8 +152,11 @@ pub fn pixel_stokes(f: &ChainFrame, u: f64, v: f64) -> Stokes {
 /// Stokes vector (image frame) arriving along the true ray `g`, noise-free.
 #[inline(always)]
 pub fn ray_stokes(f: &ChainFrame, g: &RayGeometry) -> Stokes {
-    // Skylight along the ray, in its meridional frame.
-    let s = sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis);
+    // Skylight along the ray, in its meridional frame (Rayleigh, or the quartic sky).
+    let s = match &f.neutral {
+        None => sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis),
+        Some(np) => sky_neutral_points(np, f.sun_cam, f.dmax, g.d, &g.basis),
+    };
     // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
     let s = lens_diattenuation(f.lens_rho2, g.r2, s);
     let s = lens_retardance(f.lens_delta2_rad, g.r2, s);

@@ -9,7 +9,7 @@ use super::*;
 /// for pixels `u = 0..out.len()` of row `v_px` (a DoFP row alternates two channels;
 /// give the same channel twice for one).
 pub fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
-    if f.has_lens_effects() {
+    if f.has_pixel_effects() {
         signal_row_in::<true>(f, v_px, chans, out)
     } else {
         signal_row_in::<false>(f, v_px, chans, out)
@@ -40,7 +40,7 @@ fn signal_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, chans: [usize; 2],
 /// Row kernel: `out[u][ch] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), ch)`, all
 /// four channels (colocated).
 pub fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
-    if f.has_lens_effects() {
+    if f.has_pixel_effects() {
         signal4_row_in::<true>(f, v_px, out)
     } else {
         signal4_row_in::<false>(f, v_px, out)
@@ -63,8 +63,8 @@ fn signal4_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, out: &mut [[f64; 
     );
 }
 
-/// [`ray_stokes`] for the row kernels, `LENS = false` only where no per-pixel lens
-/// effect is on ([`ChainFrame::has_lens_effects`]). Then the lens is the identity and
+/// [`ray_stokes`] for the row kernels, `LENS = false` only where no per-pixel
+/// effect is on (the sky is Rayleigh) ([`ChainFrame::has_pixel_effects`]). Then the lens is the identity and
 /// is skipped — bitwise the same: ρ = 0·r² = 0 for the finite r² of any pixel, so
 /// c = √(1 − ρ²) = 1, I + ρQ = I, ρI + Q = Q (the sky's Q is never −0), c·U = U; δ = 0
 /// gives cos δ = 1, sin δ = 0, U·1 + 0·V = U; the vignetting factor is 1.

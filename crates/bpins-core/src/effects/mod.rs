@@ -9,8 +9,8 @@
 //! parameter list of a fit and the registry-wide tests below. At neutral values every
 //! effect leaves the chain exactly as the ideal one (tested for all).
 //!
-//! Catalog: shared/spec/EFFECTS.md. Not yet here: `crosstalk` and `sky_neutral_points`
-//! (added the same way).
+//! Catalog: shared/spec/EFFECTS.md. Not yet here: `crosstalk` (a neighbour pass,
+//! added the same way).
 
 pub mod analyzer_angles;
 pub mod array_rotation;
@@ -23,6 +23,7 @@ pub mod mount_tilt;
 pub mod principal_point;
 pub mod radial_distortion;
 pub mod sky_depolarization;
+pub mod sky_neutral_points;
 pub mod vignetting;
 
 use crate::error::{Error, Result};
@@ -105,6 +106,7 @@ pub static REGISTRY: &[&EffectDef] = &[
     &radial_distortion::EFFECT,
     &mount_tilt::EFFECT,
     &sky_depolarization::EFFECT,
+    &sky_neutral_points::EFFECT,
     &lens_diattenuation::EFFECT,
     &lens_retardance::EFFECT,
     &vignetting::EFFECT,
@@ -134,6 +136,8 @@ pub struct Model {
     pub distortion: [f64; 2],
     /// Factor on the scene's sky d_max (1: as the scene says).
     pub sky_dmax_factor: f64,
+    /// Separation of each pair of the sky's neutral points, degrees (0: Rayleigh).
+    pub neutral_separation_deg: f64,
     /// Lens retardance δ = lens_delta2_deg · r², degrees, meridional frame.
     pub lens_delta2_deg: f64,
     /// Vignetting (v2, v4): intensity × (1 + v2 r² + v4 r⁴).
@@ -159,6 +163,7 @@ impl Default for Model {
             focal_scale: 0.0,
             distortion: [0.0; 2],
             sky_dmax_factor: 1.0,
+            neutral_separation_deg: 0.0,
             lens_delta2_deg: 0.0,
             vignetting: [0.0; 2],
             mount_tilt_deg: [0.0; 2],
