@@ -23,6 +23,7 @@ struct FrameParams {
     offset_dn: Wide4,  // black level + offset_k, DN
     noise: Wide4,      // read_noise_dn, system_gain_dn_per_e, dsnu_dn, prnu
     adc: Wide4,        // quantize (0/1), full_scale_dn, 0, 0
+    mosaic: Wide4,     // crosstalk c (DoFP), 0, 0, 0
     np_east: Wide4,    // sky_neutral_points: world East in the camera frame, on (0/1)
     np_north: Wide4,   //   world North, 0
     np_up: Wide4,      //   world Up, 0
@@ -48,6 +49,7 @@ struct ChainFrame {
     noise: vec4<f64>,
     quantize: bool,
     full_scale_dn: f64,
+    crosstalk: f64,
     neutral_on: bool,
     neutral: NeutralPoints,
     key: vec4<u32>,
@@ -64,7 +66,7 @@ fn chain_frame(p: FrameParams) -> ChainFrame {
     let np = NeutralPoints(east.xyz, wide(p.np_north).xyz, wide(p.np_up).xyz,
         array<vec2<f64>, 4>(h01.xy, h01.zw, h23.xy, h23.zw), wide(p.np_eia).xy);
     return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, lens.x, lens.y, lens.zw, wide(p.cos2t), wide(p.sin2t),
-        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, east.w != 0.0lf, np, p.key,
+        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, wide(p.mosaic).x, east.w != 0.0lf, np, p.key,
         p.fixed_key);
 }
 
@@ -135,12 +137,44 @@ fn sensor_dn(f: ChainFrame, signal_dn: f64, ch: u32, n: SensorNoise) -> f64 {
     return dn;
 }
 
-// DN of DoFP pixel (u, v) of a w px wide frame: its own ray, its own analyzer (the
+// Photo-signal in DN of DoFP pixel (u, v) through its own ray and analyzer (the
 // channel at its position in the 2 × 2 mosaic, `mosaic[2·(v mod 2) + (u mod 2)]`).
-fn mosaic_pixel_dn(f: ChainFrame, u: u32, v: u32, w: u32, mosaic: vec4<u32>) -> f64 {
+fn mosaic_signal_at(f: ChainFrame, u: u32, v: u32, mosaic: vec4<u32>) -> f64 {
     let ch = mosaic[2u * (v & 1u) + (u & 1u)];
-    // Sky → lens → analyzer → photo-signal along the true ray.
-    let signal = pixel_signal_dn(f, pixel_stokes(f, f64(u), f64(v)), ch);
+    return pixel_signal_dn(f, pixel_stokes(f, f64(u), f64(v)), ch);
+}
+
+// Photo-signal of DoFP pixel (u, v) of a w × h mosaic, with crosstalk from its edge
+// neighbours where the frame has any (0 outside the sensor).
+fn mosaic_pixel_signal_dn(f: ChainFrame, u: u32, v: u32, w: u32, h: u32, mosaic: vec4<u32>) -> f64 {
+    let own = mosaic_signal_at(f, u, v, mosaic);
+    if (f.crosstalk == 0.0lf) {
+        return own;
+    }
+    var up = 0.0lf;
+    var down = 0.0lf;
+    var left = 0.0lf;
+    var right = 0.0lf;
+    if (v > 0u) {
+        up = mosaic_signal_at(f, u, v - 1u, mosaic);
+    }
+    if (v + 1u < h) {
+        down = mosaic_signal_at(f, u, v + 1u, mosaic);
+    }
+    if (u > 0u) {
+        left = mosaic_signal_at(f, u - 1u, v, mosaic);
+    }
+    if (u + 1u < w) {
+        right = mosaic_signal_at(f, u + 1u, v, mosaic);
+    }
+    return crosstalk(f.crosstalk, own, up, down, left, right);
+}
+
+// DN of DoFP pixel (u, v) of a w × h frame.
+fn mosaic_pixel_dn(f: ChainFrame, u: u32, v: u32, w: u32, h: u32, mosaic: vec4<u32>) -> f64 {
+    let ch = mosaic[2u * (v & 1u) + (u & 1u)];
+    // Sky → lens → analyzer → photo-signal along the true ray (and crosstalk).
+    let signal = mosaic_pixel_signal_dn(f, u, v, w, h, mosaic);
     // Sensor: non-uniformities, offsets, noise, rounding.
     return sensor_dn(f, signal, ch, sensor_noise(f, v * w + u, ch));
 }

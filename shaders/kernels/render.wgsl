@@ -21,7 +21,7 @@ fn render_mosaic(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let f = chain_frame(frames[gid.z]);
-    out[(gid.z * h + gid.y) * w + gid.x] = f32(mosaic_pixel_dn(f, gid.x, gid.y, w, dims.mosaic));
+    out[(gid.z * h + gid.y) * w + gid.x] = f32(mosaic_pixel_dn(f, gid.x, gid.y, w, h, dims.mosaic));
 }
 
 // All four channels of colocated pixel (u, v): out[4·pixel + k].

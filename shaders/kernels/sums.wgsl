@@ -58,7 +58,7 @@ fn mosaic_sample(f: ChainFrame, rp: ReconParams, i: u32, j: u32) -> Sample {
     for (var p = 0u; p < 4u; p++) {
         let u = 2u * i + (p & 1u);
         let v = 2u * j + (p >> 1u);
-        let x = f64(f32(mosaic_pixel_dn(f, u, v, w, rp.mosaic)));
+        let x = f64(f32(mosaic_pixel_dn(f, u, v, w, dims.image.y, rp.mosaic)));
         ok = ok && (full_scale == 0.0lf || dn_is_valid(x, full_scale));
         d[rp.mosaic[p]] = x;
     }

@@ -18,11 +18,11 @@ use rayon::prelude::*;
 pub fn render_mosaic(f: &ChainFrame, w: usize, h: usize, mosaic: &[[Channel; 2]; 2]) -> Vec<f32> {
     let mut out = vec![0f32; w * h];
     out.par_chunks_mut(w.max(1)).enumerate().for_each_init(
-        || (vec![0.0; w], NoiseRows::default()),
-        |(signal, scratch), (v, row)| {
+        || (vec![0.0; w], NoiseRows::default(), CrosstalkRows::default()),
+        |(signal, scratch, xt), (v, row)| {
             let chans = [0, 1].map(|u| Layout::dofp_channel(mosaic, u, v).index());
-            // Sky → lens → analyzer → photo-signal along each true ray.
-            signal_row(f, v as f64, chans, &mut signal[..row.len()]);
+            // Sky → lens → analyzer → photo-signal along each true ray (and crosstalk).
+            mosaic_signal_row(f, v, h, mosaic, xt, &mut signal[..row.len()]);
             // Sensor: non-uniformities, offsets, noise, rounding.
             sensor_dn_row(f, (v * w) as u32, chans, &signal[..row.len()], scratch, row);
         },
@@ -56,7 +56,7 @@ pub fn mosaic_heading_sums(
             let v = 2 * j + dv;
             let chans = [0, 1].map(|u| Layout::dofp_channel(mosaic, u, v).index());
             dn.resize(w, 0.0);
-            signal_row(f, v as f64, chans, &mut s.signal);
+            mosaic_signal_row(f, v, h, mosaic, &mut s.crosstalk, &mut s.signal);
             sensor_dn_row(f, (v * w) as u32, chans, &s.signal, &mut s.noise, dn);
         }
         // As superpixels' row j, read back as from_image does.
@@ -79,6 +79,48 @@ struct FusedRows {
     dn: [Vec<f32>; 2],
     stokes: Vec<Stokes>,
     heading: RowScratch,
+    crosstalk: CrosstalkRows,
+}
+
+/// Neighbour rows of [`mosaic_signal_row`].
+#[derive(Default)]
+struct CrosstalkRows {
+    own: Vec<f64>,
+    up: Vec<f64>,
+    down: Vec<f64>,
+}
+
+/// Row `v` of a DoFP frame's photo-signal (DN), `out[u] = chain::mosaic_pixel_signal_dn(f,
+/// u, v, out.len(), h, mosaic)` bitwise: the row kernel, then, where the frame has
+/// crosstalk, the rows above and below and the mix with the four edge neighbours.
+fn mosaic_signal_row(
+    f: &ChainFrame,
+    v: usize,
+    h: usize,
+    mosaic: &[[Channel; 2]; 2],
+    xt: &mut CrosstalkRows,
+    out: &mut [f64],
+) {
+    let chans = |v: usize| [0, 1].map(|u| Layout::dofp_channel(mosaic, u, v).index());
+    let w = out.len();
+    if f.crosstalk == 0.0 {
+        signal_row(f, v as f64, chans(v), out);
+        return;
+    }
+    for (buf, row) in
+        [(&mut xt.own, Some(v)), (&mut xt.up, v.checked_sub(1)), (&mut xt.down, Some(v + 1).filter(|&r| r < h))]
+    {
+        buf.clear();
+        buf.resize(w, 0.0);
+        if let Some(r) = row {
+            signal_row(f, r as f64, chans(r), buf);
+        }
+    }
+    for (u, o) in out.iter_mut().enumerate() {
+        let left = if u > 0 { xt.own[u - 1] } else { 0.0 };
+        let right = if u + 1 < w { xt.own[u + 1] } else { 0.0 };
+        *o = crate::effects::crosstalk::crosstalk(f.crosstalk, xt.own[u], xt.up[u], xt.down[u], left, right);
+    }
 }
 
 /// Heading sums of a colocated frame (`w × h`), one per context of `contexts`, fused

@@ -70,6 +70,7 @@ pub struct FrameParams {
     pub offset_dn: Wide4,
     pub noise: Wide4,
     pub adc: Wide4,
+    pub mosaic: Wide4,
     pub np_east: Wide4,
     pub np_north: Wide4,
     pub np_up: Wide4,
@@ -95,6 +96,7 @@ impl From<&ChainFrame> for FrameParams {
             offset_dn: Wide4::new(f.offset_dn),
             noise: Wide4::new([r.read_noise_dn, r.system_gain_dn_per_e, r.dsnu_dn, r.prnu]),
             adc: Wide4::new([if r.quantize { 1.0 } else { 0.0 }, r.full_scale_dn(), 0.0, 0.0]),
+            mosaic: Wide4::new([f.crosstalk, 0.0, 0.0, 0.0]),
             np_east: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.east.x, n.east.y, n.east.z, 1.0])),
             np_north: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.north.x, n.north.y, n.north.z, 0.0])),
             np_up: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.up.x, n.up.y, n.up.z, 0.0])),
@@ -244,8 +246,8 @@ mod tests {
             "render",
             FrameParams,
             [
-                camera, distortion, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, np_east, np_north,
-                np_up, np_half01, np_half23, np_eia, key, fixed_key
+                camera, distortion, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, mosaic, np_east,
+                np_north, np_up, np_half01, np_half23, np_eia, key, fixed_key
             ]
         );
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);

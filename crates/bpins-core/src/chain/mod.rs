@@ -27,6 +27,7 @@
 
 use crate::camera::{Intrinsics, RayGeometry};
 use crate::conventions::{enu_from_az_el_deg, level_from_camera, world_from_camera};
+use crate::effects::crosstalk::crosstalk;
 use crate::effects::lens_diattenuation::lens_diattenuation;
 use crate::effects::lens_retardance::lens_retardance;
 use crate::effects::sky_neutral_points::{sky_neutral_points, NeutralPoints};
@@ -88,6 +89,8 @@ pub struct ChainFrame {
     /// Black level plus each channel's offset, DN.
     pub offset_dn: [f64; 4],
     pub response: Response,
+    /// DoFP crosstalk c (`crosstalk`).
+    pub crosstalk: f64,
     /// Temporal noise key of this frame; fixed-pattern key of this trial.
     pub key: FrameKey,
     pub fixed_key: FrameKey,
@@ -125,6 +128,7 @@ impl ChainFrame {
             gain_dn: model.channel_gain.map(|g| g * response.gain_dn),
             offset_dn: model.channel_offset_dn.map(|o| o + response.black_level_dn),
             response: *response,
+            crosstalk: model.crosstalk,
             key: FrameKey::new(noise.seed, noise.trial, noise.frame),
             fixed_key: FrameKey::new(noise.seed, noise.trial, FIXED_PATTERN_FRAME),
         }
@@ -170,6 +174,32 @@ pub fn ray_stokes(f: &ChainFrame, g: &RayGeometry) -> Stokes {
 #[inline(always)]
 pub fn pixel_signal_dn(f: &ChainFrame, s: Stokes, ch: usize) -> f64 {
     analyzer_intensity(s, &f.analyzers[ch]) * f.gain_dn[ch]
+}
+
+/// Photo-signal in DN of DoFP pixel `(u, v)` of a `w × h` mosaic: its own ray and
+/// analyzer, then crosstalk with its edge neighbours (each through its own ray and
+/// analyzer; 0 outside the sensor) where the frame has any.
+pub fn mosaic_pixel_signal_dn(
+    f: &ChainFrame,
+    u: usize,
+    v: usize,
+    w: usize,
+    h: usize,
+    mosaic: &[[crate::sensor::Channel; 2]; 2],
+) -> f64 {
+    let signal = |u: usize, v: usize| {
+        let ch = crate::sensor::Layout::dofp_channel(mosaic, u, v).index();
+        pixel_signal_dn(f, pixel_stokes(f, u as f64, v as f64), ch)
+    };
+    let own = signal(u, v);
+    if f.crosstalk == 0.0 {
+        return own;
+    }
+    let up = if v > 0 { signal(u, v - 1) } else { 0.0 };
+    let down = if v + 1 < h { signal(u, v + 1) } else { 0.0 };
+    let left = if u > 0 { signal(u - 1, v) } else { 0.0 };
+    let right = if u + 1 < w { signal(u + 1, v) } else { 0.0 };
+    crosstalk(f.crosstalk, own, up, down, left, right)
 }
 
 /// The standard normal draws one sensor sample uses (0 where the response has no

@@ -9,12 +9,12 @@
 //! parameter list of a fit and the registry-wide tests below. At neutral values every
 //! effect leaves the chain exactly as the ideal one (tested for all).
 //!
-//! Catalog: shared/spec/EFFECTS.md. Not yet here: `crosstalk` (a neighbour pass,
-//! added the same way).
+//! Catalog: shared/spec/EFFECTS.md, every effect of it.
 
 pub mod analyzer_angles;
 pub mod array_rotation;
 pub mod channel_response;
+pub mod crosstalk;
 pub mod extinction_ratio;
 pub mod focal_length;
 pub mod lens_diattenuation;
@@ -114,6 +114,7 @@ pub static REGISTRY: &[&EffectDef] = &[
     &analyzer_angles::EFFECT,
     &extinction_ratio::EFFECT,
     &channel_response::EFFECT,
+    &crosstalk::EFFECT,
 ];
 
 /// Looks an effect up by name.
@@ -154,6 +155,8 @@ pub struct Model {
     pub channel_gain: [f64; 4],
     /// Offset of each channel, DN, added to the black level.
     pub channel_offset_dn: [f64; 4],
+    /// DoFP crosstalk: the fraction of its signal a pixel gives each edge neighbour.
+    pub crosstalk: f64,
 }
 
 impl Default for Model {
@@ -172,6 +175,7 @@ impl Default for Model {
             analyzer_eps: [0.0; 4],
             channel_gain: [1.0; 4],
             channel_offset_dn: [0.0; 4],
+            crosstalk: 0.0,
         }
     }
 }
