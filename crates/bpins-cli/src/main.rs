@@ -4,6 +4,7 @@
 mod backend;
 mod cmd_agree;
 mod cmd_effects;
+mod cmd_fit;
 mod cmd_heading;
 mod cmd_run;
 mod cmd_simulate;
@@ -35,6 +36,8 @@ enum Command {
     Effects(cmd_effects::Args),
     /// Run seeded trials over every effect on the CPU and the GPU and compare them.
     Agree(cmd_agree::Args),
+    /// Fit the enabled effects and each frame's nuisances to a capture's raw DN.
+    Fit(cmd_fit::Args),
 }
 
 pub use backend::Backend;
@@ -47,6 +50,7 @@ fn main() -> ExitCode {
         Command::Heading(a) => cmd_heading::run(a),
         Command::Effects(a) => cmd_effects::run(a),
         Command::Agree(a) => cmd_agree::run(a),
+        Command::Fit(a) => cmd_fit::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

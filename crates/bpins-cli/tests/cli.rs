@@ -635,3 +635,28 @@ fn no_vulkan_adapter_is_a_clear_error_not_a_panic() {
     let r = bpins_env(&["agree", "--trials", "1"], &[("BPINS_GPU_ADAPTER", "no-such-gpu-9000")]).fails();
     r.stderr_has("no-such-gpu-9000");
 }
+
+// ---------------------------------------------------------------- bpins fit
+
+#[test]
+fn fit_writes_its_json_and_refuses_bad_input() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("fit");
+    let r = bpins(&["fit", CLEAN, "--out", &s(&out)]).ok();
+    assert!(r.stdout.contains("χ²/dof"), "{}", r.stdout);
+    let v = read_json(&out.join("fit.json"));
+    for key in ["params", "sigmas", "chi2_per_dof", "frames"] {
+        assert!(!v[key].is_null(), "fit.json lacks {key}");
+    }
+    assert_eq!(v["frames"].as_array().unwrap().len(), 8);
+    assert!((f64_of(&v, "chi2_per_dof") - 1.0).abs() < 0.05);
+    // An unknown effect is named with what exists; nothing is written.
+    let bad = tmp.path().join("bad");
+    bpins(&["fit", CLEAN, "--effects", "no_such_effect", "--out", &s(&bad)]).fails().stderr_has("no_such_effect");
+    assert!(!bad.exists());
+    // Never into the capture.
+    let (_t, copy) = clean_copy();
+    let before = snapshot(&copy);
+    bpins(&["fit", &s(&copy), "--out", &s(&copy.join("fit"))]).fails();
+    assert_eq!(snapshot(&copy), before);
+}

@@ -52,6 +52,7 @@ pub mod chain;
 pub mod conventions;
 pub mod effects;
 pub mod error;
+pub mod fit;
 pub mod heading;
 pub mod montecarlo;
 pub mod noise;

@@ -1,0 +1,106 @@
+//! `bpins fit`: fits the enabled effects and each frame's nuisances to a capture's raw
+//! DN; prints every parameter with its 1σ, χ²/dof, AoP and DoLP residual RMS and each
+//! frame's heading against its reference; writes DIR/fit.json.
+
+use crate::write_json;
+use anyhow::Context;
+use bpins_core::capture::Capture;
+use bpins_core::fit::{fit, FitOptions};
+use serde_json::json;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The capture folder (bpins-capture/1).
+    capture: PathBuf,
+    /// Effects whose parameters are fitted, comma-separated (`bpins effects` lists them).
+    #[arg(long, value_delimiter = ',')]
+    effects: Vec<String>,
+    /// Hold each frame's heading at its reference instead of fitting it.
+    #[arg(long)]
+    trust_reference: bool,
+    /// Output folder (never inside the capture).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let mut effects = Vec::new();
+    for name in a.effects.iter().map(|s| s.trim()).filter(|s| !s.is_empty()) {
+        effects.push(bpins_core::effects::find(name).with_context(|| format!("--effects {name}"))?);
+    }
+    crate::ensure_not_in_capture(&a.out)?;
+    let c = Capture::load(&a.capture)?;
+    let pb = crate::progress::bar(c.frames.len() as u64, "frames read");
+    let mut frames = Vec::with_capacity(c.frames.len());
+    for i in 0..c.frames.len() {
+        frames.push(c.read_frame(i)?);
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let names: Vec<&str> = effects.iter().map(|e| e.name).collect();
+    eprintln!(
+        "bpins fit: {} frames of {}, effects: {}",
+        frames.len(),
+        a.capture.display(),
+        if names.is_empty() { "none".to_string() } else { names.join(", ") }
+    );
+    let spinner = indicatif::ProgressBar::new_spinner();
+    let opts = FitOptions { effects, trust_reference: a.trust_reference };
+    let r = fit(&c, &frames, &opts, &|stage, it| spinner.set_message(format!("iteration {it} ({stage})")))
+        .context("fitting")?;
+    spinner.finish_and_clear();
+    println!(
+        "χ²/dof {:.4} ({:.0} / {:.0}), {} samples, {} iterations; noise σ_read {:.3} DN, K {:.4} DN/e⁻",
+        r.chi2_per_dof, r.chi2, r.dof, r.samples, r.iterations, r.noise.read_dn, r.noise.k_dn_per_e
+    );
+    println!("AoP residual RMS {:.4}°, DoLP residual RMS {:.5}", r.aop_rms_deg, r.dolp_rms);
+    for p in &r.params {
+        println!("  {:<34} {:>+12.5} ± {:<10.5} {}", p.name, p.value, p.sigma, p.unit);
+    }
+    println!("frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max   χ²/dof");
+    for (k, f) in r.frames.iter().enumerate() {
+        println!(
+            "{:>5}  {:>11.4} {:>10.4} {:>15} {:>10} {:>11.2} {:>7.4} {:>8.4}",
+            k,
+            f.heading_deg,
+            f.heading_sigma_deg,
+            f.reference_deg.map_or("—".into(), |x| format!("{x:.4}")),
+            f.heading_error_deg.map_or("—".into(), |x| format!("{x:+.4}")),
+            f.scale_dn,
+            f.dmax,
+            f.chi2_per_dof
+        );
+    }
+    if let Some(h) = r.heading_rms_deg {
+        println!("heading RMS against the references: {h:.4}°");
+    }
+    let v = json!({
+        "capture": a.capture.display().to_string(),
+        "effects": names,
+        "params": r.params.iter().map(|p| (p.name.clone(), json!(p.value))).collect::<serde_json::Map<_, _>>(),
+        "sigmas": r.params.iter().map(|p| (p.name.clone(), json!(p.sigma))).collect::<serde_json::Map<_, _>>(),
+        "units": r.params.iter().map(|p| (p.name.clone(), json!(p.unit))).collect::<serde_json::Map<_, _>>(),
+        "chi2": r.chi2,
+        "dof": r.dof,
+        "chi2_per_dof": r.chi2_per_dof,
+        "samples": r.samples,
+        "aop_rms_deg": r.aop_rms_deg,
+        "dolp_rms": r.dolp_rms,
+        "heading_rms_deg": r.heading_rms_deg,
+        "noise": { "read_dn": r.noise.read_dn, "k_dn_per_e": r.noise.k_dn_per_e },
+        "frames": r.frames.iter().map(|f| json!({
+            "heading_deg": f.heading_deg,
+            "heading_sigma_deg": f.heading_sigma_deg,
+            "reference_deg": f.reference_deg,
+            "heading_error_deg": f.heading_error_deg,
+            "scale_dn": f.scale_dn,
+            "dmax": f.dmax,
+            "chi2_per_dof": f.chi2_per_dof,
+        })).collect::<Vec<_>>(),
+    });
+    let path = a.out.join("fit.json");
+    write_json(&path, &v)?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}

@@ -1,0 +1,550 @@
+//! Fitting the model to a measured capture: the enabled effects' parameters and each
+//! frame's nuisances (heading unless the reference is trusted, radiance scale, sky
+//! d_max) to the raw DN of every frame, pixel by pixel at each pixel's own ray.
+//!
+//! ```text
+//! DN_model(p) = offset_k + g_f · signal(p; θ_effects, heading_f, d_max,f)   (chain::mosaic_pixel_signal_dn)
+//! χ² = Σ_p (DN(p) − DN_model(p))² / σ²(p),   σ² = σ_r² + K·(DN_model − black)   (EMVA, fit::noise)
+//! Levenberg–Marquardt: (JᵀWJ + λ·diag JᵀWJ) δ = JᵀW r,  J by central differences
+//! ```
+//!
+//! JᵀWJ and JᵀWr are accumulated pixel by pixel (per frame over its own and the
+//! global parameters), never a Jacobian in memory. Saturated and dark pixels are
+//! masked. The noise comes from the frames themselves (`noise::estimate`), so χ²/dof
+//! measures the model: ≈ 1 when it explains the data. Iterations first run on every
+//! third row and column (all channels), then on every pixel until converged; the
+//! reported numbers are from every pixel. 1σ from the inverse of JᵀWJ.
+//!
+//! Not yet: a smooth radiance shape beyond Rayleigh's 1 + cos²γ (the scale is one
+//! number per frame).
+
+pub mod linalg;
+pub mod noise;
+
+use crate::camera::Intrinsics;
+use crate::capture::{Capture, FrameData};
+use crate::chain::{mosaic_pixel_signal_dn, pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
+use crate::conventions::{wrap_deg_180, wrap_deg_90};
+use crate::effects::{EffectDef, EffectSet};
+use crate::error::{Error, Result};
+use crate::recon::Reconstructor;
+use crate::sensor::{Layout, Response};
+use noise::NoiseModel;
+use rayon::prelude::*;
+
+/// What to fit.
+#[derive(Clone, Debug, Default)]
+pub struct FitOptions {
+    /// Effects whose parameters are free (at neutral to start).
+    pub effects: Vec<&'static EffectDef>,
+    /// Keep each frame's heading at its reference instead of fitting it.
+    pub trust_reference: bool,
+}
+
+/// One fitted parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Param {
+    /// `effect.param`, or `frame<k>.heading_deg` / `.scale_dn` / `.dmax`.
+    pub name: String,
+    pub unit: &'static str,
+    pub value: f64,
+    /// 1σ; 0 for a parameter held fixed.
+    pub sigma: f64,
+}
+
+/// One frame's result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameFit {
+    pub heading_deg: f64,
+    pub heading_sigma_deg: f64,
+    pub reference_deg: Option<f64>,
+    /// Fitted − reference heading, degrees, in (−180, 180].
+    pub heading_error_deg: Option<f64>,
+    pub scale_dn: f64,
+    pub dmax: f64,
+    pub chi2_per_dof: f64,
+}
+
+/// The result of a fit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitResult {
+    /// The enabled effects' parameters.
+    pub params: Vec<Param>,
+    pub frames: Vec<FrameFit>,
+    pub chi2: f64,
+    pub dof: f64,
+    pub chi2_per_dof: f64,
+    /// Samples used (unmasked).
+    pub samples: usize,
+    pub noise: NoiseModel,
+    /// RMS of measured − model AoP (degrees, where the model DoLP > 0.01) and DoLP,
+    /// over superpixels (DoFP) or pixels (colocated), with the nominal inversion.
+    pub aop_rms_deg: f64,
+    pub dolp_rms: f64,
+    /// RMS over frames of fitted − reference heading, degrees (None without references).
+    pub heading_rms_deg: Option<f64>,
+    pub iterations: usize,
+}
+
+/// A free or fixed scalar of the fit.
+#[derive(Clone, Debug)]
+struct Slot {
+    name: String,
+    unit: &'static str,
+    min: f64,
+    max: f64,
+    step: f64,
+    free: bool,
+}
+
+/// The problem: the capture's frames and the parameter slots.
+struct Problem<'a> {
+    capture: &'a Capture,
+    frames: &'a [FrameData],
+    nominal: Intrinsics,
+    opts: &'a FitOptions,
+    slots: Vec<Slot>,
+    /// Index of the first per-frame slot.
+    n_global: usize,
+    noise: NoiseModel,
+    full_scale_dn: f64,
+}
+
+const PER_FRAME: usize = 3;
+
+impl Problem<'_> {
+    fn frame_slots(&self, k: usize) -> [usize; PER_FRAME] {
+        let b = self.n_global + PER_FRAME * k;
+        [b, b + 1, b + 2]
+    }
+
+    /// The chain of frame `k` under parameters `theta`.
+    fn chain(&self, theta: &[f64], k: usize) -> Result<ChainFrame> {
+        let mut set = EffectSet::new();
+        let mut i = 0;
+        for e in &self.opts.effects {
+            for p in e.params {
+                set.set(e.name, p.name, theta[i])?;
+                i += 1;
+            }
+        }
+        let spec = &self.capture.frames[k];
+        let [h, s, d] = self.frame_slots(k);
+        let scene = Scene {
+            sun_az_deg: spec.sun.azimuth_deg,
+            sun_el_deg: spec.sun.elevation_deg,
+            heading_deg: theta[h],
+            tilt_x_deg: spec.tilt_x_deg.unwrap_or(0.0),
+            tilt_y_deg: spec.tilt_y_deg.unwrap_or(0.0),
+            dmax: theta[d],
+        };
+        let resp = Response {
+            black_level_dn: self.capture.sensor.black_level_dn,
+            bit_depth: self.capture.sensor.bit_depth,
+            ..Response::ideal(theta[s])
+        };
+        Ok(ChainFrame::new(&set.model(), &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 }))
+    }
+
+    /// Model DN of the samples of pixel (u, v) of frame `k` into `out` (1 for DoFP, one
+    /// per channel for colocated), with the measured values beside them.
+    fn pixel(&self, f: &ChainFrame, k: usize, u: usize, v: usize, out: &mut Vec<(f64, f64)>) {
+        out.clear();
+        let (w, h) = (self.w(), self.h());
+        match (&self.capture.sensor.layout, &self.frames[k]) {
+            (Layout::Dofp { mosaic }, FrameData::Mosaic { dn, .. }) => {
+                let ch = Layout::dofp_channel(mosaic, u, v).index();
+                let m = mosaic_pixel_signal_dn(f, u, v, w, h, mosaic) + f.offset_dn[ch];
+                out.push((dn[v * w + u] as f64, m));
+            }
+            (_, FrameData::Colocated { channels, .. }) => {
+                let s = pixel_stokes(f, u as f64, v as f64);
+                for (c, plane) in channels {
+                    let m = pixel_signal_dn(f, s, c.index()) + f.offset_dn[c.index()];
+                    out.push((plane[v * w + u] as f64, m));
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn w(&self) -> usize {
+        self.capture.sensor.geometry.width_px as usize
+    }
+
+    fn h(&self) -> usize {
+        self.capture.sensor.geometry.height_px as usize
+    }
+
+    fn usable(&self, y: f64) -> bool {
+        y > 0.0 && y < self.full_scale_dn
+    }
+
+    /// χ² and, with `normal`, JᵀWJ and JᵀWr over the free slots, on every `stride`-th
+    /// row and column. Returns (χ², samples, A, b) with A, b in free-slot order.
+    fn accumulate(&self, theta: &[f64], stride: usize, normal: bool) -> Result<Accum> {
+        let free: Vec<usize> = (0..self.slots.len()).filter(|&i| self.slots[i].free).collect();
+        let nf = free.len();
+        let mut total = Accum::new(nf, self.frames.len());
+        for k in 0..self.frames.len() {
+            // The local slots of this frame: global ones and its own, free only.
+            let local: Vec<usize> =
+                free.iter().copied().filter(|&i| i < self.n_global || self.frame_slots(k).contains(&i)).collect();
+            let base = self.chain(theta, k)?;
+            let mut pm = Vec::new();
+            if normal {
+                for &i in &local {
+                    let h = self.slots[i].step;
+                    let (mut tp, mut tm) = (theta.to_vec(), theta.to_vec());
+                    tp[i] += h;
+                    tm[i] -= h;
+                    pm.push((self.chain(&tp, k)?, self.chain(&tm, k)?, 2.0 * h));
+                }
+            }
+            let nl = local.len();
+            let rows: Vec<Accum> = (0..self.h())
+                .into_par_iter()
+                .filter(|v| v % stride == 0)
+                .map(|v| {
+                    let mut acc = Accum::new(nl, 0);
+                    let (mut s0, mut sp, mut sm) = (Vec::new(), Vec::new(), Vec::new());
+                    let mut d = vec![0.0; nl];
+                    for u in (0..self.w()).step_by(stride) {
+                        self.pixel(&base, k, u, v, &mut s0);
+                        for (q, &(y, m)) in s0.iter().enumerate() {
+                            if !self.usable(y) {
+                                continue;
+                            }
+                            let wgt = 1.0 / self.noise.variance_dn2(m - self.capture.sensor.black_level_dn);
+                            let r = y - m;
+                            acc.chi2 += wgt * r * r;
+                            acc.n += 1;
+                            if normal {
+                                for (j, (fp, fm, dh)) in pm.iter().enumerate() {
+                                    self.pixel(fp, k, u, v, &mut sp);
+                                    self.pixel(fm, k, u, v, &mut sm);
+                                    d[j] = (sp[q].1 - sm[q].1) / dh;
+                                }
+                                for a in 0..nl {
+                                    acc.b[a] += wgt * d[a] * r;
+                                    for c in 0..=a {
+                                        acc.a[a * nl + c] += wgt * d[a] * d[c];
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    acc
+                })
+                .collect();
+            let mut fr = Accum::new(nl, 0);
+            for r in rows {
+                fr.add(&r);
+            }
+            // Scatter the frame's local sums into the free-slot system.
+            let pos: Vec<usize> = local.iter().map(|i| free.iter().position(|f| f == i).unwrap()).collect();
+            for a in 0..nl {
+                total.b[pos[a]] += fr.b[a];
+                for c in 0..=a {
+                    let x = fr.a[a * nl + c];
+                    let (i, j) = (pos[a].max(pos[c]), pos[a].min(pos[c]));
+                    total.a[i * nf + j] += x;
+                }
+            }
+            total.chi2 += fr.chi2;
+            total.n += fr.n;
+            total.frame_chi2[k] = (fr.chi2, fr.n);
+        }
+        // Symmetrize.
+        for i in 0..nf {
+            for j in 0..i {
+                total.a[j * nf + i] = total.a[i * nf + j];
+            }
+        }
+        Ok(total)
+    }
+}
+
+struct Accum {
+    a: Vec<f64>,
+    b: Vec<f64>,
+    chi2: f64,
+    n: usize,
+    frame_chi2: Vec<(f64, usize)>,
+}
+
+impl Accum {
+    fn new(n: usize, frames: usize) -> Self {
+        Accum { a: vec![0.0; n * n], b: vec![0.0; n], chi2: 0.0, n: 0, frame_chi2: vec![(0.0, 0); frames] }
+    }
+
+    fn add(&mut self, o: &Accum) {
+        for (x, y) in self.a.iter_mut().zip(&o.a) {
+            *x += y;
+        }
+        for (x, y) in self.b.iter_mut().zip(&o.b) {
+            *x += y;
+        }
+        self.chi2 += o.chi2;
+        self.n += o.n;
+    }
+}
+
+/// Fits `opts` to the capture `c` whose frames are `frames`; `progress(stage, step)`
+/// after each iteration.
+pub fn fit(c: &Capture, frames: &[FrameData], opts: &FitOptions, progress: &dyn Fn(&str, usize)) -> Result<FitResult> {
+    let full_scale_dn = c.sensor.full_scale_dn();
+    let noise = noise::estimate(frames, c.sensor.black_level_dn, full_scale_dn)
+        .ok_or_else(|| Error::Model("too few usable pixels to estimate the sensor noise".into()))?;
+    // Slots: the effects' parameters, then heading, scale and d_max of each frame.
+    let mut slots = Vec::new();
+    let mut theta = Vec::new();
+    for e in &opts.effects {
+        for p in e.params {
+            let span = p.max - p.min;
+            slots.push(Slot {
+                name: format!("{}.{}", e.name, p.name),
+                unit: p.unit,
+                min: p.min,
+                max: p.max,
+                step: 1e-6 * span,
+                free: true,
+            });
+            theta.push(p.neutral);
+        }
+    }
+    let n_global = slots.len();
+    let ctx_intr = c.intrinsics();
+    for (k, f) in c.frames.iter().enumerate() {
+        let heading = match f.heading_deg {
+            Some(h) => h,
+            None => initial_heading(c, k)?,
+        };
+        let free_heading = !(opts.trust_reference && f.heading_deg.is_some());
+        slots.push(Slot {
+            name: format!("frame{k}.heading_deg"),
+            unit: "deg",
+            min: -1e6,
+            max: 1e6,
+            step: 1e-4,
+            free: free_heading,
+        });
+        slots.push(Slot {
+            name: format!("frame{k}.scale_dn"),
+            unit: "DN",
+            min: 1e-9,
+            max: 1e12,
+            step: 0.0,
+            free: true,
+        });
+        slots.push(Slot { name: format!("frame{k}.dmax"), unit: "1", min: 0.0, max: 1.0, step: 1e-6, free: true });
+        theta.extend([heading, 1.0, 0.5]);
+    }
+    let mut pb = Problem { capture: c, frames, nominal: ctx_intr, opts, slots, n_global, noise, full_scale_dn };
+    // Radiance scale of each frame from the first guess (linear in the scale).
+    for k in 0..frames.len() {
+        let s = pb.frame_slots(k)[1];
+        theta[s] = initial_scale(&pb, &theta, k)?;
+        pb.slots[s].step = 1e-6 * theta[s];
+    }
+    let mut iterations = 0;
+    let mut lambda = 1e-3;
+    for (stage, stride, max_iter) in [("subsampled", 3usize, 30usize), ("every pixel", 1, 8)] {
+        for _ in 0..max_iter {
+            iterations += 1;
+            let acc = pb.accumulate(&theta, stride, true)?;
+            let step = lm_step(&pb, &theta, &acc, &mut lambda, stride)?;
+            progress(stage, iterations);
+            match step {
+                Some((t, converged)) => {
+                    theta = t;
+                    for k in 0..frames.len() {
+                        let s = pb.frame_slots(k)[1];
+                        pb.slots[s].step = 1e-6 * theta[s];
+                    }
+                    if converged {
+                        break;
+                    }
+                }
+                None => break,
+            }
+        }
+    }
+    // Final: every pixel, covariance from JᵀWJ.
+    let acc = pb.accumulate(&theta, 1, true)?;
+    let free: Vec<usize> = (0..pb.slots.len()).filter(|&i| pb.slots[i].free).collect();
+    let nf = free.len();
+    let l = linalg::cholesky(&acc.a, nf)
+        .ok_or_else(|| Error::Model("the fit is degenerate: parameters the data cannot tell apart".into()))?;
+    let cov = linalg::cholesky_inverse(&l, nf);
+    let sigma = |i: usize| free.iter().position(|&f| f == i).map_or(0.0, |p| cov[p * nf + p].max(0.0).sqrt());
+    let params = (0..n_global)
+        .map(|i| Param { name: pb.slots[i].name.clone(), unit: pb.slots[i].unit, value: theta[i], sigma: sigma(i) })
+        .collect();
+    let dof = (acc.n as f64 - nf as f64).max(1.0);
+    let frames_out: Vec<FrameFit> = (0..frames.len())
+        .map(|k| {
+            let [h, s, d] = pb.frame_slots(k);
+            let reference = c.frames[k].heading_deg;
+            let (chi2, n) = acc.frame_chi2[k];
+            FrameFit {
+                heading_deg: theta[h].rem_euclid(360.0),
+                heading_sigma_deg: sigma(h),
+                reference_deg: reference,
+                heading_error_deg: reference.map(|r| wrap_deg_180(theta[h] - r)),
+                scale_dn: theta[s],
+                dmax: theta[d],
+                chi2_per_dof: chi2 / (n as f64 - PER_FRAME as f64).max(1.0),
+            }
+        })
+        .collect();
+    let errs: Vec<f64> = frames_out.iter().filter_map(|f| f.heading_error_deg).collect();
+    let heading_rms_deg =
+        (!errs.is_empty()).then(|| (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt());
+    let (aop_rms_deg, dolp_rms) = polarization_residuals(&pb, &theta)?;
+    Ok(FitResult {
+        params,
+        frames: frames_out,
+        chi2: acc.chi2,
+        dof,
+        chi2_per_dof: acc.chi2 / dof,
+        samples: acc.n,
+        noise,
+        aop_rms_deg,
+        dolp_rms,
+        heading_rms_deg,
+        iterations,
+    })
+}
+
+/// One damped Gauss–Newton step: the new parameters and whether the fit converged,
+/// or `None` when no step lowers χ².
+fn lm_step(
+    pb: &Problem,
+    theta: &[f64],
+    acc: &Accum,
+    lambda: &mut f64,
+    stride: usize,
+) -> Result<Option<(Vec<f64>, bool)>> {
+    let free: Vec<usize> = (0..pb.slots.len()).filter(|&i| pb.slots[i].free).collect();
+    let nf = free.len();
+    for _ in 0..12 {
+        let mut a = acc.a.clone();
+        for i in 0..nf {
+            a[i * nf + i] += *lambda * acc.a[i * nf + i].max(1e-300);
+        }
+        let Some(l) = linalg::cholesky(&a, nf) else {
+            *lambda *= 10.0;
+            continue;
+        };
+        let delta = linalg::cholesky_solve(&l, nf, &acc.b);
+        let mut t = theta.to_vec();
+        for (j, &i) in free.iter().enumerate() {
+            t[i] = (t[i] + delta[j]).clamp(pb.slots[i].min, pb.slots[i].max);
+        }
+        let chi2 = pb.accumulate(&t, stride, false)?.chi2;
+        if chi2 <= acc.chi2 {
+            *lambda = (*lambda * 0.1).max(1e-9);
+            // Converged when χ² moves by less than 1e-3 (a tiny fraction of its σ).
+            return Ok(Some((t, acc.chi2 - chi2 < 1e-3 + 1e-9 * acc.chi2)));
+        }
+        *lambda *= 10.0;
+    }
+    Ok(None)
+}
+
+/// First heading guess of a frame without a reference: the sun-vector extractor.
+fn initial_heading(c: &Capture, k: usize) -> Result<f64> {
+    let est = crate::pipeline::frame_headings(
+        c,
+        k,
+        &Default::default(),
+        crate::pipeline::ReconMode::Superpixel,
+        &[crate::heading::Extractor::SunVector],
+    )?;
+    est.into_iter().next().expect("one extractor").1.map(|e| e.heading_deg)
+}
+
+/// The radiance scale that fits frame `k` best with the rest of `theta` (linear).
+fn initial_scale(pb: &Problem, theta: &[f64], k: usize) -> Result<f64> {
+    let mut t = theta.to_vec();
+    t[pb.frame_slots(k)[1]] = 1.0;
+    let f = pb.chain(&t, k)?;
+    let (mut sy, mut ss) = (0.0, 0.0);
+    let mut buf = Vec::new();
+    for v in (0..pb.h()).step_by(7) {
+        for u in (0..pb.w()).step_by(7) {
+            pb.pixel(&f, k, u, v, &mut buf);
+            for &(y, m) in &buf {
+                if pb.usable(y) {
+                    // Photo-signal at unit scale, the black level taken as the offset.
+                    let black = pb.capture.sensor.black_level_dn;
+                    let s = m - black;
+                    sy += (y - black) * s;
+                    ss += s * s;
+                }
+            }
+        }
+    }
+    if ss.is_nan() || ss <= 0.0 {
+        return Err(Error::Model(format!("frame {k}: no usable pixels to fit")));
+    }
+    Ok((sy / ss).max(1e-6))
+}
+
+/// RMS of measured − model AoP (degrees, model DoLP > 0.01) and DoLP over the
+/// superpixels (DoFP) or pixels (colocated) of every frame, nominal inversion.
+fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64, f64)> {
+    let c = pb.capture;
+    let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &c.sensor.channels())?;
+    let (w, h) = (pb.w(), pb.h());
+    let (mut sa, mut na, mut sd, mut nd) = (0.0, 0usize, 0.0, 0usize);
+    for k in 0..pb.frames.len() {
+        let f = pb.chain(theta, k)?;
+        let mut buf = Vec::new();
+        let mut add = |meas: [f64; 4], model: [f64; 4]| {
+            if meas.iter().any(|&y| !pb.usable(y)) {
+                return;
+            }
+            let (a, b) = (rec.stokes(&meas), rec.stokes(&model));
+            if b.dolp() > 0.01 {
+                let d = wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees());
+                sa += d * d;
+                na += 1;
+            }
+            let d = a.dolp() - b.dolp();
+            sd += d * d;
+            nd += 1;
+        };
+        match &c.sensor.layout {
+            Layout::Dofp { mosaic } => {
+                for j in 0..h / 2 {
+                    for i in 0..w / 2 {
+                        let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
+                        for (dv, row) in mosaic.iter().enumerate() {
+                            for (du, ch) in row.iter().enumerate() {
+                                pb.pixel(&f, k, 2 * i + du, 2 * j + dv, &mut buf);
+                                (meas[ch.index()], model[ch.index()]) = buf[0];
+                            }
+                        }
+                        add(meas, model);
+                    }
+                }
+            }
+            Layout::Colocated { channels } => {
+                for v in 0..h {
+                    for u in 0..w {
+                        pb.pixel(&f, k, u, v, &mut buf);
+                        let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
+                        for (c, &(y, m)) in channels.iter().zip(&buf) {
+                            (meas[c.index()], model[c.index()]) = (y, m);
+                        }
+                        add(meas, model);
+                    }
+                }
+            }
+        }
+    }
+    let rms = |s: f64, n: usize| if n > 0 { (s / n as f64).sqrt() } else { f64::NAN };
+    Ok((rms(sa, na), rms(sd, nd)))
+}

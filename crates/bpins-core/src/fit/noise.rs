@@ -1,0 +1,96 @@
+//! The sensor's temporal noise read off the measured frames themselves (a photon
+//! transfer estimate), so that the fit's weights and χ² do not depend on the model.
+//!
+//! ```text
+//! d = DN(u) − ½[DN(u − 2) + DN(u + 2)]          same channel (2 px apart on a DoFP row)
+//! E[d²] = 1.5·σ²(s),  σ²(s) = σ_r² + K·s,  s = DN − black     (EMVA 1288 §4)
+//! ```
+//!
+//! The sky is smooth: over four pixels its curvature is far below the noise, so the
+//! second difference is noise alone. σ_r² and K come from a least-squares line of
+//! d²/1.5 against s over every usable pixel of every frame. Rounding (1/12 DN²) and
+//! fixed-pattern noise count as noise, as they should for a single exposure.
+
+use crate::capture::FrameData;
+
+/// EMVA noise model of one sensor: variance σ_r² + K·s in DN².
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NoiseModel {
+    /// Read noise (and rounding), DN.
+    pub read_dn: f64,
+    /// System gain: shot-noise variance per DN of signal, DN/e⁻.
+    pub k_dn_per_e: f64,
+}
+
+impl NoiseModel {
+    /// Variance in DN² of a sample whose signal above black is `signal_dn`.
+    #[inline]
+    pub fn variance_dn2(&self, signal_dn: f64) -> f64 {
+        (self.read_dn * self.read_dn + self.k_dn_per_e * signal_dn.max(0.0)).max(1e-6)
+    }
+}
+
+/// Estimates the noise from `frames` (black level `black_dn`, usable DN in
+/// (0, `full_scale_dn`)); `None` when too few samples.
+pub fn estimate(frames: &[FrameData], black_dn: f64, full_scale_dn: f64) -> Option<NoiseModel> {
+    // Sums for the line y = a + b·s: n, Σs, Σs², Σy, Σsy.
+    let mut acc = [0.0f64; 5];
+    let mut add = |plane: &[f32], w: usize, h: usize| {
+        for v in 0..h {
+            let row = &plane[v * w..][..w];
+            for u in 2..w.saturating_sub(2) {
+                let (l, c, r) = (row[u - 2] as f64, row[u] as f64, row[u + 2] as f64);
+                let ok = |x: f64| x > 0.0 && x < full_scale_dn;
+                if !(ok(l) && ok(c) && ok(r)) {
+                    continue;
+                }
+                let d = c - 0.5 * (l + r);
+                let (s, y) = (c - black_dn, d * d / 1.5);
+                acc[0] += 1.0;
+                acc[1] += s;
+                acc[2] += s * s;
+                acc[3] += y;
+                acc[4] += s * y;
+            }
+        }
+    };
+    for f in frames {
+        match f {
+            FrameData::Mosaic { width_px, height_px, dn } => add(dn, *width_px as usize, *height_px as usize),
+            FrameData::Colocated { width_px, height_px, channels } => {
+                for (_, p) in channels {
+                    add(p, *width_px as usize, *height_px as usize);
+                }
+            }
+        }
+    }
+    let [n, s, ss, y, sy] = acc;
+    if n < 100.0 {
+        return None;
+    }
+    let det = n * ss - s * s;
+    let (a, b) = if det > 0.0 { ((ss * y - s * sy) / det, (n * sy - s * y) / det) } else { (y / n, 0.0) };
+    Some(NoiseModel { read_dn: a.max(1.0 / 12.0).sqrt(), k_dn_per_e: b.max(0.0) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::noise::{stream, FrameKey};
+
+    #[test]
+    fn recovers_read_and_shot_noise_of_a_smooth_frame() {
+        let (w, h) = (400, 200);
+        let key = FrameKey::new(3, 0, 0);
+        let dn: Vec<f32> = (0..w * h)
+            .map(|p| {
+                let s = 500.0 + 3.0 * (p % w) as f64; // a smooth ramp
+                let var = 2.0 * 2.0 + 0.2 * s;
+                (100.0 + s + var.sqrt() * key.normal(p as u32, 0, stream::TEMPORAL)) as f32
+            })
+            .collect();
+        let m = estimate(&[FrameData::Mosaic { width_px: w as u32, height_px: h as u32, dn }], 100.0, 4095.0).unwrap();
+        assert!((m.k_dn_per_e - 0.2).abs() < 0.02, "{m:?}");
+        assert!((m.read_dn - 2.0).abs() < 0.5, "{m:?}");
+    }
+}

@@ -1,0 +1,43 @@
+//! The fit against the independent implementation's sample captures (their truth is
+//! in shared/samples/README.md): the clean capture fits with no effect at χ²/dof ≈ 1
+//! and every heading at its reference; the hidden analyzer angles are recovered.
+
+use bpins_core::capture::{Capture, FrameData};
+use bpins_core::effects::find;
+use bpins_core::fit::{fit, FitOptions, FitResult};
+use std::path::Path;
+
+fn run(sample: &str, effects: &[&str]) -> FitResult {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/samples").join(sample);
+    let c = Capture::load(&dir).unwrap();
+    let frames: Vec<FrameData> = (0..c.frames.len()).map(|i| c.read_frame(i).unwrap()).collect();
+    let opts = FitOptions { effects: effects.iter().map(|e| find(e).unwrap()).collect(), trust_reference: false };
+    fit(&c, &frames, &opts, &|_, _| {}).unwrap()
+}
+
+#[test]
+fn clean_sample_fits_with_no_effect_at_the_noise_floor() {
+    let r = run("clean", &[]);
+    assert!((r.chi2_per_dof - 1.0).abs() < 0.03, "χ²/dof {}", r.chi2_per_dof);
+    // The sensor noise read off the frames: K = 0.1 DN/e⁻ (README).
+    assert!((r.noise.k_dn_per_e - 0.1).abs() < 0.01, "{:?}", r.noise);
+    for (k, f) in r.frames.iter().enumerate() {
+        let e = f.heading_error_deg.unwrap();
+        assert!(e.abs() < 0.02, "frame {k}: heading off its reference by {e}°");
+        assert!((f.dmax - 0.6).abs() < 0.002, "frame {k}: d_max {}", f.dmax);
+    }
+}
+
+#[test]
+fn hidden_analyzer_angles_are_recovered_within_three_sigma() {
+    let without = run("hidden-analyzer-angles", &[]);
+    assert!(without.chi2_per_dof > 1.2, "the ideal model should not explain it: χ²/dof {}", without.chi2_per_dof);
+    let r = run("hidden-analyzer-angles", &["analyzer_angles"]);
+    assert!((r.chi2_per_dof - 1.0).abs() < 0.03, "χ²/dof {}", r.chi2_per_dof);
+    let truth = [("d0_deg", 0.0), ("d45_deg", 1.0), ("d90_deg", 0.0), ("d135_deg", -0.6)];
+    for (name, want) in truth {
+        let p = r.params.iter().find(|p| p.name == format!("analyzer_angles.{name}")).unwrap();
+        assert!(p.sigma > 0.0 && p.sigma < 0.05, "{name}: σ {}", p.sigma);
+        assert!((p.value - want).abs() < 3.0 * p.sigma, "{name}: {} ± {} (truth {want})", p.value, p.sigma);
+    }
+}
