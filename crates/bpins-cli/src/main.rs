@@ -3,6 +3,7 @@
 
 mod backend;
 mod cmd_agree;
+mod cmd_diagnose;
 mod cmd_effects;
 mod cmd_fit;
 mod cmd_heading;
@@ -38,6 +39,8 @@ enum Command {
     Agree(cmd_agree::Args),
     /// Fit the enabled effects and each frame's nuisances to a capture's raw DN.
     Fit(cmd_fit::Args),
+    /// Find the catalog effect a capture's model lacks, add it, watch the error fall.
+    Diagnose(cmd_diagnose::Args),
 }
 
 pub use backend::Backend;
@@ -51,6 +54,7 @@ fn main() -> ExitCode {
         Command::Effects(a) => cmd_effects::run(a),
         Command::Agree(a) => cmd_agree::run(a),
         Command::Fit(a) => cmd_fit::run(a),
+        Command::Diagnose(a) => cmd_diagnose::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

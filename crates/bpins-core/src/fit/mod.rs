@@ -18,6 +18,7 @@
 //! Not yet: a smooth radiance shape beyond Rayleigh's 1 + cos²γ (the scale is one
 //! number per frame).
 
+pub mod diagnose;
 pub mod linalg;
 pub mod noise;
 
@@ -84,6 +85,8 @@ pub struct FitResult {
     /// RMS over frames of fitted − reference heading, degrees (None without references).
     pub heading_rms_deg: Option<f64>,
     pub iterations: usize,
+    /// The fitted values, to start another fit from.
+    pub state: FitState,
 }
 
 /// A free or fixed scalar of the fit.
@@ -95,6 +98,8 @@ struct Slot {
     max: f64,
     step: f64,
     free: bool,
+    /// Differentiate by a one-sided secant of `step` (else central differences).
+    secant: bool,
 }
 
 /// The problem: the capture's frames and the parameter slots.
@@ -194,11 +199,21 @@ impl Problem<'_> {
             let mut pm = Vec::new();
             if normal {
                 for &i in &local {
-                    let h = self.slots[i].step;
+                    // Central differences, one-sided at a bound of the parameter.
+                    let (h, sl) = (self.slots[i].step, &self.slots[i]);
                     let (mut tp, mut tm) = (theta.to_vec(), theta.to_vec());
-                    tp[i] += h;
-                    tm[i] -= h;
-                    pm.push((self.chain(&tp, k)?, self.chain(&tm, k)?, 2.0 * h));
+                    tp[i] = (theta[i] + h).min(sl.max);
+                    tm[i] = (theta[i] - h).max(sl.min);
+                    if sl.secant {
+                        // From θ forward, or backward where θ + h is out of range.
+                        if theta[i] + h <= sl.max {
+                            tm[i] = theta[i];
+                        } else {
+                            tp[i] = theta[i];
+                        }
+                    }
+                    let dh = tp[i] - tm[i];
+                    pm.push((self.chain(&tp, k)?, self.chain(&tm, k)?, dh));
                 }
             }
             let nl = local.len();
@@ -290,35 +305,65 @@ impl Accum {
     }
 }
 
+/// A fit's parameter values, for warm starts: the effects' by `effect.param` name, and
+/// each frame's (heading °, scale DN, d_max).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FitState {
+    pub effect_values: Vec<(String, f64)>,
+    pub frames: Vec<[f64; 3]>,
+}
+
 /// Fits `opts` to the capture `c` whose frames are `frames`; `progress(stage, step)`
 /// after each iteration.
 pub fn fit(c: &Capture, frames: &[FrameData], opts: &FitOptions, progress: &dyn Fn(&str, usize)) -> Result<FitResult> {
+    fit_from(c, frames, opts, None, progress)
+}
+
+/// The sensor noise of a capture (photon transfer over its frames).
+pub fn capture_noise(c: &Capture, frames: &[FrameData]) -> Result<NoiseModel> {
+    noise::estimate(frames, c.sensor.black_level_dn, c.sensor.full_scale_dn())
+        .ok_or_else(|| Error::Model("too few usable pixels to estimate the sensor noise".into()))
+}
+
+/// The problem of fitting `opts`, starting from `start` where it names a value (else
+/// neutral effects, the reference or estimated heading, the best scale, d_max 0.5).
+fn problem<'a>(
+    c: &'a Capture,
+    frames: &'a [FrameData],
+    opts: &'a FitOptions,
+    start: Option<&FitState>,
+    noise: NoiseModel,
+) -> Result<(Problem<'a>, Vec<f64>)> {
     let full_scale_dn = c.sensor.full_scale_dn();
-    let noise = noise::estimate(frames, c.sensor.black_level_dn, full_scale_dn)
-        .ok_or_else(|| Error::Model("too few usable pixels to estimate the sensor noise".into()))?;
     // Slots: the effects' parameters, then heading, scale and d_max of each frame.
     let mut slots = Vec::new();
     let mut theta = Vec::new();
     for e in &opts.effects {
         for p in e.params {
             let span = p.max - p.min;
+            let name = format!("{}.{}", e.name, p.name);
+            let value =
+                start.and_then(|s| s.effect_values.iter().find(|(n, _)| *n == name).map(|x| x.1)).unwrap_or(p.neutral);
             slots.push(Slot {
-                name: format!("{}.{}", e.name, p.name),
+                name,
                 unit: p.unit,
                 min: p.min,
                 max: p.max,
                 step: 1e-6 * span,
                 free: true,
+                secant: false,
             });
-            theta.push(p.neutral);
+            theta.push(value);
         }
     }
     let n_global = slots.len();
     let ctx_intr = c.intrinsics();
     for (k, f) in c.frames.iter().enumerate() {
-        let heading = match f.heading_deg {
-            Some(h) => h,
-            None => initial_heading(c, k)?,
+        let warm = start.and_then(|s| s.frames.get(k));
+        let heading = match (warm, f.heading_deg) {
+            (Some(w), _) => w[0],
+            (None, Some(h)) => h,
+            (None, None) => initial_heading(c, k)?,
         };
         let free_heading = !(opts.trust_reference && f.heading_deg.is_some());
         slots.push(Slot {
@@ -328,6 +373,7 @@ pub fn fit(c: &Capture, frames: &[FrameData], opts: &FitOptions, progress: &dyn 
             max: 1e6,
             step: 1e-4,
             free: free_heading,
+            secant: false,
         });
         slots.push(Slot {
             name: format!("frame{k}.scale_dn"),
@@ -336,20 +382,45 @@ pub fn fit(c: &Capture, frames: &[FrameData], opts: &FitOptions, progress: &dyn 
             max: 1e12,
             step: 0.0,
             free: true,
+            secant: false,
         });
-        slots.push(Slot { name: format!("frame{k}.dmax"), unit: "1", min: 0.0, max: 1.0, step: 1e-6, free: true });
-        theta.extend([heading, 1.0, 0.5]);
+        slots.push(Slot {
+            name: format!("frame{k}.dmax"),
+            unit: "1",
+            min: 0.0,
+            max: 1.0,
+            step: 1e-6,
+            free: true,
+            secant: false,
+        });
+        theta.extend([heading, warm.map_or(1.0, |w| w[1]), warm.map_or(0.5, |w| w[2])]);
     }
     let mut pb = Problem { capture: c, frames, nominal: ctx_intr, opts, slots, n_global, noise, full_scale_dn };
-    // Radiance scale of each frame from the first guess (linear in the scale).
     for k in 0..frames.len() {
         let s = pb.frame_slots(k)[1];
-        theta[s] = initial_scale(&pb, &theta, k)?;
+        if start.and_then(|st| st.frames.get(k)).is_none() {
+            // Radiance scale from the first guess (linear in the scale).
+            theta[s] = initial_scale(&pb, &theta, k)?;
+        }
         pb.slots[s].step = 1e-6 * theta[s];
     }
+    Ok((pb, theta))
+}
+
+/// [`fit`] from a warm start.
+pub fn fit_from(
+    c: &Capture,
+    frames: &[FrameData],
+    opts: &FitOptions,
+    start: Option<&FitState>,
+    progress: &dyn Fn(&str, usize),
+) -> Result<FitResult> {
+    let noise = capture_noise(c, frames)?;
+    let (mut pb, mut theta) = problem(c, frames, opts, start, noise)?;
+    let n_global = pb.n_global;
     let mut iterations = 0;
     let mut lambda = 1e-3;
-    for (stage, stride, max_iter) in [("subsampled", 3usize, 30usize), ("every pixel", 1, 8)] {
+    for (stage, stride, max_iter) in [("subsampled", 3usize, 30usize), ("every pixel", 1, 20)] {
         for _ in 0..max_iter {
             iterations += 1;
             let acc = pb.accumulate(&theta, stride, true)?;
@@ -414,7 +485,81 @@ pub fn fit(c: &Capture, frames: &[FrameData], opts: &FitOptions, progress: &dyn 
         dolp_rms,
         heading_rms_deg,
         iterations,
+        state: FitState {
+            effect_values: (0..n_global).map(|i| (pb.slots[i].name.clone(), theta[i])).collect(),
+            frames: (0..frames.len()).map(|k| pb.frame_slots(k).map(|i| theta[i])).collect(),
+        },
     })
+}
+
+/// The score of adding `candidate` to a fitted model: the Δχ² one Gauss–Newton step
+/// from `base` (where the base model's own gradient vanishes) predicts, bᵀA⁻¹b over
+/// the joint system, on every `stride`-th row and column. The candidate's Jacobian is
+/// a secant of `probe` × its range from neutral (one-sided at a bound), so an effect
+/// that enters at second order (neutral points splitting) still scores.
+pub fn score_candidate(
+    c: &Capture,
+    frames: &[FrameData],
+    base_opts: &FitOptions,
+    base: &FitResult,
+    candidate: &'static EffectDef,
+    stride: usize,
+    probe: f64,
+) -> Result<Score> {
+    let mut opts = base_opts.clone();
+    opts.effects.push(candidate);
+    let (mut pb, theta) = problem(c, frames, &opts, Some(&base.state), base.noise)?;
+    for s in pb.slots.iter_mut().filter(|s| s.name.starts_with(&format!("{}.", candidate.name))) {
+        // A forward secant (backward at the upper bound): first- and second-order
+        // effects alike get a column of their shape.
+        s.step = probe * (s.max - s.min);
+        s.secant = true;
+    }
+    // An odd stride samples every channel of a DoFP mosaic.
+    let acc = pb.accumulate(&theta, stride | 1, true)?;
+    let nf = acc.b.len();
+    // The candidate's slots come right after the base effects' (free, in order).
+    let first = base_opts.effects.iter().map(|e| e.params.len()).sum::<usize>();
+    let k = candidate.params.len();
+    let mut score = Score { delta_chi2: 0.0, params: Vec::new(), samples: acc.n, identifiable: false };
+    let Some(l) = linalg::cholesky(&acc.a, nf) else { return Ok(score) };
+    let x = linalg::cholesky_solve(&l, nf, &acc.b);
+    let cov = linalg::cholesky_inverse(&l, nf);
+    // Score test: the joint model's predicted Δχ² minus the base model's own (the base
+    // optimum on these samples is not exactly the one on every pixel).
+    let joint = x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>();
+    let keep: Vec<usize> = (0..nf).filter(|&i| i < first || i >= first + k).collect();
+    let a0: Vec<f64> =
+        keep.iter().flat_map(|&i| keep.iter().map(move |&j| (i, j))).map(|(i, j)| acc.a[i * nf + j]).collect();
+    let b0: Vec<f64> = keep.iter().map(|&i| acc.b[i]).collect();
+    let own = linalg::cholesky(&a0, keep.len()).map_or(0.0, |l0| {
+        let x0 = linalg::cholesky_solve(&l0, keep.len(), &b0);
+        x0.iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>()
+    });
+    score.delta_chi2 = (joint - own).max(0.0);
+    score.identifiable = true;
+    for (j, p) in candidate.params.iter().enumerate() {
+        let i = first + j;
+        let s = &pb.slots[i];
+        score.params.push(Param {
+            name: s.name.clone(),
+            unit: p.unit,
+            value: (theta[i] + x[i]).clamp(s.min, s.max),
+            sigma: cov[i * nf + i].max(0.0).sqrt(),
+        });
+    }
+    Ok(score)
+}
+
+/// What [`score_candidate`] predicts: Δχ² and the one-step parameters with their 1σ.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Score {
+    pub delta_chi2: f64,
+    pub params: Vec<Param>,
+    pub samples: usize,
+    /// False where the candidate cannot be told from the model's other parameters (the
+    /// joint system is singular): e.g. a global d_max factor beside per-frame d_max.
+    pub identifiable: bool,
 }
 
 /// One damped Gauss–Newton step: the new parameters and whether the fit converged,
@@ -428,6 +573,13 @@ fn lm_step(
 ) -> Result<Option<(Vec<f64>, bool)>> {
     let free: Vec<usize> = (0..pb.slots.len()).filter(|&i| pb.slots[i].free).collect();
     let nf = free.len();
+    // Converged when the undamped Gauss–Newton step predicts less than 0.01 in χ².
+    if let Some(l) = linalg::cholesky(&acc.a, nf) {
+        let x = linalg::cholesky_solve(&l, nf, &acc.b);
+        if x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>() < 0.01 {
+            return Ok(Some((theta.to_vec(), true)));
+        }
+    }
     for _ in 0..12 {
         let mut a = acc.a.clone();
         for i in 0..nf {
@@ -445,8 +597,7 @@ fn lm_step(
         let chi2 = pb.accumulate(&t, stride, false)?.chi2;
         if chi2 <= acc.chi2 {
             *lambda = (*lambda * 0.1).max(1e-9);
-            // Converged when χ² moves by less than 1e-3 (a tiny fraction of its σ).
-            return Ok(Some((t, acc.chi2 - chi2 < 1e-3 + 1e-9 * acc.chi2)));
+            return Ok(Some((t, false)));
         }
         *lambda *= 10.0;
     }
@@ -547,4 +698,71 @@ fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64, f64)> {
     }
     let rms = |s: f64, n: usize| if n > 0 { (s / n as f64).sqrt() } else { f64::NAN };
     Ok((rms(sa, na), rms(sd, nd)))
+}
+
+/// Where a fitted model's misfit lies: χ²/dof of the raw DN by analyzer channel and by
+/// radius from the principal point, with the mean normalised residual (measured −
+/// model)/σ of each radius bin (its sign says too bright or too dark).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResidualProfile {
+    /// (channel angle °, χ²/dof).
+    pub by_channel: Vec<(f64, f64)>,
+    /// (inner radius, outer radius in focal lengths, χ²/dof, mean normalised residual).
+    pub by_radius: Vec<(f64, f64, f64, f64)>,
+}
+
+/// The residual profile of `state` under `opts` (every pixel).
+pub fn residual_profile(
+    c: &Capture,
+    frames: &[FrameData],
+    opts: &FitOptions,
+    state: &FitState,
+    noise: NoiseModel,
+) -> Result<ResidualProfile> {
+    let (pb, theta) = problem(c, frames, opts, Some(state), noise)?;
+    let intr = c.intrinsics();
+    let corner = {
+        let (x, y) = intr.normalised(0.0, 0.0);
+        let (x2, y2) = intr.normalised(pb.w() as f64 - 1.0, pb.h() as f64 - 1.0);
+        (x * x + y * y).max(x2 * x2 + y2 * y2).sqrt()
+    };
+    const BINS: usize = 8;
+    let mut ch = [(0.0f64, 0usize); 4];
+    let mut rad = [(0.0f64, 0.0f64, 0usize); BINS];
+    let mut buf = Vec::new();
+    for k in 0..frames.len() {
+        let f = pb.chain(&theta, k)?;
+        for v in 0..pb.h() {
+            for u in 0..pb.w() {
+                pb.pixel(&f, k, u, v, &mut buf);
+                let (x, y) = intr.normalised(u as f64, v as f64);
+                let bin = (((x * x + y * y).sqrt() / corner * BINS as f64) as usize).min(BINS - 1);
+                for (q, &(meas, m)) in buf.iter().enumerate() {
+                    if !pb.usable(meas) {
+                        continue;
+                    }
+                    let z = (meas - m) / pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
+                    let channel = match &c.sensor.layout {
+                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
+                        Layout::Colocated { channels } => channels[q].index(),
+                    };
+                    ch[channel].0 += z * z;
+                    ch[channel].1 += 1;
+                    rad[bin].0 += z * z;
+                    rad[bin].1 += z;
+                    rad[bin].2 += 1;
+                }
+            }
+        }
+    }
+    Ok(ResidualProfile {
+        by_channel: (0..4).filter(|&i| ch[i].1 > 0).map(|i| (45.0 * i as f64, ch[i].0 / ch[i].1 as f64)).collect(),
+        by_radius: (0..BINS)
+            .filter(|&b| rad[b].2 > 0)
+            .map(|b| {
+                let n = rad[b].2 as f64;
+                (corner * b as f64 / BINS as f64, corner * (b + 1) as f64 / BINS as f64, rad[b].0 / n, rad[b].1 / n)
+            })
+            .collect(),
+    })
 }
