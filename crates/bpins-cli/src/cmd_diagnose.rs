@@ -88,7 +88,7 @@ fn print_steps(d: &Diagnosis) {
                 } else if c.refitted {
                     "(refitted)"
                 } else {
-                    "(score test)"
+                    "(score test, 1/9 of the pixels)"
                 }
             );
         }
@@ -191,7 +191,7 @@ fn report_html(d: &Diagnosis, capture: &std::path::Path) -> String {
                 } else if c.refitted {
                     "refitted"
                 } else {
-                    "score test"
+                    "score test on every third row and column"
                 },
                 esc(&ps.join("; "))
             );

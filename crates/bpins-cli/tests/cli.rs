@@ -660,3 +660,23 @@ fn fit_writes_its_json_and_refuses_bad_input() {
     bpins(&["fit", &s(&copy), "--out", &s(&copy.join("fit"))]).fails();
     assert_eq!(snapshot(&copy), before);
 }
+
+#[test]
+fn diagnose_writes_its_json_and_report() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("diag");
+    bpins(&["diagnose", CLEAN, "--max-added", "1", "--out", &s(&out)]).ok();
+    let v = read_json(&out.join("diagnosis.json"));
+    let step = &v["steps"][0];
+    for key in ["model", "chi2_per_dof", "aop_rms_deg", "dolp_rms", "heading_rms_deg"] {
+        assert!(!step[key].is_null(), "steps[0] lacks {key}");
+    }
+    let first = &v["ranking"][0];
+    for key in ["effect", "delta_chi2", "delta_bic", "params", "sigmas"] {
+        assert!(!first[key].is_null(), "ranking[0] lacks {key}");
+    }
+    assert!(v["selected"].is_array() && v["unexplained"].is_boolean() && v["unexplained_summary"].is_string());
+    let html = fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
+    bpins(&["diagnose", CLEAN, "--effects", "nope", "--out", &s(&tmp.path().join("x"))]).fails().stderr_has("nope");
+}

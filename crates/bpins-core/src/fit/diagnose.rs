@@ -2,8 +2,9 @@
 //!
 //! From a fitted model (default: no effect), every catalog effect not in it is scored
 //! (`score_candidate`: the Δχ² one Gauss–Newton step predicts, a score test, on every
-//! second row and column); the strongest `refit_top` are refitted on every pixel for
-//! their real Δχ², ranked by ΔBIC = Δχ² − k·ln n (k its parameters, n the samples).
+//! third row and column); the strongest `refit_top` whose score is beyond noise
+//! (> 2k) are refitted on every pixel for their real Δχ², ranked by
+//! ΔBIC = Δχ² − k·ln n (k its parameters, n the samples).
 //! The winner is added if ΔBIC > 10 ("very strong" evidence, Kass & Raftery 1995) and
 //! the search repeats. Two candidates within 10 of each other in ΔBIC are reported as
 //! confusable (the data cannot tell them apart; the better one is still taken). When
@@ -31,7 +32,7 @@ pub struct DiagnoseOptions {
 
 impl Default for DiagnoseOptions {
     fn default() -> Self {
-        DiagnoseOptions { base: FitOptions::default(), max_added: 3, refit_top: 3, score_stride: 2 }
+        DiagnoseOptions { base: FitOptions::default(), max_added: 3, refit_top: 2, score_stride: 3 }
     }
 }
 
@@ -96,14 +97,14 @@ pub fn diagnose(
         let mut ranking = Vec::new();
         for e in &candidates {
             progress(&format!("scoring {}", e.name));
+            // On the scoring subsample: under the null the score is χ²_k whatever the
+            // sample size, so it is compared with k·ln n of that subsample.
             let s = score_candidate(c, frames, &model, &current, e, opts.score_stride, 1e-3)?;
-            // Scale the subsampled prediction to every pixel.
-            let full = s.delta_chi2 * current.samples as f64 / s.samples.max(1) as f64;
             ranking.push(Candidate {
                 effect: e.name,
-                score: full,
-                delta_chi2: full,
-                delta_bic: full - e.params.len() as f64 * (current.samples as f64).ln(),
+                score: s.delta_chi2,
+                delta_chi2: s.delta_chi2,
+                delta_bic: s.delta_chi2 - e.params.len() as f64 * (s.samples.max(2) as f64).ln(),
                 refitted: false,
                 identifiable: s.identifiable,
                 params: s.params,
@@ -113,8 +114,13 @@ pub fn diagnose(
         ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.delta_bic.total_cmp(&a.delta_bic)));
         // Refit the strongest identifiable ones for their real Δχ².
         let mut fits = Vec::new();
-        // Only candidates whose predicted ΔBIC passes the threshold are refitted.
-        for cand in ranking.iter_mut().filter(|c| c.identifiable && c.delta_bic > BIC_THRESHOLD).take(opts.refit_top) {
+        // The strongest by score are refitted where the score is beyond noise (> 2k).
+        ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.score.total_cmp(&a.score)));
+        for cand in ranking
+            .iter_mut()
+            .filter(|c| c.identifiable && c.score > 2.0 * c.params.len().max(1) as f64)
+            .take(opts.refit_top)
+        {
             progress(&format!("refitting with {}", cand.effect));
             let mut m = model.clone();
             m.effects.push(crate::effects::find(cand.effect)?);
@@ -139,7 +145,13 @@ pub fn diagnose(
                 r.params.iter().filter(|p| p.name.starts_with(&format!("{}.", cand.effect))).cloned().collect();
             fits.push((cand.effect, m, r));
         }
-        ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.delta_bic.total_cmp(&a.delta_bic)));
+        // Refitted (real ΔBIC) first, then the rest by score.
+        ranking.sort_by(|a, b| {
+            b.refitted
+                .cmp(&a.refitted)
+                .then(b.identifiable.cmp(&a.identifiable))
+                .then(b.delta_bic.total_cmp(&a.delta_bic))
+        });
         let best = ranking.first().cloned();
         let runner = ranking.get(1).cloned();
         d.rankings.push(ranking);
