@@ -7,7 +7,7 @@ use crate::write_json;
 use anyhow::Context;
 use bpins_core::capture::Capture;
 use bpins_core::fit::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use bpins_core::fit::{FitOptions, Param};
+use bpins_core::fit::{residual_maps, FitOptions, Param};
 use serde_json::{json, Map, Value};
 use std::path::PathBuf;
 
@@ -51,7 +51,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     write_json(&a.out.join("diagnosis.json"), &to_json(&d, &a.capture))?;
-    let html = report_html(&d, &a.capture);
+    // Residual maps of every step, side by side in the report.
+    let mut maps = Vec::new();
+    for (k, s) in d.steps.iter().enumerate() {
+        let effects = s.model.iter().map(|n| bpins_core::effects::find(n)).collect::<Result<Vec<_>, _>>()?;
+        let opts = FitOptions { effects, trust_reference: a.trust_reference };
+        let m = residual_maps(&c, &frames, &opts, &s.fit.state, s.fit.noise).context("residual maps")?;
+        maps.push(crate::residuals::write(&a.out.join(format!("step{k}")), &m)?);
+    }
+    let html = report_html(&d, &a.capture, &maps);
     let page = a.out.join("report.html");
     std::fs::write(&page, html).with_context(|| format!("writing {}", page.display()))?;
     eprintln!("wrote {} and {}", a.out.join("diagnosis.json").display(), page.display());
@@ -152,7 +160,7 @@ fn esc(s: &str) -> String {
 
 /// A self-contained page: every step of the model with its figures, the candidates of
 /// each step, what was selected, and what remains.
-fn report_html(d: &Diagnosis, capture: &std::path::Path) -> String {
+fn report_html(d: &Diagnosis, capture: &std::path::Path, maps: &[Vec<crate::residuals::Written>]) -> String {
     let mut h = String::new();
     h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>bpins diagnosis</title>\n";
     h += "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}td:first-child,th:first-child{text-align:left}.yes{color:#070}.no{color:#a00}</style></head><body>\n";
@@ -168,6 +176,20 @@ fn report_html(d: &Diagnosis, capture: &std::path::Path) -> String {
             s.fit.dolp_rms,
             opt(s.fit.heading_rms_deg)
         );
+    }
+    h += "</table>\n";
+    // The residual maps of each step side by side (stacked over frames).
+    h += "<h2>Where the model fails: residual maps, each step</h2>\n<p>Mean over frames of measured − model: blue below the model, white on it, red above, grey masked; each map's colour scale is symmetric, ± the value given.</p>\n<table>";
+    for (k, (s, m)) in d.steps.iter().zip(maps).enumerate() {
+        let name = if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") };
+        h += &format!("<tr><td>step {k}<br>{}<br>χ²/dof {:.4}</td>", esc(&name), s.fit.chi2_per_dof);
+        for w in m {
+            h += &format!(
+                "<td><img src=\"step{k}/{}\" alt=\"{} of step {k}\" style=\"width:14em;image-rendering:pixelated\"><br>{} (± {:.3} {})</td>",
+                w.png, w.what, w.what, w.scale, w.unit
+            );
+        }
+        h += "</tr>\n";
     }
     h += "</table>\n";
     for (i, r) in d.rankings.iter().enumerate() {

@@ -101,6 +101,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     });
     let path = a.out.join("fit.json");
     write_json(&path, &v)?;
+    let maps = bpins_core::fit::residual_maps(&c, &frames, &opts, &r.state, r.noise).context("residual maps")?;
+    crate::residuals::write(&a.out, &maps)?;
+    eprintln!("wrote residual maps (EXR and PNG) to {}", a.out.display());
     eprintln!("wrote {}", path.display());
     Ok(())
 }

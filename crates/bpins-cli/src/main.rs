@@ -10,6 +10,7 @@ mod cmd_heading;
 mod cmd_run;
 mod cmd_simulate;
 mod progress;
+mod residuals;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

@@ -676,7 +676,11 @@ fn diagnose_writes_its_json_and_report() {
         assert!(!first[key].is_null(), "ranking[0] lacks {key}");
     }
     assert!(v["selected"].is_array() && v["unexplained"].is_boolean() && v["unexplained_summary"].is_string());
+    for f in ["residual_chi2.png", "residual_dn.png", "residual_aop.png", "residual_dolp.png", "residual_dn.exr"] {
+        assert!(out.join("step0").join(f).exists(), "step0/{f} missing");
+    }
     let html = fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("step0/residual_chi2.png"));
     assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
     bpins(&["diagnose", CLEAN, "--effects", "nope", "--out", &s(&tmp.path().join("x"))]).fails().stderr_has("nope");
 }

@@ -766,3 +766,103 @@ pub fn residual_profile(
             .collect(),
     })
 }
+
+/// Residual maps of a fitted model, stacked over frames (the mean of measured − model).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResidualMaps {
+    pub width_px: u32,
+    pub height_px: u32,
+    /// Normalised DN residual (measured − model)/σ per pixel, mean over frames (NaN masked).
+    pub dn_z: Vec<f32>,
+    /// Mean over frames of that residual squared (χ² per sample: 1 where the model fits).
+    pub dn_chi2: Vec<f32>,
+    /// Size of the AoP and DoLP maps: superpixels (DoFP) or pixels (colocated).
+    pub pol_width: u32,
+    pub pol_height: u32,
+    /// AoP residual, degrees (where the model DoLP > 0.01), mean over frames.
+    pub aop_deg: Vec<f32>,
+    /// DoLP residual, mean over frames.
+    pub dolp: Vec<f32>,
+}
+
+/// The residual maps of `state` under `opts`.
+pub fn residual_maps(
+    c: &Capture,
+    frames: &[FrameData],
+    opts: &FitOptions,
+    state: &FitState,
+    noise: NoiseModel,
+) -> Result<ResidualMaps> {
+    let (pb, theta) = problem(c, frames, opts, Some(state), noise)?;
+    let (w, h) = (pb.w(), pb.h());
+    let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &c.sensor.channels())?;
+    let (pw, ph, dofp) = match &c.sensor.layout {
+        Layout::Dofp { .. } => (w / 2, h / 2, true),
+        Layout::Colocated { .. } => (w, h, false),
+    };
+    let mut z = vec![(0.0f64, 0u32); w * h];
+    let mut z2 = vec![(0.0f64, 0u32); w * h];
+    let mut aop = vec![(0.0f64, 0u32); pw * ph];
+    let mut dolp = vec![(0.0f64, 0u32); pw * ph];
+    let mut buf = Vec::new();
+    for k in 0..frames.len() {
+        let f = pb.chain(&theta, k)?;
+        // Per pixel: DN residuals; gather the channels of each polarization sample.
+        let mut meas = vec![[1.0f64; 4]; pw * ph];
+        let mut model = vec![[1.0f64; 4]; pw * ph];
+        let mut ok = vec![true; pw * ph];
+        for v in 0..h {
+            for u in 0..w {
+                pb.pixel(&f, k, u, v, &mut buf);
+                let (pu, pv) = if dofp { (u / 2, v / 2) } else { (u, v) };
+                let inside = pu < pw && pv < ph;
+                for (q, &(y, m)) in buf.iter().enumerate() {
+                    let usable = pb.usable(y);
+                    if usable {
+                        let s = pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
+                        z[v * w + u].0 += (y - m) / s;
+                        z[v * w + u].1 += 1;
+                        z2[v * w + u].0 += ((y - m) / s).powi(2);
+                        z2[v * w + u].1 += 1;
+                    }
+                    if !inside {
+                        continue;
+                    }
+                    let ch = match &c.sensor.layout {
+                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
+                        Layout::Colocated { channels } => channels[q].index(),
+                    };
+                    let i = pv * pw + pu;
+                    meas[i][ch] = y;
+                    model[i][ch] = m;
+                    ok[i] &= usable;
+                }
+            }
+        }
+        for i in 0..pw * ph {
+            if !ok[i] {
+                continue;
+            }
+            let (a, b) = (rec.stokes(&meas[i]), rec.stokes(&model[i]));
+            if b.dolp() > 0.01 {
+                aop[i].0 += wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees());
+                aop[i].1 += 1;
+            }
+            dolp[i].0 += a.dolp() - b.dolp();
+            dolp[i].1 += 1;
+        }
+    }
+    let mean = |v: &[(f64, u32)]| -> Vec<f32> {
+        v.iter().map(|&(s, n)| if n > 0 { (s / n as f64) as f32 } else { f32::NAN }).collect()
+    };
+    Ok(ResidualMaps {
+        width_px: w as u32,
+        height_px: h as u32,
+        dn_z: mean(&z),
+        dn_chi2: mean(&z2),
+        pol_width: pw as u32,
+        pol_height: ph as u32,
+        aop_deg: mean(&aop),
+        dolp: mean(&dolp),
+    })
+}

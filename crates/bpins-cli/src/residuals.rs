@@ -1,0 +1,79 @@
+//! Residual maps on disk: EXR (the numbers) and PNG (a diverging colour scale a person
+//! reads at a glance: blue where the data lie below the model, red above, grey masked).
+
+use anyhow::Context;
+use bpins_core::capture::write_exr_layers;
+use bpins_core::fit::ResidualMaps;
+use std::path::Path;
+
+/// One written map: its PNG file name (relative to the step folder) and its scale.
+pub struct Written {
+    pub png: String,
+    pub what: &'static str,
+    pub scale: f64,
+    pub unit: &'static str,
+}
+
+/// Writes `maps` into `dir` (EXR and PNG); returns the PNGs with their colour scales.
+pub fn write(dir: &Path, maps: &ResidualMaps) -> anyhow::Result<Vec<Written>> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    write_exr_layers(
+        &dir.join("residual_dn.exr"),
+        maps.width_px,
+        maps.height_px,
+        &[("dn_z", &maps.dn_z), ("dn_chi2", &maps.dn_chi2)],
+    )?;
+    let excess: Vec<f32> = maps.dn_chi2.iter().map(|x| x - 1.0).collect();
+    write_exr_layers(
+        &dir.join("residual_pol.exr"),
+        maps.pol_width,
+        maps.pol_height,
+        &[("AoP_deg", &maps.aop_deg), ("DoLP", &maps.dolp)],
+    )?;
+    let mut out = Vec::new();
+    // Binned to blocks of `bin` px (mean of the finite values) so that a systematic
+    // misfit stands out of the per-pixel noise; the EXR keeps every pixel.
+    for (name, what, data, w, h, unit, floor, bin) in [
+        ("residual_chi2.png", "χ² per sample − 1", &excess, maps.width_px, maps.height_px, "", 0.1, 8),
+        ("residual_dn.png", "DN residual / σ", &maps.dn_z, maps.width_px, maps.height_px, "σ", 0.1, 8),
+        ("residual_aop.png", "AoP residual", &maps.aop_deg, maps.pol_width, maps.pol_height, "°", 0.01, 4),
+        ("residual_dolp.png", "DoLP residual", &maps.dolp, maps.pol_width, maps.pol_height, "", 0.0005, 4),
+    ] {
+        let (bw, bh) = (w.div_ceil(bin), h.div_ceil(bin));
+        let mut binned = vec![(0.0f64, 0u32); (bw * bh) as usize];
+        for y in 0..h {
+            for x in 0..w {
+                let t = data[(y * w + x) as usize];
+                if t.is_finite() {
+                    let b = &mut binned[((y / bin) * bw + x / bin) as usize];
+                    b.0 += t as f64;
+                    b.1 += 1;
+                }
+            }
+        }
+        let binned: Vec<f64> = binned.iter().map(|&(s, n)| if n > 0 { s / n as f64 } else { f64::NAN }).collect();
+        // Symmetric scale: four RMS of the binned map, at least `floor`.
+        let v: Vec<f64> = binned.iter().copied().filter(|x| x.is_finite()).collect();
+        let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+        let scale = (4.0 * rms).max(floor);
+        let img = image::RgbImage::from_fn(bw, bh, |x, y| image::Rgb(colour(binned[(y * bw + x) as usize] / scale)));
+        let path = dir.join(name);
+        img.save(&path).with_context(|| format!("writing {}", path.display()))?;
+        out.push(Written { png: name.to_string(), what, scale, unit });
+    }
+    Ok(out)
+}
+
+/// Blue (−1) – white (0) – red (+1); grey for NaN.
+fn colour(t: f64) -> [u8; 3] {
+    if !t.is_finite() {
+        return [128, 128, 128];
+    }
+    let t = t.clamp(-1.0, 1.0);
+    let fade = |a: f64| (255.0 * (1.0 - a.abs())).round() as u8;
+    if t >= 0.0 {
+        [255, fade(t), fade(t)]
+    } else {
+        [fade(t), fade(t), 255]
+    }
+}
