@@ -84,7 +84,7 @@ mod tests {
         let key = FrameKey::new(3, 0, 0);
         let dn: Vec<f32> = (0..w * h)
             .map(|p| {
-                let s = 500.0 + 3.0 * (p % w) as f64; // a smooth ramp
+                let s = 5.0 + 2.0 * (p % w) as f64; // a smooth ramp from near black
                 let var = 2.0 * 2.0 + 0.2 * s;
                 (100.0 + s + var.sqrt() * key.normal(p as u32, 0, stream::TEMPORAL)) as f32
             })
