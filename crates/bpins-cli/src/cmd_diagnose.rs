@@ -5,7 +5,6 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::capture::Capture;
 use bpins_core::fit::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use bpins_core::fit::{residual_maps, FitOptions, Param};
 use serde_json::{json, Map, Value};
@@ -30,13 +29,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let mut effects = Vec::new();
-    for name in a.effects.iter().map(|s| s.trim()).filter(|s| !s.is_empty()) {
-        effects.push(bpins_core::effects::find(name).with_context(|| format!("--effects {name}"))?);
-    }
-    crate::ensure_not_in_capture(&a.out)?;
-    let c = Capture::load(&a.capture)?;
-    let frames = (0..c.frames.len()).map(|i| c.read_frame(i)).collect::<Result<Vec<_>, _>>()?;
+    let (effects, c, frames) = crate::load_for_fit(&a.effects, &a.capture, &a.out)?;
     let opts = DiagnoseOptions {
         base: FitOptions { effects, trust_reference: a.trust_reference },
         max_added: a.max_added,

@@ -4,7 +4,6 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::capture::Capture;
 use bpins_core::fit::{fit, FitOptions};
 use serde_json::json;
 use std::path::PathBuf;
@@ -25,19 +24,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let mut effects = Vec::new();
-    for name in a.effects.iter().map(|s| s.trim()).filter(|s| !s.is_empty()) {
-        effects.push(bpins_core::effects::find(name).with_context(|| format!("--effects {name}"))?);
-    }
-    crate::ensure_not_in_capture(&a.out)?;
-    let c = Capture::load(&a.capture)?;
-    let pb = crate::progress::bar(c.frames.len() as u64, "frames read");
-    let mut frames = Vec::with_capacity(c.frames.len());
-    for i in 0..c.frames.len() {
-        frames.push(c.read_frame(i)?);
-        pb.inc(1);
-    }
-    pb.finish_and_clear();
+    let (effects, c, frames) = crate::load_for_fit(&a.effects, &a.capture, &a.out)?;
     let names: Vec<&str> = effects.iter().map(|e| e.name).collect();
     eprintln!(
         "bpins fit: {} frames of {}, effects: {}",
