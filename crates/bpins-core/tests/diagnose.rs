@@ -35,3 +35,34 @@ fn hidden_analyzer_angles_are_named_first_and_the_error_falls() {
         assert!((p.value - want).abs() < 3.0 * p.sigma, "{name}: {} ± {}", p.value, p.sigma);
     }
 }
+
+#[test]
+fn an_effect_outside_the_catalog_is_reported_unexplained_and_nothing_named() {
+    // The clean capture with a gain ramp across the sensor, DN × (1 + 0.02·x_n): no
+    // catalog effect is a linear ramp (vignetting is radial).
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/samples/clean");
+    let c = Capture::load(&dir).unwrap();
+    let intr = c.intrinsics();
+    let black = c.sensor.black_level_dn;
+    let frames: Vec<FrameData> = (0..c.frames.len())
+        .map(|i| match c.read_frame(i).unwrap() {
+            FrameData::Mosaic { width_px, height_px, dn } => {
+                let w = width_px as usize;
+                let dn = dn
+                    .iter()
+                    .enumerate()
+                    .map(|(p, &x)| {
+                        let (xn, _) = intr.normalised((p % w) as f64, (p / w) as f64);
+                        (black + (x as f64 - black) * (1.0 + 0.02 * xn)).round() as f32
+                    })
+                    .collect();
+                FrameData::Mosaic { width_px, height_px, dn }
+            }
+            other => other,
+        })
+        .collect();
+    let d = diagnose(&c, &frames, &DiagnoseOptions { max_added: 2, ..Default::default() }, &|_| {}).unwrap();
+    eprintln!("selected {:?}; {}", d.selected, d.unexplained_summary);
+    assert!(d.unexplained, "{}", d.unexplained_summary);
+    assert!(d.selected.is_empty(), "falsely named {:?}", d.selected);
+}

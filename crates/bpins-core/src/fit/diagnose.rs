@@ -6,7 +6,8 @@
 //! (> 2k) are refitted on every pixel for their real Δχ², ranked by
 //! ΔBIC = Δχ² − k·ln n (k its parameters, n the samples).
 //! The winner is added if ΔBIC > 10 ("very strong" evidence, Kass & Raftery 1995) and
-//! the search repeats. Two candidates within 10 of each other in ΔBIC are reported as
+//! it removes at least 30 % of the model's excess χ² (χ² − dof) — an effect that only
+//! nibbles at a misfit it does not describe is not named — and the search repeats. Two candidates within 10 of each other in ΔBIC are reported as
 //! confusable (the data cannot tell them apart; the better one is still taken). When
 //! no effect is worth its parameters but χ²/dof stays clearly above 1, the residual is
 //! reported as unexplained, described by channel and by radius instead of naming the
@@ -38,6 +39,11 @@ impl Default for DiagnoseOptions {
 
 /// ΔBIC an effect must bring to be added.
 pub const BIC_THRESHOLD: f64 = 10.0;
+
+/// Fraction of the model's excess χ² (χ² − dof) an effect must remove to be added:
+/// an effect that only nibbles at a misfit it does not describe (a tilt absorbing a
+/// little of a gain ramp) is not named.
+pub const EXCESS_FRACTION: f64 = 0.3;
 
 /// One candidate of one step.
 #[derive(Clone, Debug, PartialEq)]
@@ -155,8 +161,11 @@ pub fn diagnose(
         let best = ranking.first().cloned();
         let runner = ranking.get(1).cloned();
         d.rankings.push(ranking);
-        let Some(best) = best.filter(|b| b.refitted && b.delta_bic > BIC_THRESHOLD) else { break };
-        if let Some(r) = runner.filter(|r| r.refitted && r.delta_bic > BIC_THRESHOLD) {
+        let excess = (current.chi2 - current.dof).max(0.0);
+        let explains =
+            |c: &Candidate| c.refitted && c.delta_bic > BIC_THRESHOLD && c.delta_chi2 >= EXCESS_FRACTION * excess;
+        let Some(best) = best.filter(|b| explains(b)) else { break };
+        if let Some(r) = runner.filter(|r| explains(r)) {
             if best.delta_bic - r.delta_bic < BIC_THRESHOLD {
                 d.confusable.push((best.effect, r.effect));
             }
@@ -177,10 +186,11 @@ pub fn diagnose(
         let worst_ch = p.by_channel.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1));
         let worst_r = p.by_radius.iter().copied().max_by(|a, b| a.2.total_cmp(&b.2));
         let mut s = format!(
-            "χ²/dof {:.3} remains (noise alone: ≤ {:.3}) after {}; no catalog effect is worth its parameters (ΔBIC ≤ {}).",
+            "χ²/dof {:.3} remains (noise alone: ≤ {:.3}) after {}; no catalog effect explains it (none removes {:.0} % of the excess χ² with ΔBIC > {}).",
             current.chi2_per_dof,
             limit,
             if d.selected.is_empty() { "the starting model".to_string() } else { format!("adding {}", d.selected.join(", ")) },
+            100.0 * EXCESS_FRACTION,
             BIC_THRESHOLD
         );
         if let Some((a, x)) = worst_ch {
