@@ -8,33 +8,22 @@ use anyhow::Context;
 use bpins_core::fit::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use bpins_core::fit::{residual_maps, FitOptions, Param};
 use serde_json::{json, Map, Value};
-use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The capture folder (bpins-capture/1).
-    capture: PathBuf,
-    /// Effects the model starts with, comma-separated (default: none).
-    #[arg(long, value_delimiter = ',')]
-    effects: Vec<String>,
-    /// Hold each frame's heading at its reference instead of fitting it.
-    #[arg(long)]
-    trust_reference: bool,
+    /// The model to start from (and keep).
+    #[command(flatten)]
+    input: crate::FitInput,
     /// Most effects to add.
     #[arg(long, default_value_t = 3)]
     max_added: usize,
-    /// Output folder (never inside the capture).
-    #[arg(long)]
-    out: PathBuf,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let (effects, c, frames) = crate::load_for_fit(&a.effects, &a.capture, &a.out)?;
-    let opts = DiagnoseOptions {
-        base: FitOptions { effects, trust_reference: a.trust_reference },
-        max_added: a.max_added,
-        ..Default::default()
-    };
+    let max_added = a.max_added;
+    let a = a.input;
+    let (base, c, frames) = a.load()?;
+    let opts = DiagnoseOptions { base, max_added, ..Default::default() };
     let spinner = indicatif::ProgressBar::new_spinner();
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
     let t0 = std::time::Instant::now();

@@ -4,28 +4,19 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::fit::{fit, FitOptions};
+use bpins_core::fit::fit;
 use serde_json::json;
-use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The capture folder (bpins-capture/1).
-    capture: PathBuf,
-    /// Effects whose parameters are fitted, comma-separated (`bpins effects` lists them).
-    #[arg(long, value_delimiter = ',')]
-    effects: Vec<String>,
-    /// Hold each frame's heading at its reference instead of fitting it.
-    #[arg(long)]
-    trust_reference: bool,
-    /// Output folder (never inside the capture).
-    #[arg(long)]
-    out: PathBuf,
+    #[command(flatten)]
+    input: crate::FitInput,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let (effects, c, frames) = crate::load_for_fit(&a.effects, &a.capture, &a.out)?;
-    let names: Vec<&str> = effects.iter().map(|e| e.name).collect();
+    let a = a.input;
+    let (opts, c, frames) = a.load()?;
+    let names: Vec<&str> = opts.effects.iter().map(|e| e.name).collect();
     eprintln!(
         "bpins fit: {} frames of {}, effects: {}",
         frames.len(),
@@ -33,7 +24,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if names.is_empty() { "none".to_string() } else { names.join(", ") }
     );
     let spinner = indicatif::ProgressBar::new_spinner();
-    let opts = FitOptions { effects, trust_reference: a.trust_reference };
     let r = fit(&c, &frames, &opts, &|stage, it| spinner.set_message(format!("iteration {it} ({stage})")))
         .context("fitting")?;
     spinner.finish_and_clear();

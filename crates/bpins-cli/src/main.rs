@@ -85,31 +85,45 @@ pub fn ensure_not_in_capture(out: &std::path::Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The effects named by `--effects` (empty names skipped), each checked against the
-/// registry, then the capture at `dir` with all its frames (a progress bar while
-/// reading): what `fit` and `diagnose` start from. `out` must lie outside the capture.
-pub fn load_for_fit(
-    names: &[String],
-    dir: &std::path::Path,
-    out: &std::path::Path,
-) -> anyhow::Result<(
-    Vec<&'static bpins_core::effects::EffectDef>,
-    bpins_core::capture::Capture,
-    Vec<bpins_core::capture::FrameData>,
-)> {
-    use anyhow::Context;
-    let mut effects = Vec::new();
-    for name in names.iter().map(|s| s.trim()).filter(|s| !s.is_empty()) {
-        effects.push(bpins_core::effects::find(name).with_context(|| format!("--effects {name}"))?);
+/// What `fit` and `diagnose` read: a capture, the model's effects, where to write.
+#[derive(clap::Args)]
+pub struct FitInput {
+    /// The capture folder (bpins-capture/1).
+    pub capture: std::path::PathBuf,
+    /// Effects of the model, whose parameters are fitted, comma-separated (`bpins
+    /// effects` lists them; default: none).
+    #[arg(long, value_delimiter = ',')]
+    pub effects: Vec<String>,
+    /// Hold each frame's heading at its reference instead of fitting it.
+    #[arg(long)]
+    pub trust_reference: bool,
+    /// Output folder (never inside the capture).
+    #[arg(long)]
+    pub out: std::path::PathBuf,
+}
+
+impl FitInput {
+    /// The named effects (each checked against the registry) as fit options, then the
+    /// capture with all its frames (a progress bar while reading). `out` must lie
+    /// outside the capture.
+    pub fn load(
+        &self,
+    ) -> anyhow::Result<(bpins_core::fit::FitOptions, bpins_core::capture::Capture, Vec<bpins_core::capture::FrameData>)>
+    {
+        use anyhow::Context;
+        let mut effects = Vec::new();
+        for name in self.effects.iter().map(|s| s.trim()).filter(|s| !s.is_empty()) {
+            effects.push(bpins_core::effects::find(name).with_context(|| format!("--effects {name}"))?);
+        }
+        ensure_not_in_capture(&self.out)?;
+        let c = bpins_core::capture::Capture::load(&self.capture)?;
+        let pb = progress::bar(c.frames.len() as u64, "frames read");
+        let mut frames = Vec::with_capacity(c.frames.len());
+        for i in 0..c.frames.len() {
+            frames.push(c.read_frame(i)?);
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        Ok((bpins_core::fit::FitOptions { effects, trust_reference: self.trust_reference }, c, frames))
     }
-    ensure_not_in_capture(out)?;
-    let c = bpins_core::capture::Capture::load(dir)?;
-    let pb = progress::bar(c.frames.len() as u64, "frames read");
-    let mut frames = Vec::with_capacity(c.frames.len());
-    for i in 0..c.frames.len() {
-        frames.push(c.read_frame(i)?);
-        pb.inc(1);
-    }
-    pb.finish_and_clear();
-    Ok((effects, c, frames))
 }
