@@ -21,14 +21,18 @@
 pub mod diagnose;
 pub mod linalg;
 pub mod noise;
+mod residuals;
+mod score;
+
+pub use residuals::{residual_maps, residual_profile, ResidualMaps, ResidualProfile};
+pub use score::{score_candidate, Score};
 
 use crate::camera::Intrinsics;
 use crate::capture::{Capture, FrameData};
 use crate::chain::{mosaic_pixel_signal_dn, pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
-use crate::conventions::{wrap_deg_180, wrap_deg_90};
+use crate::conventions::wrap_deg_180;
 use crate::effects::{EffectDef, EffectSet};
 use crate::error::{Error, Result};
-use crate::recon::Reconstructor;
 use crate::sensor::{Layout, Response};
 use noise::NoiseModel;
 use rayon::prelude::*;
@@ -472,7 +476,7 @@ pub fn fit_from(
     let errs: Vec<f64> = frames_out.iter().filter_map(|f| f.heading_error_deg).collect();
     let heading_rms_deg =
         (!errs.is_empty()).then(|| (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt());
-    let (aop_rms_deg, dolp_rms) = polarization_residuals(&pb, &theta)?;
+    let (aop_rms_deg, dolp_rms) = residuals::polarization_residuals(&pb, &theta)?;
     Ok(FitResult {
         params,
         frames: frames_out,
@@ -490,76 +494,6 @@ pub fn fit_from(
             frames: (0..frames.len()).map(|k| pb.frame_slots(k).map(|i| theta[i])).collect(),
         },
     })
-}
-
-/// The score of adding `candidate` to a fitted model: the Δχ² one Gauss–Newton step
-/// from `base` (where the base model's own gradient vanishes) predicts, bᵀA⁻¹b over
-/// the joint system, on every `stride`-th row and column. The candidate's Jacobian is
-/// a secant of `probe` × its range from neutral (one-sided at a bound), so an effect
-/// that enters at second order (neutral points splitting) still scores.
-pub fn score_candidate(
-    c: &Capture,
-    frames: &[FrameData],
-    base_opts: &FitOptions,
-    base: &FitResult,
-    candidate: &'static EffectDef,
-    stride: usize,
-    probe: f64,
-) -> Result<Score> {
-    let mut opts = base_opts.clone();
-    opts.effects.push(candidate);
-    let (mut pb, theta) = problem(c, frames, &opts, Some(&base.state), base.noise)?;
-    for s in pb.slots.iter_mut().filter(|s| s.name.starts_with(&format!("{}.", candidate.name))) {
-        // A forward secant (backward at the upper bound): first- and second-order
-        // effects alike get a column of their shape.
-        s.step = probe * (s.max - s.min);
-        s.secant = true;
-    }
-    // An odd stride samples every channel of a DoFP mosaic.
-    let acc = pb.accumulate(&theta, stride | 1, true)?;
-    let nf = acc.b.len();
-    // The candidate's slots come right after the base effects' (free, in order).
-    let first = base_opts.effects.iter().map(|e| e.params.len()).sum::<usize>();
-    let k = candidate.params.len();
-    let mut score = Score { delta_chi2: 0.0, params: Vec::new(), samples: acc.n, identifiable: false };
-    let Some(l) = linalg::cholesky(&acc.a, nf) else { return Ok(score) };
-    let x = linalg::cholesky_solve(&l, nf, &acc.b);
-    let cov = linalg::cholesky_inverse(&l, nf);
-    // Score test: the joint model's predicted Δχ² minus the base model's own (the base
-    // optimum on these samples is not exactly the one on every pixel).
-    let joint = x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>();
-    let keep: Vec<usize> = (0..nf).filter(|&i| i < first || i >= first + k).collect();
-    let a0: Vec<f64> =
-        keep.iter().flat_map(|&i| keep.iter().map(move |&j| (i, j))).map(|(i, j)| acc.a[i * nf + j]).collect();
-    let b0: Vec<f64> = keep.iter().map(|&i| acc.b[i]).collect();
-    let own = linalg::cholesky(&a0, keep.len()).map_or(0.0, |l0| {
-        let x0 = linalg::cholesky_solve(&l0, keep.len(), &b0);
-        x0.iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>()
-    });
-    score.delta_chi2 = (joint - own).max(0.0);
-    score.identifiable = true;
-    for (j, p) in candidate.params.iter().enumerate() {
-        let i = first + j;
-        let s = &pb.slots[i];
-        score.params.push(Param {
-            name: s.name.clone(),
-            unit: p.unit,
-            value: (theta[i] + x[i]).clamp(s.min, s.max),
-            sigma: cov[i * nf + i].max(0.0).sqrt(),
-        });
-    }
-    Ok(score)
-}
-
-/// What [`score_candidate`] predicts: Δχ² and the one-step parameters with their 1σ.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Score {
-    pub delta_chi2: f64,
-    pub params: Vec<Param>,
-    pub samples: usize,
-    /// False where the candidate cannot be told from the model's other parameters (the
-    /// joint system is singular): e.g. a global d_max factor beside per-frame d_max.
-    pub identifiable: bool,
 }
 
 /// One damped Gauss–Newton step: the new parameters and whether the fit converged,
@@ -641,228 +575,4 @@ fn initial_scale(pb: &Problem, theta: &[f64], k: usize) -> Result<f64> {
         return Err(Error::Model(format!("frame {k}: no usable pixels to fit")));
     }
     Ok((sy / ss).max(1e-6))
-}
-
-/// RMS of measured − model AoP (degrees, model DoLP > 0.01) and DoLP over the
-/// superpixels (DoFP) or pixels (colocated) of every frame, nominal inversion.
-fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64, f64)> {
-    let c = pb.capture;
-    let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &c.sensor.channels())?;
-    let (w, h) = (pb.w(), pb.h());
-    let (mut sa, mut na, mut sd, mut nd) = (0.0, 0usize, 0.0, 0usize);
-    for k in 0..pb.frames.len() {
-        let f = pb.chain(theta, k)?;
-        let mut buf = Vec::new();
-        let mut add = |meas: [f64; 4], model: [f64; 4]| {
-            if meas.iter().any(|&y| !pb.usable(y)) {
-                return;
-            }
-            let (a, b) = (rec.stokes(&meas), rec.stokes(&model));
-            if b.dolp() > 0.01 {
-                let d = wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees());
-                sa += d * d;
-                na += 1;
-            }
-            let d = a.dolp() - b.dolp();
-            sd += d * d;
-            nd += 1;
-        };
-        match &c.sensor.layout {
-            Layout::Dofp { mosaic } => {
-                for j in 0..h / 2 {
-                    for i in 0..w / 2 {
-                        let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
-                        for (dv, row) in mosaic.iter().enumerate() {
-                            for (du, ch) in row.iter().enumerate() {
-                                pb.pixel(&f, k, 2 * i + du, 2 * j + dv, &mut buf);
-                                (meas[ch.index()], model[ch.index()]) = buf[0];
-                            }
-                        }
-                        add(meas, model);
-                    }
-                }
-            }
-            Layout::Colocated { channels } => {
-                for v in 0..h {
-                    for u in 0..w {
-                        pb.pixel(&f, k, u, v, &mut buf);
-                        let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
-                        for (c, &(y, m)) in channels.iter().zip(&buf) {
-                            (meas[c.index()], model[c.index()]) = (y, m);
-                        }
-                        add(meas, model);
-                    }
-                }
-            }
-        }
-    }
-    let rms = |s: f64, n: usize| if n > 0 { (s / n as f64).sqrt() } else { f64::NAN };
-    Ok((rms(sa, na), rms(sd, nd)))
-}
-
-/// Where a fitted model's misfit lies: χ²/dof of the raw DN by analyzer channel and by
-/// radius from the principal point, with the mean normalised residual (measured −
-/// model)/σ of each radius bin (its sign says too bright or too dark).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ResidualProfile {
-    /// (channel angle °, χ²/dof).
-    pub by_channel: Vec<(f64, f64)>,
-    /// (inner radius, outer radius in focal lengths, χ²/dof, mean normalised residual).
-    pub by_radius: Vec<(f64, f64, f64, f64)>,
-}
-
-/// The residual profile of `state` under `opts` (every pixel).
-pub fn residual_profile(
-    c: &Capture,
-    frames: &[FrameData],
-    opts: &FitOptions,
-    state: &FitState,
-    noise: NoiseModel,
-) -> Result<ResidualProfile> {
-    let (pb, theta) = problem(c, frames, opts, Some(state), noise)?;
-    let intr = c.intrinsics();
-    let corner = {
-        let (x, y) = intr.normalised(0.0, 0.0);
-        let (x2, y2) = intr.normalised(pb.w() as f64 - 1.0, pb.h() as f64 - 1.0);
-        (x * x + y * y).max(x2 * x2 + y2 * y2).sqrt()
-    };
-    const BINS: usize = 8;
-    let mut ch = [(0.0f64, 0usize); 4];
-    let mut rad = [(0.0f64, 0.0f64, 0usize); BINS];
-    let mut buf = Vec::new();
-    for k in 0..frames.len() {
-        let f = pb.chain(&theta, k)?;
-        for v in 0..pb.h() {
-            for u in 0..pb.w() {
-                pb.pixel(&f, k, u, v, &mut buf);
-                let (x, y) = intr.normalised(u as f64, v as f64);
-                let bin = (((x * x + y * y).sqrt() / corner * BINS as f64) as usize).min(BINS - 1);
-                for (q, &(meas, m)) in buf.iter().enumerate() {
-                    if !pb.usable(meas) {
-                        continue;
-                    }
-                    let z = (meas - m) / pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
-                    let channel = match &c.sensor.layout {
-                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
-                        Layout::Colocated { channels } => channels[q].index(),
-                    };
-                    ch[channel].0 += z * z;
-                    ch[channel].1 += 1;
-                    rad[bin].0 += z * z;
-                    rad[bin].1 += z;
-                    rad[bin].2 += 1;
-                }
-            }
-        }
-    }
-    Ok(ResidualProfile {
-        by_channel: (0..4).filter(|&i| ch[i].1 > 0).map(|i| (45.0 * i as f64, ch[i].0 / ch[i].1 as f64)).collect(),
-        by_radius: (0..BINS)
-            .filter(|&b| rad[b].2 > 0)
-            .map(|b| {
-                let n = rad[b].2 as f64;
-                (corner * b as f64 / BINS as f64, corner * (b + 1) as f64 / BINS as f64, rad[b].0 / n, rad[b].1 / n)
-            })
-            .collect(),
-    })
-}
-
-/// Residual maps of a fitted model, stacked over frames (the mean of measured − model).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ResidualMaps {
-    pub width_px: u32,
-    pub height_px: u32,
-    /// Normalised DN residual (measured − model)/σ per pixel, mean over frames (NaN masked).
-    pub dn_z: Vec<f32>,
-    /// Mean over frames of that residual squared (χ² per sample: 1 where the model fits).
-    pub dn_chi2: Vec<f32>,
-    /// Size of the AoP and DoLP maps: superpixels (DoFP) or pixels (colocated).
-    pub pol_width: u32,
-    pub pol_height: u32,
-    /// AoP residual, degrees (where the model DoLP > 0.01), mean over frames.
-    pub aop_deg: Vec<f32>,
-    /// DoLP residual, mean over frames.
-    pub dolp: Vec<f32>,
-}
-
-/// The residual maps of `state` under `opts`.
-pub fn residual_maps(
-    c: &Capture,
-    frames: &[FrameData],
-    opts: &FitOptions,
-    state: &FitState,
-    noise: NoiseModel,
-) -> Result<ResidualMaps> {
-    let (pb, theta) = problem(c, frames, opts, Some(state), noise)?;
-    let (w, h) = (pb.w(), pb.h());
-    let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &c.sensor.channels())?;
-    let (pw, ph, dofp) = match &c.sensor.layout {
-        Layout::Dofp { .. } => (w / 2, h / 2, true),
-        Layout::Colocated { .. } => (w, h, false),
-    };
-    let mut z = vec![(0.0f64, 0u32); w * h];
-    let mut z2 = vec![(0.0f64, 0u32); w * h];
-    let mut aop = vec![(0.0f64, 0u32); pw * ph];
-    let mut dolp = vec![(0.0f64, 0u32); pw * ph];
-    let mut buf = Vec::new();
-    for k in 0..frames.len() {
-        let f = pb.chain(&theta, k)?;
-        // Per pixel: DN residuals; gather the channels of each polarization sample.
-        let mut meas = vec![[1.0f64; 4]; pw * ph];
-        let mut model = vec![[1.0f64; 4]; pw * ph];
-        let mut ok = vec![true; pw * ph];
-        for v in 0..h {
-            for u in 0..w {
-                pb.pixel(&f, k, u, v, &mut buf);
-                let (pu, pv) = if dofp { (u / 2, v / 2) } else { (u, v) };
-                let inside = pu < pw && pv < ph;
-                for (q, &(y, m)) in buf.iter().enumerate() {
-                    let usable = pb.usable(y);
-                    if usable {
-                        let s = pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
-                        z[v * w + u].0 += (y - m) / s;
-                        z[v * w + u].1 += 1;
-                        z2[v * w + u].0 += ((y - m) / s).powi(2);
-                        z2[v * w + u].1 += 1;
-                    }
-                    if !inside {
-                        continue;
-                    }
-                    let ch = match &c.sensor.layout {
-                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
-                        Layout::Colocated { channels } => channels[q].index(),
-                    };
-                    let i = pv * pw + pu;
-                    meas[i][ch] = y;
-                    model[i][ch] = m;
-                    ok[i] &= usable;
-                }
-            }
-        }
-        for i in 0..pw * ph {
-            if !ok[i] {
-                continue;
-            }
-            let (a, b) = (rec.stokes(&meas[i]), rec.stokes(&model[i]));
-            if b.dolp() > 0.01 {
-                aop[i].0 += wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees());
-                aop[i].1 += 1;
-            }
-            dolp[i].0 += a.dolp() - b.dolp();
-            dolp[i].1 += 1;
-        }
-    }
-    let mean = |v: &[(f64, u32)]| -> Vec<f32> {
-        v.iter().map(|&(s, n)| if n > 0 { (s / n as f64) as f32 } else { f32::NAN }).collect()
-    };
-    Ok(ResidualMaps {
-        width_px: w as u32,
-        height_px: h as u32,
-        dn_z: mean(&z),
-        dn_chi2: mean(&z2),
-        pol_width: pw as u32,
-        pol_height: ph as u32,
-        aop_deg: mean(&aop),
-        dolp: mean(&dolp),
-    })
 }

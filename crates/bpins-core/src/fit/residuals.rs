@@ -1,0 +1,234 @@
+//! What a fitted model leaves: AoP and DoLP residual RMS, residual profiles and
+//! residual maps (measured − model).
+
+use super::noise::NoiseModel;
+use super::{problem, FitOptions, FitState, Problem};
+use crate::capture::{Capture, FrameData};
+use crate::conventions::wrap_deg_90;
+use crate::error::Result;
+use crate::recon::Reconstructor;
+use crate::sensor::Layout;
+
+/// RMS of measured − model AoP (degrees, model DoLP > 0.01) and DoLP over the
+/// superpixels (DoFP) or pixels (colocated) of every frame, nominal inversion.
+pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64, f64)> {
+    let c = pb.capture;
+    let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &c.sensor.channels())?;
+    let (w, h) = (pb.w(), pb.h());
+    let (mut sa, mut na, mut sd, mut nd) = (0.0, 0usize, 0.0, 0usize);
+    for k in 0..pb.frames.len() {
+        let f = pb.chain(theta, k)?;
+        let mut buf = Vec::new();
+        let mut add = |meas: [f64; 4], model: [f64; 4]| {
+            if meas.iter().any(|&y| !pb.usable(y)) {
+                return;
+            }
+            let (a, b) = (rec.stokes(&meas), rec.stokes(&model));
+            if b.dolp() > 0.01 {
+                let d = wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees());
+                sa += d * d;
+                na += 1;
+            }
+            let d = a.dolp() - b.dolp();
+            sd += d * d;
+            nd += 1;
+        };
+        match &c.sensor.layout {
+            Layout::Dofp { mosaic } => {
+                for j in 0..h / 2 {
+                    for i in 0..w / 2 {
+                        let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
+                        for (dv, row) in mosaic.iter().enumerate() {
+                            for (du, ch) in row.iter().enumerate() {
+                                pb.pixel(&f, k, 2 * i + du, 2 * j + dv, &mut buf);
+                                (meas[ch.index()], model[ch.index()]) = buf[0];
+                            }
+                        }
+                        add(meas, model);
+                    }
+                }
+            }
+            Layout::Colocated { channels } => {
+                for v in 0..h {
+                    for u in 0..w {
+                        pb.pixel(&f, k, u, v, &mut buf);
+                        let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
+                        for (c, &(y, m)) in channels.iter().zip(&buf) {
+                            (meas[c.index()], model[c.index()]) = (y, m);
+                        }
+                        add(meas, model);
+                    }
+                }
+            }
+        }
+    }
+    let rms = |s: f64, n: usize| if n > 0 { (s / n as f64).sqrt() } else { f64::NAN };
+    Ok((rms(sa, na), rms(sd, nd)))
+}
+
+/// Where a fitted model's misfit lies: χ²/dof of the raw DN by analyzer channel and by
+/// radius from the principal point, with the mean normalised residual (measured −
+/// model)/σ of each radius bin (its sign says too bright or too dark).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResidualProfile {
+    /// (channel angle °, χ²/dof).
+    pub by_channel: Vec<(f64, f64)>,
+    /// (inner radius, outer radius in focal lengths, χ²/dof, mean normalised residual).
+    pub by_radius: Vec<(f64, f64, f64, f64)>,
+}
+
+/// The residual profile of `state` under `opts` (every pixel).
+pub fn residual_profile(
+    c: &Capture,
+    frames: &[FrameData],
+    opts: &FitOptions,
+    state: &FitState,
+    noise: NoiseModel,
+) -> Result<ResidualProfile> {
+    let (pb, theta) = problem(c, frames, opts, Some(state), noise)?;
+    let intr = c.intrinsics();
+    let corner = {
+        let (x, y) = intr.normalised(0.0, 0.0);
+        let (x2, y2) = intr.normalised(pb.w() as f64 - 1.0, pb.h() as f64 - 1.0);
+        (x * x + y * y).max(x2 * x2 + y2 * y2).sqrt()
+    };
+    const BINS: usize = 8;
+    let mut ch = [(0.0f64, 0usize); 4];
+    let mut rad = [(0.0f64, 0.0f64, 0usize); BINS];
+    let mut buf = Vec::new();
+    for k in 0..frames.len() {
+        let f = pb.chain(&theta, k)?;
+        for v in 0..pb.h() {
+            for u in 0..pb.w() {
+                pb.pixel(&f, k, u, v, &mut buf);
+                let (x, y) = intr.normalised(u as f64, v as f64);
+                let bin = (((x * x + y * y).sqrt() / corner * BINS as f64) as usize).min(BINS - 1);
+                for (q, &(meas, m)) in buf.iter().enumerate() {
+                    if !pb.usable(meas) {
+                        continue;
+                    }
+                    let z = (meas - m) / pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
+                    let channel = match &c.sensor.layout {
+                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
+                        Layout::Colocated { channels } => channels[q].index(),
+                    };
+                    ch[channel].0 += z * z;
+                    ch[channel].1 += 1;
+                    rad[bin].0 += z * z;
+                    rad[bin].1 += z;
+                    rad[bin].2 += 1;
+                }
+            }
+        }
+    }
+    Ok(ResidualProfile {
+        by_channel: (0..4).filter(|&i| ch[i].1 > 0).map(|i| (45.0 * i as f64, ch[i].0 / ch[i].1 as f64)).collect(),
+        by_radius: (0..BINS)
+            .filter(|&b| rad[b].2 > 0)
+            .map(|b| {
+                let n = rad[b].2 as f64;
+                (corner * b as f64 / BINS as f64, corner * (b + 1) as f64 / BINS as f64, rad[b].0 / n, rad[b].1 / n)
+            })
+            .collect(),
+    })
+}
+
+/// Residual maps of a fitted model, stacked over frames (the mean of measured − model).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResidualMaps {
+    pub width_px: u32,
+    pub height_px: u32,
+    /// Normalised DN residual (measured − model)/σ per pixel, mean over frames (NaN masked).
+    pub dn_z: Vec<f32>,
+    /// Mean over frames of that residual squared (χ² per sample: 1 where the model fits).
+    pub dn_chi2: Vec<f32>,
+    /// Size of the AoP and DoLP maps: superpixels (DoFP) or pixels (colocated).
+    pub pol_width: u32,
+    pub pol_height: u32,
+    /// AoP residual, degrees (where the model DoLP > 0.01), mean over frames.
+    pub aop_deg: Vec<f32>,
+    /// DoLP residual, mean over frames.
+    pub dolp: Vec<f32>,
+}
+
+/// The residual maps of `state` under `opts`.
+pub fn residual_maps(
+    c: &Capture,
+    frames: &[FrameData],
+    opts: &FitOptions,
+    state: &FitState,
+    noise: NoiseModel,
+) -> Result<ResidualMaps> {
+    let (pb, theta) = problem(c, frames, opts, Some(state), noise)?;
+    let (w, h) = (pb.w(), pb.h());
+    let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &c.sensor.channels())?;
+    let (pw, ph, dofp) = match &c.sensor.layout {
+        Layout::Dofp { .. } => (w / 2, h / 2, true),
+        Layout::Colocated { .. } => (w, h, false),
+    };
+    let mut z = vec![(0.0f64, 0u32); w * h];
+    let mut z2 = vec![(0.0f64, 0u32); w * h];
+    let mut aop = vec![(0.0f64, 0u32); pw * ph];
+    let mut dolp = vec![(0.0f64, 0u32); pw * ph];
+    let mut buf = Vec::new();
+    for k in 0..frames.len() {
+        let f = pb.chain(&theta, k)?;
+        // Per pixel: DN residuals; gather the channels of each polarization sample.
+        let mut meas = vec![[1.0f64; 4]; pw * ph];
+        let mut model = vec![[1.0f64; 4]; pw * ph];
+        let mut ok = vec![true; pw * ph];
+        for v in 0..h {
+            for u in 0..w {
+                pb.pixel(&f, k, u, v, &mut buf);
+                let (pu, pv) = if dofp { (u / 2, v / 2) } else { (u, v) };
+                let inside = pu < pw && pv < ph;
+                for (q, &(y, m)) in buf.iter().enumerate() {
+                    let usable = pb.usable(y);
+                    if usable {
+                        let s = pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
+                        z[v * w + u].0 += (y - m) / s;
+                        z[v * w + u].1 += 1;
+                        z2[v * w + u].0 += ((y - m) / s).powi(2);
+                        z2[v * w + u].1 += 1;
+                    }
+                    if !inside {
+                        continue;
+                    }
+                    let ch = match &c.sensor.layout {
+                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
+                        Layout::Colocated { channels } => channels[q].index(),
+                    };
+                    let i = pv * pw + pu;
+                    meas[i][ch] = y;
+                    model[i][ch] = m;
+                    ok[i] &= usable;
+                }
+            }
+        }
+        for i in 0..pw * ph {
+            if !ok[i] {
+                continue;
+            }
+            let (a, b) = (rec.stokes(&meas[i]), rec.stokes(&model[i]));
+            if b.dolp() > 0.01 {
+                aop[i].0 += wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees());
+                aop[i].1 += 1;
+            }
+            dolp[i].0 += a.dolp() - b.dolp();
+            dolp[i].1 += 1;
+        }
+    }
+    let mean = |v: &[(f64, u32)]| -> Vec<f32> {
+        v.iter().map(|&(s, n)| if n > 0 { (s / n as f64) as f32 } else { f32::NAN }).collect()
+    };
+    Ok(ResidualMaps {
+        width_px: w as u32,
+        height_px: h as u32,
+        dn_z: mean(&z),
+        dn_chi2: mean(&z2),
+        pol_width: pw as u32,
+        pol_height: ph as u32,
+        aop_deg: mean(&aop),
+        dolp: mean(&dolp),
+    })
+}

@@ -1,0 +1,77 @@
+//! The score test of a candidate effect: how much of what a fitted model leaves
+//! unexplained one Gauss–Newton step with the candidate freed would remove.
+
+use super::{linalg, problem, FitOptions, FitResult, Param};
+use crate::capture::{Capture, FrameData};
+use crate::effects::EffectDef;
+use crate::error::Result;
+
+/// The score of adding `candidate` to a fitted model: the Δχ² one Gauss–Newton step
+/// from `base` (where the base model's own gradient vanishes) predicts, bᵀA⁻¹b over
+/// the joint system, on every `stride`-th row and column. The candidate's Jacobian is
+/// a secant of `probe` × its range from neutral (one-sided at a bound), so an effect
+/// that enters at second order (neutral points splitting) still scores.
+pub fn score_candidate(
+    c: &Capture,
+    frames: &[FrameData],
+    base_opts: &FitOptions,
+    base: &FitResult,
+    candidate: &'static EffectDef,
+    stride: usize,
+    probe: f64,
+) -> Result<Score> {
+    let mut opts = base_opts.clone();
+    opts.effects.push(candidate);
+    let (mut pb, theta) = problem(c, frames, &opts, Some(&base.state), base.noise)?;
+    for s in pb.slots.iter_mut().filter(|s| s.name.starts_with(&format!("{}.", candidate.name))) {
+        // A forward secant (backward at the upper bound): first- and second-order
+        // effects alike get a column of their shape.
+        s.step = probe * (s.max - s.min);
+        s.secant = true;
+    }
+    // An odd stride samples every channel of a DoFP mosaic.
+    let acc = pb.accumulate(&theta, stride | 1, true)?;
+    let nf = acc.b.len();
+    // The candidate's slots come right after the base effects' (free, in order).
+    let first = base_opts.effects.iter().map(|e| e.params.len()).sum::<usize>();
+    let k = candidate.params.len();
+    let mut score = Score { delta_chi2: 0.0, params: Vec::new(), samples: acc.n, identifiable: false };
+    let Some(l) = linalg::cholesky(&acc.a, nf) else { return Ok(score) };
+    let x = linalg::cholesky_solve(&l, nf, &acc.b);
+    let cov = linalg::cholesky_inverse(&l, nf);
+    // Score test: the joint model's predicted Δχ² minus the base model's own (the base
+    // optimum on these samples is not exactly the one on every pixel).
+    let joint = x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>();
+    let keep: Vec<usize> = (0..nf).filter(|&i| i < first || i >= first + k).collect();
+    let a0: Vec<f64> =
+        keep.iter().flat_map(|&i| keep.iter().map(move |&j| (i, j))).map(|(i, j)| acc.a[i * nf + j]).collect();
+    let b0: Vec<f64> = keep.iter().map(|&i| acc.b[i]).collect();
+    let own = linalg::cholesky(&a0, keep.len()).map_or(0.0, |l0| {
+        let x0 = linalg::cholesky_solve(&l0, keep.len(), &b0);
+        x0.iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>()
+    });
+    score.delta_chi2 = (joint - own).max(0.0);
+    score.identifiable = true;
+    for (j, p) in candidate.params.iter().enumerate() {
+        let i = first + j;
+        let s = &pb.slots[i];
+        score.params.push(Param {
+            name: s.name.clone(),
+            unit: p.unit,
+            value: (theta[i] + x[i]).clamp(s.min, s.max),
+            sigma: cov[i * nf + i].max(0.0).sqrt(),
+        });
+    }
+    Ok(score)
+}
+
+/// What [`score_candidate`] predicts: Δχ² and the one-step parameters with their 1σ.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Score {
+    pub delta_chi2: f64,
+    pub params: Vec<Param>,
+    pub samples: usize,
+    /// False where the candidate cannot be told from the model's other parameters (the
+    /// joint system is singular): e.g. a global d_max factor beside per-frame d_max.
+    pub identifiable: bool,
+}
