@@ -37,7 +37,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut maps = Vec::new();
     for (k, s) in d.steps.iter().enumerate() {
         let effects = s.model.iter().map(|n| bpins_core::effects::find(n)).collect::<Result<Vec<_>, _>>()?;
-        let opts = FitOptions { effects, trust_reference: a.trust_reference };
+        let opts = FitOptions { effects, ..opts.base.clone() };
         let m = residual_maps(&c, &frames, &opts, &s.fit.state, s.fit.noise).context("residual maps")?;
         maps.push(crate::residuals::write(&a.out.join(format!("step{k}")), &m)?);
     }
@@ -107,6 +107,7 @@ fn to_json(d: &Diagnosis, capture: &std::path::Path) -> Value {
                 json!({
                     "effect": c.effect, "delta_chi2": c.delta_chi2, "delta_bic": c.delta_bic,
                     "score_delta_chi2": c.score, "refitted": c.refitted, "identifiable": c.identifiable,
+                    "constrained_params": c.added_rank,
                     "params": params, "sigmas": sigmas,
                 })
             })
@@ -124,6 +125,7 @@ fn to_json(d: &Diagnosis, capture: &std::path::Path) -> Value {
                 "heading_rms_deg": s.fit.heading_rms_deg,
                 "params": params,
                 "sigmas": sigmas,
+                "degenerate": s.fit.degenerate,
             })
         }).collect::<Vec<_>>(),
         "ranking": d.rankings.first().map(|r| ranking(r)).unwrap_or_default(),
@@ -229,6 +231,9 @@ fn report_html(d: &Diagnosis, capture: &std::path::Path, maps: &[Vec<crate::resi
         }
         h += "</table>\n";
     }
+    // Once loaded, the page marks <body data-images-ok="decoded/all"> so that a headless
+    // browser can tell that every map was found and decoded (tests/report_render.rs).
+    h += "<script>addEventListener(\"load\",()=>{const i=[...document.images];document.body.dataset.imagesOk=i.filter(x=>x.complete&&x.naturalWidth>0).length+\"/\"+i.length})</script>\n";
     h += "</body></html>\n";
     h
 }

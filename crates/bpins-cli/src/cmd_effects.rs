@@ -17,7 +17,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .map(|e| {
                 json!({
                     "name": e.name, "summary": e.summary, "source": e.source, "stage": e.stage.name(),
-                    "params": e.params.iter().map(|p| json!({"name": p.name, "unit": p.unit, "neutral": p.neutral, "min": p.min, "max": p.max, "doc": p.doc})).collect::<Vec<_>>(),
+                    "params": e.params.iter().map(|p| json!({"name": p.name, "unit": p.unit, "neutral": p.neutral, "typical": p.typical, "min": p.min, "max": p.max, "doc": p.doc})).collect::<Vec<_>>(),
                 })
             })
             .collect();
@@ -28,8 +28,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         println!("{:<20} [{}] {}  ({})", e.name, e.stage.name(), e.summary, e.source);
         for p in e.params {
             println!(
-                "    {:<14} {:>4}  neutral {:<6} range [{}, {}]  {}",
-                p.name, p.unit, p.neutral, p.min, p.max, p.doc
+                "    {:<14} {:>4}  neutral {:<6} typical {:<6} range [{}, {}]  {}",
+                p.name, p.unit, p.neutral, p.typical, p.min, p.max, p.doc
             );
         }
     }

@@ -52,6 +52,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(h) = r.heading_rms_deg {
         println!("heading RMS against the references: {h:.4}°");
     }
+    for d in &r.degenerate {
+        println!("degenerate (1σ shown as inf): {d}");
+    }
     let v = json!({
         "capture": a.capture.display().to_string(),
         "effects": names,
@@ -65,6 +68,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "aop_rms_deg": r.aop_rms_deg,
         "dolp_rms": r.dolp_rms,
         "heading_rms_deg": r.heading_rms_deg,
+        // Sigmas of parameters in these combinations are null (unbounded).
+        "degenerate": r.degenerate,
+        "rank": r.rank,
         "noise": { "read_dn": r.noise.read_dn, "k_dn_per_e": r.noise.k_dn_per_e },
         "frames": r.frames.iter().map(|f| json!({
             "heading_deg": f.heading_deg,

@@ -97,6 +97,10 @@ pub struct FitInput {
     /// Hold each frame's heading at its reference instead of fitting it.
     #[arg(long)]
     pub trust_reference: bool,
+    /// The sky's peak degree of linear polarization, when known: hold every frame's
+    /// d_max at this value (in [0, 1]) instead of fitting it per frame.
+    #[arg(long, value_name = "DMAX")]
+    pub fixed_dmax: Option<f64>,
     /// Output folder (never inside the capture).
     #[arg(long)]
     pub out: std::path::PathBuf,
@@ -115,6 +119,9 @@ impl FitInput {
         for name in self.effects.iter().map(|s| s.trim()).filter(|s| !s.is_empty()) {
             effects.push(bpins_core::effects::find(name).with_context(|| format!("--effects {name}"))?);
         }
+        if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
+            anyhow::bail!("--fixed-dmax {d} must lie in [0, 1]");
+        }
         ensure_not_in_capture(&self.out)?;
         let c = bpins_core::capture::Capture::load(&self.capture)?;
         let pb = progress::bar(c.frames.len() as u64, "frames read");
@@ -124,6 +131,11 @@ impl FitInput {
             pb.inc(1);
         }
         pb.finish_and_clear();
-        Ok((bpins_core::fit::FitOptions { effects, trust_reference: self.trust_reference }, c, frames))
+        let opts = bpins_core::fit::FitOptions {
+            effects,
+            trust_reference: self.trust_reference,
+            fixed_dmax: self.fixed_dmax,
+        };
+        Ok((opts, c, frames))
     }
 }

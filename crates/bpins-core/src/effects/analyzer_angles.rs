@@ -25,8 +25,8 @@
 
 use super::{EffectDef, Model, ParamSpec, Stage};
 
-const fn angle(name: &'static str, doc: &'static str) -> ParamSpec {
-    ParamSpec { name, unit: "deg", neutral: 0.0, min: -45.0, max: 45.0, doc }
+const fn angle(name: &'static str, typical: f64, doc: &'static str) -> ParamSpec {
+    ParamSpec { name, unit: "deg", neutral: 0.0, typical, min: -45.0, max: 45.0, doc }
 }
 
 pub const EFFECT: EffectDef = EffectDef {
@@ -35,10 +35,10 @@ pub const EFFECT: EffectDef = EffectDef {
     source: "seed paper §2.2 eq. 7–9, per channel",
     stage: Stage::Analyzer,
     params: &[
-        angle("d0_deg", "angle error of the 0° analyzer"),
-        angle("d45_deg", "angle error of the 45° analyzer"),
-        angle("d90_deg", "angle error of the 90° analyzer"),
-        angle("d135_deg", "angle error of the 135° analyzer"),
+        angle("d0_deg", 0.3, "angle error of the 0° analyzer"),
+        angle("d45_deg", 1.0, "angle error of the 45° analyzer"),
+        angle("d90_deg", -0.4, "angle error of the 90° analyzer"),
+        angle("d135_deg", -0.6, "angle error of the 135° analyzer"),
     ],
     apply,
     wgsl: None,

@@ -23,8 +23,8 @@
 
 use super::{EffectDef, Model, ParamSpec, Stage};
 
-const fn eps(name: &'static str, doc: &'static str) -> ParamSpec {
-    ParamSpec { name, unit: "1", neutral: 0.0, min: 0.0, max: 0.5, doc }
+const fn eps(name: &'static str, typical: f64, doc: &'static str) -> ParamSpec {
+    ParamSpec { name, unit: "1", neutral: 0.0, typical, min: 0.0, max: 0.5, doc }
 }
 
 pub const EFFECT: EffectDef = EffectDef {
@@ -33,10 +33,10 @@ pub const EFFECT: EffectDef = EffectDef {
     source: "CONVENTIONS.md partial polarizer, eps = 1/ER",
     stage: Stage::Analyzer,
     params: &[
-        eps("eps0", "1/ER of the 0° analyzer"),
-        eps("eps45", "1/ER of the 45° analyzer"),
-        eps("eps90", "1/ER of the 90° analyzer"),
-        eps("eps135", "1/ER of the 135° analyzer"),
+        eps("eps0", 0.01, "1/ER of the 0° analyzer"),
+        eps("eps45", 0.02, "1/ER of the 45° analyzer"),
+        eps("eps90", 0.01, "1/ER of the 90° analyzer"),
+        eps("eps135", 0.02, "1/ER of the 135° analyzer"),
     ],
     apply,
     wgsl: None,

@@ -64,6 +64,9 @@ pub struct ParamSpec {
     pub unit: &'static str,
     /// The value at which the effect vanishes.
     pub neutral: f64,
+    /// A realistic strength, as real sensors show it: what the hidden-effect tests
+    /// simulate (and `bpins effects` lists), so a new effect is tested by being here.
+    pub typical: f64,
     /// Physically meaningful range (inclusive).
     pub min: f64,
     pub max: f64,
@@ -279,7 +282,12 @@ mod tests {
                 };
                 assert!(suffix_ok, "{}.{} lacks its unit suffix", e.name, p.name);
                 assert!(p.min <= p.neutral && p.neutral <= p.max && !p.doc.is_empty());
+                // The typical strength lies in range and (unless zero is typical for one
+                // of several parameters) away from neutral, so the hidden-effect test
+                // exercises the effect.
+                assert!(p.min <= p.typical && p.typical <= p.max, "{}.{} typical", e.name, p.name);
             }
+            assert!(e.params.iter().any(|p| p.typical != p.neutral), "{}: typical = neutral", e.name);
         }
     }
 

@@ -31,8 +31,8 @@ pub const EFFECT: EffectDef = EffectDef {
     source: "EFFECTS.md; Brown 1966 (radial terms)",
     stage: Stage::Geometry,
     params: &[
-        ParamSpec { name: "k1", unit: "1", neutral: 0.0, min: -1.0, max: 1.0, doc: "radial distortion per r²" },
-        ParamSpec { name: "k2", unit: "1", neutral: 0.0, min: -1.0, max: 1.0, doc: "radial distortion per r⁴" },
+        ParamSpec { name: "k1", unit: "1", neutral: 0.0, typical: -0.05, min: -1.0, max: 1.0, doc: "radial distortion per r²" },
+        ParamSpec { name: "k2", unit: "1", neutral: 0.0, typical: 0.02, min: -1.0, max: 1.0, doc: "radial distortion per r⁴" },
     ],
     apply,
     wgsl: None,

@@ -30,8 +30,8 @@ pub const EFFECT: EffectDef = EffectDef {
     source: "EFFECTS.md; radial falloff polynomial",
     stage: Stage::Lens,
     params: &[
-        ParamSpec { name: "v2", unit: "1", neutral: 0.0, min: -2.0, max: 2.0, doc: "falloff per r²" },
-        ParamSpec { name: "v4", unit: "1", neutral: 0.0, min: -2.0, max: 2.0, doc: "falloff per r⁴" },
+        ParamSpec { name: "v2", unit: "1", neutral: 0.0, typical: -0.2, min: -2.0, max: 2.0, doc: "falloff per r²" },
+        ParamSpec { name: "v4", unit: "1", neutral: 0.0, typical: 0.05, min: -2.0, max: 2.0, doc: "falloff per r⁴" },
     ],
     apply,
     wgsl: Some(include_str!("../../../../shaders/effects/vignetting.wgsl")),

@@ -4,7 +4,9 @@
 //! (`score_candidate`: the Δχ² one Gauss–Newton step predicts, a score test, on every
 //! third row and column); the strongest `refit_top` whose score is beyond noise
 //! (> 2k) are refitted on every pixel for their real Δχ², ranked by
-//! ΔBIC = Δχ² − k·ln n (k its parameters, n the samples).
+//! ΔBIC = Δχ² − k·ln n (k the combinations of its parameters the data constrain beside
+//! the model's — fewer than its parameters where some trade exactly against the
+//! model's —, n the samples).
 //! The winner is added if ΔBIC > 10 ("very strong" evidence, Kass & Raftery 1995) and
 //! it removes at least 30 % of the model's excess χ² (χ² − dof) — an effect that only
 //! nibbles at a misfit it does not describe is not named — and the search repeats. Two candidates within 10 of each other in ΔBIC are reported as
@@ -57,6 +59,10 @@ pub struct Candidate {
     pub refitted: bool,
     /// False where the data cannot tell it from the model's other parameters.
     pub identifiable: bool,
+    /// Independent combinations of its parameters the data constrain beside the
+    /// model's: the k its ΔBIC pays for (less than its parameters where some trade
+    /// exactly against the model's, e.g. a common extinction ratio against d_max).
+    pub added_rank: usize,
     pub params: Vec<Param>,
 }
 
@@ -110,9 +116,10 @@ pub fn diagnose(
                 effect: e.name,
                 score: s.delta_chi2,
                 delta_chi2: s.delta_chi2,
-                delta_bic: s.delta_chi2 - e.params.len() as f64 * (s.samples.max(2) as f64).ln(),
+                delta_bic: s.delta_chi2 - s.added_rank as f64 * (s.samples.max(2) as f64).ln(),
                 refitted: false,
                 identifiable: s.identifiable,
+                added_rank: s.added_rank,
                 params: s.params,
             });
         }
@@ -124,7 +131,7 @@ pub fn diagnose(
         ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.score.total_cmp(&a.score)));
         for cand in ranking
             .iter_mut()
-            .filter(|c| c.identifiable && c.score > 2.0 * c.params.len().max(1) as f64)
+            .filter(|c| c.identifiable && c.score > 2.0 * c.added_rank.max(1) as f64)
             .take(opts.refit_top)
         {
             progress(&format!("refitting with {}", cand.effect));
@@ -134,16 +141,11 @@ pub fn diagnose(
             // order has no slope at neutral to start from).
             let mut start = current.state.clone();
             start.effect_values.extend(cand.params.iter().map(|p| (p.name.clone(), p.value)));
-            let r = match fit_from(c, frames, &m, Some(&start), &|_, _| {}) {
-                Ok(r) => r,
-                Err(crate::error::Error::Model(_)) => {
-                    // Degenerate with the model's other parameters.
-                    cand.identifiable = false;
-                    continue;
-                }
-                Err(e) => return Err(e),
-            };
-            let k = m.effects.last().map_or(0, |e| e.params.len()) as f64;
+            let r = fit_from(c, frames, &m, Some(&start), &|_, _| {})?;
+            // Its parameters pay only for the combinations the data constrain.
+            cand.added_rank = r.rank.saturating_sub(current.rank);
+            cand.identifiable = cand.added_rank > 0;
+            let k = cand.added_rank as f64;
             cand.delta_chi2 = current.chi2 - r.chi2;
             cand.delta_bic = cand.delta_chi2 - k * (r.samples as f64).ln();
             cand.refitted = true;

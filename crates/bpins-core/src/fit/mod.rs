@@ -44,6 +44,10 @@ pub struct FitOptions {
     pub effects: Vec<&'static EffectDef>,
     /// Keep each frame's heading at its reference instead of fitting it.
     pub trust_reference: bool,
+    /// The sky's peak degree of polarization when the user knows it: every frame's
+    /// d_max is held at this value instead of being fitted (which is what makes a
+    /// global `sky_depolarization` measurable at all).
+    pub fixed_dmax: Option<f64>,
 }
 
 /// One fitted parameter.
@@ -53,7 +57,8 @@ pub struct Param {
     pub name: String,
     pub unit: &'static str,
     pub value: f64,
-    /// 1σ; 0 for a parameter held fixed.
+    /// 1σ; 0 for a parameter held fixed; infinite for one the data cannot tell from
+    /// others (see [`FitResult::degenerate`]).
     pub sigma: f64,
 }
 
@@ -89,6 +94,11 @@ pub struct FitResult {
     /// RMS over frames of fitted − reference heading, degrees (None without references).
     pub heading_rms_deg: Option<f64>,
     pub iterations: usize,
+    /// Number of independent combinations of the free parameters the data constrain
+    /// (the rank of JᵀWJ); less than the free parameters when some are degenerate.
+    pub rank: usize,
+    /// Each combination of parameters the data cannot constrain, in words.
+    pub degenerate: Vec<String>,
     /// The fitted values, to start another fit from.
     pub state: FitState,
 }
@@ -394,10 +404,11 @@ fn problem<'a>(
             min: 0.0,
             max: 1.0,
             step: 1e-6,
-            free: true,
+            free: opts.fixed_dmax.is_none(),
             secant: false,
         });
-        theta.extend([heading, warm.map_or(1.0, |w| w[1]), warm.map_or(0.5, |w| w[2])]);
+        let dmax = opts.fixed_dmax.or(warm.map(|w| w[2])).unwrap_or(0.5);
+        theta.extend([heading, warm.map_or(1.0, |w| w[1]), dmax]);
     }
     let mut pb = Problem { capture: c, frames, nominal: ctx_intr, opts, slots, n_global, noise, full_scale_dn };
     for k in 0..frames.len() {
@@ -445,14 +456,14 @@ pub fn fit_from(
             }
         }
     }
-    // Final: every pixel, covariance from JᵀWJ.
+    // Final: every pixel, covariance from JᵀWJ (its pseudo-inverse: a combination the
+    // data do not constrain is reported, and its parameters get an infinite 1σ).
     let acc = pb.accumulate(&theta, 1, true)?;
     let free: Vec<usize> = (0..pb.slots.len()).filter(|&i| pb.slots[i].free).collect();
     let nf = free.len();
-    let l = linalg::cholesky(&acc.a, nf)
-        .ok_or_else(|| Error::Model("the fit is degenerate: parameters the data cannot tell apart".into()))?;
-    let cov = linalg::cholesky_inverse(&l, nf);
-    let sigma = |i: usize| free.iter().position(|&f| f == i).map_or(0.0, |p| cov[p * nf + p].max(0.0).sqrt());
+    let cov = linalg::PseudoInverse::new(&acc.a, nf);
+    let degenerate = cov.null.iter().map(|d| describe_null(&pb, &free, d)).collect();
+    let sigma = |i: usize| free.iter().position(|&f| f == i).map_or(0.0, |p| cov.sigma(p));
     let params = (0..n_global)
         .map(|i| Param { name: pb.slots[i].name.clone(), unit: pb.slots[i].unit, value: theta[i], sigma: sigma(i) })
         .collect();
@@ -489,6 +500,8 @@ pub fn fit_from(
         dolp_rms,
         heading_rms_deg,
         iterations,
+        rank: cov.rank(),
+        degenerate,
         state: FitState {
             effect_values: (0..n_global).map(|i| (pb.slots[i].name.clone(), theta[i])).collect(),
             frames: (0..frames.len()).map(|k| pb.frame_slots(k).map(|i| theta[i])).collect(),
@@ -507,12 +520,11 @@ fn lm_step(
 ) -> Result<Option<(Vec<f64>, bool)>> {
     let free: Vec<usize> = (0..pb.slots.len()).filter(|&i| pb.slots[i].free).collect();
     let nf = free.len();
-    // Converged when the undamped Gauss–Newton step predicts less than 0.01 in χ².
-    if let Some(l) = linalg::cholesky(&acc.a, nf) {
-        let x = linalg::cholesky_solve(&l, nf, &acc.b);
-        if x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>() < 0.01 {
-            return Ok(Some((theta.to_vec(), true)));
-        }
+    // Converged when the undamped Gauss–Newton step predicts less than 0.01 in χ²
+    // (minimum-norm where parameters are degenerate).
+    let x = linalg::PseudoInverse::new(&acc.a, nf).solve(&acc.b);
+    if x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>() < 0.01 {
+        return Ok(Some((theta.to_vec(), true)));
     }
     for _ in 0..12 {
         let mut a = acc.a.clone();
@@ -536,6 +548,32 @@ fn lm_step(
         *lambda *= 10.0;
     }
     Ok(None)
+}
+
+/// A degenerate direction `d` (over the free slots, scaled) in words: the global
+/// parameters it moves, and the per-frame ones by kind with the number of frames.
+fn describe_null(pb: &Problem, free: &[usize], d: &[f64]) -> String {
+    let big = 0.3 * d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let mut global = Vec::new();
+    let mut per_frame: Vec<(&str, usize)> = Vec::new();
+    for (j, &i) in free.iter().enumerate() {
+        if d[j].abs() < big {
+            continue;
+        }
+        let name = &pb.slots[i].name;
+        if i < pb.n_global {
+            global.push(name.clone());
+        } else {
+            let kind = name.split_once('.').map_or(name.as_str(), |x| x.1);
+            match per_frame.iter_mut().find(|(k, _)| *k == kind) {
+                Some(e) => e.1 += 1,
+                None => per_frame.push((kind, 1)),
+            }
+        }
+    }
+    let mut parts = global;
+    parts.extend(per_frame.iter().map(|(k, n)| format!("{k} of {n} frame{}", if *n == 1 { "" } else { "s" })));
+    format!("{} move together without changing the model: only their other combinations are measured", parts.join(", "))
 }
 
 /// First heading guess of a frame without a reference: the sun-vector extractor.

@@ -35,10 +35,10 @@ pub fn score_candidate(
     // The candidate's slots come right after the base effects' (free, in order).
     let first = base_opts.effects.iter().map(|e| e.params.len()).sum::<usize>();
     let k = candidate.params.len();
-    let mut score = Score { delta_chi2: 0.0, params: Vec::new(), samples: acc.n, identifiable: false };
-    let Some(l) = linalg::cholesky(&acc.a, nf) else { return Ok(score) };
-    let x = linalg::cholesky_solve(&l, nf, &acc.b);
-    let cov = linalg::cholesky_inverse(&l, nf);
+    // Pseudo-inverses: a candidate (or part of one) that trades exactly against the
+    // model's other parameters adds no constrained direction and no Δχ².
+    let cov = linalg::PseudoInverse::new(&acc.a, nf);
+    let x = cov.solve(&acc.b);
     // Score test: the joint model's predicted Δχ² minus the base model's own (the base
     // optimum on these samples is not exactly the one on every pixel).
     let joint = x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>();
@@ -46,12 +46,16 @@ pub fn score_candidate(
     let a0: Vec<f64> =
         keep.iter().flat_map(|&i| keep.iter().map(move |&j| (i, j))).map(|(i, j)| acc.a[i * nf + j]).collect();
     let b0: Vec<f64> = keep.iter().map(|&i| acc.b[i]).collect();
-    let own = linalg::cholesky(&a0, keep.len()).map_or(0.0, |l0| {
-        let x0 = linalg::cholesky_solve(&l0, keep.len(), &b0);
-        x0.iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>()
-    });
-    score.delta_chi2 = (joint - own).max(0.0);
-    score.identifiable = true;
+    let own_cov = linalg::PseudoInverse::new(&a0, keep.len());
+    let own = own_cov.solve(&b0).iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>();
+    let added = cov.rank().saturating_sub(own_cov.rank());
+    let mut score = Score {
+        delta_chi2: if added > 0 { (joint - own).max(0.0) } else { 0.0 },
+        params: Vec::new(),
+        samples: acc.n,
+        added_rank: added,
+        identifiable: added > 0,
+    };
     for (j, p) in candidate.params.iter().enumerate() {
         let i = first + j;
         let s = &pb.slots[i];
@@ -59,7 +63,7 @@ pub fn score_candidate(
             name: s.name.clone(),
             unit: p.unit,
             value: (theta[i] + x[i]).clamp(s.min, s.max),
-            sigma: cov[i * nf + i].max(0.0).sqrt(),
+            sigma: cov.sigma(i),
         });
     }
     Ok(score)
@@ -71,6 +75,10 @@ pub struct Score {
     pub delta_chi2: f64,
     pub params: Vec<Param>,
     pub samples: usize,
+    /// How many independent combinations of its parameters the data constrain beside
+    /// the model's (its parameters, less those degenerate with the model's): the k of
+    /// its information criterion.
+    pub added_rank: usize,
     /// False where the candidate cannot be told from the model's other parameters (the
     /// joint system is singular): e.g. a global d_max factor beside per-frame d_max.
     pub identifiable: bool,

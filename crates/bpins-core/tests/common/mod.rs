@@ -1,0 +1,70 @@
+//! Small simulated captures for the end-to-end fit and diagnosis tests: the sample
+//! captures' setup (shared/samples/README.md: pinhole f = 8 mm, sun at azimuth 40°,
+//! elevation 25°, d_max 0.6, eight turntable frames, 12-bit, black 64 DN, peak 70 %,
+//! read noise 1 DN, K = 0.1 DN/e⁻) on a 306 × 256 DoFP sensor of 27.6 µm pitch: the
+//! samples' field of view with a quarter of their pixels, so a diagnosis is quick.
+
+#![allow(dead_code)]
+
+use bpins_core::camera::Projection;
+use bpins_core::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+use bpins_core::effects::EffectSet;
+use bpins_core::pipeline::{sim_response, simulate_frame, SimSensor};
+use bpins_core::sensor::{Geometry, Layout, DEFAULT_MOSAIC};
+use bpins_core::sky::sun::SunPosition;
+use std::path::PathBuf;
+
+/// The scene's (and the samples') peak degree of polarization.
+pub const DMAX: f64 = 0.6;
+
+/// The small capture (no files: frames come from [`simulate`]).
+pub fn small_capture() -> Capture {
+    let (w, h) = (306u32, 256u32);
+    Capture {
+        dir: PathBuf::new(),
+        sensor: SensorSpec {
+            layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
+            geometry: Geometry { width_px: w, height_px: h, pixel_pitch_um: 27.6 },
+            bit_depth: 12,
+            black_level_dn: 64.0,
+        },
+        lens: LensSpec {
+            projection: Projection::Pinhole,
+            focal_length_mm: 8.0,
+            principal_point_px: bpins_core::conventions::image_centre_px(w, h),
+        },
+        frames: (0..8)
+            .map(|i| FrameSpec {
+                file: PathBuf::from(format!("frames/f{i:03}.png")),
+                sun: SunPosition::given(40.0, 25.0),
+                heading_deg: Some(45.0 * i as f64),
+                tilt_x_deg: None,
+                tilt_y_deg: None,
+            })
+            .collect(),
+    }
+}
+
+/// The frames of `c` under the effects `set` (the truth), with noise from `seed`.
+pub fn simulate(c: &Capture, set: &EffectSet, seed: u64) -> Vec<FrameData> {
+    let sim = SimSensor {
+        peak_fraction: 0.7,
+        read_noise_dn: 1.0,
+        system_gain_dn_per_e: 0.1,
+        dsnu_dn: 0.0,
+        prnu: 0.0,
+        dmax: DMAX,
+        seed,
+    };
+    let resp = sim_response(c, &sim).expect("a valid simulated sensor");
+    let model = set.model();
+    (0..c.frames.len()).map(|i| simulate_frame(c, i, &model, &resp, &sim)).collect()
+}
+
+/// Every parameter of `effect` at its typical strength.
+pub fn typical(set: &mut EffectSet, effect: &str) {
+    let e = bpins_core::effects::find(effect).expect("a catalog effect");
+    for p in e.params {
+        set.set(e.name, p.name, p.typical).expect("typical lies in range");
+    }
+}
