@@ -6,7 +6,8 @@
 // channel_response) arrive inside these fields; per-pixel effects are called below.
 //
 // pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β      camera frame
-//   sky_stokes → lens_diattenuation → lens_retardance → vignetting → meridional_to_image
+//   sky_stokes → lens_diattenuation → lens_retardance → lens_depolarization → vignetting
+//   → meridional_to_image
 //   → analyzer_intensity
 //   → × g(1 + gain_k) → sensor_dn (PRNU, offsets, DSNU, read + shot noise, rounding)
 
@@ -30,6 +31,7 @@ struct FrameParams {
     np_half01: Wide4,  //   (cos θ_P/2, sin θ_P/2) of the sun's pair
     np_half23: Wide4,  //   and of the anti-sun's pair
     np_eia: Wide4,     //   cos A, sin A, 0, 0
+    lens2: Wide4,      // lens_depolarization p2, 0, 0, 0
     key: vec4<u32>,    // temporal noise key of this frame
     fixed_key: vec4<u32>, // fixed-pattern key of this trial
 }
@@ -40,6 +42,7 @@ struct ChainFrame {
     dmax: f64,
     lens_rho2: f64,
     lens_delta2_rad: f64,
+    lens_depol_p2: f64,
     vignetting: vec2<f64>,
     cos2t: vec4<f64>,
     sin2t: vec4<f64>,
@@ -65,7 +68,7 @@ fn chain_frame(p: FrameParams) -> ChainFrame {
     let h23 = wide(p.np_half23);
     let np = NeutralPoints(east.xyz, wide(p.np_north).xyz, wide(p.np_up).xyz,
         array<vec2<f64>, 4>(h01.xy, h01.zw, h23.xy, h23.zw), wide(p.np_eia).xy);
-    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, lens.x, lens.y, lens.zw, wide(p.cos2t), wide(p.sin2t),
+    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, lens.x, lens.y, wide(p.lens2).x, lens.zw, wide(p.cos2t), wide(p.sin2t),
         wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, wide(p.mosaic).x, east.w != 0.0lf, np, p.key,
         p.fixed_key);
 }
@@ -88,6 +91,8 @@ fn ray_stokes(f: ChainFrame, g: RayGeometry) -> Stokes {
     // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
     s = lens_diattenuation(f.lens_rho2, g.r2, s);
     s = lens_retardance(f.lens_delta2_rad, g.r2, s);
+    // Depolarization by the lens (isotropic, so any frame).
+    s = lens_depolarization(f.lens_depol_p2, g.r2, s);
     // Radial falloff of the lens (a scalar).
     s = vignetting(f.vignetting.x, f.vignetting.y, g.r2, s);
     // Rotate from the meridional frame to the image x frame.

@@ -77,6 +77,7 @@ pub struct FrameParams {
     pub np_half01: Wide4,
     pub np_half23: Wide4,
     pub np_eia: Wide4,
+    pub lens2: Wide4,
     pub key: [u32; 4],
     pub fixed_key: [u32; 4],
 }
@@ -109,6 +110,7 @@ impl From<&ChainFrame> for FrameParams {
                 Wide4::new([h[2][0], h[2][1], h[3][0], h[3][1]])
             }),
             np_eia: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.eia[0], n.eia[1], 0.0, 0.0])),
+            lens2: Wide4::new([f.lens_depol_p2, 0.0, 0.0, 0.0]),
             key: f.key.0,
             fixed_key: f.fixed_key.0,
         }
@@ -247,7 +249,7 @@ mod tests {
             FrameParams,
             [
                 camera, distortion, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, mosaic, np_east,
-                np_north, np_up, np_half01, np_half23, np_eia, key, fixed_key
+                np_north, np_up, np_half01, np_half23, np_eia, lens2, key, fixed_key
             ]
         );
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);

@@ -12,6 +12,7 @@
 //!    or sky_neutral_points(…)        the quartic sky, where it is on     (effects)
 //!   lens_diattenuation(ρ₂, r², S)    lens Mueller, meridional frame      (effects)
 //!   lens_retardance(δ₂, r², S)       lens retarder, meridional frame     (effects)
+//!   lens_depolarization(p₂, r², S)   lens depolarizer (isotropic)         (effects)
 //!   vignetting(v₂, v₄, r², S)        radial falloff                      (effects)
 //!   meridional_to_image(S, 2β)       rotate to the image x frame          (stokes)
 //!   analyzer_intensity(S, θ_k, ε_k)  micro-polarizer k                    (stokes)
@@ -28,6 +29,7 @@
 use crate::camera::{Intrinsics, RayGeometry};
 use crate::conventions::{enu_from_az_el_deg, level_from_camera, world_from_camera};
 use crate::effects::crosstalk::crosstalk;
+use crate::effects::lens_depolarization::lens_depolarization;
 use crate::effects::lens_diattenuation::lens_diattenuation;
 use crate::effects::lens_retardance::lens_retardance;
 use crate::effects::sky_neutral_points::{sky_neutral_points, NeutralPoints};
@@ -80,6 +82,8 @@ pub struct ChainFrame {
     pub neutral: Option<NeutralPoints>,
     /// Lens retardance per r², radians (`lens_retardance`).
     pub lens_delta2_rad: f64,
+    /// Lens depolarization per r² (`lens_depolarization`).
+    pub lens_depol_p2: f64,
     /// Vignetting (v2, v4).
     pub vignetting: [f64; 2],
     /// True analyzers by channel index (0, 45, 90, 135).
@@ -123,6 +127,7 @@ impl ChainFrame {
             neutral: (model.neutral_separation_deg != 0.0)
                 .then(|| NeutralPoints::new(&world_from_cam, sun_cam, model.neutral_separation_deg.to_radians())),
             lens_delta2_rad: model.lens_delta2_deg.to_radians(),
+            lens_depol_p2: model.lens_depol_p2,
             vignetting: model.vignetting,
             analyzers,
             gain_dn: model.channel_gain.map(|g| g * response.gain_dn),
@@ -136,7 +141,9 @@ impl ChainFrame {
 
     /// Whether any per-pixel effect is on (the row kernels skip them otherwise).
     pub fn has_pixel_effects(&self) -> bool {
-        self.neutral.is_some() || self.lens_rho2 != 0.0 || self.lens_delta2_rad != 0.0 || self.vignetting != [0.0; 2]
+        self.neutral.is_some() || self.lens_rho2 != 0.0 || self.lens_delta2_rad != 0.0
+            || self.lens_depol_p2 != 0.0
+            || self.vignetting != [0.0; 2]
     }
 
     /// A frame with unit gain, no black level and no noise: DN = radiance behind the analyzer.
@@ -164,6 +171,8 @@ pub fn ray_stokes(f: &ChainFrame, g: &RayGeometry) -> Stokes {
     // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
     let s = lens_diattenuation(f.lens_rho2, g.r2, s);
     let s = lens_retardance(f.lens_delta2_rad, g.r2, s);
+    // Depolarization by the lens (isotropic, so any frame).
+    let s = lens_depolarization(f.lens_depol_p2, g.r2, s);
     // Radial falloff of the lens (a scalar).
     let s = vignetting(f.vignetting[0], f.vignetting[1], g.r2, s);
     // Rotate from the meridional frame to the image x frame.

@@ -67,7 +67,8 @@ fn signal4_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, out: &mut [[f64; 
 /// effect is on (the sky is Rayleigh) ([`ChainFrame::has_pixel_effects`]). Then the lens is the identity and
 /// is skipped — bitwise the same: ρ = 0·r² = 0 for the finite r² of any pixel, so
 /// c = √(1 − ρ²) = 1, I + ρQ = I, ρI + Q = Q (the sky's Q is never −0), c·U = U; δ = 0
-/// gives cos δ = 1, sin δ = 0, U·1 + 0·V = U; the vignetting factor is 1.
+/// gives cos δ = 1, sin δ = 0, U·1 + 0·V = U; the depolarizer keeps a = 1; the
+/// vignetting factor is 1.
 #[inline(always)]
 fn ray_stokes_in<const LENS: bool>(f: &ChainFrame, g: &RayGeometry) -> Stokes {
     if LENS {

@@ -17,6 +17,7 @@ pub mod channel_response;
 pub mod crosstalk;
 pub mod extinction_ratio;
 pub mod focal_length;
+pub mod lens_depolarization;
 pub mod lens_diattenuation;
 pub mod lens_retardance;
 pub mod mount_tilt;
@@ -112,6 +113,7 @@ pub static REGISTRY: &[&EffectDef] = &[
     &sky_neutral_points::EFFECT,
     &lens_diattenuation::EFFECT,
     &lens_retardance::EFFECT,
+    &lens_depolarization::EFFECT,
     &vignetting::EFFECT,
     &array_rotation::EFFECT,
     &analyzer_angles::EFFECT,
@@ -144,6 +146,8 @@ pub struct Model {
     pub neutral_separation_deg: f64,
     /// Lens retardance δ = lens_delta2_deg · r², degrees, meridional frame.
     pub lens_delta2_deg: f64,
+    /// Lens depolarization: Q, U, V × (1 − p2 r²).
+    pub lens_depol_p2: f64,
     /// Vignetting (v2, v4): intensity × (1 + v2 r² + v4 r⁴).
     pub vignetting: [f64; 2],
     /// Camera tilt on its mount about camera x then y, degrees.
@@ -171,6 +175,7 @@ impl Default for Model {
             sky_dmax_factor: 1.0,
             neutral_separation_deg: 0.0,
             lens_delta2_deg: 0.0,
+            lens_depol_p2: 0.0,
             vignetting: [0.0; 2],
             mount_tilt_deg: [0.0; 2],
             lens_rho2: 0.0,

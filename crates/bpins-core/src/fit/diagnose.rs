@@ -31,11 +31,13 @@ pub struct DiagnoseOptions {
     pub refit_top: usize,
     /// Row and column stride of candidate scoring.
     pub score_stride: usize,
+    /// Catalog effects not to consider, as if the catalog lacked them.
+    pub exclude: Vec<&'static str>,
 }
 
 impl Default for DiagnoseOptions {
     fn default() -> Self {
-        DiagnoseOptions { base: FitOptions::default(), max_added: 3, refit_top: 2, score_stride: 3 }
+        DiagnoseOptions { base: FitOptions::default(), max_added: 3, refit_top: 2, score_stride: 3, exclude: Vec::new() }
     }
 }
 
@@ -105,7 +107,11 @@ pub fn diagnose(
     };
     for _ in 0..opts.max_added {
         let candidates: Vec<&'static EffectDef> =
-            REGISTRY.iter().copied().filter(|e| !model.effects.iter().any(|m| m.name == e.name)).collect();
+            REGISTRY
+            .iter()
+            .copied()
+            .filter(|e| !model.effects.iter().any(|m| m.name == e.name) && !opts.exclude.contains(&e.name))
+            .collect();
         let mut ranking = Vec::new();
         for e in &candidates {
             progress(&format!("scoring {}", e.name));
@@ -195,6 +201,15 @@ pub fn diagnose(
             100.0 * EXCESS_FRACTION,
             BIC_THRESHOLD
         );
+        if !d.selected.is_empty() {
+            s += &format!(
+                " {} explain{} part of the misfit and {} added, but {} no more than a partial explanation: it may stand in for an effect outside the catalog.",
+                d.selected.join(", "),
+                if d.selected.len() == 1 { "s" } else { "" },
+                if d.selected.len() == 1 { "was" } else { "were" },
+                if d.selected.len() == 1 { "is" } else { "are" },
+            );
+        }
         if let Some((a, x)) = worst_ch {
             s += &format!(
                 " The raw DN misfit is largest in the {a:.0}° channel (χ²/dof {x:.3}; channels: {}).",
