@@ -11,7 +11,7 @@ fn run(sample: &str, effects: &[&str]) -> FitResult {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/samples").join(sample);
     let c = Capture::load(&dir).unwrap();
     let frames: Vec<FrameData> = (0..c.frames.len()).map(|i| c.read_frame(i).unwrap()).collect();
-    let opts = FitOptions { effects: effects.iter().map(|e| find(e).unwrap()).collect(), trust_reference: false };
+    let opts = FitOptions { effects: effects.iter().map(|e| find(e).unwrap()).collect(), ..Default::default() };
     fit(&c, &frames, &opts, &|_, _| {}).unwrap()
 }
 
