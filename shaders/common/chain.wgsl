@@ -32,6 +32,7 @@ struct FrameParams {
     np_half23: Wide4,  //   and of the anti-sun's pair
     np_eia: Wide4,     //   cos A, sin A, 0, 0
     lens2: Wide4,      // lens_depolarization p2, 0, 0, 0
+    shape: Wide4,      // the sky's radiance shape a1, a2 (fit nuisance), 0, 0
     key: vec4<u32>,    // temporal noise key of this frame
     fixed_key: vec4<u32>, // fixed-pattern key of this trial
 }
@@ -40,6 +41,7 @@ struct ChainFrame {
     intr: Intrinsics,
     sun_cam: vec3<f64>,
     dmax: f64,
+    radiance_shape: vec2<f64>,
     lens_rho2: f64,
     lens_delta2_rad: f64,
     lens_depol_p2: f64,
@@ -68,7 +70,7 @@ fn chain_frame(p: FrameParams) -> ChainFrame {
     let h23 = wide(p.np_half23);
     let np = NeutralPoints(east.xyz, wide(p.np_north).xyz, wide(p.np_up).xyz,
         array<vec2<f64>, 4>(h01.xy, h01.zw, h23.xy, h23.zw), wide(p.np_eia).xy);
-    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, lens.x, lens.y, wide(p.lens2).x, lens.zw, wide(p.cos2t), wide(p.sin2t),
+    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, wide(p.shape).xy, lens.x, lens.y, wide(p.lens2).x, lens.zw, wide(p.cos2t), wide(p.sin2t),
         wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, wide(p.mosaic).x, east.w != 0.0lf, np, p.key,
         p.fixed_key);
 }
@@ -88,6 +90,8 @@ fn ray_stokes(f: ChainFrame, g: RayGeometry) -> Stokes {
     } else {
         s = sky_stokes(f.sun_cam, f.dmax, g.d, g.basis);
     }
+    // The sky's smooth radiance shape about the sun (a scalar).
+    s = radiance_shape(f.radiance_shape.x, f.radiance_shape.y, dot3(f.sun_cam, g.d), s);
     // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
     s = lens_diattenuation(f.lens_rho2, g.r2, s);
     s = lens_retardance(f.lens_delta2_rad, g.r2, s);

@@ -144,7 +144,7 @@ fn esc(s: &str) -> String {
 
 /// A self-contained page: every step of the model with its figures, the candidates of
 /// each step, what was selected, and what remains.
-fn report_html(d: &Diagnosis, capture: &std::path::Path, maps: &[Vec<crate::residuals::Written>]) -> String {
+fn report_html(d: &Diagnosis, capture: &std::path::Path, figures: &[crate::residuals::Figures]) -> String {
     let mut h = String::new();
     h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>bpins diagnosis</title>\n";
     h += "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}td:first-child,th:first-child{text-align:left}.yes{color:#070}.no{color:#a00}</style></head><body>\n";
@@ -164,10 +164,10 @@ fn report_html(d: &Diagnosis, capture: &std::path::Path, maps: &[Vec<crate::resi
     h += "</table>\n";
     // The residual maps of each step side by side (stacked over frames).
     h += "<h2>Where the model fails: residual maps, each step</h2>\n<p>Mean over frames of measured − model: blue below the model, white on it, red above, grey masked; each map's colour scale is symmetric, ± the value given.</p>\n<table>";
-    for (k, (s, m)) in d.steps.iter().zip(maps).enumerate() {
+    for (k, (s, m)) in d.steps.iter().zip(figures).enumerate() {
         let name = if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") };
         h += &format!("<tr><td>step {k}<br>{}<br>χ²/dof {:.4}</td>", esc(&name), s.fit.chi2_per_dof);
-        for w in m {
+        for w in &m.maps {
             h += &format!(
                 "<td><img src=\"step{k}/{}\" alt=\"{} of step {k}\" style=\"width:14em;image-rendering:pixelated\"><br>{} (± {:.3} {})</td>",
                 w.png, w.what, w.what, w.scale, w.unit
@@ -175,7 +175,17 @@ fn report_html(d: &Diagnosis, capture: &std::path::Path, maps: &[Vec<crate::resi
         }
         h += "</tr>\n";
     }
-    h += "</table>\n";
+    h += "</table>\n<p>Every frame's maps are layers <code>f&lt;k&gt;_…</code> of each step's <code>residual_dn.exr</code> and <code>residual_pol.exr</code>.</p>\n";
+    // The same residuals in sky space, each step.
+    h += "<h2>Where the model fails in sky space: residual profiles, each step</h2>\n<p>Over every frame, binned against scattering angle from the sun, radius from the principal point, image azimuth, mosaic position and the model's DoLP: raw-DN χ² per sample − 1 (0 where the model fits), mean AoP residual and mean DoLP residual (measured − model), each strip on its own symmetric scale (± the value given). A missing effect shows as a trend along its own axis. Numbers: <code>step&lt;k&gt;/profiles.csv</code>.</p>\n";
+    for (k, (s, m)) in d.steps.iter().zip(figures).enumerate() {
+        let name = if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") };
+        h += &format!(
+            "<p>step {k}: {}</p><img src=\"step{k}/{}\" alt=\"residual profiles of step {k}\" style=\"width:100%\">\n",
+            esc(&name),
+            m.profiles_svg
+        );
+    }
     for (i, r) in d.rankings.iter().enumerate() {
         h += &format!(
             "<h2>Step {}: candidates (ΔBIC = Δχ² − k ln n; added above {})</h2>\n",
@@ -217,15 +227,17 @@ fn report_html(d: &Diagnosis, capture: &std::path::Path, maps: &[Vec<crate::resi
         esc(&d.unexplained_summary)
     );
     if let Some(last) = d.steps.last() {
-        h += "<h2>Final model: frames</h2><table><tr><th>frame</th><th>heading (°)</th><th>± (°)</th><th>reference (°)</th><th>error (°)</th><th>d_max</th><th>χ²/dof</th></tr>\n";
+        h += "<h2>Final model: frames</h2><table><tr><th>frame</th><th>heading (°)</th><th>± (°)</th><th>reference (°)</th><th>error (°)</th><th>d_max</th><th>radiance shape a1, a2</th><th>χ²/dof</th></tr>\n";
         for (k, f) in last.fit.frames.iter().enumerate() {
             h += &format!(
-                "<tr><td>{k}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td></tr>\n",
+                "<tr><td>{k}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:+.4}, {:+.4}</td><td>{:.4}</td></tr>\n",
                 f.heading_deg,
                 f.heading_sigma_deg,
                 opt(f.reference_deg),
                 opt(f.heading_error_deg),
                 f.dmax,
+                f.radiance_shape[0],
+                f.radiance_shape[1],
                 f.chi2_per_dof
             );
         }

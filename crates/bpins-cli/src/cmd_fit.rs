@@ -35,10 +35,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for p in &r.params {
         println!("  {:<34} {:>+12.5} ± {:<10.5} {}", p.name, p.value, p.sigma, p.unit);
     }
-    println!("frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max   χ²/dof");
+    println!("frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max  shape a1  shape a2   χ²/dof");
     for (k, f) in r.frames.iter().enumerate() {
         println!(
-            "{:>5}  {:>11.4} {:>10.4} {:>15} {:>10} {:>11.2} {:>7.4} {:>8.4}",
+            "{:>5}  {:>11.4} {:>10.4} {:>15} {:>10} {:>11.2} {:>7.4} {:>+9.4} {:>+9.4} {:>8.4}",
             k,
             f.heading_deg,
             f.heading_sigma_deg,
@@ -46,6 +46,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             f.heading_error_deg.map_or("—".into(), |x| format!("{x:+.4}")),
             f.scale_dn,
             f.dmax,
+            f.radiance_shape[0],
+            f.radiance_shape[1],
             f.chi2_per_dof
         );
     }
@@ -79,6 +81,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "heading_error_deg": f.heading_error_deg,
             "scale_dn": f.scale_dn,
             "dmax": f.dmax,
+            "radiance_shape": f.radiance_shape,
             "chi2_per_dof": f.chi2_per_dof,
         })).collect::<Vec<_>>(),
     });
@@ -86,7 +89,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     write_json(&path, &v)?;
     let maps = bpins_core::fit::residual_maps(&c, &frames, &opts, &r.state, r.noise).context("residual maps")?;
     crate::residuals::write(&a.out, &maps)?;
-    eprintln!("wrote residual maps (EXR and PNG) to {}", a.out.display());
+    eprintln!("wrote residual maps (EXR and PNG) and sky-space profiles (CSV and SVG) to {}", a.out.display());
     eprintln!("wrote {}", path.display());
     Ok(())
 }

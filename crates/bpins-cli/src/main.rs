@@ -10,6 +10,7 @@ mod cmd_heading;
 mod cmd_run;
 mod cmd_simulate;
 mod progress;
+mod profiles;
 mod residuals;
 
 use clap::{Parser, Subcommand};
@@ -101,6 +102,10 @@ pub struct FitInput {
     /// d_max at this value (in [0, 1]) instead of fitting it per frame.
     #[arg(long, value_name = "DMAX")]
     pub fixed_dmax: Option<f64>,
+    /// Hold every frame's sky radiance at Rayleigh's ½(1 + cos²γ) times its scale,
+    /// instead of fitting a smooth shape × (1 + a1 cos γ + a2 cos²γ) per frame.
+    #[arg(long)]
+    pub rayleigh_radiance: bool,
     /// Output folder (never inside the capture).
     #[arg(long)]
     pub out: std::path::PathBuf,
@@ -135,6 +140,7 @@ impl FitInput {
             effects,
             trust_reference: self.trust_reference,
             fixed_dmax: self.fixed_dmax,
+            rayleigh_radiance: self.rayleigh_radiance,
         };
         Ok((opts, c, frames))
     }

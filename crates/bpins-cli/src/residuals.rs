@@ -1,5 +1,7 @@
-//! Residual maps on disk: EXR (the numbers) and PNG (a diverging colour scale a person
-//! reads at a glance: blue where the data lie below the model, red above, grey masked).
+//! Residual maps on disk: EXR (the numbers: stacked over frames, and each frame's as
+//! layers `f<k>_…`) and PNG (a diverging colour scale a person reads at a glance: blue
+//! where the data lie below the model, red above, grey masked), and the residual
+//! profiles in sky space (`crate::profiles`).
 
 use anyhow::Context;
 use bpins_core::capture::write_exr_layers;
@@ -14,22 +16,28 @@ pub struct Written {
     pub unit: &'static str,
 }
 
-/// Writes `maps` into `dir` (EXR and PNG); returns the PNGs with their colour scales.
-pub fn write(dir: &Path, maps: &ResidualMaps) -> anyhow::Result<Vec<Written>> {
+/// What [`write`] wrote for a report: the map PNGs with their colour scales and the
+/// profiles' SVG (file names relative to the folder).
+pub struct Figures {
+    pub maps: Vec<Written>,
+    pub profiles_svg: String,
+}
+
+/// Writes `maps` into `dir` (EXR, PNG, profiles CSV and SVG).
+pub fn write(dir: &Path, maps: &ResidualMaps) -> anyhow::Result<Figures> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    write_exr_layers(
-        &dir.join("residual_dn.exr"),
-        maps.width_px,
-        maps.height_px,
-        &[("dn_z", &maps.dn_z), ("dn_chi2", &maps.dn_chi2)],
-    )?;
+    let names: Vec<[String; 3]> =
+        (0..maps.frames.len()).map(|k| [format!("f{k}_dn_z"), format!("f{k}_AoP_deg"), format!("f{k}_DoLP")]).collect();
+    let mut dn_layers: Vec<(&str, &[f32])> = vec![("dn_z", &maps.dn_z), ("dn_chi2", &maps.dn_chi2)];
+    let mut pol_layers: Vec<(&str, &[f32])> = vec![("AoP_deg", &maps.aop_deg), ("DoLP", &maps.dolp)];
+    for (n, f) in names.iter().zip(&maps.frames) {
+        dn_layers.push((&n[0], &f.dn_z));
+        pol_layers.push((&n[1], &f.aop_deg));
+        pol_layers.push((&n[2], &f.dolp));
+    }
+    write_exr_layers(&dir.join("residual_dn.exr"), maps.width_px, maps.height_px, &dn_layers)?;
     let excess: Vec<f32> = maps.dn_chi2.iter().map(|x| x - 1.0).collect();
-    write_exr_layers(
-        &dir.join("residual_pol.exr"),
-        maps.pol_width,
-        maps.pol_height,
-        &[("AoP_deg", &maps.aop_deg), ("DoLP", &maps.dolp)],
-    )?;
+    write_exr_layers(&dir.join("residual_pol.exr"), maps.pol_width, maps.pol_height, &pol_layers)?;
     let mut out = Vec::new();
     // Binned to blocks of `bin` px (mean of the finite values) so that a systematic
     // misfit stands out of the per-pixel noise; the EXR keeps every pixel.
@@ -61,7 +69,8 @@ pub fn write(dir: &Path, maps: &ResidualMaps) -> anyhow::Result<Vec<Written>> {
         img.save(&path).with_context(|| format!("writing {}", path.display()))?;
         out.push(Written { png: name.to_string(), what, scale, unit });
     }
-    Ok(out)
+    let profiles_svg = crate::profiles::write(dir, &maps.profiles)?;
+    Ok(Figures { maps: out, profiles_svg })
 }
 
 /// Blue (−1) – white (0) – red (+1); grey for NaN.

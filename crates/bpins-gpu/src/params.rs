@@ -78,6 +78,7 @@ pub struct FrameParams {
     pub np_half23: Wide4,
     pub np_eia: Wide4,
     pub lens2: Wide4,
+    pub shape: Wide4,
     pub key: [u32; 4],
     pub fixed_key: [u32; 4],
 }
@@ -111,6 +112,7 @@ impl From<&ChainFrame> for FrameParams {
             }),
             np_eia: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.eia[0], n.eia[1], 0.0, 0.0])),
             lens2: Wide4::new([f.lens_depol_p2, 0.0, 0.0, 0.0]),
+            shape: Wide4::new([f.radiance_shape[0], f.radiance_shape[1], 0.0, 0.0]),
             key: f.key.0,
             fixed_key: f.fixed_key.0,
         }
@@ -249,7 +251,7 @@ mod tests {
             FrameParams,
             [
                 camera, distortion, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, mosaic, np_east,
-                np_north, np_up, np_half01, np_half23, np_eia, lens2, key, fixed_key
+                np_north, np_up, np_half01, np_half23, np_eia, lens2, shape, key, fixed_key
             ]
         );
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);

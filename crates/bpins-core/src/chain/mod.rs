@@ -10,6 +10,7 @@
 //!   ray_stokes(frame, ray):
 //!   sky_stokes(sun, d_max, d)        Rayleigh, meridional frame          (sky::rayleigh)
 //!    or sky_neutral_points(…)        the quartic sky, where it is on     (effects)
+//!   radiance_shape(a₁, a₂, cos γ, S) the sky's radiance shape (fit nuisance) (sky)
 //!   lens_diattenuation(ρ₂, r², S)    lens Mueller, meridional frame      (effects)
 //!   lens_retardance(δ₂, r², S)       lens retarder, meridional frame     (effects)
 //!   lens_depolarization(p₂, r², S)   lens depolarizer (isotropic)         (effects)
@@ -38,7 +39,7 @@ use crate::effects::Model;
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
 
 use crate::sensor::{Channel, Response};
-use crate::sky::sky_stokes;
+use crate::sky::{radiance_shape, sky_stokes};
 use crate::stokes::{analyzer_intensity, meridional_to_image, Analyzer, Stokes};
 use glam::DVec3;
 
@@ -80,6 +81,9 @@ pub struct ChainFrame {
     pub lens_rho2: f64,
     /// The quartic sky's frame constants where `sky_neutral_points` is on.
     pub neutral: Option<NeutralPoints>,
+    /// The sky's radiance shape (a1, a2): × (1 + a1 cos γ + a2 cos²γ); a per-frame
+    /// nuisance the fit sets, 0 otherwise.
+    pub radiance_shape: [f64; 2],
     /// Lens retardance per r², radians (`lens_retardance`).
     pub lens_delta2_rad: f64,
     /// Lens depolarization per r² (`lens_depolarization`).
@@ -126,6 +130,7 @@ impl ChainFrame {
             lens_rho2: model.lens_rho2,
             neutral: (model.neutral_separation_deg != 0.0)
                 .then(|| NeutralPoints::new(&world_from_cam, sun_cam, model.neutral_separation_deg.to_radians())),
+            radiance_shape: [0.0; 2],
             lens_delta2_rad: model.lens_delta2_deg.to_radians(),
             lens_depol_p2: model.lens_depol_p2,
             vignetting: model.vignetting,
@@ -141,7 +146,9 @@ impl ChainFrame {
 
     /// Whether any per-pixel effect is on (the row kernels skip them otherwise).
     pub fn has_pixel_effects(&self) -> bool {
-        self.neutral.is_some() || self.lens_rho2 != 0.0 || self.lens_delta2_rad != 0.0
+        self.neutral.is_some()
+            || self.radiance_shape != [0.0; 2]
+            || self.lens_rho2 != 0.0 || self.lens_delta2_rad != 0.0
             || self.lens_depol_p2 != 0.0
             || self.vignetting != [0.0; 2]
     }
@@ -168,6 +175,8 @@ pub fn ray_stokes(f: &ChainFrame, g: &RayGeometry) -> Stokes {
         None => sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis),
         Some(np) => sky_neutral_points(np, f.sun_cam, f.dmax, g.d, &g.basis),
     };
+    // The sky's smooth radiance shape about the sun (a scalar).
+    let s = radiance_shape(f.radiance_shape[0], f.radiance_shape[1], f.sun_cam.dot(g.d), s);
     // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
     let s = lens_diattenuation(f.lens_rho2, g.r2, s);
     let s = lens_retardance(f.lens_delta2_rad, g.r2, s);

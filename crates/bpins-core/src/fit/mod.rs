@@ -1,6 +1,7 @@
 //! Fitting the model to a measured capture: the enabled effects' parameters and each
-//! frame's nuisances (heading unless the reference is trusted, radiance scale, sky
-//! d_max) to the raw DN of every frame, pixel by pixel at each pixel's own ray.
+//! frame's nuisances (heading unless the reference is trusted, radiance scale and
+//! smooth radiance shape, sky d_max) to the raw DN of every frame, pixel by pixel at
+//! each pixel's own ray.
 //!
 //! ```text
 //! DN_model(p) = offset_k + g_f · signal(p; θ_effects, heading_f, d_max,f)   (chain::mosaic_pixel_signal_dn)
@@ -15,16 +16,18 @@
 //! third row and column (all channels), then on every pixel until converged; the
 //! reported numbers are from every pixel. 1σ from the inverse of JᵀWJ.
 //!
-//! Not yet: a smooth radiance shape beyond Rayleigh's 1 + cos²γ (the scale is one
-//! number per frame).
+//! The radiance shape (`sky::radiance_shape`: × (1 + a1 cos γ + a2 cos²γ) about the
+//! sun) keeps a sky brighter toward the sun than Rayleigh's from being blamed on a
+//! catalog effect; `FitOptions::rayleigh_radiance` holds it at Rayleigh's.
 
 pub mod diagnose;
 pub mod linalg;
 pub mod noise;
+pub mod profiles;
 mod residuals;
 mod score;
 
-pub use residuals::{residual_maps, residual_profile, ResidualMaps, ResidualProfile};
+pub use residuals::{residual_maps, residual_profile, FrameMaps, ResidualMaps, ResidualProfile};
 pub use score::{score_candidate, Score};
 
 use crate::camera::Intrinsics;
@@ -48,6 +51,9 @@ pub struct FitOptions {
     /// d_max is held at this value instead of being fitted (which is what makes a
     /// global `sky_depolarization` measurable at all).
     pub fixed_dmax: Option<f64>,
+    /// Hold every frame's radiance shape at Rayleigh's (a1 = a2 = 0) instead of
+    /// fitting it.
+    pub rayleigh_radiance: bool,
 }
 
 /// One fitted parameter.
@@ -72,6 +78,8 @@ pub struct FrameFit {
     pub heading_error_deg: Option<f64>,
     pub scale_dn: f64,
     pub dmax: f64,
+    /// The sky's radiance shape (a1, a2): × (1 + a1 cos γ + a2 cos²γ).
+    pub radiance_shape: [f64; 2],
     pub chi2_per_dof: f64,
 }
 
@@ -112,8 +120,12 @@ struct Slot {
     max: f64,
     step: f64,
     free: bool,
-    /// Differentiate by a one-sided secant of `step` (else central differences).
+    /// Differentiate by a one-sided secant of `step` (else central differences):
+    /// exact, at half the cost, where the model is affine in the parameter (d_max).
     secant: bool,
+    /// The model is proportional to this parameter above the offsets (the radiance
+    /// scale): its derivative is (model − offset)/value, no evaluation needed.
+    proportional: bool,
 }
 
 /// The problem: the capture's frames and the parameter slots.
@@ -129,12 +141,13 @@ struct Problem<'a> {
     full_scale_dn: f64,
 }
 
-const PER_FRAME: usize = 3;
+/// Per frame: heading, radiance scale, d_max, radiance shape a1, a2.
+pub const PER_FRAME: usize = 5;
 
 impl Problem<'_> {
     fn frame_slots(&self, k: usize) -> [usize; PER_FRAME] {
         let b = self.n_global + PER_FRAME * k;
-        [b, b + 1, b + 2]
+        [b, b + 1, b + 2, b + 3, b + 4]
     }
 
     /// The chain of frame `k` under parameters `theta`.
@@ -148,7 +161,7 @@ impl Problem<'_> {
             }
         }
         let spec = &self.capture.frames[k];
-        let [h, s, d] = self.frame_slots(k);
+        let [h, s, d, a1, a2] = self.frame_slots(k);
         let scene = Scene {
             sun_az_deg: spec.sun.azimuth_deg,
             sun_el_deg: spec.sun.elevation_deg,
@@ -162,7 +175,9 @@ impl Problem<'_> {
             bit_depth: self.capture.sensor.bit_depth,
             ..Response::ideal(theta[s])
         };
-        Ok(ChainFrame::new(&set.model(), &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 }))
+        let mut f = ChainFrame::new(&set.model(), &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
+        f.radiance_shape = [theta[a1], theta[a2]];
+        Ok(f)
     }
 
     /// Model DN of the samples of pixel (u, v) of frame `k` into `out` (1 for DoFP, one
@@ -184,6 +199,14 @@ impl Problem<'_> {
                 }
             }
             _ => {}
+        }
+    }
+
+    /// The offset (black level + channel offset) of sample `q` of pixel (u, v), DN.
+    fn offset_dn(&self, f: &ChainFrame, u: usize, v: usize, q: usize) -> f64 {
+        match &self.capture.sensor.layout {
+            Layout::Dofp { mosaic } => f.offset_dn[Layout::dofp_channel(mosaic, u, v).index()],
+            Layout::Colocated { channels } => f.offset_dn[channels[q].index()],
         }
     }
 
@@ -213,8 +236,12 @@ impl Problem<'_> {
             let mut pm = Vec::new();
             if normal {
                 for &i in &local {
-                    // Central differences, one-sided at a bound of the parameter.
                     let (h, sl) = (self.slots[i].step, &self.slots[i]);
+                    if sl.proportional {
+                        pm.push(Column::Proportional { value: theta[i] });
+                        continue;
+                    }
+                    // Central differences, one-sided at a bound of the parameter.
                     let (mut tp, mut tm) = (theta.to_vec(), theta.to_vec());
                     tp[i] = (theta[i] + h).min(sl.max);
                     tm[i] = (theta[i] - h).max(sl.min);
@@ -227,7 +254,15 @@ impl Problem<'_> {
                         }
                     }
                     let dh = tp[i] - tm[i];
-                    pm.push((self.chain(&tp, k)?, self.chain(&tm, k)?, dh));
+                    // A side at θ itself is the base chain (not evaluated again).
+                    let side = |t: &[f64]| -> Result<Option<ChainFrame>> {
+                        if t[i] == theta[i] {
+                            Ok(None)
+                        } else {
+                            self.chain(t, k).map(Some)
+                        }
+                    };
+                    pm.push(Column::Difference { plus: side(&tp)?, minus: side(&tm)?, dh });
                 }
             }
             let nl = local.len();
@@ -249,10 +284,21 @@ impl Problem<'_> {
                             acc.chi2 += wgt * r * r;
                             acc.n += 1;
                             if normal {
-                                for (j, (fp, fm, dh)) in pm.iter().enumerate() {
-                                    self.pixel(fp, k, u, v, &mut sp);
-                                    self.pixel(fm, k, u, v, &mut sm);
-                                    d[j] = (sp[q].1 - sm[q].1) / dh;
+                                for (j, col) in pm.iter().enumerate() {
+                                    d[j] = match col {
+                                        Column::Proportional { value } => (m - self.offset_dn(&base, u, v, q)) / value,
+                                        Column::Difference { plus, minus, dh } => {
+                                            let mp = plus.as_ref().map_or(m, |fp| {
+                                                self.pixel(fp, k, u, v, &mut sp);
+                                                sp[q].1
+                                            });
+                                            let mm = minus.as_ref().map_or(m, |fm| {
+                                                self.pixel(fm, k, u, v, &mut sm);
+                                                sm[q].1
+                                            });
+                                            (mp - mm) / dh
+                                        }
+                                    };
                                 }
                                 for a in 0..nl {
                                     acc.b[a] += wgt * d[a] * r;
@@ -294,6 +340,14 @@ impl Problem<'_> {
     }
 }
 
+/// How one parameter's column of the Jacobian is formed.
+enum Column {
+    /// (model at plus − model at minus)/dh; `None` is the base chain.
+    Difference { plus: Option<ChainFrame>, minus: Option<ChainFrame>, dh: f64 },
+    /// (model − offset)/value.
+    Proportional { value: f64 },
+}
+
 struct Accum {
     a: Vec<f64>,
     b: Vec<f64>,
@@ -320,11 +374,11 @@ impl Accum {
 }
 
 /// A fit's parameter values, for warm starts: the effects' by `effect.param` name, and
-/// each frame's (heading °, scale DN, d_max).
+/// each frame's (heading °, scale DN, d_max, radiance shape a1, a2).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FitState {
     pub effect_values: Vec<(String, f64)>,
-    pub frames: Vec<[f64; 3]>,
+    pub frames: Vec<[f64; PER_FRAME]>,
 }
 
 /// Fits `opts` to the capture `c` whose frames are `frames`; `progress(stage, step)`
@@ -366,6 +420,7 @@ fn problem<'a>(
                 step: 1e-6 * span,
                 free: true,
                 secant: false,
+                proportional: false,
             });
             theta.push(value);
         }
@@ -388,6 +443,7 @@ fn problem<'a>(
             step: 1e-4,
             free: free_heading,
             secant: false,
+            proportional: false,
         });
         slots.push(Slot {
             name: format!("frame{k}.scale_dn"),
@@ -397,6 +453,7 @@ fn problem<'a>(
             step: 0.0,
             free: true,
             secant: false,
+            proportional: true,
         });
         slots.push(Slot {
             name: format!("frame{k}.dmax"),
@@ -405,10 +462,26 @@ fn problem<'a>(
             max: 1.0,
             step: 1e-6,
             free: opts.fixed_dmax.is_none(),
-            secant: false,
+            // The sky's Q and U are linear in d_max, and every later stage linear in them.
+            secant: true,
+            proportional: false,
         });
+        for name in ["shape_a1", "shape_a2"] {
+            slots.push(Slot {
+                name: format!("frame{k}.{name}"),
+                unit: "1",
+                min: -1.0,
+                max: 1.0,
+                step: 1e-6,
+                free: !opts.rayleigh_radiance,
+                // The radiance is linear in a1 and a2 (while the factor stays > 0).
+                secant: true,
+                proportional: false,
+            });
+        }
         let dmax = opts.fixed_dmax.or(warm.map(|w| w[2])).unwrap_or(0.5);
-        theta.extend([heading, warm.map_or(1.0, |w| w[1]), dmax]);
+        let shape = |j: usize| if opts.rayleigh_radiance { 0.0 } else { warm.map_or(0.0, |w| w[j]) };
+        theta.extend([heading, warm.map_or(1.0, |w| w[1]), dmax, shape(3), shape(4)]);
     }
     let mut pb = Problem { capture: c, frames, nominal: ctx_intr, opts, slots, n_global, noise, full_scale_dn };
     for k in 0..frames.len() {
@@ -434,12 +507,14 @@ pub fn fit_from(
     let (mut pb, mut theta) = problem(c, frames, opts, start, noise)?;
     let n_global = pb.n_global;
     let mut iterations = 0;
-    let mut lambda = 1e-3;
-    for (stage, stride, max_iter) in [("subsampled", 3usize, 30usize), ("every pixel", 1, 20)] {
+    // The subsampled stage only brings the parameters near the optimum (within 1σ:
+    // a Gauss–Newton decrement below 1); every pixel then converges to 0.01.
+    for (stage, stride, max_iter, tol) in [("subsampled", 3usize, 30usize, 1.0), ("every pixel", 1, 20, 0.01)] {
+        let mut lambda = 1e-3;
         for _ in 0..max_iter {
             iterations += 1;
             let acc = pb.accumulate(&theta, stride, true)?;
-            let step = lm_step(&pb, &theta, &acc, &mut lambda, stride)?;
+            let step = lm_step(&pb, &theta, &acc, &mut lambda, stride, tol)?;
             progress(stage, iterations);
             match step {
                 Some((t, converged)) => {
@@ -470,7 +545,7 @@ pub fn fit_from(
     let dof = (acc.n as f64 - nf as f64).max(1.0);
     let frames_out: Vec<FrameFit> = (0..frames.len())
         .map(|k| {
-            let [h, s, d] = pb.frame_slots(k);
+            let [h, s, d, a1, a2] = pb.frame_slots(k);
             let reference = c.frames[k].heading_deg;
             let (chi2, n) = acc.frame_chi2[k];
             FrameFit {
@@ -480,6 +555,7 @@ pub fn fit_from(
                 heading_error_deg: reference.map(|r| wrap_deg_180(theta[h] - r)),
                 scale_dn: theta[s],
                 dmax: theta[d],
+                radiance_shape: [theta[a1], theta[a2]],
                 chi2_per_dof: chi2 / (n as f64 - PER_FRAME as f64).max(1.0),
             }
         })
@@ -517,33 +593,35 @@ fn lm_step(
     acc: &Accum,
     lambda: &mut f64,
     stride: usize,
+    tol: f64,
 ) -> Result<Option<(Vec<f64>, bool)>> {
     let free: Vec<usize> = (0..pb.slots.len()).filter(|&i| pb.slots[i].free).collect();
     let nf = free.len();
-    // Converged when the undamped Gauss–Newton step predicts less than 0.01 in χ²
+    // Converged when the undamped Gauss–Newton step predicts less than `tol` in χ²
     // (minimum-norm where parameters are degenerate).
     let x = linalg::PseudoInverse::new(&acc.a, nf).solve(&acc.b);
-    if x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>() < 0.01 {
+    if x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>() < tol {
         return Ok(Some((theta.to_vec(), true)));
     }
     for _ in 0..12 {
         let mut a = acc.a.clone();
         for i in 0..nf {
-            a[i * nf + i] += *lambda * acc.a[i * nf + i].max(1e-300);
+            a[i * nf + i] *= 1.0 + *lambda;
         }
-        let Some(l) = linalg::cholesky(&a, nf) else {
-            *lambda *= 10.0;
-            continue;
-        };
-        let delta = linalg::cholesky_solve(&l, nf, &acc.b);
+        // Pseudo-inverse: a parameter without influence here (a second-order effect at
+        // its neutral value) or a degenerate combination is not moved, not thrown.
+        let delta = linalg::PseudoInverse::new(&a, nf).solve(&acc.b);
         let mut t = theta.to_vec();
         for (j, &i) in free.iter().enumerate() {
             t[i] = (t[i] + delta[j]).clamp(pb.slots[i].min, pb.slots[i].max);
         }
         let chi2 = pb.accumulate(&t, stride, false)?.chi2;
         if chi2 <= acc.chi2 {
+            // A nearly undamped step that gains less than a thousandth in χ² is at the
+            // optimum to the precision of the differences (the decrement is not real).
+            let converged = *lambda <= 1e-2 && acc.chi2 - chi2 < 1e-3;
             *lambda = (*lambda * 0.1).max(1e-9);
-            return Ok(Some((t, false)));
+            return Ok(Some((t, converged)));
         }
         *lambda *= 10.0;
     }
@@ -573,6 +651,9 @@ fn describe_null(pb: &Problem, free: &[usize], d: &[f64]) -> String {
     }
     let mut parts = global;
     parts.extend(per_frame.iter().map(|(k, n)| format!("{k} of {n} frame{}", if *n == 1 { "" } else { "s" })));
+    if parts.len() == 1 && !parts[0].contains(" of ") {
+        return format!("{} does not change the model here (its first derivative vanishes at this value)", parts[0]);
+    }
     format!("{} move together without changing the model: only their other combinations are measured", parts.join(", "))
 }
 

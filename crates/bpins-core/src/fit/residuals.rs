@@ -2,6 +2,7 @@
 //! residual maps (measured − model).
 
 use super::noise::NoiseModel;
+use super::profiles::{Position, Profile, Profiler};
 use super::{problem, FitOptions, FitState, Problem};
 use crate::capture::{Capture, FrameData};
 use crate::conventions::wrap_deg_90;
@@ -87,11 +88,7 @@ pub fn residual_profile(
 ) -> Result<ResidualProfile> {
     let (pb, theta) = problem(c, frames, opts, Some(state), noise)?;
     let intr = c.intrinsics();
-    let corner = {
-        let (x, y) = intr.normalised(0.0, 0.0);
-        let (x2, y2) = intr.normalised(pb.w() as f64 - 1.0, pb.h() as f64 - 1.0);
-        (x * x + y * y).max(x2 * x2 + y2 * y2).sqrt()
-    };
+    let corner = corner_radius(&pb);
     const BINS: usize = 8;
     let mut ch = [(0.0f64, 0usize); 4];
     let mut rad = [(0.0f64, 0.0f64, 0usize); BINS];
@@ -133,7 +130,8 @@ pub fn residual_profile(
     })
 }
 
-/// Residual maps of a fitted model, stacked over frames (the mean of measured − model).
+/// Residual maps of a fitted model, stacked over frames (the mean of measured −
+/// model) and frame by frame, with its residual profiles in sky space.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ResidualMaps {
     pub width_px: u32,
@@ -149,9 +147,22 @@ pub struct ResidualMaps {
     pub aop_deg: Vec<f32>,
     /// DoLP residual, mean over frames.
     pub dolp: Vec<f32>,
+    /// The same, frame by frame.
+    pub frames: Vec<FrameMaps>,
+    /// Profiles against scattering angle, radius, image azimuth, mosaic position and
+    /// model DoLP, over every frame.
+    pub profiles: Vec<Profile>,
 }
 
-/// The residual maps of `state` under `opts`.
+/// One frame's residual maps (sizes as in [`ResidualMaps`]; NaN where masked).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameMaps {
+    pub dn_z: Vec<f32>,
+    pub aop_deg: Vec<f32>,
+    pub dolp: Vec<f32>,
+}
+
+/// The residual maps and profiles of `state` under `opts`.
 pub fn residual_maps(
     c: &Capture,
     frames: &[FrameData],
@@ -166,13 +177,34 @@ pub fn residual_maps(
         Layout::Dofp { .. } => (w / 2, h / 2, true),
         Layout::Colocated { .. } => (w, h, false),
     };
+    // Profile positions from the nominal camera (radius, azimuth) and the fitted
+    // model (scattering angle, DoLP).
+    let nominal = c.intrinsics();
+    let mut profiler = Profiler::new(corner_radius(&pb));
+    let position = |f: &crate::chain::ChainFrame, u: f64, v: f64| {
+        let (x, y) = nominal.normalised(u, v);
+        let d = f.intr.geometry(u, v).d;
+        Position {
+            scattering_deg: d.dot(f.sun_cam).clamp(-1.0, 1.0).acos().to_degrees(),
+            radius: (x * x + y * y).sqrt(),
+            azimuth_deg: y.atan2(x).to_degrees(),
+            mosaic: f64::NAN,
+            model_dolp: f64::NAN,
+        }
+    };
     let mut z = vec![(0.0f64, 0u32); w * h];
     let mut z2 = vec![(0.0f64, 0u32); w * h];
     let mut aop = vec![(0.0f64, 0u32); pw * ph];
     let mut dolp = vec![(0.0f64, 0u32); pw * ph];
+    let mut per_frame = Vec::with_capacity(frames.len());
     let mut buf = Vec::new();
     for k in 0..frames.len() {
         let f = pb.chain(&theta, k)?;
+        let mut fm = FrameMaps {
+            dn_z: vec![f32::NAN; w * h],
+            aop_deg: vec![f32::NAN; pw * ph],
+            dolp: vec![f32::NAN; pw * ph],
+        };
         // Per pixel: DN residuals; gather the channels of each polarization sample.
         let mut meas = vec![[1.0f64; 4]; pw * ph];
         let mut model = vec![[1.0f64; 4]; pw * ph];
@@ -182,14 +214,21 @@ pub fn residual_maps(
                 pb.pixel(&f, k, u, v, &mut buf);
                 let (pu, pv) = if dofp { (u / 2, v / 2) } else { (u, v) };
                 let inside = pu < pw && pv < ph;
+                let at = Position {
+                    mosaic: if dofp { ((u % 2) + 2 * (v % 2)) as f64 } else { f64::NAN },
+                    model_dolp: crate::chain::pixel_stokes(&f, u as f64, v as f64).dolp(),
+                    ..position(&f, u as f64, v as f64)
+                };
                 for (q, &(y, m)) in buf.iter().enumerate() {
                     let usable = pb.usable(y);
                     if usable {
-                        let s = pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
-                        z[v * w + u].0 += (y - m) / s;
+                        let r = (y - m) / pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
+                        z[v * w + u].0 += r;
                         z[v * w + u].1 += 1;
-                        z2[v * w + u].0 += ((y - m) / s).powi(2);
+                        z2[v * w + u].0 += r * r;
                         z2[v * w + u].1 += 1;
+                        fm.dn_z[v * w + u] = r as f32;
+                        profiler.add_dn(&at, r);
                     }
                     if !inside {
                         continue;
@@ -210,13 +249,25 @@ pub fn residual_maps(
                 continue;
             }
             let (a, b) = (rec.stokes(&meas[i]), rec.stokes(&model[i]));
-            if b.dolp() > 0.01 {
-                aop[i].0 += wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees());
+            let da = (b.dolp() > 0.01).then(|| wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees()));
+            if let Some(x) = da {
+                aop[i].0 += x;
                 aop[i].1 += 1;
+                fm.aop_deg[i] = x as f32;
             }
-            dolp[i].0 += a.dolp() - b.dolp();
+            let dd = a.dolp() - b.dolp();
+            dolp[i].0 += dd;
             dolp[i].1 += 1;
+            fm.dolp[i] = dd as f32;
+            // A superpixel sits at the centre of its four pixels.
+            let (u, v) = if dofp {
+                (2.0 * (i % pw) as f64 + 0.5, 2.0 * (i / pw) as f64 + 0.5)
+            } else {
+                ((i % pw) as f64, (i / pw) as f64)
+            };
+            profiler.add_pol(&Position { model_dolp: b.dolp(), ..position(&f, u, v) }, da, dd);
         }
+        per_frame.push(fm);
     }
     let mean = |v: &[(f64, u32)]| -> Vec<f32> {
         v.iter().map(|&(s, n)| if n > 0 { (s / n as f64) as f32 } else { f32::NAN }).collect()
@@ -230,5 +281,20 @@ pub fn residual_maps(
         pol_height: ph as u32,
         aop_deg: mean(&aop),
         dolp: mean(&dolp),
+        frames: per_frame,
+        profiles: profiler.finish(),
     })
+}
+
+/// Largest distance of an image corner from the nominal principal point, focal lengths.
+fn corner_radius(pb: &Problem) -> f64 {
+    let intr = pb.capture.intrinsics();
+    let (w, h) = (pb.w() as f64 - 1.0, pb.h() as f64 - 1.0);
+    [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)]
+        .iter()
+        .map(|&(u, v)| {
+            let (x, y) = intr.normalised(u, v);
+            (x * x + y * y).sqrt()
+        })
+        .fold(0.0, f64::max)
 }

@@ -1,0 +1,157 @@
+//! Residual profiles on disk: `profiles.csv` (the numbers, one row per bin) and
+//! `profiles.svg` (one panel per axis — scattering angle, radius, image azimuth,
+//! mosaic position, model DoLP — each with three strips: raw-DN χ² per sample − 1,
+//! AoP residual and DoLP residual against that axis, each strip on its own symmetric
+//! scale, zero dashed). A missing effect shows as a trend along its own axis.
+
+use anyhow::Context;
+use bpins_core::fit::profiles::{Axis, Profile, ProfileBin};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Axis label with its unit.
+fn label(a: Axis) -> &'static str {
+    match a {
+        Axis::ScatteringAngle => "scattering angle (°)",
+        Axis::Radius => "radius (focal lengths)",
+        Axis::ImageAzimuth => "image azimuth (°)",
+        Axis::MosaicPosition => "mosaic position (u%2 + 2·v%2)",
+        Axis::ModelDolp => "model DoLP",
+    }
+}
+
+/// Writes `dir/profiles.csv` and `dir/profiles.svg`; returns the SVG's file name.
+pub fn write(dir: &Path, profiles: &[Profile]) -> anyhow::Result<String> {
+    let mut csv = String::from(
+        "axis,lo,hi,dn_samples,chi2_per_sample,mean_z_sigma,pol_samples,aop_residual_deg,dolp_residual\n",
+    );
+    for p in profiles {
+        for b in &p.bins {
+            writeln!(
+                csv,
+                "{},{},{},{},{},{},{},{},{}",
+                p.axis.name(),
+                b.lo,
+                b.hi,
+                b.dn_samples,
+                b.chi2_per_sample,
+                b.mean_z,
+                b.pol_samples,
+                b.aop_deg,
+                b.dolp
+            )?;
+        }
+    }
+    let path = dir.join("profiles.csv");
+    std::fs::write(&path, csv).with_context(|| format!("writing {}", path.display()))?;
+    let path = dir.join("profiles.svg");
+    std::fs::write(&path, svg(profiles)).with_context(|| format!("writing {}", path.display()))?;
+    Ok("profiles.svg".into())
+}
+
+const PANEL_W: f64 = 230.0;
+const STRIP_H: f64 = 52.0;
+const TOP: f64 = 18.0;
+
+/// The profiles as one SVG, a panel per axis.
+fn svg(profiles: &[Profile]) -> String {
+    let strips: [(&str, &str, fn(&ProfileBin) -> f64); 3] = [
+        ("χ²/sample − 1", "", |b| b.chi2_per_sample - 1.0),
+        ("AoP", "°", |b| b.aop_deg),
+        ("DoLP", "", |b| b.dolp),
+    ];
+    let (w, h) = (PANEL_W * profiles.len() as f64, TOP + STRIP_H * 3.0 + 30.0);
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"10\">\n<rect width=\"{w}\" height=\"{h}\" fill=\"white\"/>\n"
+    );
+    for (i, p) in profiles.iter().enumerate() {
+        let x0 = PANEL_W * i as f64 + 8.0;
+        let pw = PANEL_W - 16.0;
+        let _ = writeln!(s, "<text x=\"{}\" y=\"12\" font-weight=\"bold\">{}</text>", x0, label(p.axis));
+        let (lo, hi) = match (p.bins.first(), p.bins.last()) {
+            (Some(a), Some(b)) => (a.lo, b.hi),
+            _ => continue,
+        };
+        for (j, (name, unit, get)) in strips.iter().enumerate() {
+            let y0 = TOP + STRIP_H * j as f64;
+            let vals: Vec<(f64, f64)> =
+                p.bins.iter().map(|b| (0.5 * (b.lo + b.hi), get(b))).filter(|(_, v)| v.is_finite()).collect();
+            let scale = vals.iter().fold(0.0f64, |m, (_, v)| m.max(v.abs())).max(1e-300);
+            let px = |x: f64| x0 + (x - lo) / (hi - lo) * pw;
+            // Data below the strip's label: centre at 58 % of its height, ±30 %.
+            let py = |v: f64| y0 + STRIP_H * 0.58 - v / scale * (STRIP_H * 0.3);
+            let range = if vals.is_empty() { ": none".to_string() } else { format!(" ±{}{unit}", short(scale)) };
+            let _ = writeln!(
+                s,
+                "<rect x=\"{x0}\" y=\"{y0}\" width=\"{pw}\" height=\"{}\" fill=\"none\" stroke=\"#ccc\"/>\n<line x1=\"{x0}\" x2=\"{}\" y1=\"{}\" y2=\"{}\" stroke=\"#999\" stroke-dasharray=\"3,3\"/>\n<text x=\"{}\" y=\"{}\" fill=\"#555\">{name}{range}</text>",
+                STRIP_H - 4.0,
+                x0 + pw,
+                py(0.0),
+                py(0.0),
+                x0 + 3.0,
+                y0 + 10.0,
+            );
+            let pts: Vec<String> = vals.iter().map(|&(x, v)| format!("{:.1},{:.1}", px(x), py(v))).collect();
+            let colour = ["#222", "#c33", "#33c"][j];
+            if pts.len() > 1 {
+                let _ = writeln!(
+                    s,
+                    "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\"/>",
+                    pts.join(" ")
+                );
+            }
+            for pt in &pts {
+                let (x, y) = pt.split_once(',').unwrap_or(("0", "0"));
+                let _ = writeln!(s, "<circle cx=\"{x}\" cy=\"{y}\" r=\"2\" fill=\"{colour}\"/>");
+            }
+        }
+        let yb = TOP + STRIP_H * 3.0 + 4.0;
+        let _ = writeln!(
+            s,
+            "<text x=\"{x0}\" y=\"{}\">{}</text><text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text>",
+            yb + 8.0,
+            short(lo),
+            x0 + pw,
+            yb + 8.0,
+            short(hi)
+        );
+    }
+    s += "</svg>\n";
+    s
+}
+
+/// A number in three significant digits.
+fn short(x: f64) -> String {
+    if x == 0.0 {
+        return "0".into();
+    }
+    let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_svg_has_a_panel_per_axis_and_a_line_per_strip() {
+        let bin = |lo: f64, v: f64| ProfileBin {
+            lo,
+            hi: lo + 10.0,
+            dn_samples: 5,
+            chi2_per_sample: 1.0 + v,
+            mean_z: 0.0,
+            pol_samples: 2,
+            aop_deg: -v,
+            dolp: f64::NAN,
+        };
+        let p = Profile { axis: Axis::ScatteringAngle, bins: vec![bin(0.0, 0.1), bin(10.0, 0.3), bin(20.0, -0.2)] };
+        let s = svg(&[p.clone(), Profile { axis: Axis::Radius, ..p }]);
+        assert_eq!(s.matches("font-weight=\"bold\"").count(), 2);
+        // χ² and AoP have a line in each panel; DoLP (all NaN) has none.
+        assert_eq!(s.matches("<polyline").count(), 4);
+        assert!(s.contains("χ²/sample − 1 ±0.300") && s.contains("scattering angle (°)"), "{s}");
+        assert_eq!(short(0.0123456), "0.0123");
+        assert_eq!(short(123.4), "123");
+    }
+}

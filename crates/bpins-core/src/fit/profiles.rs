@@ -1,0 +1,221 @@
+//! Residual profiles in sky space: what a fitted model leaves, binned against the
+//! quantities physical effects depend on — scattering angle from the sun (sky
+//! effects), radius from the principal point and image azimuth (lens and camera
+//! effects), mosaic position (analyzer and sensor effects) and the model's DoLP
+//! (effects that scale with polarization). A missing effect shows as a trend along
+//! its own axis and none along the others.
+//!
+//! Each bin holds the raw-DN residual (χ² per sample and the mean of
+//! (measured − model)/σ, whose sign says brighter or darker than the model) and the
+//! polarization residual (mean measured − model AoP in degrees, where the model DoLP
+//! > 0.01, and DoLP), over every frame.
+
+/// What a profile is plotted against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    /// Angle between the pixel's ray and the sun, degrees (the model's sky).
+    ScatteringAngle,
+    /// Distance from the nominal principal point, focal lengths.
+    Radius,
+    /// Image azimuth about the nominal principal point, degrees, atan2(y_n, x_n) in
+    /// the image frame of CONVENTIONS.md (x right, y down).
+    ImageAzimuth,
+    /// DoFP mosaic position (u mod 2) + 2·(v mod 2); raw DN only.
+    MosaicPosition,
+    /// The model's DoLP at the sample.
+    ModelDolp,
+}
+
+impl Axis {
+    pub const ALL: [Axis; 5] =
+        [Axis::ScatteringAngle, Axis::Radius, Axis::ImageAzimuth, Axis::MosaicPosition, Axis::ModelDolp];
+
+    /// Name in files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Axis::ScatteringAngle => "scattering_angle_deg",
+            Axis::Radius => "radius_focal_lengths",
+            Axis::ImageAzimuth => "image_azimuth_deg",
+            Axis::MosaicPosition => "mosaic_position",
+            Axis::ModelDolp => "model_dolp",
+        }
+    }
+
+    /// (first edge, last edge, bins).
+    fn range(self, max_radius: f64) -> (f64, f64, usize) {
+        match self {
+            Axis::ScatteringAngle => (0.0, 180.0, 18),
+            Axis::Radius => (0.0, max_radius, 8),
+            Axis::ImageAzimuth => (-180.0, 180.0, 12),
+            Axis::MosaicPosition => (0.0, 4.0, 4),
+            Axis::ModelDolp => (0.0, 1.0, 10),
+        }
+    }
+}
+
+/// Where one sample lies on every axis (NaN: not on that axis).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Position {
+    pub scattering_deg: f64,
+    pub radius: f64,
+    pub azimuth_deg: f64,
+    pub mosaic: f64,
+    pub model_dolp: f64,
+}
+
+impl Position {
+    fn on(&self, a: Axis) -> f64 {
+        match a {
+            Axis::ScatteringAngle => self.scattering_deg,
+            Axis::Radius => self.radius,
+            Axis::ImageAzimuth => self.azimuth_deg,
+            Axis::MosaicPosition => self.mosaic,
+            Axis::ModelDolp => self.model_dolp,
+        }
+    }
+}
+
+/// One bin of a profile.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ProfileBin {
+    pub lo: f64,
+    pub hi: f64,
+    /// Raw-DN samples, their χ² per sample and mean (measured − model)/σ.
+    pub dn_samples: usize,
+    pub chi2_per_sample: f64,
+    pub mean_z: f64,
+    /// Polarization samples (superpixels of a mosaic, or pixels), their mean AoP
+    /// residual in degrees (over those with model DoLP > 0.01) and mean DoLP residual.
+    pub pol_samples: usize,
+    pub aop_deg: f64,
+    pub dolp: f64,
+}
+
+/// A residual profile along one axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Profile {
+    pub axis: Axis,
+    pub bins: Vec<ProfileBin>,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Sums {
+    z2: f64,
+    z: f64,
+    n: usize,
+    aop: f64,
+    n_aop: usize,
+    dolp: f64,
+    n_pol: usize,
+}
+
+/// Accumulates samples into every axis's bins.
+#[derive(Clone, Debug)]
+pub struct Profiler {
+    max_radius: f64,
+    sums: Vec<Vec<Sums>>,
+}
+
+impl Profiler {
+    /// Bins for radii up to `max_radius` focal lengths (the image corner).
+    pub fn new(max_radius: f64) -> Self {
+        let sums = Axis::ALL.iter().map(|a| vec![Sums::default(); a.range(max_radius).2]).collect();
+        Profiler { max_radius, sums }
+    }
+
+    fn bin(&self, a: Axis, x: f64) -> Option<usize> {
+        let (lo, hi, n) = a.range(self.max_radius);
+        if !x.is_finite() || x < lo || x > hi {
+            return None;
+        }
+        Some((((x - lo) / (hi - lo) * n as f64) as usize).min(n - 1))
+    }
+
+    /// A raw-DN sample with normalised residual `z` at `p`.
+    pub fn add_dn(&mut self, p: &Position, z: f64) {
+        for (i, a) in Axis::ALL.iter().enumerate() {
+            if let Some(b) = self.bin(*a, p.on(*a)) {
+                let s = &mut self.sums[i][b];
+                s.z2 += z * z;
+                s.z += z;
+                s.n += 1;
+            }
+        }
+    }
+
+    /// A polarization sample at `p` with residuals `aop_deg` (None where the model
+    /// DoLP is too small for an angle) and `dolp`.
+    pub fn add_pol(&mut self, p: &Position, aop_deg: Option<f64>, dolp: f64) {
+        for (i, a) in Axis::ALL.iter().enumerate() {
+            if let Some(b) = self.bin(*a, p.on(*a)) {
+                let s = &mut self.sums[i][b];
+                if let Some(x) = aop_deg {
+                    s.aop += x;
+                    s.n_aop += 1;
+                }
+                s.dolp += dolp;
+                s.n_pol += 1;
+            }
+        }
+    }
+
+    /// The profiles (bins without any sample left out).
+    pub fn finish(&self) -> Vec<Profile> {
+        let mean = |s: f64, n: usize| if n > 0 { s / n as f64 } else { f64::NAN };
+        Axis::ALL
+            .iter()
+            .zip(&self.sums)
+            .map(|(&axis, sums)| {
+                let (lo, hi, n) = axis.range(self.max_radius);
+                let w = (hi - lo) / n as f64;
+                let bins = sums
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, s)| s.n + s.n_pol > 0)
+                    .map(|(b, s)| ProfileBin {
+                        lo: lo + w * b as f64,
+                        hi: lo + w * (b + 1) as f64,
+                        dn_samples: s.n,
+                        chi2_per_sample: mean(s.z2, s.n),
+                        mean_z: mean(s.z, s.n),
+                        pol_samples: s.n_pol,
+                        aop_deg: mean(s.aop, s.n_aop),
+                        dolp: mean(s.dolp, s.n_pol),
+                    })
+                    .collect();
+                Profile { axis, bins }
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn samples_land_in_their_bins_on_every_axis() {
+        let mut p = Profiler::new(0.8);
+        let at = Position { scattering_deg: 95.0, radius: 0.45, azimuth_deg: -170.0, mosaic: 3.0, model_dolp: 0.55 };
+        p.add_dn(&at, 2.0);
+        p.add_dn(&at, -1.0);
+        p.add_pol(&Position { mosaic: f64::NAN, ..at }, Some(0.5), -0.01);
+        let out = p.finish();
+        let get = |a: Axis| out.iter().find(|q| q.axis == a).unwrap();
+        let s = &get(Axis::ScatteringAngle).bins;
+        assert_eq!(s.len(), 1);
+        assert_eq!((s[0].lo, s[0].hi), (90.0, 100.0));
+        assert_eq!((s[0].dn_samples, s[0].chi2_per_sample, s[0].mean_z), (2, 2.5, 0.5));
+        assert_eq!((s[0].pol_samples, s[0].aop_deg, s[0].dolp), (1, 0.5, -0.01));
+        assert_eq!((get(Axis::Radius).bins[0].lo, get(Axis::Radius).bins[0].hi), (0.4, 0.5));
+        assert_eq!(get(Axis::ImageAzimuth).bins[0].lo, -180.0);
+        // Polarization samples have no mosaic position.
+        let m = &get(Axis::MosaicPosition).bins;
+        assert_eq!((m[0].lo, m[0].dn_samples, m[0].pol_samples), (3.0, 2, 0));
+        assert_eq!(get(Axis::ModelDolp).bins[0].lo, 0.5);
+        // Out of range: nowhere.
+        let mut q = Profiler::new(0.8);
+        q.add_dn(&Position { radius: 0.9, ..at }, 1.0);
+        assert!(q.finish().iter().find(|x| x.axis == Axis::Radius).unwrap().bins.is_empty());
+    }
+}
