@@ -35,7 +35,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for p in &r.params {
         println!("  {:<34} {:>+12.5} ± {:<10.5} {}", p.name, p.value, p.sigma, p.unit);
     }
-    println!("frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max  shape a1  shape a2   χ²/dof");
+    println!(
+        "frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max  shape a1  shape a2   χ²/dof"
+    );
     for (k, f) in r.frames.iter().enumerate() {
         println!(
             "{:>5}  {:>11.4} {:>10.4} {:>15} {:>10} {:>11.2} {:>7.4} {:>+9.4} {:>+9.4} {:>8.4}",

@@ -9,8 +9,8 @@ mod cmd_fit;
 mod cmd_heading;
 mod cmd_run;
 mod cmd_simulate;
-mod progress;
 mod profiles;
+mod progress;
 mod residuals;
 
 use clap::{Parser, Subcommand};

@@ -22,9 +22,8 @@ fn label(a: Axis) -> &'static str {
 
 /// Writes `dir/profiles.csv` and `dir/profiles.svg`; returns the SVG's file name.
 pub fn write(dir: &Path, profiles: &[Profile]) -> anyhow::Result<String> {
-    let mut csv = String::from(
-        "axis,lo,hi,dn_samples,chi2_per_sample,mean_z_sigma,pol_samples,aop_residual_deg,dolp_residual\n",
-    );
+    let mut csv =
+        String::from("axis,lo,hi,dn_samples,chi2_per_sample,mean_z_sigma,pol_samples,aop_residual_deg,dolp_residual\n");
     for p in profiles {
         for b in &p.bins {
             writeln!(
@@ -55,11 +54,8 @@ const TOP: f64 = 18.0;
 
 /// The profiles as one SVG, a panel per axis.
 fn svg(profiles: &[Profile]) -> String {
-    let strips: [(&str, &str, fn(&ProfileBin) -> f64); 3] = [
-        ("χ²/sample − 1", "", |b| b.chi2_per_sample - 1.0),
-        ("AoP", "°", |b| b.aop_deg),
-        ("DoLP", "", |b| b.dolp),
-    ];
+    let strips: [(&str, &str, fn(&ProfileBin) -> f64); 3] =
+        [("χ²/sample − 1", "", |b| b.chi2_per_sample - 1.0), ("AoP", "°", |b| b.aop_deg), ("DoLP", "", |b| b.dolp)];
     let (w, h) = (PANEL_W * profiles.len() as f64, TOP + STRIP_H * 3.0 + 30.0);
     let mut s = format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"10\">\n<rect width=\"{w}\" height=\"{h}\" fill=\"white\"/>\n"

@@ -25,6 +25,12 @@ fn the_worked_effect_is_unexplained_without_it_and_noise_with_it() {
     assert!(d.unexplained, "{}", d.unexplained_summary);
     let misfit = d.steps.last().unwrap().fit.chi2_per_dof;
     assert!(misfit > 1.05, "χ²/dof {misfit}");
+    // Described as what it is: the data less polarized than the model toward the edge.
+    assert!(
+        d.unexplained_summary.contains("DoLP residual (measured − model) varies most along the radius"),
+        "{}",
+        d.unexplained_summary
+    );
     if !d.selected.is_empty() {
         assert!(d.unexplained_summary.contains("partial"), "{}", d.unexplained_summary);
     }

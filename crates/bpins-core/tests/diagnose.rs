@@ -65,4 +65,10 @@ fn an_effect_outside_the_catalog_is_reported_unexplained_and_nothing_named() {
     eprintln!("selected {:?}; {}", d.selected, d.unexplained_summary);
     assert!(d.unexplained, "{}", d.unexplained_summary);
     assert!(d.selected.is_empty(), "falsely named {:?}", d.selected);
+    // Described where it is: a ramp along image x is a trend in image azimuth.
+    assert!(
+        d.unexplained_summary.contains("residual (σ) varies most along the image azimuth"),
+        "{}",
+        d.unexplained_summary
+    );
 }

@@ -148,7 +148,8 @@ impl ChainFrame {
     pub fn has_pixel_effects(&self) -> bool {
         self.neutral.is_some()
             || self.radiance_shape != [0.0; 2]
-            || self.lens_rho2 != 0.0 || self.lens_delta2_rad != 0.0
+            || self.lens_rho2 != 0.0
+            || self.lens_delta2_rad != 0.0
             || self.lens_depol_p2 != 0.0
             || self.vignetting != [0.0; 2]
     }

@@ -26,7 +26,8 @@ pub const EFFECT: EffectDef = EffectDef {
     params: &[ParamSpec {
         name: "dtheta_deg",
         unit: "deg",
-        neutral: 0.0, typical: 0.5,
+        neutral: 0.0,
+        typical: 0.5,
         min: -90.0,
         max: 90.0,
         doc: "rotation of the array, counter-clockwise as displayed",

@@ -32,7 +32,8 @@ pub const EFFECT: EffectDef = EffectDef {
     params: &[ParamSpec {
         name: "c",
         unit: "1",
-        neutral: 0.0, typical: 0.01,
+        neutral: 0.0,
+        typical: 0.01,
         min: 0.0,
         max: 0.125,
         doc: "fraction of its signal a pixel gives to each edge neighbour",

@@ -27,7 +27,8 @@ pub const EFFECT: EffectDef = EffectDef {
     params: &[ParamSpec {
         name: "scale",
         unit: "1",
-        neutral: 0.0, typical: 0.02,
+        neutral: 0.0,
+        typical: 0.02,
         min: -0.5,
         max: 0.5,
         doc: "relative error of the focal length",

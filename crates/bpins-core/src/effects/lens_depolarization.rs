@@ -88,7 +88,8 @@ mod tests {
         // Never more than completely depolarized.
         assert_eq!(lens_depolarization(2.0, 1.0, s), Stokes::new(1.0, 0.0, 0.0, 0.0));
         // Isotropic: rotating the frame before or after gives the same Stokes vector.
-        let rot = |s: Stokes, t: f64| Stokes::new(s.i, s.q * t.cos() + s.u * t.sin(), -s.q * t.sin() + s.u * t.cos(), s.v);
+        let rot =
+            |s: Stokes, t: f64| Stokes::new(s.i, s.q * t.cos() + s.u * t.sin(), -s.q * t.sin() + s.u * t.cos(), s.v);
         let (a, b) = (lens_depolarization(0.4, 0.5, rot(s, 0.7)), rot(lens_depolarization(0.4, 0.5, s), 0.7));
         for (x, y) in [(a.i, b.i), (a.q, b.q), (a.u, b.u), (a.v, b.v)] {
             assert!((x - y).abs() < 1e-15);

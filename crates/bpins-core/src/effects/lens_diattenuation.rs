@@ -32,7 +32,8 @@ pub const EFFECT: EffectDef = EffectDef {
     params: &[ParamSpec {
         name: "rho2",
         unit: "1",
-        neutral: 0.0, typical: 0.1,
+        neutral: 0.0,
+        typical: 0.1,
         min: -50.0,
         max: 50.0,
         doc: "diattenuation per squared normalised radius",

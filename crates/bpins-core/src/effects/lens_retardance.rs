@@ -34,7 +34,8 @@ pub const EFFECT: EffectDef = EffectDef {
     params: &[ParamSpec {
         name: "delta2_deg",
         unit: "deg",
-        neutral: 0.0, typical: 10.0,
+        neutral: 0.0,
+        typical: 10.0,
         min: -180.0,
         max: 180.0,
         doc: "retardance per squared normalised radius",

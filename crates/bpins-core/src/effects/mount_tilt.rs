@@ -29,7 +29,8 @@ pub const EFFECT: EffectDef = EffectDef {
         ParamSpec {
             name: "tilt_x_deg",
             unit: "deg",
-            neutral: 0.0, typical: 1.0,
+            neutral: 0.0,
+            typical: 1.0,
             min: -45.0,
             max: 45.0,
             doc: "rotation about camera x",
@@ -37,7 +38,8 @@ pub const EFFECT: EffectDef = EffectDef {
         ParamSpec {
             name: "tilt_y_deg",
             unit: "deg",
-            neutral: 0.0, typical: -0.5,
+            neutral: 0.0,
+            typical: -0.5,
             min: -45.0,
             max: 45.0,
             doc: "rotation about camera y",

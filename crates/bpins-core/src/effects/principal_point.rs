@@ -27,7 +27,8 @@ pub const EFFECT: EffectDef = EffectDef {
         ParamSpec {
             name: "dx_px",
             unit: "px",
-            neutral: 0.0, typical: 5.0,
+            neutral: 0.0,
+            typical: 5.0,
             min: -1e4,
             max: 1e4,
             doc: "offset along image x (columns)",
@@ -35,7 +36,8 @@ pub const EFFECT: EffectDef = EffectDef {
         ParamSpec {
             name: "dy_px",
             unit: "px",
-            neutral: 0.0, typical: -3.0,
+            neutral: 0.0,
+            typical: -3.0,
             min: -1e4,
             max: 1e4,
             doc: "offset along image y (rows, down)",

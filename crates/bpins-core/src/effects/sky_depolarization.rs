@@ -27,7 +27,8 @@ pub const EFFECT: EffectDef = EffectDef {
     params: &[ParamSpec {
         name: "dmax",
         unit: "1",
-        neutral: 1.0, typical: 0.8,
+        neutral: 1.0,
+        typical: 0.8,
         min: 0.0,
         max: 1.6,
         doc: "factor on the scene's peak DoLP (the true d_max is scene d_max × dmax ≤ 1)",

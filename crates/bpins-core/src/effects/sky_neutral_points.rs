@@ -44,7 +44,8 @@ pub const EFFECT: EffectDef = EffectDef {
     params: &[ParamSpec {
         name: "separation_deg",
         unit: "deg",
-        neutral: 0.0, typical: 20.0,
+        neutral: 0.0,
+        typical: 20.0,
         min: 0.0,
         max: 60.0,
         doc: "angular separation of each pair of neutral points",

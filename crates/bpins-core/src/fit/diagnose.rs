@@ -2,20 +2,21 @@
 //!
 //! From a fitted model (default: no effect), every catalog effect not in it is scored
 //! (`score_candidate`: the Δχ² one Gauss–Newton step predicts, a score test, on every
-//! third row and column); the strongest `refit_top` whose score is beyond noise
-//! (> 2k) are refitted on every pixel for their real Δχ², ranked by
-//! ΔBIC = Δχ² − k·ln n (k the combinations of its parameters the data constrain beside
-//! the model's — fewer than its parameters where some trade exactly against the
-//! model's —, n the samples).
-//! The winner is added if ΔBIC > 10 ("very strong" evidence, Kass & Raftery 1995) and
-//! it removes at least 30 % of the model's excess χ² (χ² − dof) — an effect that only
-//! nibbles at a misfit it does not describe is not named — and the search repeats. Two candidates within 10 of each other in ΔBIC are reported as
-//! confusable (the data cannot tell them apart; the better one is still taken). When
-//! no effect is worth its parameters but χ²/dof stays clearly above 1, the residual is
-//! reported as unexplained, described by channel and by radius instead of naming the
-//! least-bad effect.
+//! third row and column); the strongest `refit_top` whose score is beyond noise (more
+//! than 3σ above its null distribution χ²_k: > k + 3√(2k)) are refitted on every pixel
+//! for their real Δχ², ranked by ΔBIC = Δχ² − k·ln n (k the combinations of its
+//! parameters the data constrain beside the model's — fewer than its parameters where
+//! some trade exactly against the model's —, n the samples). The winner is added if
+//! ΔBIC > 10 ("very strong" evidence, Kass & Raftery 1995) and it removes at least
+//! 30 % of the model's excess χ² (χ² − dof) — an effect that only nibbles at a misfit
+//! it does not describe is not named — and the search repeats. Two candidates within
+//! 10 of each other in ΔBIC are reported as confusable (the data cannot tell them
+//! apart; the better one is still taken). When no effect is worth its parameters but
+//! χ²/dof stays clearly above 1, the residual is reported as unexplained, described by
+//! channel, by radius and by the strongest trend of its sky-space profiles
+//! (`profiles::describe`) instead of naming the least-bad effect.
 
-use super::{fit_from, residual_profile, score_candidate, FitOptions, FitResult, Param};
+use super::{fit_from, residual_maps, residual_profile, score_candidate, FitOptions, FitResult, Param};
 use crate::capture::{Capture, FrameData};
 use crate::effects::{EffectDef, REGISTRY};
 use crate::error::Result;
@@ -37,7 +38,13 @@ pub struct DiagnoseOptions {
 
 impl Default for DiagnoseOptions {
     fn default() -> Self {
-        DiagnoseOptions { base: FitOptions::default(), max_added: 3, refit_top: 2, score_stride: 3, exclude: Vec::new() }
+        DiagnoseOptions {
+            base: FitOptions::default(),
+            max_added: 3,
+            refit_top: 2,
+            score_stride: 3,
+            exclude: Vec::new(),
+        }
     }
 }
 
@@ -106,8 +113,7 @@ pub fn diagnose(
         unexplained_summary: String::new(),
     };
     for _ in 0..opts.max_added {
-        let candidates: Vec<&'static EffectDef> =
-            REGISTRY
+        let candidates: Vec<&'static EffectDef> = REGISTRY
             .iter()
             .copied()
             .filter(|e| !model.effects.iter().any(|m| m.name == e.name) && !opts.exclude.contains(&e.name))
@@ -133,11 +139,15 @@ pub fn diagnose(
         ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.delta_bic.total_cmp(&a.delta_bic)));
         // Refit the strongest identifiable ones for their real Δχ².
         let mut fits = Vec::new();
-        // The strongest by score are refitted where the score is beyond noise (> 2k).
+        // The strongest by score are refitted where the score is beyond noise: under
+        // the null it is χ²_k (mean k, σ √(2k)); a refit needs it 3σ above.
         ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.score.total_cmp(&a.score)));
         for cand in ranking
             .iter_mut()
-            .filter(|c| c.identifiable && c.score > 2.0 * c.added_rank.max(1) as f64)
+            .filter(|c| {
+                let k = c.added_rank.max(1) as f64;
+                c.identifiable && c.score > k + 3.0 * (2.0 * k).sqrt()
+            })
             .take(opts.refit_top)
         {
             progress(&format!("refitting with {}", cand.effect));
@@ -222,6 +232,12 @@ pub fn diagnose(
                 if z > 0.0 { "brighter" } else { "darker" },
                 p.by_radius.iter().map(|(a, b, x, _)| format!("{a:.2}–{b:.2}: {x:.2}")).collect::<Vec<_>>().join(", ")
             );
+        }
+        // Where in sky space: the axis of the strongest trend.
+        let maps = residual_maps(c, frames, &model, &current.state, current.noise)?;
+        let trend = super::profiles::describe(&maps.profiles, 1000);
+        if !trend.is_empty() {
+            s += &format!(" In sky space, {trend}.");
         }
         d.unexplained_summary = s;
     } else {

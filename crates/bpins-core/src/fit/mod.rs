@@ -175,7 +175,8 @@ impl Problem<'_> {
             bit_depth: self.capture.sensor.bit_depth,
             ..Response::ideal(theta[s])
         };
-        let mut f = ChainFrame::new(&set.model(), &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
+        let mut f =
+            ChainFrame::new(&set.model(), &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
         f.radiance_shape = [theta[a1], theta[a2]];
         Ok(f)
     }

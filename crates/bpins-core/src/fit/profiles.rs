@@ -41,6 +41,17 @@ impl Axis {
         }
     }
 
+    /// Words for a position on this axis.
+    pub fn describe(self, x: f64) -> String {
+        match self {
+            Axis::ScatteringAngle => format!("scattering angle {x:.0}°"),
+            Axis::Radius => format!("radius {x:.2} focal lengths"),
+            Axis::ImageAzimuth => format!("image azimuth {x:.0}°"),
+            Axis::MosaicPosition => format!("mosaic position {x:.0}"),
+            Axis::ModelDolp => format!("model DoLP {x:.2}"),
+        }
+    }
+
     /// (first edge, last edge, bins).
     fn range(self, max_radius: f64) -> (f64, f64, usize) {
         match self {
@@ -189,6 +200,55 @@ impl Profiler {
     }
 }
 
+/// The strongest trend of the profiles, in words: along which axis the mean raw-DN
+/// residual (in σ) and the DoLP residual vary most between bins, from where to where.
+/// Bins with fewer than `min_samples` samples are ignored (their means are noise).
+pub fn describe(profiles: &[Profile], min_samples: usize) -> String {
+    let centre = |b: &ProfileBin| 0.5 * (b.lo + b.hi);
+    // (range, axis, (x at min, min), (x at max, max)) of a quantity along each axis.
+    let trend = |get: &dyn Fn(&ProfileBin) -> Option<f64>| {
+        profiles
+            .iter()
+            .filter_map(|p| {
+                let pts: Vec<(f64, f64)> = p.bins.iter().filter_map(|b| get(b).map(|v| (centre(b), v))).collect();
+                let lo = pts.iter().copied().min_by(|a, b| a.1.total_cmp(&b.1))?;
+                let hi = pts.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1))?;
+                Some((hi.1 - lo.1, p.axis, lo, hi))
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+    };
+    let dn = |b: &ProfileBin| (b.dn_samples >= min_samples && b.mean_z.is_finite()).then_some(b.mean_z);
+    let dolp = |b: &ProfileBin| (b.pol_samples >= min_samples / 4 && b.dolp.is_finite()).then_some(b.dolp);
+    let quantities: [(&str, &dyn Fn(&ProfileBin) -> Option<f64>, fn(f64) -> String); 2] = [
+        ("the mean raw-DN residual (σ)", &dn, |v| format!("{v:+.2}σ")),
+        ("the DoLP residual (measured − model)", &dolp, |v| format!("{v:+.4}")),
+    ];
+    let mut out = Vec::new();
+    for (what, get, fmt) in quantities {
+        if let Some((_, axis, lo, hi)) = trend(get) {
+            out.push(format!(
+                "{what} varies most along {}: from {} at {} to {} at {}",
+                label(axis),
+                fmt(lo.1),
+                axis.describe(lo.0),
+                fmt(hi.1),
+                axis.describe(hi.0)
+            ));
+        }
+    }
+    out.join("; ")
+}
+
+fn label(a: Axis) -> &'static str {
+    match a {
+        Axis::ScatteringAngle => "the scattering angle from the sun",
+        Axis::Radius => "the radius from the principal point",
+        Axis::ImageAzimuth => "the image azimuth",
+        Axis::MosaicPosition => "the mosaic position",
+        Axis::ModelDolp => "the model's DoLP",
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -217,5 +277,22 @@ mod tests {
         let mut q = Profiler::new(0.8);
         q.add_dn(&Position { radius: 0.9, ..at }, 1.0);
         assert!(q.finish().iter().find(|x| x.axis == Axis::Radius).unwrap().bins.is_empty());
+    }
+
+    #[test]
+    fn the_description_names_the_axis_of_the_strongest_trend() {
+        // A residual that grows with image azimuth, flat in radius.
+        let mut p = Profiler::new(0.8);
+        for i in 0..36 {
+            let az = -175.0 + 10.0 * i as f64;
+            let at = Position { scattering_deg: 90.0, radius: 0.3, azimuth_deg: az, mosaic: 0.0, model_dolp: 0.3 };
+            for _ in 0..10 {
+                p.add_dn(&at, az.to_radians().cos());
+                p.add_pol(&at, None, 0.0);
+            }
+        }
+        let s = describe(&p.finish(), 5);
+        assert!(s.starts_with("the mean raw-DN residual (σ) varies most along the image azimuth"), "{s}");
+        assert!(s.contains("at image azimuth 165°") || s.contains("at image azimuth -165°"), "{s}");
     }
 }

@@ -200,11 +200,8 @@ pub fn residual_maps(
     let mut buf = Vec::new();
     for k in 0..frames.len() {
         let f = pb.chain(&theta, k)?;
-        let mut fm = FrameMaps {
-            dn_z: vec![f32::NAN; w * h],
-            aop_deg: vec![f32::NAN; pw * ph],
-            dolp: vec![f32::NAN; pw * ph],
-        };
+        let mut fm =
+            FrameMaps { dn_z: vec![f32::NAN; w * h], aop_deg: vec![f32::NAN; pw * ph], dolp: vec![f32::NAN; pw * ph] };
         // Per pixel: DN residuals; gather the channels of each polarization sample.
         let mut meas = vec![[1.0f64; 4]; pw * ph];
         let mut model = vec![[1.0f64; 4]; pw * ph];
