@@ -147,7 +147,7 @@ fn esc(s: &str) -> String {
 fn report_html(d: &Diagnosis, capture: &std::path::Path, figures: &[crate::residuals::Figures]) -> String {
     let mut h = String::new();
     h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>bpins diagnosis</title>\n";
-    h += "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}td:first-child,th:first-child{text-align:left}.yes{color:#070}.no{color:#a00}</style></head><body>\n";
+    h += "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}table{border-collapse:collapse;margin:1em 0;display:block;overflow-x:auto}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}td:first-child,th:first-child{text-align:left}.yes{color:#070}.no{color:#a00}</style></head><body>\n";
     h += &format!("<h1>Diagnosis of <code>{}</code></h1>\n", esc(&capture.display().to_string()));
     h += "<h2>The error, step by step</h2>\n<table><tr><th>model</th><th>χ²/dof</th><th>AoP RMS (°)</th><th>DoLP RMS</th><th>heading RMS (°)</th></tr>\n";
     for s in &d.steps {
@@ -175,7 +175,26 @@ fn report_html(d: &Diagnosis, capture: &std::path::Path, figures: &[crate::resid
         }
         h += "</tr>\n";
     }
-    h += "</table>\n<p>Every frame's maps are layers <code>f&lt;k&gt;_…</code> of each step's <code>residual_dn.exr</code> and <code>residual_pol.exr</code>.</p>\n";
+    h += "</table>\n";
+    // Frame by frame: a misfit that moves with the heading lives in the sky, one that
+    // stays put lives in the camera.
+    h += "<h2>Frame by frame</h2>\n<p>Each frame's residual (measured − model), same colours; scales ± the value given. The numbers are the layers <code>f&lt;k&gt;_…</code> of each step's <code>residual_dn.exr</code> and <code>residual_pol.exr</code>. A misfit that turns with the heading lives in the sky; one that stays put lives in the camera.</p>\n<table>";
+    for (k, (s, m)) in d.steps.iter().zip(figures).enumerate() {
+        let name = if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") };
+        for q in 0..3 {
+            let what = m.frames.first().map_or("", |f| f[q].what);
+            h += &format!("<tr><td>step {k}: {}<br>{what}</td>", esc(&name));
+            for (f, row) in m.frames.iter().enumerate() {
+                let w = &row[q];
+                h += &format!(
+                    "<td><img src=\"step{k}/{}\" alt=\"frame {f} {} of step {k}\" style=\"width:6em;image-rendering:pixelated\"><br>f{f} ±{:.3}{}</td>",
+                    w.png, w.what, w.scale, w.unit
+                );
+            }
+            h += "</tr>\n";
+        }
+    }
+    h += "</table>\n";
     // The same residuals in sky space, each step.
     h += "<h2>Where the model fails in sky space: residual profiles, each step</h2>\n<p>Over every frame, binned against scattering angle from the sun, radius from the principal point, image azimuth, mosaic position and the model's DoLP: raw-DN χ² per sample − 1 (0 where the model fits), mean AoP residual and mean DoLP residual (measured − model), each strip on its own symmetric scale (± the value given). A missing effect shows as a trend along its own axis. Numbers: <code>step&lt;k&gt;/profiles.csv</code>.</p>\n";
     for (k, (s, m)) in d.steps.iter().zip(figures).enumerate() {

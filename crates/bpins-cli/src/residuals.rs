@@ -19,7 +19,10 @@ pub struct Written {
 /// What [`write`] wrote for a report: the map PNGs with their colour scales and the
 /// profiles' SVG (file names relative to the folder).
 pub struct Figures {
+    /// Stacked over frames: χ² excess, DN, AoP, DoLP.
     pub maps: Vec<Written>,
+    /// Each frame's DN, AoP and DoLP residual.
+    pub frames: Vec<Vec<Written>>,
     pub profiles_svg: String,
 }
 
@@ -39,38 +42,60 @@ pub fn write(dir: &Path, maps: &ResidualMaps) -> anyhow::Result<Figures> {
     let excess: Vec<f32> = maps.dn_chi2.iter().map(|x| x - 1.0).collect();
     write_exr_layers(&dir.join("residual_pol.exr"), maps.pol_width, maps.pol_height, &pol_layers)?;
     let mut out = Vec::new();
-    // Binned to blocks of `bin` px (mean of the finite values) so that a systematic
-    // misfit stands out of the per-pixel noise; the EXR keeps every pixel.
     for (name, what, data, w, h, unit, floor, bin) in [
         ("residual_chi2.png", "χ² per sample − 1", &excess, maps.width_px, maps.height_px, "", 0.1, 8),
         ("residual_dn.png", "DN residual / σ", &maps.dn_z, maps.width_px, maps.height_px, "σ", 0.1, 8),
         ("residual_aop.png", "AoP residual", &maps.aop_deg, maps.pol_width, maps.pol_height, "°", 0.01, 4),
         ("residual_dolp.png", "DoLP residual", &maps.dolp, maps.pol_width, maps.pol_height, "", 0.0005, 4),
     ] {
-        let (bw, bh) = (w.div_ceil(bin), h.div_ceil(bin));
-        let mut binned = vec![(0.0f64, 0u32); (bw * bh) as usize];
-        for y in 0..h {
-            for x in 0..w {
-                let t = data[(y * w + x) as usize];
-                if t.is_finite() {
-                    let b = &mut binned[((y / bin) * bw + x / bin) as usize];
-                    b.0 += t as f64;
-                    b.1 += 1;
-                }
-            }
-        }
-        let binned: Vec<f64> = binned.iter().map(|&(s, n)| if n > 0 { s / n as f64 } else { f64::NAN }).collect();
-        // Symmetric scale: four RMS of the binned map, at least `floor`.
-        let v: Vec<f64> = binned.iter().copied().filter(|x| x.is_finite()).collect();
-        let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
-        let scale = (4.0 * rms).max(floor);
-        let img = image::RgbImage::from_fn(bw, bh, |x, y| image::Rgb(colour(binned[(y * bw + x) as usize] / scale)));
-        let path = dir.join(name);
-        img.save(&path).with_context(|| format!("writing {}", path.display()))?;
+        let scale = binned_png(&dir.join(name), data, w, h, bin, floor)?;
         out.push(Written { png: name.to_string(), what, scale, unit });
     }
+    // Each frame's DN, AoP and DoLP residual (frames/f<k>_….png).
+    let mut frames = Vec::new();
+    if !maps.frames.is_empty() {
+        std::fs::create_dir_all(dir.join("frames")).with_context(|| format!("creating {}/frames", dir.display()))?;
+    }
+    for (k, f) in maps.frames.iter().enumerate() {
+        let mut row = Vec::new();
+        for (name, what, data, w, h, unit, floor, bin) in [
+            (format!("frames/f{k}_dn.png"), "DN residual / σ", &f.dn_z, maps.width_px, maps.height_px, "σ", 0.3, 8),
+            (format!("frames/f{k}_aop.png"), "AoP residual", &f.aop_deg, maps.pol_width, maps.pol_height, "°", 0.02, 4),
+            (format!("frames/f{k}_dolp.png"), "DoLP residual", &f.dolp, maps.pol_width, maps.pol_height, "", 0.001, 4),
+        ] {
+            let scale = binned_png(&dir.join(&name), data, w, h, bin, floor)?;
+            row.push(Written { png: name, what, scale, unit });
+        }
+        frames.push(row);
+    }
     let profiles_svg = crate::profiles::write(dir, &maps.profiles)?;
-    Ok(Figures { maps: out, profiles_svg })
+    Ok(Figures { maps: out, frames, profiles_svg })
+}
+
+/// Writes `data` (w × h, NaN masked) to `path` as a PNG binned to blocks of `bin` px
+/// (mean of the finite values, so that a systematic misfit stands out of the per-pixel
+/// noise; the EXR keeps every pixel) on a symmetric diverging scale of four RMS of the
+/// binned map, at least `floor`; returns that scale.
+fn binned_png(path: &Path, data: &[f32], w: u32, h: u32, bin: u32, floor: f64) -> anyhow::Result<f64> {
+    let (bw, bh) = (w.div_ceil(bin), h.div_ceil(bin));
+    let mut binned = vec![(0.0f64, 0u32); (bw * bh) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            let t = data[(y * w + x) as usize];
+            if t.is_finite() {
+                let b = &mut binned[((y / bin) * bw + x / bin) as usize];
+                b.0 += t as f64;
+                b.1 += 1;
+            }
+        }
+    }
+    let binned: Vec<f64> = binned.iter().map(|&(s, n)| if n > 0 { s / n as f64 } else { f64::NAN }).collect();
+    let v: Vec<f64> = binned.iter().copied().filter(|x| x.is_finite()).collect();
+    let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    let scale = (4.0 * rms).max(floor);
+    let img = image::RgbImage::from_fn(bw, bh, |x, y| image::Rgb(colour(binned[(y * bw + x) as usize] / scale)));
+    img.save(path).with_context(|| format!("writing {}", path.display()))?;
+    Ok(scale)
 }
 
 /// Blue (−1) – white (0) – red (+1); grey for NaN.

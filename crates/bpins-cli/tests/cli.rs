@@ -676,11 +676,45 @@ fn diagnose_writes_its_json_and_report() {
         assert!(!first[key].is_null(), "ranking[0] lacks {key}");
     }
     assert!(v["selected"].is_array() && v["unexplained"].is_boolean() && v["unexplained_summary"].is_string());
-    for f in ["residual_chi2.png", "residual_dn.png", "residual_aop.png", "residual_dolp.png", "residual_dn.exr"] {
+    for f in [
+        "residual_chi2.png",
+        "residual_dn.png",
+        "residual_aop.png",
+        "residual_dolp.png",
+        "residual_dn.exr",
+        "residual_pol.exr",
+        "profiles.csv",
+        "profiles.svg",
+        "frames/f0_dn.png",
+        "frames/f7_dolp.png",
+    ] {
         assert!(out.join("step0").join(f).exists(), "step0/{f} missing");
+    }
+    // Sky-space profiles: every axis, with bins.
+    let csv = fs::read_to_string(out.join("step0/profiles.csv")).unwrap();
+    for axis in ["scattering_angle_deg", "radius_focal_lengths", "image_azimuth_deg", "mosaic_position", "model_dolp"] {
+        assert!(csv.lines().filter(|l| l.starts_with(axis)).count() >= 4, "{axis} profile missing or short");
     }
     let html = fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("step0/residual_chi2.png"));
     assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
     bpins(&["diagnose", CLEAN, "--effects", "nope", "--out", &s(&tmp.path().join("x"))]).fails().stderr_has("nope");
+}
+
+#[test]
+fn diagnose_and_fit_name_the_bad_field_of_a_bad_capture_and_write_nothing() {
+    let (_t, copy) = clean_copy();
+    edit_toml(&copy, |t| t.replace("bit_depth = 12", "bit_depth = \"twelve\""));
+    let before = snapshot(&copy);
+    let tmp = tempfile::tempdir().unwrap();
+    for cmd in ["diagnose", "fit"] {
+        let out = tmp.path().join(cmd);
+        bpins(&[cmd, &s(&copy), "--out", &s(&out)]).fails().stderr_has("capture.toml").stderr_has("bit_depth");
+        assert!(!out.exists(), "{cmd} wrote {}", out.display());
+    }
+    // An impossible sky d_max is refused before anything is read.
+    let out = tmp.path().join("dmax");
+    bpins(&["fit", CLEAN, "--fixed-dmax", "1.5", "--out", &s(&out)]).fails().stderr_has("--fixed-dmax");
+    assert!(!out.exists());
+    assert_eq!(snapshot(&copy), before);
 }
