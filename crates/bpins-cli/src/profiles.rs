@@ -1,24 +1,13 @@
 //! Residual profiles on disk: `profiles.csv` (the numbers, one row per bin) and
 //! `profiles.svg` (one panel per axis — scattering angle, radius, image azimuth,
-//! mosaic position, model DoLP — each with three strips: raw-DN χ² per sample − 1,
+//! mosaic position, channel, model DoLP — each with three strips: raw-DN χ² per sample − 1,
 //! AoP residual and DoLP residual against that axis, each strip on its own symmetric
 //! scale, zero dashed). A missing effect shows as a trend along its own axis.
 
 use anyhow::Context;
-use bpins_core::fit::profiles::{Axis, Profile, ProfileBin};
+use bpins_core::fit::profiles::{Profile, ProfileBin};
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// Axis label with its unit.
-fn label(a: Axis) -> &'static str {
-    match a {
-        Axis::ScatteringAngle => "scattering angle (°)",
-        Axis::Radius => "radius (focal lengths)",
-        Axis::ImageAzimuth => "image azimuth (°)",
-        Axis::MosaicPosition => "mosaic position (u%2 + 2·v%2)",
-        Axis::ModelDolp => "model DoLP",
-    }
-}
 
 /// Writes `dir/profiles.csv` and `dir/profiles.svg`; returns the SVG's file name.
 pub fn write(dir: &Path, profiles: &[Profile]) -> anyhow::Result<String> {
@@ -63,7 +52,7 @@ fn svg(profiles: &[Profile]) -> String {
     for (i, p) in profiles.iter().enumerate() {
         let x0 = PANEL_W * i as f64 + 8.0;
         let pw = PANEL_W - 16.0;
-        let _ = writeln!(s, "<text x=\"{}\" y=\"12\" font-weight=\"bold\">{}</text>", x0, label(p.axis));
+        let _ = writeln!(s, "<text x=\"{}\" y=\"12\" font-weight=\"bold\">{}</text>", x0, p.axis.title());
         let (lo, hi) = match (p.bins.first(), p.bins.last()) {
             (Some(a), Some(b)) => (a.lo, b.hi),
             _ => continue,
@@ -128,6 +117,7 @@ fn short(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use bpins_core::fit::profiles::Axis;
 
     #[test]
     fn the_svg_has_a_panel_per_axis_and_a_line_per_strip() {

@@ -16,7 +16,8 @@
 //! channel, by radius and by the strongest trend of its sky-space profiles
 //! (`profiles::describe`) instead of naming the least-bad effect.
 
-use super::{fit_from, residual_maps, residual_profile, score_candidate, FitOptions, FitResult, Param};
+use super::profiles::{Axis, Profile};
+use super::{fit_from, residual_maps, score_candidate, FitOptions, FitResult, Param};
 use crate::capture::{Capture, FrameData};
 use crate::effects::{EffectDef, REGISTRY};
 use crate::error::Result;
@@ -200,9 +201,11 @@ pub fn diagnose(
     if current.chi2_per_dof > limit {
         d.unexplained = true;
         progress("describing the residual");
-        let p = residual_profile(c, frames, &model, &current.state, current.noise)?;
-        let worst_ch = p.by_channel.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1));
-        let worst_r = p.by_radius.iter().copied().max_by(|a, b| a.2.total_cmp(&b.2));
+        let maps = residual_maps(c, frames, &model, &current.state, current.noise)?;
+        let along = |a: Axis| maps.profiles.iter().find(|p| p.axis == a).map_or(&[][..], |p: &Profile| &p.bins[..]);
+        let (by_channel, by_radius) = (along(Axis::Channel), along(Axis::Radius));
+        let worst_ch = by_channel.iter().max_by(|a, b| a.chi2_per_sample.total_cmp(&b.chi2_per_sample));
+        let worst_r = by_radius.iter().max_by(|a, b| a.chi2_per_sample.total_cmp(&b.chi2_per_sample));
         let mut s = format!(
             "χ²/dof {:.3} remains (noise alone: ≤ {:.3}) after {}; no catalog effect explains it (none removes {:.0} % of the excess χ² with ΔBIC > {}).",
             current.chi2_per_dof,
@@ -220,21 +223,34 @@ pub fn diagnose(
                 if d.selected.len() == 1 { "is" } else { "are" },
             );
         }
-        if let Some((a, x)) = worst_ch {
+        if let Some(w) = worst_ch {
             s += &format!(
-                " The raw DN misfit is largest in the {a:.0}° channel (χ²/dof {x:.3}; channels: {}).",
-                p.by_channel.iter().map(|(a, x)| format!("{a:.0}° {x:.3}")).collect::<Vec<_>>().join(", ")
+                " The raw DN misfit is largest in {} (χ² per sample {:.3}; channels: {}).",
+                Axis::Channel.describe(w.lo),
+                w.chi2_per_sample,
+                by_channel
+                    .iter()
+                    .map(|b| format!("{:.0}° {:.3}", 45.0 * b.lo, b.chi2_per_sample))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
         }
-        if let Some((r0, r1, x, z)) = worst_r {
+        if let Some(w) = worst_r {
             s += &format!(
-                " By radius from the principal point it peaks at r = {r0:.3}–{r1:.3} focal lengths (χ²/dof {x:.3}, mean residual {z:+.2}σ: the data are {} than the model there); profile: {}.",
-                if z > 0.0 { "brighter" } else { "darker" },
-                p.by_radius.iter().map(|(a, b, x, _)| format!("{a:.2}–{b:.2}: {x:.2}")).collect::<Vec<_>>().join(", ")
+                " By radius from the principal point it peaks at r = {:.3}–{:.3} focal lengths (χ² per sample {:.3}, mean residual {:+.2}σ: the data are {} than the model there); profile: {}.",
+                w.lo,
+                w.hi,
+                w.chi2_per_sample,
+                w.mean_z,
+                if w.mean_z > 0.0 { "brighter" } else { "darker" },
+                by_radius
+                    .iter()
+                    .map(|b| format!("{:.2}–{:.2}: {:.2}", b.lo, b.hi, b.chi2_per_sample))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
         }
         // Where in sky space: the axis of the strongest trend.
-        let maps = residual_maps(c, frames, &model, &current.state, current.noise)?;
         let trend = super::profiles::describe(&maps.profiles, 1000);
         if !trend.is_empty() {
             s += &format!(" In sky space, {trend}.");

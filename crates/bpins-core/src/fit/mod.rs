@@ -27,7 +27,7 @@ pub mod profiles;
 mod residuals;
 mod score;
 
-pub use residuals::{residual_maps, residual_profile, FrameMaps, ResidualMaps, ResidualProfile};
+pub use residuals::{residual_maps, FrameMaps, ResidualMaps};
 pub use score::{score_candidate, Score};
 
 use crate::camera::Intrinsics;

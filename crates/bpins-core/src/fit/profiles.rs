@@ -1,8 +1,8 @@
 //! Residual profiles in sky space: what a fitted model leaves, binned against the
 //! quantities physical effects depend on — scattering angle from the sun (sky
 //! effects), radius from the principal point and image azimuth (lens and camera
-//! effects), mosaic position (analyzer and sensor effects) and the model's DoLP
-//! (effects that scale with polarization). A missing effect shows as a trend along
+//! effects), mosaic position and analyzer channel (analyzer and sensor effects) and
+//! the model's DoLP (effects that scale with polarization). A missing effect shows as a trend along
 //! its own axis and none along the others.
 //!
 //! Each bin holds the raw-DN residual (χ² per sample and the mean of
@@ -22,13 +22,15 @@ pub enum Axis {
     ImageAzimuth,
     /// DoFP mosaic position (u mod 2) + 2·(v mod 2); raw DN only.
     MosaicPosition,
+    /// Analyzer channel index (0°, 45°, 90°, 135° → 0…3); raw DN only.
+    Channel,
     /// The model's DoLP at the sample.
     ModelDolp,
 }
 
 impl Axis {
-    pub const ALL: [Axis; 5] =
-        [Axis::ScatteringAngle, Axis::Radius, Axis::ImageAzimuth, Axis::MosaicPosition, Axis::ModelDolp];
+    pub const ALL: [Axis; 6] =
+        [Axis::ScatteringAngle, Axis::Radius, Axis::ImageAzimuth, Axis::MosaicPosition, Axis::Channel, Axis::ModelDolp];
 
     /// Name in files and reports.
     pub fn name(self) -> &'static str {
@@ -37,7 +39,20 @@ impl Axis {
             Axis::Radius => "radius_focal_lengths",
             Axis::ImageAzimuth => "image_azimuth_deg",
             Axis::MosaicPosition => "mosaic_position",
+            Axis::Channel => "channel",
             Axis::ModelDolp => "model_dolp",
+        }
+    }
+
+    /// Title with unit, for plots.
+    pub fn title(self) -> &'static str {
+        match self {
+            Axis::ScatteringAngle => "scattering angle (°)",
+            Axis::Radius => "radius (focal lengths)",
+            Axis::ImageAzimuth => "image azimuth (°)",
+            Axis::MosaicPosition => "mosaic position (u%2 + 2·v%2)",
+            Axis::Channel => "channel (0°, 45°, 90°, 135°)",
+            Axis::ModelDolp => "model DoLP",
         }
     }
 
@@ -48,6 +63,7 @@ impl Axis {
             Axis::Radius => format!("radius {x:.2} focal lengths"),
             Axis::ImageAzimuth => format!("image azimuth {x:.0}°"),
             Axis::MosaicPosition => format!("mosaic position {x:.0}"),
+            Axis::Channel => format!("the {:.0}° channel", 45.0 * x.floor()),
             Axis::ModelDolp => format!("model DoLP {x:.2}"),
         }
     }
@@ -59,6 +75,7 @@ impl Axis {
             Axis::Radius => (0.0, max_radius, 8),
             Axis::ImageAzimuth => (-180.0, 180.0, 12),
             Axis::MosaicPosition => (0.0, 4.0, 4),
+            Axis::Channel => (0.0, 4.0, 4),
             Axis::ModelDolp => (0.0, 1.0, 10),
         }
     }
@@ -71,6 +88,7 @@ pub struct Position {
     pub radius: f64,
     pub azimuth_deg: f64,
     pub mosaic: f64,
+    pub channel: f64,
     pub model_dolp: f64,
 }
 
@@ -81,6 +99,7 @@ impl Position {
             Axis::Radius => self.radius,
             Axis::ImageAzimuth => self.azimuth_deg,
             Axis::MosaicPosition => self.mosaic,
+            Axis::Channel => self.channel,
             Axis::ModelDolp => self.model_dolp,
         }
     }
@@ -245,6 +264,7 @@ fn label(a: Axis) -> &'static str {
         Axis::Radius => "the radius from the principal point",
         Axis::ImageAzimuth => "the image azimuth",
         Axis::MosaicPosition => "the mosaic position",
+        Axis::Channel => "the analyzer channel",
         Axis::ModelDolp => "the model's DoLP",
     }
 }
@@ -256,10 +276,17 @@ mod tests {
     #[test]
     fn samples_land_in_their_bins_on_every_axis() {
         let mut p = Profiler::new(0.8);
-        let at = Position { scattering_deg: 95.0, radius: 0.45, azimuth_deg: -170.0, mosaic: 3.0, model_dolp: 0.55 };
+        let at = Position {
+            scattering_deg: 95.0,
+            radius: 0.45,
+            azimuth_deg: -170.0,
+            mosaic: 3.0,
+            channel: 1.0,
+            model_dolp: 0.55,
+        };
         p.add_dn(&at, 2.0);
         p.add_dn(&at, -1.0);
-        p.add_pol(&Position { mosaic: f64::NAN, ..at }, Some(0.5), -0.01);
+        p.add_pol(&Position { mosaic: f64::NAN, channel: f64::NAN, ..at }, Some(0.5), -0.01);
         let out = p.finish();
         let get = |a: Axis| out.iter().find(|q| q.axis == a).unwrap();
         let s = &get(Axis::ScatteringAngle).bins;
@@ -272,6 +299,8 @@ mod tests {
         // Polarization samples have no mosaic position.
         let m = &get(Axis::MosaicPosition).bins;
         assert_eq!((m[0].lo, m[0].dn_samples, m[0].pol_samples), (3.0, 2, 0));
+        assert_eq!((get(Axis::Channel).bins[0].lo, get(Axis::Channel).bins[0].pol_samples), (1.0, 0));
+        assert_eq!(Axis::Channel.describe(1.5), "the 45° channel");
         assert_eq!(get(Axis::ModelDolp).bins[0].lo, 0.5);
         // Out of range: nowhere.
         let mut q = Profiler::new(0.8);
@@ -285,7 +314,14 @@ mod tests {
         let mut p = Profiler::new(0.8);
         for i in 0..36 {
             let az = -175.0 + 10.0 * i as f64;
-            let at = Position { scattering_deg: 90.0, radius: 0.3, azimuth_deg: az, mosaic: 0.0, model_dolp: 0.3 };
+            let at = Position {
+                scattering_deg: 90.0,
+                radius: 0.3,
+                azimuth_deg: az,
+                mosaic: 0.0,
+                channel: 0.0,
+                model_dolp: 0.3,
+            };
             for _ in 0..10 {
                 p.add_dn(&at, az.to_radians().cos());
                 p.add_pol(&at, None, 0.0);

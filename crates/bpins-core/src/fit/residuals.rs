@@ -67,69 +67,6 @@ pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64
     Ok((rms(sa, na), rms(sd, nd)))
 }
 
-/// Where a fitted model's misfit lies: χ²/dof of the raw DN by analyzer channel and by
-/// radius from the principal point, with the mean normalised residual (measured −
-/// model)/σ of each radius bin (its sign says too bright or too dark).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ResidualProfile {
-    /// (channel angle °, χ²/dof).
-    pub by_channel: Vec<(f64, f64)>,
-    /// (inner radius, outer radius in focal lengths, χ²/dof, mean normalised residual).
-    pub by_radius: Vec<(f64, f64, f64, f64)>,
-}
-
-/// The residual profile of `state` under `opts` (every pixel).
-pub fn residual_profile(
-    c: &Capture,
-    frames: &[FrameData],
-    opts: &FitOptions,
-    state: &FitState,
-    noise: NoiseModel,
-) -> Result<ResidualProfile> {
-    let (pb, theta) = problem(c, frames, opts, Some(state), noise)?;
-    let intr = c.intrinsics();
-    let corner = corner_radius(&pb);
-    const BINS: usize = 8;
-    let mut ch = [(0.0f64, 0usize); 4];
-    let mut rad = [(0.0f64, 0.0f64, 0usize); BINS];
-    let mut buf = Vec::new();
-    for k in 0..frames.len() {
-        let f = pb.chain(&theta, k)?;
-        for v in 0..pb.h() {
-            for u in 0..pb.w() {
-                pb.pixel(&f, k, u, v, &mut buf);
-                let (x, y) = intr.normalised(u as f64, v as f64);
-                let bin = (((x * x + y * y).sqrt() / corner * BINS as f64) as usize).min(BINS - 1);
-                for (q, &(meas, m)) in buf.iter().enumerate() {
-                    if !pb.usable(meas) {
-                        continue;
-                    }
-                    let z = (meas - m) / pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
-                    let channel = match &c.sensor.layout {
-                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
-                        Layout::Colocated { channels } => channels[q].index(),
-                    };
-                    ch[channel].0 += z * z;
-                    ch[channel].1 += 1;
-                    rad[bin].0 += z * z;
-                    rad[bin].1 += z;
-                    rad[bin].2 += 1;
-                }
-            }
-        }
-    }
-    Ok(ResidualProfile {
-        by_channel: (0..4).filter(|&i| ch[i].1 > 0).map(|i| (45.0 * i as f64, ch[i].0 / ch[i].1 as f64)).collect(),
-        by_radius: (0..BINS)
-            .filter(|&b| rad[b].2 > 0)
-            .map(|b| {
-                let n = rad[b].2 as f64;
-                (corner * b as f64 / BINS as f64, corner * (b + 1) as f64 / BINS as f64, rad[b].0 / n, rad[b].1 / n)
-            })
-            .collect(),
-    })
-}
-
 /// Residual maps of a fitted model, stacked over frames (the mean of measured −
 /// model) and frame by frame, with its residual profiles in sky space.
 #[derive(Clone, Debug, PartialEq)]
@@ -189,6 +126,7 @@ pub fn residual_maps(
             radius: (x * x + y * y).sqrt(),
             azimuth_deg: y.atan2(x).to_degrees(),
             mosaic: f64::NAN,
+            channel: f64::NAN,
             model_dolp: f64::NAN,
         }
     };
@@ -218,6 +156,10 @@ pub fn residual_maps(
                 };
                 for (q, &(y, m)) in buf.iter().enumerate() {
                     let usable = pb.usable(y);
+                    let ch = match &c.sensor.layout {
+                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
+                        Layout::Colocated { channels } => channels[q].index(),
+                    };
                     if usable {
                         let r = (y - m) / pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
                         z[v * w + u].0 += r;
@@ -225,15 +167,11 @@ pub fn residual_maps(
                         z2[v * w + u].0 += r * r;
                         z2[v * w + u].1 += 1;
                         fm.dn_z[v * w + u] = r as f32;
-                        profiler.add_dn(&at, r);
+                        profiler.add_dn(&Position { channel: ch as f64, ..at }, r);
                     }
                     if !inside {
                         continue;
                     }
-                    let ch = match &c.sensor.layout {
-                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
-                        Layout::Colocated { channels } => channels[q].index(),
-                    };
                     let i = pv * pw + pu;
                     meas[i][ch] = y;
                     model[i][ch] = m;
