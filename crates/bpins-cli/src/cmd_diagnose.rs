@@ -196,7 +196,7 @@ fn report_html(d: &Diagnosis, capture: &std::path::Path, figures: &[crate::resid
     }
     h += "</table>\n";
     // The same residuals in sky space, each step.
-    h += "<h2>Where the model fails in sky space: residual profiles, each step</h2>\n<p>Over every frame, binned against scattering angle from the sun, radius from the principal point, image azimuth, mosaic position and the model's DoLP: raw-DN χ² per sample − 1 (0 where the model fits), mean AoP residual and mean DoLP residual (measured − model), each strip on its own symmetric scale (± the value given). A missing effect shows as a trend along its own axis. Numbers: <code>step&lt;k&gt;/profiles.csv</code>.</p>\n";
+    h += "<h2>Where the model fails in sky space: residual profiles, each step</h2>\n<p>Over every frame, binned against scattering angle from the sun, radius from the principal point, image azimuth, mosaic position, analyzer channel and the model's DoLP: raw-DN χ² per sample − 1 (0 where the model fits), mean AoP residual and mean DoLP residual (measured − model), each strip on its own symmetric scale (± the value given). A missing effect shows as a trend along its own axis. Numbers: <code>step&lt;k&gt;/profiles.csv</code>.</p>\n";
     for (k, (s, m)) in d.steps.iter().zip(figures).enumerate() {
         let name = if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") };
         h += &format!(

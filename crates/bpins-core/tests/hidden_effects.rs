@@ -11,7 +11,7 @@ use bpins_core::capture::{Capture, FrameData};
 use bpins_core::effects::{EffectSet, REGISTRY};
 use bpins_core::fit::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use bpins_core::fit::FitOptions;
-use common::{simulate, small_capture, typical, DMAX};
+use common::{simulate, small_capture, small_colocated_capture, typical, DMAX};
 
 fn run(c: &Capture, frames: &[FrameData], max_added: usize, fixed_dmax: Option<f64>) -> Diagnosis {
     let base = FitOptions { fixed_dmax, ..Default::default() };
@@ -84,6 +84,19 @@ fn every_catalog_effect_hidden_at_its_typical_strength_is_named_recovered_and_ex
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn a_colocated_capture_is_diagnosed_the_same_way() {
+    // Every channel at every pixel: the fit's samples are (pixel, channel) pairs.
+    let c = small_colocated_capture();
+    let mut set = EffectSet::new();
+    typical(&mut set, "vignetting");
+    let frames = simulate(&c, &set, 5);
+    let d = run(&c, &frames, 2, None);
+    let p = problems(&d, &set, &["vignetting"]);
+    assert!(p.is_empty(), "{}", p.join("\n"));
+    assert!(!d.unexplained, "{}", d.unexplained_summary);
 }
 
 #[test]

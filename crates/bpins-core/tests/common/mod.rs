@@ -45,6 +45,20 @@ pub fn small_capture() -> Capture {
     }
 }
 
+/// The same field of view on a colocated sensor (every pixel reads all four channels)
+/// of 153 × 128 px at 55.2 µm, as many samples as the small DoFP capture.
+pub fn small_colocated_capture() -> Capture {
+    let mut c = small_capture();
+    let (w, h) = (153u32, 128u32);
+    c.sensor.layout = Layout::Colocated { channels: bpins_core::sensor::Channel::ALL.to_vec() };
+    c.sensor.geometry = Geometry { width_px: w, height_px: h, pixel_pitch_um: 55.2 };
+    c.lens.principal_point_px = bpins_core::conventions::image_centre_px(w, h);
+    for f in &mut c.frames {
+        f.file.set_extension("exr");
+    }
+    c
+}
+
 /// The frames of `c` under the effects `set` (the truth), with noise from `seed`.
 pub fn simulate(c: &Capture, set: &EffectSet, seed: u64) -> Vec<FrameData> {
     let sim = SimSensor {
