@@ -451,6 +451,7 @@ fn problem<'a>(
             unit: "DN",
             min: 1e-9,
             max: 1e12,
+            // Unused: its column is analytic.
             step: 0.0,
             free: true,
             secant: false,
@@ -484,14 +485,13 @@ fn problem<'a>(
         let shape = |j: usize| if opts.rayleigh_radiance { 0.0 } else { warm.map_or(0.0, |w| w[j]) };
         theta.extend([heading, warm.map_or(1.0, |w| w[1]), dmax, shape(3), shape(4)]);
     }
-    let mut pb = Problem { capture: c, frames, nominal: ctx_intr, opts, slots, n_global, noise, full_scale_dn };
+    let pb = Problem { capture: c, frames, nominal: ctx_intr, opts, slots, n_global, noise, full_scale_dn };
     for k in 0..frames.len() {
         let s = pb.frame_slots(k)[1];
         if start.and_then(|st| st.frames.get(k)).is_none() {
             // Radiance scale from the first guess (linear in the scale).
             theta[s] = initial_scale(&pb, &theta, k)?;
         }
-        pb.slots[s].step = 1e-6 * theta[s];
     }
     Ok((pb, theta))
 }
@@ -505,7 +505,7 @@ pub fn fit_from(
     progress: &dyn Fn(&str, usize),
 ) -> Result<FitResult> {
     let noise = capture_noise(c, frames)?;
-    let (mut pb, mut theta) = problem(c, frames, opts, start, noise)?;
+    let (pb, mut theta) = problem(c, frames, opts, start, noise)?;
     let n_global = pb.n_global;
     let mut iterations = 0;
     // The subsampled stage only brings the parameters near the optimum (within 1σ:
@@ -520,10 +520,6 @@ pub fn fit_from(
             match step {
                 Some((t, converged)) => {
                     theta = t;
-                    for k in 0..frames.len() {
-                        let s = pb.frame_slots(k)[1];
-                        pb.slots[s].step = 1e-6 * theta[s];
-                    }
                     if converged {
                         break;
                     }
