@@ -7,7 +7,7 @@ use crate::effects::EffectDef;
 use crate::error::Result;
 
 /// The score of adding `candidate` to a fitted model: the Δχ² one Gauss–Newton step
-/// from `base` (where the base model's own gradient vanishes) predicts, bᵀA⁻¹b over
+/// from `base` (where the base model's own gradient vanishes) predicts, bᵀA⁺b over
 /// the joint system, on every `stride`-th row and column. The candidate's Jacobian is
 /// a secant of `probe` × its range from neutral (one-sided at a bound), so an effect
 /// that enters at second order (neutral points splitting) still scores.
