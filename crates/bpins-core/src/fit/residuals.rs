@@ -10,6 +10,18 @@ use crate::error::Result;
 use crate::recon::Reconstructor;
 use crate::sensor::Layout;
 
+/// Model DoLP below which an AoP residual is not counted (the angle is undefined).
+const AOP_MIN_MODEL_DOLP: f64 = 0.01;
+
+/// One polarization sample's residuals from its measured and model DN by channel:
+/// (measured − model AoP in degrees, wrapped to ±90°, where the model DoLP exceeds
+/// [`AOP_MIN_MODEL_DOLP`]; measured − model DoLP; the model DoLP).
+fn pol_residual(rec: &Reconstructor, meas: &[f64; 4], model: &[f64; 4]) -> (Option<f64>, f64, f64) {
+    let (a, b) = (rec.stokes(meas), rec.stokes(model));
+    let aop = (b.dolp() > AOP_MIN_MODEL_DOLP).then(|| wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees()));
+    (aop, a.dolp() - b.dolp(), b.dolp())
+}
+
 /// RMS of measured − model AoP (degrees, model DoLP > 0.01) and DoLP over the
 /// superpixels (DoFP) or pixels (colocated) of every frame, nominal inversion.
 pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64, f64)> {
@@ -24,14 +36,12 @@ pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64
             if meas.iter().any(|&y| !pb.usable(y)) {
                 return;
             }
-            let (a, b) = (rec.stokes(&meas), rec.stokes(&model));
-            if b.dolp() > 0.01 {
-                let d = wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees());
+            let (da, dd, _) = pol_residual(&rec, &meas, &model);
+            if let Some(d) = da {
                 sa += d * d;
                 na += 1;
             }
-            let d = a.dolp() - b.dolp();
-            sd += d * d;
+            sd += dd * dd;
             nd += 1;
         };
         match &c.sensor.layout {
@@ -86,8 +96,8 @@ pub struct ResidualMaps {
     pub dolp: Vec<f32>,
     /// The same, frame by frame.
     pub frames: Vec<FrameMaps>,
-    /// Profiles against scattering angle, radius, image azimuth, mosaic position and
-    /// model DoLP, over every frame.
+    /// Profiles against scattering angle, radius, image azimuth, mosaic position,
+    /// analyzer channel and model DoLP, over every frame.
     pub profiles: Vec<Profile>,
 }
 
@@ -118,9 +128,8 @@ pub fn residual_maps(
     // model (scattering angle, DoLP).
     let nominal = c.intrinsics();
     let mut profiler = Profiler::new(corner_radius(&pb));
-    let position = |f: &crate::chain::ChainFrame, u: f64, v: f64| {
+    let position = |f: &crate::chain::ChainFrame, d: glam::DVec3, u: f64, v: f64| {
         let (x, y) = nominal.normalised(u, v);
-        let d = f.intr.geometry(u, v).d;
         Position {
             scattering_deg: d.dot(f.sun_cam).clamp(-1.0, 1.0).acos().to_degrees(),
             radius: (x * x + y * y).sqrt(),
@@ -149,10 +158,12 @@ pub fn residual_maps(
                 pb.pixel(&f, k, u, v, &mut buf);
                 let (pu, pv) = if dofp { (u / 2, v / 2) } else { (u, v) };
                 let inside = pu < pw && pv < ph;
+                // The pixel's ray through the fitted camera, once for all it is used for.
+                let g = f.intr.geometry(u as f64, v as f64);
                 let at = Position {
                     mosaic: if dofp { ((u % 2) + 2 * (v % 2)) as f64 } else { f64::NAN },
-                    model_dolp: crate::chain::pixel_stokes(&f, u as f64, v as f64).dolp(),
-                    ..position(&f, u as f64, v as f64)
+                    model_dolp: crate::chain::ray_stokes(&f, &g).dolp(),
+                    ..position(&f, g.d, u as f64, v as f64)
                 };
                 for (q, &(y, m)) in buf.iter().enumerate() {
                     let usable = pb.usable(y);
@@ -183,14 +194,12 @@ pub fn residual_maps(
             if !ok[i] {
                 continue;
             }
-            let (a, b) = (rec.stokes(&meas[i]), rec.stokes(&model[i]));
-            let da = (b.dolp() > 0.01).then(|| wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees()));
+            let (da, dd, model_dolp) = pol_residual(&rec, &meas[i], &model[i]);
             if let Some(x) = da {
                 aop[i].0 += x;
                 aop[i].1 += 1;
                 fm.aop_deg[i] = x as f32;
             }
-            let dd = a.dolp() - b.dolp();
             dolp[i].0 += dd;
             dolp[i].1 += 1;
             fm.dolp[i] = dd as f32;
@@ -200,7 +209,8 @@ pub fn residual_maps(
             } else {
                 ((i % pw) as f64, (i / pw) as f64)
             };
-            profiler.add_pol(&Position { model_dolp: b.dolp(), ..position(&f, u, v) }, da, dd);
+            let d = f.intr.geometry(u, v).d;
+            profiler.add_pol(&Position { model_dolp, ..position(&f, d, u, v) }, da, dd);
         }
         per_frame.push(fm);
     }
