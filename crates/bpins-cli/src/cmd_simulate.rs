@@ -237,6 +237,8 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
             heading_deg: Some(h),
             tilt_x_deg: tilt(a.tilt_x_deg),
             tilt_y_deg: tilt(a.tilt_y_deg),
+            tilt_sigma_deg: None,
+            sun_sigma_deg: None,
         })
         .collect();
     let pp = match &a.principal_point_px {

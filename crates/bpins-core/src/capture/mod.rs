@@ -100,6 +100,10 @@ pub struct FrameSpec {
     pub heading_deg: Option<f64>,
     pub tilt_x_deg: Option<f64>,
     pub tilt_y_deg: Option<f64>,
+    /// 1σ of each reference tilt angle (an IMU's attitude error), degrees.
+    pub tilt_sigma_deg: Option<f64>,
+    /// 1σ of the sun's azimuth and elevation (clock or position error), degrees.
+    pub sun_sigma_deg: Option<f64>,
 }
 
 /// The pixels of one frame, in DN.

@@ -27,6 +27,7 @@ pub const FORMAT: &str = "bpins-capture/1";
 #[serde(deny_unknown_fields)]
 struct RawTop {
     format: Option<String>,
+    kind: Option<String>,
     sensor: Option<toml::Value>,
     lens: Option<toml::Value>,
     frames: Option<Vec<toml::Value>>,
@@ -66,6 +67,8 @@ struct RawFrame {
     heading_deg: Option<f64>,
     tilt_x_deg: Option<f64>,
     tilt_y_deg: Option<f64>,
+    tilt_sigma_deg: Option<f64>,
+    sun_sigma_deg: Option<f64>,
 }
 
 /// A serde message in this format's words, on one line.
@@ -118,6 +121,19 @@ pub(crate) fn parse(dir: &Path, toml_path: &Path, text: &str) -> Result<Capture>
         Some(FORMAT) => {}
         Some(f) => {
             bail!(p, "format = \"{f}\" is not supported; this reader knows \"{FORMAT}\"")
+        }
+    }
+    match top.kind.as_deref() {
+        None | Some("sky") => {}
+        Some("lab") => {
+            bail!(
+                p,
+                "kind = \"lab\": this is a lab capture (calibration frames of a uniform source, \
+                 no sky); the sky readers (heading, fit, diagnose) need kind = \"sky\""
+            )
+        }
+        Some(k) => {
+            bail!(p, "kind = \"{k}\" is unknown; use \"sky\" (the default) or \"lab\"")
         }
     }
     let s: RawSensor = section(p, "sensor", top.sensor)?;
@@ -262,6 +278,8 @@ fn parse_frame(p: &Path, label: &str, f: RawFrame) -> Result<FrameSpec> {
         heading_deg: f.heading_deg,
         tilt_x_deg: f.tilt_x_deg,
         tilt_y_deg: f.tilt_y_deg,
+        tilt_sigma_deg: f.tilt_sigma_deg,
+        sun_sigma_deg: f.sun_sigma_deg,
     })
 }
 

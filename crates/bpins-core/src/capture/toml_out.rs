@@ -84,7 +84,13 @@ pub(crate) fn to_toml(c: &Capture) -> String {
                 t.push_str(&format!("longitude_deg = {}\n", num(*longitude_deg)));
             }
         }
-        for (key, v) in [("heading_deg", f.heading_deg), ("tilt_x_deg", f.tilt_x_deg), ("tilt_y_deg", f.tilt_y_deg)] {
+        for (key, v) in [
+            ("heading_deg", f.heading_deg),
+            ("tilt_x_deg", f.tilt_x_deg),
+            ("tilt_y_deg", f.tilt_y_deg),
+            ("tilt_sigma_deg", f.tilt_sigma_deg),
+            ("sun_sigma_deg", f.sun_sigma_deg),
+        ] {
             if let Some(v) = v {
                 t.push_str(&format!("{key} = {}\n", num(v)));
             }

@@ -132,5 +132,12 @@ fn validate_frame(p: &Path, label: &str, f: &FrameSpec, layout: &Layout) -> Resu
             }
         }
     }
+    for (key, s) in [("tilt_sigma_deg", f.tilt_sigma_deg), ("sun_sigma_deg", f.sun_sigma_deg)] {
+        if let Some(s) = s {
+            if !(s.is_finite() && (0.0..=45.0).contains(&s)) {
+                bail!(p, "{label}: {key} = {s} must be a 1σ between 0° and 45°");
+            }
+        }
+    }
     Ok(())
 }

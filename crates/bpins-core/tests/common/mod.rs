@@ -40,6 +40,8 @@ pub fn small_capture() -> Capture {
                 heading_deg: Some(45.0 * i as f64),
                 tilt_x_deg: None,
                 tilt_y_deg: None,
+                tilt_sigma_deg: None,
+                sun_sigma_deg: None,
             })
             .collect(),
     }
