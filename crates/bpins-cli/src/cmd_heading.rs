@@ -1,4 +1,6 @@
-//! `bpins heading CAPTURE`: per frame the heading, its 1σ, the reference and the error.
+//! `bpins heading CAPTURE`: per frame the heading, its 1σ, the reference and the error;
+//! with the field estimator (the default) also how much of the image it used, how well
+//! the used sky fits, and the reason for any frame without a heading.
 
 use crate::{ensure_not_in_capture, write_json};
 use anyhow::{bail, Context};
@@ -6,7 +8,8 @@ use bpins_core::capture::Capture;
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::EffectSet;
 use bpins_core::heading::Extractor;
-use bpins_core::pipeline::{frame_headings, ReconMode};
+use bpins_core::heading::field::FieldOptions;
+use bpins_core::pipeline::{field_headings, frame_headings, ReconMode};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -17,7 +20,15 @@ pub struct Args {
     /// Heading extractor: sun_vector, meridian_line, or all.
     #[arg(long, default_value = "sun_vector")]
     extractor: String,
-    /// How DoFP mosaics become Stokes samples.
+    /// Estimator: `field` (robust to clouds, trees, the sun in view, tilt; a 1σ that
+    /// includes the reference tilt's and the sun's errors) or `plain` (every pixel, no
+    /// masks, statistical 1σ only: the seed paper's extractors as they are).
+    #[arg(long, value_enum, default_value_t = Estimator::Field)]
+    estimator: Estimator,
+    /// Field estimator: cell size in pixels (default: about 1/64 of the shorter side).
+    #[arg(long)]
+    cell_px: Option<usize>,
+    /// Plain estimator: how DoFP mosaics become Stokes samples.
     #[arg(long, value_enum, default_value_t = Recon::Demosaic)]
     recon: Recon,
     /// A known calibration to compensate, as effect.param=value (repeatable),
@@ -27,6 +38,14 @@ pub struct Args {
     /// Write the per-frame results as JSON to this file (never inside the capture).
     #[arg(long)]
     json: Option<PathBuf>,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq)]
+enum Estimator {
+    /// Cells, masks, robust reweighting, jackknife 1σ (bpins_core::heading::field).
+    Field,
+    /// Every sample, least squares, statistical 1σ (the Monte Carlo's extractors).
+    Plain,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -59,85 +78,183 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         Recon::Demosaic => ReconMode::Demosaic,
         Recon::Superpixel => ReconMode::Superpixel,
     };
+    if let Some(c) = a.cell_px {
+        if c < 2 {
+            bail!("--cell-px {c}: a cell must be at least 2 pixels (one DoFP tile)");
+        }
+    }
+    let opts = FieldOptions { cell_px: a.cell_px, ..FieldOptions::default() };
     let capture = Capture::load(&a.capture)?;
     if let Some(p) = &a.json {
         ensure_not_in_capture(p)?;
     }
+    let field = a.estimator == Estimator::Field;
     println!(
-        "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10}  sun az/el (°), source",
-        "frame", "extractor", "heading (°)", "1σ (°)", "reference (°)", "error (°)"
+        "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>10}  sun az/el (°), source; or why no heading",
+        "frame", "extractor", "heading (°)", "1σ (°)", "reference (°)", "error (°)", "err/1σ", "used (%)", "resid (°)"
     );
     let pb = crate::progress::bar(capture.frames.len() as u64, "frames");
-    let mut frames_json = Vec::new();
-    let mut errors: Vec<(Extractor, f64)> = Vec::new();
-    let mut failures = 0;
+    let mut rows: Vec<Row> = Vec::new();
     for (i, f) in capture.frames.iter().enumerate() {
-        let results = frame_headings(&capture, i, &known, mode, &extractors)?;
-        pb.inc(1);
-        for (e, r) in results {
-            let file = f.file.display().to_string();
-            let sun = format!("{:.4}/{:.4}, {}", f.sun.azimuth_deg, f.sun.elevation_deg, f.sun.source.describe());
-            match r {
-                Ok(est) => {
-                    let err = f.heading_deg.map(|h| wrap_deg_180(est.heading_deg - h));
-                    if let Some(x) = err {
-                        errors.push((e, x));
-                    }
-                    pb.suspend(|| {
-                        println!(
-                            "{:<22} {:<14} {:>12.4} {:>9.4} {:>14} {:>10}  {}",
-                            file,
-                            e.name(),
-                            est.heading_deg,
-                            est.sigma_deg,
-                            f.heading_deg.map(|h| format!("{h:.4}")).unwrap_or_else(|| "—".into()),
-                            err.map(|x| format!("{x:+.4}")).unwrap_or_else(|| "—".into()),
-                            sun
-                        )
-                    });
-                    frames_json.push(json!({
-                        "file": file, "extractor": e.name(), "heading_deg": est.heading_deg, "sigma_deg": est.sigma_deg,
-                        "reference_heading_deg": f.heading_deg, "error_deg": err, "samples": est.samples,
-                        "sun_azimuth_deg": f.sun.azimuth_deg, "sun_elevation_deg": f.sun.elevation_deg, "sun_source": f.sun.source.describe(),
-                    }));
-                }
-                Err(err) => {
-                    failures += 1;
-                    pb.suspend(|| println!("{:<22} {:<14} failed: {err}", file, e.name()));
-                    frames_json.push(json!({
-                        "file": file, "extractor": e.name(), "heading_deg": null, "sigma_deg": null,
-                        "reference_heading_deg": f.heading_deg, "error_deg": null, "error": err.to_string(),
-                    }));
-                }
+        let file = f.file.display().to_string();
+        let sun = format!("{:.4}/{:.4}, {}", f.sun.azimuth_deg, f.sun.elevation_deg, f.sun.source.describe());
+        let mut frame_rows: Vec<Row> = Vec::new();
+        if field {
+            for h in field_headings(&capture, i, &known, &opts, &extractors)? {
+                let q = h.quality;
+                let (heading, parts, why) = match &h.result {
+                    Ok((hd, p)) => (Some(*hd), Some(*p), None),
+                    Err(r) => (None, None, Some(r.to_string())),
+                };
+                frame_rows.push(Row {
+                    file: file.clone(),
+                    extractor: h.extractor,
+                    heading_deg: heading,
+                    sigma_deg: parts.map(|p| p.total_deg()),
+                    reference_deg: f.heading_deg,
+                    why,
+                    extra: json!({
+                        "sigma_parts_deg": parts,
+                        "cells_total": q.cells_total, "cells_valid": q.cells_valid, "cells_used": q.cells_used,
+                        "used_fraction": q.used_fraction, "residual_rms_deg": finite(q.residual_rms_deg),
+                        "misfit_deg": finite(q.misfit_deg), "iterations": q.iterations,
+                    }),
+                    used_fraction: Some(q.used_fraction),
+                    residual_deg: Some(q.residual_rms_deg),
+                    sun: sun.clone(),
+                });
+            }
+        } else {
+            for (e, r) in frame_headings(&capture, i, &known, mode, &extractors)? {
+                let (heading, sigma, samples, why) = match r {
+                    Ok(est) => (Some(est.heading_deg), Some(est.sigma_deg), Some(est.samples), None),
+                    Err(err) => (None, None, None, Some(err.to_string())),
+                };
+                frame_rows.push(Row {
+                    file: file.clone(),
+                    extractor: e,
+                    heading_deg: heading,
+                    sigma_deg: sigma,
+                    reference_deg: f.heading_deg,
+                    why,
+                    extra: json!({ "samples": samples }),
+                    used_fraction: None,
+                    residual_deg: None,
+                    sun: sun.clone(),
+                });
             }
         }
+        pb.inc(1);
+        pb.suspend(|| frame_rows.iter().for_each(Row::print));
+        rows.extend(frame_rows);
     }
     pb.finish_and_clear();
     let mut summary = Vec::new();
     for e in &extractors {
-        let errs: Vec<f64> = errors.iter().filter(|(x, _)| x == e).map(|(_, v)| *v).collect();
+        let mine: Vec<&Row> = rows.iter().filter(|r| r.extractor == *e).collect();
+        let errs: Vec<(f64, f64)> = mine.iter().filter_map(|r| Some((r.error_deg()?, r.sigma_deg?))).collect();
+        let none = mine.iter().filter(|r| r.heading_deg.is_none()).count();
+        let mut line = format!("{}: ", e.name());
+        let mut s = json!({"extractor": e.name(), "frames": mine.len(), "frames_without_heading": none});
         if !errs.is_empty() {
-            let rms = (errs.iter().map(|x| x * x).sum::<f64>() / errs.len() as f64).sqrt();
-            let max = errs.iter().fold(0f64, |m, x| m.max(x.abs()));
-            println!("{}: RMS error {rms:.4}°, largest |error| {max:.4}° over {} frames", e.name(), errs.len());
-            summary.push(
-                json!({"extractor": e.name(), "rms_error_deg": rms, "max_abs_error_deg": max, "frames": errs.len()}),
+            let n = errs.len() as f64;
+            let rms = (errs.iter().map(|x| x.0 * x.0).sum::<f64>() / n).sqrt();
+            let max = errs.iter().fold(0f64, |m, x| m.max(x.0.abs()));
+            let z: Vec<f64> = errs.iter().map(|(x, s)| (x / s).abs()).collect();
+            let within = z.iter().filter(|&&z| z <= 2.0).count() as f64 / n;
+            let zmax = z.iter().fold(0f64, |m, &x| m.max(x));
+            line += &format!(
+                "RMS error {rms:.4}°, largest |error| {max:.4}° over {} frames; {:.0} % within 2σ, largest |error|/σ {zmax:.1}",
+                errs.len(),
+                100.0 * within
             );
+            s["rms_error_deg"] = json!(rms);
+            s["max_abs_error_deg"] = json!(max);
+            s["within_2sigma_fraction"] = json!(within);
+            s["max_abs_error_over_sigma"] = json!(zmax);
+        } else {
+            line += "no reference headings to compare";
         }
+        if none > 0 {
+            line += &format!("; {none} frame(s) without a heading");
+        }
+        println!("{line}");
+        summary.push(s);
     }
     if let Some(p) = &a.json {
         let v = json!({
             "capture": capture.dir.display().to_string(),
-            "recon": mode.name(),
+            "estimator": if field { "field" } else { "plain" },
+            "recon": if field { "cells" } else { mode.name() },
             "compensated_effects": a.effects,
-            "frames": frames_json,
+            "frames": rows.iter().map(Row::to_json).collect::<Vec<_>>(),
             "summary": summary,
         });
         write_json(p, &v)?;
         eprintln!("wrote {}", p.display());
     }
-    if failures > 0 {
-        bail!("{failures} heading extraction(s) failed");
+    let failed = rows.iter().filter(|r| r.heading_deg.is_none()).count();
+    if !field && failed > 0 {
+        bail!("{failed} heading extraction(s) failed");
     }
     Ok(())
+}
+
+/// One extractor's result on one frame.
+struct Row {
+    file: String,
+    extractor: Extractor,
+    heading_deg: Option<f64>,
+    sigma_deg: Option<f64>,
+    reference_deg: Option<f64>,
+    /// Why there is no heading.
+    why: Option<String>,
+    extra: serde_json::Value,
+    used_fraction: Option<f64>,
+    residual_deg: Option<f64>,
+    sun: String,
+}
+
+impl Row {
+    fn error_deg(&self) -> Option<f64> {
+        Some(wrap_deg_180(self.heading_deg? - self.reference_deg?))
+    }
+
+    fn print(&self) {
+        let opt = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map(f).unwrap_or_else(|| "—".into());
+        let err = self.error_deg();
+        println!(
+            "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>10}  {}",
+            self.file,
+            self.extractor.name(),
+            opt(self.heading_deg, &|x| format!("{x:.4}")),
+            opt(self.sigma_deg, &|x| format!("{x:.4}")),
+            opt(self.reference_deg, &|x| format!("{x:.4}")),
+            opt(err, &|x| format!("{x:+.4}")),
+            opt(err.zip(self.sigma_deg).map(|(e, s)| e / s), &|x| format!("{x:+.1}")),
+            opt(self.used_fraction, &|x| format!("{:.1}", 100.0 * x)),
+            opt(self.residual_deg.filter(|x| x.is_finite()), &|x| format!("{x:.3}")),
+            match &self.why {
+                Some(w) => format!("no heading: {w}"),
+                None => self.sun.clone(),
+            }
+        );
+    }
+
+    fn to_json(&self) -> serde_json::Value {
+        let mut v = json!({
+            "file": self.file, "extractor": self.extractor.name(), "heading_deg": self.heading_deg,
+            "sigma_deg": self.sigma_deg, "reference_heading_deg": self.reference_deg, "error_deg": self.error_deg(),
+            "no_heading_reason": self.why, "sun": self.sun,
+        });
+        if let (Some(o), Some(extra)) = (v.as_object_mut(), self.extra.as_object()) {
+            o.extend(extra.clone());
+        }
+        v
+    }
+}
+
+/// JSON has no NaN: `null` instead.
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
 }

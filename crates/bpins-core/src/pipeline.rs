@@ -7,6 +7,7 @@ use crate::capture::{Capture, FrameData, FrameSpec};
 use crate::chain::{ChainFrame, NoiseIndex, Scene};
 use crate::effects::Model;
 use crate::error::{Error, Result};
+use crate::heading::field::{self, Cells, FieldContext, FieldHeading, FieldOptions, RawImage};
 use crate::heading::{Extractor, HeadingContext, HeadingEstimate, HeadingSums};
 use crate::recon::{self, PolImage, Reconstructor};
 use crate::sensor::{Layout, Response};
@@ -48,8 +49,9 @@ pub fn heading_context(c: &Capture, f: &FrameSpec, known: &Model) -> HeadingCont
         f.sun.azimuth_deg,
         f.sun.elevation_deg,
     );
-    ctx.tilt_x_deg = f.tilt_x_deg.unwrap_or(0.0) + known.mount_tilt_deg[0];
-    ctx.tilt_y_deg = f.tilt_y_deg.unwrap_or(0.0) + known.mount_tilt_deg[1];
+    ctx.tilt_x_deg = f.tilt_x_deg.unwrap_or(0.0);
+    ctx.tilt_y_deg = f.tilt_y_deg.unwrap_or(0.0);
+    ctx.mount_tilt_deg = known.mount_tilt_deg;
     ctx.lens_rho2 = known.lens_rho2;
     ctx
 }
@@ -87,6 +89,57 @@ pub fn frame_headings(
     let ctx = heading_context(c, &c.frames[index], known);
     let sums = HeadingSums::from_image(&img, &ctx);
     Ok(extractors.iter().map(|&e| (e, sums.solve(e, &ctx))).collect())
+}
+
+/// What the field estimator knows about frame `f`: the capture's camera (plus `known`
+/// calibrations), the sun and the reference tilt with their 1σ, the mount tilt.
+pub fn field_context(c: &Capture, f: &FrameSpec, known: &Model) -> FieldContext {
+    FieldContext {
+        intr: assumed_intrinsics(c, known),
+        lens_rho2: known.lens_rho2,
+        sun_az_deg: f.sun.azimuth_deg,
+        sun_el_deg: f.sun.elevation_deg,
+        sun_sigma_deg: f.sun_sigma_deg.unwrap_or(0.0),
+        tilt_x_deg: f.tilt_x_deg.unwrap_or(0.0),
+        tilt_y_deg: f.tilt_y_deg.unwrap_or(0.0),
+        tilt_sigma_deg: f.tilt_sigma_deg.unwrap_or(0.0),
+        mount_tilt_deg: known.mount_tilt_deg,
+    }
+}
+
+/// The cells of one frame's pixels, the `known` analyzer and channel errors undone.
+pub fn frame_cells(c: &Capture, data: &FrameData, known: &Model, cell_px: Option<usize>) -> Result<Cells> {
+    let rec = Reconstructor::new(known, c.sensor.black_level_dn, &c.sensor.channels())?;
+    let full = c.sensor.full_scale_dn();
+    let g = &c.sensor.geometry;
+    let cell_px = cell_px.unwrap_or_else(|| Cells::default_cell_px(g.width_px as usize, g.height_px as usize));
+    Ok(match (data, &c.sensor.layout) {
+        (FrameData::Mosaic { width_px, height_px, dn }, Layout::Dofp { mosaic }) => {
+            let img = RawImage::packed(dn.as_slice(), *width_px as usize, *height_px as usize);
+            Cells::from_mosaic(&img, mosaic, &rec, full, cell_px)
+        }
+        (FrameData::Colocated { width_px, height_px, channels }, Layout::Colocated { .. }) => {
+            let planes: Vec<_> = channels
+                .iter()
+                .map(|(ch, p)| (*ch, RawImage::packed(p.as_slice(), *width_px as usize, *height_px as usize)))
+                .collect();
+            Cells::from_colocated(&planes, &rec, full, cell_px)
+        }
+        _ => return Err(Error::Model("frame data does not match the capture's sensor layout".into())),
+    })
+}
+
+/// Field headings (robust, honest 1σ: [`crate::heading::field`]) of frame `index`.
+pub fn field_headings(
+    c: &Capture,
+    index: usize,
+    known: &Model,
+    opts: &FieldOptions,
+    extractors: &[Extractor],
+) -> Result<Vec<FieldHeading>> {
+    let data = c.read_frame(index)?;
+    let cells = frame_cells(c, &data, known, opts.cell_px)?;
+    Ok(field::estimate(&cells, &field_context(c, &c.frames[index], known), opts, extractors))
 }
 
 /// Sensor settings of a simulation beyond what `capture.toml` records.

@@ -15,7 +15,8 @@
 //! that half-line by ~δ/r, the way the seed paper's extractor feels it (a full line
 //! through the principal point would cancel it to first order). Samples lie in a
 //! disc inside the image, so the band is symmetric about the meridian and the
-//! noise-free estimate unbiased. It assumes a level camera.
+//! noise-free estimate unbiased. It reads a level camera and refuses a tilted one
+//! (the field estimator, `field/`, fits the same line in the level frame instead).
 //! 1σ: from the fit's residuals, propagated to β_m.
 
 use super::{sector_centre_rad, sun_vector, too_few, HeadingContext, HeadingEstimate, HeadingSums, SECTORS};
@@ -23,9 +24,27 @@ use crate::conventions::{image_angle_rad, wrap_deg_180, wrap_deg_360};
 use crate::error::{Error, Result};
 
 pub fn solve(sums: &HeadingSums, ctx: &HeadingContext) -> Result<HeadingEstimate> {
+    // The per-pixel band reads AoE about the image's principal point: a level camera only.
+    let tilt = ctx.level_from_camera();
+    let off_axis_deg = (tilt * glam::DVec3::Z).z.clamp(-1.0, 1.0).acos().to_degrees();
+    if off_axis_deg > LEVEL_TOLERANCE_DEG {
+        return Err(Error::Heading(format!(
+            "meridian line: the camera is tilted {off_axis_deg:.2}° from level (frame and mount); \
+             this per-pixel extractor reads the AoE image of a level camera (`bpins heading`'s \
+             field estimator reads tilted frames)"
+        )));
+    }
     // The sun's side of the image, from the sun vector of the same samples.
     let (_, vecs) = sun_vector::sun_in_camera(sums, ctx)?;
-    let beta_sun = image_angle_rad(vecs[0].x, vecs[0].y);
+    solve_half(sums, image_angle_rad(vecs[0].x, vecs[0].y), ctx.sun_az_deg)
+}
+
+/// Tilt from level (degrees) up to which the per-pixel meridian line reads a frame.
+pub const LEVEL_TOLERANCE_DEG: f64 = 0.01;
+
+/// The meridian line fitted on the half toward image angle `beta_sun` (radians) of
+/// the frame the band sums were taken in, the sun at azimuth `sun_az_deg`.
+pub(crate) fn solve_half(sums: &HeadingSums, beta_sun: f64, sun_az_deg: f64) -> Result<HeadingEstimate> {
     let mut l = [0.0; 7];
     for k in 0..SECTORS {
         if (sector_centre_rad(k) - beta_sun).cos() > 0.0 {
@@ -63,6 +82,6 @@ pub fn solve(sums: &HeadingSums, ctx: &HeadingContext) -> Result<HeadingEstimate
         beta_s_deg += 180.0;
     }
     // Image angle β_s of the sun's direction ↔ heading (conventions): ψ = A + 90° − β_s.
-    let heading_deg = wrap_deg_360(ctx.sun_az_deg + 90.0 - beta_s_deg);
+    let heading_deg = wrap_deg_360(sun_az_deg + 90.0 - beta_s_deg);
     Ok(HeadingEstimate { heading_deg, sigma_deg: 0.5 * var_2beta.max(0.0).sqrt().to_degrees(), samples: n as usize })
 }

@@ -23,6 +23,7 @@
 //! principal point, a tilt) are not in it.
 
 mod eigen;
+pub mod field;
 pub mod meridian;
 pub mod sun_vector;
 
@@ -74,9 +75,12 @@ pub struct HeadingContext {
     pub lens_rho2: f64,
     pub sun_az_deg: f64,
     pub sun_el_deg: f64,
-    /// Known tilt of the camera (frame reference plus mount), degrees.
+    /// Known tilt of the frame (its reference), degrees, about camera x then y.
     pub tilt_x_deg: f64,
     pub tilt_y_deg: f64,
+    /// Known tilt of the camera on its mount (`mount_tilt`), degrees; composes after
+    /// the frame's tilt as rotations (CONVENTIONS.md, Tilt).
+    pub mount_tilt_deg: [f64; 2],
     /// Half-width of the AoE band around ±90° that the meridian line uses, degrees.
     pub band_deg: f64,
     /// The line fit uses samples between these radii from the principal point, pixels:
@@ -100,10 +104,19 @@ impl HeadingContext {
             sun_el_deg,
             tilt_x_deg: 0.0,
             tilt_y_deg: 0.0,
+            mount_tilt_deg: [0.0; 2],
             band_deg: 5.0,
             r_min_px: 0.02 * intr.f_px,
             r_max_px: r_max_px.max(0.0),
         }
+    }
+}
+
+impl HeadingContext {
+    /// `Rx(tilt_x)·Ry(tilt_y)·Rx(mount_x)·Ry(mount_y)`: camera → level-camera coordinates.
+    pub fn level_from_camera(&self) -> glam::DMat3 {
+        crate::conventions::level_from_camera(self.tilt_x_deg, self.tilt_y_deg)
+            * crate::conventions::level_from_camera(self.mount_tilt_deg[0], self.mount_tilt_deg[1])
     }
 }
 
@@ -277,6 +290,41 @@ impl HeadingSums {
         l[4] += psi * cb;
         l[5] += psi * psi;
         l[6] += 1.0;
+    }
+
+    /// Adds `w·e eᵀ` to the scatter (one weighted sample; `e` a unit E-vector).
+    pub(crate) fn add_scatter_weighted(&mut self, e: glam::DVec3, w: f64) {
+        let e = [e.x, e.y, e.z];
+        for (acc, (i, j)) in self.scatter.iter_mut().zip([(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]) {
+            *acc += w * e[i] * e[j];
+        }
+        self.n += 1.0;
+    }
+
+    /// Adds a weighted band sample to the line sums of the sector of image angle
+    /// `beta_rad`: ψ = AoE − 90° (radians), regressed on (sin 2β, cos 2β).
+    pub(crate) fn add_band_weighted(&mut self, beta_rad: f64, psi_rad: f64, cos2b: f64, sin2b: f64, w: f64) {
+        let l = &mut self.line[sector_of(beta_rad)];
+        let (sb, cb) = (sin2b, cos2b);
+        for (acc, x) in l.iter_mut().zip([sb * sb, sb * cb, cb * cb, psi_rad * sb, psi_rad * cb, psi_rad * psi_rad]) {
+            *acc += w * x;
+        }
+        l[6] += 1.0;
+    }
+
+    /// `self − other`, term by term (a sum with one block's samples left out).
+    pub(crate) fn minus(&self, other: &HeadingSums) -> HeadingSums {
+        let mut d = *self;
+        for k in 0..6 {
+            d.scatter[k] -= other.scatter[k];
+        }
+        d.n -= other.n;
+        for (a, b) in d.line.iter_mut().zip(&other.line) {
+            for k in 0..7 {
+                a[k] -= b[k];
+            }
+        }
+        d
     }
 
     /// Sums over every valid sample of `img`; rows in parallel, added in row order

@@ -1,0 +1,456 @@
+//! Cells: a frame binned into square blocks of `cell_px × cell_px` pixels, each
+//! reduced to its mean Stokes vector and that mean's noise.
+//!
+//! ```text
+//! x̄_k  = mean DN of channel k over the cell's valid pixels        (DN)
+//! s²_k = within-cell variance of channel k / n_k                   (DN², of the mean)
+//! (I, Q, U) = Reconstructor(x̄)                                     image frame (seed eq. 4, 13)
+//! var Q = Σ_k (R_Qk / (1 + gain_k))² s²_k, likewise U
+//! ```
+//!
+//! The reconstruction is affine, so the Stokes vector of the channel means is the
+//! mean of the per-tile Stokes vectors: no information is lost for a smooth sky,
+//! and the per-cell noise comes from the data itself (shot and read noise, plus the
+//! texture of clouds, leaves and edges, which is what should lower a cell's weight).
+//! A cell sits at its centre. In a DoFP mosaic each channel's pixels are centred half
+//! a pixel off it in x and y (as a superpixel's are), which on a steep gradient would
+//! bias AoP by hundredths of a degree (CONVENTIONS.md, Pixels: a sample belongs to its
+//! own ray); so each channel's mean is moved to the cell centre along that channel's
+//! own least-squares gradient across the cell:
+//!
+//! ```text
+//! x_k(centre) = x̄_k + g_x,k·(½ − p_k) + g_y,k·(½ − q_k)     (p_k, q_k): channel k's place in the tile
+//! g_x,k = Σ (u − ū_k)·DN / Σ (u − ū_k)²                       over channel k's pixels of the cell
+//! ```
+//!
+//! and the noise is the scatter about that plane. Saturated or zero DN are left out
+//! of the means (such a cell keeps the plain means); a cell with more than
+//! [`MAX_INVALID_FRACTION`] of them is not used (the sun's disc, blown highlights).
+//!
+//! Frame: image pixels (CONVENTIONS.md); units DN. Only whole cells are kept: a
+//! margin narrower than a cell at the right and bottom edges is not read.
+
+use crate::recon::{PolImage, Reconstructor};
+use crate::sensor::{dn_is_valid, Channel, Layout};
+use crate::stokes::Stokes;
+use rayon::prelude::*;
+
+/// A cell with more than this fraction of saturated or zero pixels is not used.
+pub const MAX_INVALID_FRACTION: f64 = 0.05;
+
+/// One DN sample type of a raw frame: `u8`, `u16` or `f32`.
+pub trait RawDn: Copy + Send + Sync {
+    fn dn(self) -> f64;
+}
+impl RawDn for u8 {
+    #[inline(always)]
+    fn dn(self) -> f64 {
+        self as f64
+    }
+}
+impl RawDn for u16 {
+    #[inline(always)]
+    fn dn(self) -> f64 {
+        self as f64
+    }
+}
+impl RawDn for f32 {
+    #[inline(always)]
+    fn dn(self) -> f64 {
+        self as f64
+    }
+}
+
+/// A borrowed single-channel image: `width_px × height_px` samples, row `v` starting
+/// at `data[v·stride]` (stride in samples, ≥ width).
+#[derive(Clone, Copy, Debug)]
+pub struct RawImage<'a, T> {
+    pub data: &'a [T],
+    pub width_px: usize,
+    pub height_px: usize,
+    pub stride: usize,
+}
+
+impl<'a, T> RawImage<'a, T> {
+    /// A tightly packed row-major image (stride = width).
+    pub fn packed(data: &'a [T], width_px: usize, height_px: usize) -> Self {
+        RawImage { data, width_px, height_px, stride: width_px }
+    }
+
+    /// Whether the buffer holds every row the size and stride promise.
+    pub fn is_consistent(&self) -> bool {
+        self.stride >= self.width_px
+            && (self.height_px == 0 || self.data.len() >= (self.height_px - 1) * self.stride + self.width_px)
+    }
+
+    #[inline(always)]
+    fn row(&self, v: usize) -> &'a [T] {
+        &self.data[v * self.stride..][..self.width_px]
+    }
+}
+
+/// One usable cell: its centre, mean Stokes vector and that mean's noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    /// Centre, pixels (image frame).
+    pub x_px: f64,
+    pub y_px: f64,
+    /// Mean (I, Q, U) above black, DN, image frame.
+    pub stokes: Stokes,
+    /// Variance of the mean Q and of the mean U, DN².
+    pub var_q_dn2: f64,
+    pub var_u_dn2: f64,
+    /// Position in the cell grid.
+    pub col: u32,
+    pub row: u32,
+}
+
+/// The usable cells of one frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Cells {
+    pub cell_px: usize,
+    /// Grid size (cells across, down), usable or not.
+    pub cols: usize,
+    pub rows: usize,
+    pub cells: Vec<Cell>,
+}
+
+impl Cells {
+    /// The cell size for a `width × height` image: even, about 1/64 of the shorter
+    /// side (so the estimator's cost does not grow with the sensor), at least 2.
+    pub fn default_cell_px(width_px: usize, height_px: usize) -> usize {
+        let c = (width_px.min(height_px) as f64 / 64.0).round() as usize;
+        (c.max(2) + 1) & !1
+    }
+
+    /// Grid cells in all, usable or not.
+    pub fn grid_len(&self) -> usize {
+        self.cols * self.rows
+    }
+
+    /// Cells of a DoFP mosaic (`cell_px` even).
+    pub fn from_mosaic<T: RawDn>(
+        img: &RawImage<T>,
+        mosaic: &[[Channel; 2]; 2],
+        rec: &Reconstructor,
+        full_scale_dn: f64,
+        cell_px: usize,
+    ) -> Cells {
+        let cell_px = (cell_px.max(2) + 1) & !1;
+        let chan = [0, 1].map(|dv| [0, 1].map(|du| Layout::dofp_channel(mosaic, du, dv).index()));
+        // Each channel's place (column, row) in the 2 × 2 tile.
+        let mut place = [None; 4];
+        for (dv, row) in chan.iter().enumerate() {
+            for (du, &k) in row.iter().enumerate() {
+                place[k] = Some((du as f64, dv as f64));
+            }
+        }
+        Self::build(img.width_px, img.height_px, cell_px, rec, Some(place), |cj, acc| {
+            for (dv, v) in (cj * cell_px..(cj + 1) * cell_px).enumerate() {
+                let row = img.row(v);
+                let ch = chan[v & 1];
+                for (ci, a) in acc.iter_mut().enumerate() {
+                    let u0 = ci * cell_px;
+                    for (du, &x) in row[u0..u0 + cell_px].iter().enumerate() {
+                        a.add(ch[du & 1], du as f64, dv as f64, x.dn(), full_scale_dn);
+                    }
+                }
+            }
+        })
+    }
+
+    /// Cells of a colocated frame: one plane per channel (each `width × height`).
+    pub fn from_colocated<T: RawDn>(
+        planes: &[(Channel, RawImage<T>)],
+        rec: &Reconstructor,
+        full_scale_dn: f64,
+        cell_px: usize,
+    ) -> Cells {
+        let Some((_, first)) = planes.first() else { return Cells::default() };
+        let cell_px = cell_px.max(1);
+        Self::build(first.width_px, first.height_px, cell_px, rec, None, |cj, acc| {
+            for (ch, plane) in planes {
+                for (dv, v) in (cj * cell_px..(cj + 1) * cell_px).enumerate() {
+                    let row = plane.row(v);
+                    for (ci, a) in acc.iter_mut().enumerate() {
+                        for (du, &x) in row[ci * cell_px..(ci + 1) * cell_px].iter().enumerate() {
+                            a.add(ch.index(), du as f64, dv as f64, x.dn(), full_scale_dn);
+                        }
+                    }
+                }
+            }
+        })
+    }
+
+    /// Cells of an already reconstructed Stokes image (superpixels or demosaiced):
+    /// `cell_px` is in pixels and rounded to a whole number of samples.
+    pub fn from_pol_image(img: &PolImage, cell_px: usize) -> Cells {
+        let k = ((cell_px as f64 / img.step_px).round() as usize).max(1);
+        let (cols, rows) = (img.width / k, img.height / k);
+        let cells = (0..rows)
+            .into_par_iter()
+            .flat_map_iter(|cj| {
+                (0..cols).filter_map(move |ci| {
+                    let (mut n, mut bad) = (0.0, 0.0);
+                    let (mut s, mut s2) = ([0.0; 3], [0.0; 3]);
+                    for j in cj * k..(cj + 1) * k {
+                        for i in ci * k..(ci + 1) * k {
+                            match img.stokes(i, j) {
+                                Some(x) => {
+                                    n += 1.0;
+                                    for (c, v) in [x.i, x.q, x.u].into_iter().enumerate() {
+                                        s[c] += v;
+                                        s2[c] += v * v;
+                                    }
+                                }
+                                None => bad += 1.0,
+                            }
+                        }
+                    }
+                    if n < 2.0 || bad > MAX_INVALID_FRACTION * (n + bad) {
+                        return None;
+                    }
+                    let var = |c: usize| ((s2[c] - s[c] * s[c] / n) / (n - 1.0)).max(0.0) / n;
+                    let (x0, y0) = img.position_px(ci * k, cj * k);
+                    let half = 0.5 * (k - 1) as f64 * img.step_px;
+                    Some(Cell {
+                        x_px: x0 + half,
+                        y_px: y0 + half,
+                        stokes: Stokes::new(s[0] / n, s[1] / n, s[2] / n, 0.0),
+                        var_q_dn2: var(1),
+                        var_u_dn2: var(2),
+                        col: ci as u32,
+                        row: cj as u32,
+                    })
+                })
+            })
+            .collect();
+        Cells { cell_px: (k as f64 * img.step_px).round() as usize, cols, rows, cells }
+    }
+
+    /// The grid of whole cells; `fill(cell_row, accumulators)` adds the pixels of one
+    /// row of cells; `place`: each DoFP channel's place in the tile (None: colocated,
+    /// every channel at every pixel). Rows of cells in parallel, kept in row order.
+    fn build(
+        width_px: usize,
+        height_px: usize,
+        cell_px: usize,
+        rec: &Reconstructor,
+        place: Option<[Option<(f64, f64)>; 4]>,
+        fill: impl Fn(usize, &mut [Acc]) + Sync,
+    ) -> Cells {
+        let (cols, rows) = (width_px / cell_px, height_px / cell_px);
+        let (r, inv_gain, _) = rec.parts();
+        let cells = (0..rows)
+            .into_par_iter()
+            .flat_map_iter(|cj| {
+                let mut acc = vec![Acc::default(); cols];
+                fill(cj, &mut acc);
+                acc.into_iter().enumerate().filter_map(move |(ci, a)| {
+                    let (mean, var) = a.finish(cell_px, place)?;
+                    let stokes = rec.stokes(&mean);
+                    let v = |row: &[f64; 4]| (0..4).map(|k| (row[k] * inv_gain[k]).powi(2) * var[k]).sum::<f64>();
+                    let c = (cell_px - 1) as f64 * 0.5;
+                    Some(Cell {
+                        x_px: (ci * cell_px) as f64 + c,
+                        y_px: (cj * cell_px) as f64 + c,
+                        stokes,
+                        var_q_dn2: v(&r[1]),
+                        var_u_dn2: v(&r[2]),
+                        col: ci as u32,
+                        row: cj as u32,
+                    })
+                })
+            })
+            .collect();
+        Cells { cell_px, cols, rows, cells }
+    }
+}
+
+/// Per-channel sums of one cell (positions local to the cell's top-left pixel).
+#[derive(Clone, Copy, Debug, Default)]
+struct Acc {
+    n: [f64; 4],
+    s: [f64; 4],
+    s2: [f64; 4],
+    su: [f64; 4],
+    sv: [f64; 4],
+    bad: f64,
+}
+
+impl Acc {
+    #[inline(always)]
+    fn add(&mut self, ch: usize, du: f64, dv: f64, dn: f64, full_scale_dn: f64) {
+        if dn_is_valid(dn, full_scale_dn) {
+            self.n[ch] += 1.0;
+            self.s[ch] += dn;
+            self.s2[ch] += dn * dn;
+            self.su[ch] += du * dn;
+            self.sv[ch] += dv * dn;
+        } else {
+            self.bad += 1.0;
+        }
+    }
+
+    /// Each channel's DN at the cell centre and the variance of that value (channels
+    /// without pixels: 0); `None` where the cell is not usable. `place`: as `build`.
+    fn finish(&self, cell_px: usize, place: Option<[Option<(f64, f64)>; 4]>) -> Option<([f64; 4], [f64; 4])> {
+        let total: f64 = self.n.iter().sum();
+        if total == 0.0 || self.bad > MAX_INVALID_FRACTION * (total + self.bad) {
+            return None;
+        }
+        let b = cell_px as f64;
+        let (mut mean, mut var) = ([0.0; 4], [0.0; 4]);
+        for k in 0..4 {
+            let n = self.n[k];
+            if n == 0.0 {
+                continue;
+            }
+            let m = self.s[k] / n;
+            let mut ss = self.s2[k] - self.s[k] * m; // Σ (DN − mean)²
+            let mut dof = n - 1.0;
+            mean[k] = m;
+            // A whole DoFP cell: the channel's (b/2)² pixels on a grid of pitch 2.
+            if let (Some(Some((p, q))), 0.0) = (place.map(|pl| pl[k]), self.bad) {
+                let h = 0.5 * b; // pixels per row of the channel
+                let (ubar, vbar) = (p + h - 1.0, q + h - 1.0);
+                let sxx = h * h * (h * h - 1.0) / 3.0; // Σ (u − ū)² over the channel's pixels
+                if sxx > 0.0 {
+                    let gx = (self.su[k] - ubar * self.s[k]) / sxx;
+                    let gy = (self.sv[k] - vbar * self.s[k]) / sxx;
+                    mean[k] = m + gx * (0.5 - p) + gy * (0.5 - q);
+                    ss -= (gx * gx + gy * gy) * sxx;
+                    dof -= 2.0;
+                }
+            }
+            // Variance of the centre value ≈ that of the mean (the gradient terms add
+            // ~1/(2 sxx) of a pixel's variance: negligible).
+            var[k] = if dof > 0.0 { (ss / dof).max(0.0) / n } else { f64::NAN };
+        }
+        // A channel too small to measure its scatter borrows the largest per-pixel
+        // variance of the others.
+        let per_px = (0..4).filter(|&k| var[k].is_finite()).map(|k| var[k] * self.n[k]).fold(0.0, f64::max);
+        for k in 0..4 {
+            if var[k].is_nan() {
+                var[k] = per_px / self.n[k];
+            }
+        }
+        Some((mean, var))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::effects::Model;
+    use crate::sensor::DEFAULT_MOSAIC;
+
+    fn rec() -> Reconstructor {
+        Reconstructor::new(&Model::default(), 64.0, &Channel::ALL).unwrap()
+    }
+
+    /// A uniform, linearly polarized field: I = 2000 DN, DoLP 0.4 at α = 30°.
+    fn uniform_mosaic(w: usize, h: usize) -> Vec<u16> {
+        let (i, d, a) = (2000.0f64, 0.4, 30f64.to_radians());
+        let (q, u) = (i * d * (2.0 * a).cos(), i * d * (2.0 * a).sin());
+        (0..h)
+            .flat_map(|v| {
+                (0..w).map(move |u_px| {
+                    let th = Layout::dofp_channel(&DEFAULT_MOSAIC, u_px, v).angle_deg().to_radians();
+                    (64.0 + 0.5 * (i + q * (2.0 * th).cos() + u * (2.0 * th).sin())).round() as u16
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_uniform_field_gives_its_stokes_vector_in_every_cell() {
+        let (w, h) = (40, 24);
+        let dn = uniform_mosaic(w, h);
+        let cells = Cells::from_mosaic(&RawImage::packed(&dn, w, h), &DEFAULT_MOSAIC, &rec(), 4095.0, 8);
+        assert_eq!((cells.cols, cells.rows, cells.cells.len()), (5, 3, 15));
+        for c in &cells.cells {
+            let aop = 0.5 * c.stokes.u.atan2(c.stokes.q).to_degrees();
+            assert!((aop - 30.0).abs() < 0.05, "{c:?}");
+            assert!((c.stokes.i - 2000.0).abs() < 1.0, "{c:?}");
+            // Rounding only: the within-cell scatter is that of a 0.5 DN rounding at most.
+            assert!(c.var_q_dn2 < 0.1 && c.var_u_dn2 < 0.1, "{c:?}");
+        }
+        assert_eq!((cells.cells[6].col, cells.cells[6].row), (1, 1));
+        assert_eq!((cells.cells[6].x_px, cells.cells[6].y_px), (11.5, 11.5));
+    }
+
+    #[test]
+    fn a_strided_u16_buffer_reads_as_the_packed_f32_one() {
+        let (w, h) = (40, 24);
+        let dn = uniform_mosaic(w, h);
+        let stride = 47;
+        let mut padded = vec![0u16; stride * h];
+        for v in 0..h {
+            padded[v * stride..][..w].copy_from_slice(&dn[v * w..][..w]);
+        }
+        let f: Vec<f32> = dn.iter().map(|&x| x as f32).collect();
+        let a = Cells::from_mosaic(&RawImage { data: &padded, width_px: w, height_px: h, stride }, &DEFAULT_MOSAIC, &rec(), 4095.0, 8);
+        let b = Cells::from_mosaic(&RawImage::packed(&f, w, h), &DEFAULT_MOSAIC, &rec(), 4095.0, 8);
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn saturated_cells_are_dropped_and_noise_is_measured() {
+        let (w, h) = (32, 32);
+        let mut dn = uniform_mosaic(w, h);
+        // Saturate the top-left cell; add ±10 DN alternating noise to the bottom-right one.
+        for v in 0..8 {
+            for u in 0..8 {
+                dn[v * w + u] = 4095;
+            }
+        }
+        for v in 24..32 {
+            for u in 24..32 {
+                let k = if (u / 2 + v / 2) % 2 == 0 { 10 } else { -10 };
+                dn[v * w + u] = (dn[v * w + u] as i32 + k) as u16;
+            }
+        }
+        let cells = Cells::from_mosaic(&RawImage::packed(&dn, w, h), &DEFAULT_MOSAIC, &rec(), 4095.0, 8);
+        assert_eq!(cells.cells.len(), 15);
+        assert!(!cells.cells.iter().any(|c| c.col == 0 && c.row == 0));
+        let noisy = cells.cells.iter().find(|c| c.col == 3 && c.row == 3).unwrap();
+        // Scatter about each channel's plane (no slope here): 16·100 DN² over 16 − 3
+        // degrees of freedom, of a mean of 16 pixels; Q = I0 − I90.
+        assert!((noisy.var_q_dn2 - 2.0 * 100.0 / 13.0).abs() < 0.5, "{noisy:?}");
+    }
+
+    #[test]
+    fn a_gradient_is_read_at_the_cell_centre_not_at_the_channel_centroids() {
+        // I, Q, U all ramp along x and y: each channel's mean sits half a pixel off the
+        // centre; read at the centre, the cell gives the field there.
+        let (w, h) = (32, 32);
+        let field = |x: f64, y: f64| {
+            let i = 1500.0 + 20.0 * x - 7.0 * y;
+            (i, 300.0 + 9.0 * x, -200.0 + 4.0 * y + 6.0 * x)
+        };
+        let dn: Vec<f32> = (0..h)
+            .flat_map(|v| {
+                (0..w).map(move |u| {
+                    let th = Layout::dofp_channel(&DEFAULT_MOSAIC, u, v).angle_deg().to_radians();
+                    let (i, q, uu) = field(u as f64, v as f64);
+                    (64.0 + 0.5 * (i + q * (2.0 * th).cos() + uu * (2.0 * th).sin())) as f32
+                })
+            })
+            .collect();
+        let cells = Cells::from_mosaic(&RawImage::packed(&dn, w, h), &DEFAULT_MOSAIC, &rec(), 65535.0, 8);
+        for c in &cells.cells {
+            let (i, q, u) = field(c.x_px, c.y_px);
+            let s = c.stokes;
+            assert!((s.i - i).abs() < 1e-3 && (s.q - q).abs() < 1e-3 && (s.u - u).abs() < 1e-3, "{c:?} vs {i} {q} {u}");
+            assert!(c.var_q_dn2 < 1e-6, "a plane leaves no scatter: {c:?}");
+        }
+    }
+
+    #[test]
+    fn default_cell_size_is_even_and_scales_with_the_sensor() {
+        assert_eq!(Cells::default_cell_px(612, 512), 8);
+        assert_eq!(Cells::default_cell_px(2448, 2048), 32);
+        assert_eq!(Cells::default_cell_px(64, 48), 2);
+    }
+}

@@ -1,0 +1,228 @@
+//! Headings under real skies: tilt, clouds, trees, the sun in view — and a 1σ a
+//! navigation filter can take at its word.
+//!
+//! The per-pixel extractors (`sun_vector`, `meridian_line` on [`super::HeadingSums`])
+//! assume every sample is Rayleigh skylight and every pixel an independent draw. Under
+//! a real sky neither holds: a cloud, a tree or the aureole sends samples that obey
+//! no sky model, and the misfit that remains is smooth over the image, so the pixel
+//! count overstates the information a thousandfold. This estimator works on
+//! **cells** (`cells.rs`: blocks of ~1/64 of the shorter side, each its mean Stokes
+//! vector and that mean's measured noise) and runs every extractor inside one robust
+//! loop (`robust.rs`):
+//!
+//! ```text
+//! 1. per cell: ray d, E-vector e (AoE from Q_p, U_p; known lens ρ undone, seed eq. 13),
+//!    both turned into the level frame by the reference tilt ∘ mount tilt
+//!    (CONVENTIONS.md, Tilt); σ_α² = (U² var Q + Q² var U)/(4P⁴) from the cell's noise
+//! 2. masks: cells with saturated pixels (cells.rs); rays below horizon_margin + 3σ_tilt
+//! 3. start: the sun's elevation h is known, so the sun lies on a cone and the heading
+//!    is one unknown: a grid search of ψ ∈ [0°, 360°) on the bounded cost
+//!    Σ min(δ², c²)/(σ_α² + 1°²), δ = the angle of each E-vector off ⊥(sun, ray);
+//!    a second minimum as good as the first is an ambiguous frame (no heading)
+//! 4. iterate: δ_i against the current sun; a model-misfit scale τ with
+//!    median(δ²/(σ_α² + τ²)) = 0.455 (the median of χ²₁); Tukey's biweight on
+//!    δ/σ (σ² = σ_α² + τ²); cells whose DoLP is under half the Rayleigh prediction
+//!    (clouds, foliage) and cells within `sun_exclusion_deg` of the sun or anti-sun
+//!    get weight 0; the extractor solves from the weighted sums (weights
+//!    1/(σ² sin²γ) for the sun vector, 1/σ² for the line)
+//! 5. 1σ² = max(σ_fit², σ_jack²) + σ_tilt² + σ_sun² + σ_floor²:
+//!    σ_fit from the extractor's own residuals (χ²-scaled); σ_jack a delete-one-block
+//!    jackknife over 4 × 4 blocks of the image (correlated misfit: clouds, an
+//!    unmodelled sky); σ_tilt = |∂ψ/∂tilt|·tilt_sigma (∂ψ/∂τ ≈ tan h, per axis);
+//!    σ_sun = sun_sigma (the sun's azimuth enters the heading 1:1); σ_floor for what
+//!    no model here describes
+//! ```
+//!
+//! A frame gets no heading, with a typed [`NoHeading`] reason, when too little of the
+//! image fits the sky, when two headings fit as well, when the used cells still
+//! misfit by degrees, or when the sun is out of the range where the pattern holds
+//! (below −10°, the end of nautical twilight, or within 1° of the zenith).
+//!
+//! What it cannot do: it trusts the sun's elevation and the reference tilt to within
+//! their σ (the cone search needs h); it models the sky as Rayleigh's pattern, so a
+//! sky far from it (thick overcast) is refused, not fitted; a lens effect that is not
+//! in the calibration biases it like any extractor.
+
+pub mod cells;
+mod robust;
+
+pub use cells::{Cell, Cells, RawDn, RawImage};
+
+use super::Extractor;
+use crate::camera::Intrinsics;
+use crate::conventions::level_from_camera;
+use glam::DMat3;
+
+/// What the field estimator knows of one frame: the camera as believed, the sun and
+/// the attitude, each with its 1σ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FieldContext {
+    /// Assumed intrinsics (nominal principal point unless calibrated).
+    pub intr: Intrinsics,
+    /// Known lens diattenuation `rho2`, undone per cell (0: not compensated).
+    pub lens_rho2: f64,
+    /// Sun azimuth (from North toward East) and elevation, degrees, and their 1σ.
+    pub sun_az_deg: f64,
+    pub sun_el_deg: f64,
+    pub sun_sigma_deg: f64,
+    /// Reference tilt of the frame about camera x then y (an IMU), degrees, and the
+    /// 1σ of each angle.
+    pub tilt_x_deg: f64,
+    pub tilt_y_deg: f64,
+    pub tilt_sigma_deg: f64,
+    /// Known tilt of the camera on its mount, composed after the frame's.
+    pub mount_tilt_deg: [f64; 2],
+}
+
+impl FieldContext {
+    /// A level camera with exactly known attitude and sun.
+    pub fn new(intr: Intrinsics, sun_az_deg: f64, sun_el_deg: f64) -> Self {
+        FieldContext {
+            intr,
+            lens_rho2: 0.0,
+            sun_az_deg,
+            sun_el_deg,
+            sun_sigma_deg: 0.0,
+            tilt_x_deg: 0.0,
+            tilt_y_deg: 0.0,
+            tilt_sigma_deg: 0.0,
+            mount_tilt_deg: [0.0; 2],
+        }
+    }
+
+    /// Camera → level-camera rotation: `Rx(tilt_x)·Ry(tilt_y)·Rx(mount_x)·Ry(mount_y)`.
+    pub fn level_from_camera(&self) -> DMat3 {
+        level_from_camera(self.tilt_x_deg, self.tilt_y_deg)
+            * level_from_camera(self.mount_tilt_deg[0], self.mount_tilt_deg[1])
+    }
+}
+
+/// Settings of the field estimator; the defaults are what the README's field table
+/// was measured with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FieldOptions {
+    /// Cell size, pixels (even for DoFP); `None`: [`Cells::default_cell_px`].
+    pub cell_px: Option<usize>,
+    /// Rays lower than this above the horizon (plus 3σ of the tilt) are not used:
+    /// the ground and what stands on the horizon, degrees.
+    pub horizon_margin_deg: f64,
+    /// Cells closer than this to the sun or the anti-sun are not used (aureole, flare,
+    /// bloom; the neutral points of a real sky), degrees.
+    pub sun_exclusion_deg: f64,
+    /// Fewest cells, and least fraction of the image's cells, a heading may rest on.
+    pub min_cells: usize,
+    pub min_used_fraction: f64,
+    /// Used cells whose RMS angle residual exceeds this: the sky does not follow the
+    /// model (no heading), degrees.
+    pub max_residual_deg: f64,
+    /// Floor of the 1σ for what no model here describes, degrees.
+    pub sigma_floor_deg: f64,
+    /// Half-width of the AoE band of the meridian line, degrees.
+    pub band_deg: f64,
+}
+
+impl Default for FieldOptions {
+    fn default() -> Self {
+        FieldOptions {
+            cell_px: None,
+            horizon_margin_deg: 3.0,
+            sun_exclusion_deg: 12.0,
+            min_cells: 40,
+            min_used_fraction: 0.03,
+            max_residual_deg: 8.0,
+            sigma_floor_deg: 0.01,
+            band_deg: 5.0,
+        }
+    }
+}
+
+/// Why a frame gets no heading.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NoHeading {
+    #[error("the sun is {sun_el_deg:.1}° below the horizon: past −10° the sky's pattern fades (nautical twilight)")]
+    SunTooLow { sun_el_deg: f64 },
+    #[error("the sun is at the zenith ({sun_el_deg:.2}°): the pattern has no azimuth")]
+    SunAtZenith { sun_el_deg: f64 },
+    #[error(
+        "too little usable sky: {used} of {total} cells ({:.1} %) fit the sky model (overcast, obstructed or \
+         under-exposed)", 100.0 * *used as f64 / (*total).max(1) as f64
+    )]
+    TooLittleSky { used: usize, total: usize },
+    #[error(
+        "ambiguous: headings {best_deg:.1}° and {other_deg:.1}° fit the pattern almost equally (the sun on \
+         the horizon, or too little sky)"
+    )]
+    Ambiguous { best_deg: f64, other_deg: f64 },
+    #[error("the used sky misfits the model by {residual_deg:.2}° RMS (more than {limit_deg:.1}°)")]
+    PoorFit { residual_deg: f64, limit_deg: f64 },
+    #[error("{0}")]
+    Solver(String),
+}
+
+/// The parts of a field heading's 1σ, degrees.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SigmaParts {
+    /// From the extractor's own weighted residuals (χ²-scaled).
+    pub fit_deg: f64,
+    /// Delete-one-block jackknife over the image (correlated misfit).
+    pub jackknife_deg: f64,
+    /// The reference tilt's 1σ, propagated.
+    pub tilt_deg: f64,
+    /// The sun position's 1σ, propagated.
+    pub sun_deg: f64,
+    /// The floor.
+    pub floor_deg: f64,
+}
+
+impl SigmaParts {
+    /// The total: max(fit, jackknife) in quadrature with the rest.
+    pub fn total_deg(&self) -> f64 {
+        let data = self.fit_deg.max(self.jackknife_deg);
+        (data * data + self.tilt_deg.powi(2) + self.sun_deg.powi(2) + self.floor_deg.powi(2)).sqrt()
+    }
+}
+
+/// How well a frame's sky served: what was used and how well it fits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct FieldQuality {
+    /// Cells of the image grid, cells that passed the masks, cells the final fit used
+    /// (robust weight ≥ ½).
+    pub cells_total: usize,
+    pub cells_valid: usize,
+    pub cells_used: usize,
+    /// `cells_used / cells_total`: the fraction of the image the heading rests on.
+    pub used_fraction: f64,
+    /// Weighted RMS of the used cells' angle residual δ, degrees.
+    pub residual_rms_deg: f64,
+    /// Model-misfit scale τ (step 4), degrees.
+    pub misfit_deg: f64,
+    /// Robust iterations run.
+    pub iterations: usize,
+}
+
+/// One extractor's field heading of one frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FieldHeading {
+    pub extractor: Extractor,
+    /// Heading in [0°, 360°) and its 1σ, or why there is none.
+    pub result: Result<(f64, SigmaParts), NoHeading>,
+    pub quality: FieldQuality,
+}
+
+impl FieldHeading {
+    pub fn heading_deg(&self) -> Option<f64> {
+        self.result.as_ref().ok().map(|r| r.0)
+    }
+
+    pub fn sigma_deg(&self) -> Option<f64> {
+        self.result.as_ref().ok().map(|r| r.1.total_deg())
+    }
+}
+
+/// Field headings of one frame's cells with each of `extractors`.
+pub fn estimate(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions, extractors: &[Extractor]) -> Vec<FieldHeading> {
+    robust::estimate(cells, ctx, opts, extractors)
+}
+
+#[cfg(test)]
+mod tests;

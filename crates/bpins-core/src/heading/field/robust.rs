@@ -1,0 +1,425 @@
+//! The robust loop of the field estimator (steps 1–5 of `mod.rs`).
+
+use super::{Cells, FieldContext, FieldHeading, FieldOptions, FieldQuality, NoHeading, SigmaParts};
+use crate::camera::meridional_basis;
+use crate::conventions::{heading_deg_from_level_sun, image_angle_rad, level_from_camera, wrap_deg_180};
+use crate::effects::lens_diattenuation::lens_diattenuation_inverse;
+use crate::heading::{meridian, sun_vector, Extractor, HeadingSums};
+use crate::stokes::image_to_meridional;
+use glam::{DMat3, DVec3};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// Jackknife blocks per side of the image (BLOCKS² in all).
+const BLOCKS: usize = 4;
+/// Cost cap of the start search: a cell off by more than this is an outlier, radians.
+const SEARCH_CAP_RAD: f64 = 10.0 * PI / 180.0;
+/// Per-cell model error assumed by the start search, radians (so no cell dominates).
+const SEARCH_SIGMA_RAD: f64 = 1.0 * PI / 180.0;
+/// Cells the start search reads at most (evenly strided).
+const SEARCH_CELLS: usize = 1024;
+/// A second minimum of the start cost within this of the first is ambiguous (χ² units).
+const AMBIGUITY_CHI2: f64 = 9.0;
+/// Tukey's biweight constant (95 % efficiency at the normal).
+const TUKEY_C: f64 = 4.685;
+const MAX_ITERATIONS: usize = 10;
+
+/// One cell as the estimator sees it, level frame.
+#[derive(Clone, Copy, Debug)]
+struct Obs {
+    /// Unit ray and unit E-vector, level camera frame.
+    d: DVec3,
+    e: DVec3,
+    dolp: f64,
+    /// Noise variance of the cell's AoP, rad².
+    var_aop: f64,
+    block: usize,
+    /// ψ = AoE − 90° in the level frame (radians), the level ray's image angle β and 2β.
+    psi: f64,
+    beta: f64,
+    cos2b: f64,
+    sin2b: f64,
+}
+
+/// Step 1–2: the cells that pass the masks, in the level frame.
+fn observe(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions, level: DMat3) -> Vec<Obs> {
+    let min_el = (opts.horizon_margin_deg + 3.0 * ctx.tilt_sigma_deg).to_radians().sin();
+    let block_of = |c: u32, n: usize| ((c as usize * BLOCKS) / n.max(1)).min(BLOCKS - 1);
+    cells
+        .cells
+        .iter()
+        .filter_map(|c| {
+            let g = ctx.intr.geometry(c.x_px, c.y_px);
+            let d = level * g.d;
+            if d.z < min_el {
+                return None;
+            }
+            // Image → meridional frame of the assumed ray; a known lens undone (eq. 13).
+            let mut sm = image_to_meridional(c.stokes, g.basis.cos2b, g.basis.sin2b);
+            if ctx.lens_rho2 != 0.0 {
+                sm = lens_diattenuation_inverse(ctx.lens_rho2, g.r2, sm);
+            }
+            let p2 = sm.q * sm.q + sm.u * sm.u;
+            if !(p2 > 0.0 && sm.i > 0.0) {
+                return None;
+            }
+            // E-vector e = cos φ·p − sin φ·s, φ = AoE (camera frame), then level.
+            let phi = 0.5 * sm.u.atan2(sm.q);
+            let e = level * (phi.cos() * g.basis.p - phi.sin() * g.basis.s);
+            let (q, u) = (c.stokes.q, c.stokes.u);
+            let var_aop = ((u * u * c.var_q_dn2 + q * q * c.var_u_dn2) / (4.0 * p2 * p2)).max(1e-12);
+            // AoE in the level frame: the angle of e from the level ray's meridian.
+            let mb = meridional_basis(d);
+            let aoe = (-e.dot(mb.s)).atan2(e.dot(mb.p));
+            let psi = wrap_rad_90(aoe - FRAC_PI_2);
+            Some(Obs {
+                d,
+                e,
+                dolp: p2.sqrt() / sm.i,
+                var_aop,
+                block: block_of(c.col, cells.cols) + BLOCKS * block_of(c.row, cells.rows),
+                psi,
+                beta: image_angle_rad(d.x, d.y),
+                cos2b: mb.cos2b,
+                sin2b: mb.sin2b,
+            })
+        })
+        .collect()
+}
+
+/// Wraps an axial angle in radians to (−π/2, π/2].
+fn wrap_rad_90(a: f64) -> f64 {
+    let r = a.rem_euclid(PI);
+    if r > FRAC_PI_2 {
+        r - PI
+    } else {
+        r
+    }
+}
+
+/// The sun on its cone: level-frame direction for heading ψ (conventions:
+/// `s = (cos h·sin(ψ − A), −cos h·cos(ψ − A), sin h)`).
+fn cone_sun(ctx: &FieldContext, heading_deg: f64) -> DVec3 {
+    let (sh, ch) = ctx.sun_el_deg.to_radians().sin_cos();
+    let (sa, ca) = (heading_deg - ctx.sun_az_deg).to_radians().sin_cos();
+    DVec3::new(ch * sa, -ch * ca, sh)
+}
+
+/// Angle δ (radians) of the E-vector off the Rayleigh direction ⊥(sun, ray), and
+/// sin²γ, cos γ of the scattering angle γ.
+#[inline]
+fn residual(o: &Obs, s: DVec3) -> (f64, f64, f64) {
+    let cg = o.d.dot(s);
+    let sg2 = (1.0 - cg * cg).max(1e-12);
+    ((o.e.dot(s) / sg2.sqrt()).clamp(-1.0, 1.0).asin(), sg2, cg)
+}
+
+/// Step 3: the start heading from a grid search on the sun's cone.
+fn search(obs: &[Obs], ctx: &FieldContext) -> Result<f64, NoHeading> {
+    let strong: Vec<&Obs> = obs.iter().filter(|o| o.dolp > 0.02).collect();
+    let pick: Vec<&Obs> = if strong.len() >= 3 { strong } else { obs.iter().collect() };
+    let stride = pick.len().div_ceil(SEARCH_CELLS).max(1);
+    let sub: Vec<(&Obs, f64)> =
+        pick.iter().step_by(stride).map(|o| (*o, 1.0 / (o.var_aop + SEARCH_SIGMA_RAD * SEARCH_SIGMA_RAD))).collect();
+    let cost = |psi_deg: f64| {
+        let s = cone_sun(ctx, psi_deg);
+        sub.iter().map(|(o, w)| w * residual(o, s).0.powi(2).min(SEARCH_CAP_RAD * SEARCH_CAP_RAD)).sum::<f64>()
+    };
+    let grid: Vec<(f64, f64)> = (0..180).map(|k| 2.0 * k as f64).map(|p| (p, cost(p))).collect();
+    let refine = |centre: f64| {
+        (-20..=20).map(|k| centre + 0.1 * k as f64).map(|p| (p, cost(p))).fold((centre, f64::INFINITY), min_by_cost)
+    };
+    let coarse = grid.iter().copied().fold((0.0, f64::INFINITY), min_by_cost);
+    let best = refine(coarse.0);
+    // The best other local minimum more than 20° away.
+    let n = grid.len();
+    let other = (0..n)
+        .filter(|&k| grid[k].1 <= grid[(k + 1) % n].1 && grid[k].1 <= grid[(k + n - 1) % n].1)
+        .map(|k| grid[k])
+        .filter(|g| wrap_deg_180(g.0 - best.0).abs() > 20.0)
+        .fold((0.0, f64::INFINITY), min_by_cost);
+    if other.1.is_finite() {
+        let other = refine(other.0);
+        if other.1 - best.1 < AMBIGUITY_CHI2 {
+            return Err(NoHeading::Ambiguous { best_deg: best.0.rem_euclid(360.0), other_deg: other.0.rem_euclid(360.0) });
+        }
+    }
+    Ok(best.0)
+}
+
+fn min_by_cost(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+    if b.1 < a.1 {
+        b
+    } else {
+        a
+    }
+}
+
+/// Step 4's weights for the sun at `s`: (robust weight, σ² = σ_α² + τ², sin²γ) per
+/// cell, and τ.
+fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions) -> (Vec<(f64, f64, f64, f64)>, f64) {
+    let cos_excl = opts.sun_exclusion_deg.to_radians().cos();
+    let res: Vec<(f64, f64, f64)> = obs.iter().map(|o| residual(o, s)).collect();
+    let kept: Vec<usize> = (0..obs.len()).filter(|&i| res[i].2.abs() < cos_excl).collect();
+    // τ: median(δ²/(σ_α² + τ²)) = 0.455 (bisection; 0 where the noise explains it).
+    let median_chi2 = |tau2: f64| {
+        let mut r: Vec<f64> = kept.iter().map(|&i| res[i].0.powi(2) / (obs[i].var_aop + tau2)).collect();
+        median(&mut r)
+    };
+    let mut tau2 = 0.0;
+    if median_chi2(0.0) > 0.455 {
+        let (mut lo, mut hi) = (0.0f64, 0.25f64);
+        for _ in 0..50 {
+            let mid = 0.5 * (lo + hi);
+            if median_chi2(mid) > 0.455 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        tau2 = hi;
+    }
+    // d_max of the sky from the cells that fit, for the DoLP test.
+    let dpred = |cg: f64| (1.0 - cg * cg) / (1.0 + cg * cg);
+    let mut ratios: Vec<f64> = kept
+        .iter()
+        .filter(|&&i| dpred(res[i].2) > 0.3 && res[i].0.powi(2) < 9.0 * (obs[i].var_aop + tau2))
+        .map(|&i| obs[i].dolp / dpred(res[i].2))
+        .collect();
+    let dmax = median(&mut ratios);
+    let w = obs
+        .iter()
+        .zip(&res)
+        .map(|(o, &(delta, sg2, cg))| {
+            let var = o.var_aop + tau2;
+            let mut w = if cg.abs() < cos_excl { tukey(delta / var.sqrt()) } else { 0.0 };
+            if dmax.is_finite() && dpred(cg) > 0.2 && o.dolp < 0.5 * dmax * dpred(cg) {
+                w = 0.0;
+            }
+            (w, var, sg2, delta)
+        })
+        .collect();
+    (w, tau2.sqrt())
+}
+
+fn tukey(r: f64) -> f64 {
+    let u = r / TUKEY_C;
+    if u.abs() < 1.0 {
+        (1.0 - u * u).powi(2)
+    } else {
+        0.0
+    }
+}
+
+/// Median of `v` (reordered); NaN when empty.
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let k = v.len() / 2;
+    *v.select_nth_unstable_by(k, |a, b| a.total_cmp(b)).1
+}
+
+/// Per-block weighted sums of one extractor: the sun vector's scatter, or the
+/// meridian band (cells with |ψ| < band inside the zenith disc).
+fn block_sums(
+    obs: &[Obs],
+    w: &[(f64, f64, f64, f64)],
+    extractor: Extractor,
+    band: (f64, f64, f64),
+) -> [HeadingSums; BLOCKS * BLOCKS] {
+    let mut sums = [HeadingSums::default(); BLOCKS * BLOCKS];
+    let (band_rad, zmin_cos, zmax_cos) = band;
+    for (o, &(rw, var, sg2, _)) in obs.iter().zip(w) {
+        if rw <= 0.0 {
+            continue;
+        }
+        let b = &mut sums[o.block];
+        match extractor {
+            Extractor::SunVector => b.add_scatter_weighted(o.e, rw / (var * sg2)),
+            Extractor::MeridianLine => {
+                if o.psi.abs() < band_rad && o.d.z <= zmin_cos && o.d.z >= zmax_cos {
+                    b.add_band_weighted(o.beta, o.psi, o.cos2b, o.sin2b, rw / var);
+                }
+            }
+        }
+    }
+    sums
+}
+
+/// Heading (degrees) and fit 1σ of one extractor from level-frame sums, the sun's
+/// branch taken nearest `hint` (level frame).
+fn solve(sums: &HeadingSums, extractor: Extractor, ctx: &FieldContext, hint: DVec3) -> Result<(f64, f64), String> {
+    let est = match extractor {
+        Extractor::SunVector => {
+            let (vals, mut vecs) = sun_vector::scatter_eigen(sums).map_err(|e| e.to_string())?;
+            if vecs[0].dot(hint) < 0.0 {
+                vecs[0] = -vecs[0];
+            }
+            sun_vector::heading_from_eigen(vals, vecs, sums.n, DMat3::IDENTITY, ctx.sun_az_deg)
+        }
+        Extractor::MeridianLine => meridian::solve_half(sums, image_angle_rad(hint.x, hint.y), ctx.sun_az_deg),
+    }
+    .map_err(|e| e.to_string())?;
+    Ok((est.heading_deg, est.sigma_deg))
+}
+
+pub(super) fn estimate(
+    cells: &Cells,
+    ctx: &FieldContext,
+    opts: &FieldOptions,
+    extractors: &[Extractor],
+) -> Vec<FieldHeading> {
+    let mut quality = FieldQuality { cells_total: cells.grid_len(), ..Default::default() };
+    let fail = |q: FieldQuality, r: NoHeading| {
+        extractors.iter().map(|&e| FieldHeading { extractor: e, result: Err(r.clone()), quality: q }).collect()
+    };
+    if ctx.sun_el_deg < -10.0 {
+        return fail(quality, NoHeading::SunTooLow { sun_el_deg: ctx.sun_el_deg });
+    }
+    if ctx.sun_el_deg > 89.0 {
+        return fail(quality, NoHeading::SunAtZenith { sun_el_deg: ctx.sun_el_deg });
+    }
+    let level = ctx.level_from_camera();
+    let obs = observe(cells, ctx, opts, level);
+    quality.cells_valid = obs.len();
+    let min_used = opts.min_cells.max((opts.min_used_fraction * quality.cells_total as f64).ceil() as usize);
+    if obs.len() < min_used {
+        return fail(quality, NoHeading::TooLittleSky { used: obs.len(), total: quality.cells_total });
+    }
+    let mut psi = match search(&obs, ctx) {
+        Ok(p) => p,
+        Err(r) => return fail(quality, r),
+    };
+    // Step 4: reweight around the sun vector's heading until it settles.
+    let band = meridian_band(ctx, opts, level, cells);
+    let (mut w, mut tau) = weights(&obs, cone_sun(ctx, psi), opts);
+    for it in 1..=MAX_ITERATIONS {
+        quality.iterations = it;
+        let total = sum_blocks(&block_sums(&obs, &w, Extractor::SunVector, band));
+        let Ok((next, _)) = solve(&total, Extractor::SunVector, ctx, cone_sun(ctx, psi)) else { break };
+        let step = wrap_deg_180(next - psi);
+        psi = next;
+        (w, tau) = weights(&obs, cone_sun(ctx, psi), opts);
+        if step.abs() < 1e-4 {
+            break;
+        }
+    }
+    quality.misfit_deg = tau.to_degrees();
+    quality.cells_used = w.iter().filter(|x| x.0 >= 0.5).count();
+    quality.used_fraction = quality.cells_used as f64 / quality.cells_total.max(1) as f64;
+    let (sw, swd2) = w.iter().filter(|x| x.0 >= 0.5).fold((0.0, 0.0), |(a, b), x| (a + x.0, b + x.0 * x.3 * x.3));
+    quality.residual_rms_deg = if sw > 0.0 { (swd2 / sw).sqrt().to_degrees() } else { f64::NAN };
+    if quality.cells_used < min_used {
+        return fail(quality, NoHeading::TooLittleSky { used: quality.cells_used, total: quality.cells_total });
+    }
+    if quality.residual_rms_deg > opts.max_residual_deg {
+        return fail(
+            quality,
+            NoHeading::PoorFit { residual_deg: quality.residual_rms_deg, limit_deg: opts.max_residual_deg },
+        );
+    }
+    // Step 5: each extractor on the final weights, with its 1σ.
+    let hint = cone_sun(ctx, psi);
+    extractors
+        .iter()
+        .map(|&e| {
+            let blocks = block_sums(&obs, &w, e, band);
+            let result = finish(&blocks, e, ctx, opts, hint, level).map_err(NoHeading::Solver);
+            FieldHeading { extractor: e, result, quality }
+        })
+        .collect()
+}
+
+fn sum_blocks(blocks: &[HeadingSums]) -> HeadingSums {
+    let mut t = HeadingSums::default();
+    for b in blocks {
+        t += *b;
+    }
+    t
+}
+
+/// The meridian line's band and zenith disc: (band half-width, cos z_min, cos z_max),
+/// the disc the largest about the zenith inside the image, less the tilt.
+fn meridian_band(ctx: &FieldContext, opts: &FieldOptions, level: DMat3, cells: &Cells) -> (f64, f64, f64) {
+    let i = &ctx.intr;
+    // The principal point's distance to the nearest edge of the read image, as
+    // HeadingContext's r_max.
+    let (w, h) = ((cells.cols * cells.cell_px) as f64, (cells.rows * cells.cell_px) as f64);
+    let r_max_px = i.cx_px.min(i.cy_px).min(w - 1.0 - i.cx_px).min(h - 1.0 - i.cy_px).max(0.0);
+    let disc = i.projection.angle_from_radius(r_max_px / i.f_px).unwrap_or(FRAC_PI_2);
+    let off_axis = (level * DVec3::Z).z.clamp(-1.0, 1.0).acos();
+    let zmax = (disc - off_axis).min(FRAC_PI_2 - opts.horizon_margin_deg.to_radians()).max(0.0);
+    (opts.band_deg.to_radians(), (0.02f64).cos(), zmax.cos())
+}
+
+/// Step 5 for one extractor: heading, and its 1σ parts.
+fn finish(
+    blocks: &[HeadingSums],
+    e: Extractor,
+    ctx: &FieldContext,
+    opts: &FieldOptions,
+    hint: DVec3,
+    level: DMat3,
+) -> Result<(f64, SigmaParts), String> {
+    let total = sum_blocks(blocks);
+    let (heading_deg, fit_deg) = solve(&total, e, ctx, hint)?;
+    // Delete-one-block jackknife over the blocks that hold samples.
+    let used: Vec<&HeadingSums> = blocks.iter().filter(|b| b.n > 0.0 || b.line.iter().any(|l| l[6] > 0.0)).collect();
+    let k = used.len() as f64;
+    let dev: Vec<f64> = used
+        .iter()
+        .filter_map(|b| solve(&total.minus(b), e, ctx, hint).ok())
+        .map(|(h, _)| wrap_deg_180(h - heading_deg))
+        .collect();
+    let jackknife_deg = if dev.len() >= 2 && dev.len() as f64 == k {
+        let mean = dev.iter().sum::<f64>() / k;
+        ((k - 1.0) / k * dev.iter().map(|d| (d - mean).powi(2)).sum::<f64>()).sqrt()
+    } else {
+        // Too few blocks to leave one out (or one that cannot be left out): the fit's
+        // own σ, doubled.
+        2.0 * fit_deg
+    };
+    // The reference tilt's error, propagated: ∂ψ/∂tilt through the camera-frame sun.
+    let s_cam = level.transpose() * cone_sun(ctx, heading_deg);
+    let eps = 1e-3;
+    let dpsi = |dx: f64, dy: f64| {
+        let l = level_from_camera(ctx.tilt_x_deg + dx, ctx.tilt_y_deg + dy)
+            * level_from_camera(ctx.mount_tilt_deg[0], ctx.mount_tilt_deg[1]);
+        wrap_deg_180(heading_deg_from_level_sun(l * s_cam, ctx.sun_az_deg) - heading_deg) / eps
+    };
+    let tilt_deg = ctx.tilt_sigma_deg * dpsi(eps, 0.0).hypot(dpsi(0.0, eps));
+    Ok((
+        heading_deg,
+        SigmaParts { fit_deg, jackknife_deg, tilt_deg, sun_deg: ctx.sun_sigma_deg, floor_deg: opts.sigma_floor_deg },
+    ))
+}
+
+#[cfg(test)]
+mod debug {
+    use super::*;
+    #[test]
+    fn debug_field_sample() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/samples/field-fisheye-tilted-clouds");
+        let c = crate::capture::Capture::load(std::path::Path::new(dir)).unwrap();
+        let known = crate::effects::Model::default();
+        for i in 0..4 {
+            let data = c.read_frame(i).unwrap();
+            let cells = crate::pipeline::frame_cells(&c, &data, &known, None).unwrap();
+            let f = &c.frames[i];
+            for variant in 0..3 {
+                let mut ctx = crate::pipeline::field_context(&c, f, &known);
+                if variant == 1 { ctx.tilt_x_deg = 0.0; ctx.tilt_y_deg = 0.0; }
+                if variant == 2 { ctx.tilt_x_deg = -ctx.tilt_x_deg; ctx.tilt_y_deg = -ctx.tilt_y_deg; }
+                let opts = FieldOptions::default();
+                let level = ctx.level_from_camera();
+                let obs = observe(&cells, &ctx, &opts, level);
+                let s = cone_sun(&ctx, f.heading_deg.unwrap());
+                let mut d: Vec<f64> = obs.iter().map(|o| residual(o, s).0.abs().to_degrees()).collect();
+                let med = median(&mut d);
+                let (w, tau) = weights(&obs, s, &opts);
+                let used = w.iter().filter(|x| x.0 > 0.5).count();
+                eprintln!("frame {i} variant {variant}: n {} median |δ| {med:.3}° τ {:.3}° used {used}", obs.len(), tau.to_degrees());
+            }
+        }
+    }
+}
