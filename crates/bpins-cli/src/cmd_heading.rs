@@ -118,6 +118,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                         "cells_total": q.cells_total, "cells_valid": q.cells_valid, "cells_used": q.cells_used,
                         "used_fraction": q.used_fraction, "residual_rms_deg": finite(q.residual_rms_deg),
                         "misfit_deg": finite(q.misfit_deg), "iterations": q.iterations,
+                        "sun_elevation_offset_deg": finite(q.sun_elevation_offset_deg),
                     }),
                     used_fraction: Some(q.used_fraction),
                     residual_deg: Some(q.residual_rms_deg),

@@ -182,8 +182,10 @@ impl Cells {
         })
     }
 
-    /// Cells of an already reconstructed Stokes image (superpixels or demosaiced):
-    /// `cell_px` is in pixels and rounded to a whole number of samples.
+    /// Cells of an already reconstructed Stokes image: `cell_px` is in pixels and
+    /// rounded to a whole number of samples. A demosaiced image (every sample at its
+    /// own ray) gives what the mosaic does; a superpixel image keeps the superpixels'
+    /// bias (their four rays differ), which on a fisheye reaches a tenth of a degree.
     pub fn from_pol_image(img: &PolImage, cell_px: usize) -> Cells {
         let k = ((cell_px as f64 / img.step_px).round() as usize).max(1);
         let (cols, rows) = (img.width / k, img.height / k);

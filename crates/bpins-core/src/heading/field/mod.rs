@@ -19,12 +19,13 @@
 //!    is one unknown: a grid search of ψ ∈ [0°, 360°) on the bounded cost
 //!    Σ min(δ², c²)/(σ_α² + 1°²), δ = the angle of each E-vector off ⊥(sun, ray);
 //!    a second minimum as good as the first is an ambiguous frame (no heading)
-//! 4. iterate: δ_i against the current sun; a model-misfit scale τ with
-//!    median(δ²/(σ_α² + τ²)) = 0.455 (the median of χ²₁); Tukey's biweight on
-//!    δ/σ (σ² = σ_α² + τ²); cells whose DoLP is under half the Rayleigh prediction
-//!    (clouds, foliage) and cells within `sun_exclusion_deg` of the sun or anti-sun
-//!    get weight 0; the extractor solves from the weighted sums (weights
-//!    1/(σ² sin²γ) for the sun vector, 1/σ² for the line)
+//! 4. iterate: δ_i against the current sun; a model-misfit scale τ with the lower
+//!    quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015: up to ¾ of the cells may be
+//!    clouds or trees); Tukey's biweight on δ/σ (σ² = σ_α² + τ²); cells whose DoLP is
+//!    under 0.6 × the Rayleigh prediction (clouds, foliage) and cells within
+//!    `sun_exclusion_deg` of the sun or anti-sun get weight 0, and so does every cell
+//!    within 2 cells of a cluster of rejected ones (soft cloud edges); the extractor solves from
+//!    the weighted sums (weights 1/(σ² sin²γ) for the sun vector, 1/σ² for the line)
 //! 5. 1σ² = max(σ_fit², σ_jack²) + σ_tilt² + σ_sun² + σ_floor²:
 //!    σ_fit from the extractor's own residuals (χ²-scaled); σ_jack a delete-one-block
 //!    jackknife over 4 × 4 blocks of the image (correlated misfit: clouds, an
@@ -126,7 +127,7 @@ impl Default for FieldOptions {
         FieldOptions {
             cell_px: None,
             horizon_margin_deg: 3.0,
-            sun_exclusion_deg: 12.0,
+            sun_exclusion_deg: 15.0,
             min_cells: 40,
             min_used_fraction: 0.03,
             max_residual_deg: 8.0,
@@ -198,6 +199,12 @@ pub struct FieldQuality {
     pub misfit_deg: f64,
     /// Robust iterations run.
     pub iterations: usize,
+    /// Elevation of the sun the sky's pattern shows (unconstrained sun vector, level
+    /// frame by the reference tilt) minus the known elevation, degrees: a check on the
+    /// reference tilt and the sun (a tilt error about the horizontal axis across the
+    /// sun's azimuth shows here; one about the sun's azimuth does not, and moves the
+    /// heading by τ·tan h instead).
+    pub sun_elevation_offset_deg: f64,
 }
 
 /// One extractor's field heading of one frame.

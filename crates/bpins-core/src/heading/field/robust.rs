@@ -22,6 +22,10 @@ const AMBIGUITY_CHI2: f64 = 9.0;
 /// Tukey's biweight constant (95 % efficiency at the normal).
 const TUKEY_C: f64 = 4.685;
 const MAX_ITERATIONS: usize = 10;
+/// Cells whose DoLP is below this fraction of the sky's Rayleigh DoLP are not sky.
+const DOLP_FRACTION: f64 = 0.6;
+/// Clustered rejections grow by this many cells (soft edges of clouds and crowns).
+const DILATE_CELLS: isize = 2;
 
 /// One cell as the estimator sees it, level frame.
 #[derive(Clone, Copy, Debug)]
@@ -33,6 +37,8 @@ struct Obs {
     /// Noise variance of the cell's AoP, rad².
     var_aop: f64,
     block: usize,
+    /// Index in the cell grid (row-major).
+    grid: usize,
     /// ψ = AoE − 90° in the level frame (radians), the level ray's image angle β and 2β.
     psi: f64,
     beta: f64,
@@ -77,6 +83,7 @@ fn observe(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions, level: DMat3)
                 dolp: p2.sqrt() / sm.i,
                 var_aop,
                 block: block_of(c.col, cells.cols) + BLOCKS * block_of(c.row, cells.rows),
+                grid: c.row as usize * cells.cols + c.col as usize,
                 psi,
                 beta: image_angle_rad(d.x, d.y),
                 cos2b: mb.cos2b,
@@ -156,21 +163,22 @@ fn min_by_cost(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
 
 /// Step 4's weights for the sun at `s`: (robust weight, σ² = σ_α² + τ², sin²γ) per
 /// cell, and τ.
-fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions) -> (Vec<(f64, f64, f64, f64)>, f64) {
+fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: usize) -> (Vec<(f64, f64, f64, f64)>, f64) {
     let cos_excl = opts.sun_exclusion_deg.to_radians().cos();
     let res: Vec<(f64, f64, f64)> = obs.iter().map(|o| residual(o, s)).collect();
     let kept: Vec<usize> = (0..obs.len()).filter(|&i| res[i].2.abs() < cos_excl).collect();
-    // τ: median(δ²/(σ_α² + τ²)) = 0.455 (bisection; 0 where the noise explains it).
-    let median_chi2 = |tau2: f64| {
+    // τ: the lower quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015), so that up to three
+    // quarters of the cells may be clouds or trees (bisection; 0 where noise explains it).
+    let quartile_chi2 = |tau2: f64| {
         let mut r: Vec<f64> = kept.iter().map(|&i| res[i].0.powi(2) / (obs[i].var_aop + tau2)).collect();
-        median(&mut r)
+        quantile(&mut r, 0.25)
     };
     let mut tau2 = 0.0;
-    if median_chi2(0.0) > 0.455 {
+    if quartile_chi2(0.0) > CHI2_1_Q25 {
         let (mut lo, mut hi) = (0.0f64, 0.25f64);
         for _ in 0..50 {
             let mid = 0.5 * (lo + hi);
-            if median_chi2(mid) > 0.455 {
+            if quartile_chi2(mid) > CHI2_1_Q25 {
                 lo = mid;
             } else {
                 hi = mid;
@@ -186,20 +194,51 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions) -> (Vec<(f64, f64, f64, f
         .map(|&i| obs[i].dolp / dpred(res[i].2))
         .collect();
     let dmax = median(&mut ratios);
-    let w = obs
+    let mut w: Vec<(f64, f64, f64, f64)> = obs
         .iter()
         .zip(&res)
         .map(|(o, &(delta, sg2, cg))| {
             let var = o.var_aop + tau2;
             let mut w = if cg.abs() < cos_excl { tukey(delta / var.sqrt()) } else { 0.0 };
-            if dmax.is_finite() && dpred(cg) > 0.2 && o.dolp < 0.5 * dmax * dpred(cg) {
+            if dmax.is_finite() && dpred(cg) > 0.2 && o.dolp < DOLP_FRACTION * dmax * dpred(cg) {
                 w = 0.0;
             }
             (w, var, sg2, delta)
         })
         .collect();
+    // A rejected cell's neighbours are suspect: clouds and crowns have soft edges whose
+    // misfit is below the cut. Rejections that come in clusters (not a lone noisy cell,
+    // not the sun's disc) grow by DILATE_CELLS.
+    let mut rejected = vec![false; grid_len];
+    for (o, x) in obs.iter().zip(&w) {
+        if x.0 < 0.5 && cg_of(x.2) < cos_excl {
+            rejected[o.grid] = true;
+        }
+    }
+    let rows = grid_len / cols.max(1);
+    let window = |k: usize, r: isize| {
+        let (c0, r0) = ((k % cols) as isize, (k / cols) as isize);
+        (-r..=r).flat_map(move |dr| (-r..=r).map(move |dc| (c0 + dc, r0 + dr))).filter_map(move |(c, rr)| {
+            (c >= 0 && rr >= 0 && (c as usize) < cols && (rr as usize) < rows).then(|| rr as usize * cols + c as usize)
+        })
+    };
+    let seed: Vec<bool> =
+        (0..grid_len).map(|k| rejected[k] && window(k, 1).filter(|&j| j != k && rejected[j]).count() >= 2).collect();
+    for (o, x) in obs.iter().zip(w.iter_mut()) {
+        if window(o.grid, DILATE_CELLS).any(|j| seed[j]) {
+            x.0 = 0.0;
+        }
+    }
     (w, tau2.sqrt())
 }
+
+/// |cos γ| back from sin²γ.
+fn cg_of(sg2: f64) -> f64 {
+    (1.0 - sg2).max(0.0).sqrt()
+}
+
+/// The lower quartile of χ² with one degree of freedom.
+const CHI2_1_Q25: f64 = 0.1015;
 
 fn tukey(r: f64) -> f64 {
     let u = r / TUKEY_C;
@@ -212,10 +251,15 @@ fn tukey(r: f64) -> f64 {
 
 /// Median of `v` (reordered); NaN when empty.
 fn median(v: &mut [f64]) -> f64 {
+    quantile(v, 0.5)
+}
+
+/// The `q` quantile of `v` (reordered; nearest rank); NaN when empty.
+fn quantile(v: &mut [f64], q: f64) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
-    let k = v.len() / 2;
+    let k = ((v.len() as f64 * q) as usize).min(v.len() - 1);
     *v.select_nth_unstable_by(k, |a, b| a.total_cmp(b)).1
 }
 
@@ -292,14 +336,14 @@ pub(super) fn estimate(
     };
     // Step 4: reweight around the sun vector's heading until it settles.
     let band = meridian_band(ctx, opts, level, cells);
-    let (mut w, mut tau) = weights(&obs, cone_sun(ctx, psi), opts);
+    let (mut w, mut tau) = weights(&obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len());
     for it in 1..=MAX_ITERATIONS {
         quality.iterations = it;
         let total = sum_blocks(&block_sums(&obs, &w, Extractor::SunVector, band));
         let Ok((next, _)) = solve(&total, Extractor::SunVector, ctx, cone_sun(ctx, psi)) else { break };
         let step = wrap_deg_180(next - psi);
         psi = next;
-        (w, tau) = weights(&obs, cone_sun(ctx, psi), opts);
+        (w, tau) = weights(&obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len());
         if step.abs() < 1e-4 {
             break;
         }
@@ -320,6 +364,13 @@ pub(super) fn estimate(
     }
     // Step 5: each extractor on the final weights, with its 1σ.
     let hint = cone_sun(ctx, psi);
+    // The sky's own sun (the unconstrained sun vector), as a check on the attitude: its
+    // elevation in the level frame minus the known one.
+    let all = sum_blocks(&block_sums(&obs, &w, Extractor::SunVector, band));
+    if let Ok((_, vecs)) = sun_vector::scatter_eigen(&all) {
+        let s = if vecs[0].dot(hint) < 0.0 { -vecs[0] } else { vecs[0] };
+        quality.sun_elevation_offset_deg = s.z.clamp(-1.0, 1.0).asin().to_degrees() - ctx.sun_el_deg;
+    }
     extractors
         .iter()
         .map(|&e| {
@@ -394,32 +445,3 @@ fn finish(
     ))
 }
 
-#[cfg(test)]
-mod debug {
-    use super::*;
-    #[test]
-    fn debug_field_sample() {
-        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/samples/field-fisheye-tilted-clouds");
-        let c = crate::capture::Capture::load(std::path::Path::new(dir)).unwrap();
-        let known = crate::effects::Model::default();
-        for i in 0..4 {
-            let data = c.read_frame(i).unwrap();
-            let cells = crate::pipeline::frame_cells(&c, &data, &known, None).unwrap();
-            let f = &c.frames[i];
-            for variant in 0..3 {
-                let mut ctx = crate::pipeline::field_context(&c, f, &known);
-                if variant == 1 { ctx.tilt_x_deg = 0.0; ctx.tilt_y_deg = 0.0; }
-                if variant == 2 { ctx.tilt_x_deg = -ctx.tilt_x_deg; ctx.tilt_y_deg = -ctx.tilt_y_deg; }
-                let opts = FieldOptions::default();
-                let level = ctx.level_from_camera();
-                let obs = observe(&cells, &ctx, &opts, level);
-                let s = cone_sun(&ctx, f.heading_deg.unwrap());
-                let mut d: Vec<f64> = obs.iter().map(|o| residual(o, s).0.abs().to_degrees()).collect();
-                let med = median(&mut d);
-                let (w, tau) = weights(&obs, s, &opts);
-                let used = w.iter().filter(|x| x.0 > 0.5).count();
-                eprintln!("frame {i} variant {variant}: n {} median |δ| {med:.3}° τ {:.3}° used {used}", obs.len(), tau.to_degrees());
-            }
-        }
-    }
-}
