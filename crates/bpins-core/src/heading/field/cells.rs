@@ -151,9 +151,7 @@ impl Cells {
                 let ch = chan[v & 1];
                 for (ci, a) in acc.iter_mut().enumerate() {
                     let u0 = ci * cell_px;
-                    for (du, &x) in row[u0..u0 + cell_px].iter().enumerate() {
-                        a.add(ch[du & 1], du as f64, dv as f64, x.dn(), full_scale_dn);
-                    }
+                    a.add_row(ch, dv as f64, &row[u0..u0 + cell_px], full_scale_dn);
                 }
             }
         })
@@ -281,6 +279,33 @@ struct Acc {
 }
 
 impl Acc {
+    /// Adds one DoFP row segment of a cell (even length, starting on an even column):
+    /// channels `ch[0]` and `ch[1]` alternate. Branch-free sums, then one update per channel.
+    #[inline(always)]
+    fn add_row<T: RawDn>(&mut self, ch: [usize; 2], dv: f64, row: &[T], full_scale_dn: f64) {
+        let (mut n, mut s, mut s2, mut su) = ([0.0; 2], [0.0; 2], [0.0; 2], [0.0; 2]);
+        for (i, pair) in row.chunks_exact(2).enumerate() {
+            for k in 0..2 {
+                let x = pair[k].dn();
+                let ok = if dn_is_valid(x, full_scale_dn) { 1.0 } else { 0.0 };
+                let xv = x * ok;
+                n[k] += ok;
+                s[k] += xv;
+                s2[k] += xv * x;
+                su[k] += (2 * i + k) as f64 * xv;
+            }
+        }
+        for k in 0..2 {
+            let c = ch[k];
+            self.n[c] += n[k];
+            self.s[c] += s[k];
+            self.s2[c] += s2[k];
+            self.su[c] += su[k];
+            self.sv[c] += dv * s[k];
+        }
+        self.bad += row.len() as f64 - n[0] - n[1];
+    }
+
     #[inline(always)]
     fn add(&mut self, ch: usize, du: f64, dv: f64, dn: f64, full_scale_dn: f64) {
         if dn_is_valid(dn, full_scale_dn) {

@@ -7,6 +7,7 @@ use crate::effects::lens_diattenuation::lens_diattenuation_inverse;
 use crate::heading::{meridian, sun_vector, Extractor, HeadingSums};
 use crate::stokes::image_to_meridional;
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Jackknife blocks per side of the image (BLOCKS² in all).
@@ -16,12 +17,13 @@ const SEARCH_CAP_RAD: f64 = 10.0 * PI / 180.0;
 /// Per-cell model error assumed by the start search, radians (so no cell dominates).
 const SEARCH_SIGMA_RAD: f64 = 1.0 * PI / 180.0;
 /// Cells the start search reads at most (evenly strided).
-const SEARCH_CELLS: usize = 1024;
-/// A second minimum of the start cost within this of the first is ambiguous (χ² units).
+const SEARCH_CELLS: usize = 512;
+/// A second minimum of the start cost within this of the first is ambiguous (χ² units
+/// of the 1° per-cell error the search assumes).
 const AMBIGUITY_CHI2: f64 = 9.0;
 /// Tukey's biweight constant (95 % efficiency at the normal).
 const TUKEY_C: f64 = 4.685;
-const MAX_ITERATIONS: usize = 10;
+const MAX_ITERATIONS: usize = 8;
 /// Cells whose DoLP is below this fraction of the sky's Rayleigh DoLP are not sky.
 const DOLP_FRACTION: f64 = 0.6;
 /// Clustered rejections grow by this many cells (soft edges of clouds and crowns).
@@ -52,7 +54,7 @@ fn observe(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions, level: DMat3)
     let block_of = |c: u32, n: usize| ((c as usize * BLOCKS) / n.max(1)).min(BLOCKS - 1);
     cells
         .cells
-        .iter()
+        .par_iter()
         .filter_map(|c| {
             let g = ctx.intr.geometry(c.x_px, c.y_px);
             let d = level * g.d;
@@ -127,13 +129,23 @@ fn search(obs: &[Obs], ctx: &FieldContext) -> Result<f64, NoHeading> {
     let stride = pick.len().div_ceil(SEARCH_CELLS).max(1);
     let sub: Vec<(&Obs, f64)> =
         pick.iter().step_by(stride).map(|o| (*o, 1.0 / (o.var_aop + SEARCH_SIGMA_RAD * SEARCH_SIGMA_RAD))).collect();
+    // sin²δ = (e·s)²/sin²γ, capped (no arcsine: the cost is bounded anyway).
+    let cap = SEARCH_CAP_RAD.sin().powi(2);
     let cost = |psi_deg: f64| {
         let s = cone_sun(ctx, psi_deg);
-        sub.iter().map(|(o, w)| w * residual(o, s).0.powi(2).min(SEARCH_CAP_RAD * SEARCH_CAP_RAD)).sum::<f64>()
+        sub.iter()
+            .map(|(o, w)| {
+                let (es, ds) = (o.e.dot(s), o.d.dot(s));
+                w * (es * es / (1.0 - ds * ds).max(1e-12)).min(cap)
+            })
+            .sum::<f64>()
     };
-    let grid: Vec<(f64, f64)> = (0..180).map(|k| 2.0 * k as f64).map(|p| (p, cost(p))).collect();
+    let grid: Vec<(f64, f64)> = (0..120).map(|k| 3.0 * k as f64).map(|p| (p, cost(p))).collect();
     let refine = |centre: f64| {
-        (-20..=20).map(|k| centre + 0.1 * k as f64).map(|p| (p, cost(p))).fold((centre, f64::INFINITY), min_by_cost)
+        let fine = |c: f64, step: f64| {
+            (-6..=6).map(|k| c + step * k as f64).map(|p| (p, cost(p))).fold((c, f64::INFINITY), min_by_cost)
+        };
+        fine(fine(centre, 0.5).0, 0.05)
     };
     let coarse = grid.iter().copied().fold((0.0, f64::INFINITY), min_by_cost);
     let best = refine(coarse.0);
@@ -168,24 +180,12 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
     let res: Vec<(f64, f64, f64)> = obs.iter().map(|o| residual(o, s)).collect();
     let kept: Vec<usize> = (0..obs.len()).filter(|&i| res[i].2.abs() < cos_excl).collect();
     // τ: the lower quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015), so that up to three
-    // quarters of the cells may be clouds or trees (bisection; 0 where noise explains it).
-    let quartile_chi2 = |tau2: f64| {
-        let mut r: Vec<f64> = kept.iter().map(|&i| res[i].0.powi(2) / (obs[i].var_aop + tau2)).collect();
-        quantile(&mut r, 0.25)
-    };
-    let mut tau2 = 0.0;
-    if quartile_chi2(0.0) > CHI2_1_Q25 {
-        let (mut lo, mut hi) = (0.0f64, 0.25f64);
-        for _ in 0..50 {
-            let mid = 0.5 * (lo + hi);
-            if quartile_chi2(mid) > CHI2_1_Q25 {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        tau2 = hi;
-    }
+    // quarters of the cells may be clouds or trees: δ²/(v + τ²) ≤ c ⟺ (δ² − c·v)/c ≤ τ²,
+    // so τ² is the lower quartile of (δ² − c·v)/c (0 where the noise explains it).
+    let mut t: Vec<f64> =
+        kept.iter().map(|&i| (res[i].0.powi(2) - CHI2_1_Q25 * obs[i].var_aop) / CHI2_1_Q25).collect();
+    let tau2 = quantile(&mut t, 0.25).max(0.0);
+    let tau2 = if tau2.is_finite() { tau2 } else { 0.0 };
     // d_max of the sky from the cells that fit, for the DoLP test.
     let dpred = |cg: f64| (1.0 - cg * cg) / (1.0 + cg * cg);
     let mut ratios: Vec<f64> = kept
@@ -216,20 +216,40 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
         }
     }
     let rows = grid_len / cols.max(1);
-    let window = |k: usize, r: isize| {
-        let (c0, r0) = ((k % cols) as isize, (k / cols) as isize);
-        (-r..=r).flat_map(move |dr| (-r..=r).map(move |dc| (c0 + dc, r0 + dr))).filter_map(move |(c, rr)| {
-            (c >= 0 && rr >= 0 && (c as usize) < cols && (rr as usize) < rows).then(|| rr as usize * cols + c as usize)
+    let seed: Vec<bool> = (0..grid_len)
+        .map(|k| {
+            let (c, r) = (k % cols, k / cols);
+            let near = (r.saturating_sub(1)..=(r + 1).min(rows - 1))
+                .flat_map(|rr| (c.saturating_sub(1)..=(c + 1).min(cols - 1)).map(move |cc| rr * cols + cc))
+                .filter(|&j| j != k && rejected[j])
+                .count();
+            rejected[k] && near >= 2
         })
-    };
-    let seed: Vec<bool> =
-        (0..grid_len).map(|k| rejected[k] && window(k, 1).filter(|&j| j != k && rejected[j]).count() >= 2).collect();
+        .collect();
+    let grown = dilate(&seed, cols, rows, DILATE_CELLS as usize);
     for (o, x) in obs.iter().zip(w.iter_mut()) {
-        if window(o.grid, DILATE_CELLS).any(|j| seed[j]) {
+        if grown[o.grid] {
             x.0 = 0.0;
         }
     }
     (w, tau2.sqrt())
+}
+
+/// `mask` grown by `r` cells (a square window), as two separable passes.
+fn dilate(mask: &[bool], cols: usize, rows: usize, r: usize) -> Vec<bool> {
+    let mut h = vec![false; mask.len()];
+    for row in 0..rows {
+        for c in 0..cols {
+            h[row * cols + c] = (c.saturating_sub(r)..=(c + r).min(cols - 1)).any(|cc| mask[row * cols + cc]);
+        }
+    }
+    let mut out = vec![false; mask.len()];
+    for row in 0..rows {
+        for c in 0..cols {
+            out[row * cols + c] = (row.saturating_sub(r)..=(row + r).min(rows - 1)).any(|rr| h[rr * cols + c]);
+        }
+    }
+    out
 }
 
 /// |cos γ| back from sin²γ.
@@ -344,7 +364,7 @@ pub(super) fn estimate(
         let step = wrap_deg_180(next - psi);
         psi = next;
         (w, tau) = weights(&obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len());
-        if step.abs() < 1e-4 {
+        if step.abs() < 1e-3 {
             break;
         }
     }

@@ -1,0 +1,73 @@
+//! Criterion benchmarks of the field estimator (`cargo bench -p bpins-core --bench
+//! field`): a raw 16-bit DoFP mosaic in memory → cells → robust heading with its 1σ,
+//! as a robot's loop runs it. Figures and the machine go to BENCHMARKS.md.
+//!
+//! * `field/dofp_2048x2448_u16_to_heading`: a full IMX250MZR frame (8 mm pinhole at
+//!   3.45 µm, tilted 4°/−3°, sun 40°/25°); target on the 2-core dev machine ≤ 25 ms.
+//! * `field/dofp_512x612_u16_to_heading`: the samples' sensor; target ≤ 2 ms.
+//! * `field/*_cells` and `field/*_estimate`: the two stages of the first.
+
+use bpins_core::camera::{Intrinsics, Projection};
+use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::effects::Model;
+use bpins_core::heading::field::{estimate, Cells, FieldContext, FieldOptions, RawImage};
+use bpins_core::heading::Extractor;
+use bpins_core::recon::Reconstructor;
+use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
+use bpins_core::simulate::render_mosaic;
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::hint::black_box;
+
+/// A rendered u16 mosaic of `w × h` pixels at `pitch_um`, and its field context.
+fn setup(w: usize, h: usize, pitch_um: f64) -> (Vec<u16>, FieldContext) {
+    let intr = Intrinsics::new(Projection::Pinhole, 8000.0 / pitch_um, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+    let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 4.0, tilt_y_deg: -3.0, dmax: 0.6 };
+    let resp = Response {
+        gain_dn: 3000.0,
+        black_level_dn: 64.0,
+        read_noise_dn: 1.0,
+        system_gain_dn_per_e: 0.1,
+        bit_depth: 12,
+        quantize: true,
+        ..Response::ideal(1.0)
+    };
+    let f = ChainFrame::new(&Model::default(), &intr, &scene, &resp, NoiseIndex { seed: 1, trial: 0, frame: 0 });
+    let dn: Vec<u16> = render_mosaic(&f, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+    let ctx = FieldContext {
+        tilt_x_deg: 4.0,
+        tilt_y_deg: -3.0,
+        tilt_sigma_deg: 0.1,
+        ..FieldContext::new(intr, scene.sun_az_deg, scene.sun_el_deg)
+    };
+    (dn, ctx)
+}
+
+fn heading(dn: &[u16], w: usize, h: usize, rec: &Reconstructor, ctx: &FieldContext) -> f64 {
+    let cells = Cells::from_mosaic(&RawImage::packed(dn, w, h), &DEFAULT_MOSAIC, rec, 4095.0, Cells::default_cell_px(w, h));
+    let r = estimate(&cells, ctx, &FieldOptions::default(), &[Extractor::SunVector]);
+    r[0].heading_deg().expect("a clear sky has a heading")
+}
+
+fn field(c: &mut Criterion) {
+    let rec = Reconstructor::new(&Model::default(), 64.0, &Channel::ALL).expect("four channels");
+    let mut g = c.benchmark_group("field");
+    for (w, h, pitch, name) in [(2448, 2048, 3.45, "dofp_2048x2448"), (612, 512, 13.8, "dofp_512x612")] {
+        let (dn, ctx) = setup(w, h, pitch);
+        g.bench_function(format!("{name}_u16_to_heading"), |b| b.iter(|| black_box(heading(&dn, w, h, &rec, &ctx))));
+        if w == 2448 {
+            let cell = Cells::default_cell_px(w, h);
+            let img = RawImage::packed(dn.as_slice(), w, h);
+            g.bench_function(format!("{name}_cells"), |b| {
+                b.iter(|| black_box(Cells::from_mosaic(&img, &DEFAULT_MOSAIC, &rec, 4095.0, cell)))
+            });
+            let cells = Cells::from_mosaic(&img, &DEFAULT_MOSAIC, &rec, 4095.0, cell);
+            g.bench_function(format!("{name}_estimate"), |b| {
+                b.iter(|| black_box(estimate(&cells, &ctx, &FieldOptions::default(), &[Extractor::SunVector])))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, field);
+criterion_main!(benches);
