@@ -9,7 +9,8 @@ use bpins_core::capture::Capture;
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::Model;
 use bpins_core::heading::Extractor;
-use bpins_core::pipeline::{frame_headings, reconstruct_frame, ReconMode};
+use bpins_core::heading::field::FieldOptions;
+use bpins_core::pipeline::{field_headings, frame_headings, reconstruct_frame, ReconMode};
 use bpins_core::recon::angle_maps;
 use bpins_core::sensor::{Channel, Layout, DEFAULT_MOSAIC};
 
@@ -128,4 +129,44 @@ fn clean_sample_dolp_peaks_near_the_sky_dmax() {
     // corner (γ ≈ 32°, d ≈ 0.10): the pattern spans a wide range but never reaches 0.
     assert!((0.05..0.25).contains(&p01), "1st percentile DoLP {p01:.4}");
     eprintln!("DoLP percentiles: 1 % {p01:.4}, 99 % {p99:.4}");
+}
+
+const FIELD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/samples/field-fisheye-tilted-clouds");
+
+#[test]
+fn the_tilted_cloudy_fisheye_sample_is_read_within_its_sigma() {
+    // The independent generator's field sample: equidistant fisheye (±46°), a Berry sky
+    // with a radiance brighter toward the sun and the horizon, eight clouds, frames
+    // tilted up to 8° with an IMU's 0.1° reading of the tilt (tilt_sigma_deg).
+    let c = load(FIELD);
+    assert_eq!(c.frames.len(), 4);
+    assert!(c.frames.iter().all(|f| f.tilt_sigma_deg == Some(0.1)), "tilt_sigma_deg is read");
+    let opts = FieldOptions::default();
+    let mut errs = Vec::new();
+    for i in 0..c.frames.len() {
+        let reference = c.frames[i].heading_deg.unwrap();
+        let r = &field_headings(&c, i, &Model::default(), &opts, &[Extractor::SunVector]).unwrap()[0];
+        let (h, parts) = r.result.clone().unwrap_or_else(|e| panic!("frame {i}: no heading: {e}"));
+        let err = wrap_deg_180(h - reference);
+        let sigma = parts.total_deg();
+        eprintln!("frame {i}: error {err:+.4}°, 1σ {sigma:.4}° ({parts:?}), {:?}", r.quality);
+        // The IMU's 0.1° per axis is in the 1σ: about 0.1°·tan 38° = 0.08°.
+        assert!((parts.tilt_deg - 0.078).abs() < 0.01, "frame {i}: {parts:?}");
+        assert!(err.abs() < 5.0 * sigma, "frame {i}: error {err:+.4}° beyond 5σ ({sigma:.4}°)");
+        // Clouds and the ground are left out, the rest is used.
+        assert!((0.2..0.9).contains(&r.quality.used_fraction), "frame {i}: {:?}", r.quality);
+        errs.push((err, sigma));
+    }
+    let rms = (errs.iter().map(|e| e.0 * e.0).sum::<f64>() / errs.len() as f64).sqrt();
+    let within = errs.iter().filter(|(e, s)| e.abs() <= 2.0 * s).count();
+    assert!(rms < 0.3, "RMS error {rms:.4}° (want < 0.3°): {errs:?}");
+    assert!(within >= 3, "{within} of 4 within 2σ: {errs:?}");
+    // Read as the plain least squares over every pixel, the clouds pull it by degrees.
+    let plain: Vec<f64> = (0..c.frames.len())
+        .map(|i| {
+            let est = frame_headings(&c, i, &Model::default(), ReconMode::Superpixel, &[Extractor::SunVector]).unwrap();
+            wrap_deg_180(est[0].1.as_ref().unwrap().heading_deg - c.frames[i].heading_deg.unwrap())
+        })
+        .collect();
+    assert!(plain.iter().any(|e| e.abs() > 1.0), "plain: {plain:?}");
 }
