@@ -197,11 +197,24 @@ mod tests {
         ChainFrame::new(&set.model(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 9, trial: 4, frame: 2 })
     }
 
+    /// A noisy frame with every scene element, tilted 75° toward the sun: the sun,
+    /// clouds, skyline and ground all in view.
+    fn field_frame() -> ChainFrame {
+        let mut field = crate::scene::FieldScene::all(4);
+        field.set("clouds", "count", 40.0).unwrap();
+        let resp = Response { read_noise_dn: 1.0, quantize: true, bit_depth: 12, ..Response::ideal(3000.0) };
+        let tilted = Scene { heading_deg: 40.0, tilt_x_deg: 75.0, ..scene() };
+        let idx = NoiseIndex { seed: 9, trial: 0, frame: 1 };
+        let f = ChainFrame::new_in_field(&Model::default(), &intrinsics(), &tilted, &resp, idx, Some(&field));
+        assert!(f.has_pixel_effects());
+        f
+    }
+
     #[test]
     fn dofp_row_kernels_are_bitwise_the_per_pixel_chain() {
         // One scratch for a noisy, a noise-free and a noisy frame again: no stale draws.
         let mut scratch = NoiseRows::default();
-        for f in [noisy_frame(false), ideal_frame(&Model::default()), noisy_frame(true)] {
+        for f in [noisy_frame(false), ideal_frame(&Model::default()), field_frame(), noisy_frame(true)] {
             let (w, v) = (612usize, 37usize);
             let mut sig = vec![0.0; w];
             let mut dn = vec![0f32; w];
@@ -227,7 +240,7 @@ mod tests {
         let used = [true, true, false, true];
         // One scratch for a noisy, a noise-free and a noisy frame again: no stale draws.
         let mut scratch = NoiseRows::default();
-        for f in [noisy_frame(false), ideal_frame(&Model::default()), noisy_frame(true)] {
+        for f in [noisy_frame(false), ideal_frame(&Model::default()), field_frame(), noisy_frame(true)] {
             signal4_row(&f, v as f64, &mut sig);
             sensor_dn4_row(&f, (v * w) as u32, used, &sig, &mut scratch, &mut dn);
             for u in 0..w {
