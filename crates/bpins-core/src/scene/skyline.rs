@@ -4,8 +4,9 @@
 //! h(A)   skyline elevation at world azimuth A: the highest of low hills and the
 //!        objects drawn around the horizon (seeded, fixed in the world):
 //!        building  flat top at H·U(0.25, 1) over U(4°, 25°) of azimuth
-//!        tree      crown H_t·√(1 − x²)·(1 + 0.15·j(A)) over U(3°, 12°), H_t = H·U(0.35, 1),
-//!                  x ∈ [−1, 1] across the crown, j ∈ [−1, 1] jagged noise (0.4°, 0.15°)
+//!        tree      crown H_t·√(1 − x²)·(1 + 0.15·j(A)), H_t = H·U(0.35, 1), over a width
+//!                  of H_t·U(0.8, 1.6) (at least 3°): x ∈ [−1, 1] across the crown,
+//!                  j ∈ [−1, 1] jagged noise (0.4°, 0.15°)
 //!        gap       U(2°, 20°) of open horizon; a stretch is an object with
 //!                  probability `coverage`, a tree with probability `tree_fraction`
 //! view elevation e ≥ h(A):   the sky, untouched
@@ -172,7 +173,10 @@ fn profile_deg(max_deg: f64, coverage: f64, tree_fraction: f64, seed: u64) -> Ve
         let tree = next() < tree_fraction;
         let (w, h) = match (object, tree) {
             (false, _) => (2.0 + 18.0 * next(), 0.0),
-            (true, true) => (3.0 + 9.0 * next(), max_deg * (0.35 + 0.65 * next())),
+            (true, true) => {
+                let h = max_deg * (0.35 + 0.65 * next());
+                ((h * (0.8 + 0.8 * next())).max(3.0), h)
+            }
             (true, false) => (4.0 + 21.0 * next(), max_deg * (0.25 + 0.75 * next())),
         };
         if object {
