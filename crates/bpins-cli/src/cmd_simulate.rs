@@ -111,7 +111,8 @@ pub struct Args {
     /// Peak degree of linear polarization of the sky.
     #[arg(long, default_value_t = 0.6)]
     dmax: f64,
-    /// Peak signal of the first frame as a fraction of the range above black.
+    /// Peak signal of the first frame as a fraction of the range above black (with
+    /// --scene: of its field sky without the sun's disc and aureole, which saturate).
     #[arg(long, default_value_t = 0.7)]
     peak_fraction: f64,
     /// Read noise σ, DN.
