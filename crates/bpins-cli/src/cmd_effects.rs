@@ -1,11 +1,13 @@
-//! `bpins effects`: the registry, as a table or JSON.
+//! `bpins effects`: the registry, as a table or JSON; then the scene elements
+//! (field conditions of `bpins simulate --scene`) in their own section of the table.
 
 use bpins_core::effects::REGISTRY;
+use bpins_core::scene::ELEMENTS;
 use serde_json::json;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Print JSON instead of a table.
+    /// Print the effects as JSON instead of a table (the JSON lists effects only).
     #[arg(long)]
     json: bool,
 }
@@ -30,6 +32,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             println!(
                 "    {:<14} {:>4}  neutral {:<6} typical {:<6} range [{}, {}]  {}",
                 p.name, p.unit, p.neutral, p.typical, p.min, p.max, p.doc
+            );
+        }
+    }
+    println!();
+    println!("scene elements (field conditions; bpins simulate --scene NAME or NAME.PARAM=VALUE; CPU backend only)");
+    for e in ELEMENTS {
+        println!("{:<20} {}  ({})", e.name, e.summary, e.source);
+        for p in e.params {
+            println!(
+                "    {:<18} {:>4}  default {:<8} range [{}, {}]  {}",
+                p.name, p.unit, p.default, p.min, p.max, p.doc
             );
         }
     }

@@ -1,16 +1,18 @@
 //! `bpins simulate`: a capture (bpins-capture/1) made by the model, with any catalog
-//! effect at any value, or one EXR frame with I0…I135, AoP, DoLP and AoE.
-//! Defaults reproduce the sample captures' setup (shared/samples/README.md).
+//! effect at any value and any scene element (field conditions: `--scene`), or one
+//! EXR frame with I0…I135, AoP, DoLP and AoE. Defaults reproduce the sample
+//! captures' setup (shared/samples/README.md).
 
 use crate::Backend;
 use anyhow::{bail, Context};
 use bpins_core::camera::Projection;
 use bpins_core::capture::{write_exr_layers, Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
-use bpins_core::chain::{ChainFrame, NoiseIndex};
+use bpins_core::chain::ChainFrame;
 use bpins_core::conventions::image_centre_px;
 use bpins_core::effects::EffectSet;
-use bpins_core::pipeline::{reconstruct_frame, scene_of, sim_chain_frame, sim_response, ReconMode, SimSensor};
+use bpins_core::pipeline::{reconstruct_frame, sim_chain_frame, sim_response, ReconMode, SimSensor};
 use bpins_core::recon::angle_maps;
+use bpins_core::scene::{FieldAttitude, FieldScene};
 use bpins_core::sensor::{Channel, Geometry, Layout, DEFAULT_MOSAIC};
 use bpins_core::sky::sun::{sun_from_time_place, SunPosition};
 use std::path::PathBuf;
@@ -31,6 +33,27 @@ pub struct Args {
     /// e.g. --effect array_rotation.dtheta_deg=0.3. `bpins effects` lists them.
     #[arg(long = "effect", value_name = "EFFECT.PARAM=VALUE")]
     effects: Vec<String>,
+    /// A scene element (field conditions) at its defaults, NAME, or one of its
+    /// parameters, NAME.PARAM=VALUE (repeatable), e.g. --scene clouds --scene
+    /// skyline.max_elevation_deg=15. `bpins effects` lists them. CPU backend only.
+    #[arg(long = "scene", value_name = "NAME[.PARAM=VALUE]")]
+    scene: Vec<String>,
+    /// Seed of the scene's clouds, skyline, textures and of the random tilts and
+    /// IMU/sun errors (default: --seed).
+    #[arg(long)]
+    scene_seed: Option<u64>,
+    /// Each frame's true tilt about camera x and y drawn uniformly within ±this,
+    /// degrees, added to --tilt-x-deg/--tilt-y-deg (seeded by --scene-seed).
+    #[arg(long, default_value_t = 0.0)]
+    tilt_random_deg: f64,
+    /// 1σ of the IMU per tilt axis, degrees: the reference tilt written is the true
+    /// tilt plus N(0, σ), and `tilt_sigma_deg` = σ is written with it.
+    #[arg(long)]
+    imu_sigma_deg: Option<f64>,
+    /// 1σ of the sun's azimuth and elevation, degrees: frames are rendered under the
+    /// written sun plus N(0, σ) per angle, and `sun_sigma_deg` = σ is written.
+    #[arg(long)]
+    sun_sigma_deg: Option<f64>,
     /// Sensor layout.
     #[arg(long, value_enum, default_value_t = LayoutArg::Dofp)]
     layout: LayoutArg,
@@ -59,36 +82,37 @@ pub struct Args {
     #[arg(long, default_value_t = 8.0)]
     focal_length_mm: f64,
     /// Nominal principal point x,y in pixels (default: the image centre).
-    #[arg(long, value_delimiter = ',', num_args = 2)]
+    #[arg(long, value_delimiter = ',', num_args = 2, allow_hyphen_values = true)]
     principal_point_px: Option<Vec<f64>>,
     /// Sun azimuth from North toward East, degrees.
-    #[arg(long, default_value_t = 40.0)]
+    #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
     sun_azimuth_deg: f64,
     /// Sun elevation, degrees.
-    #[arg(long, default_value_t = 25.0)]
+    #[arg(long, default_value_t = 25.0, allow_negative_numbers = true)]
     sun_elevation_deg: f64,
     /// Instead of the sun's angles: UTC time (RFC 3339) for NREL SPA, with --latitude-deg/--longitude-deg.
     #[arg(long, requires_all = ["latitude_deg", "longitude_deg"])]
     time_utc: Option<String>,
     /// Latitude, degrees north.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     latitude_deg: Option<f64>,
     /// Longitude, degrees east.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     longitude_deg: Option<f64>,
     /// One frame per heading, degrees (a turntable).
-    #[arg(long, value_delimiter = ',', default_value = "0,45,90,135,180,225,270,315")]
+    #[arg(long, value_delimiter = ',', default_value = "0,45,90,135,180,225,270,315", allow_hyphen_values = true)]
     headings_deg: Vec<f64>,
     /// Frame tilt about camera x, degrees (recorded as the frames' reference tilt).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     tilt_x_deg: f64,
     /// Frame tilt about camera y, degrees.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     tilt_y_deg: f64,
     /// Peak degree of linear polarization of the sky.
     #[arg(long, default_value_t = 0.6)]
     dmax: f64,
-    /// Peak signal of the first frame as a fraction of the range above black.
+    /// Peak signal of the first frame as a fraction of the range above black (with
+    /// --scene: of its field sky without the sun's disc and aureole, which saturate).
     #[arg(long, default_value_t = 0.7)]
     peak_fraction: f64,
     /// Read noise σ, DN.
@@ -130,7 +154,28 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         effects.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
     }
     let model = effects.model();
-    let capture = build_capture(&a)?;
+    let scene_seed = a.scene_seed.unwrap_or(a.seed);
+    let mut field = FieldScene::new(scene_seed);
+    for spec in &a.scene {
+        field.parse(spec).with_context(|| format!("--scene {spec}"))?;
+    }
+    if !field.is_empty() && a.backend == Backend::Gpu {
+        bail!("--scene: scene elements (field conditions) run on the CPU backend only; use --backend cpu");
+    }
+    let field = (!field.is_empty()).then_some(field);
+    // The frames as asked; with random tilts or IMU/sun errors, the truth to render
+    // and the reference to write differ (scene::attitude).
+    let nominal = build_capture(&a)?;
+    let attitude = FieldAttitude {
+        tilt_random_deg: a.tilt_random_deg,
+        imu_sigma_deg: a.imu_sigma_deg,
+        sun_sigma_deg: a.sun_sigma_deg,
+        seed: scene_seed,
+    };
+    let (truth_frames, reference_frames) =
+        attitude.draw(&nominal.frames).context("--tilt-random-deg / --imu-sigma-deg / --sun-sigma-deg")?;
+    let capture = Capture { frames: truth_frames, ..nominal.clone() };
+    let written = Capture { frames: reference_frames, ..nominal };
     let sim = SimSensor {
         peak_fraction: a.peak_fraction,
         read_noise_dn: a.read_noise_dn,
@@ -153,9 +198,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             bail!("{name} {v} must be a finite number ≥ 0");
         }
     }
-    let resp = sim_response(&capture, &sim)?;
+    let resp = sim_response(&capture, &sim, field.as_ref())?;
     let effects_text: Vec<String> = effects
         .iter()
+        .flat_map(|(d, v)| d.params.iter().zip(v).map(move |(p, x)| format!("{}.{}={} {}", d.name, p.name, x, p.unit)))
+        .collect();
+    let scene_text: Vec<String> = field
+        .iter()
+        .flat_map(|f| f.iter())
         .flat_map(|(d, v)| d.params.iter().zip(v).map(move |(p, x)| format!("{}.{}={} {}", d.name, p.name, x, p.unit)))
         .collect();
     eprintln!(
@@ -164,13 +214,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         resp.gain_dn,
         if effects_text.is_empty() { "none".to_string() } else { effects_text.join(", ") }
     );
+    if !scene_text.is_empty() {
+        eprintln!("scene (seed {scene_seed}): {}", scene_text.join(", "));
+    }
+    if !attitude.is_none() {
+        eprintln!(
+            "attitude (seed {scene_seed}): true tilt ±{} deg per axis; IMU σ {} deg; sun σ {} deg",
+            a.tilt_random_deg,
+            a.imu_sigma_deg.map_or("none".into(), |s| s.to_string()),
+            a.sun_sigma_deg.map_or("none".into(), |s| s.to_string()),
+        );
+    }
     let engine = crate::backend::Engine::open(a.backend)?;
     if let Some(path) = &a.exr {
         crate::ensure_not_in_capture(path)?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
-        return write_dump(&engine, &capture, &model, &resp, &sim, path);
+        return write_dump(&engine, &capture, &model, &resp, &sim, field.as_ref(), path);
     }
     let out = a.out.as_ref().expect("clap requires --out without --exr");
     if let Some(parent) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -183,7 +244,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     // A few frames per call: the GPU batches them, the bar moves.
     for first in (0..capture.frames.len()).step_by(8) {
         let chain: Vec<ChainFrame> = (first..capture.frames.len().min(first + 8))
-            .map(|i| sim_chain_frame(&capture, i, &model, &resp, &sim))
+            .map(|i| sim_chain_frame(&capture, i, &model, &resp, &sim, field.as_ref()))
             .collect();
         match &capture.sensor.layout {
             Layout::Dofp { mosaic } => {
@@ -201,8 +262,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         pb.set_position(frames.len() as u64);
     }
     pb.finish_and_clear();
-    let capture = Capture { dir: out.clone(), ..capture };
-    capture.write(out, &frames)?;
+    let written = Capture { dir: out.clone(), ..written };
+    written.write(out, &frames)?;
     eprintln!("wrote {} frames to {}", frames.len(), out.display());
     Ok(())
 }
@@ -272,17 +333,12 @@ fn write_dump(
     model: &bpins_core::effects::Model,
     resp: &bpins_core::sensor::Response,
     sim: &SimSensor,
+    field: Option<&FieldScene>,
     path: &std::path::Path,
 ) -> anyhow::Result<()> {
     let g = &c.sensor.geometry;
     let (w, h) = (g.width_px as usize, g.height_px as usize);
-    let f = ChainFrame::new(
-        model,
-        &c.intrinsics(),
-        &scene_of(&c.frames[0], sim.dmax),
-        resp,
-        NoiseIndex { seed: sim.seed, trial: 0, frame: 0 },
-    );
+    let f = sim_chain_frame(c, 0, model, resp, sim, field);
     let planes = engine.render_colocated(std::slice::from_ref(&f), w, h, &Channel::ALL)?.remove(0);
     let colocated = Capture {
         sensor: SensorSpec { layout: Layout::Colocated { channels: Channel::ALL.to_vec() }, ..c.sensor.clone() },

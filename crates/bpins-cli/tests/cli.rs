@@ -558,6 +558,148 @@ fn simulate_exr_dump_writes_one_frame() {
     bpins(&["simulate", "--exr", &s(&exr), "--out", &s(&tmp.path().join("x"))]).fails();
 }
 
+// ------------------------------------------------- field conditions (--scene)
+
+/// A small fisheye capture (64 × 64 px, ±46°) with every scene element, random tilts
+/// and IMU/sun errors.
+fn field_args(out: &Path, scene_seed: &str) -> Vec<String> {
+    [
+        "simulate",
+        "--out",
+        &s(out),
+        "--projection",
+        "equidistant",
+        "--focal-length-mm",
+        "2.2",
+        "--pixel-pitch-um",
+        "27.6",
+        "--width-px",
+        "64",
+        "--height-px",
+        "64",
+        "--headings-deg",
+        "0,90,180,270",
+        "--scene",
+        "sky_radiance",
+        "--scene",
+        "clouds",
+        "--scene",
+        "clouds.count=12",
+        "--scene",
+        "sun_disc",
+        "--scene",
+        "skyline.max_elevation_deg=15",
+        "--tilt-random-deg",
+        "5",
+        "--imu-sigma-deg",
+        "0.1",
+        "--sun-sigma-deg",
+        "0.2",
+        "--scene-seed",
+        scene_seed,
+    ]
+    .iter()
+    .map(|x| x.to_string())
+    .collect()
+}
+
+#[test]
+fn simulate_with_scene_elements_and_random_tilts_writes_the_imu_sigma() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (a, b, other) = (tmp.path().join("a"), tmp.path().join("b"), tmp.path().join("other"));
+    let r = bpins(&field_args(&a, "7")).ok();
+    r.stderr_has("scene (seed 7)").stderr_has("clouds.count=12").stderr_has("IMU σ 0.1 deg");
+    let c = bpins_core::capture::Capture::load(&a).expect("bpins reads its field capture");
+    assert_eq!(c.frames.len(), 4);
+    let mut tilts = Vec::new();
+    for f in &c.frames {
+        assert_eq!(f.tilt_sigma_deg, Some(0.1), "{:?}", f.file);
+        assert_eq!(f.sun_sigma_deg, Some(0.2), "{:?}", f.file);
+        let (x, y) = (f.tilt_x_deg.expect("a reference tilt"), f.tilt_y_deg.expect("a reference tilt"));
+        assert!(x.abs() < 5.5 && y.abs() < 5.5, "reference tilt ({x}, {y})° beyond ±5° + 5σ");
+        assert_eq!((f.sun.azimuth_deg, f.sun.elevation_deg), (40.0, 25.0), "the written sun is the one asked");
+        tilts.push((x, y));
+    }
+    assert!(tilts.windows(2).all(|w| w[0] != w[1]), "every frame draws its own tilt: {tilts:?}");
+    // The same seeds give the same capture; another scene seed another one.
+    bpins(&field_args(&b, "7")).ok();
+    bpins(&field_args(&other, "8")).ok();
+    let load = |d: &Path| {
+        let c = bpins_core::capture::Capture::load(d).unwrap();
+        (0..c.frames.len()).map(|i| c.read_frame(i).unwrap()).collect::<Vec<_>>()
+    };
+    assert_eq!(load(&a), load(&b));
+    assert_ne!(load(&a), load(&other));
+    let reread = bpins_core::capture::Capture::load(&other).unwrap();
+    assert_ne!(reread.frames[0].tilt_x_deg, c.frames[0].tilt_x_deg);
+}
+
+#[test]
+fn bad_scene_elements_are_named_and_the_gpu_refuses_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("x");
+    let small = ["--width-px", "32", "--height-px", "32", "--headings-deg", "0"];
+    let run = |extra: &[&str]| bpins(&[&["simulate", "--out", &s(&out)][..], &small[..], extra].concat());
+    run(&["--scene", "no_such"]).fails().stderr_has("no_such").stderr_has("clouds").stderr_has("skyline");
+    run(&["--scene", "clouds.cnt=3"]).fails().stderr_has("count");
+    run(&["--scene", "clouds.count=2.5"]).fails().stderr_has("whole");
+    run(&["--scene", "clouds.count=1e9"]).fails();
+    run(&["--tilt-random-deg", "60"]).fails().stderr_has("45");
+    // Scene elements have no GPU twin: a clear error before any GPU is looked for.
+    run(&["--backend", "gpu", "--scene", "clouds"]).fails().stderr_has("CPU backend only");
+    assert!(!out.exists(), "a refused simulate wrote {}", out.display());
+}
+
+#[test]
+fn negative_angles_are_taken_as_written_and_a_twilight_sun_simulates() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("twilight");
+    let args = [
+        "simulate",
+        "--out",
+        &s(&out),
+        "--width-px",
+        "32",
+        "--height-px",
+        "32",
+        "--headings-deg",
+        "-10,20",
+        "--tilt-y-deg",
+        "-5",
+        "--tilt-x-deg",
+        "-2.5",
+        "--sun-azimuth-deg",
+        "-30",
+        "--sun-elevation-deg",
+        "-3",
+        "--scene",
+        "skyline",
+    ];
+    bpins(&args).ok();
+    let c = bpins_core::capture::Capture::load(&out).unwrap();
+    let f = &c.frames[0];
+    assert_eq!((f.heading_deg, f.tilt_x_deg, f.tilt_y_deg), (Some(-10.0), Some(-2.5), Some(-5.0)));
+    assert_eq!((f.sun.azimuth_deg, f.sun.elevation_deg), (330.0, -3.0));
+    assert_eq!(c.frames[1].heading_deg, Some(20.0));
+}
+
+#[test]
+fn effects_lists_the_scene_elements_after_the_effects() {
+    let table = bpins(&["effects"]).ok().stdout;
+    let section = table.find("scene elements").expect("a scene elements section");
+    assert!(table.find("crosstalk").unwrap() < section, "the section comes after the effects");
+    for (name, param) in [
+        ("sky_radiance", "d_per_rad"),
+        ("clouds", "rotation_sigma_deg"),
+        ("sun_disc", "csr"),
+        ("skyline", "max_elevation_deg"),
+    ] {
+        let at = table[section..].find(name).unwrap_or_else(|| panic!("{name} not listed:\n{table}"));
+        assert!(table[section + at..].contains(param), "{name}.{param} not listed");
+    }
+    assert!(table[section..].contains("default 17"), "defaults are listed");
+}
+
 // ---------------------------------------------------------------- the GPU backend
 
 /// Whether the GPU twin can run here; without an adapter the GPU tests report

@@ -20,6 +20,12 @@ pub enum Error {
     UnknownParam { effect: String, param: String, known: String },
     #[error("effect parameter `{spec}`: {message}")]
     BadParam { spec: String, message: String },
+    #[error("unknown scene element `{name}`; known elements: {known}")]
+    UnknownElement { name: String, known: String },
+    #[error("scene element `{element}` has no parameter `{param}`; its parameters: {known}")]
+    UnknownElementParam { element: String, param: String, known: String },
+    #[error("scene parameter `{spec}`: {message}")]
+    BadSceneParam { spec: String, message: String },
     #[error("invalid model: {0}")]
     Model(String),
     #[error("heading extraction failed: {0}")]

@@ -58,6 +58,7 @@ pub mod montecarlo;
 pub mod noise;
 pub mod pipeline;
 pub mod recon;
+pub mod scene;
 pub mod sensor;
 pub mod simulate;
 pub mod sky;

@@ -51,6 +51,8 @@ pub mod stream {
     pub const PRNU: u32 = 2;
     /// Per-trial parameter draws of a Monte Carlo (pixel = parameter index).
     pub const TRIAL: u32 = 3;
+    /// Draws of the scene elements and field attitudes (`scene`; pixel = draw index).
+    pub const SCENE: u32 = 4;
 }
 
 /// Frame index used for noise that is fixed over the frames of one trial.

@@ -10,8 +10,9 @@ use crate::error::{Error, Result};
 use crate::heading::field::{self, Cells, FieldContext, FieldHeading, FieldOptions, RawImage};
 use crate::heading::{Extractor, HeadingContext, HeadingEstimate, HeadingSums};
 use crate::recon::{self, PolImage, Reconstructor};
+use crate::scene::{ElementId, FieldScene};
 use crate::sensor::{Layout, Response};
-use crate::simulate::{peak_intensity, render_colocated, render_mosaic};
+use crate::simulate::{peak_intensity, peak_signal, render_colocated, render_mosaic};
 
 /// How a DoFP mosaic becomes Stokes samples (colocated captures ignore it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -170,21 +171,36 @@ pub fn scene_of(f: &FrameSpec, dmax: f64) -> Scene {
 }
 
 /// The response of a simulated capture: gain set so the first frame's nominal peak
-/// sits at `peak_fraction` of the range above black.
-pub fn sim_response(c: &Capture, s: &SimSensor) -> Result<Response> {
+/// sits at `peak_fraction` of the range above black. With a `field` scene the peak is
+/// that of the first frame's field sky without the sun's disc and aureole (which
+/// then saturate where in view, as under an exposure set on the sky).
+pub fn sim_response(c: &Capture, s: &SimSensor, field: Option<&FieldScene>) -> Result<Response> {
     let first = c.frames.first().ok_or_else(|| Error::Model("a capture needs at least one frame".into()))?;
     let g = &c.sensor.geometry;
-    let peak = peak_intensity(
-        &Model::default(),
-        &c.intrinsics(),
-        &scene_of(first, s.dmax),
-        g.width_px as usize,
-        g.height_px as usize,
-        8,
-    );
+    let (w, h) = (g.width_px as usize, g.height_px as usize);
+    let scene = scene_of(first, s.dmax);
+    let peak = match field.filter(|f| !f.is_empty()) {
+        None => peak_intensity(&Model::default(), &c.intrinsics(), &scene, w, h, 8),
+        Some(field) => {
+            let sky = field.without(ElementId::SunDisc);
+            let idx = NoiseIndex { seed: 0, trial: 0, frame: 0 };
+            let f = ChainFrame::new_in_field(
+                &Model::default(),
+                &c.intrinsics(),
+                &scene,
+                &Response::ideal(1.0),
+                idx,
+                Some(&sky),
+            );
+            peak_signal(&f, w, h, 8)
+        }
+    };
     let full = c.sensor.full_scale_dn();
     if !(s.peak_fraction > 0.0 && s.peak_fraction <= 1.0) {
         return Err(Error::Model(format!("peak fraction {} must lie in (0, 1]", s.peak_fraction)));
+    }
+    if !(peak > 0.0 && peak.is_finite()) {
+        return Err(Error::Model(format!("the first frame's peak signal {peak} is not positive: nothing to expose")));
     }
     Ok(Response {
         gain_dn: s.peak_fraction * (full - c.sensor.black_level_dn) / peak,
@@ -198,18 +214,34 @@ pub fn sim_response(c: &Capture, s: &SimSensor) -> Result<Response> {
     })
 }
 
-/// The chain of frame `index` of capture `c` under `model` (the truth), as
-/// [`simulate_frame`] renders it (any backend can render it).
-pub fn sim_chain_frame(c: &Capture, index: usize, model: &Model, resp: &Response, s: &SimSensor) -> ChainFrame {
+/// The chain of frame `index` of capture `c` under `model` (the truth) and the scene
+/// elements of `field` (none when `None`), as [`simulate_frame`] renders it. Without
+/// a field any backend can render it; with one, the CPU only.
+pub fn sim_chain_frame(
+    c: &Capture,
+    index: usize,
+    model: &Model,
+    resp: &Response,
+    s: &SimSensor,
+    field: Option<&FieldScene>,
+) -> ChainFrame {
     let scene = scene_of(&c.frames[index], s.dmax);
-    ChainFrame::new(model, &c.intrinsics(), &scene, resp, NoiseIndex { seed: s.seed, trial: 0, frame: index as u32 })
+    let noise = NoiseIndex { seed: s.seed, trial: 0, frame: index as u32 };
+    ChainFrame::new_in_field(model, &c.intrinsics(), &scene, resp, noise, field)
 }
 
-/// Simulates frame `index` of capture `c` under `model` (the truth).
-pub fn simulate_frame(c: &Capture, index: usize, model: &Model, resp: &Response, s: &SimSensor) -> FrameData {
+/// Simulates frame `index` of capture `c` under `model` (the truth) and `field`.
+pub fn simulate_frame(
+    c: &Capture,
+    index: usize,
+    model: &Model,
+    resp: &Response,
+    s: &SimSensor,
+    field: Option<&FieldScene>,
+) -> FrameData {
     let g = &c.sensor.geometry;
     let (w, h) = (g.width_px as usize, g.height_px as usize);
-    let f = sim_chain_frame(c, index, model, resp, s);
+    let f = sim_chain_frame(c, index, model, resp, s, field);
     match &c.sensor.layout {
         Layout::Dofp { mosaic } => {
             FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn: render_mosaic(&f, w, h, mosaic) }
@@ -223,4 +255,19 @@ pub fn simulate_frame(c: &Capture, index: usize, model: &Model, resp: &Response,
             }
         }
     }
+}
+
+/// Every frame of capture `c` simulated in memory under `model` (the truth) and the
+/// scene elements of `field`: the response from [`sim_response`], then
+/// [`simulate_frame`] for each frame. The frames' tilts and suns are taken as true;
+/// for an IMU's and a clock's errors draw them first (`scene::FieldAttitude`).
+pub fn simulate_capture(
+    c: &Capture,
+    model: &Model,
+    s: &SimSensor,
+    field: Option<&FieldScene>,
+) -> Result<(Response, Vec<FrameData>)> {
+    let resp = sim_response(c, s, field)?;
+    let frames = (0..c.frames.len()).map(|i| simulate_frame(c, i, model, &resp, s, field)).collect();
+    Ok((resp, frames))
 }

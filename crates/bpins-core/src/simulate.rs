@@ -211,7 +211,12 @@ pub fn render_colocated(f: &ChainFrame, w: usize, h: usize, channels: &[Channel]
 /// sampled on a grid of `stride_px` plus the last row and column: divide the wanted
 /// peak DN by it to get the sensor gain.
 pub fn peak_intensity(model: &Model, nominal: &Intrinsics, scene: &Scene, w: usize, h: usize, stride_px: usize) -> f64 {
-    let f = ChainFrame::noise_free(model, nominal, scene);
+    peak_signal(&ChainFrame::noise_free(model, nominal, scene), w, h, stride_px)
+}
+
+/// Largest noise-free photo-signal of any channel of frame `f` (`w × h`), sampled on a
+/// grid of `stride_px` plus the last row and column.
+pub fn peak_signal(f: &ChainFrame, w: usize, h: usize, stride_px: usize) -> f64 {
     let grid = |n: usize| -> Vec<usize> {
         let mut g: Vec<usize> = (0..n).step_by(stride_px.max(1)).collect();
         if g.last() != Some(&(n - 1)) {
@@ -224,9 +229,9 @@ pub fn peak_intensity(model: &Model, nominal: &Intrinsics, scene: &Scene, w: usi
         .map(|&v| {
             let mut m: f64 = 0.0;
             for &u in &us {
-                let s = pixel_stokes(&f, u as f64, v as f64);
+                let s = pixel_stokes(f, u as f64, v as f64);
                 for ch in 0..4 {
-                    m = m.max(pixel_signal_dn(&f, s, ch));
+                    m = m.max(pixel_signal_dn(f, s, ch));
                 }
             }
             m

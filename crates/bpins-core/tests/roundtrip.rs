@@ -79,8 +79,8 @@ fn model() -> Model {
 
 fn simulate(c: &Capture, seed: u64) -> Vec<FrameData> {
     let s = sensor(seed);
-    let resp = sim_response(c, &s).unwrap();
-    (0..c.frames.len()).map(|i| simulate_frame(c, i, &model(), &resp, &s)).collect()
+    let resp = sim_response(c, &s, None).unwrap();
+    (0..c.frames.len()).map(|i| simulate_frame(c, i, &model(), &resp, &s, None)).collect()
 }
 
 /// Every DN of a frame, in one list (planes concatenated for colocated frames).
@@ -161,8 +161,8 @@ fn frames_differ_from_each_other_and_the_effect_is_in_them() {
     assert_ne!(frames[0], frames[1], "different headings, same DN");
     // Same noise draw, no effect: the array rotation alone changes the DN.
     let s = sensor(42);
-    let resp = sim_response(&c, &s).unwrap();
-    let ideal = simulate_frame(&c, 0, &Model::default(), &resp, &s);
+    let resp = sim_response(&c, &s, None).unwrap();
+    let ideal = simulate_frame(&c, 0, &Model::default(), &resp, &s, None);
     assert_ne!(ideal, frames[0]);
 }
 

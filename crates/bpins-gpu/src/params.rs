@@ -7,6 +7,7 @@
 //! Keep every struct here in sync with the WGSL struct of the same name (named in each
 //! doc comment); `tests::layouts_match_wgsl` checks sizes and member offsets with naga.
 
+use crate::{GpuError, Result};
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::chain::ChainFrame;
 use bpins_core::heading::HeadingContext;
@@ -83,10 +84,21 @@ pub struct FrameParams {
     pub fixed_key: [u32; 4],
 }
 
-impl From<&ChainFrame> for FrameParams {
-    fn from(f: &ChainFrame) -> Self {
+/// Frames with scene elements (`ChainFrame::field`, field conditions) have no WGSL
+/// twin: they are refused with [`GpuError::Unsupported`], never rendered without them.
+impl TryFrom<&ChainFrame> for FrameParams {
+    type Error = GpuError;
+
+    fn try_from(f: &ChainFrame) -> Result<Self> {
+        if f.field.is_some() {
+            return Err(GpuError::Unsupported(
+                "scene elements (field conditions: sky_radiance, clouds, sun_disc, skyline) run on the CPU \
+                 backend only; use --backend cpu"
+                    .into(),
+            ));
+        }
         let r = &f.response;
-        FrameParams {
+        Ok(FrameParams {
             camera: camera(&f.intr),
             distortion: distortion(&f.intr),
             sun: Wide4::new([f.sun_cam.x, f.sun_cam.y, f.sun_cam.z, f.dmax]),
@@ -115,7 +127,7 @@ impl From<&ChainFrame> for FrameParams {
             shape: Wide4::new([f.radiance_shape[0], f.radiance_shape[1], 0.0, 0.0]),
             key: f.key.0,
             fixed_key: f.fixed_key.0,
-        }
+        })
     }
 }
 
@@ -259,6 +271,28 @@ mod tests {
         check!("render", RenderDims, [size, mosaic]);
         check!("sums", SumsDims, [samples, image]);
         check!("reduce", ReduceDims, [size]);
+    }
+
+    #[test]
+    fn frames_with_scene_elements_are_refused_with_a_typed_error() {
+        use bpins_core::camera::{Intrinsics, Projection};
+        use bpins_core::chain::{NoiseIndex, Scene};
+        use bpins_core::scene::FieldScene;
+        let intr = Intrinsics::new(Projection::Equidistant, 160.0, 63.5, 63.5);
+        let scene =
+            Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 0.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+        let resp = bpins_core::sensor::Response::ideal(1.0);
+        let idx = NoiseIndex { seed: 1, trial: 0, frame: 0 };
+        let model = bpins_core::effects::Model::default();
+        let clean = ChainFrame::new_in_field(&model, &intr, &scene, &resp, idx, None);
+        assert!(FrameParams::try_from(&clean).is_ok());
+        let mut field = FieldScene::new(1);
+        field.enable("clouds").unwrap();
+        let f = ChainFrame::new_in_field(&model, &intr, &scene, &resp, idx, Some(&field));
+        match FrameParams::try_from(&f) {
+            Err(GpuError::Unsupported(m)) => assert!(m.contains("scene elements") && m.contains("cpu"), "{m}"),
+            other => panic!("expected Unsupported, got {other:?}"),
+        }
     }
 
     #[test]

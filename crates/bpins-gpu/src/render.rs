@@ -49,7 +49,7 @@ impl Gpu {
         let batch = self.batch_size(frames.len(), per_frame, &format!("a {w} × {h} px frame"))?;
         let mut out = Vec::with_capacity(frames.len());
         for chunk in frames.chunks(batch) {
-            let params: Vec<FrameParams> = chunk.iter().map(FrameParams::from).collect();
+            let params = chunk.iter().map(FrameParams::try_from).collect::<Result<Vec<FrameParams>>>()?;
             let dims =
                 RenderDims { size: [w as u32, h as u32, chunk.len() as u32, 0], mosaic: mosaic_positions(mosaic) };
             let (u, f) = (self.uniform("dims", &dims), self.storage("frames", &params));

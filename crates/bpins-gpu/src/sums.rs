@@ -70,7 +70,7 @@ impl Gpu {
         let batch = self.batch_size(jobs.len(), per_job, &format!("partial sums of a {w} × {h} px frame"))?;
         let mut out = Vec::with_capacity(jobs.len());
         for chunk in jobs.chunks(batch) {
-            let frames: Vec<FrameParams> = chunk.iter().map(|j| FrameParams::from(j.frame)).collect();
+            let frames = chunk.iter().map(|j| FrameParams::try_from(j.frame)).collect::<Result<Vec<FrameParams>>>()?;
             let recon: Vec<ReconParams> =
                 chunk.iter().map(|j| ReconParams::new(j.rec, &mosaic, j.mask_full_scale_dn)).collect();
             let heading: Vec<HeadingParams> = chunk

@@ -9,15 +9,15 @@ use super::*;
 /// for pixels `u = 0..out.len()` of row `v_px` (a DoFP row alternates two channels;
 /// give the same channel twice for one).
 pub fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
-    if f.has_pixel_effects() {
-        signal_row_in::<true>(f, v_px, chans, out)
-    } else {
-        signal_row_in::<false>(f, v_px, chans, out)
+    match (f.has_pixel_effects(), f.field.is_some()) {
+        (false, _) => signal_row_in::<false, false>(f, v_px, chans, out),
+        (true, false) => signal_row_in::<true, false>(f, v_px, chans, out),
+        (true, true) => signal_row_in::<true, true>(f, v_px, chans, out),
     }
 }
 
 #[inline(always)]
-fn signal_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
+fn signal_row_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
     let (a0, a1) = (f.analyzers[chans[0]], f.analyzers[chans[1]]);
     let (g0, g1) = (f.gain_dn[chans[0]], f.gain_dn[chans[1]]);
     // (Closures forced inline: a call in the row loop stops it vectorizing.)
@@ -28,7 +28,7 @@ fn signal_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, chans: [usize; 2],
         out,
         #[inline(always)]
         |u, g| {
-            let s = ray_stokes_in::<LENS>(f, g);
+            let s = ray_stokes_in::<LENS, FIELD>(f, g);
             let even = u & 1 == 0;
             let a = if even { a0 } else { a1 };
             // pixel_signal_dn: analyzer, then gain.
@@ -40,15 +40,15 @@ fn signal_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, chans: [usize; 2],
 /// Row kernel: `out[u][ch] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), ch)`, all
 /// four channels (colocated).
 pub fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
-    if f.has_pixel_effects() {
-        signal4_row_in::<true>(f, v_px, out)
-    } else {
-        signal4_row_in::<false>(f, v_px, out)
+    match (f.has_pixel_effects(), f.field.is_some()) {
+        (false, _) => signal4_row_in::<false, false>(f, v_px, out),
+        (true, false) => signal4_row_in::<true, false>(f, v_px, out),
+        (true, true) => signal4_row_in::<true, true>(f, v_px, out),
     }
 }
 
 #[inline(always)]
-fn signal4_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
+fn signal4_row_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
     f.intr.map_row(
         v_px,
         0.0,
@@ -56,7 +56,7 @@ fn signal4_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, out: &mut [[f64; 
         out,
         #[inline(always)]
         |_, g| {
-            let s = ray_stokes_in::<LENS>(f, g);
+            let s = ray_stokes_in::<LENS, FIELD>(f, g);
             // (Spelled out: `array::map` is not always inlined, and a call stops vectorizing.)
             [pixel_signal_dn(f, s, 0), pixel_signal_dn(f, s, 1), pixel_signal_dn(f, s, 2), pixel_signal_dn(f, s, 3)]
         },
@@ -64,15 +64,16 @@ fn signal4_row_in<const LENS: bool>(f: &ChainFrame, v_px: f64, out: &mut [[f64; 
 }
 
 /// [`ray_stokes`] for the row kernels, `LENS = false` only where no per-pixel
-/// effect is on (the sky is Rayleigh) ([`ChainFrame::has_pixel_effects`]). Then the lens is the identity and
+/// effect is on (the sky is Rayleigh, no scene elements) ([`ChainFrame::has_pixel_effects`]);
+/// `FIELD = false` only where the frame has no field. Then the lens is the identity and
 /// is skipped — bitwise the same: ρ = 0·r² = 0 for the finite r² of any pixel, so
 /// c = √(1 − ρ²) = 1, I + ρQ = I, ρI + Q = Q (the sky's Q is never −0), c·U = U; δ = 0
 /// gives cos δ = 1, sin δ = 0, U·1 + 0·V = U; the depolarizer keeps a = 1; the
 /// vignetting factor is 1.
 #[inline(always)]
-fn ray_stokes_in<const LENS: bool>(f: &ChainFrame, g: &RayGeometry) -> Stokes {
+fn ray_stokes_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, g: &RayGeometry) -> Stokes {
     if LENS {
-        return ray_stokes(f, g);
+        return ray_stokes_field::<FIELD>(f, g);
     }
     let s = sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis);
     meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
@@ -197,11 +198,24 @@ mod tests {
         ChainFrame::new(&set.model(), &intrinsics(), &scene(), &resp, NoiseIndex { seed: 9, trial: 4, frame: 2 })
     }
 
+    /// A noisy frame with every scene element, tilted 75° toward the sun: the sun,
+    /// clouds, skyline and ground all in view.
+    fn field_frame() -> ChainFrame {
+        let mut field = crate::scene::FieldScene::all(4);
+        field.set("clouds", "count", 40.0).unwrap();
+        let resp = Response { read_noise_dn: 1.0, quantize: true, bit_depth: 12, ..Response::ideal(3000.0) };
+        let tilted = Scene { heading_deg: 40.0, tilt_x_deg: 75.0, ..scene() };
+        let idx = NoiseIndex { seed: 9, trial: 0, frame: 1 };
+        let f = ChainFrame::new_in_field(&Model::default(), &intrinsics(), &tilted, &resp, idx, Some(&field));
+        assert!(f.has_pixel_effects());
+        f
+    }
+
     #[test]
     fn dofp_row_kernels_are_bitwise_the_per_pixel_chain() {
         // One scratch for a noisy, a noise-free and a noisy frame again: no stale draws.
         let mut scratch = NoiseRows::default();
-        for f in [noisy_frame(false), ideal_frame(&Model::default()), noisy_frame(true)] {
+        for f in [noisy_frame(false), ideal_frame(&Model::default()), field_frame(), noisy_frame(true)] {
             let (w, v) = (612usize, 37usize);
             let mut sig = vec![0.0; w];
             let mut dn = vec![0f32; w];
@@ -227,7 +241,7 @@ mod tests {
         let used = [true, true, false, true];
         // One scratch for a noisy, a noise-free and a noisy frame again: no stale draws.
         let mut scratch = NoiseRows::default();
-        for f in [noisy_frame(false), ideal_frame(&Model::default()), noisy_frame(true)] {
+        for f in [noisy_frame(false), ideal_frame(&Model::default()), field_frame(), noisy_frame(true)] {
             signal4_row(&f, v as f64, &mut sig);
             sensor_dn4_row(&f, (v * w) as u32, used, &sig, &mut scratch, &mut dn);
             for u in 0..w {

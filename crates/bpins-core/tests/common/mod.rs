@@ -72,9 +72,9 @@ pub fn simulate(c: &Capture, set: &EffectSet, seed: u64) -> Vec<FrameData> {
         dmax: DMAX,
         seed,
     };
-    let resp = sim_response(c, &sim).expect("a valid simulated sensor");
+    let resp = sim_response(c, &sim, None).expect("a valid simulated sensor");
     let model = set.model();
-    (0..c.frames.len()).map(|i| simulate_frame(c, i, &model, &resp, &sim)).collect()
+    (0..c.frames.len()).map(|i| simulate_frame(c, i, &model, &resp, &sim, None)).collect()
 }
 
 /// Every parameter of `effect` at its typical strength.

@@ -1,0 +1,246 @@
+//! # `clouds` — seeded clouds fixed in the world
+//!
+//! ```text
+//! cloud k: centre at azimuth U(0, 360°), sin(elevation) U(sin h_min, 1) (uniform on
+//!          the sky above h_min), angular radius r_k ~ U(r_min, r_max), core
+//!          brightness b_k = 1 + (brightness − 1)·U(½, 1); per frame a turn θ_k ~ N(0, σ)
+//! ρ²  = (1 − d·c_k)/(1 − cos r_k)          (≈ (angle from the centre / r_k)²)
+//! ρ²  ← ρ²·(1 − ½·texture·n(d))            ragged edge, n ∈ [−1, 1] seeded value noise
+//! τ   = (1 − ρ²)² inside (ρ² < 1), else 0   soft profile: 1 at the core, 0 at the edge
+//! I   ← I·(1 + (b_k − 1)·τ)
+//! DoLP ← DoLP·(1 − (1 − dolp_factor)·τ)
+//! AoE ← AoE + τ·θ_k                         (Q, U) rotated by 2τθ_k
+//! ```
+//!
+//! Each cloud in turn (overlaps compound). What this stands for: a cloud adds
+//! multiply-scattered, nearly unpolarized light to the single-scattered skylight
+//! behind it, so its radiance rises and its DoLP falls; thin cloud keeps most of the
+//! sky's E-vector pattern but turns it by a few to tens of degrees. Measured: under
+//! clouds the DoLP falls well below the clear sky's while the angle of polarization
+//! largely continues the clear-sky pattern, with deviations of up to tens of degrees
+//! (Pomozi, Horváth & Wehner, "How the clear-sky angle of polarization pattern
+//! continues underneath clouds", J. Exp. Biol. 204, 2933 (2001); Hegedüs, Åkesson &
+//! Horváth, J. Opt. Soc. Am. A 24, 2347 (2007)); the defaults follow the samples'
+//! field sky (DoLP to 15 %, brighter by up to 2.5×). The profile and the turn are a
+//! phenomenological model, not radiative transfer. Source: as cited. Units: angles in degrees, brightness and dolp_factor
+//! dimensionless. Frame: centres in world ENU (fixed over a capture); the Stokes
+//! vector in the ray's meridional frame (the turn is about the ray, so any frame).
+//!
+//! | param                | unit | default | range       |
+//! |----------------------|------|---------|-------------|
+//! | `count`              | 1    | 6       | [0, 64]     |
+//! | `radius_min_deg`     | deg  | 5       | [0.5, 45]   |
+//! | `radius_max_deg`     | deg  | 12      | [0.5, 45]   |
+//! | `min_elevation_deg`  | deg  | 10      | [0, 89]     |
+//! | `brightness`         | 1    | 2.5     | [0.1, 5]    |
+//! | `dolp_factor`        | 1    | 0.15    | [0, 1]      |
+//! | `rotation_sigma_deg` | deg  | 17      | [0, 90]     |
+//! | `texture`            | 1    | 0.3     | [0, 1]      |
+//!
+//! Cannot: cloud shadows or the sun dimmed behind a cloud (the sun's disc is added
+//! after the clouds), motion during a capture, layered or overcast skies, the
+//! E-vector turn varying inside a cloud beyond the profile τ, spectral effects.
+
+use super::frame::element_index;
+use super::texture::Texture;
+use super::{Draws, ElementDef, ElementId, ElementParam, FieldRay};
+use crate::conventions::enu_from_az_el_deg;
+use crate::stokes::Stokes;
+use glam::DVec3;
+
+const fn p(
+    name: &'static str,
+    unit: &'static str,
+    default: f64,
+    min: f64,
+    max: f64,
+    doc: &'static str,
+) -> ElementParam {
+    ElementParam { name, unit, default, min, max, integer: false, doc }
+}
+
+pub const ELEMENT: ElementDef = ElementDef {
+    id: ElementId::Clouds,
+    name: "clouds",
+    summary: "seeded clouds fixed in the world: brighter, less polarized, E-vectors turned per frame",
+    source: "Pomozi, Horvath & Wehner 2001 (J. Exp. Biol. 204); phenomenological profile",
+    params: &[
+        ElementParam { integer: true, ..p("count", "1", 6.0, 0.0, 64.0, "number of clouds") },
+        p("radius_min_deg", "deg", 5.0, 0.5, 45.0, "smallest angular radius"),
+        p("radius_max_deg", "deg", 12.0, 0.5, 45.0, "largest angular radius"),
+        p("min_elevation_deg", "deg", 10.0, 0.0, 89.0, "lowest elevation of a cloud's centre"),
+        p("brightness", "1", 2.5, 0.1, 5.0, "radiance factor at the brightest cloud's core"),
+        p("dolp_factor", "1", 0.15, 0.0, 1.0, "DoLP factor at a cloud's core"),
+        p("rotation_sigma_deg", "deg", 17.0, 0.0, 90.0, "1σ of each cloud's E-vector turn, drawn per frame"),
+        p("texture", "1", 0.3, 0.0, 1.0, "raggedness of the edges (0: smooth discs)"),
+    ],
+};
+
+/// One cloud of one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cloud {
+    /// Unit centre direction, ENU.
+    pub centre_world: DVec3,
+    pub radius_rad: f64,
+    /// Radiance factor at the core, b_k.
+    pub brightness: f64,
+    /// This frame's E-vector turn at the core, θ_k, radians.
+    pub turn_rad: f64,
+    /// 1 − cos r_k.
+    one_minus_cos_r: f64,
+    /// Largest 1 − d·c that a ragged edge reaches (quick rejection).
+    reach: f64,
+    texture: Texture,
+}
+
+/// The clouds of one frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Clouds {
+    pub clouds: Vec<Cloud>,
+    pub dolp_factor: f64,
+    pub texture: f64,
+}
+
+impl Clouds {
+    /// From the values in [`ELEMENT`]'s parameter order: the clouds of frame `frame`
+    /// under `seed` (centres and sizes the same in every frame, turns drawn per frame).
+    pub fn new(v: &[f64], seed: u64, frame: u32) -> Self {
+        let count = v[0].max(0.0) as u32;
+        let (r_lo, r_hi) = (v[1].min(v[2]).to_radians(), v[1].max(v[2]).to_radians());
+        let sin_min = v[3].to_radians().sin();
+        let (brightness, dolp_factor, sigma_rad, texture) = (v[4], v[5], v[6].to_radians(), v[7]);
+        let world = Draws::world(seed, ElementId::Clouds);
+        let this_frame = Draws::frame(seed, ElementId::Clouds, frame);
+        let clouds = (0..count)
+            .map(|k| {
+                let u = |j: u32| world.uniform(4 * k + j);
+                let el_deg = (sin_min + (1.0 - sin_min) * u(1)).clamp(-1.0, 1.0).asin().to_degrees();
+                let radius_rad = r_lo + (r_hi - r_lo) * u(2);
+                let one_minus_cos_r = 1.0 - radius_rad.cos();
+                Cloud {
+                    centre_world: enu_from_az_el_deg(360.0 * u(0), el_deg),
+                    radius_rad,
+                    brightness: 1.0 + (brightness - 1.0) * (0.5 + 0.5 * u(3)),
+                    turn_rad: sigma_rad * this_frame.normal(k),
+                    one_minus_cos_r,
+                    reach: one_minus_cos_r / (1.0 - 0.5 * texture),
+                    texture: Texture::new(seed, element_index(ElementId::Clouds), k),
+                }
+            })
+            .collect();
+        Clouds { clouds, dolp_factor, texture }
+    }
+
+    /// The cloud profile τ ∈ [0, 1] of cloud `c` along the unit ENU ray `d`.
+    #[inline]
+    pub fn profile(&self, c: &Cloud, d: DVec3) -> f64 {
+        let x = 1.0 - d.dot(c.centre_world);
+        if x >= c.reach {
+            return 0.0;
+        }
+        let mut rho2 = x / c.one_minus_cos_r;
+        if self.texture > 0.0 {
+            // Ragged edge: noise of a few features across the cloud, fixed in the world.
+            rho2 *= 1.0 - 0.5 * self.texture * c.texture.fbm(d * (3.0 / c.radius_rad), 3);
+        }
+        if rho2 >= 1.0 {
+            return 0.0;
+        }
+        (1.0 - rho2) * (1.0 - rho2)
+    }
+
+    /// The sky's Stokes vector `s` (meridional frame of `ray`) seen through the clouds.
+    #[inline]
+    pub fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
+        let mut s = s;
+        for c in &self.clouds {
+            let tau = self.profile(c, ray.d_world);
+            if tau == 0.0 {
+                continue;
+            }
+            // Brighter, less polarized, E-vector turned by τθ (Q, U rotated by 2τθ).
+            let ki = 1.0 + (c.brightness - 1.0) * tau;
+            let kp = ki * (1.0 - (1.0 - self.dolp_factor) * tau);
+            let (s2, c2) = (2.0 * tau * c.turn_rad).sin_cos();
+            s = Stokes::new(ki * s.i, kp * (c2 * s.q - s2 * s.u), kp * (s2 * s.q + c2 * s.u), kp * s.v);
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::meridional_basis;
+    use glam::DMat3;
+
+    fn values(count: f64, texture: f64) -> Vec<f64> {
+        vec![count, 5.0, 12.0, 10.0, 2.5, 0.15, 17.0, texture]
+    }
+
+    fn through(c: &Clouds, d: DVec3, s: Stokes) -> Stokes {
+        let b = meridional_basis(d);
+        c.apply(&FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY }, s)
+    }
+
+    const SKY: Stokes = Stokes::new(0.8, 0.25, -0.15, 0.0);
+
+    #[test]
+    fn no_cloud_is_the_identity_and_clear_sky_is_untouched() {
+        let none = Clouds::new(&values(0.0, 0.3), 7, 0);
+        assert_eq!(through(&none, DVec3::new(0.2, 0.1, 0.97).normalize(), SKY), SKY);
+        let c = Clouds::new(&values(1.0, 0.3), 7, 0);
+        // 60° from the cloud's centre: far outside.
+        let axis = c.clouds[0].centre_world;
+        let away = (axis * 0.5 + axis.cross(DVec3::Z).normalize() * 0.75f64.sqrt()).normalize();
+        assert_eq!(through(&c, away, SKY), SKY);
+    }
+
+    #[test]
+    fn the_core_is_brighter_less_polarized_and_turned_by_the_frame_angle() {
+        let c = Clouds::new(&values(3.0, 0.0), 11, 2);
+        for k in &c.clouds {
+            let s = through(&c, k.centre_world, SKY);
+            assert!((s.i / SKY.i - k.brightness).abs() < 1e-9, "{} vs {}", s.i / SKY.i, k.brightness);
+            assert!((s.dolp() / SKY.dolp() - 0.15).abs() < 1e-9);
+            let turn = crate::conventions::wrap_deg_90((s.aop_rad() - SKY.aop_rad()).to_degrees());
+            assert!((turn - k.turn_rad.to_degrees()).abs() < 1e-6, "{turn} vs {}", k.turn_rad.to_degrees());
+            assert!((1.25..=2.5).contains(&k.brightness));
+        }
+        // The profile falls from the core to the edge.
+        let k = &c.clouds[0];
+        let side = k.centre_world.cross(DVec3::Z).normalize();
+        let at = |f: f64| {
+            let a = f * k.radius_rad;
+            c.profile(k, k.centre_world * a.cos() + side * a.sin())
+        };
+        assert!(at(0.0) > at(0.5) && at(0.5) > at(0.9) && at(0.9) > 0.0 && at(1.01) == 0.0);
+    }
+
+    #[test]
+    fn clouds_are_fixed_in_the_world_and_turns_are_drawn_per_frame() {
+        let v = values(8.0, 0.3);
+        let (a, b, other) = (Clouds::new(&v, 5, 0), Clouds::new(&v, 5, 1), Clouds::new(&v, 6, 0));
+        assert_eq!(a, Clouds::new(&v, 5, 0));
+        for (x, y) in a.clouds.iter().zip(&b.clouds) {
+            assert_eq!((x.centre_world, x.radius_rad, x.brightness), (y.centre_world, y.radius_rad, y.brightness));
+            assert_ne!(x.turn_rad, y.turn_rad);
+        }
+        assert_ne!(a.clouds[0].centre_world, other.clouds[0].centre_world);
+        for k in &a.clouds {
+            assert!(k.centre_world.z >= 10f64.to_radians().sin() - 1e-12);
+            assert!((5.0..=12.0).contains(&k.radius_rad.to_degrees()));
+        }
+    }
+
+    #[test]
+    fn turns_have_the_asked_spread() {
+        let v = values(64.0, 0.0);
+        let turns: Vec<f64> =
+            (0..40).flat_map(|f| Clouds::new(&v, 3, f).clouds.into_iter().map(|c| c.turn_rad.to_degrees())).collect();
+        let n = turns.len() as f64;
+        let mean = turns.iter().sum::<f64>() / n;
+        let sd = (turns.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / n).sqrt();
+        assert!(mean.abs() < 1.5 && (sd - 17.0).abs() < 1.0, "mean {mean}°, σ {sd}°");
+    }
+}

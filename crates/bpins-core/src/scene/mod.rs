@@ -1,0 +1,242 @@
+//! Scene elements: things in the world that a robot's polarization camera sees
+//! beside the clear sky — the sky's real radiance distribution, clouds, the sun's
+//! disc and aureole, trees, buildings and the ground. Field conditions, as opposed to
+//! the lens and sensor effects of [`crate::effects`].
+//!
+//! Each element is one module here with its equation, source, units, frame and
+//! limits in its doc block and its tests beside it, one [`ElementDef`] and one line
+//! in [`ELEMENTS`]. A capture's choice is a [`FieldScene`] (enabled elements with
+//! their values and a seed); per frame it is folded into a [`FieldFrame`] (world
+//! orientation, sun, each element's constants and per-frame draws) that the chain
+//! holds as `ChainFrame::field` and applies right after the sky's Stokes vector
+//! through one call, [`field_stokes`] (meridional frame in and out).
+//!
+//! Every random draw is a pure function of the scene's seed (the project's `pcg4d`
+//! hash, `noise.rs`): things fixed in the world (clouds, the skyline, textures) are
+//! keyed by (seed, element); per-frame draws (a cloud's E-vector turn) by (seed,
+//! element, frame). The CPU chain only: the GPU backend refuses frames with a field.
+
+pub mod attitude;
+pub mod clouds;
+mod frame;
+pub mod sky_radiance;
+pub mod skyline;
+pub mod sun_disc;
+pub mod texture;
+
+pub use attitude::FieldAttitude;
+pub use frame::{field_stokes, linear_stokes, Draws, FieldFrame, FieldRay};
+
+use crate::error::{Error, Result};
+
+/// Which element (closed set: the per-pixel dispatch is a fixed sequence).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ElementId {
+    SkyRadiance,
+    Clouds,
+    SunDisc,
+    Skyline,
+}
+
+/// One parameter of a scene element.
+#[derive(Debug, PartialEq)]
+pub struct ElementParam {
+    /// Name on the command line, unit as suffix (`_deg`), none for a pure number.
+    pub name: &'static str,
+    /// Unit: "deg" or "1" (dimensionless; a radiance relative to the sky's zenith).
+    pub unit: &'static str,
+    /// The value `--scene NAME` uses.
+    pub default: f64,
+    /// Allowed range (inclusive).
+    pub min: f64,
+    pub max: f64,
+    /// Whether the value must be a whole number (a count).
+    pub integer: bool,
+    pub doc: &'static str,
+}
+
+/// One scene element.
+#[derive(Debug, PartialEq)]
+pub struct ElementDef {
+    pub id: ElementId,
+    pub name: &'static str,
+    /// One line: what it puts in the scene.
+    pub summary: &'static str,
+    /// Where its equations come from.
+    pub source: &'static str,
+    pub params: &'static [ElementParam],
+}
+
+impl ElementDef {
+    pub fn param_index(&self, name: &str) -> Option<usize> {
+        self.params.iter().position(|p| p.name == name)
+    }
+
+    pub fn defaults(&self) -> Vec<f64> {
+        self.params.iter().map(|p| p.default).collect()
+    }
+}
+
+/// Every scene element, in the order [`field_stokes`] applies them (back to front).
+pub static ELEMENTS: &[&ElementDef] =
+    &[&sky_radiance::ELEMENT, &clouds::ELEMENT, &sun_disc::ELEMENT, &skyline::ELEMENT];
+
+/// Looks an element up by name.
+pub fn find_element(name: &str) -> Result<&'static ElementDef> {
+    ELEMENTS.iter().copied().find(|e| e.name == name).ok_or_else(|| Error::UnknownElement {
+        name: name.to_string(),
+        known: ELEMENTS.iter().map(|e| e.name).collect::<Vec<_>>().join(", "),
+    })
+}
+
+/// A capture's field conditions: the enabled elements with their values, and the
+/// seed every draw of the scene is keyed by. Empty: the lab-clean sky.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FieldScene {
+    pub seed: u64,
+    entries: Vec<(&'static ElementDef, Vec<f64>)>,
+}
+
+impl FieldScene {
+    /// No element enabled, draws keyed by `seed`.
+    pub fn new(seed: u64) -> Self {
+        FieldScene { seed, entries: Vec::new() }
+    }
+
+    /// Every element at its defaults.
+    pub fn all(seed: u64) -> Self {
+        let mut s = FieldScene::new(seed);
+        for e in ELEMENTS {
+            s.entries.push((e, e.defaults()));
+        }
+        s
+    }
+
+    /// Enables `name` at its defaults (no-op when already enabled).
+    pub fn enable(&mut self, name: &str) -> Result<()> {
+        let def = find_element(name)?;
+        if !self.entries.iter().any(|(d, _)| d.id == def.id) {
+            self.entries.push((def, def.defaults()));
+        }
+        Ok(())
+    }
+
+    /// Sets `element.param` to `value`, enabling the element.
+    pub fn set(&mut self, element: &str, param: &str, value: f64) -> Result<()> {
+        let def = find_element(element)?;
+        let idx = def.param_index(param).ok_or_else(|| Error::UnknownElementParam {
+            element: element.to_string(),
+            param: param.to_string(),
+            known: def.params.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
+        })?;
+        let spec = &def.params[idx];
+        let bad = |message: String| Error::BadSceneParam { spec: format!("{element}.{param}={value}"), message };
+        if !value.is_finite() || value < spec.min || value > spec.max {
+            return Err(bad(format!("must lie in [{}, {}] {}", spec.min, spec.max, spec.unit)));
+        }
+        if spec.integer && value.fract() != 0.0 {
+            return Err(bad("must be a whole number".into()));
+        }
+        self.enable(element)?;
+        let entry = self.entries.iter_mut().find(|(d, _)| d.id == def.id).expect("just enabled");
+        entry.1[idx] = value;
+        Ok(())
+    }
+
+    /// Parses `name` (defaults) or `name.param=value`, as given to `--scene`.
+    pub fn parse(&mut self, spec: &str) -> Result<()> {
+        let bad = |m: &str| Error::BadSceneParam { spec: spec.to_string(), message: m.to_string() };
+        match spec.split_once('=') {
+            None if !spec.contains('.') => self.enable(spec.trim()),
+            None => Err(bad("expected element or element.param=value")),
+            Some((lhs, rhs)) => {
+                let (element, param) = lhs.trim().split_once('.').ok_or_else(|| bad("expected element.param=value"))?;
+                let value: f64 = rhs.trim().parse().map_err(|_| bad("the value is not a number"))?;
+                self.set(element.trim(), param.trim(), value)
+            }
+        }
+    }
+
+    /// Value of `element.param` if the element is enabled.
+    pub fn get(&self, element: &str, param: &str) -> Option<f64> {
+        let (def, vals) = self.entries.iter().find(|(d, _)| d.name == element)?;
+        def.param_index(param).map(|i| vals[i])
+    }
+
+    /// The values of element `id` (in its `params` order) if it is enabled.
+    pub fn values(&self, id: ElementId) -> Option<&[f64]> {
+        self.entries.iter().find(|(d, _)| d.id == id).map(|(_, v)| v.as_slice())
+    }
+
+    /// The same scene without element `id`.
+    pub fn without(&self, id: ElementId) -> FieldScene {
+        FieldScene { seed: self.seed, entries: self.entries.iter().filter(|(d, _)| d.id != id).cloned().collect() }
+    }
+
+    /// Enabled elements with their values, in the order they were enabled.
+    pub fn iter(&self) -> impl Iterator<Item = (&'static ElementDef, &[f64])> {
+        self.entries.iter().map(|(d, v)| (*d, v.as_slice()))
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_unique_snake_case_with_units_and_documented() {
+        let mut names: Vec<_> = ELEMENTS.iter().map(|e| e.name).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), ELEMENTS.len());
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/scene");
+        for e in ELEMENTS {
+            assert!(e.name.chars().all(|c| c.is_ascii_lowercase() || c == '_'), "{}", e.name);
+            assert!(!e.summary.is_empty() && !e.source.is_empty() && !e.params.is_empty(), "{}", e.name);
+            let mut pnames: Vec<_> = e.params.iter().map(|p| p.name).collect();
+            pnames.sort();
+            pnames.dedup();
+            assert_eq!(pnames.len(), e.params.len(), "{}: duplicate parameter", e.name);
+            for p in e.params {
+                assert!(["deg", "1"].contains(&p.unit), "{}.{}", e.name, p.name);
+                assert_eq!(p.unit == "deg", p.name.ends_with("_deg"), "{}.{}: unit suffix", e.name, p.name);
+                assert!(p.min <= p.default && p.default <= p.max && !p.doc.is_empty(), "{}.{}", e.name, p.name);
+                assert!(!p.integer || p.default.fract() == 0.0, "{}.{}", e.name, p.name);
+            }
+            // Its file opens with the doc block: equation, source, units, frame, limits.
+            let text = std::fs::read_to_string(dir.join(format!("{}.rs", e.name))).unwrap();
+            assert!(text.starts_with(&format!("//! # `{}`", e.name)), "{}: doc block title", e.name);
+            let doc: String = text.lines().take_while(|l| l.starts_with("//!")).collect::<Vec<_>>().join("\n");
+            for word in ["Source", "Units", "Frame", "Cannot", "```text"] {
+                assert!(doc.contains(word), "{}: the doc block lacks `{word}`", e.name);
+            }
+            assert!(text.contains("#[cfg(test)]"), "{}: no tests beside the physics", e.name);
+        }
+    }
+
+    #[test]
+    fn specs_parse_and_bad_ones_are_named() {
+        let mut s = FieldScene::new(1);
+        s.parse("clouds").unwrap();
+        assert_eq!(s.get("clouds", "count"), Some(clouds::ELEMENT.params[0].default));
+        s.parse("clouds.count=3").unwrap();
+        s.parse(" skyline.max_elevation_deg = 12.5 ").unwrap();
+        assert_eq!(s.get("clouds", "count"), Some(3.0));
+        assert_eq!(s.get("skyline", "max_elevation_deg"), Some(12.5));
+        assert_eq!(s.iter().count(), 2);
+        let e = s.parse("no_such").unwrap_err().to_string();
+        assert!(e.contains("no_such") && e.contains("clouds") && e.contains("sun_disc"), "{e}");
+        let e = s.parse("clouds.cnt=2").unwrap_err().to_string();
+        assert!(e.contains("count"), "{e}");
+        assert!(s.parse("clouds.count=2.5").unwrap_err().to_string().contains("whole"));
+        assert!(s.parse("clouds.count=1e9").is_err());
+        assert!(s.parse("clouds.count=abc").is_err());
+        assert!(s.parse("clouds.count").is_err());
+        assert_eq!(s.without(ElementId::Clouds).iter().count(), 1);
+        assert_eq!(FieldScene::all(1).iter().count(), ELEMENTS.len());
+    }
+}
