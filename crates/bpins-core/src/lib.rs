@@ -52,6 +52,7 @@ pub mod chain;
 pub mod conventions;
 pub mod effects;
 pub mod error;
+pub mod field_conditions;
 pub mod fit;
 pub mod heading;
 pub mod montecarlo;

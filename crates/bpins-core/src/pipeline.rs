@@ -77,7 +77,8 @@ pub fn reconstruct_frame(c: &Capture, data: &FrameData, known: &Model, mode: Rec
     })
 }
 
-/// Heading of frame `index` with each extractor in `extractors`.
+/// Heading of frame `index` with each extractor in `extractors` (the plain estimator:
+/// every sample, statistical 1σ).
 pub fn frame_headings(
     c: &Capture,
     index: usize,
@@ -85,8 +86,19 @@ pub fn frame_headings(
     mode: ReconMode,
     extractors: &[Extractor],
 ) -> Result<Vec<(Extractor, Result<HeadingEstimate>)>> {
-    let data = c.read_frame(index)?;
-    let img = reconstruct_frame(c, &data, known, mode)?;
+    frame_headings_of(c, index, &c.read_frame(index)?, known, mode, extractors)
+}
+
+/// [`frame_headings`] of frame `index` whose pixels `data` are already in memory.
+pub fn frame_headings_of(
+    c: &Capture,
+    index: usize,
+    data: &FrameData,
+    known: &Model,
+    mode: ReconMode,
+    extractors: &[Extractor],
+) -> Result<Vec<(Extractor, Result<HeadingEstimate>)>> {
+    let img = reconstruct_frame(c, data, known, mode)?;
     let ctx = heading_context(c, &c.frames[index], known);
     let sums = HeadingSums::from_image(&img, &ctx);
     Ok(extractors.iter().map(|&e| (e, sums.solve(e, &ctx))).collect())

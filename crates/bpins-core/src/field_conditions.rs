@@ -1,0 +1,235 @@
+//! The standard field conditions: named, seeded captures of what a robot's camera sees
+//! (tilt read by a noisy IMU, a sky that is not Rayleigh's, clouds, a skyline, the sun
+//! in view, twilight), and the score of a heading estimator on them: RMS error, the
+//! share of frames within 2σ, the largest |error|/σ, the frames without a heading.
+//! The README's field table and `tests/field_conditions.rs` come from here, so anyone
+//! can test an extractor against the same skies.
+//!
+//! Cameras: the samples' 8 mm pinhole on a 612 × 512 DoFP sensor at 13.8 µm (±19°
+//! across the short side), and an equidistant fisheye, 2.2 mm on 512 × 512 at 6.9 µm
+//! (±46°); `scale` = 2 halves the pixel count each way with the same field of view
+//! (for tests). Sensor: 12-bit, black level 64 DN, read noise 1 DN, K = 0.1 DN/e⁻,
+//! peak sky 70 % of full scale. The frames turn through 360° in equal steps from 7°.
+
+use crate::camera::Projection;
+use crate::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+use crate::conventions::{image_centre_px, wrap_deg_180};
+use crate::effects::{EffectSet, Model};
+use crate::error::Result;
+use crate::heading::field::{self, FieldOptions};
+use crate::heading::Extractor;
+use crate::pipeline::{field_context, frame_cells, frame_headings_of, simulate_capture, ReconMode, SimSensor};
+use crate::scene::attitude::FieldAttitude;
+use crate::scene::FieldScene;
+use crate::sensor::{Geometry, Layout, DEFAULT_MOSAIC};
+use crate::sky::sun::SunPosition;
+use std::path::PathBuf;
+
+/// One field condition: the camera and sky to simulate, and how the frames' attitude
+/// and sun are known.
+#[derive(Clone, Debug)]
+pub struct Condition {
+    pub name: &'static str,
+    pub describe: &'static str,
+    /// The capture as the truth renders it (sensor, lens, frames at their headings).
+    pub capture: Capture,
+    /// Effects of the sky model beyond Rayleigh's (the Berry sky's neutral points).
+    pub model: Model,
+    pub field: Option<FieldScene>,
+    pub attitude: FieldAttitude,
+}
+
+/// A condition simulated: the capture as a user holds it (reference tilts and sun,
+/// with their σ) and its frames, whose true headings are the references.
+pub struct Simulated {
+    pub capture: Capture,
+    pub frames: Vec<FrameData>,
+}
+
+impl Condition {
+    /// Renders the condition's frames in memory (seeded: the same seed, the same DN).
+    pub fn simulate(&self, seed: u64) -> Result<Simulated> {
+        let (truth, reference) = self.attitude.draw(&self.capture.frames)?;
+        let truth = Capture { frames: truth, ..self.capture.clone() };
+        let sim = SimSensor {
+            peak_fraction: 0.7,
+            read_noise_dn: 1.0,
+            system_gain_dn_per_e: 0.1,
+            dsnu_dn: 0.0,
+            prnu: 0.0,
+            dmax: 0.6,
+            seed,
+        };
+        let (_, frames) = simulate_capture(&truth, &self.model, &sim, self.field.as_ref())?;
+        Ok(Simulated { capture: Capture { frames: reference, ..self.capture.clone() }, frames })
+    }
+}
+
+/// The conditions of the README's field table, `frames` frames each, at 1/`scale` of
+/// the full pixel count each way, scenes and attitudes seeded by `seed`.
+pub fn standard(frames: usize, scale: u32, seed: u64) -> Result<Vec<Condition>> {
+    let scale = scale.max(1);
+    let pinhole = |sun_el_deg: f64| camera(Projection::Pinhole, 612 / scale, 512 / scale, 13.8 * scale as f64, 8.0, sun_el_deg, frames);
+    let fisheye =
+        |sun_el_deg: f64| camera(Projection::Equidistant, 512 / scale, 512 / scale, 6.9 * scale as f64, 2.2, sun_el_deg, frames);
+    let scene = |specs: &[&str]| -> Result<Option<FieldScene>> {
+        let mut f = FieldScene::new(seed);
+        for s in specs {
+            f.parse(s)?;
+        }
+        Ok(Some(f))
+    };
+    let imu = |tilt_random_deg: f64| FieldAttitude { tilt_random_deg, imu_sigma_deg: Some(0.1), sun_sigma_deg: None, seed };
+    let berry = |sep: f64| -> Result<Model> {
+        let mut e = EffectSet::new();
+        e.set("sky_neutral_points", "separation_deg", sep)?;
+        Ok(e.model())
+    };
+    Ok(vec![
+        Condition {
+            name: "tilted",
+            describe: "pinhole, frames tilted up to 10°, reference tilt from an IMU (0.1° noise)",
+            capture: pinhole(25.0),
+            model: Model::default(),
+            field: None,
+            attitude: imu(10.0),
+        },
+        Condition {
+            name: "berry_sky",
+            describe: "pinhole, a Berry sky (neutral points 30° apart), radiance brighter toward sun and horizon",
+            capture: pinhole(25.0),
+            model: berry(30.0)?,
+            field: scene(&["sky_radiance"])?,
+            attitude: FieldAttitude::default(),
+        },
+        Condition {
+            name: "clouds",
+            describe: "pinhole, 12 scattered clouds (brighter, depolarized, E-vectors turned)",
+            capture: pinhole(25.0),
+            model: Model::default(),
+            field: scene(&["sky_radiance", "clouds.count=12"])?,
+            attitude: FieldAttitude::default(),
+        },
+        Condition {
+            name: "fisheye_skyline",
+            describe: "equidistant fisheye ±46°, trees and buildings on a jagged skyline, the ground",
+            capture: fisheye(25.0),
+            model: Model::default(),
+            field: scene(&["sky_radiance", "skyline.max_elevation_deg=25"])?,
+            attitude: FieldAttitude::default(),
+        },
+        Condition {
+            name: "fisheye_sun_tilted",
+            describe: "fisheye, the sun in the field (60°: saturated disc and aureole), tilted up to 10°, IMU 0.1°",
+            capture: fisheye(60.0),
+            model: Model::default(),
+            field: scene(&["sky_radiance", "sun_disc"])?,
+            attitude: imu(10.0),
+        },
+        Condition {
+            name: "fisheye_clouds_tilted",
+            describe: "fisheye, Berry sky (20°), 8 clouds, skyline, tilted up to 8°, IMU 0.1°",
+            capture: fisheye(38.0),
+            model: berry(20.0)?,
+            field: scene(&["sky_radiance", "clouds.count=8", "skyline"])?,
+            attitude: imu(8.0),
+        },
+        Condition {
+            name: "twilight",
+            describe: "pinhole, the sun 3° below the horizon, tilted up to 5°, IMU 0.1°",
+            capture: pinhole(-3.0),
+            model: Model::default(),
+            field: None,
+            attitude: imu(5.0),
+        },
+    ])
+}
+
+fn camera(p: Projection, w: u32, h: u32, pitch_um: f64, f_mm: f64, sun_el_deg: f64, frames: usize) -> Capture {
+    Capture {
+        dir: PathBuf::new(),
+        sensor: SensorSpec {
+            layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
+            geometry: Geometry { width_px: w, height_px: h, pixel_pitch_um: pitch_um },
+            bit_depth: 12,
+            black_level_dn: 64.0,
+        },
+        lens: LensSpec { projection: p, focal_length_mm: f_mm, principal_point_px: image_centre_px(w, h) },
+        frames: (0..frames)
+            .map(|i| FrameSpec {
+                file: PathBuf::from(format!("frames/f{i:03}.png")),
+                sun: SunPosition::given(120.0, sun_el_deg),
+                heading_deg: Some(7.0 + 360.0 * i as f64 / frames.max(1) as f64),
+                tilt_x_deg: None,
+                tilt_y_deg: None,
+                tilt_sigma_deg: None,
+                sun_sigma_deg: None,
+            })
+            .collect(),
+    }
+}
+
+/// How an estimator fared on one condition.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Score {
+    pub frames: usize,
+    /// Frames with a heading, their RMS error (degrees), the share within 2σ and the
+    /// largest |error|/σ.
+    pub with_heading: usize,
+    pub rms_error_deg: f64,
+    pub within_2sigma: f64,
+    pub max_error_over_sigma: f64,
+    /// Median 1σ given, degrees.
+    pub median_sigma_deg: f64,
+    /// Median fraction of the image used (field estimator; NaN for plain).
+    pub median_used_fraction: f64,
+}
+
+impl Score {
+    fn of(errs: &[(f64, f64)], frames: usize, used: &mut [f64]) -> Score {
+        let n = errs.len();
+        let mut sig: Vec<f64> = errs.iter().map(|e| e.1).collect();
+        let med = |v: &mut [f64]| {
+            v.sort_by(|a, b| a.total_cmp(b));
+            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+        };
+        Score {
+            frames,
+            with_heading: n,
+            rms_error_deg: (errs.iter().map(|e| e.0 * e.0).sum::<f64>() / n.max(1) as f64).sqrt(),
+            within_2sigma: errs.iter().filter(|(e, s)| e.abs() <= 2.0 * s).count() as f64 / n.max(1) as f64,
+            max_error_over_sigma: errs.iter().map(|(e, s)| (e / s).abs()).fold(0.0, f64::max),
+            median_sigma_deg: med(&mut sig),
+            median_used_fraction: med(used),
+        }
+    }
+}
+
+/// The field estimator's score with `extractor` on a simulated condition.
+pub fn score_field(sim: &Simulated, extractor: Extractor, opts: &FieldOptions) -> Result<Score> {
+    let (mut errs, mut used) = (Vec::new(), Vec::new());
+    for (i, data) in sim.frames.iter().enumerate() {
+        let c = &sim.capture;
+        let cells = frame_cells(c, data, &Model::default(), opts.cell_px)?;
+        let ctx = field_context(c, &c.frames[i], &Model::default());
+        let r = &field::estimate(&cells, &ctx, opts, &[extractor])[0];
+        used.push(r.quality.used_fraction);
+        if let Ok((h, parts)) = &r.result {
+            errs.push((wrap_deg_180(h - c.frames[i].heading_deg.unwrap_or(0.0)), parts.total_deg()));
+        }
+    }
+    Ok(Score::of(&errs, sim.frames.len(), &mut used))
+}
+
+/// The plain estimator's score (every superpixel, statistical 1σ) on a simulated condition.
+pub fn score_plain(sim: &Simulated, extractor: Extractor) -> Result<Score> {
+    let mut errs = Vec::new();
+    for (i, data) in sim.frames.iter().enumerate() {
+        let c = &sim.capture;
+        let r = frame_headings_of(c, i, data, &Model::default(), ReconMode::Superpixel, &[extractor])?;
+        if let Some(Ok(est)) = r.into_iter().next().map(|x| x.1) {
+            errs.push((wrap_deg_180(est.heading_deg - c.frames[i].heading_deg.unwrap_or(0.0)), est.sigma_deg));
+        }
+    }
+    Ok(Score::of(&errs, sim.frames.len(), &mut []))
+}
