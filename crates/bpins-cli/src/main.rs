@@ -106,6 +106,11 @@ pub struct FitInput {
     /// instead of fitting a smooth shape × (1 + a1 cos γ + a2 cos²γ) per frame.
     #[arg(long)]
     pub rayleigh_radiance: bool,
+    /// Fit every pixel, including those each frame's sky mask leaves out as not sky
+    /// (clouds, trees, buildings, the ground, the sun's aureole: the field estimator's
+    /// depolarized clusters and the rays below the horizon).
+    #[arg(long)]
+    pub all_pixels: bool,
     /// Output folder (never inside the capture).
     #[arg(long)]
     pub out: std::path::PathBuf,
@@ -141,6 +146,7 @@ impl FitInput {
             trust_reference: self.trust_reference,
             fixed_dmax: self.fixed_dmax,
             rayleigh_radiance: self.rayleigh_radiance,
+            all_pixels: self.all_pixels,
         };
         Ok((opts, c, frames))
     }

@@ -34,7 +34,8 @@ use crate::camera::Intrinsics;
 use crate::capture::{Capture, FrameData};
 use crate::chain::{mosaic_pixel_signal_dn, pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
 use crate::conventions::wrap_deg_180;
-use crate::effects::{EffectDef, EffectSet};
+use crate::effects::{EffectDef, EffectSet, Model};
+use crate::heading::field::{self, FieldOptions, SkyMask};
 use crate::error::{Error, Result};
 use crate::sensor::{Layout, Response};
 use noise::NoiseModel;
@@ -54,6 +55,11 @@ pub struct FitOptions {
     /// Hold every frame's radiance shape at Rayleigh's (a1 = a2 = 0) instead of
     /// fitting it.
     pub rayleigh_radiance: bool,
+    /// Fit every pixel. By default each frame's sky mask
+    /// ([`crate::heading::field::sky_mask`]) leaves out what is not sky that follows
+    /// the model's pattern — clouds, trees, buildings, the ground, the sun's aureole —
+    /// so that a scene is never blamed on the lens or the sensor.
+    pub all_pixels: bool,
 }
 
 /// One fitted parameter.
@@ -139,6 +145,8 @@ struct Problem<'a> {
     n_global: usize,
     noise: NoiseModel,
     full_scale_dn: f64,
+    /// Per frame: the sky mask (None: every pixel).
+    sky: Vec<Option<SkyMask>>,
 }
 
 /// Per frame: heading, radiance scale, d_max, radiance shape a1, a2.
@@ -219,8 +227,10 @@ impl Problem<'_> {
         self.capture.sensor.geometry.height_px as usize
     }
 
-    fn usable(&self, y: f64) -> bool {
-        y > 0.0 && y < self.full_scale_dn
+    /// Whether sample value `y` of pixel (u, v) of frame `k` enters the fit: neither
+    /// clipped nor saturated, and sky by the frame's sky mask.
+    fn usable(&self, k: usize, u: usize, v: usize, y: f64) -> bool {
+        y > 0.0 && y < self.full_scale_dn && self.sky[k].as_ref().is_none_or(|m| m.is_sky(u, v))
     }
 
     /// χ² and, with `normal`, JᵀWJ and JᵀWr over the free slots, on every `stride`-th
@@ -277,7 +287,7 @@ impl Problem<'_> {
                     for u in (0..self.w()).step_by(stride) {
                         self.pixel(&base, k, u, v, &mut s0);
                         for (q, &(y, m)) in s0.iter().enumerate() {
-                            if !self.usable(y) {
+                            if !self.usable(k, u, v, y) {
                                 continue;
                             }
                             let wgt = 1.0 / self.noise.variance_dn2(m - self.capture.sensor.black_level_dn);
@@ -428,12 +438,24 @@ fn problem<'a>(
     }
     let n_global = slots.len();
     let ctx_intr = c.intrinsics();
+    // Each frame's sky (and, for a frame without a reference, its first heading) from
+    // the field estimator, on the frames in memory.
+    let field: Vec<Option<SkyMask>> = frames
+        .iter()
+        .enumerate()
+        .map(|(k, data)| {
+            let cells = crate::pipeline::frame_cells(c, data, &Model::default(), None)?;
+            let ctx = crate::pipeline::field_context(c, &c.frames[k], &Model::default());
+            Ok(field::sky_mask(&cells, &ctx, &FieldOptions::default()).ok())
+        })
+        .collect::<Result<_>>()?;
     for (k, f) in c.frames.iter().enumerate() {
         let warm = start.and_then(|s| s.frames.get(k));
-        let heading = match (warm, f.heading_deg) {
-            (Some(w), _) => w[0],
-            (None, Some(h)) => h,
-            (None, None) => initial_heading(c, k)?,
+        let heading = match (warm, f.heading_deg, &field[k]) {
+            (Some(w), _, _) => w[0],
+            (None, Some(h), _) => h,
+            (None, None, Some(m)) => m.heading_deg,
+            (None, None, None) => initial_heading(c, k)?,
         };
         let free_heading = !(opts.trust_reference && f.heading_deg.is_some());
         slots.push(Slot {
@@ -485,7 +507,8 @@ fn problem<'a>(
         let shape = |j: usize| if opts.rayleigh_radiance { 0.0 } else { warm.map_or(0.0, |w| w[j]) };
         theta.extend([heading, warm.map_or(1.0, |w| w[1]), dmax, shape(3), shape(4)]);
     }
-    let pb = Problem { capture: c, frames, nominal: ctx_intr, opts, slots, n_global, noise, full_scale_dn };
+    let sky = if opts.all_pixels { vec![None; frames.len()] } else { field };
+    let pb = Problem { capture: c, frames, nominal: ctx_intr, opts, slots, n_global, noise, full_scale_dn, sky };
     for k in 0..frames.len() {
         let s = pb.frame_slots(k)[1];
         if start.and_then(|st| st.frames.get(k)).is_none() {
@@ -677,7 +700,7 @@ fn initial_scale(pb: &Problem, theta: &[f64], k: usize) -> Result<f64> {
         for u in (0..pb.w()).step_by(7) {
             pb.pixel(&f, k, u, v, &mut buf);
             for &(y, m) in &buf {
-                if pb.usable(y) {
+                if pb.usable(k, u, v, y) {
                     // Photo-signal at unit scale, the black level taken as the offset.
                     let black = pb.capture.sensor.black_level_dn;
                     let s = m - black;

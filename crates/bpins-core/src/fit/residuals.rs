@@ -32,8 +32,9 @@ pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64
     for k in 0..pb.frames.len() {
         let f = pb.chain(theta, k)?;
         let mut buf = Vec::new();
-        let mut add = |meas: [f64; 4], model: [f64; 4]| {
-            if meas.iter().any(|&y| !pb.usable(y)) {
+        // (u, v): the sample's pixel (a superpixel's top-left one), for the sky mask.
+        let mut add = |u: usize, v: usize, meas: [f64; 4], model: [f64; 4]| {
+            if meas.iter().any(|&y| !pb.usable(k, u, v, y)) {
                 return;
             }
             let (da, dd, _) = pol_residual(&rec, &meas, &model);
@@ -55,7 +56,7 @@ pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64
                                 (meas[ch.index()], model[ch.index()]) = buf[0];
                             }
                         }
-                        add(meas, model);
+                        add(2 * i, 2 * j, meas, model);
                     }
                 }
             }
@@ -67,7 +68,7 @@ pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64
                         for (c, &(y, m)) in channels.iter().zip(&buf) {
                             (meas[c.index()], model[c.index()]) = (y, m);
                         }
-                        add(meas, model);
+                        add(u, v, meas, model);
                     }
                 }
             }
@@ -166,7 +167,7 @@ pub fn residual_maps(
                     ..position(&f, g.d, u as f64, v as f64)
                 };
                 for (q, &(y, m)) in buf.iter().enumerate() {
-                    let usable = pb.usable(y);
+                    let usable = pb.usable(k, u, v, y);
                     let ch = match &c.sensor.layout {
                         Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
                         Layout::Colocated { channels } => channels[q].index(),

@@ -231,5 +231,48 @@ pub fn estimate(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions, extracto
     robust::estimate(cells, ctx, opts, extractors)
 }
 
+/// Which pixels of a frame show sky that follows the sky model's pattern, from the
+/// field estimator's cells: what a fit of the sensor should read, so that clouds, trees,
+/// the ground and the aureole are never blamed on the lens or the sensor.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkyMask {
+    pub cell_px: usize,
+    pub cols: usize,
+    pub rows: usize,
+    /// Per cell (row-major): sky.
+    pub sky: Vec<bool>,
+    /// The field estimator's heading of the frame (sun vector), degrees.
+    pub heading_deg: f64,
+}
+
+impl SkyMask {
+    /// Whether pixel (u, v) lies in a sky cell (pixels beyond the whole cells: no).
+    pub fn is_sky(&self, u_px: usize, v_px: usize) -> bool {
+        let (c, r) = (u_px / self.cell_px.max(1), v_px / self.cell_px.max(1));
+        c < self.cols && r < self.rows && self.sky[r * self.cols + c]
+    }
+
+    /// The fraction of the grid's cells that are sky.
+    pub fn sky_fraction(&self) -> f64 {
+        self.sky.iter().filter(|&&s| s).count() as f64 / self.sky.len().max(1) as f64
+    }
+}
+
+/// The sky mask of one frame's cells (see [`SkyMask`]): cells that pass the masks
+/// (whole, unsaturated, above the horizon margin) and are not in or beside a cluster of
+/// depolarized cells. Residuals alone never take a cell out: a lens or sensor effect
+/// moves AoP, and a fit must still see where it does. Errs where the frame has no
+/// heading to read the sky's pattern by.
+pub fn sky_mask(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions) -> Result<SkyMask, NoHeading> {
+    let r = robust::robust(cells, ctx, opts).map_err(|e| e.1)?;
+    Ok(SkyMask {
+        cell_px: cells.cell_px,
+        cols: cells.cols,
+        rows: cells.rows,
+        sky: r.sky_cells(cells.grid_len()),
+        heading_deg: r.heading_deg,
+    })
+}
+
 #[cfg(test)]
 mod tests;

@@ -186,23 +186,14 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
         kept.iter().map(|&i| (res[i].0.powi(2) - CHI2_1_Q25 * obs[i].var_aop) / CHI2_1_Q25).collect();
     let tau2 = quantile(&mut t, 0.25).max(0.0);
     let tau2 = if tau2.is_finite() { tau2 } else { 0.0 };
-    // d_max of the sky from the cells that fit, for the DoLP test.
-    let dpred = |cg: f64| (1.0 - cg * cg) / (1.0 + cg * cg);
-    let mut ratios: Vec<f64> = kept
-        .iter()
-        .filter(|&&i| dpred(res[i].2) > 0.3 && res[i].0.powi(2) < 9.0 * (obs[i].var_aop + tau2))
-        .map(|&i| obs[i].dolp / dpred(res[i].2))
-        .collect();
-    let dmax = median(&mut ratios);
+    let depol = depolarized(obs, &res, tau2);
     let mut w: Vec<(f64, f64, f64, f64)> = obs
         .iter()
         .zip(&res)
-        .map(|(o, &(delta, sg2, cg))| {
+        .zip(&depol)
+        .map(|((o, &(delta, sg2, cg)), &depol)| {
             let var = o.var_aop + tau2;
-            let mut w = if cg.abs() < cos_excl { tukey(delta / var.sqrt()) } else { 0.0 };
-            if dmax.is_finite() && dpred(cg) > 0.2 && o.dolp < DOLP_FRACTION * dmax * dpred(cg) {
-                w = 0.0;
-            }
+            let w = if cg.abs() < cos_excl && !depol { tukey(delta / var.sqrt()) } else { 0.0 };
             (w, var, sg2, delta)
         })
         .collect();
@@ -216,23 +207,29 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
         }
     }
     let rows = grid_len / cols.max(1);
-    let seed: Vec<bool> = (0..grid_len)
-        .map(|k| {
-            let (c, r) = (k % cols, k / cols);
-            let near = (r.saturating_sub(1)..=(r + 1).min(rows - 1))
-                .flat_map(|rr| (c.saturating_sub(1)..=(c + 1).min(cols - 1)).map(move |cc| rr * cols + cc))
-                .filter(|&j| j != k && rejected[j])
-                .count();
-            rejected[k] && near >= 2
-        })
-        .collect();
-    let grown = dilate(&seed, cols, rows, DILATE_CELLS as usize);
+    let grown = dilate(&clustered(&rejected, cols), cols, rows, DILATE_CELLS as usize);
     for (o, x) in obs.iter().zip(w.iter_mut()) {
         if grown[o.grid] {
             x.0 = 0.0;
         }
     }
     (w, tau2.sqrt())
+}
+
+/// The cells of `mask` with at least two others of it among their eight neighbours
+/// (clusters, not lone cells).
+fn clustered(mask: &[bool], cols: usize) -> Vec<bool> {
+    let rows = mask.len() / cols.max(1);
+    (0..mask.len())
+        .map(|k| {
+            let (c, r) = (k % cols, k / cols);
+            let near = (r.saturating_sub(1)..=(r + 1).min(rows.saturating_sub(1)))
+                .flat_map(|rr| (c.saturating_sub(1)..=(c + 1).min(cols - 1)).map(move |cc| rr * cols + cc))
+                .filter(|&j| j != k && mask[j])
+                .count();
+            mask[k] && near >= 2
+        })
+        .collect()
 }
 
 /// `mask` grown by `r` cells (a square window), as two separable passes.
@@ -259,6 +256,22 @@ fn cg_of(sg2: f64) -> f64 {
 
 /// The lower quartile of χ² with one degree of freedom.
 const CHI2_1_Q25: f64 = 0.1015;
+
+/// Whether each cell is depolarized: its DoLP under DOLP_FRACTION of the Rayleigh
+/// prediction `d_max·sin²γ/(1 + cos²γ)` where that is > 0.2 (clouds, foliage, the
+/// aureole), d_max the median ratio over the cells that fit (`res`: δ, sin²γ, cos γ).
+fn depolarized(obs: &[Obs], res: &[(f64, f64, f64)], tau2: f64) -> Vec<bool> {
+    let dpred = |cg: f64| (1.0 - cg * cg) / (1.0 + cg * cg);
+    let mut ratios: Vec<f64> = (0..obs.len())
+        .filter(|&i| dpred(res[i].2) > 0.3 && res[i].0.powi(2) < 9.0 * (obs[i].var_aop + tau2))
+        .map(|i| obs[i].dolp / dpred(res[i].2))
+        .collect();
+    let dmax = median(&mut ratios);
+    obs.iter()
+        .zip(res)
+        .map(|(o, r)| dmax.is_finite() && dpred(r.2) > 0.2 && o.dolp < DOLP_FRACTION * dmax * dpred(r.2))
+        .collect()
+}
 
 fn tukey(r: f64) -> f64 {
     let u = r / TUKEY_C;
@@ -327,33 +340,35 @@ fn solve(sums: &HeadingSums, extractor: Extractor, ctx: &FieldContext, hint: DVe
     Ok((est.heading_deg, est.sigma_deg))
 }
 
-pub(super) fn estimate(
-    cells: &Cells,
-    ctx: &FieldContext,
-    opts: &FieldOptions,
-    extractors: &[Extractor],
-) -> Vec<FieldHeading> {
+/// The outcome of steps 1–4: the cells, their final weights and the heading.
+pub(super) struct Robust {
+    obs: Vec<Obs>,
+    w: Vec<(f64, f64, f64, f64)>,
+    /// The sun vector's heading the weights settled on, degrees.
+    pub(super) heading_deg: f64,
+    pub(super) quality: FieldQuality,
+    /// Per cell of the grid: whether it was seen as non-sky (a cluster of
+    /// depolarized cells, grown), for the sky mask.
+    depolarized_grown: Vec<bool>,
+}
+
+/// Steps 1–4 on one frame's cells.
+pub(super) fn robust(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions) -> Result<Robust, (FieldQuality, NoHeading)> {
     let mut quality = FieldQuality { cells_total: cells.grid_len(), ..Default::default() };
-    let fail = |q: FieldQuality, r: NoHeading| {
-        extractors.iter().map(|&e| FieldHeading { extractor: e, result: Err(r.clone()), quality: q }).collect()
-    };
     if ctx.sun_el_deg < -10.0 {
-        return fail(quality, NoHeading::SunTooLow { sun_el_deg: ctx.sun_el_deg });
+        return Err((quality, NoHeading::SunTooLow { sun_el_deg: ctx.sun_el_deg }));
     }
     if ctx.sun_el_deg > 89.0 {
-        return fail(quality, NoHeading::SunAtZenith { sun_el_deg: ctx.sun_el_deg });
+        return Err((quality, NoHeading::SunAtZenith { sun_el_deg: ctx.sun_el_deg }));
     }
     let level = ctx.level_from_camera();
     let obs = observe(cells, ctx, opts, level);
     quality.cells_valid = obs.len();
     let min_used = opts.min_cells.max((opts.min_used_fraction * quality.cells_total as f64).ceil() as usize);
     if obs.len() < min_used {
-        return fail(quality, NoHeading::TooLittleSky { used: obs.len(), total: quality.cells_total });
+        return Err((quality, NoHeading::TooLittleSky { used: obs.len(), total: quality.cells_total }));
     }
-    let mut psi = match search(&obs, ctx) {
-        Ok(p) => p,
-        Err(r) => return fail(quality, r),
-    };
+    let mut psi = search(&obs, ctx).map_err(|r| (quality, r))?;
     // Step 4: reweight around the sun vector's heading until it settles.
     let band = meridian_band(ctx, opts, level, cells);
     let (mut w, mut tau) = weights(&obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len());
@@ -373,6 +388,53 @@ pub(super) fn estimate(
     quality.used_fraction = quality.cells_used as f64 / quality.cells_total.max(1) as f64;
     let (sw, swd2) = w.iter().filter(|x| x.0 >= 0.5).fold((0.0, 0.0), |(a, b), x| (a + x.0, b + x.0 * x.3 * x.3));
     quality.residual_rms_deg = if sw > 0.0 { (swd2 / sw).sqrt().to_degrees() } else { f64::NAN };
+    // The sky's own sun (the unconstrained sun vector), as a check on the attitude: its
+    // elevation in the level frame minus the known one.
+    let hint = cone_sun(ctx, psi);
+    let all = sum_blocks(&block_sums(&obs, &w, Extractor::SunVector, band));
+    if let Ok((_, vecs)) = sun_vector::scatter_eigen(&all) {
+        let s = if vecs[0].dot(hint) < 0.0 { -vecs[0] } else { vecs[0] };
+        quality.sun_elevation_offset_deg = s.z.clamp(-1.0, 1.0).asin().to_degrees() - ctx.sun_el_deg;
+    }
+    let res: Vec<(f64, f64, f64)> = obs.iter().map(|o| residual(o, hint)).collect();
+    let mut seed = vec![false; cells.grid_len()];
+    for (o, d) in obs.iter().zip(depolarized(&obs, &res, tau * tau)) {
+        seed[o.grid] = d;
+    }
+    let depolarized_grown = dilate(&clustered(&seed, cells.cols), cells.cols, cells.rows, DILATE_CELLS as usize);
+    Ok(Robust { obs, w, heading_deg: psi, quality, depolarized_grown })
+}
+
+impl Robust {
+    /// Per cell of the grid: sky that follows the model's pattern — a cell that passed
+    /// the masks (whole, unsaturated, above the horizon margin) and is not in or beside
+    /// a cluster of depolarized cells (clouds, foliage, the aureole). Residuals alone
+    /// never take a cell out of it: a lens or sensor effect moves AoP, and a fit must
+    /// still see where it does.
+    pub(super) fn sky_cells(&self, grid_len: usize) -> Vec<bool> {
+        let mut sky = vec![false; grid_len];
+        for o in &self.obs {
+            sky[o.grid] = !self.depolarized_grown[o.grid];
+        }
+        sky
+    }
+}
+
+pub(super) fn estimate(
+    cells: &Cells,
+    ctx: &FieldContext,
+    opts: &FieldOptions,
+    extractors: &[Extractor],
+) -> Vec<FieldHeading> {
+    let fail = |q: FieldQuality, r: NoHeading| {
+        extractors.iter().map(|&e| FieldHeading { extractor: e, result: Err(r.clone()), quality: q }).collect()
+    };
+    let r = match robust(cells, ctx, opts) {
+        Ok(r) => r,
+        Err((q, why)) => return fail(q, why),
+    };
+    let quality = r.quality;
+    let min_used = opts.min_cells.max((opts.min_used_fraction * quality.cells_total as f64).ceil() as usize);
     if quality.cells_used < min_used {
         return fail(quality, NoHeading::TooLittleSky { used: quality.cells_used, total: quality.cells_total });
     }
@@ -383,18 +445,13 @@ pub(super) fn estimate(
         );
     }
     // Step 5: each extractor on the final weights, with its 1σ.
-    let hint = cone_sun(ctx, psi);
-    // The sky's own sun (the unconstrained sun vector), as a check on the attitude: its
-    // elevation in the level frame minus the known one.
-    let all = sum_blocks(&block_sums(&obs, &w, Extractor::SunVector, band));
-    if let Ok((_, vecs)) = sun_vector::scatter_eigen(&all) {
-        let s = if vecs[0].dot(hint) < 0.0 { -vecs[0] } else { vecs[0] };
-        quality.sun_elevation_offset_deg = s.z.clamp(-1.0, 1.0).asin().to_degrees() - ctx.sun_el_deg;
-    }
+    let level = ctx.level_from_camera();
+    let band = meridian_band(ctx, opts, level, cells);
+    let hint = cone_sun(ctx, r.heading_deg);
     extractors
         .iter()
         .map(|&e| {
-            let blocks = block_sums(&obs, &w, e, band);
+            let blocks = block_sums(&r.obs, &r.w, e, band);
             let result = finish(&blocks, e, ctx, opts, hint, level).map_err(NoHeading::Solver);
             FieldHeading { extractor: e, result, quality }
         })
