@@ -40,15 +40,7 @@ fn frame_setup() -> (ChainFrame, Reconstructor, HeadingContext) {
     };
     let scene =
         Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
-    let resp = Response {
-        gain_dn: 3000.0,
-        black_level_dn: 64.0,
-        read_noise_dn: 1.0,
-        system_gain_dn_per_e: 0.1,
-        bit_depth: 12,
-        quantize: true,
-        ..Response::ideal(1.0)
-    };
+    let resp = Response::samples(3000.0);
     let f = ChainFrame::new(&Model::default(), &intr, &scene, &resp, NoiseIndex { seed: 1, trial: 0, frame: 0 });
     let rec = Reconstructor::new(&Model::default(), 64.0, &Channel::ALL).expect("four channels");
     let ctx = HeadingContext::new(intr, W, H, scene.sun_az_deg, scene.sun_el_deg);

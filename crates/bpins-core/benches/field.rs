@@ -22,15 +22,7 @@ use std::hint::black_box;
 fn setup(w: usize, h: usize, pitch_um: f64) -> (Vec<u16>, FieldContext) {
     let intr = Intrinsics::new(Projection::Pinhole, 8000.0 / pitch_um, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
     let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 4.0, tilt_y_deg: -3.0, dmax: 0.6 };
-    let resp = Response {
-        gain_dn: 3000.0,
-        black_level_dn: 64.0,
-        read_noise_dn: 1.0,
-        system_gain_dn_per_e: 0.1,
-        bit_depth: 12,
-        quantize: true,
-        ..Response::ideal(1.0)
-    };
+    let resp = Response::samples(3000.0);
     let f = ChainFrame::new(&Model::default(), &intr, &scene, &resp, NoiseIndex { seed: 1, trial: 0, frame: 0 });
     let dn: Vec<u16> = render_mosaic(&f, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
     let ctx = FieldContext {

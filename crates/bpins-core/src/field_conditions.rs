@@ -51,15 +51,7 @@ impl Condition {
     pub fn simulate(&self, seed: u64) -> Result<Simulated> {
         let (truth, reference) = self.attitude.draw(&self.capture.frames)?;
         let truth = Capture { frames: truth, ..self.capture.clone() };
-        let sim = SimSensor {
-            peak_fraction: 0.7,
-            read_noise_dn: 1.0,
-            system_gain_dn_per_e: 0.1,
-            dsnu_dn: 0.0,
-            prnu: 0.0,
-            dmax: 0.6,
-            seed,
-        };
+        let sim = SimSensor::samples(seed);
         let (_, frames) = simulate_capture(&truth, &self.model, &sim, self.field.as_ref())?;
         Ok(Simulated { capture: Capture { frames: reference, ..self.capture.clone() }, frames })
     }

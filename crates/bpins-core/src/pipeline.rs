@@ -170,6 +170,23 @@ pub struct SimSensor {
     pub seed: u64,
 }
 
+impl SimSensor {
+    /// The sample captures' sensor (shared/samples/README.md): peak 70 % of full
+    /// scale, read noise 1 DN, shot noise at K = 0.1 DN/e⁻, no fixed-pattern noise,
+    /// sky d_max 0.6; noise seeded by `seed`.
+    pub fn samples(seed: u64) -> Self {
+        SimSensor {
+            peak_fraction: 0.7,
+            read_noise_dn: 1.0,
+            system_gain_dn_per_e: 0.1,
+            dsnu_dn: 0.0,
+            prnu: 0.0,
+            dmax: 0.6,
+            seed,
+        }
+    }
+}
+
 /// The scene of frame `f` (heading and tilt default to 0 where not given).
 pub fn scene_of(f: &FrameSpec, dmax: f64) -> Scene {
     Scene {

@@ -121,6 +121,20 @@ impl Response {
         }
     }
 
+    /// The sample captures' sensor (shared/samples/README.md) at gain `gain_dn`:
+    /// 12-bit with rounding and clipping, black level 64 DN, read noise 1 DN, shot
+    /// noise at K = 0.1 DN/e⁻, no fixed-pattern noise.
+    pub fn samples(gain_dn: f64) -> Self {
+        Response {
+            black_level_dn: 64.0,
+            read_noise_dn: 1.0,
+            system_gain_dn_per_e: 0.1,
+            bit_depth: 12,
+            quantize: true,
+            ..Response::ideal(gain_dn)
+        }
+    }
+
     /// Largest DN the sensor can output.
     pub fn full_scale_dn(&self) -> f64 {
         ((1u64 << self.bit_depth) - 1) as f64

@@ -109,15 +109,7 @@ fn skyline_and_clouds() -> (Capture, Vec<FrameData>) {
     let mut field = FieldScene::new(5);
     field.parse("clouds.count=8").unwrap();
     field.parse("skyline").unwrap();
-    let sim = SimSensor {
-        peak_fraction: 0.7,
-        read_noise_dn: 1.0,
-        system_gain_dn_per_e: 0.1,
-        dsnu_dn: 0.0,
-        prnu: 0.0,
-        dmax: 0.6,
-        seed: 5,
-    };
+    let sim = SimSensor::samples(5);
     let (_, data) = simulate_capture(&c, &Default::default(), &sim, Some(&field)).unwrap();
     (c, data)
 }

@@ -47,15 +47,7 @@ fn capture(sun_el_deg: f64) -> Capture {
 }
 
 fn sensor() -> SimSensor {
-    SimSensor {
-        peak_fraction: 0.7,
-        read_noise_dn: 1.0,
-        system_gain_dn_per_e: 0.1,
-        dsnu_dn: 0.0,
-        prnu: 0.0,
-        dmax: 0.6,
-        seed: 3,
-    }
+    SimSensor::samples(3)
 }
 
 fn field(seed: u64) -> FieldScene {

@@ -26,15 +26,7 @@ fn scene(heading_deg: f64, sun_el_deg: f64, tilt: [f64; 2]) -> Scene {
 /// A 12-bit DoFP frame with read and shot noise, black level 64 DN.
 fn render(p: Projection, truth: &Model, sc: &Scene, seed: u64) -> (Vec<f32>, Intrinsics, usize, usize) {
     let (intr, w, h) = camera(p);
-    let resp = Response {
-        gain_dn: 2400.0,
-        black_level_dn: 64.0,
-        read_noise_dn: 1.0,
-        system_gain_dn_per_e: 0.1,
-        bit_depth: 12,
-        quantize: true,
-        ..Response::ideal(1.0)
-    };
+    let resp = Response::samples(2400.0);
     let f = ChainFrame::new(truth, &intr, sc, &resp, NoiseIndex { seed, trial: 0, frame: 0 });
     (render_mosaic(&f, w, h, &DEFAULT_MOSAIC), intr, w, h)
 }
