@@ -17,7 +17,7 @@ const SEARCH_CAP_RAD: f64 = 10.0 * PI / 180.0;
 /// Per-cell model error assumed by the start search, radians (so no cell dominates).
 const SEARCH_SIGMA_RAD: f64 = 1.0 * PI / 180.0;
 /// Cells the start search reads at most (evenly strided).
-const SEARCH_CELLS: usize = 512;
+const SEARCH_CELLS: usize = 400;
 /// A second minimum of the start cost within this of the first is ambiguous (χ² units
 /// of the 1° per-cell error the search assumes).
 const AMBIGUITY_CHI2: f64 = 9.0;
@@ -41,9 +41,10 @@ struct Obs {
     block: usize,
     /// Index in the cell grid (row-major).
     grid: usize,
-    /// ψ = AoE − 90° in the level frame (radians), the level ray's image angle β and 2β.
-    psi: f64,
-    beta: f64,
+    /// The E-vector on the level ray's meridional basis: e·p and −e·s (AoE =
+    /// atan2(−e·s, e·p)), and cos 2β, sin 2β of the level ray's image angle β.
+    ep: f64,
+    es: f64,
     cos2b: f64,
     sin2b: f64,
 }
@@ -70,24 +71,25 @@ fn observe(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions, level: DMat3)
             if !(p2 > 0.0 && sm.i > 0.0) {
                 return None;
             }
-            // E-vector e = cos φ·p − sin φ·s, φ = AoE (camera frame), then level.
-            let phi = 0.5 * sm.u.atan2(sm.q);
-            let e = level * (phi.cos() * g.basis.p - phi.sin() * g.basis.s);
+            // E-vector e = cos φ·p − sin φ·s, φ = AoE (camera frame), then level; φ
+            // from its double angle (cos 2φ = Q_p/P, sin 2φ = U_p/P) by half angles.
+            let pol = p2.sqrt();
+            let c2 = sm.q / pol;
+            let (cos_phi, sin_phi) = ((0.5 * (1.0 + c2)).max(0.0).sqrt(), (0.5 * (1.0 - c2)).max(0.0).sqrt());
+            let e = level * (cos_phi * g.basis.p - sin_phi.copysign(sm.u) * g.basis.s);
             let (q, u) = (c.stokes.q, c.stokes.u);
             let var_aop = ((u * u * c.var_q_dn2 + q * q * c.var_u_dn2) / (4.0 * p2 * p2)).max(1e-12);
             // AoE in the level frame: the angle of e from the level ray's meridian.
             let mb = meridional_basis(d);
-            let aoe = (-e.dot(mb.s)).atan2(e.dot(mb.p));
-            let psi = wrap_rad_90(aoe - FRAC_PI_2);
             Some(Obs {
                 d,
                 e,
-                dolp: p2.sqrt() / sm.i,
+                dolp: pol / sm.i,
                 var_aop,
                 block: block_of(c.col, cells.cols) + BLOCKS * block_of(c.row, cells.rows),
                 grid: c.row as usize * cells.cols + c.col as usize,
-                psi,
-                beta: image_angle_rad(d.x, d.y),
+                ep: e.dot(mb.p),
+                es: -e.dot(mb.s),
                 cos2b: mb.cos2b,
                 sin2b: mb.sin2b,
             })
@@ -113,13 +115,14 @@ fn cone_sun(ctx: &FieldContext, heading_deg: f64) -> DVec3 {
     DVec3::new(ch * sa, -ch * ca, sh)
 }
 
-/// Angle δ (radians) of the E-vector off the Rayleigh direction ⊥(sun, ray), and
+/// Angle δ of the E-vector off the Rayleigh direction ⊥(sun, ray), as sin δ (radians
+/// to 1.5 % up to 17°, and bounded beyond, which is all the weights need), and
 /// sin²γ, cos γ of the scattering angle γ.
 #[inline]
 fn residual(o: &Obs, s: DVec3) -> (f64, f64, f64) {
     let cg = o.d.dot(s);
     let sg2 = (1.0 - cg * cg).max(1e-12);
-    ((o.e.dot(s) / sg2.sqrt()).clamp(-1.0, 1.0).asin(), sg2, cg)
+    ((o.e.dot(s) / sg2.sqrt()).clamp(-1.0, 1.0), sg2, cg)
 }
 
 /// Step 3: the start heading from a grid search on the sun's cone.
@@ -140,7 +143,7 @@ fn search(obs: &[Obs], ctx: &FieldContext) -> Result<f64, NoHeading> {
             })
             .sum::<f64>()
     };
-    let grid: Vec<(f64, f64)> = (0..120).map(|k| 3.0 * k as f64).map(|p| (p, cost(p))).collect();
+    let grid: Vec<(f64, f64)> = (0..90).map(|k| 4.0 * k as f64).map(|p| (p, cost(p))).collect();
     let refine = |centre: f64| {
         let fine = |c: f64, step: f64| {
             (-6..=6).map(|k| c + step * k as f64).map(|p| (p, cost(p))).fold((c, f64::INFINITY), min_by_cost)
@@ -220,16 +223,22 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
 /// (clusters, not lone cells).
 fn clustered(mask: &[bool], cols: usize) -> Vec<bool> {
     let rows = mask.len() / cols.max(1);
-    (0..mask.len())
-        .map(|k| {
-            let (c, r) = (k % cols, k / cols);
-            let near = (r.saturating_sub(1)..=(r + 1).min(rows.saturating_sub(1)))
-                .flat_map(|rr| (c.saturating_sub(1)..=(c + 1).min(cols - 1)).map(move |cc| rr * cols + cc))
-                .filter(|&j| j != k && mask[j])
-                .count();
-            mask[k] && near >= 2
-        })
-        .collect()
+    let mut out = vec![false; mask.len()];
+    for r in 0..rows {
+        for c in 0..cols {
+            if !mask[r * cols + c] {
+                continue;
+            }
+            let mut near = 0;
+            for rr in r.saturating_sub(1)..=(r + 1).min(rows - 1) {
+                for cc in c.saturating_sub(1)..=(c + 1).min(cols - 1) {
+                    near += mask[rr * cols + cc] as usize;
+                }
+            }
+            out[r * cols + c] = near >= 3; // itself and two others
+        }
+    }
+    out
 }
 
 /// `mask` grown by `r` cells (a square window), as two separable passes.
@@ -314,8 +323,12 @@ fn block_sums(
         match extractor {
             Extractor::SunVector => b.add_scatter_weighted(o.e, rw / (var * sg2)),
             Extractor::MeridianLine => {
-                if o.psi.abs() < band_rad && o.d.z <= zmin_cos && o.d.z >= zmax_cos {
-                    b.add_band_weighted(o.beta, o.psi, o.cos2b, o.sin2b, rw / var);
+                // |ψ| < band, ψ = AoE − 90°: cos 2ψ = −cos 2·AoE > cos 2·band.
+                let cos_2aoe = (o.ep * o.ep - o.es * o.es) / (o.ep * o.ep + o.es * o.es);
+                if -cos_2aoe > (2.0 * band_rad).cos() && o.d.z <= zmin_cos && o.d.z >= zmax_cos {
+                    let psi = wrap_rad_90(o.es.atan2(o.ep) - FRAC_PI_2);
+                    let beta = image_angle_rad(o.d.x, o.d.y);
+                    b.add_band_weighted(beta, psi, o.cos2b, o.sin2b, rw / var);
                 }
             }
         }
