@@ -357,9 +357,9 @@ impl Acc {
         // A channel too small to measure its scatter borrows the largest per-pixel
         // variance of the others.
         let per_px = (0..4).filter(|&k| var[k].is_finite()).map(|k| var[k] * self.n[k]).fold(0.0, f64::max);
-        for k in 0..4 {
-            if var[k].is_nan() {
-                var[k] = per_px / self.n[k];
+        for (v, n) in var.iter_mut().zip(self.n) {
+            if v.is_nan() {
+                *v = per_px / n;
             }
         }
         Some((mean, var))
