@@ -39,6 +39,39 @@
 //! misfit by degrees, or when the sun is out of the range where the pattern holds
 //! (below −10°, the end of nautical twilight, or within 1° of the zenith).
 //!
+//! # Example: a tilted frame, its IMU's attitude, a heading with its 1σ
+//!
+//! ```
+//! use bpins_core::camera::{Intrinsics, Projection};
+//! use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
+//! use bpins_core::effects::Model;
+//! use bpins_core::heading::field::{estimate, Cells, FieldContext, FieldOptions, RawImage};
+//! use bpins_core::heading::Extractor;
+//! use bpins_core::recon::Reconstructor;
+//! use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
+//! use bpins_core::simulate::render_mosaic;
+//!
+//! // A 306 × 256 DoFP frame behind an 8 mm lens, tilted 6° and −4° on rough ground.
+//! let (w, h) = (306, 256);
+//! let camera = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+//! let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 6.0, tilt_y_deg: -4.0, dmax: 0.6 };
+//! let truth = ChainFrame::new(&Model::default(), &camera, &scene, &Response::samples(2400.0), NoiseIndex { seed: 1, trial: 0, frame: 0 });
+//! let raw: Vec<u16> = render_mosaic(&truth, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+//!
+//! // The robot's side: the raw buffer, the sun, and the attitude its IMU reads (±0.1°).
+//! let rec = Reconstructor::new(&Model::default(), 64.0, &Channel::ALL)?;
+//! let cells = Cells::from_mosaic(&RawImage::packed(&raw, w, h), &DEFAULT_MOSAIC, &rec, 4095.0, Cells::default_cell_px(w, h));
+//! let ctx = FieldContext { tilt_x_deg: 6.05, tilt_y_deg: -3.95, tilt_sigma_deg: 0.1, ..FieldContext::new(camera, 40.0, 25.0) };
+//! let r = &estimate(&cells, &ctx, &FieldOptions::default(), &[Extractor::SunVector])[0];
+//! let (heading_deg, sigma) = r.result.clone().expect("a clear sky has a heading");
+//! // The IMU's 0.05° error per axis moves the heading by about 0.05°·tan 25°, and the
+//! // 1σ says so (its tilt part is about 0.1°·tan 25° ≈ 0.05°).
+//! assert!((heading_deg - 30.0).abs() < 2.0 * sigma.total_deg());
+//! assert!(sigma.tilt_deg > 0.03 && sigma.tilt_deg < 0.07);
+//! assert!(r.quality.used_fraction > 0.9);
+//! # Ok::<(), bpins_core::Error>(())
+//! ```
+//!
 //! What it cannot do: it trusts the sun's elevation and the reference tilt to within
 //! their σ (the cone search needs h); it models the sky as Rayleigh's pattern, so a
 //! sky far from it (thick overcast) is refused, not fitted; a lens effect that is not
