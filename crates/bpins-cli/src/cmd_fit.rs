@@ -89,6 +89,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     });
     let path = a.out.join("fit.json");
     write_json(&path, &v)?;
+    // The calibration: the known effects as given, then the fitted ones with their 1σ.
+    let known: Vec<(String, f64, f64)> = opts
+        .known
+        .iter()
+        .flat_map(|(d, vals)| d.params.iter().zip(vals).map(move |(p, v)| (format!("{}.{}", d.name, p.name), *v, 0.0)))
+        .filter(|(n, ..)| !r.params.iter().any(|p| &p.name == n))
+        .collect();
+    let cal = bpins_core::calibration::Calibration::from_params(
+        known.iter().map(|(n, v, s)| (n.as_str(), *v, *s)).chain(r.params.iter().map(|p| (p.name.as_str(), p.value, p.sigma))),
+        &format!("bpins fit {}", a.capture.display()),
+        Some(r.chi2_per_dof),
+    )
+    .context("the fitted values as a calibration")?;
+    let cal_path = a.out.join("calibration.toml");
+    std::fs::write(&cal_path, cal.to_toml()).with_context(|| format!("writing {}", cal_path.display()))?;
+    eprintln!("wrote {} (bpins heading --calibration, fit/diagnose --calibration)", cal_path.display());
     let maps = bpins_core::fit::residual_maps(&c, &frames, &opts, &r.state, r.noise).context("residual maps")?;
     crate::residuals::write(&a.out, &maps)?;
     eprintln!("wrote residual maps (EXR and PNG) and sky-space profiles (CSV and SVG) to {}", a.out.display());

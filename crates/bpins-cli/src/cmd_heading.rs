@@ -35,6 +35,10 @@ pub struct Args {
     /// e.g. --effect array_rotation.dtheta_deg=0.3.
     #[arg(long = "effect", value_name = "EFFECT.PARAM=VALUE")]
     effects: Vec<String>,
+    /// A calibration file (bpins-calibration/1, as `bpins fit` writes it) to
+    /// compensate; `--effect` assignments apply on top of it.
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
     /// Write the per-frame results as JSON to this file (never inside the capture).
     #[arg(long)]
     json: Option<PathBuf>,
@@ -69,7 +73,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             ),
         }
     };
-    let mut known = EffectSet::new();
+    let mut known = match &a.calibration {
+        Some(p) => bpins_core::calibration::Calibration::load(p)?.effects,
+        None => EffectSet::new(),
+    };
     for spec in &a.effects {
         known.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
     }
@@ -188,6 +195,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "estimator": if field { "field" } else { "plain" },
             "recon": if field { "cells" } else { mode.name() },
             "compensated_effects": a.effects,
+            "calibration": a.calibration.as_ref().map(|p| p.display().to_string()),
             "frames": rows.iter().map(Row::to_json).collect::<Vec<_>>(),
             "summary": summary,
         });

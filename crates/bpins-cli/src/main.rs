@@ -106,6 +106,10 @@ pub struct FitInput {
     /// instead of fitting a smooth shape × (1 + a1 cos γ + a2 cos²γ) per frame.
     #[arg(long)]
     pub rayleigh_radiance: bool,
+    /// A calibration (bpins-calibration/1, as `bpins fit` writes it): its effects are
+    /// known and held at their values (an effect also named in --effects is fitted).
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<std::path::PathBuf>,
     /// Fit every pixel, including those each frame's sky mask leaves out as not sky
     /// (clouds, trees, buildings, the ground, the sun's aureole: the field estimator's
     /// depolarized clusters and the rays below the horizon).
@@ -147,6 +151,10 @@ impl FitInput {
             fixed_dmax: self.fixed_dmax,
             rayleigh_radiance: self.rayleigh_radiance,
             all_pixels: self.all_pixels,
+            known: match &self.calibration {
+                Some(p) => bpins_core::calibration::Calibration::load(p)?.effects,
+                None => Default::default(),
+            },
         };
         Ok((opts, c, frames))
     }

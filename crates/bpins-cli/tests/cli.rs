@@ -880,3 +880,44 @@ fn diagnose_and_fit_name_the_bad_field_of_a_bad_capture_and_write_nothing() {
     assert!(!out.exists());
     assert_eq!(snapshot(&copy), before);
 }
+
+// ------------------------------------------------------- calibration round trip
+
+#[test]
+fn a_fitted_calibration_is_handed_to_heading_and_the_error_falls_to_the_noise() {
+    // The independent generator's capture with analyzers off by +1.0° (45°) and −0.6°
+    // (135°): fit them, write calibration.toml, read the headings with it.
+    let hidden = CLEAN.replace("/clean", "/hidden-analyzer-angles");
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("fit");
+    let before = snapshot(Path::new(&hidden));
+    bpins(&["fit", &hidden, "--effects", "analyzer_angles", "--out", &s(&out)]).ok().stderr_has("calibration.toml");
+    let cal = out.join("calibration.toml");
+    let text = std::fs::read_to_string(&cal).unwrap();
+    assert!(text.starts_with("format = \"bpins-calibration/1\""), "{text}");
+    assert!(text.contains("[effects.analyzer_angles]") && text.contains("[sigma.analyzer_angles]"), "{text}");
+    let rms = |extra: &[&str], json: &Path| -> f64 {
+        let mut args = vec!["heading", &hidden, "--json"];
+        let j = s(json);
+        args.push(&j);
+        args.extend_from_slice(extra);
+        bpins(&args).ok();
+        f64_of(&read_json(json)["summary"][0], "rms_error_deg")
+    };
+    let raw = rms(&[], &tmp.path().join("raw.json"));
+    let c = s(&cal);
+    let calibrated = rms(&["--calibration", &c], &tmp.path().join("cal.json"));
+    eprintln!("heading RMS {raw:.4}° → {calibrated:.4}° with the calibration");
+    assert!(raw > 0.08, "uncalibrated: {raw}");
+    assert!(calibrated < 0.01, "calibrated: {calibrated}");
+    // fit --calibration holds the effects: nothing left to find (χ²/dof ≈ 1).
+    let out2 = tmp.path().join("fit2");
+    bpins(&["fit", &hidden, "--calibration", &c, "--out", &s(&out2)]).ok();
+    let chi2 = f64_of(&read_json(&out2.join("fit.json")), "chi2_per_dof");
+    assert!((chi2 - 1.0).abs() < 0.03, "χ²/dof with the calibration held: {chi2}");
+    // A broken calibration is refused, naming the file and the key.
+    let bad = tmp.path().join("bad.toml");
+    std::fs::write(&bad, "format = \"bpins-calibration/1\"\n[effects.analyzer_angles]\nd46_deg = 1.0\n").unwrap();
+    bpins(&["heading", &hidden, "--calibration", &s(&bad)]).fails().stderr_has("bad.toml").stderr_has("d46_deg");
+    assert_eq!(snapshot(Path::new(&hidden)), before, "the capture was written into");
+}

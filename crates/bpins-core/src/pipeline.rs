@@ -33,10 +33,18 @@ impl ReconMode {
     }
 }
 
-/// The intrinsics a capture declares, moved by a known principal-point offset.
+/// The intrinsics a capture declares with the `known` geometry folded in as the
+/// chain folds it (`ChainFrame::new`): principal-point offset, focal-length scale and
+/// radial distortion.
 pub fn assumed_intrinsics(c: &Capture, known: &Model) -> Intrinsics {
     let i = c.intrinsics();
-    Intrinsics { cx_px: i.cx_px + known.pp_offset_px[0], cy_px: i.cy_px + known.pp_offset_px[1], ..i }
+    Intrinsics {
+        cx_px: i.cx_px + known.pp_offset_px[0],
+        cy_px: i.cy_px + known.pp_offset_px[1],
+        f_px: i.f_px * (1.0 + known.focal_scale),
+        distortion: [i.distortion[0] + known.distortion[0], i.distortion[1] + known.distortion[1]],
+        ..i
+    }
 }
 
 /// What the heading extractors know about frame `f`: the capture's camera (plus

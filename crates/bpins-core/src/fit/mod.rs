@@ -34,7 +34,7 @@ use crate::camera::Intrinsics;
 use crate::capture::{Capture, FrameData};
 use crate::chain::{mosaic_pixel_signal_dn, pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
 use crate::conventions::wrap_deg_180;
-use crate::effects::{EffectDef, EffectSet, Model};
+use crate::effects::{EffectDef, EffectSet};
 use crate::heading::field::{self, FieldOptions, SkyMask};
 use crate::error::{Error, Result};
 use crate::sensor::{Layout, Response};
@@ -55,6 +55,9 @@ pub struct FitOptions {
     /// Hold every frame's radiance shape at Rayleigh's (a1 = a2 = 0) instead of
     /// fitting it.
     pub rayleigh_radiance: bool,
+    /// Effects known from a calibration (`crate::calibration`), held at their values;
+    /// an effect also in `effects` is fitted instead.
+    pub known: EffectSet,
     /// Fit every pixel. By default each frame's sky mask
     /// ([`crate::heading::field::sky_mask`]) leaves out what is not sky that follows
     /// the model's pattern — clouds, trees, buildings, the ground, the sun's aureole —
@@ -160,7 +163,7 @@ impl Problem<'_> {
 
     /// The chain of frame `k` under parameters `theta`.
     fn chain(&self, theta: &[f64], k: usize) -> Result<ChainFrame> {
-        let mut set = EffectSet::new();
+        let mut set = self.opts.known.clone();
         let mut i = 0;
         for e in &self.opts.effects {
             for p in e.params {
@@ -444,8 +447,9 @@ fn problem<'a>(
         .iter()
         .enumerate()
         .map(|(k, data)| {
-            let cells = crate::pipeline::frame_cells(c, data, &Model::default(), None)?;
-            let ctx = crate::pipeline::field_context(c, &c.frames[k], &Model::default());
+            let known = opts.known.model();
+            let cells = crate::pipeline::frame_cells(c, data, &known, None)?;
+            let ctx = crate::pipeline::field_context(c, &c.frames[k], &known);
             Ok(field::sky_mask(&cells, &ctx, &FieldOptions::default()).ok())
         })
         .collect::<Result<_>>()?;

@@ -1,0 +1,206 @@
+//! A sensor's calibration on disk: the effects `bpins fit` measured, handed to
+//! `bpins heading`, to a later `fit`/`diagnose` (as known, fixed effects) and to the
+//! library, instead of retyping each parameter as `--effect`.
+//!
+//! ```toml
+//! format = "bpins-calibration/1"
+//! source = "bpins fit samples/hidden-analyzer-angles"   # where it came from (free text)
+//! chi2_per_dof = 0.9988                                  # of that fit, where known
+//!
+//! [effects.analyzer_angles]          # one table per catalog effect (`bpins effects`)
+//! d0_deg = 0.0                       # every parameter by its registry name, in its unit
+//! d45_deg = 1.0017
+//! d90_deg = 0.0
+//! d135_deg = -0.5982
+//!
+//! [sigma.analyzer_angles]            # optional: each parameter's 1σ (inf: not measured)
+//! d45_deg = 0.0019
+//! ```
+//!
+//! Names and ranges are the registry's: an unknown effect or parameter, a value out
+//! of range, an unknown key, or a `format` this reader does not know is an error
+//! naming the file and the key. Parameters not written keep their neutral values.
+
+use crate::effects::{EffectSet, Model};
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// The value of `format` this reader and writer implement.
+pub const FORMAT: &str = "bpins-calibration/1";
+
+/// A calibration: known effects with their values, and (where measured) their 1σ.
+#[derive(Clone, Debug, Default)]
+pub struct Calibration {
+    pub effects: EffectSet,
+    /// `effect.param` → 1σ, in the parameter's unit.
+    pub sigmas: Vec<(String, f64)>,
+    /// Where it came from (free text).
+    pub source: String,
+    pub chi2_per_dof: Option<f64>,
+}
+
+impl Calibration {
+    /// The chain's parameter block of the known effects.
+    pub fn model(&self) -> Model {
+        self.effects.model()
+    }
+
+    /// From fitted parameters named `effect.param` (as `FitResult::params` has them),
+    /// each with its value and 1σ; per-frame nuisances (`frame<k>.…`) are skipped.
+    pub fn from_params<'a>(
+        params: impl IntoIterator<Item = (&'a str, f64, f64)>,
+        source: &str,
+        chi2_per_dof: Option<f64>,
+    ) -> Result<Self> {
+        let mut c = Calibration { source: source.to_string(), chi2_per_dof, ..Default::default() };
+        for (name, value, sigma) in params {
+            let Some((effect, param)) = name.split_once('.') else { continue };
+            if effect.starts_with("frame") && crate::effects::find(effect).is_err() {
+                continue;
+            }
+            c.effects.set(effect, param, value)?;
+            c.sigmas.push((name.to_string(), sigma));
+        }
+        Ok(c)
+    }
+
+    /// The calibration as `bpins-calibration/1` TOML.
+    pub fn to_toml(&self) -> String {
+        let mut top = toml::Table::new();
+        if !self.source.is_empty() {
+            top.insert("source".into(), self.source.clone().into());
+        }
+        if let Some(x) = self.chi2_per_dof {
+            top.insert("chi2_per_dof".into(), x.into());
+        }
+        let (mut effects, mut sigma) = (toml::Table::new(), toml::Table::new());
+        for (def, vals) in self.effects.iter() {
+            let mut t = toml::Table::new();
+            let mut s = toml::Table::new();
+            for (p, v) in def.params.iter().zip(vals) {
+                t.insert(p.name.into(), (*v).into());
+                let key = format!("{}.{}", def.name, p.name);
+                if let Some((_, sd)) = self.sigmas.iter().find(|(n, _)| *n == key) {
+                    s.insert(p.name.into(), (*sd).into());
+                }
+            }
+            effects.insert(def.name.into(), t.into());
+            if !s.is_empty() {
+                sigma.insert(def.name.into(), s.into());
+            }
+        }
+        top.insert("effects".into(), effects.into());
+        if !sigma.is_empty() {
+            top.insert("sigma".into(), sigma.into());
+        }
+        // `format` first (the table writes its keys in order).
+        format!("format = \"{FORMAT}\"\n{}", toml::to_string(&top).unwrap_or_default())
+    }
+
+    /// Parses `text`, the contents of `path` (named in every error).
+    pub fn parse(path: &Path, text: &str) -> Result<Self> {
+        let err = |m: String| Error::Capture { path: path.to_path_buf(), message: m };
+        let top: toml::Table = text.parse().map_err(|e: toml::de::Error| err(format!("not valid TOML: {}", e.message().trim())))?;
+        let mut c = Calibration::default();
+        match top.get("format").and_then(|f| f.as_str()) {
+            Some(FORMAT) => {}
+            Some(f) => return Err(err(format!("format = \"{f}\" is not supported; this reader knows \"{FORMAT}\""))),
+            None => return Err(err(format!("missing required key `format` (should be \"{FORMAT}\")"))),
+        }
+        for (key, v) in &top {
+            match (key.as_str(), v) {
+                ("format", _) => {}
+                ("source", toml::Value::String(s)) => c.source = s.clone(),
+                ("chi2_per_dof", v) => c.chi2_per_dof = number(v),
+                ("effects" | "sigma", toml::Value::Table(effects)) => {
+                    for (effect, params) in effects {
+                        let Some(params) = params.as_table() else {
+                            return Err(err(format!("[{key}.{effect}] must be a table of parameter = value")));
+                        };
+                        for (param, value) in params {
+                            let Some(x) = number(value) else {
+                                return Err(err(format!("{key}.{effect}.{param}: {value} is not a number")));
+                            };
+                            if key == "effects" {
+                                c.effects.set(effect, param, x).map_err(|e| err(format!("{key}.{effect}.{param}: {e}")))?;
+                            } else {
+                                c.sigmas.push((format!("{effect}.{param}"), x));
+                            }
+                        }
+                    }
+                }
+                (k, _) => {
+                    return Err(err(format!(
+                        "unknown key `{k}` (a calibration has format, source, chi2_per_dof, [effects.*], [sigma.*])"
+                    )))
+                }
+            }
+        }
+        for (name, _) in &c.sigmas {
+            let (effect, param) = name.split_once('.').unwrap_or((name, ""));
+            if c.effects.get(effect, param).is_none() {
+                return Err(err(format!("sigma.{name}: no value for it under [effects.{effect}]")));
+            }
+        }
+        Ok(c)
+    }
+
+    /// Reads a calibration file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text =
+            std::fs::read_to_string(path).map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?;
+        Calibration::parse(path, &text)
+    }
+}
+
+fn number(v: &toml::Value) -> Option<f64> {
+    match v {
+        toml::Value::Float(x) => Some(*x),
+        toml::Value::Integer(i) => Some(*i as f64),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_calibration_round_trips_through_toml() {
+        let params = [
+            ("analyzer_angles.d45_deg", 1.0017, 0.0019),
+            ("analyzer_angles.d135_deg", -0.5982, 0.0019),
+            ("frame0.heading_deg", 12.0, 0.001),
+            ("lens_diattenuation.rho2", 0.3, f64::INFINITY),
+        ];
+        let c = Calibration::from_params(params, "bpins fit test", Some(0.9988)).unwrap();
+        let text = c.to_toml();
+        assert!(text.contains("format = \"bpins-calibration/1\""), "{text}");
+        let back = Calibration::parse(Path::new("cal.toml"), &text).unwrap();
+        assert_eq!(back.effects.get("analyzer_angles", "d45_deg"), Some(1.0017));
+        assert_eq!(back.effects.get("analyzer_angles", "d0_deg"), Some(0.0));
+        assert_eq!(back.effects.get("lens_diattenuation", "rho2"), Some(0.3));
+        assert!(back.effects.get("frame0", "heading_deg").is_none());
+        assert_eq!(back.model(), c.model());
+        assert_eq!(back.chi2_per_dof, Some(0.9988));
+        assert!(back.sigmas.iter().any(|(n, s)| n == "lens_diattenuation.rho2" && s.is_infinite()));
+    }
+
+    #[test]
+    fn bad_calibrations_are_refused_with_file_and_key() {
+        let bad = [
+            ("effects.analyzer_angles.d45_deg = 1.0", "format"),
+            ("format = \"bpins-calibration/9\"", "bpins-calibration/9"),
+            ("format = \"bpins-calibration/1\"\n[effects.no_such]\nx = 1.0", "no_such"),
+            ("format = \"bpins-calibration/1\"\n[effects.analyzer_angles]\nd46_deg = 1.0", "d46_deg"),
+            ("format = \"bpins-calibration/1\"\n[effects.crosstalk]\nc = 5.0", "crosstalk.c"),
+            ("format = \"bpins-calibration/1\"\n[effects.crosstalk]\nc = \"x\"", "not a number"),
+            ("format = \"bpins-calibration/1\"\nextra = 1", "extra"),
+            ("format = \"bpins-calibration/1\"\n[sigma.crosstalk]\nc = 0.1", "sigma.crosstalk.c"),
+        ];
+        for (text, want) in bad {
+            let e = Calibration::parse(Path::new("dir/cal.toml"), text).unwrap_err().to_string();
+            assert!(e.contains("dir/cal.toml") && e.contains(want), "{text:?}: {e}");
+        }
+    }
+}
