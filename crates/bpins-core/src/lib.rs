@@ -50,6 +50,7 @@ pub mod calibration;
 pub mod camera;
 pub mod capture;
 pub mod chain;
+pub mod compass;
 pub mod conventions;
 pub mod effects;
 pub mod error;

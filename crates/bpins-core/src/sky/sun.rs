@@ -91,7 +91,24 @@ impl SunPosition {
 /// coordinates out of range or not finite, a year outside the ΔT estimator's range
 /// (−500 … 3000) or SPA's (−2000 … 6000).
 pub fn sun_from_time_place(time_utc: &str, latitude_deg: f64, longitude_deg: f64) -> Result<SunPosition> {
-    let time = parse_time_utc(time_utc)?;
+    sun_at(&parse_time_utc(time_utc)?, latitude_deg, longitude_deg)
+}
+
+/// [`sun_from_time_place`] at `time_unix_s` seconds since 1970-01-01T00:00:00Z (UTC,
+/// leap seconds not counted, as every Unix clock and ROS time).
+pub fn sun_from_unix_time(time_unix_s: f64, latitude_deg: f64, longitude_deg: f64) -> Result<SunPosition> {
+    let bad = || Error::Sun(format!("time {time_unix_s} s since 1970 is not a representable time"));
+    if !time_unix_s.is_finite() {
+        return Err(bad());
+    }
+    let (secs, frac) = (time_unix_s.floor(), time_unix_s - time_unix_s.floor());
+    let time = DateTime::<Utc>::from_timestamp(secs as i64, (frac * 1e9) as u32).ok_or_else(bad)?;
+    sun_at(&time, latitude_deg, longitude_deg)
+}
+
+fn sun_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Result<SunPosition> {
+    let time = *time;
+    let time_utc = time.to_rfc3339_opts(SecondsFormat::AutoSi, true);
     check_place(latitude_deg, longitude_deg)?;
     let dt_s = delta_t::estimate_from_date_like(&time).map_err(|e| Error::Sun(format!("ΔT for `{time_utc}`: {e}")))?;
     let (azimuth_deg, elevation_deg) =

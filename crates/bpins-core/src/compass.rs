@@ -1,0 +1,305 @@
+//! The front door for a robot: a [`Compass`] built once from the camera, the sensor
+//! and a calibration; per frame it takes the raw mosaic as the camera delivers it
+//! (borrowed `u8`, `u16` or `f32` with a row stride, no copy), the sun (angles, or a
+//! Unix time and a place through NREL SPA) and the attitude with its 1σ, and returns
+//! the heading with an honest 1σ, how much of the sky it used, or why there is none
+//! (the field estimator, [`crate::heading::field`]).
+//!
+//! ```
+//! use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
+//! use bpins_core::camera::{Intrinsics, Projection};
+//! use bpins_core::heading::field::RawImage;
+//! # use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
+//! # use bpins_core::sensor::{Response, DEFAULT_MOSAIC};
+//! # let (w, h) = (306, 256);
+//! # let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+//! # let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 2.0, tilt_y_deg: -1.0, dmax: 0.6 };
+//! # let f = ChainFrame::new(&Default::default(), &lens, &scene, &Response::samples(2400.0), NoiseIndex { seed: 1, trial: 0, frame: 0 });
+//! # let raw: Vec<u16> = bpins_core::simulate::render_mosaic(&f, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+//! // Once: the camera (an IMX250MZR-like DoFP sensor behind an 8 mm lens, binned) and
+//! // its calibration (here none: `Calibration::load("calibration.toml")` for a real one).
+//! let mut compass = Compass::new(CompassConfig::dofp(
+//!     Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5),
+//!     306, 256, 12, 64.0,
+//! ))?;
+//! // Per frame: the camera's buffer, the sun, the IMU's attitude.
+//! let fix = compass.heading(
+//!     RawImage { data: &raw, width_px: 306, height_px: 256, stride: 306 },
+//!     Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 },
+//!     Attitude { tilt_x_deg: 2.0, tilt_y_deg: -1.0, sigma_deg: 0.1 },
+//! )?;
+//! let (heading_deg, sigma_deg) = (fix.heading_deg().unwrap(), fix.sigma_deg().unwrap());
+//! assert!((heading_deg - 30.0).abs() < 2.0 * sigma_deg);
+//! # Ok::<(), bpins_core::compass::CompassError>(())
+//! ```
+//!
+//! Frame: the camera's (CONVENTIONS.md); the attitude is the frame's tilt about the
+//! camera's x then y axis (an IMU's roll and pitch in that convention), the heading
+//! the azimuth of the image top, degrees from North toward East in [0°, 360°).
+//! Errors are typed ([`CompassError`]); nothing here panics on input or aborts the
+//! host: buffers that do not match the sensor are refused with their sizes.
+
+use crate::calibration::Calibration;
+use crate::camera::Intrinsics;
+use crate::effects::Model;
+use crate::heading::field::{self, Cells, FieldContext, FieldHeading, FieldOptions, RawDn, RawImage};
+use crate::heading::Extractor;
+use crate::recon::Reconstructor;
+use crate::sensor::{Channel, DEFAULT_MOSAIC};
+use crate::sky::sun::sun_from_unix_time;
+
+/// Why the compass cannot read a frame (a frame that it reads but whose sky gives no
+/// heading is not an error: [`FieldHeading::result`] says why).
+#[derive(Debug, thiserror::Error)]
+pub enum CompassError {
+    #[error("the compass's configuration: {0}")]
+    Config(String),
+    #[error("frame of {got_w} × {got_h} px (stride {stride}, {len} samples) does not match the sensor's {want_w} × {want_h} px")]
+    FrameSize { got_w: usize, got_h: usize, stride: usize, len: usize, want_w: usize, want_h: usize },
+    #[error("sun: {0}")]
+    Sun(String),
+    #[error("attitude: {0}")]
+    Attitude(String),
+    #[error(transparent)]
+    Core(#[from] crate::Error),
+}
+
+/// The sun of one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Sun {
+    /// Azimuth (from North toward East) and elevation, degrees, with their 1σ.
+    Angles { azimuth_deg: f64, elevation_deg: f64, sigma_deg: f64 },
+    /// A time (seconds since 1970-01-01T00:00:00Z, as Unix and ROS clocks give it) and
+    /// a place, through NREL SPA (±0.0003°); `sigma_deg` for the clock's and the
+    /// position's error, in degrees of sun angle.
+    UnixTime { time_s: f64, latitude_deg: f64, longitude_deg: f64, sigma_deg: f64 },
+}
+
+/// The frame's attitude as an IMU reads it: tilt about the camera's x then y axis,
+/// degrees, and the 1σ of each angle.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Attitude {
+    pub tilt_x_deg: f64,
+    pub tilt_y_deg: f64,
+    pub sigma_deg: f64,
+}
+
+/// What a [`Compass`] is built from.
+#[derive(Clone, Debug)]
+pub struct CompassConfig {
+    /// The camera's nominal intrinsics (the calibration's geometry is folded in).
+    pub camera: Intrinsics,
+    pub width_px: usize,
+    pub height_px: usize,
+    /// DoFP analyzer angles by tile row and column (default Sony IMX250MZR).
+    pub mosaic: [[Channel; 2]; 2],
+    pub bit_depth: u32,
+    pub black_level_dn: f64,
+    /// The sensor's known effects (`bpins fit`'s calibration.toml).
+    pub calibration: Calibration,
+    pub options: FieldOptions,
+    pub extractor: Extractor,
+}
+
+impl CompassConfig {
+    /// A DoFP sensor with the default mosaic, no calibration, the default options and
+    /// the `sun_vector` extractor.
+    pub fn dofp(camera: Intrinsics, width_px: usize, height_px: usize, bit_depth: u32, black_level_dn: f64) -> Self {
+        CompassConfig {
+            camera,
+            width_px,
+            height_px,
+            mosaic: DEFAULT_MOSAIC,
+            bit_depth,
+            black_level_dn,
+            calibration: Calibration::default(),
+            options: FieldOptions::default(),
+            extractor: Extractor::SunVector,
+        }
+    }
+}
+
+/// Live frames in, headings out (see the module's example).
+pub struct Compass {
+    cfg: CompassConfig,
+    known: Model,
+    intr: Intrinsics,
+    rec: Reconstructor,
+    full_scale_dn: f64,
+    cell_px: usize,
+}
+
+impl Compass {
+    /// Checks the configuration and prepares what every frame shares.
+    pub fn new(cfg: CompassConfig) -> Result<Compass, CompassError> {
+        let bad = |m: String| Err(CompassError::Config(m));
+        if cfg.width_px < 4 || cfg.height_px < 4 {
+            return bad(format!("sensor of {} × {} px: at least 4 × 4", cfg.width_px, cfg.height_px));
+        }
+        if !(1..=16).contains(&cfg.bit_depth) {
+            return bad(format!("bit depth {} outside 1…16", cfg.bit_depth));
+        }
+        let full_scale_dn = ((1u32 << cfg.bit_depth) - 1) as f64;
+        if !(cfg.black_level_dn >= 0.0 && cfg.black_level_dn < full_scale_dn) {
+            return bad(format!("black level {} DN outside [0, {full_scale_dn})", cfg.black_level_dn));
+        }
+        let c = &cfg.camera;
+        if !(c.f_px > 0.0 && c.f_px.is_finite() && c.cx_px.is_finite() && c.cy_px.is_finite()) {
+            return bad(format!("focal length {} px and principal point ({}, {}) px", c.f_px, c.cx_px, c.cy_px));
+        }
+        let known = cfg.calibration.model();
+        let intr = Intrinsics {
+            cx_px: c.cx_px + known.pp_offset_px[0],
+            cy_px: c.cy_px + known.pp_offset_px[1],
+            f_px: c.f_px * (1.0 + known.focal_scale),
+            distortion: [c.distortion[0] + known.distortion[0], c.distortion[1] + known.distortion[1]],
+            ..*c
+        };
+        let rec = Reconstructor::new(&known, cfg.black_level_dn, &Channel::ALL)?;
+        let cell_px = cfg.options.cell_px.unwrap_or_else(|| Cells::default_cell_px(cfg.width_px, cfg.height_px));
+        Ok(Compass { cfg, known, intr, rec, full_scale_dn, cell_px })
+    }
+
+    /// The heading of one raw DoFP frame under `sun` at `attitude`.
+    pub fn heading<T: RawDn>(
+        &mut self,
+        frame: RawImage<T>,
+        sun: Sun,
+        attitude: Attitude,
+    ) -> Result<FieldHeading, CompassError> {
+        let (w, h) = (self.cfg.width_px, self.cfg.height_px);
+        if frame.width_px != w || frame.height_px != h || !frame.is_consistent() {
+            return Err(CompassError::FrameSize {
+                got_w: frame.width_px,
+                got_h: frame.height_px,
+                stride: frame.stride,
+                len: frame.data.len(),
+                want_w: w,
+                want_h: h,
+            });
+        }
+        let (az, el, sun_sigma) = match sun {
+            Sun::Angles { azimuth_deg, elevation_deg, sigma_deg } => (azimuth_deg, elevation_deg, sigma_deg),
+            Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg } => {
+                let s = sun_from_unix_time(time_s, latitude_deg, longitude_deg)
+                    .map_err(|e| CompassError::Sun(e.to_string()))?;
+                (s.azimuth_deg, s.elevation_deg, sigma_deg)
+            }
+        };
+        if !(az.is_finite() && (-90.0..=90.0).contains(&el) && sun_sigma >= 0.0 && sun_sigma.is_finite()) {
+            return Err(CompassError::Sun(format!("azimuth {az}°, elevation {el}°, 1σ {sun_sigma}°")));
+        }
+        let Attitude { tilt_x_deg, tilt_y_deg, sigma_deg } = attitude;
+        if !(tilt_x_deg.abs() < 90.0 && tilt_y_deg.abs() < 90.0 && sigma_deg >= 0.0 && sigma_deg.is_finite()) {
+            return Err(CompassError::Attitude(format!("tilt {tilt_x_deg}°, {tilt_y_deg}°, 1σ {sigma_deg}°")));
+        }
+        let cells = Cells::from_mosaic(&frame, &self.cfg.mosaic, &self.rec, self.full_scale_dn, self.cell_px);
+        let ctx = FieldContext {
+            intr: self.intr,
+            lens_rho2: self.known.lens_rho2,
+            sun_az_deg: az,
+            sun_el_deg: el,
+            sun_sigma_deg: sun_sigma,
+            tilt_x_deg,
+            tilt_y_deg,
+            tilt_sigma_deg: sigma_deg,
+            mount_tilt_deg: self.known.mount_tilt_deg,
+        };
+        let mut r = field::estimate(&cells, &ctx, &self.cfg.options, &[self.cfg.extractor]);
+        Ok(r.pop().expect("one extractor, one heading"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Projection;
+    use crate::chain::{ChainFrame, NoiseIndex, Scene};
+    use crate::effects::EffectSet;
+    use crate::sensor::Response;
+    use crate::simulate::render_mosaic;
+
+    fn frame(truth: &Model, tilt: [f64; 2]) -> (Vec<u16>, Intrinsics) {
+        frame_under(truth, tilt, 40.0, 25.0)
+    }
+
+    fn frame_under(truth: &Model, tilt: [f64; 2], sun_az_deg: f64, sun_el_deg: f64) -> (Vec<u16>, Intrinsics) {
+        let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+        let scene = Scene { sun_az_deg, sun_el_deg, heading_deg: 30.0, tilt_x_deg: tilt[0], tilt_y_deg: tilt[1], dmax: 0.6 };
+        let f = ChainFrame::new(truth, &lens, &scene, &Response::samples(2400.0), NoiseIndex { seed: 2, trial: 0, frame: 0 });
+        (render_mosaic(&f, 306, 256, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect(), lens)
+    }
+
+    #[test]
+    fn u8_u16_f32_and_strided_buffers_give_the_same_heading() {
+        let (raw, lens) = frame(&Model::default(), [1.0, 2.0]);
+        let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+        let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+        let att = Attitude { tilt_x_deg: 1.0, tilt_y_deg: 2.0, sigma_deg: 0.0 };
+        let a = c.heading(RawImage::packed(&raw, 306, 256), sun, att).unwrap();
+        let f: Vec<f32> = raw.iter().map(|&x| x as f32).collect();
+        let b = c.heading(RawImage::packed(&f, 306, 256), sun, att).unwrap();
+        let mut padded = vec![0u16; 320 * 256];
+        for v in 0..256 {
+            padded[v * 320..][..306].copy_from_slice(&raw[v * 306..][..306]);
+        }
+        let s = c.heading(RawImage { data: &padded, width_px: 306, height_px: 256, stride: 320 }, sun, att).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a, s);
+        let (h, sigma) = (a.heading_deg().unwrap(), a.sigma_deg().unwrap());
+        assert!((h - 30.0).abs() < 0.02 && (h - 30.0).abs() < 3.0 * sigma, "{h} ± {sigma}");
+        // An 8-bit camera: the DN scaled to 8 bits, black level too.
+        let mut c8 = Compass::new(CompassConfig::dofp(lens, 306, 256, 8, 4.0)).unwrap();
+        let raw8: Vec<u8> = raw.iter().map(|&x| ((x as f64 / 16.0).round() as u8).max(1)).collect();
+        let r8 = c8.heading(RawImage::packed(&raw8, 306, 256), sun, att).unwrap();
+        assert!((r8.heading_deg().unwrap() - 30.0).abs() < 0.1, "{r8:?}");
+    }
+
+    #[test]
+    fn the_calibration_and_the_sun_from_a_clock_are_used() {
+        let mut truth = EffectSet::new();
+        truth.set("array_rotation", "dtheta_deg", 0.5).unwrap();
+        let (raw, lens) = frame(&truth.model(), [0.0, 0.0]);
+        let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+        let read = |cal: Calibration| {
+            let mut c = Compass::new(CompassConfig { calibration: cal, ..CompassConfig::dofp(lens, 306, 256, 12, 64.0) }).unwrap();
+            c.heading(RawImage::packed(&raw, 306, 256), sun, Attitude::default()).unwrap().heading_deg().unwrap()
+        };
+        let raw_err = read(Calibration::default()) - 30.0;
+        let cal_err = read(Calibration { effects: truth.clone(), ..Default::default() }) - 30.0;
+        assert!(raw_err.abs() > 0.3 && cal_err.abs() < 0.02, "uncalibrated {raw_err}, calibrated {cal_err}");
+        // A clock and a place: 2026-06-21T02:30:00Z (10:30 local) at Qingdao, the sun
+        // from SPA; the frame rendered under that sun reads back at its heading.
+        let (time_s, lat, lon) = (1_782_009_000.0, 36.07, 120.38);
+        let s = crate::sky::sun::sun_from_unix_time(time_s, lat, lon).unwrap();
+        assert!(s.elevation_deg > 30.0 && s.elevation_deg < 80.0, "{s:?}");
+        let (raw, lens) = frame_under(&Model::default(), [0.0, 0.0], s.azimuth_deg, s.elevation_deg);
+        let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+        let t = Sun::UnixTime { time_s, latitude_deg: lat, longitude_deg: lon, sigma_deg: 0.0 };
+        let r = c.heading(RawImage::packed(&raw, 306, 256), t, Attitude::default()).unwrap();
+        assert!((r.heading_deg().unwrap() - 30.0).abs() < 0.03, "{r:?}");
+        let bad = Sun::UnixTime { time_s: f64::NAN, latitude_deg: 0.0, longitude_deg: 0.0, sigma_deg: 0.0 };
+        assert!(matches!(c.heading(RawImage::packed(&raw, 306, 256), bad, Attitude::default()), Err(CompassError::Sun(_))));
+    }
+
+    #[test]
+    fn wrong_buffers_and_configurations_are_refused_not_panicked_on() {
+        let (raw, lens) = frame(&Model::default(), [0.0, 0.0]);
+        let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+        let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+        let short = c.heading(RawImage { data: &raw[..1000], width_px: 306, height_px: 256, stride: 306 }, sun, Attitude::default());
+        assert!(matches!(short, Err(CompassError::FrameSize { len: 1000, .. })), "{short:?}");
+        let small = c.heading(RawImage::packed(&raw[..300 * 200], 300, 200), sun, Attitude::default());
+        assert!(small.unwrap_err().to_string().contains("300 × 200"));
+        let att = Attitude { tilt_x_deg: 95.0, ..Default::default() };
+        assert!(matches!(c.heading(RawImage::packed(&raw, 306, 256), sun, att), Err(CompassError::Attitude(_))));
+        for cfg in [
+            CompassConfig::dofp(lens, 2, 2, 12, 64.0),
+            CompassConfig::dofp(lens, 306, 256, 17, 64.0),
+            CompassConfig::dofp(lens, 306, 256, 12, 5000.0),
+            CompassConfig::dofp(Intrinsics { f_px: -1.0, ..lens }, 306, 256, 12, 64.0),
+        ] {
+            assert!(matches!(Compass::new(cfg), Err(CompassError::Config(_))));
+        }
+    }
+}
