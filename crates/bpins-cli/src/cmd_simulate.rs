@@ -149,6 +149,7 @@ enum ProjectionArg {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    ensure_allocatable(a.width_px, a.height_px)?;
     let mut effects = EffectSet::new();
     for spec in &a.effects {
         effects.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
@@ -356,5 +357,24 @@ fn write_dump(
     layers.extend([("AoP", aop.as_slice()), ("DoLP", dolp.as_slice()), ("AoE", aoe.as_slice())]);
     write_exr_layers(path, g.width_px, g.height_px, &layers)?;
     eprintln!("wrote {} ({}×{} px; I0…I135 in DN, AoP and AoE in degrees, DoLP in 1)", path.display(), w, h);
+    Ok(())
+}
+
+/// Refuses a frame size whose buffers (a few f32/f64 planes per pixel) cannot be
+/// allocated, with the size in the message, instead of aborting on a failed
+/// allocation: the pixel count is capped at 2³⁰ (a 32 k × 32 k sensor), and the
+/// largest buffer is reserved once to ask the allocator.
+fn ensure_allocatable(width_px: u32, height_px: u32) -> anyhow::Result<()> {
+    let pixels = width_px as u64 * height_px as u64;
+    // An f32 plane per channel for colocated frames (4), and f64 rows besides.
+    let bytes = pixels.saturating_mul(4 * 4);
+    let gib = bytes as f64 / (1u64 << 30) as f64;
+    if pixels > 1 << 30 {
+        bail!("--width-px {width_px} × --height-px {height_px} = {pixels} px: more than 2^30 px (1.07 G px) per frame is not simulated");
+    }
+    let mut probe: Vec<u8> = Vec::new();
+    if probe.try_reserve_exact(bytes as usize).is_err() {
+        bail!("--width-px {width_px} × --height-px {height_px}: a frame needs {gib:.1} GiB, which cannot be allocated here");
+    }
     Ok(())
 }

@@ -921,3 +921,12 @@ fn a_fitted_calibration_is_handed_to_heading_and_the_error_falls_to_the_noise() 
     bpins(&["heading", &hidden, "--calibration", &s(&bad)]).fails().stderr_has("bad.toml").stderr_has("d46_deg");
     assert_eq!(snapshot(Path::new(&hidden)), before, "the capture was written into");
 }
+
+#[test]
+fn a_frame_too_large_to_allocate_is_refused_with_its_size() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("huge");
+    let r = bpins(&["simulate", "--out", &s(&out), "--width-px", "100000", "--height-px", "100000"]).fails();
+    r.stderr_has("100000");
+    assert!(!out.join("capture.toml").exists());
+}
