@@ -5,11 +5,13 @@
 //! * `field/dofp_2048x2448_u16_to_heading`: a full IMX250MZR frame (8 mm pinhole at
 //!   3.45 µm, tilted 4°/−3°, sun 40°/25°); target on the 2-core dev machine ≤ 25 ms.
 //! * `field/dofp_512x612_u16_to_heading`: the samples' sensor; target ≤ 2 ms.
+//! * `field/*_compass`: the same through the front door (`compass::Compass`).
 //! * `field/*_cells` and `field/*_estimate`: the two stages of the first.
 
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::effects::Model;
+use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
 use bpins_core::heading::field::{estimate, Cells, FieldContext, FieldOptions, RawImage};
 use bpins_core::heading::Extractor;
 use bpins_core::recon::Reconstructor;
@@ -46,6 +48,13 @@ fn field(c: &mut Criterion) {
     for (w, h, pitch, name) in [(2448, 2048, 3.45, "dofp_2048x2448"), (612, 512, 13.8, "dofp_512x612")] {
         let (dn, ctx) = setup(w, h, pitch);
         g.bench_function(format!("{name}_u16_to_heading"), |b| b.iter(|| black_box(heading(&dn, w, h, &rec, &ctx))));
+        // The same through the front door (a Compass built once, the frame borrowed).
+        let mut compass = Compass::new(CompassConfig::dofp(ctx.intr, w, h, 12, 64.0)).expect("a valid sensor");
+        let sun = Sun::Angles { azimuth_deg: ctx.sun_az_deg, elevation_deg: ctx.sun_el_deg, sigma_deg: 0.0 };
+        let att = Attitude { tilt_x_deg: ctx.tilt_x_deg, tilt_y_deg: ctx.tilt_y_deg, sigma_deg: ctx.tilt_sigma_deg };
+        g.bench_function(format!("{name}_compass"), |b| {
+            b.iter(|| black_box(compass.heading(RawImage::packed(&dn, w, h), sun, att).expect("a valid frame")))
+        });
         if w == 2448 {
             let cell = Cells::default_cell_px(w, h);
             let img = RawImage::packed(dn.as_slice(), w, h);
