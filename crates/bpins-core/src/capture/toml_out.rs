@@ -85,7 +85,8 @@ pub(crate) fn to_toml(c: &Capture) -> String {
             }
         }
         for (key, v) in [
-            ("heading_deg", f.heading_deg),
+            // Azimuths in files are in [0°, 360°) (CONVENTIONS.md).
+            ("heading_deg", f.heading_deg.map(crate::conventions::wrap_deg_360)),
             ("tilt_x_deg", f.tilt_x_deg),
             ("tilt_y_deg", f.tilt_y_deg),
             ("tilt_sigma_deg", f.tilt_sigma_deg),
