@@ -1,7 +1,7 @@
 //! `bpins simulate`: a capture (bpins-capture/1) made by the model, with any catalog
 //! effect at any value and any scene element (field conditions: `--scene`), or one
 //! EXR frame with I0…I135, AoP, DoLP and AoE. Defaults reproduce the sample
-//! captures' setup (shared/samples/README.md).
+//! captures' setup (samples/README.md).
 
 use crate::Backend;
 use anyhow::{bail, Context};

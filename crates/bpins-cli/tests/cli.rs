@@ -1,6 +1,6 @@
 //! End-to-end tests of the `bpins` binary: each subcommand run as a user runs it,
 //! checking exit status, what it prints, the JSON it writes, and that a capture is
-//! never written into. Every output goes to a temporary folder; shared/ is only read.
+//! never written into. Every output goes to a temporary folder; samples/ is only read.
 //! No invocation may panic: every run checks stderr for "panicked".
 
 use std::collections::BTreeMap;
@@ -14,7 +14,7 @@ use std::time::SystemTime;
 use serde_json::Value;
 
 const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
-const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/samples/clean");
+const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
 
 const SOURCES: [&str; 5] = ["principal_point", "array_rotation", "channel_response", "lens_diattenuation", "combined"];
 const EXTRACTORS: [&str; 2] = ["sun_vector", "meridian_line"];
@@ -344,7 +344,7 @@ fn clean_sample_headings_through_the_cli() {
     let json = tmp.path().join("clean.json");
     let before = snapshot(Path::new(CLEAN));
     // Relative to the repository root, as a user would type it.
-    let r = bpins(&["heading", "../shared/samples/clean", "--json", &s(&json)]).ok();
+    let r = bpins(&["heading", "samples/clean", "--json", &s(&json)]).ok();
     assert!(r.stdout.contains("sun_vector") && r.stdout.contains("RMS error"), "{}", r.stdout);
     let v = read_json(&json);
     assert_eq!(v["estimator"], "field");
@@ -364,7 +364,7 @@ fn clean_sample_headings_through_the_cli() {
     assert_eq!(v["summary"][0]["within_2sigma_fraction"], 1.0, "{v:#}");
     // The plain estimator (every pixel, no masks) is still there, demosaiced.
     let plain = tmp.path().join("plain.json");
-    bpins(&["heading", "../shared/samples/clean", "--estimator", "plain", "--json", &s(&plain)]).ok();
+    bpins(&["heading", "samples/clean", "--estimator", "plain", "--json", &s(&plain)]).ok();
     let v = read_json(&plain);
     assert_eq!((v["estimator"].as_str(), v["recon"].as_str()), (Some("plain"), Some("demosaic")));
     for f in v["frames"].as_array().unwrap() {

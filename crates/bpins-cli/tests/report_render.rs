@@ -10,7 +10,7 @@ use std::process::Command;
 use std::thread::sleep;
 use std::time::{Duration, Instant};
 
-const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/samples/clean");
+const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
 const BROWSERS: [&str; 3] = ["chromium", "chromium-browser", "google-chrome"];
 
 /// The first of `BROWSERS` found on PATH.

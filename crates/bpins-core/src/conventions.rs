@@ -1,4 +1,4 @@
-//! Frames, angles and pixel conventions of `shared/spec/CONVENTIONS.md`, in one place.
+//! Frames, angles and pixel conventions of `docs/spec/CONVENTIONS.md`, in one place.
 //!
 //! | frame  | axes                                                         |
 //! |--------|--------------------------------------------------------------|

@@ -3,7 +3,7 @@
 //! The measurement model of a bionic polarization imaging navigation sensor (BPINS):
 //! Rayleigh sky → lens Mueller matrix → micro-polarizer analyzers → CMOS response
 //! with noise → Stokes reconstruction → heading. Conventions (frames, angles, mosaic,
-//! Stokes) are those of `shared/spec/CONVENTIONS.md`, kept in [`conventions`].
+//! Stokes) are those of `docs/spec/CONVENTIONS.md`, kept in [`conventions`].
 //!
 //! The per-pixel physics are pure functions (CPU reference of the GPU shaders);
 //! rayon appears only in the drivers that map them over pixels and trials.

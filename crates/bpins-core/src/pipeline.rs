@@ -179,7 +179,7 @@ pub struct SimSensor {
 }
 
 impl SimSensor {
-    /// The sample captures' sensor (shared/samples/README.md): peak 70 % of full
+    /// The sample captures' sensor (samples/README.md): peak 70 % of full
     /// scale, read noise 1 DN, shot noise at K = 0.1 DN/e⁻, no fixed-pattern noise,
     /// sky d_max 0.6; noise seeded by `seed`.
     pub fn samples(seed: u64) -> Self {

@@ -121,7 +121,7 @@ impl Response {
         }
     }
 
-    /// The sample captures' sensor (shared/samples/README.md) at gain `gain_dn`:
+    /// The sample captures' sensor (samples/README.md) at gain `gain_dn`:
     /// 12-bit with rounding and clipping, black level 64 DN, read noise 1 DN, shot
     /// noise at K = 0.1 DN/e⁻, no fixed-pattern noise.
     pub fn samples(gain_dn: f64) -> Self {

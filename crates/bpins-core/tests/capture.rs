@@ -1,8 +1,8 @@
-//! End-to-end tests of `bpins-capture/1` (shared/spec/CAPTURE.md): the two sample
-//! captures in shared/samples load and decode; broken copies of them fail with
+//! End-to-end tests of `bpins-capture/1` (docs/spec/CAPTURE.md): the two sample
+//! captures in samples load and decode; broken copies of them fail with
 //! errors naming file, key and frame and are left untouched; writing refuses to touch
 //! a capture and reads back exactly. Fixtures are copies in temporary folders;
-//! shared/ is only read.
+//! samples/ is only read.
 
 use std::collections::BTreeMap;
 use std::fs;
@@ -13,8 +13,8 @@ use bpins_core::sensor::{Channel, Layout, DEFAULT_MOSAIC};
 use bpins_core::sky::sun::{sun_from_time_place, SunSource};
 use image::{GrayImage, ImageBuffer, Luma, RgbImage};
 
-const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/samples/clean");
-const HIDDEN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/samples/hidden-analyzer-angles");
+const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
+const HIDDEN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/hidden-analyzer-angles");
 
 /// Every file under `dir`: relative path → contents.
 fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {

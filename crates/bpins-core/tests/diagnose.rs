@@ -1,5 +1,5 @@
 //! Diagnosis of the independent implementation's sample captures (truth in
-//! shared/samples/README.md): the clean capture needs nothing; the hidden analyzer
+//! samples/README.md): the clean capture needs nothing; the hidden analyzer
 //! angles are named first, recovered, and the error falls to the noise.
 
 use bpins_core::capture::{Capture, FrameData};
@@ -7,7 +7,7 @@ use bpins_core::fit::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use std::path::Path;
 
 fn run(sample: &str, max_added: usize) -> Diagnosis {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/samples").join(sample);
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples").join(sample);
     let c = Capture::load(&dir).unwrap();
     let frames: Vec<FrameData> = (0..c.frames.len()).map(|i| c.read_frame(i).unwrap()).collect();
     diagnose(&c, &frames, &DiagnoseOptions { max_added, ..Default::default() }, &|_| {}).unwrap()
@@ -40,7 +40,7 @@ fn hidden_analyzer_angles_are_named_first_and_the_error_falls() {
 fn an_effect_outside_the_catalog_is_reported_unexplained_and_nothing_named() {
     // The clean capture with a gain ramp across the sensor, DN × (1 + 0.02·x_n): no
     // catalog effect is a linear ramp (vignetting is radial).
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/samples/clean");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples/clean");
     let c = Capture::load(&dir).unwrap();
     let intr = c.intrinsics();
     let black = c.sensor.black_level_dn;

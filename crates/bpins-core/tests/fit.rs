@@ -1,5 +1,5 @@
 //! The fit against the independent implementation's sample captures (their truth is
-//! in shared/samples/README.md): the clean capture fits with no effect at χ²/dof ≈ 1
+//! in samples/README.md): the clean capture fits with no effect at χ²/dof ≈ 1
 //! and every heading at its reference; the hidden analyzer angles are recovered.
 
 use bpins_core::capture::{Capture, FrameData};
@@ -8,7 +8,7 @@ use bpins_core::fit::{fit, FitOptions, FitResult};
 use std::path::Path;
 
 fn run(sample: &str, effects: &[&str]) -> FitResult {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/samples").join(sample);
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples").join(sample);
     let c = Capture::load(&dir).unwrap();
     let frames: Vec<FrameData> = (0..c.frames.len()).map(|i| c.read_frame(i).unwrap()).collect();
     let opts = FitOptions { effects: effects.iter().map(|e| find(e).unwrap()).collect(), ..Default::default() };

@@ -1,7 +1,7 @@
-//! The sample captures in shared/samples were made by an independent implementation
+//! The sample captures in samples were made by an independent implementation
 //! of CONVENTIONS.md that shares no code with bpins: reading them back pins our
 //! conventions (mosaic order, angle sense, frames, Stokes) against theirs.
-//! shared/ is only read.
+//! samples/ is only read.
 
 use std::path::Path;
 
@@ -14,8 +14,8 @@ use bpins_core::pipeline::{field_headings, frame_headings, reconstruct_frame, Re
 use bpins_core::recon::angle_maps;
 use bpins_core::sensor::{Channel, Layout, DEFAULT_MOSAIC};
 
-const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/samples/clean");
-const HIDDEN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/samples/hidden-analyzer-angles");
+const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
+const HIDDEN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/hidden-analyzer-angles");
 
 const MODES: [ReconMode; 2] = [ReconMode::Superpixel, ReconMode::Demosaic];
 
@@ -131,7 +131,7 @@ fn clean_sample_dolp_peaks_near_the_sky_dmax() {
     eprintln!("DoLP percentiles: 1 % {p01:.4}, 99 % {p99:.4}");
 }
 
-const FIELD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/samples/field-fisheye-tilted-clouds");
+const FIELD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/field-fisheye-tilted-clouds");
 
 #[test]
 fn the_tilted_cloudy_fisheye_sample_is_read_within_its_sigma() {

@@ -1,4 +1,4 @@
-//! OpenEXR files: the float frames of a capture (shared/spec/CAPTURE.md: a one-channel
+//! OpenEXR files: the float frames of a capture (docs/spec/CAPTURE.md: a one-channel
 //! EXR for dofp, channels `I0` … `I135` for colocated) and multi-channel float dumps
 //! of a run (`I0` … `I135`, `AoP`, `DoLP`, `AoE`). Files are written single-layer,
 //! f32, lossless ZIP; reading converts any sample type to f32, row-major. The decoder

@@ -1,4 +1,4 @@
-//! Frame images of a `bpins-capture/1` capture (shared/spec/CAPTURE.md, "Image
+//! Frame images of a `bpins-capture/1` capture (docs/spec/CAPTURE.md, "Image
 //! files"): decoding and checking on read, checking and encoding on write (EXR
 //! files go through `exr.rs`).
 //!

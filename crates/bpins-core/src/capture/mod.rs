@@ -1,4 +1,4 @@
-//! Capture bundles (`bpins-capture/1`, shared/spec/CAPTURE.md): reading, validating
+//! Capture bundles (`bpins-capture/1`, docs/spec/CAPTURE.md): reading, validating
 //! and writing.
 //!
 //! A capture is a folder holding `capture.toml` and the frame images it names.
@@ -140,7 +140,7 @@ impl Capture {
         let toml_path = dir.join("capture.toml");
         let bytes = fs::read(&toml_path).map_err(|e| match e.kind() {
             std::io::ErrorKind::NotFound => {
-                err(&toml_path, "not found: a capture is a folder holding capture.toml (shared/spec/CAPTURE.md)")
+                err(&toml_path, "not found: a capture is a folder holding capture.toml (docs/spec/CAPTURE.md)")
             }
             _ => Error::Io { path: toml_path.clone(), source: e },
         })?;

@@ -1,4 +1,4 @@
-//! Parsing `capture.toml` of a `bpins-capture/1` capture (shared/spec/CAPTURE.md).
+//! Parsing `capture.toml` of a `bpins-capture/1` capture (docs/spec/CAPTURE.md).
 //!
 //! Two stages. `toml` + serde with `deny_unknown_fields` turn each section into a raw
 //! struct (unknown keys, missing required keys and wrong types are errors naming the

@@ -1,4 +1,4 @@
-//! Writing `capture.toml` (shared/spec/CAPTURE.md) from a typed [`Capture`]: every
+//! Writing `capture.toml` (docs/spec/CAPTURE.md) from a typed [`Capture`]: every
 //! default written out explicitly (bit depth, black level, mosaic or channels,
 //! principal point), floats in Rust's shortest round-trip form so that the file reads
 //! back to the same `f64`s, and each frame's sun as it came (given angles, or the

@@ -1,4 +1,4 @@
-//! Validation of a typed [`Capture`] against the rules of shared/spec/CAPTURE.md:
+//! Validation of a typed [`Capture`] against the rules of docs/spec/CAPTURE.md:
 //! ranges of every number, the mosaic and channel sets, frame file paths (relative,
 //! inside the capture folder, no `..`, a supported extension, no file named twice) and
 //! the sun of each frame. Both [`Capture::load`] (after parsing) and [`Capture::write`]

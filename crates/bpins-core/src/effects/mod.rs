@@ -9,7 +9,7 @@
 //! parameter list of a fit and the registry-wide tests below. At neutral values every
 //! effect leaves the chain exactly as the ideal one (tested for all).
 //!
-//! Catalog: shared/spec/EFFECTS.md, every effect of it.
+//! Catalog: docs/spec/EFFECTS.md, every effect of it.
 
 pub mod analyzer_angles;
 pub mod array_rotation;

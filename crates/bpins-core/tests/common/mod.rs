@@ -1,5 +1,5 @@
 //! Small simulated captures for the end-to-end fit and diagnosis tests: the sample
-//! captures' setup (shared/samples/README.md: pinhole f = 8 mm, sun at azimuth 40°,
+//! captures' setup (samples/README.md: pinhole f = 8 mm, sun at azimuth 40°,
 //! elevation 25°, d_max 0.6, eight turntable frames, 12-bit, black 64 DN, peak 70 %,
 //! read noise 1 DN, K = 0.1 DN/e⁻) on a 306 × 256 DoFP sensor of 27.6 µm pitch: the
 //! samples' field of view with a quarter of their pixels, so a diagnosis is quick.
