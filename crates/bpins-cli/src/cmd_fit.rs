@@ -97,7 +97,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .filter(|(n, ..)| !r.params.iter().any(|p| &p.name == n))
         .collect();
     let cal = bpins_core::calibration::Calibration::from_params(
-        known.iter().map(|(n, v, s)| (n.as_str(), *v, *s)).chain(r.params.iter().map(|p| (p.name.as_str(), p.value, p.sigma))),
+        known
+            .iter()
+            .map(|(n, v, s)| (n.as_str(), *v, *s))
+            .chain(r.params.iter().map(|p| (p.name.as_str(), p.value, p.sigma))),
         &format!("bpins fit {}", a.capture.display()),
         Some(r.chi2_per_dof),
     )

@@ -10,8 +10,8 @@
 
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
-use bpins_core::effects::Model;
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
+use bpins_core::effects::Model;
 use bpins_core::heading::field::{estimate, Cells, FieldContext, FieldOptions, RawImage};
 use bpins_core::heading::Extractor;
 use bpins_core::recon::Reconstructor;
@@ -23,7 +23,8 @@ use std::hint::black_box;
 /// A rendered u16 mosaic of `w × h` pixels at `pitch_um`, and its field context.
 fn setup(w: usize, h: usize, pitch_um: f64) -> (Vec<u16>, FieldContext) {
     let intr = Intrinsics::new(Projection::Pinhole, 8000.0 / pitch_um, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
-    let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 4.0, tilt_y_deg: -3.0, dmax: 0.6 };
+    let scene =
+        Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 4.0, tilt_y_deg: -3.0, dmax: 0.6 };
     let resp = Response::samples(3000.0);
     let f = ChainFrame::new(&Model::default(), &intr, &scene, &resp, NoiseIndex { seed: 1, trial: 0, frame: 0 });
     let dn: Vec<u16> = render_mosaic(&f, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
@@ -37,7 +38,8 @@ fn setup(w: usize, h: usize, pitch_um: f64) -> (Vec<u16>, FieldContext) {
 }
 
 fn heading(dn: &[u16], w: usize, h: usize, rec: &Reconstructor, ctx: &FieldContext) -> f64 {
-    let cells = Cells::from_mosaic(&RawImage::packed(dn, w, h), &DEFAULT_MOSAIC, rec, 4095.0, Cells::default_cell_px(w, h));
+    let cells =
+        Cells::from_mosaic(&RawImage::packed(dn, w, h), &DEFAULT_MOSAIC, rec, 4095.0, Cells::default_cell_px(w, h));
     let r = estimate(&cells, ctx, &FieldOptions::default(), &[Extractor::SunVector]);
     r[0].heading_deg().expect("a clear sky has a heading")
 }

@@ -38,7 +38,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut compass = Compass::new(config)?;
     let period = Duration::from_secs_f64(1.0 / 30.0);
     let mut latencies = Vec::new();
-    println!("{:>5} {:>12} {:>9} {:>10} {:>9} {:>12}", "frame", "heading (°)", "1σ (°)", "error (°)", "used (%)", "latency (ms)");
+    println!(
+        "{:>5} {:>12} {:>9} {:>10} {:>9} {:>12}",
+        "frame", "heading (°)", "1σ (°)", "error (°)", "used (%)", "latency (ms)"
+    );
     let start = Instant::now();
     for (k, input) in inputs.iter().enumerate() {
         let t0 = Instant::now();
@@ -82,8 +85,21 @@ fn generated(frames: usize) -> (CompassConfig, Vec<Input>) {
             let t = k as f64;
             let (tx, ty) = (5.0 * (0.31 * t).sin(), 4.0 * (0.17 * t + 1.0).cos());
             let heading = (3.0 * t).rem_euclid(360.0);
-            let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: heading, tilt_x_deg: tx, tilt_y_deg: ty, dmax: 0.6 };
-            let f = ChainFrame::new(&Default::default(), &lens, &scene, &Response::samples(3000.0), NoiseIndex { seed: 7, trial: 0, frame: k as u32 });
+            let scene = Scene {
+                sun_az_deg: 40.0,
+                sun_el_deg: 25.0,
+                heading_deg: heading,
+                tilt_x_deg: tx,
+                tilt_y_deg: ty,
+                dmax: 0.6,
+            };
+            let f = ChainFrame::new(
+                &Default::default(),
+                &lens,
+                &scene,
+                &Response::samples(3000.0),
+                NoiseIndex { seed: 7, trial: 0, frame: k as u32 },
+            );
             // The IMU's reading: off by a deterministic ±0.1°-scale error.
             let imu = (0.1 * (1.7 * t).sin(), 0.1 * (2.3 * t).cos());
             Input {
@@ -102,15 +118,26 @@ fn from_capture(dir: &str) -> Result<(CompassConfig, Vec<Input>), Box<dyn std::e
     let c = Capture::load(std::path::Path::new(dir))?;
     let Layout::Dofp { mosaic } = c.sensor.layout else { return Err("the live loop reads DoFP captures".into()) };
     let g = &c.sensor.geometry;
-    let mut config =
-        CompassConfig::dofp(c.intrinsics(), g.width_px as usize, g.height_px as usize, c.sensor.bit_depth, c.sensor.black_level_dn);
+    let mut config = CompassConfig::dofp(
+        c.intrinsics(),
+        g.width_px as usize,
+        g.height_px as usize,
+        c.sensor.bit_depth,
+        c.sensor.black_level_dn,
+    );
     config.mosaic = mosaic;
     let mut inputs = Vec::new();
     for (i, f) in c.frames.iter().enumerate() {
-        let FrameData::Mosaic { dn, .. } = c.read_frame(i)? else { return Err("a DoFP frame that is not a mosaic".into()) };
+        let FrameData::Mosaic { dn, .. } = c.read_frame(i)? else {
+            return Err("a DoFP frame that is not a mosaic".into());
+        };
         inputs.push(Input {
             raw: dn.iter().map(|&x| x as u16).collect(),
-            sun: Sun::Angles { azimuth_deg: f.sun.azimuth_deg, elevation_deg: f.sun.elevation_deg, sigma_deg: f.sun_sigma_deg.unwrap_or(0.0) },
+            sun: Sun::Angles {
+                azimuth_deg: f.sun.azimuth_deg,
+                elevation_deg: f.sun.elevation_deg,
+                sigma_deg: f.sun_sigma_deg.unwrap_or(0.0),
+            },
             attitude: Attitude {
                 tilt_x_deg: f.tilt_x_deg.unwrap_or(0.0),
                 tilt_y_deg: f.tilt_y_deg.unwrap_or(0.0),

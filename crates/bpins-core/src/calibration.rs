@@ -100,7 +100,8 @@ impl Calibration {
     /// Parses `text`, the contents of `path` (named in every error).
     pub fn parse(path: &Path, text: &str) -> Result<Self> {
         let err = |m: String| Error::Capture { path: path.to_path_buf(), message: m };
-        let top: toml::Table = text.parse().map_err(|e: toml::de::Error| err(format!("not valid TOML: {}", e.message().trim())))?;
+        let top: toml::Table =
+            text.parse().map_err(|e: toml::de::Error| err(format!("not valid TOML: {}", e.message().trim())))?;
         let mut c = Calibration::default();
         match top.get("format").and_then(|f| f.as_str()) {
             Some(FORMAT) => {}
@@ -122,7 +123,9 @@ impl Calibration {
                                 return Err(err(format!("{key}.{effect}.{param}: {value} is not a number")));
                             };
                             if key == "effects" {
-                                c.effects.set(effect, param, x).map_err(|e| err(format!("{key}.{effect}.{param}: {e}")))?;
+                                c.effects
+                                    .set(effect, param, x)
+                                    .map_err(|e| err(format!("{key}.{effect}.{param}: {e}")))?;
                             } else {
                                 c.sigmas.push((format!("{effect}.{param}"), x));
                             }
@@ -147,8 +150,7 @@ impl Calibration {
 
     /// Reads a calibration file.
     pub fn load(path: &Path) -> Result<Self> {
-        let text =
-            std::fs::read_to_string(path).map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?;
+        let text = std::fs::read_to_string(path).map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?;
         Calibration::parse(path, &text)
     }
 }

@@ -225,8 +225,15 @@ mod tests {
 
     fn frame_under(truth: &Model, tilt: [f64; 2], sun_az_deg: f64, sun_el_deg: f64) -> (Vec<u16>, Intrinsics) {
         let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
-        let scene = Scene { sun_az_deg, sun_el_deg, heading_deg: 30.0, tilt_x_deg: tilt[0], tilt_y_deg: tilt[1], dmax: 0.6 };
-        let f = ChainFrame::new(truth, &lens, &scene, &Response::samples(2400.0), NoiseIndex { seed: 2, trial: 0, frame: 0 });
+        let scene =
+            Scene { sun_az_deg, sun_el_deg, heading_deg: 30.0, tilt_x_deg: tilt[0], tilt_y_deg: tilt[1], dmax: 0.6 };
+        let f = ChainFrame::new(
+            truth,
+            &lens,
+            &scene,
+            &Response::samples(2400.0),
+            NoiseIndex { seed: 2, trial: 0, frame: 0 },
+        );
         (render_mosaic(&f, 306, 256, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect(), lens)
     }
 
@@ -262,7 +269,9 @@ mod tests {
         let (raw, lens) = frame(&truth.model(), [0.0, 0.0]);
         let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
         let read = |cal: Calibration| {
-            let mut c = Compass::new(CompassConfig { calibration: cal, ..CompassConfig::dofp(lens, 306, 256, 12, 64.0) }).unwrap();
+            let mut c =
+                Compass::new(CompassConfig { calibration: cal, ..CompassConfig::dofp(lens, 306, 256, 12, 64.0) })
+                    .unwrap();
             c.heading(RawImage::packed(&raw, 306, 256), sun, Attitude::default()).unwrap().heading_deg().unwrap()
         };
         let raw_err = read(Calibration::default()) - 30.0;
@@ -279,7 +288,10 @@ mod tests {
         let r = c.heading(RawImage::packed(&raw, 306, 256), t, Attitude::default()).unwrap();
         assert!((r.heading_deg().unwrap() - 30.0).abs() < 0.03, "{r:?}");
         let bad = Sun::UnixTime { time_s: f64::NAN, latitude_deg: 0.0, longitude_deg: 0.0, sigma_deg: 0.0 };
-        assert!(matches!(c.heading(RawImage::packed(&raw, 306, 256), bad, Attitude::default()), Err(CompassError::Sun(_))));
+        assert!(matches!(
+            c.heading(RawImage::packed(&raw, 306, 256), bad, Attitude::default()),
+            Err(CompassError::Sun(_))
+        ));
     }
 
     #[test]
@@ -287,7 +299,11 @@ mod tests {
         let (raw, lens) = frame(&Model::default(), [0.0, 0.0]);
         let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
         let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
-        let short = c.heading(RawImage { data: &raw[..1000], width_px: 306, height_px: 256, stride: 306 }, sun, Attitude::default());
+        let short = c.heading(
+            RawImage { data: &raw[..1000], width_px: 306, height_px: 256, stride: 306 },
+            sun,
+            Attitude::default(),
+        );
         assert!(matches!(short, Err(CompassError::FrameSize { len: 1000, .. })), "{short:?}");
         let small = c.heading(RawImage::packed(&raw[..300 * 200], 300, 200), sun, Attitude::default());
         assert!(small.unwrap_err().to_string().contains("300 × 200"));

@@ -61,9 +61,12 @@ impl Condition {
 /// the full pixel count each way, scenes and attitudes seeded by `seed`.
 pub fn standard(frames: usize, scale: u32, seed: u64) -> Result<Vec<Condition>> {
     let scale = scale.max(1);
-    let pinhole = |sun_el_deg: f64| camera(Projection::Pinhole, 612 / scale, 512 / scale, 13.8 * scale as f64, 8.0, sun_el_deg, frames);
-    let fisheye =
-        |sun_el_deg: f64| camera(Projection::Equidistant, 512 / scale, 512 / scale, 6.9 * scale as f64, 2.2, sun_el_deg, frames);
+    let pinhole = |sun_el_deg: f64| {
+        camera(Projection::Pinhole, 612 / scale, 512 / scale, 13.8 * scale as f64, 8.0, sun_el_deg, frames)
+    };
+    let fisheye = |sun_el_deg: f64| {
+        camera(Projection::Equidistant, 512 / scale, 512 / scale, 6.9 * scale as f64, 2.2, sun_el_deg, frames)
+    };
     let scene = |specs: &[&str]| -> Result<Option<FieldScene>> {
         let mut f = FieldScene::new(seed);
         for s in specs {
@@ -71,7 +74,8 @@ pub fn standard(frames: usize, scale: u32, seed: u64) -> Result<Vec<Condition>> 
         }
         Ok(Some(f))
     };
-    let imu = |tilt_random_deg: f64| FieldAttitude { tilt_random_deg, imu_sigma_deg: Some(0.1), sun_sigma_deg: None, seed };
+    let imu =
+        |tilt_random_deg: f64| FieldAttitude { tilt_random_deg, imu_sigma_deg: Some(0.1), sun_sigma_deg: None, seed };
     let berry = |sep: f64| -> Result<Model> {
         let mut e = EffectSet::new();
         e.set("sky_neutral_points", "separation_deg", sep)?;

@@ -103,7 +103,11 @@ fn skyline_and_clouds() -> (Capture, Vec<FrameData>) {
             bit_depth: 12,
             black_level_dn: 64.0,
         },
-        lens: LensSpec { projection: Projection::Equidistant, focal_length_mm: 2.2, principal_point_px: (127.5, 127.5) },
+        lens: LensSpec {
+            projection: Projection::Equidistant,
+            focal_length_mm: 2.2,
+            principal_point_px: (127.5, 127.5),
+        },
         frames,
     };
     let mut field = FieldScene::new(5);

@@ -417,7 +417,13 @@ mod tests {
             padded[v * stride..][..w].copy_from_slice(&dn[v * w..][..w]);
         }
         let f: Vec<f32> = dn.iter().map(|&x| x as f32).collect();
-        let a = Cells::from_mosaic(&RawImage { data: &padded, width_px: w, height_px: h, stride }, &DEFAULT_MOSAIC, &rec(), 4095.0, 8);
+        let a = Cells::from_mosaic(
+            &RawImage { data: &padded, width_px: w, height_px: h, stride },
+            &DEFAULT_MOSAIC,
+            &rec(),
+            4095.0,
+            8,
+        );
         let b = Cells::from_mosaic(&RawImage::packed(&f, w, h), &DEFAULT_MOSAIC, &rec(), 4095.0, 8);
         assert_eq!(a, b);
     }

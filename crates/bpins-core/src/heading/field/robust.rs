@@ -162,7 +162,10 @@ fn search(obs: &[Obs], ctx: &FieldContext) -> Result<f64, NoHeading> {
     if other.1.is_finite() {
         let other = refine(other.0);
         if other.1 - best.1 < AMBIGUITY_CHI2 {
-            return Err(NoHeading::Ambiguous { best_deg: best.0.rem_euclid(360.0), other_deg: other.0.rem_euclid(360.0) });
+            return Err(NoHeading::Ambiguous {
+                best_deg: best.0.rem_euclid(360.0),
+                other_deg: other.0.rem_euclid(360.0),
+            });
         }
     }
     Ok(best.0)
@@ -178,15 +181,20 @@ fn min_by_cost(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
 
 /// Step 4's weights for the sun at `s`: (robust weight, σ² = σ_α² + τ², sin²γ) per
 /// cell, and τ.
-fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: usize) -> (Vec<(f64, f64, f64, f64)>, f64) {
+fn weights(
+    obs: &[Obs],
+    s: DVec3,
+    opts: &FieldOptions,
+    cols: usize,
+    grid_len: usize,
+) -> (Vec<(f64, f64, f64, f64)>, f64) {
     let cos_excl = opts.sun_exclusion_deg.to_radians().cos();
     let res: Vec<(f64, f64, f64)> = obs.iter().map(|o| residual(o, s)).collect();
     let kept: Vec<usize> = (0..obs.len()).filter(|&i| res[i].2.abs() < cos_excl).collect();
     // τ: the lower quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015), so that up to three
     // quarters of the cells may be clouds or trees: δ²/(v + τ²) ≤ c ⟺ (δ² − c·v)/c ≤ τ²,
     // so τ² is the lower quartile of (δ² − c·v)/c (0 where the noise explains it).
-    let mut t: Vec<f64> =
-        kept.iter().map(|&i| (res[i].0.powi(2) - CHI2_1_Q25 * obs[i].var_aop) / CHI2_1_Q25).collect();
+    let mut t: Vec<f64> = kept.iter().map(|&i| (res[i].0.powi(2) - CHI2_1_Q25 * obs[i].var_aop) / CHI2_1_Q25).collect();
     let tau2 = quantile(&mut t, 0.25).max(0.0);
     let tau2 = if tau2.is_finite() { tau2 } else { 0.0 };
     let depol = depolarized(obs, &res, tau2);
@@ -366,7 +374,11 @@ pub(super) struct Robust {
 }
 
 /// Steps 1–4 on one frame's cells.
-pub(super) fn robust(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions) -> Result<Robust, (FieldQuality, NoHeading)> {
+pub(super) fn robust(
+    cells: &Cells,
+    ctx: &FieldContext,
+    opts: &FieldOptions,
+) -> Result<Robust, (FieldQuality, NoHeading)> {
     let mut quality = FieldQuality { cells_total: cells.grid_len(), ..Default::default() };
     if ctx.sun_el_deg < -10.0 {
         return Err((quality, NoHeading::SunTooLow { sun_el_deg: ctx.sun_el_deg }));
@@ -534,4 +546,3 @@ fn finish(
         SigmaParts { fit_deg, jackknife_deg, tilt_deg, sun_deg: ctx.sun_sigma_deg, floor_deg: opts.sigma_floor_deg },
     ))
 }
-

@@ -38,7 +38,11 @@ fn cells_of(dn: &[f32], w: usize, h: usize) -> Cells {
 
 /// The frame's context as a user would give it: the scene's sun and reference tilt.
 fn context(intr: Intrinsics, sc: &Scene) -> FieldContext {
-    FieldContext { tilt_x_deg: sc.tilt_x_deg, tilt_y_deg: sc.tilt_y_deg, ..FieldContext::new(intr, sc.sun_az_deg, sc.sun_el_deg) }
+    FieldContext {
+        tilt_x_deg: sc.tilt_x_deg,
+        tilt_y_deg: sc.tilt_y_deg,
+        ..FieldContext::new(intr, sc.sun_az_deg, sc.sun_el_deg)
+    }
 }
 
 fn run(dn: &[f32], w: usize, h: usize, ctx: &FieldContext) -> Vec<FieldHeading> {
@@ -47,7 +51,8 @@ fn run(dn: &[f32], w: usize, h: usize, ctx: &FieldContext) -> Vec<FieldHeading> 
 
 /// (error, 1σ) of an extractor's heading against `truth_deg`, failing on no heading.
 fn err_sigma(r: &FieldHeading, truth_deg: f64) -> (f64, f64) {
-    let (h, s) = r.result.as_ref().map(|(h, s)| (*h, s.total_deg())).unwrap_or_else(|e| panic!("{:?}: {e}", r.extractor));
+    let (h, s) =
+        r.result.as_ref().map(|(h, s)| (*h, s.total_deg())).unwrap_or_else(|e| panic!("{:?}: {e}", r.extractor));
     (wrap_deg_180(h - truth_deg), s)
 }
 
@@ -139,7 +144,12 @@ fn the_reference_tilt_and_sun_errors_enter_the_sigma() {
         let (_, parts) = r.result.clone().unwrap();
         // An unknown tilt τ moves the heading by τ·tan h (the two axes in quadrature).
         let want = 0.1 * f64::tan(el.to_radians());
-        assert!((parts.tilt_deg / want - 1.0).abs() < 0.05, "{:?}: tilt part {} vs {want}", r.extractor, parts.tilt_deg);
+        assert!(
+            (parts.tilt_deg / want - 1.0).abs() < 0.05,
+            "{:?}: tilt part {} vs {want}",
+            r.extractor,
+            parts.tilt_deg
+        );
         assert_eq!(parts.sun_deg, 0.05);
         assert!(parts.total_deg() > parts.tilt_deg && parts.total_deg() > parts.sun_deg);
     }
