@@ -678,7 +678,8 @@ fn negative_angles_are_taken_as_written_and_a_twilight_sun_simulates() {
     bpins(&args).ok();
     let c = bpins_core::capture::Capture::load(&out).unwrap();
     let f = &c.frames[0];
-    assert_eq!((f.heading_deg, f.tilt_x_deg, f.tilt_y_deg), (Some(-10.0), Some(-2.5), Some(-5.0)));
+    // Azimuths are written in [0°, 360°) (CONVENTIONS.md): −10° is 350°.
+    assert_eq!((f.heading_deg, f.tilt_x_deg, f.tilt_y_deg), (Some(350.0), Some(-2.5), Some(-5.0)));
     assert_eq!((f.sun.azimuth_deg, f.sun.elevation_deg), (330.0, -3.0));
     assert_eq!(c.frames[1].heading_deg, Some(20.0));
 }
