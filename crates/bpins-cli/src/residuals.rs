@@ -16,7 +16,7 @@ pub struct Written {
     pub unit: &'static str,
 }
 
-/// What [`write`] wrote for a report: the map PNGs with their colour scales and the
+/// What [`write()`] wrote for a report: the map PNGs with their colour scales and the
 /// profiles' SVG (file names relative to the folder).
 pub struct Figures {
     /// Stacked over frames: χ² excess, DN, AoP, DoLP.
