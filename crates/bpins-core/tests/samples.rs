@@ -161,6 +161,16 @@ fn the_tilted_cloudy_fisheye_sample_is_read_within_its_sigma() {
     let within = errs.iter().filter(|(e, s)| e.abs() <= 2.0 * s).count();
     assert!(rms < 0.3, "RMS error {rms:.4}° (want < 0.3°): {errs:?}");
     assert!(within >= 3, "{within} of 4 within 2σ: {errs:?}");
+    // The meridian line through the zenith, the same frames.
+    for i in 0..c.frames.len() {
+        let r = &field_headings(&c, i, &Model::default(), &opts, &[Extractor::MeridianLine]).unwrap()[0];
+        let (h, parts) = r.result.clone().unwrap_or_else(|e| panic!("frame {i}: meridian line, no heading: {e}"));
+        let err = wrap_deg_180(h - c.frames[i].heading_deg.unwrap());
+        assert!(
+            err.abs() < 0.3 && err.abs() < 5.0 * parts.total_deg(),
+            "frame {i}: meridian line {err:+.4}°, {parts:?}"
+        );
+    }
     // Read as the plain least squares over every pixel, the clouds pull it by degrees.
     let plain: Vec<f64> = (0..c.frames.len())
         .map(|i| {

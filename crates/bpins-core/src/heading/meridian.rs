@@ -45,9 +45,21 @@ pub const LEVEL_TOLERANCE_DEG: f64 = 0.01;
 /// The meridian line fitted on the half toward image angle `beta_sun` (radians) of
 /// the frame the band sums were taken in, the sun at azimuth `sun_az_deg`.
 pub(crate) fn solve_half(sums: &HeadingSums, beta_sun: f64, sun_az_deg: f64) -> Result<HeadingEstimate> {
+    solve_line(sums, beta_sun, sun_az_deg, false)
+}
+
+/// The meridian line fitted on the sun's half (`both_halves` false) or on the whole
+/// line through the zenith (the anti-sun half too); the sun's half-line is the one
+/// within 90° of `beta_sun` either way.
+pub(crate) fn solve_line(
+    sums: &HeadingSums,
+    beta_sun: f64,
+    sun_az_deg: f64,
+    both_halves: bool,
+) -> Result<HeadingEstimate> {
     let mut l = [0.0; 7];
     for k in 0..SECTORS {
-        if (sector_centre_rad(k) - beta_sun).cos() > 0.0 {
+        if both_halves || (sector_centre_rad(k) - beta_sun).cos() > 0.0 {
             for (a, b) in l.iter_mut().zip(&sums.line[k]) {
                 *a += b;
             }

@@ -25,7 +25,9 @@
 //!    under 0.6 × the Rayleigh prediction (clouds, foliage) and cells within
 //!    `sun_exclusion_deg` of the sun or anti-sun get weight 0, and so does every cell
 //!    within 2 cells of a cluster of rejected ones (soft cloud edges); the extractor solves from
-//!    the weighted sums (weights 1/(σ² sin²γ) for the sun vector, 1/σ² for the line)
+//!    the weighted sums (weights 1/(σ² sin²γ) for the sun vector, 1/σ² for the line;
+//!    the meridian line is fitted on its whole length through the zenith, both halves,
+//!    and its sun's half taken from the sun's cone)
 //! 5. 1σ² = max(σ_fit², σ_jack²) + σ_tilt² + σ_sun² + σ_floor²:
 //!    σ_fit from the extractor's own residuals (χ²-scaled); σ_jack a delete-one-block
 //!    jackknife over 4 × 4 blocks of the image (correlated misfit: clouds, an

@@ -355,7 +355,7 @@ fn solve(sums: &HeadingSums, extractor: Extractor, ctx: &FieldContext, hint: DVe
             }
             sun_vector::heading_from_eigen(vals, vecs, sums.n, DMat3::IDENTITY, ctx.sun_az_deg)
         }
-        Extractor::MeridianLine => meridian::solve_half(sums, image_angle_rad(hint.x, hint.y), ctx.sun_az_deg),
+        Extractor::MeridianLine => meridian::solve_line(sums, image_angle_rad(hint.x, hint.y), ctx.sun_az_deg, true),
     }
     .map_err(|e| e.to_string())?;
     Ok((est.heading_deg, est.sigma_deg))
