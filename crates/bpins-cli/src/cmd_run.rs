@@ -45,7 +45,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         cfg.channels.len(),
         cfg.seed
     );
-    let engine = crate::backend::Engine::open(a.backend)?;
+    let engine = crate::backend::open(a.backend)?;
     let pb = bar(total, "trials");
     let t0 = std::time::Instant::now();
     let results =

@@ -226,13 +226,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             a.sun_sigma_deg.map_or("none".into(), |s| s.to_string()),
         );
     }
-    let engine = crate::backend::Engine::open(a.backend)?;
+    let engine = crate::backend::open(a.backend)?;
     if let Some(path) = &a.exr {
         crate::ensure_not_in_capture(path)?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
-        return write_dump(&engine, &capture, &model, &resp, &sim, field.as_ref(), path);
+        return write_dump(engine.as_ref(), &capture, &model, &resp, &sim, field.as_ref(), path);
     }
     let out = a.out.as_ref().expect("clap requires --out without --exr");
     if let Some(parent) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -329,7 +329,7 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
 /// One EXR: every channel at every pixel (as a colocated sensor would read it), and
 /// the angle maps reconstructed with the nominal model.
 fn write_dump(
-    engine: &crate::backend::Engine,
+    engine: &dyn bpins_core::backend::Backend,
     c: &Capture,
     model: &bpins_core::effects::Model,
     resp: &bpins_core::sensor::Response,

@@ -32,6 +32,9 @@ pub enum Error {
     Heading(String),
     #[error("sun position: {0}")]
     Sun(String),
+    /// A compute backend could not do what was asked (no device, a buffer too large).
+    #[error("{backend} backend: {message}")]
+    Backend { backend: String, message: String },
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -46,6 +46,7 @@
 //! # Ok::<(), bpins_core::Error>(())
 //! ```
 
+pub mod backend;
 pub mod calibration;
 pub mod camera;
 pub mod capture;

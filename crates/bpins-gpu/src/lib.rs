@@ -54,3 +54,49 @@ pub enum GpuError {
 }
 
 pub type Result<T> = std::result::Result<T, GpuError>;
+
+/// A device error in the core's words: [`bpins_core::Error::Backend`] (a core error
+/// the GPU path passed on stays itself).
+fn into_core(e: GpuError) -> bpins_core::Error {
+    match e {
+        GpuError::Core(c) => c,
+        other => bpins_core::Error::Backend { backend: "gpu".into(), message: other.to_string() },
+    }
+}
+
+/// The WGSL twin as a [`bpins_core::backend::Backend`]: what the core's rayon
+/// reference does, on the device.
+impl bpins_core::backend::Backend for Gpu {
+    fn name(&self) -> &str {
+        "gpu"
+    }
+
+    fn render_mosaic(
+        &self,
+        frames: &[bpins_core::chain::ChainFrame],
+        w: usize,
+        h: usize,
+        mosaic: &[[bpins_core::sensor::Channel; 2]; 2],
+    ) -> bpins_core::Result<Vec<Vec<f32>>> {
+        Gpu::render_mosaic(self, frames, w, h, mosaic).map_err(into_core)
+    }
+
+    fn render_colocated(
+        &self,
+        frames: &[bpins_core::chain::ChainFrame],
+        w: usize,
+        h: usize,
+        channels: &[bpins_core::sensor::Channel],
+    ) -> bpins_core::Result<Vec<Vec<Vec<f32>>>> {
+        Gpu::render_colocated(self, frames, w, h, channels).map_err(into_core)
+    }
+
+    fn run_sweep(
+        &self,
+        cfg: &bpins_core::montecarlo::SweepConfig,
+        sources: &[bpins_core::montecarlo::Source],
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> bpins_core::Result<Vec<bpins_core::montecarlo::TrialResult>> {
+        montecarlo::run_sweep(self, cfg, sources, progress).map_err(into_core)
+    }
+}

@@ -83,3 +83,20 @@ fn oversized_frames_are_a_clear_error_not_a_panic() {
     let msg = e.unwrap_err().to_string();
     assert!(msg.contains("buffer"), "{msg}");
 }
+
+#[test]
+fn the_gpu_is_a_library_backend_like_the_cpu() {
+    use bpins_core::backend::{Backend, Cpu};
+    let Some(gpu) = gpu() else { return };
+    let t = trial_frame(&cases()[0], 1, 3).unwrap();
+    let frames = std::slice::from_ref(&t.frame);
+    let backends: [&dyn Backend; 2] = [&Cpu, gpu];
+    let [c, g] = backends.map(|b| b.render_mosaic(frames, 64, 48, &bpins_core::sensor::DEFAULT_MOSAIC).unwrap());
+    assert_eq!((Backend::name(gpu), c[0].len(), g[0].len()), ("gpu", 64 * 48, 64 * 48));
+    let off =
+        c[0].iter().zip(&g[0]).filter(|(a, b)| (**a - **b).abs() > bpins_gpu::tolerance::DN_MAX_ABS as f32).count();
+    assert_eq!(off, 0, "DN beyond tolerance through the trait");
+    // A device error comes back in the core's words.
+    let e = Backend::render_mosaic(gpu, frames, 1 << 20, 1 << 20, &bpins_core::sensor::DEFAULT_MOSAIC).unwrap_err();
+    assert!(matches!(e, bpins_core::Error::Backend { .. }), "{e}");
+}
