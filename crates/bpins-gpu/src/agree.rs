@@ -1,8 +1,8 @@
 //! `bpins agree`: seeded trials over every effect of the registry (one at a time, then
 //! all together) on both backends, compared stage by stage against [`crate::tolerance`].
 //!
-//! A trial draws the effect's parameters (within ±2 % of each range around neutral,
-//! inside the range), a sun,
+//! A trial sets the effect's parameters at neutral, typical, the range's minimum and
+//! maximum, then (trial 4, 9, …) a uniform draw over the range, cycling; it draws a sun,
 //! a heading and one of the four projections (cycling with the trial), and renders the
 //! samples' 612 × 512 DoFP sensor with read, shot, DSNU and PRNU noise, 12-bit. Stages:
 //!
@@ -95,10 +95,16 @@ pub fn trial_frame(case: &Case, trial: u32, seed: u64) -> Result<TrialFrame> {
     for name in &case.effects {
         let e = bpins_core::effects::find(name)?;
         for p in e.params {
-            // Within ±2 % of the range around neutral, inside the range.
-            let half = 0.02 * 0.5 * (p.max - p.min);
-            let (lo, hi) = ((p.neutral - half).max(p.min), (p.neutral + half).min(p.max));
-            set.set(name, p.name, lo + (hi - lo) * uniform())?;
+            // Trials cycle through the strengths that matter: neutral, typical (as real
+            // sensors show it), the range's ends, then a uniform draw over the range.
+            let value = match trial % 5 {
+                0 => p.neutral,
+                1 => p.typical,
+                2 => p.min,
+                3 => p.max,
+                _ => p.min + (p.max - p.min) * uniform(),
+            };
+            set.set(name, p.name, value)?;
         }
     }
     let model = set.model();
