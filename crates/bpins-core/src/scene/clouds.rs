@@ -48,31 +48,27 @@ use crate::conventions::enu_from_az_el_deg;
 use crate::stokes::Stokes;
 use glam::DVec3;
 
-const fn p(
-    name: &'static str,
-    unit: &'static str,
-    default: f64,
-    min: f64,
-    max: f64,
-    doc: &'static str,
-) -> ElementParam {
-    ElementParam { name, unit, default, min, max, integer: false, doc }
-}
-
 pub const ELEMENT: ElementDef = ElementDef {
     id: ElementId::Clouds,
     name: "clouds",
     summary: "seeded clouds fixed in the world: brighter, less polarized, E-vectors turned per frame",
     source: "Pomozi, Horvath & Wehner 2001 (J. Exp. Biol. 204); phenomenological profile",
     params: &[
-        ElementParam { integer: true, ..p("count", "1", 6.0, 0.0, 64.0, "number of clouds") },
-        p("radius_min_deg", "deg", 5.0, 0.5, 45.0, "smallest angular radius"),
-        p("radius_max_deg", "deg", 12.0, 0.5, 45.0, "largest angular radius"),
-        p("min_elevation_deg", "deg", 10.0, 0.0, 89.0, "lowest elevation of a cloud's centre"),
-        p("brightness", "1", 2.5, 0.1, 5.0, "radiance factor at the brightest cloud's core"),
-        p("dolp_factor", "1", 0.15, 0.0, 1.0, "DoLP factor at a cloud's core"),
-        p("rotation_sigma_deg", "deg", 17.0, 0.0, 90.0, "1σ of each cloud's E-vector turn, drawn per frame"),
-        p("texture", "1", 0.3, 0.0, 1.0, "raggedness of the edges (0: smooth discs)"),
+        ElementParam { integer: true, ..ElementParam::real("count", "1", 6.0, 0.0, 64.0, "number of clouds") },
+        ElementParam::real("radius_min_deg", "deg", 5.0, 0.5, 45.0, "smallest angular radius"),
+        ElementParam::real("radius_max_deg", "deg", 12.0, 0.5, 45.0, "largest angular radius"),
+        ElementParam::real("min_elevation_deg", "deg", 10.0, 0.0, 89.0, "lowest elevation of a cloud's centre"),
+        ElementParam::real("brightness", "1", 2.5, 0.1, 5.0, "radiance factor at the brightest cloud's core"),
+        ElementParam::real("dolp_factor", "1", 0.15, 0.0, 1.0, "DoLP factor at a cloud's core"),
+        ElementParam::real(
+            "rotation_sigma_deg",
+            "deg",
+            17.0,
+            0.0,
+            90.0,
+            "1σ of each cloud's E-vector turn, drawn per frame",
+        ),
+        ElementParam::real("texture", "1", 0.3, 0.0, 1.0, "raggedness of the edges (0: smooth discs)"),
     ],
 };
 

@@ -55,6 +55,20 @@ pub struct ElementParam {
     pub doc: &'static str,
 }
 
+impl ElementParam {
+    /// A real-valued parameter (`integer` false): name, unit, default, range, doc.
+    pub const fn real(
+        name: &'static str,
+        unit: &'static str,
+        default: f64,
+        min: f64,
+        max: f64,
+        doc: &'static str,
+    ) -> Self {
+        ElementParam { name, unit, default, min, max, integer: false, doc }
+    }
+}
+
 /// One scene element.
 #[derive(Debug, PartialEq)]
 pub struct ElementDef {

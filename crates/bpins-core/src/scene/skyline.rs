@@ -51,29 +51,32 @@ use glam::DVec3;
 /// Azimuth bins of the tabulated skyline (0.05° each).
 const BINS: usize = 7200;
 
-const fn p(
-    name: &'static str,
-    unit: &'static str,
-    default: f64,
-    min: f64,
-    max: f64,
-    doc: &'static str,
-) -> ElementParam {
-    ElementParam { name, unit, default, min, max, integer: false, doc }
-}
-
 pub const ELEMENT: ElementDef = ElementDef {
     id: ElementId::Skyline,
     name: "skyline",
     summary: "trees and buildings on a seeded jagged skyline, dark and nearly unpolarized; the ground below",
     source: "procedural skyline; radiances after Horvath & Varju 2004",
     params: &[
-        p("max_elevation_deg", "deg", 20.0, 0.0, 60.0, "highest object top above the horizon"),
-        p("coverage", "1", 0.7, 0.0, 1.0, "probability that a stretch of horizon holds an object"),
-        p("tree_fraction", "1", 0.5, 0.0, 1.0, "probability that an object is a tree (else a building)"),
-        p("object_radiance", "1", 0.15, 0.0, 2.0, "objects' mean radiance over the sky's zenith radiance"),
-        p("object_dolp", "1", 0.04, 0.0, 0.3, "objects' largest DoLP"),
-        p("ground_albedo", "1", 0.2, 0.0, 1.0, "ground radiance over the sky's zenith radiance"),
+        ElementParam::real("max_elevation_deg", "deg", 20.0, 0.0, 60.0, "highest object top above the horizon"),
+        ElementParam::real("coverage", "1", 0.7, 0.0, 1.0, "probability that a stretch of horizon holds an object"),
+        ElementParam::real(
+            "tree_fraction",
+            "1",
+            0.5,
+            0.0,
+            1.0,
+            "probability that an object is a tree (else a building)",
+        ),
+        ElementParam::real(
+            "object_radiance",
+            "1",
+            0.15,
+            0.0,
+            2.0,
+            "objects' mean radiance over the sky's zenith radiance",
+        ),
+        ElementParam::real("object_dolp", "1", 0.04, 0.0, 0.3, "objects' largest DoLP"),
+        ElementParam::real("ground_albedo", "1", 0.2, 0.0, 1.0, "ground radiance over the sky's zenith radiance"),
     ],
 };
 
