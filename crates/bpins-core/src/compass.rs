@@ -148,13 +148,7 @@ impl Compass {
             return bad(format!("focal length {} px and principal point ({}, {}) px", c.f_px, c.cx_px, c.cy_px));
         }
         let known = cfg.calibration.model();
-        let intr = Intrinsics {
-            cx_px: c.cx_px + known.pp_offset_px[0],
-            cy_px: c.cy_px + known.pp_offset_px[1],
-            f_px: c.f_px * (1.0 + known.focal_scale),
-            distortion: [c.distortion[0] + known.distortion[0], c.distortion[1] + known.distortion[1]],
-            ..*c
-        };
+        let intr = known.camera(c);
         let rec = Reconstructor::new(&known, cfg.black_level_dn, &Channel::ALL)?;
         let cell_px = cfg.options.cell_px.unwrap_or_else(|| Cells::default_cell_px(cfg.width_px, cfg.height_px));
         Ok(Compass { cfg, known, intr, rec, full_scale_dn, cell_px })

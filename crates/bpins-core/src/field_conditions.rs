@@ -16,9 +16,9 @@ use crate::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use crate::conventions::{image_centre_px, wrap_deg_180};
 use crate::effects::{EffectSet, Model};
 use crate::error::Result;
-use crate::heading::field::{self, FieldOptions};
+use crate::heading::field::FieldOptions;
 use crate::heading::Extractor;
-use crate::pipeline::{field_context, frame_cells, frame_headings_of, simulate_capture, ReconMode, SimSensor};
+use crate::pipeline::{field_headings_of, frame_headings_of, simulate_capture, ReconMode, SimSensor};
 use crate::scene::attitude::FieldAttitude;
 use crate::scene::FieldScene;
 use crate::sensor::{Geometry, Layout, DEFAULT_MOSAIC};
@@ -206,9 +206,7 @@ pub fn score_field(sim: &Simulated, extractor: Extractor, opts: &FieldOptions) -
     let (mut errs, mut used) = (Vec::new(), Vec::new());
     for (i, data) in sim.frames.iter().enumerate() {
         let c = &sim.capture;
-        let cells = frame_cells(c, data, &Model::default(), opts.cell_px)?;
-        let ctx = field_context(c, &c.frames[i], &Model::default());
-        let r = &field::estimate(&cells, &ctx, opts, &[extractor])[0];
+        let r = &field_headings_of(c, i, data, &Model::default(), opts, &[extractor])?[0];
         used.push(r.quality.used_fraction);
         if let Ok((h, parts)) = &r.result {
             errs.push((wrap_deg_180(h - c.frames[i].heading_deg.unwrap_or(0.0)), parts.total_deg()));

@@ -34,17 +34,9 @@ impl ReconMode {
 }
 
 /// The intrinsics a capture declares with the `known` geometry folded in as the
-/// chain folds it (`ChainFrame::new`): principal-point offset, focal-length scale and
-/// radial distortion.
+/// chain folds it ([`Model::camera`]).
 pub fn assumed_intrinsics(c: &Capture, known: &Model) -> Intrinsics {
-    let i = c.intrinsics();
-    Intrinsics {
-        cx_px: i.cx_px + known.pp_offset_px[0],
-        cy_px: i.cy_px + known.pp_offset_px[1],
-        f_px: i.f_px * (1.0 + known.focal_scale),
-        distortion: [i.distortion[0] + known.distortion[0], i.distortion[1] + known.distortion[1]],
-        ..i
-    }
+    known.camera(&c.intrinsics())
 }
 
 /// What the heading extractors know about frame `f`: the capture's camera (plus
@@ -158,8 +150,19 @@ pub fn field_headings(
     opts: &FieldOptions,
     extractors: &[Extractor],
 ) -> Result<Vec<FieldHeading>> {
-    let data = c.read_frame(index)?;
-    let cells = frame_cells(c, &data, known, opts.cell_px)?;
+    field_headings_of(c, index, &c.read_frame(index)?, known, opts, extractors)
+}
+
+/// [`field_headings`] of frame `index` whose pixels `data` are already in memory.
+pub fn field_headings_of(
+    c: &Capture,
+    index: usize,
+    data: &FrameData,
+    known: &Model,
+    opts: &FieldOptions,
+    extractors: &[Extractor],
+) -> Result<Vec<FieldHeading>> {
+    let cells = frame_cells(c, data, known, opts.cell_px)?;
     Ok(field::estimate(&cells, &field_context(c, &c.frames[index], known), opts, extractors))
 }
 

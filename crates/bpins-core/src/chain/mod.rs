@@ -115,13 +115,7 @@ impl ChainFrame {
     pub fn new(model: &Model, nominal: &Intrinsics, scene: &Scene, response: &Response, noise: NoiseIndex) -> Self {
         // True camera: nominal intrinsics with the principal point moved, the focal
         // length scaled and the lens's radial distortion.
-        let intr = Intrinsics {
-            f_px: nominal.f_px * (1.0 + model.focal_scale),
-            distortion: [nominal.distortion[0] + model.distortion[0], nominal.distortion[1] + model.distortion[1]],
-            cx_px: nominal.cx_px + model.pp_offset_px[0],
-            cy_px: nominal.cy_px + model.pp_offset_px[1],
-            ..*nominal
-        };
+        let intr = model.camera(nominal);
         let world_from_cam = true_world_from_camera(model, scene);
         let sun_cam = world_from_cam.transpose() * enu_from_az_el_deg(scene.sun_az_deg, scene.sun_el_deg);
         let analyzers = Channel::ALL

@@ -188,6 +188,21 @@ impl Default for Model {
     }
 }
 
+impl Model {
+    /// The camera `nominal` with this model's geometry folded in: principal point
+    /// moved, focal length scaled, radial distortion added. The chain's true camera,
+    /// and the camera a heading extractor assumes when the model is a calibration.
+    pub fn camera(&self, nominal: &crate::camera::Intrinsics) -> crate::camera::Intrinsics {
+        crate::camera::Intrinsics {
+            f_px: nominal.f_px * (1.0 + self.focal_scale),
+            distortion: [nominal.distortion[0] + self.distortion[0], nominal.distortion[1] + self.distortion[1]],
+            cx_px: nominal.cx_px + self.pp_offset_px[0],
+            cy_px: nominal.cy_px + self.pp_offset_px[1],
+            ..*nominal
+        }
+    }
+}
+
 /// A set of enabled effects with their values.
 #[derive(Clone, Debug, Default)]
 pub struct EffectSet {

@@ -281,15 +281,8 @@ impl HeadingSums {
     #[inline(always)]
     fn add_band(&mut self, dx: f64, dy: f64, qp: f64, up: f64, cos2b: f64, sin2b: f64) {
         let psi = 0.5 * (-up).atan2(-qp);
-        let (sb, cb) = (sin2b, cos2b);
-        let l = &mut self.line[sector_of(crate::conventions::image_angle_rad(dx, dy))];
-        l[0] += sb * sb;
-        l[1] += sb * cb;
-        l[2] += cb * cb;
-        l[3] += psi * sb;
-        l[4] += psi * cb;
-        l[5] += psi * psi;
-        l[6] += 1.0;
+        // Weight 1: ×1.0 is exact, so these sums are bitwise the unweighted ones.
+        self.add_band_weighted(crate::conventions::image_angle_rad(dx, dy), psi, cos2b, sin2b, 1.0);
     }
 
     /// Adds `w·e eᵀ` to the scatter (one weighted sample; `e` a unit E-vector).
