@@ -42,7 +42,7 @@
 use crate::calibration::Calibration;
 use crate::camera::Intrinsics;
 use crate::effects::Model;
-use crate::heading::field::{self, Cells, FieldContext, FieldHeading, FieldOptions, RawDn, RawImage};
+use crate::heading::field::{self, Cells, FieldContext, FieldHeading, FieldOptions, FieldScratch, RawDn, RawImage};
 use crate::heading::Extractor;
 use crate::recon::Reconstructor;
 use crate::sensor::{Channel, DEFAULT_MOSAIC};
@@ -127,6 +127,10 @@ pub struct Compass {
     rec: Reconstructor,
     full_scale_dn: f64,
     cell_px: usize,
+    /// The last frame's cells and the estimator's buffers, reused: no allocation per
+    /// frame once they have grown to the sensor's grid.
+    cells: Cells,
+    scratch: FieldScratch,
 }
 
 impl Compass {
@@ -151,7 +155,16 @@ impl Compass {
         let intr = known.camera(c);
         let rec = Reconstructor::new(&known, cfg.black_level_dn, &Channel::ALL)?;
         let cell_px = cfg.options.cell_px.unwrap_or_else(|| Cells::default_cell_px(cfg.width_px, cfg.height_px));
-        Ok(Compass { cfg, known, intr, rec, full_scale_dn, cell_px })
+        Ok(Compass {
+            cfg,
+            known,
+            intr,
+            rec,
+            full_scale_dn,
+            cell_px,
+            cells: Cells::default(),
+            scratch: FieldScratch::default(),
+        })
     }
 
     /// The heading of one raw DoFP frame under `sun` at `attitude`.
@@ -187,7 +200,14 @@ impl Compass {
         if !(tilt_x_deg.abs() < 90.0 && tilt_y_deg.abs() < 90.0 && sigma_deg >= 0.0 && sigma_deg.is_finite()) {
             return Err(CompassError::Attitude(format!("tilt {tilt_x_deg}°, {tilt_y_deg}°, 1σ {sigma_deg}°")));
         }
-        let cells = Cells::from_mosaic(&frame, &self.cfg.mosaic, &self.rec, self.full_scale_dn, self.cell_px);
+        self.cells.fill_from_mosaic(
+            &frame,
+            &self.cfg.mosaic,
+            &self.rec,
+            self.full_scale_dn,
+            self.cell_px,
+            &mut self.scratch.cells,
+        );
         let ctx = FieldContext {
             intr: self.intr,
             lens_rho2: self.known.lens_rho2,
@@ -199,8 +219,7 @@ impl Compass {
             tilt_sigma_deg: sigma_deg,
             mount_tilt_deg: self.known.mount_tilt_deg,
         };
-        let mut r = field::estimate(&cells, &ctx, &self.cfg.options, &[self.cfg.extractor]);
-        Ok(r.pop().expect("one extractor, one heading"))
+        Ok(field::estimate_with(&self.cells, &ctx, &self.cfg.options, self.cfg.extractor, &mut self.scratch))
     }
 }
 

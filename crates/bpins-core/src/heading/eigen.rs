@@ -43,8 +43,8 @@ pub fn symmetric_eigen(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
         }
     }
     // v[row][k]: column k of the rotation product is eigenvector k.
-    let mut pairs: Vec<(f64, DVec3)> =
-        (0..3).map(|k| (a[k][k], DVec3::new(v[0][k], v[1][k], v[2][k]).normalize())).collect();
+    let mut pairs: [(f64, DVec3); 3] =
+        std::array::from_fn(|k| (a[k][k], DVec3::new(v[0][k], v[1][k], v[2][k]).normalize()));
     pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
     ([pairs[0].0, pairs[1].0, pairs[2].0], [pairs[0].1, pairs[1].1, pairs[2].1])
 }

@@ -136,6 +136,22 @@ impl Cells {
         full_scale_dn: f64,
         cell_px: usize,
     ) -> Cells {
+        let mut cells = Cells::default();
+        cells.fill_from_mosaic(img, mosaic, rec, full_scale_dn, cell_px, &mut CellScratch::default());
+        cells
+    }
+
+    /// As [`Cells::from_mosaic`], into `self`, reusing its buffers and `scratch`'s:
+    /// once they have grown to the frame's grid, nothing is allocated (a live loop).
+    pub fn fill_from_mosaic<T: RawDn>(
+        &mut self,
+        img: &RawImage<T>,
+        mosaic: &[[Channel; 2]; 2],
+        rec: &Reconstructor,
+        full_scale_dn: f64,
+        cell_px: usize,
+        scratch: &mut CellScratch,
+    ) {
         let cell_px = (cell_px.max(2) + 1) & !1;
         let chan = [0, 1].map(|dv| [0, 1].map(|du| Layout::dofp_channel(mosaic, du, dv).index()));
         // Each channel's place (column, row) in the 2 × 2 tile.
@@ -145,7 +161,7 @@ impl Cells {
                 place[k] = Some((du as f64, dv as f64));
             }
         }
-        Self::build(img.width_px, img.height_px, cell_px, rec, Some(place), |cj, acc| {
+        self.build(img.width_px, img.height_px, cell_px, rec, Some(place), scratch, |cj, acc| {
             for (dv, v) in (cj * cell_px..(cj + 1) * cell_px).enumerate() {
                 let row = img.row(v);
                 let ch = chan[v & 1];
@@ -166,7 +182,8 @@ impl Cells {
     ) -> Cells {
         let Some((_, first)) = planes.first() else { return Cells::default() };
         let cell_px = cell_px.max(1);
-        Self::build(first.width_px, first.height_px, cell_px, rec, None, |cj, acc| {
+        let mut cells = Cells::default();
+        cells.build(first.width_px, first.height_px, cell_px, rec, None, &mut CellScratch::default(), |cj, acc| {
             for (ch, plane) in planes {
                 for (dv, v) in (cj * cell_px..(cj + 1) * cell_px).enumerate() {
                     let row = plane.row(v);
@@ -177,7 +194,8 @@ impl Cells {
                     }
                 }
             }
-        })
+        });
+        cells
     }
 
     /// Cells of an already reconstructed Stokes image: `cell_px` is in pixels and
@@ -228,30 +246,37 @@ impl Cells {
         Cells { cell_px: (k as f64 * img.step_px).round() as usize, cols, rows, cells }
     }
 
-    /// The grid of whole cells; `fill(cell_row, accumulators)` adds the pixels of one
-    /// row of cells; `place`: each DoFP channel's place in the tile (None: colocated,
-    /// every channel at every pixel). Rows of cells in parallel, kept in row order.
+    /// The grid of whole cells into `self`; `fill(cell_row, accumulators)` adds the
+    /// pixels of one row of cells; `place`: each DoFP channel's place in the tile
+    /// (None: colocated, every channel at every pixel). Rows of cells in parallel,
+    /// kept in row order; `scratch`'s buffers are reused (no allocation once grown).
+    #[allow(clippy::too_many_arguments)]
     fn build(
+        &mut self,
         width_px: usize,
         height_px: usize,
         cell_px: usize,
         rec: &Reconstructor,
         place: Option<[Option<(f64, f64)>; 4]>,
+        scratch: &mut CellScratch,
         fill: impl Fn(usize, &mut [Acc]) + Sync,
-    ) -> Cells {
+    ) {
         let (cols, rows) = (width_px / cell_px, height_px / cell_px);
         let (r, inv_gain, _) = rec.parts();
-        let cells = (0..rows)
-            .into_par_iter()
-            .flat_map_iter(|cj| {
-                let mut acc = vec![Acc::default(); cols];
-                fill(cj, &mut acc);
-                acc.into_iter().enumerate().filter_map(move |(ci, a)| {
-                    let (mean, var) = a.finish(cell_px, place)?;
+        let CellScratch { acc, slots } = scratch;
+        acc.clear();
+        acc.resize(cols * rows, Acc::default());
+        slots.clear();
+        slots.resize(cols * rows, None);
+        if cols > 0 {
+            acc.par_chunks_mut(cols).zip(slots.par_chunks_mut(cols)).enumerate().for_each(|(cj, (acc, slots))| {
+                fill(cj, acc);
+                for (ci, (a, slot)) in acc.iter().zip(slots.iter_mut()).enumerate() {
+                    let Some((mean, var)) = a.finish(cell_px, place) else { continue };
                     let stokes = rec.stokes(&mean);
                     let v = |row: &[f64; 4]| (0..4).map(|k| (row[k] * inv_gain[k]).powi(2) * var[k]).sum::<f64>();
                     let c = (cell_px - 1) as f64 * 0.5;
-                    Some(Cell {
+                    *slot = Some(Cell {
                         x_px: (ci * cell_px) as f64 + c,
                         y_px: (cj * cell_px) as f64 + c,
                         stokes,
@@ -259,12 +284,21 @@ impl Cells {
                         var_u_dn2: v(&r[2]),
                         col: ci as u32,
                         row: cj as u32,
-                    })
-                })
-            })
-            .collect();
-        Cells { cell_px, cols, rows, cells }
+                    });
+                }
+            });
+        }
+        self.cells.clear();
+        self.cells.extend(slots.iter().flatten());
+        (self.cell_px, self.cols, self.rows) = (cell_px, cols, rows);
     }
+}
+
+/// Buffers of [`Cells::fill_from_mosaic`], kept between frames.
+#[derive(Clone, Debug, Default)]
+pub struct CellScratch {
+    acc: Vec<Acc>,
+    slots: Vec<Option<Cell>>,
 }
 
 /// Per-channel sums of one cell (positions local to the cell's top-left pixel).

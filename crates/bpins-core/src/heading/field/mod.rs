@@ -82,7 +82,7 @@
 pub mod cells;
 mod robust;
 
-pub use cells::{Cell, Cells, RawDn, RawImage};
+pub use cells::{Cell, CellScratch, Cells, RawDn, RawImage};
 
 use super::Extractor;
 use crate::camera::Intrinsics;
@@ -261,9 +261,41 @@ impl FieldHeading {
     }
 }
 
-/// Field headings of one frame's cells with each of `extractors`.
+/// Field headings of one frame's cells with each of `extractors` (the robust loop runs
+/// once; each extractor solves on its final weights).
 pub fn estimate(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions, extractors: &[Extractor]) -> Vec<FieldHeading> {
-    robust::estimate(cells, ctx, opts, extractors)
+    let mut sc = FieldScratch::default();
+    match robust::fitted(cells, ctx, opts, &mut sc.robust) {
+        Ok(r) => extractors.iter().map(|&e| robust::heading(&r, e, cells, ctx, opts, &sc.robust)).collect(),
+        Err((quality, why)) => {
+            extractors.iter().map(|&e| FieldHeading { extractor: e, result: Err(why.clone()), quality }).collect()
+        }
+    }
+}
+
+/// One extractor's field heading of one frame's cells, with buffers kept in `scratch`
+/// between frames: once they have grown to the frame's grid, a clear frame allocates
+/// nothing (a frame without a heading may, for its reason's text).
+pub fn estimate_with(
+    cells: &Cells,
+    ctx: &FieldContext,
+    opts: &FieldOptions,
+    extractor: Extractor,
+    scratch: &mut FieldScratch,
+) -> FieldHeading {
+    match robust::fitted(cells, ctx, opts, &mut scratch.robust) {
+        Ok(r) => robust::heading(&r, extractor, cells, ctx, opts, &scratch.robust),
+        Err((quality, why)) => FieldHeading { extractor, result: Err(why), quality },
+    }
+}
+
+/// The field estimator's buffers, kept between frames by a live loop (see
+/// [`estimate_with`] and [`Cells::fill_from_mosaic`]).
+#[derive(Clone, Debug, Default)]
+pub struct FieldScratch {
+    /// The cells' accumulators.
+    pub cells: CellScratch,
+    robust: robust::Scratch,
 }
 
 /// Which pixels of a frame show sky that follows the sky model's pattern, from the
@@ -299,12 +331,13 @@ impl SkyMask {
 /// moves AoP, and a fit must still see where it does. Errs where the frame has no
 /// heading to read the sky's pattern by.
 pub fn sky_mask(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions) -> Result<SkyMask, NoHeading> {
-    let r = robust::robust(cells, ctx, opts).map_err(|e| e.1)?;
+    let mut sc = robust::Scratch::default();
+    let r = robust::robust(cells, ctx, opts, &mut sc).map_err(|e| e.1)?;
     Ok(SkyMask {
         cell_px: cells.cell_px,
         cols: cells.cols,
         rows: cells.rows,
-        sky: r.sky_cells(cells.grid_len()),
+        sky: sc.sky_cells(cells.grid_len()),
         heading_deg: r.heading_deg,
     })
 }

@@ -50,13 +50,20 @@ struct Obs {
 }
 
 /// Step 1–2: the cells that pass the masks, in the level frame.
-fn observe(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions, level: DMat3) -> Vec<Obs> {
+fn observe(
+    cells: &Cells,
+    ctx: &FieldContext,
+    opts: &FieldOptions,
+    level: DMat3,
+    slots: &mut Vec<Option<Obs>>,
+    out: &mut Vec<Obs>,
+) {
     let min_el = (opts.horizon_margin_deg + 3.0 * ctx.tilt_sigma_deg).to_radians().sin();
     let block_of = |c: u32, n: usize| ((c as usize * BLOCKS) / n.max(1)).min(BLOCKS - 1);
-    cells
-        .cells
-        .par_iter()
-        .filter_map(|c| {
+    slots.clear();
+    slots.resize(cells.cells.len(), None);
+    slots.par_iter_mut().zip(cells.cells.par_iter()).for_each(|(slot, c)| {
+        *slot = (|| {
             let g = ctx.intr.geometry(c.x_px, c.y_px);
             let d = level * g.d;
             if d.z < min_el {
@@ -93,8 +100,10 @@ fn observe(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions, level: DMat3)
                 cos2b: mb.cos2b,
                 sin2b: mb.sin2b,
             })
-        })
-        .collect()
+        })();
+    });
+    out.clear();
+    out.extend(slots.iter().flatten());
 }
 
 /// Wraps an axial angle in radians to (−π/2, π/2].
@@ -126,12 +135,18 @@ fn residual(o: &Obs, s: DVec3) -> (f64, f64, f64) {
 }
 
 /// Step 3: the start heading from a grid search on the sun's cone.
-fn search(obs: &[Obs], ctx: &FieldContext) -> Result<f64, NoHeading> {
-    let strong: Vec<&Obs> = obs.iter().filter(|o| o.dolp > 0.02).collect();
-    let pick: Vec<&Obs> = if strong.len() >= 3 { strong } else { obs.iter().collect() };
-    let stride = pick.len().div_ceil(SEARCH_CELLS).max(1);
-    let sub: Vec<(&Obs, f64)> =
-        pick.iter().step_by(stride).map(|o| (*o, 1.0 / (o.var_aop + SEARCH_SIGMA_RAD * SEARCH_SIGMA_RAD))).collect();
+fn search(obs: &[Obs], ctx: &FieldContext, sub: &mut Vec<(Obs, f64)>) -> Result<f64, NoHeading> {
+    // The polarized cells (all of them if fewer than three are), thinned to SEARCH_CELLS.
+    let strong = obs.iter().filter(|o| o.dolp > 0.02).count();
+    let min_dolp = if strong >= 3 { 0.02 } else { f64::NEG_INFINITY };
+    let stride = (if strong >= 3 { strong } else { obs.len() }).div_ceil(SEARCH_CELLS).max(1);
+    sub.clear();
+    sub.extend(
+        obs.iter()
+            .filter(|o| o.dolp > min_dolp)
+            .step_by(stride)
+            .map(|o| (*o, 1.0 / (o.var_aop + SEARCH_SIGMA_RAD * SEARCH_SIGMA_RAD))),
+    );
     // sin²δ = (e·s)²/sin²γ, capped (no arcsine: the cost is bounded anyway).
     let cap = SEARCH_CAP_RAD.sin().powi(2);
     let cost = |psi_deg: f64| {
@@ -143,7 +158,7 @@ fn search(obs: &[Obs], ctx: &FieldContext) -> Result<f64, NoHeading> {
             })
             .sum::<f64>()
     };
-    let grid: Vec<(f64, f64)> = (0..90).map(|k| 4.0 * k as f64).map(|p| (p, cost(p))).collect();
+    let grid: [(f64, f64); 90] = std::array::from_fn(|k| (4.0 * k as f64, cost(4.0 * k as f64)));
     let refine = |centre: f64| {
         let fine = |c: f64, step: f64| {
             (-6..=6).map(|k| c + step * k as f64).map(|p| (p, cost(p))).fold((c, f64::INFINITY), min_by_cost)
@@ -179,59 +194,59 @@ fn min_by_cost(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
     }
 }
 
-/// Step 4's weights for the sun at `s`: (robust weight, σ² = σ_α² + τ², sin²γ) per
-/// cell, and τ.
-fn weights(
-    obs: &[Obs],
-    s: DVec3,
-    opts: &FieldOptions,
-    cols: usize,
-    grid_len: usize,
-) -> (Vec<(f64, f64, f64, f64)>, f64) {
+/// Step 4's weights for the sun at `s` into `b.w`: (robust weight, σ² = σ_α² + τ²,
+/// sin²γ, δ) per cell; returns τ.
+fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: usize, b: &mut Bufs) -> f64 {
     let cos_excl = opts.sun_exclusion_deg.to_radians().cos();
-    let res: Vec<(f64, f64, f64)> = obs.iter().map(|o| residual(o, s)).collect();
-    let kept: Vec<usize> = (0..obs.len()).filter(|&i| res[i].2.abs() < cos_excl).collect();
+    b.res.clear();
+    b.res.extend(obs.iter().map(|o| residual(o, s)));
     // τ: the lower quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015), so that up to three
     // quarters of the cells may be clouds or trees: δ²/(v + τ²) ≤ c ⟺ (δ² − c·v)/c ≤ τ²,
-    // so τ² is the lower quartile of (δ² − c·v)/c (0 where the noise explains it).
-    let mut t: Vec<f64> = kept.iter().map(|&i| (res[i].0.powi(2) - CHI2_1_Q25 * obs[i].var_aop) / CHI2_1_Q25).collect();
-    let tau2 = quantile(&mut t, 0.25).max(0.0);
+    // so τ² is the lower quartile of (δ² − c·v)/c (0 where the noise explains it); the
+    // cells near the sun and the anti-sun are left out of it.
+    b.t.clear();
+    b.t.extend(
+        obs.iter()
+            .zip(&b.res)
+            .filter(|(_, r)| r.2.abs() < cos_excl)
+            .map(|(o, r)| (r.0.powi(2) - CHI2_1_Q25 * o.var_aop) / CHI2_1_Q25),
+    );
+    let tau2 = quantile(&mut b.t, 0.25).max(0.0);
     let tau2 = if tau2.is_finite() { tau2 } else { 0.0 };
-    let depol = depolarized(obs, &res, tau2);
-    let mut w: Vec<(f64, f64, f64, f64)> = obs
-        .iter()
-        .zip(&res)
-        .zip(&depol)
-        .map(|((o, &(delta, sg2, cg)), &depol)| {
-            let var = o.var_aop + tau2;
-            let w = if cg.abs() < cos_excl && !depol { tukey(delta / var.sqrt()) } else { 0.0 };
-            (w, var, sg2, delta)
-        })
-        .collect();
+    depolarized(obs, &b.res, tau2, &mut b.t, &mut b.depol);
+    b.w.clear();
+    b.w.extend(obs.iter().zip(&b.res).zip(&b.depol).map(|((o, &(delta, sg2, cg)), &depol)| {
+        let var = o.var_aop + tau2;
+        let w = if cg.abs() < cos_excl && !depol { tukey(delta / var.sqrt()) } else { 0.0 };
+        (w, var, sg2, delta)
+    }));
     // A rejected cell's neighbours are suspect: clouds and crowns have soft edges whose
     // misfit is below the cut. Rejections that come in clusters (not a lone noisy cell,
     // not the sun's disc) grow by DILATE_CELLS.
-    let mut rejected = vec![false; grid_len];
-    for (o, x) in obs.iter().zip(&w) {
+    b.mask.clear();
+    b.mask.resize(grid_len, false);
+    for (o, x) in obs.iter().zip(&b.w) {
         if x.0 < 0.5 && cg_of(x.2) < cos_excl {
-            rejected[o.grid] = true;
+            b.mask[o.grid] = true;
         }
     }
     let rows = grid_len / cols.max(1);
-    let grown = dilate(&clustered(&rejected, cols), cols, rows, DILATE_CELLS as usize);
-    for (o, x) in obs.iter().zip(w.iter_mut()) {
-        if grown[o.grid] {
+    clustered(&b.mask, cols, &mut b.clustered);
+    dilate(&b.clustered, cols, rows, DILATE_CELLS as usize, &mut b.tmp, &mut b.grown);
+    for (o, x) in obs.iter().zip(b.w.iter_mut()) {
+        if b.grown[o.grid] {
             x.0 = 0.0;
         }
     }
-    (w, tau2.sqrt())
+    tau2.sqrt()
 }
 
-/// The cells of `mask` with at least two others of it among their eight neighbours
-/// (clusters, not lone cells).
-fn clustered(mask: &[bool], cols: usize) -> Vec<bool> {
+/// Into `out`: the cells of `mask` with at least two others of it among their eight
+/// neighbours (clusters, not lone cells).
+fn clustered(mask: &[bool], cols: usize, out: &mut Vec<bool>) {
     let rows = mask.len() / cols.max(1);
-    let mut out = vec![false; mask.len()];
+    out.clear();
+    out.resize(mask.len(), false);
     for r in 0..rows {
         for c in 0..cols {
             if !mask[r * cols + c] {
@@ -246,24 +261,25 @@ fn clustered(mask: &[bool], cols: usize) -> Vec<bool> {
             out[r * cols + c] = near >= 3; // itself and two others
         }
     }
-    out
 }
 
-/// `mask` grown by `r` cells (a square window), as two separable passes.
-fn dilate(mask: &[bool], cols: usize, rows: usize, r: usize) -> Vec<bool> {
-    let mut h = vec![false; mask.len()];
+/// Into `out`: `mask` grown by `r` cells (a square window), as two separable passes
+/// (`h`: the first pass).
+fn dilate(mask: &[bool], cols: usize, rows: usize, r: usize, h: &mut Vec<bool>, out: &mut Vec<bool>) {
+    h.clear();
+    h.resize(mask.len(), false);
     for row in 0..rows {
         for c in 0..cols {
             h[row * cols + c] = (c.saturating_sub(r)..=(c + r).min(cols - 1)).any(|cc| mask[row * cols + cc]);
         }
     }
-    let mut out = vec![false; mask.len()];
+    out.clear();
+    out.resize(mask.len(), false);
     for row in 0..rows {
         for c in 0..cols {
             out[row * cols + c] = (row.saturating_sub(r)..=(row + r).min(rows - 1)).any(|rr| h[rr * cols + c]);
         }
     }
-    out
 }
 
 /// |cos γ| back from sin²γ.
@@ -277,17 +293,22 @@ const CHI2_1_Q25: f64 = 0.1015;
 /// Whether each cell is depolarized: its DoLP under DOLP_FRACTION of the Rayleigh
 /// prediction `d_max·sin²γ/(1 + cos²γ)` where that is > 0.2 (clouds, foliage, the
 /// aureole), d_max the median ratio over the cells that fit (`res`: δ, sin²γ, cos γ).
-fn depolarized(obs: &[Obs], res: &[(f64, f64, f64)], tau2: f64) -> Vec<bool> {
+/// Into `out`; `ratios` is a buffer.
+fn depolarized(obs: &[Obs], res: &[(f64, f64, f64)], tau2: f64, ratios: &mut Vec<f64>, out: &mut Vec<bool>) {
     let dpred = |cg: f64| (1.0 - cg * cg) / (1.0 + cg * cg);
-    let mut ratios: Vec<f64> = (0..obs.len())
-        .filter(|&i| dpred(res[i].2) > 0.3 && res[i].0.powi(2) < 9.0 * (obs[i].var_aop + tau2))
-        .map(|i| obs[i].dolp / dpred(res[i].2))
-        .collect();
-    let dmax = median(&mut ratios);
-    obs.iter()
-        .zip(res)
-        .map(|(o, r)| dmax.is_finite() && dpred(r.2) > 0.2 && o.dolp < DOLP_FRACTION * dmax * dpred(r.2))
-        .collect()
+    ratios.clear();
+    ratios.extend(
+        (0..obs.len())
+            .filter(|&i| dpred(res[i].2) > 0.3 && res[i].0.powi(2) < 9.0 * (obs[i].var_aop + tau2))
+            .map(|i| obs[i].dolp / dpred(res[i].2)),
+    );
+    let dmax = median(ratios);
+    out.clear();
+    out.extend(
+        obs.iter()
+            .zip(res)
+            .map(|(o, r)| dmax.is_finite() && dpred(r.2) > 0.2 && o.dolp < DOLP_FRACTION * dmax * dpred(r.2)),
+    );
 }
 
 fn tukey(r: f64) -> f64 {
@@ -361,16 +382,39 @@ fn solve(sums: &HeadingSums, extractor: Extractor, ctx: &FieldContext, hint: DVe
     Ok((est.heading_deg, est.sigma_deg))
 }
 
-/// The outcome of steps 1–4: the cells, their final weights and the heading.
-pub(super) struct Robust {
+/// The buffers of the robust loop, kept between frames so that a live loop allocates
+/// nothing once they have grown to the frame's grid.
+#[derive(Clone, Debug, Default)]
+pub struct Scratch {
+    slots: Vec<Option<Obs>>,
+    /// The cells that passed the masks (steps 1–2), level frame.
     obs: Vec<Obs>,
+    sub: Vec<(Obs, f64)>,
+    b: Bufs,
+    /// Per cell of the grid: whether it was seen as non-sky (a cluster of depolarized
+    /// cells, grown), for the sky mask.
+    sky_grown: Vec<bool>,
+}
+
+/// Step 4's buffers; `w` holds the final weights (robust weight, σ², sin²γ, δ) per
+/// observed cell.
+#[derive(Clone, Debug, Default)]
+struct Bufs {
+    res: Vec<(f64, f64, f64)>,
+    t: Vec<f64>,
+    depol: Vec<bool>,
     w: Vec<(f64, f64, f64, f64)>,
+    mask: Vec<bool>,
+    clustered: Vec<bool>,
+    tmp: Vec<bool>,
+    grown: Vec<bool>,
+}
+
+/// The outcome of steps 1–4 (the cells and their final weights stay in the scratch).
+pub(super) struct Robust {
     /// The sun vector's heading the weights settled on, degrees.
     pub(super) heading_deg: f64,
     pub(super) quality: FieldQuality,
-    /// Per cell of the grid: whether it was seen as non-sky (a cluster of
-    /// depolarized cells, grown), for the sky mask.
-    depolarized_grown: Vec<bool>,
 }
 
 /// Steps 1–4 on one frame's cells.
@@ -378,6 +422,7 @@ pub(super) fn robust(
     cells: &Cells,
     ctx: &FieldContext,
     opts: &FieldOptions,
+    sc: &mut Scratch,
 ) -> Result<Robust, (FieldQuality, NoHeading)> {
     let mut quality = FieldQuality { cells_total: cells.grid_len(), ..Default::default() };
     if ctx.sun_el_deg < -10.0 {
@@ -387,27 +432,30 @@ pub(super) fn robust(
         return Err((quality, NoHeading::SunAtZenith { sun_el_deg: ctx.sun_el_deg }));
     }
     let level = ctx.level_from_camera();
-    let obs = observe(cells, ctx, opts, level);
+    observe(cells, ctx, opts, level, &mut sc.slots, &mut sc.obs);
+    let obs = &sc.obs;
     quality.cells_valid = obs.len();
     let min_used = opts.min_cells.max((opts.min_used_fraction * quality.cells_total as f64).ceil() as usize);
     if obs.len() < min_used {
         return Err((quality, NoHeading::TooLittleSky { used: obs.len(), total: quality.cells_total }));
     }
-    let mut psi = search(&obs, ctx).map_err(|r| (quality, r))?;
+    let mut psi = search(obs, ctx, &mut sc.sub).map_err(|r| (quality, r))?;
     // Step 4: reweight around the sun vector's heading until it settles.
     let band = meridian_band(ctx, opts, level, cells);
-    let (mut w, mut tau) = weights(&obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len());
+    let b = &mut sc.b;
+    let mut tau = weights(obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len(), b);
     for it in 1..=MAX_ITERATIONS {
         quality.iterations = it;
-        let total = sum_blocks(&block_sums(&obs, &w, Extractor::SunVector, band));
+        let total = sum_blocks(&block_sums(obs, &b.w, Extractor::SunVector, band));
         let Ok((next, _)) = solve(&total, Extractor::SunVector, ctx, cone_sun(ctx, psi)) else { break };
         let step = wrap_deg_180(next - psi);
         psi = next;
-        (w, tau) = weights(&obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len());
+        tau = weights(obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len(), b);
         if step.abs() < 1e-3 {
             break;
         }
     }
+    let w = &b.w;
     quality.misfit_deg = tau.to_degrees();
     quality.cells_used = w.iter().filter(|x| x.0 >= 0.5).count();
     quality.used_fraction = quality.cells_used as f64 / quality.cells_total.max(1) as f64;
@@ -416,71 +464,79 @@ pub(super) fn robust(
     // The sky's own sun (the unconstrained sun vector), as a check on the attitude: its
     // elevation in the level frame minus the known one.
     let hint = cone_sun(ctx, psi);
-    let all = sum_blocks(&block_sums(&obs, &w, Extractor::SunVector, band));
+    let all = sum_blocks(&block_sums(obs, w, Extractor::SunVector, band));
     if let Ok((_, vecs)) = sun_vector::scatter_eigen(&all) {
         let s = if vecs[0].dot(hint) < 0.0 { -vecs[0] } else { vecs[0] };
         quality.sun_elevation_offset_deg = s.z.clamp(-1.0, 1.0).asin().to_degrees() - ctx.sun_el_deg;
     }
-    let res: Vec<(f64, f64, f64)> = obs.iter().map(|o| residual(o, hint)).collect();
-    let mut seed = vec![false; cells.grid_len()];
-    for (o, d) in obs.iter().zip(depolarized(&obs, &res, tau * tau)) {
-        seed[o.grid] = d;
+    // The sky mask's non-sky: clusters of depolarized cells, grown (w is final, so
+    // step 4's other buffers are free).
+    b.res.clear();
+    b.res.extend(obs.iter().map(|o| residual(o, hint)));
+    depolarized(obs, &b.res, tau * tau, &mut b.t, &mut b.depol);
+    b.mask.clear();
+    b.mask.resize(cells.grid_len(), false);
+    for (o, &d) in obs.iter().zip(&b.depol) {
+        b.mask[o.grid] = d;
     }
-    let depolarized_grown = dilate(&clustered(&seed, cells.cols), cells.cols, cells.rows, DILATE_CELLS as usize);
-    Ok(Robust { obs, w, heading_deg: psi, quality, depolarized_grown })
+    clustered(&b.mask, cells.cols, &mut b.clustered);
+    dilate(&b.clustered, cells.cols, cells.rows, DILATE_CELLS as usize, &mut b.tmp, &mut sc.sky_grown);
+    Ok(Robust { heading_deg: psi, quality })
 }
 
-impl Robust {
-    /// Per cell of the grid: sky that follows the model's pattern — a cell that passed
-    /// the masks (whole, unsaturated, above the horizon margin) and is not in or beside
-    /// a cluster of depolarized cells (clouds, foliage, the aureole). Residuals alone
-    /// never take a cell out of it: a lens or sensor effect moves AoP, and a fit must
-    /// still see where it does.
+impl Scratch {
+    /// Per cell of the grid, after [`robust`]: sky that follows the model's pattern — a
+    /// cell that passed the masks (whole, unsaturated, above the horizon margin) and is
+    /// not in or beside a cluster of depolarized cells (clouds, foliage, the aureole).
+    /// Residuals alone never take a cell out of it: a lens or sensor effect moves AoP,
+    /// and a fit must still see where it does.
     pub(super) fn sky_cells(&self, grid_len: usize) -> Vec<bool> {
         let mut sky = vec![false; grid_len];
         for o in &self.obs {
-            sky[o.grid] = !self.depolarized_grown[o.grid];
+            sky[o.grid] = !self.sky_grown[o.grid];
         }
         sky
     }
 }
 
-pub(super) fn estimate(
+/// Steps 1–4 and the checks on what they left: the frame's robust fit, or why it has
+/// no heading.
+pub(super) fn fitted(
     cells: &Cells,
     ctx: &FieldContext,
     opts: &FieldOptions,
-    extractors: &[Extractor],
-) -> Vec<FieldHeading> {
-    let fail = |q: FieldQuality, r: NoHeading| {
-        extractors.iter().map(|&e| FieldHeading { extractor: e, result: Err(r.clone()), quality: q }).collect()
-    };
-    let r = match robust(cells, ctx, opts) {
-        Ok(r) => r,
-        Err((q, why)) => return fail(q, why),
-    };
+    sc: &mut Scratch,
+) -> Result<Robust, (FieldQuality, NoHeading)> {
+    let r = robust(cells, ctx, opts, sc)?;
     let quality = r.quality;
     let min_used = opts.min_cells.max((opts.min_used_fraction * quality.cells_total as f64).ceil() as usize);
     if quality.cells_used < min_used {
-        return fail(quality, NoHeading::TooLittleSky { used: quality.cells_used, total: quality.cells_total });
+        return Err((quality, NoHeading::TooLittleSky { used: quality.cells_used, total: quality.cells_total }));
     }
     if quality.residual_rms_deg > opts.max_residual_deg {
-        return fail(
+        return Err((
             quality,
             NoHeading::PoorFit { residual_deg: quality.residual_rms_deg, limit_deg: opts.max_residual_deg },
-        );
+        ));
     }
-    // Step 5: each extractor on the final weights, with its 1σ.
+    Ok(r)
+}
+
+/// Step 5 for one extractor on the fit `r` left in `sc`.
+pub(super) fn heading(
+    r: &Robust,
+    e: Extractor,
+    cells: &Cells,
+    ctx: &FieldContext,
+    opts: &FieldOptions,
+    sc: &Scratch,
+) -> FieldHeading {
     let level = ctx.level_from_camera();
     let band = meridian_band(ctx, opts, level, cells);
     let hint = cone_sun(ctx, r.heading_deg);
-    extractors
-        .iter()
-        .map(|&e| {
-            let blocks = block_sums(&r.obs, &r.w, e, band);
-            let result = finish(&blocks, e, ctx, opts, hint, level).map_err(NoHeading::Solver);
-            FieldHeading { extractor: e, result, quality }
-        })
-        .collect()
+    let blocks = block_sums(&sc.obs, &sc.b.w, e, band);
+    let result = finish(&blocks, e, ctx, opts, hint, level).map_err(NoHeading::Solver);
+    FieldHeading { extractor: e, result, quality: r.quality }
 }
 
 fn sum_blocks(blocks: &[HeadingSums]) -> HeadingSums {
@@ -517,13 +573,17 @@ fn finish(
     let total = sum_blocks(blocks);
     let (heading_deg, fit_deg) = solve(&total, e, ctx, hint)?;
     // Delete-one-block jackknife over the blocks that hold samples.
-    let used: Vec<&HeadingSums> = blocks.iter().filter(|b| b.n > 0.0 || b.line.iter().any(|l| l[6] > 0.0)).collect();
-    let k = used.len() as f64;
-    let dev: Vec<f64> = used
-        .iter()
-        .filter_map(|b| solve(&total.minus(b), e, ctx, hint).ok())
-        .map(|(h, _)| wrap_deg_180(h - heading_deg))
-        .collect();
+    let mut used = 0;
+    let mut dev = [0.0; BLOCKS * BLOCKS];
+    let mut solved = 0;
+    for b in blocks.iter().filter(|b| b.n > 0.0 || b.line.iter().any(|l| l[6] > 0.0)) {
+        used += 1;
+        if let Ok((h, _)) = solve(&total.minus(b), e, ctx, hint) {
+            dev[solved] = wrap_deg_180(h - heading_deg);
+            solved += 1;
+        }
+    }
+    let (dev, k) = (&dev[..solved], used as f64);
     let jackknife_deg = if dev.len() >= 2 && dev.len() as f64 == k {
         let mean = dev.iter().sum::<f64>() / k;
         ((k - 1.0) / k * dev.iter().map(|d| (d - mean).powi(2)).sum::<f64>()).sqrt()
