@@ -22,7 +22,10 @@
 //! naming the file and the key. Parameters not written keep their neutral values.
 
 use crate::effects::{EffectSet, Model};
-use crate::error::{Error, Result};
+#[cfg(feature = "io")]
+use crate::error::Error;
+use crate::error::Result;
+#[cfg(feature = "io")]
 use std::path::Path;
 
 /// The value of `format` this reader and writer implement.
@@ -65,6 +68,7 @@ impl Calibration {
     }
 
     /// The calibration as `bpins-calibration/1` TOML.
+    #[cfg(feature = "io")]
     pub fn to_toml(&self) -> String {
         let mut top = toml::Table::new();
         if !self.source.is_empty() {
@@ -98,8 +102,9 @@ impl Calibration {
     }
 
     /// Parses `text`, the contents of `path` (named in every error).
+    #[cfg(feature = "io")]
     pub fn parse(path: &Path, text: &str) -> Result<Self> {
-        let err = |m: String| Error::Capture { path: path.to_path_buf(), message: m };
+        let err = |m: String| Error::Calibration { path: path.to_path_buf(), message: m };
         let top: toml::Table =
             text.parse().map_err(|e: toml::de::Error| err(format!("not valid TOML: {}", e.message().trim())))?;
         let mut c = Calibration::default();
@@ -149,12 +154,14 @@ impl Calibration {
     }
 
     /// Reads a calibration file.
+    #[cfg(feature = "io")]
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?;
         Calibration::parse(path, &text)
     }
 }
 
+#[cfg(feature = "io")]
 fn number(v: &toml::Value) -> Option<f64> {
     match v {
         toml::Value::Float(x) => Some(*x),
@@ -163,7 +170,7 @@ fn number(v: &toml::Value) -> Option<f64> {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "io"))]
 mod tests {
     use super::*;
 

@@ -46,6 +46,7 @@ use crate::heading::field::{self, Cells, FieldContext, FieldHeading, FieldOption
 use crate::heading::Extractor;
 use crate::recon::Reconstructor;
 use crate::sensor::{Channel, DEFAULT_MOSAIC};
+#[cfg(feature = "spa")]
 use crate::sky::sun::sun_from_unix_time;
 
 /// Why the compass cannot read a frame (a frame that it reads but whose sky gives no
@@ -71,7 +72,8 @@ pub enum Sun {
     Angles { azimuth_deg: f64, elevation_deg: f64, sigma_deg: f64 },
     /// A time (seconds since 1970-01-01T00:00:00Z, as Unix and ROS clocks give it) and
     /// a place, through NREL SPA (±0.0003°); `sigma_deg` for the clock's and the
-    /// position's error, in degrees of sun angle.
+    /// position's error, in degrees of sun angle. (Feature `spa`, on by default.)
+    #[cfg(feature = "spa")]
     UnixTime { time_s: f64, latitude_deg: f64, longitude_deg: f64, sigma_deg: f64 },
 }
 
@@ -187,6 +189,7 @@ impl Compass {
         }
         let (az, el, sun_sigma) = match sun {
             Sun::Angles { azimuth_deg, elevation_deg, sigma_deg } => (azimuth_deg, elevation_deg, sigma_deg),
+            #[cfg(feature = "spa")]
             Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg } => {
                 let s = sun_from_unix_time(time_s, latitude_deg, longitude_deg)
                     .map_err(|e| CompassError::Sun(e.to_string()))?;
@@ -228,7 +231,6 @@ mod tests {
     use super::*;
     use crate::camera::Projection;
     use crate::chain::{ChainFrame, NoiseIndex, Scene};
-    use crate::effects::EffectSet;
     use crate::sensor::Response;
     use crate::simulate::render_mosaic;
 
@@ -276,7 +278,9 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "spa")]
     fn the_calibration_and_the_sun_from_a_clock_are_used() {
+        use crate::effects::EffectSet;
         let mut truth = EffectSet::new();
         truth.set("array_rotation", "dtheta_deg", 0.5).unwrap();
         let (raw, lens) = frame(&truth.model(), [0.0, 0.0]);

@@ -5,8 +5,12 @@ use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    /// A capture (`capture.toml` or a frame) that cannot be read as CAPTURE.md says.
     #[error("{path}: {message}")]
     Capture { path: PathBuf, message: String },
+    /// A calibration file that cannot be read as `bpins-calibration/1`.
+    #[error("{path}: {message}")]
+    Calibration { path: PathBuf, message: String },
     /// A file-system operation on `path` failed; the OS error is the source.
     #[error("{path}")]
     Io {

@@ -16,6 +16,7 @@
 //! keyed by (seed, element); per-frame draws (a cloud's E-vector turn) by (seed,
 //! element, frame). The CPU chain only: the GPU backend refuses frames with a field.
 
+#[cfg(feature = "io")]
 pub mod attitude;
 pub mod clouds;
 mod frame;
@@ -24,6 +25,7 @@ pub mod skyline;
 pub mod sun_disc;
 pub mod texture;
 
+#[cfg(feature = "io")]
 pub use attitude::FieldAttitude;
 pub use frame::{field_stokes, linear_stokes, Draws, FieldFrame, FieldRay};
 

@@ -2,6 +2,7 @@
 
 pub mod radiance_shape;
 pub mod rayleigh;
+#[cfg(feature = "spa")]
 pub mod sun;
 
 pub use radiance_shape::radiance_shape;
