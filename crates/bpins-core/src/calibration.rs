@@ -32,6 +32,27 @@ use std::path::Path;
 pub const FORMAT: &str = "bpins-calibration/1";
 
 /// A calibration: known effects with their values, and (where measured) their 1σ.
+///
+/// Built in code (a robot's build without the `io` feature), or read from the
+/// `calibration.toml` that `bpins fit` writes:
+///
+/// ```
+/// use bpins_core::calibration::Calibration;
+/// use bpins_core::effects::EffectSet;
+///
+/// let mut effects = EffectSet::new();
+/// effects.set("array_rotation", "dtheta_deg", 0.31)?;
+/// let cal = Calibration { effects, source: "lab, 2026-11-02".into(), ..Default::default() };
+/// assert_eq!(cal.effects.get("array_rotation", "dtheta_deg"), Some(0.31));
+/// # #[cfg(feature = "io")] {
+/// // The file form round-trips (names and units are the registry's).
+/// let text = cal.to_toml();
+/// assert!(text.starts_with("format = \"bpins-calibration/1\""));
+/// let back = Calibration::parse("calibration.toml".as_ref(), &text)?;
+/// assert_eq!(back.effects.get("array_rotation", "dtheta_deg"), Some(0.31));
+/// # }
+/// # Ok::<(), bpins_core::Error>(())
+/// ```
 #[derive(Clone, Debug, Default)]
 pub struct Calibration {
     pub effects: EffectSet,

@@ -186,7 +186,14 @@ impl Intrinsics {
     /// the projection dispatched once per row (as [`Self::map_row`], for kernels that
     /// write several outputs per sample).
     #[inline(always)]
-    pub fn for_row(&self, y_px: f64, x0_px: f64, step_px: f64, n: usize, mut f: impl FnMut(usize, &RayGeometry)) {
+    pub(crate) fn for_row(
+        &self,
+        y_px: f64,
+        x0_px: f64,
+        step_px: f64,
+        n: usize,
+        mut f: impl FnMut(usize, &RayGeometry),
+    ) {
         match self.projection {
             Projection::Pinhole if self.distortion == [0.0; 2] => {
                 for i in 0..n {

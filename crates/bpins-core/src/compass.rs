@@ -51,6 +51,28 @@ use crate::sky::sun::sun_from_unix_time;
 
 /// Why the compass cannot read a frame (a frame that it reads but whose sky gives no
 /// heading is not an error: [`FieldHeading::result`] says why).
+///
+/// ```
+/// # use bpins_core::camera::{Intrinsics, Projection};
+/// # use bpins_core::compass::{Attitude, Compass, CompassConfig, CompassError, Sun};
+/// # use bpins_core::heading::field::RawImage;
+/// # let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+/// # let scene = bpins_core::chain::Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+/// # let f = bpins_core::chain::ChainFrame::new(&Default::default(), &lens, &scene, &bpins_core::sensor::Response::samples(2400.0), bpins_core::chain::NoiseIndex { seed: 1, trial: 0, frame: 0 });
+/// # let raw: Vec<u16> = bpins_core::simulate::render_mosaic(&f, 306, 256, &bpins_core::sensor::DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+/// let mut compass = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0))?;
+/// let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+/// // A buffer cut short (a dropped packet) is refused with its sizes, not read past.
+/// let short = RawImage { data: &raw[..1000], width_px: 306, height_px: 256, stride: 306 };
+/// match compass.heading(short, sun, Attitude::default()) {
+///     Err(CompassError::FrameSize { len, want_w, want_h, .. }) => assert_eq!((len, want_w, want_h), (1000, 306, 256)),
+///     other => panic!("{other:?}"),
+/// }
+/// // A sun angle that is not a number is an error too; a sky that gives no heading is not.
+/// let bad = Sun::Angles { azimuth_deg: 40.0, elevation_deg: f64::NAN, sigma_deg: 0.0 };
+/// assert!(matches!(compass.heading(RawImage::packed(&raw, 306, 256), bad, Attitude::default()), Err(CompassError::Sun(_))));
+/// # Ok::<(), CompassError>(())
+/// ```
 #[derive(Debug, thiserror::Error)]
 pub enum CompassError {
     #[error("the compass's configuration: {0}")]
@@ -66,6 +88,19 @@ pub enum CompassError {
 }
 
 /// The sun of one frame.
+///
+/// ```
+/// use bpins_core::compass::Sun;
+/// // From an ephemeris or a sun sensor: azimuth from North toward East, elevation, 1σ.
+/// let given = Sun::Angles { azimuth_deg: 135.2, elevation_deg: 31.4, sigma_deg: 0.05 };
+/// # #[cfg(feature = "spa")] {
+/// // From the clock and a GNSS fix (2026-06-21T02:30:00Z at 36.07° N, 120.38° E): the
+/// // compass runs NREL SPA itself; 0.01° for a clock good to a couple of seconds.
+/// let clock = Sun::UnixTime { time_s: 1_782_009_000.0, latitude_deg: 36.07, longitude_deg: 120.38, sigma_deg: 0.01 };
+/// # let _ = clock;
+/// # }
+/// # let _ = given;
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Sun {
     /// Azimuth (from North toward East) and elevation, degrees, with their 1σ.
@@ -79,6 +114,17 @@ pub enum Sun {
 
 /// The frame's attitude as an IMU reads it: tilt about the camera's x then y axis,
 /// degrees, and the 1σ of each angle.
+///
+/// ```
+/// use bpins_core::compass::Attitude;
+/// // An IMU's roll and pitch in the camera's axes (CONVENTIONS.md, Tilt), good to 0.1°:
+/// // the heading's 1σ takes in 0.1°·|∂ψ/∂tilt| (about tan of the sun's elevation).
+/// let imu = Attitude { tilt_x_deg: 2.4, tilt_y_deg: -0.8, sigma_deg: 0.1 };
+/// // A camera held level on a gimbal, attitude known exactly:
+/// let level = Attitude::default();
+/// assert_eq!((level.tilt_x_deg, level.sigma_deg), (0.0, 0.0));
+/// # let _ = imu;
+/// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Attitude {
     pub tilt_x_deg: f64,
@@ -87,6 +133,25 @@ pub struct Attitude {
 }
 
 /// What a [`Compass`] is built from.
+///
+/// ```
+/// use bpins_core::camera::{Intrinsics, Projection};
+/// use bpins_core::compass::{Compass, CompassConfig};
+/// use bpins_core::heading::Extractor;
+/// use bpins_core::sensor::Channel::*;
+/// // A 2448 × 2048 IMX250MZR (3.45 µm pixels, 12 bit, black level 64 DN) behind a
+/// // 4 mm lens, principal point at the image centre.
+/// let lens = Intrinsics::new(Projection::Pinhole, 4000.0 / 3.45, 1223.5, 1023.5);
+/// let mut cfg = CompassConfig::dofp(lens, 2448, 2048, 12, 64.0);
+/// // Another mosaic order (90° 45° / 135° 0° is the default), the meridian-line
+/// // extractor, a larger horizon margin for a robot among buildings:
+/// cfg.mosaic = [[C0, C45], [C135, C90]];
+/// cfg.extractor = Extractor::MeridianLine;
+/// cfg.options.horizon_margin_deg = 10.0;
+/// let compass = Compass::new(cfg)?;
+/// # let _ = compass;
+/// # Ok::<(), bpins_core::compass::CompassError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct CompassConfig {
     /// The camera's nominal intrinsics (the calibration's geometry is folded in).
@@ -121,7 +186,29 @@ impl CompassConfig {
     }
 }
 
-/// Live frames in, headings out (see the module's example).
+/// Live frames in, headings out: build once, then one call per frame (the module's
+/// example shows a whole frame). Holds its buffers between frames, so a warm compass
+/// allocates nothing per frame; one compass per camera and thread (it is `Send`).
+///
+/// ```
+/// # use bpins_core::camera::{Intrinsics, Projection};
+/// # use bpins_core::compass::{Attitude, Compass, CompassConfig, CompassError, Sun};
+/// # use bpins_core::heading::field::RawImage;
+/// # let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+/// # let scene = bpins_core::chain::Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+/// # let f = bpins_core::chain::ChainFrame::new(&Default::default(), &lens, &scene, &bpins_core::sensor::Response::samples(2400.0), bpins_core::chain::NoiseIndex { seed: 1, trial: 0, frame: 0 });
+/// # let raw: Vec<u16> = bpins_core::simulate::render_mosaic(&f, 306, 256, &bpins_core::sensor::DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+/// let mut compass = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0))?;
+/// let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+/// let fix = compass.heading(RawImage::packed(&raw, 306, 256), sun, Attitude::default())?;
+/// match &fix.result {
+///     Ok((heading_deg, sigma)) => assert!((heading_deg - 30.0).abs() < 3.0 * sigma.total_deg()),
+///     Err(why) => panic!("no heading: {why}"),
+/// }
+/// fn shared<T: Send>(_: &T) {}
+/// shared(&compass);
+/// # Ok::<(), CompassError>(())
+/// ```
 pub struct Compass {
     cfg: CompassConfig,
     known: Model,

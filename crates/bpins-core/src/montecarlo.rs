@@ -69,7 +69,7 @@ impl Source {
     }
 
     /// Seed Table 3 (μ, σ) in degrees; `None` where the paper gives no figure.
-    pub fn paper_deg(self) -> (Option<f64>, Option<f64>) {
+    pub(crate) fn paper_deg(self) -> (Option<f64>, Option<f64>) {
         match self {
             Source::PrincipalPoint => (Some(-0.0237), Some(0.2476)),
             Source::ArrayRotation => (Some(0.0018), Some(0.0812)),
@@ -89,10 +89,10 @@ impl Source {
 }
 
 /// Seed Table 1 standard deviations.
-pub const SIGMA_PRINCIPAL_POINT_PX: f64 = 2.0;
-pub const SIGMA_ARRAY_ROTATION_DEG: f64 = 0.1;
-pub const SIGMA_GRAYSCALE_DN: f64 = 1.0;
-pub const SIGMA_LENS_RHO_CORNER: f64 = 0.2;
+pub(crate) const SIGMA_PRINCIPAL_POINT_PX: f64 = 2.0;
+pub(crate) const SIGMA_ARRAY_ROTATION_DEG: f64 = 0.1;
+pub(crate) const SIGMA_GRAYSCALE_DN: f64 = 1.0;
+pub(crate) const SIGMA_LENS_RHO_CORNER: f64 = 0.2;
 
 /// The sweep's configuration; `Default` is the paper's.
 #[derive(Clone, Debug, PartialEq)]
@@ -147,7 +147,7 @@ impl SweepConfig {
     }
 
     /// Squared normalised radius of the field corner.
-    pub fn corner_r2(&self) -> f64 {
+    pub(crate) fn corner_r2(&self) -> f64 {
         let i = self.intrinsics();
         let (x, y) = i.normalised(0.0, 0.0);
         let (x2, y2) = i.normalised(self.width_px as f64 - 1.0, self.height_px as f64 - 1.0);

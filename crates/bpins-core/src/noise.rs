@@ -44,7 +44,7 @@
 /// Streams: independent families of draws for the same pixel and channel.
 pub mod stream {
     /// Temporal read + shot noise of one exposure.
-    pub const TEMPORAL: u32 = 0;
+    pub(crate) const TEMPORAL: u32 = 0;
     /// Per-pixel offset non-uniformity (DSNU).
     pub const DSNU: u32 = 1;
     /// Per-pixel gain non-uniformity (PRNU).
@@ -52,7 +52,7 @@ pub mod stream {
     /// Per-trial parameter draws of a Monte Carlo (pixel = parameter index).
     pub const TRIAL: u32 = 3;
     /// Draws of the scene elements and field attitudes (`scene`; pixel = draw index).
-    pub const SCENE: u32 = 4;
+    pub(crate) const SCENE: u32 = 4;
 }
 
 /// Frame index used for noise that is fixed over the frames of one trial.
@@ -113,7 +113,7 @@ impl FrameKey {
 
     /// The normal numbers of channels `2·pair` and `2·pair + 1` (both Box–Muller branches).
     #[inline(always)]
-    pub fn normal_pair(&self, pixel: u32, pair: u32, stream: u32) -> (f64, f64) {
+    pub(crate) fn normal_pair(&self, pixel: u32, pair: u32, stream: u32) -> (f64, f64) {
         let h = self.bits(pixel, pair, stream);
         let (r, s, c) = box_muller_parts(h);
         ((r * c) as f64, (r * s) as f64)
@@ -182,7 +182,7 @@ impl FrameKey {
     /// Row kernel: `out[i] = self.normal(pixel0 + i, channels[i & 1], stream)` — a DoFP
     /// row alternates two channels (give the same one twice for a single channel).
     /// Branch-free, so the compiler vectorizes the hashes and the Box–Muller.
-    pub fn normal_row(&self, pixel0: u32, channels: [u32; 2], stream: u32, out: &mut [f64]) {
+    pub(crate) fn normal_row(&self, pixel0: u32, channels: [u32; 2], stream: u32, out: &mut [f64]) {
         let mut x = [0f32; LANES];
         // LANES is even: lane parity is pixel parity.
         let ch = |l: usize| if l & 1 == 0 { channels[0] } else { channels[1] };
@@ -201,7 +201,7 @@ impl FrameKey {
 
     /// Row kernel: the normals of all four channels of pixels `pixel0 + i`, i.e.
     /// `[normal(p, 0, ·), normal(p, 1, ·), normal(p, 2, ·), normal(p, 3, ·)]`.
-    pub fn normal4_row(&self, pixel0: u32, stream: u32, out: &mut [[f64; 4]]) {
+    pub(crate) fn normal4_row(&self, pixel0: u32, stream: u32, out: &mut [[f64; 4]]) {
         let mut x = [[0f32; LANES]; 4];
         for (c, chunk) in out.chunks_mut(LANES).enumerate() {
             let p0 = pixel0.wrapping_add((c * LANES) as u32);

@@ -35,13 +35,13 @@ impl ReconMode {
 
 /// The intrinsics a capture declares with the `known` geometry folded in as the
 /// chain folds it ([`Model::camera`]).
-pub fn assumed_intrinsics(c: &Capture, known: &Model) -> Intrinsics {
+pub(crate) fn assumed_intrinsics(c: &Capture, known: &Model) -> Intrinsics {
     known.camera(&c.intrinsics())
 }
 
 /// What the heading extractors know about frame `f`: the capture's camera (plus
 /// `known` calibrations), the sun, and the frame's reference tilt plus a known mount tilt.
-pub fn heading_context(c: &Capture, f: &FrameSpec, known: &Model) -> HeadingContext {
+pub(crate) fn heading_context(c: &Capture, f: &FrameSpec, known: &Model) -> HeadingContext {
     let g = &c.sensor.geometry;
     let mut ctx = HeadingContext::new(
         assumed_intrinsics(c, known),
@@ -90,7 +90,7 @@ pub fn frame_headings(
 }
 
 /// [`frame_headings`] of frame `index` whose pixels `data` are already in memory.
-pub fn frame_headings_of(
+pub(crate) fn frame_headings_of(
     c: &Capture,
     index: usize,
     data: &FrameData,
@@ -106,7 +106,7 @@ pub fn frame_headings_of(
 
 /// What the field estimator knows about frame `f`: the capture's camera (plus `known`
 /// calibrations), the sun and the reference tilt with their 1σ, the mount tilt.
-pub fn field_context(c: &Capture, f: &FrameSpec, known: &Model) -> FieldContext {
+pub(crate) fn field_context(c: &Capture, f: &FrameSpec, known: &Model) -> FieldContext {
     FieldContext {
         intr: assumed_intrinsics(c, known),
         lens_rho2: known.lens_rho2,
@@ -121,7 +121,7 @@ pub fn field_context(c: &Capture, f: &FrameSpec, known: &Model) -> FieldContext 
 }
 
 /// The cells of one frame's pixels, the `known` analyzer and channel errors undone.
-pub fn frame_cells(c: &Capture, data: &FrameData, known: &Model, cell_px: Option<usize>) -> Result<Cells> {
+pub(crate) fn frame_cells(c: &Capture, data: &FrameData, known: &Model, cell_px: Option<usize>) -> Result<Cells> {
     let rec = Reconstructor::new(known, c.sensor.black_level_dn, &c.sensor.channels())?;
     let full = c.sensor.full_scale_dn();
     let g = &c.sensor.geometry;
@@ -154,7 +154,7 @@ pub fn field_headings(
 }
 
 /// [`field_headings`] of frame `index` whose pixels `data` are already in memory.
-pub fn field_headings_of(
+pub(crate) fn field_headings_of(
     c: &Capture,
     index: usize,
     data: &FrameData,
@@ -199,7 +199,7 @@ impl SimSensor {
 }
 
 /// The scene of frame `f` (heading and tilt default to 0 where not given).
-pub fn scene_of(f: &FrameSpec, dmax: f64) -> Scene {
+pub(crate) fn scene_of(f: &FrameSpec, dmax: f64) -> Scene {
     Scene {
         sun_az_deg: f.sun.azimuth_deg,
         sun_el_deg: f.sun.elevation_deg,

@@ -176,7 +176,7 @@ pub fn superpixel_row(
 /// [`superpixel_row`] into Stokes vectors as [`PolImage::stokes`] reads them back
 /// (and [`crate::heading::HeadingSums::from_image`] passes them on): `(I, Q, U, 0)`,
 /// or `(NaN, 0, 0, 0)` where the tile is invalid.
-pub fn superpixel_stokes_row(
+pub(crate) fn superpixel_stokes_row(
     top: &[f32],
     bottom: &[f32],
     mosaic: &[[Channel; 2]; 2],

@@ -143,7 +143,7 @@ impl Response {
 
 /// Whether a measured DN is usable: neither clipped at zero nor saturated.
 #[inline]
-pub fn dn_is_valid(dn: f64, full_scale_dn: f64) -> bool {
+pub(crate) fn dn_is_valid(dn: f64, full_scale_dn: f64) -> bool {
     dn > 0.0 && dn < full_scale_dn
 }
 

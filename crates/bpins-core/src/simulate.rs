@@ -216,7 +216,7 @@ pub fn peak_intensity(model: &Model, nominal: &Intrinsics, scene: &Scene, w: usi
 
 /// Largest noise-free photo-signal of any channel of frame `f` (`w × h`), sampled on a
 /// grid of `stride_px` plus the last row and column.
-pub fn peak_signal(f: &ChainFrame, w: usize, h: usize, stride_px: usize) -> f64 {
+pub(crate) fn peak_signal(f: &ChainFrame, w: usize, h: usize, stride_px: usize) -> f64 {
     let grid = |n: usize| -> Vec<usize> {
         let mut g: Vec<usize> = (0..n).step_by(stride_px.max(1)).collect();
         if g.last() != Some(&(n - 1)) {

@@ -51,7 +51,7 @@ pub fn meridional_to_image(s: Stokes, cos2b: f64, sin2b: f64) -> Stokes {
 
 /// Image frame → meridional frame, the inverse of [`meridional_to_image`].
 #[inline(always)]
-pub fn image_to_meridional(s: Stokes, cos2b: f64, sin2b: f64) -> Stokes {
+pub(crate) fn image_to_meridional(s: Stokes, cos2b: f64, sin2b: f64) -> Stokes {
     Stokes { i: s.i, q: s.q * cos2b + s.u * sin2b, u: -s.q * sin2b + s.u * cos2b, v: s.v }
 }
 

@@ -47,7 +47,7 @@ use crate::stokes::{analyzer_intensity, meridional_to_image, Analyzer, Stokes};
 use glam::{DMat3, DVec3};
 
 mod rows;
-pub use rows::*;
+pub(crate) use rows::*;
 
 /// What one frame looks at: the sun, the camera's orientation and the sky's d_max.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -356,11 +356,11 @@ pub(crate) mod tests {
         Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 }
     }
 
-    pub fn ideal_frame(model: &Model) -> ChainFrame {
+    pub(crate) fn ideal_frame(model: &Model) -> ChainFrame {
         ChainFrame::noise_free(model, &intrinsics(), &scene())
     }
 
-    pub fn stokes_at(f: &ChainFrame, u: f64, v: f64) -> Stokes {
+    pub(crate) fn stokes_at(f: &ChainFrame, u: f64, v: f64) -> Stokes {
         pixel_stokes(f, u, v)
     }
 

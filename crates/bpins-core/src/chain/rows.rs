@@ -8,7 +8,7 @@ use super::*;
 /// Row kernel: `out[u] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), chans[u & 1])`
 /// for pixels `u = 0..out.len()` of row `v_px` (a DoFP row alternates two channels;
 /// give the same channel twice for one).
-pub fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
+pub(crate) fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
     match (f.has_pixel_effects(), f.field.is_some()) {
         (false, _) => signal_row_in::<false, false>(f, v_px, chans, out),
         (true, false) => signal_row_in::<true, false>(f, v_px, chans, out),
@@ -39,7 +39,7 @@ fn signal_row_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, v_px: f64,
 
 /// Row kernel: `out[u][ch] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), ch)`, all
 /// four channels (colocated).
-pub fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
+pub(crate) fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
     match (f.has_pixel_effects(), f.field.is_some()) {
         (false, _) => signal4_row_in::<false, false>(f, v_px, out),
         (true, false) => signal4_row_in::<true, false>(f, v_px, out),
@@ -81,7 +81,7 @@ fn ray_stokes_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, g: &RayGeo
 
 /// Scratch rows of standard normals for [`sensor_dn_row`] and [`sensor_dn4_row`].
 #[derive(Clone, Debug, Default)]
-pub struct NoiseRows {
+pub(crate) struct NoiseRows {
     one: [Vec<f64>; 3],
     four: [Vec<[f64; 4]>; 3],
     /// Whether `one[k]`, `four[k]` hold zeros (their stream is not drawn).
@@ -101,7 +101,7 @@ fn stream_keys(f: &ChainFrame) -> [(&FrameKey, u32); 3] {
 
 /// Row kernel: `out[u] = sensor_dn(f, signal[u], ch, &sensor_noise(f, pixel0 + u, ch))`
 /// with `ch = chans[u & 1]` (a DoFP row), rounded to f32.
-pub fn sensor_dn_row(
+pub(crate) fn sensor_dn_row(
     f: &ChainFrame,
     pixel0: u32,
     chans: [usize; 2],
@@ -136,7 +136,7 @@ pub fn sensor_dn_row(
 
 /// Row kernel: for the channels with `used[ch]`, `out[u][ch] = sensor_dn(f,
 /// signal[u][ch], ch, &sensor_noise4(f, pixel0 + u)[ch])`; 0 for the others (colocated).
-pub fn sensor_dn4_row(
+pub(crate) fn sensor_dn4_row(
     f: &ChainFrame,
     pixel0: u32,
     used: [bool; 4],

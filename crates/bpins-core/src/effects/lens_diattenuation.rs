@@ -52,7 +52,7 @@ pub const RHO_LIMIT: f64 = 0.999;
 /// ρ at squared normalised radius `r2`, clamped to ±[`RHO_LIMIT`].
 #[inline(always)]
 #[allow(clippy::manual_clamp)] // f64::clamp may panic, which stops row loops vectorizing
-pub fn rho_at(rho2: f64, r2: f64) -> f64 {
+pub(crate) fn rho_at(rho2: f64, r2: f64) -> f64 {
     (rho2 * r2).max(-RHO_LIMIT).min(RHO_LIMIT)
 }
 
@@ -66,7 +66,7 @@ pub fn lens_diattenuation(rho2: f64, r2: f64, s: Stokes) -> Stokes {
 
 /// Inverts the lens Mueller matrix (seed eq. 13: reconstruction with ρ known).
 #[inline(always)]
-pub fn lens_diattenuation_inverse(rho2: f64, r2: f64, s: Stokes) -> Stokes {
+pub(crate) fn lens_diattenuation_inverse(rho2: f64, r2: f64, s: Stokes) -> Stokes {
     let rho = rho_at(rho2, r2);
     let det = 1.0 - rho * rho;
     let c = det.sqrt();

@@ -94,11 +94,11 @@ pub struct EffectDef {
 }
 
 impl EffectDef {
-    pub fn param_index(&self, name: &str) -> Option<usize> {
+    pub(crate) fn param_index(&self, name: &str) -> Option<usize> {
         self.params.iter().position(|p| p.name == name)
     }
 
-    pub fn neutral_values(&self) -> Vec<f64> {
+    pub(crate) fn neutral_values(&self) -> Vec<f64> {
         self.params.iter().map(|p| p.neutral).collect()
     }
 }

@@ -6,7 +6,7 @@ use glam::{DMat3, DVec3};
 
 /// Eigenvalues in ascending order and their unit eigenvectors.
 #[allow(clippy::needless_range_loop)] // index form mirrors the textbook rotation
-pub fn symmetric_eigen(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
+pub(crate) fn symmetric_eigen(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
     let mut a = m.to_cols_array_2d(); // a[col][row]; symmetric, so a[i][j] = a[j][i]
     let mut v = DMat3::IDENTITY.to_cols_array_2d();
     for _sweep in 0..50 {

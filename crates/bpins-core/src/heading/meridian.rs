@@ -40,7 +40,7 @@ pub fn solve(sums: &HeadingSums, ctx: &HeadingContext) -> Result<HeadingEstimate
 }
 
 /// Tilt from level (degrees) up to which the per-pixel meridian line reads a frame.
-pub const LEVEL_TOLERANCE_DEG: f64 = 0.01;
+pub(crate) const LEVEL_TOLERANCE_DEG: f64 = 0.01;
 
 /// The meridian line fitted on the half toward image angle `beta_sun` (radians) of
 /// the frame the band sums were taken in, the sun at azimuth `sun_az_deg`.

@@ -181,7 +181,7 @@ impl HeadingSums {
     /// per-sample work runs as one branch-free loop that the compiler vectorizes,
     /// into columns (structure of arrays); then the sums are added in sample order.
     #[allow(clippy::too_many_arguments)]
-    pub fn accumulate_row(
+    pub(crate) fn accumulate_row(
         &mut self,
         ctx: &HeadingContext,
         cos_2band: f64,
@@ -353,7 +353,7 @@ impl HeadingSums {
     /// Sums of `rows` rows, `row(scratch, j)` giving row `j`'s: rows in parallel (one
     /// `init()` scratch per rayon job, reused over its rows), then added sequentially in
     /// row order, so bit-identical whatever the thread count.
-    pub fn sum_rows<S, I, R>(rows: usize, init: I, row: R) -> HeadingSums
+    pub(crate) fn sum_rows<S, I, R>(rows: usize, init: I, row: R) -> HeadingSums
     where
         S: Send,
         I: Fn() -> S + Sync + Send,
@@ -382,14 +382,14 @@ const COLS: usize = 12;
 
 /// Reusable buffers of [`HeadingSums::accumulate_row`] (per-sample columns).
 #[derive(Clone, Debug, Default)]
-pub struct RowScratch {
+pub(crate) struct RowScratch {
     cols: Vec<f64>,
 }
 
 /// What one sample adds: its scatter terms, whether it counts (`n` = 1 or 0), and
 /// what the meridian band needs (Q_p, U_p, P and 2β of its assumed ray).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Contribution {
+pub(crate) struct Contribution {
     pub m: [f64; 6],
     pub n: f64,
     pub qp: f64,
@@ -402,7 +402,7 @@ pub struct Contribution {
 /// One sample's contribution: image-frame Stokes `s` seen along the assumed ray `g`.
 /// Pure and branch-free (invalid or unpolarized samples contribute zero).
 #[inline(always)]
-pub fn contribution(ctx: &HeadingContext, g: &RayGeometry, s: Stokes) -> Contribution {
+pub(crate) fn contribution(ctx: &HeadingContext, g: &RayGeometry, s: Stokes) -> Contribution {
     let b = &g.basis;
     // Image → meridional frame; undo a known lens diattenuation (seed eq. 13).
     let mut sm = image_to_meridional(s, b.cos2b, b.sin2b);
@@ -437,13 +437,13 @@ pub fn estimate(img: &PolImage, ctx: &HeadingContext, extractor: Extractor) -> R
 
 /// Sector of image angle `beta_rad` (any value), 0..SECTORS.
 #[inline]
-pub fn sector_of(beta_rad: f64) -> usize {
+pub(crate) fn sector_of(beta_rad: f64) -> usize {
     let t = beta_rad.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU;
     ((t * SECTORS as f64) as usize).min(SECTORS - 1)
 }
 
 /// Centre image angle of sector `k`, radians.
-pub fn sector_centre_rad(k: usize) -> f64 {
+pub(crate) fn sector_centre_rad(k: usize) -> f64 {
     (k as f64 + 0.5) * std::f64::consts::TAU / SECTORS as f64
 }
 

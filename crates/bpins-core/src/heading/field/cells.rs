@@ -63,6 +63,20 @@ impl RawDn for f32 {
 
 /// A borrowed single-channel image: `width_px × height_px` samples, row `v` starting
 /// at `data[v·stride]` (stride in samples, ≥ width).
+///
+/// ```
+/// use bpins_core::heading::field::RawImage;
+/// // A camera driver's buffer: 8 × 4 px of 16-bit DN in rows padded to 12 samples.
+/// let buffer = vec![0u16; 12 * 4];
+/// let img = RawImage { data: &buffer, width_px: 8, height_px: 4, stride: 12 };
+/// assert!(img.is_consistent());
+/// // The last row needs only its width: 3·12 + 8 samples are enough.
+/// assert!(RawImage { data: &buffer[..44], ..img }.is_consistent());
+/// assert!(!RawImage { data: &buffer[..43], ..img }.is_consistent());
+/// // A packed buffer of f32 DN:
+/// let f = vec![0.0f32; 8 * 4];
+/// assert!(RawImage::packed(&f, 8, 4).is_consistent());
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct RawImage<'a, T> {
     pub data: &'a [T],

@@ -243,6 +243,26 @@ pub struct FieldQuality {
 }
 
 /// One extractor's field heading of one frame.
+///
+/// ```
+/// use bpins_core::heading::field::{FieldHeading, FieldQuality, NoHeading, SigmaParts};
+/// use bpins_core::heading::Extractor;
+/// // What a navigation filter does with one:
+/// fn to_filter(h: &FieldHeading) -> Option<(f64, f64)> {
+///     match &h.result {
+///         // A heading and its 1σ; the parts say where the uncertainty comes from.
+///         Ok((deg, sigma)) => Some((*deg, sigma.total_deg())),
+///         // Overcast, a wall in view, an ambiguous sky: skip the update.
+///         Err(NoHeading::TooLittleSky { .. } | NoHeading::Ambiguous { .. }) => None,
+///         Err(_) => None,
+///     }
+/// }
+/// let sigma = SigmaParts { fit_deg: 0.02, jackknife_deg: 0.03, tilt_deg: 0.04, sun_deg: 0.0, floor_deg: 0.0 };
+/// let h = FieldHeading { extractor: Extractor::SunVector, result: Ok((123.4, sigma)), quality: FieldQuality::default() };
+/// let (deg, one_sigma) = to_filter(&h).unwrap();
+/// assert_eq!(deg, 123.4);
+/// assert!((one_sigma - 0.05).abs() < 1e-12); // max(fit, jackknife) ⊕ tilt
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct FieldHeading {
     pub extractor: Extractor,
