@@ -399,6 +399,41 @@ mod tests {
     }
 
     #[test]
+    fn compasses_on_several_threads_read_what_one_reads() {
+        // Frames under three attitudes; one compass reads them in turn, then three
+        // compasses, each on its own thread (and the first moved there), read them
+        // at once: the same headings, bit for bit.
+        let frames: Vec<(Vec<u16>, [f64; 2])> =
+            [[0.0, 0.0], [3.0, -2.0], [-4.0, 1.0]].into_iter().map(|t| (frame(&Model::default(), t).0, t)).collect();
+        let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+        let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+        let read_all = |c: &mut Compass| -> Vec<FieldHeading> {
+            frames
+                .iter()
+                .map(|(raw, t)| {
+                    let att = Attitude { tilt_x_deg: t[0], tilt_y_deg: t[1], sigma_deg: 0.05 };
+                    c.heading(RawImage::packed(raw, 306, 256), sun, att).unwrap()
+                })
+                .collect()
+        };
+        let mut one = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+        let alone = read_all(&mut one);
+        let together: Vec<Vec<FieldHeading>> = std::thread::scope(|s| {
+            let mut handles = vec![s.spawn(|| read_all(&mut one))];
+            for _ in 0..2 {
+                handles.push(
+                    s.spawn(|| read_all(&mut Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap())),
+                );
+            }
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        for r in &together {
+            assert_eq!(r, &alone);
+        }
+        assert!(alone.iter().all(|h| (h.heading_deg().unwrap() - 30.0).abs() < 0.05), "{alone:?}");
+    }
+
+    #[test]
     fn wrong_buffers_and_configurations_are_refused_not_panicked_on() {
         let (raw, lens) = frame(&Model::default(), [0.0, 0.0]);
         let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
