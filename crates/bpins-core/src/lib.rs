@@ -5,6 +5,20 @@
 //! with noise → Stokes reconstruction → heading. Conventions (frames, angles, mosaic,
 //! Stokes) are those of `docs/spec/CONVENTIONS.md`, kept in [`conventions`].
 //!
+//! # Where things are
+//!
+//! | for | modules |
+//! |---|---|
+//! | a robot: raw frames in, heading ± 1σ out | [`compass`] (the front door), [`calibration`], [`backend`] |
+//! | headings from Stokes images or cells | [`heading`], [`heading::field`] (the field estimator) |
+//! | the measurement chain, pixel by pixel | [`sky`], [`camera`], [`effects`] (the catalog and its registry), [`sensor`], [`noise`], [`chain`], [`stokes`], [`recon`], [`conventions`] |
+//! | simulation and the seed paper's error analysis | [`simulate`], [`scene`] (field conditions), [`montecarlo`] |
+//! | measured captures (feature `io`) | `capture`, `pipeline`, `fit` (fit and diagnosis), `field_conditions` |
+//!
+//! The per-pixel kernels stay public where the GPU twin's parity tests and the
+//! registry-wide tests call them as the reference; row loops, scratch sums and the
+//! drivers' helpers are private.
+//!
 //! The per-pixel physics are pure functions (CPU reference of the GPU shaders);
 //! rayon appears only in the drivers that map them over pixels and trials.
 //! Libraries never print: errors are typed ([`Error`]).
