@@ -43,7 +43,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let html = report_html(&d, &a.capture, &maps);
     let page = a.out.join("report.html");
-    std::fs::write(&page, html).with_context(|| format!("writing {}", page.display()))?;
+    crate::write_output(&page, html.as_bytes())?;
     eprintln!("wrote {} and {}", a.out.join("diagnosis.json").display(), page.display());
     Ok(())
 }

@@ -106,7 +106,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     )
     .context("the fitted values as a calibration")?;
     let cal_path = a.out.join("calibration.toml");
-    std::fs::write(&cal_path, cal.to_toml()).with_context(|| format!("writing {}", cal_path.display()))?;
+    crate::write_output(&cal_path, cal.to_toml().as_bytes())?;
     eprintln!("wrote {} (bpins heading --calibration, fit/diagnose --calibration)", cal_path.display());
     let maps = bpins_core::fit::residual_maps(&c, &frames, &opts, &r.state, r.noise).context("residual maps")?;
     crate::residuals::write(&a.out, &maps)?;

@@ -238,8 +238,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(parent) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         crate::ensure_not_in_capture(parent)?;
     }
+    // Each frame is written as it is made (memory: one batch of frames), capture.toml
+    // last: a run killed part-way leaves whole frames and no capture.
+    let written = Capture { dir: out.clone(), ..written };
+    let mut writer = written.writer(out)?;
     let pb = crate::progress::bar(capture.frames.len() as u64, "frames");
-    let mut frames: Vec<FrameData> = Vec::with_capacity(capture.frames.len());
     let g = capture.sensor.geometry;
     let (w, h) = (g.width_px as usize, g.height_px as usize);
     // A few frames per call: the GPU batches them, the bar moves.
@@ -250,22 +253,26 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         match &capture.sensor.layout {
             Layout::Dofp { mosaic } => {
                 for dn in engine.render_mosaic(&chain, w, h, mosaic)? {
-                    frames.push(FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn });
+                    writer.write_frame(&FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn })?;
                 }
             }
             Layout::Colocated { channels } => {
                 for planes in engine.render_colocated(&chain, w, h, channels)? {
                     let channels = channels.iter().copied().zip(planes).collect();
-                    frames.push(FrameData::Colocated { width_px: g.width_px, height_px: g.height_px, channels });
+                    writer.write_frame(&FrameData::Colocated {
+                        width_px: g.width_px,
+                        height_px: g.height_px,
+                        channels,
+                    })?;
                 }
             }
         }
-        pb.set_position(frames.len() as u64);
+        pb.set_position(writer.written() as u64);
     }
     pb.finish_and_clear();
-    let written = Capture { dir: out.clone(), ..written };
-    written.write(out, &frames)?;
-    eprintln!("wrote {} frames to {}", frames.len(), out.display());
+    let n = writer.written();
+    writer.finish()?;
+    eprintln!("wrote {n} frames to {}", out.display());
     Ok(())
 }
 

@@ -74,7 +74,15 @@ pub fn write_json(path: &std::path::Path, value: &serde_json::Value) -> anyhow::
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     let text = serde_json::to_string_pretty(value).context("serialising JSON")?;
-    std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))
+    write_output(path, (text + "\n").as_bytes())
+}
+
+/// Writes an output file whole or not at all (a temporary beside it, renamed into
+/// place: `bpins_core::output`), replacing an earlier run's.
+pub fn write_output(path: &std::path::Path, bytes: &[u8]) -> anyhow::Result<()> {
+    use anyhow::Context;
+    bpins_core::output::write_bytes(path, bpins_core::output::Replace::Allowed, bytes)
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Refuses an output path that lies in a capture (a folder holding capture.toml):

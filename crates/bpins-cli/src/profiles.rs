@@ -4,7 +4,6 @@
 //! AoP residual and DoLP residual against that axis, each strip on its own symmetric
 //! scale, zero dashed). A missing effect shows as a trend along its own axis.
 
-use anyhow::Context;
 use bpins_core::fit::profiles::{Profile, ProfileBin};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -31,9 +30,8 @@ pub fn write(dir: &Path, profiles: &[Profile]) -> anyhow::Result<String> {
         }
     }
     let path = dir.join("profiles.csv");
-    std::fs::write(&path, csv).with_context(|| format!("writing {}", path.display()))?;
-    let path = dir.join("profiles.svg");
-    std::fs::write(&path, svg(profiles)).with_context(|| format!("writing {}", path.display()))?;
+    crate::write_output(&path, csv.as_bytes())?;
+    crate::write_output(&dir.join("profiles.svg"), svg(profiles).as_bytes())?;
     Ok("profiles.svg".into())
 }
 

@@ -94,7 +94,10 @@ fn binned_png(path: &Path, data: &[f32], w: u32, h: u32, bin: u32, floor: f64) -
     let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
     let scale = (4.0 * rms).max(floor);
     let img = image::RgbImage::from_fn(bw, bh, |x, y| image::Rgb(colour(binned[(y * bw + x) as usize] / scale)));
-    img.save(path).with_context(|| format!("writing {}", path.display()))?;
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .with_context(|| format!("encoding {}", path.display()))?;
+    crate::write_output(path, &png)?;
     Ok(scale)
 }
 

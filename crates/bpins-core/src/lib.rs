@@ -78,6 +78,8 @@ pub mod heading;
 pub mod montecarlo;
 pub mod noise;
 #[cfg(feature = "io")]
+pub mod output;
+#[cfg(feature = "io")]
 pub mod pipeline;
 pub mod recon;
 pub mod scene;

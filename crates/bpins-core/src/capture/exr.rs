@@ -4,8 +4,6 @@
 //! f32, lossless ZIP; reading converts any sample type to f32, row-major. The decoder
 //! runs behind `catch_unwind`, so a corrupt file is an error, never a crash.
 
-use std::fs::File;
-use std::io::BufWriter;
 use std::path::Path;
 
 use exr::prelude::{
@@ -13,7 +11,7 @@ use exr::prelude::{
     SmallVec, Text, WritableImage,
 };
 
-use super::images::{check_size, err, guarded, io};
+use super::images::{check_size, err, guarded};
 use crate::{Error, Result};
 
 /// `(width_px, height_px, [(channel name, row-major f32 plane)])` of an EXR file.
@@ -130,19 +128,20 @@ pub(crate) fn exr_image(
     Ok(Image::from_layer(layer))
 }
 
-pub(crate) fn write_exr_to(path: &Path, file: File, image: Image<Layer<AnyChannels<FlatSamples>>>) -> Result<()> {
-    guarded(path, || {
-        image.write().to_buffered(BufWriter::new(file)).map_err(|e| err(path, format!("cannot write OpenEXR: {e}")))
-    })
+pub(crate) fn write_exr_to(
+    path: &Path,
+    w: &mut (impl std::io::Write + std::io::Seek),
+    image: Image<Layer<AnyChannels<FlatSamples>>>,
+) -> Result<()> {
+    guarded(path, || image.write().to_buffered(w).map_err(|e| err(path, format!("cannot write OpenEXR: {e}"))))
 }
 
 /// Writes one single-layer float OpenEXR file (lossless ZIP) holding `layers` as
 /// named `f32` channels, each `width_px × height_px` row-major (e.g. `I0` … `I135`,
-/// `AoP`, `DoLP`, `AoE` for a run's dumps). Overwrites `path` if it exists; callers
-/// choose an output folder outside any capture. Channel names: 1 … 31 printable
+/// `AoP`, `DoLP`, `AoE` for a run's dumps). Replaces `path` if it exists, whole or
+/// not at all (`output.rs`); callers choose an output folder outside any capture. Channel names: 1 … 31 printable
 /// ASCII characters, distinct; EXR stores them sorted by name.
 pub fn write_exr_layers(path: &Path, width_px: u32, height_px: u32, layers: &[(&str, &[f32])]) -> Result<()> {
     let image = exr_image(path, width_px, height_px, layers)?;
-    let file = File::create(path).map_err(|e| io(path, e))?;
-    write_exr_to(path, file, image)
+    crate::output::write_with(path, crate::output::Replace::Allowed, |w| write_exr_to(path, w, image))
 }

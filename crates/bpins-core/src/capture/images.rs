@@ -19,13 +19,14 @@
 //! error, never a crash.
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter};
+use std::io::BufReader;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 
 use image::{DynamicImage, ImageBuffer, ImageFormat, ImageReader, Luma};
 
 use super::{spec, Capture, FrameData};
+use crate::output::{self, Replace};
 use crate::sensor::{Channel, Layout};
 use crate::{Error, Result};
 
@@ -165,26 +166,18 @@ pub(crate) fn read_colocated(
     Ok(out)
 }
 
-/// Creates `path` anew (never overwrites) for writing.
-fn create_new(path: &Path) -> Result<File> {
-    File::create_new(path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::AlreadyExists => err(path, "already exists; bpins never overwrites capture files"),
-        _ => io(path, e),
-    })
-}
-
 /// Mosaic DN as 16-bit integers: rounded, clamped to [0, 65535].
 pub(crate) fn to_u16(dn: &[f32]) -> Vec<u16> {
     dn.iter().map(|&x| x.round().clamp(0.0, 65535.0) as u16).collect()
 }
 
-/// Writes a dofp mosaic (already validated) to a new file, in the format its
-/// extension names.
-pub(crate) fn write_dofp(path: &Path, width_px: u32, height_px: u32, dn: &[f32]) -> Result<()> {
+/// Writes a dofp mosaic (already validated), whole or not at all (`output.rs`), in
+/// the format its extension names.
+pub(crate) fn write_dofp(path: &Path, width_px: u32, height_px: u32, dn: &[f32], replace: Replace) -> Result<()> {
     let kind = spec::image_kind(path);
     if kind == Some("exr") {
         let image = super::exr::exr_image(path, width_px, height_px, &[("DN", dn)])?;
-        return super::exr::write_exr_to(path, create_new(path)?, image);
+        return output::write_with(path, replace, |w| super::exr::write_exr_to(path, w, image));
     }
     let format = match kind {
         Some("png") => ImageFormat::Png,
@@ -195,21 +188,22 @@ pub(crate) fn write_dofp(path: &Path, width_px: u32, height_px: u32, dn: &[f32])
     };
     let buf: ImageBuffer<Luma<u16>, Vec<u16>> = ImageBuffer::from_raw(width_px, height_px, to_u16(dn))
         .ok_or_else(|| err(path, "mosaic size does not match width × height"))?;
-    let mut w = BufWriter::new(create_new(path)?);
-    guarded(path, || buf.write_to(&mut w, format).map_err(|e| err(path, format!("cannot write the image: {e}"))))?;
-    w.into_inner().map_err(|e| io(path, e.into_error()))?.sync_all().map_err(|e| io(path, e))
+    output::write_with(path, replace, |w| {
+        guarded(path, || buf.write_to(w, format).map_err(|e| err(path, format!("cannot write the image: {e}"))))
+    })
 }
 
-/// Writes a colocated frame (already validated) to a new EXR file.
+/// Writes a colocated frame (already validated) to an EXR file, whole or not at all.
 pub(crate) fn write_colocated(
     path: &Path,
     width_px: u32,
     height_px: u32,
     planes: &[(Channel, Vec<f32>)],
+    replace: Replace,
 ) -> Result<()> {
     let layers: Vec<(&str, &[f32])> = planes.iter().map(|(c, v)| (c.exr_name(), v.as_slice())).collect();
     let image = super::exr::exr_image(path, width_px, height_px, &layers)?;
-    super::exr::write_exr_to(path, create_new(path)?, image)
+    output::write_with(path, replace, |w| super::exr::write_exr_to(path, w, image))
 }
 
 /// Checks that `data` fits frame `i` of capture `c` and will read back (before any

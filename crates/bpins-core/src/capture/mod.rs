@@ -27,13 +27,14 @@ mod images;
 mod spec;
 mod toml_out;
 mod validate;
+mod writer;
 
 use std::fs;
-use std::io::Write;
 use std::path::{Component, Path, PathBuf};
 
 pub use exr::{read_exr_layers, write_exr_layers, ExrLayers};
 pub use spec::FORMAT;
+pub use writer::CaptureWriter;
 
 use crate::camera::{Intrinsics, Projection};
 use crate::sensor::{Channel, Geometry, Layout};
@@ -190,61 +191,21 @@ impl Capture {
     }
 
     /// Writes this capture as a new capture in `out_dir`: `capture.toml` and one image
-    /// per frame at `out_dir/self.frames[i].file`, from `frames[i]`. dofp mosaics go
-    /// to 16-bit PNG/TIFF (rounded, clamped to [0, 65535]) or float EXR by the file's
-    /// extension; colocated frames to float EXR. Creates `out_dir` and subfolders.
-    /// Refuses (before writing anything) an `out_dir` holding `capture.toml`, one
-    /// inside the capture folder `self.dir`, an existing image file, and data that
-    /// would not read back (wrong size, layout or channels, non-finite values, DN
-    /// above full scale).
+    /// per frame at `out_dir/self.frames[i].file`, from `frames[i]`: a
+    /// [`CaptureWriter`] fed every frame (see there for what is refused).
     pub fn write(&self, out_dir: &Path, frames: &[FrameData]) -> Result<()> {
         let toml_path = out_dir.join("capture.toml");
-        validate::validate(self, &toml_path)?;
         if frames.len() != self.frames.len() {
             bail!(&toml_path, "{} frames of data for {} [[frames]] entries", frames.len(), self.frames.len());
         }
         for (i, data) in frames.iter().enumerate() {
             images::check_frame_data(self, i, data, &out_dir.join(&self.frames[i].file))?;
         }
-        if toml_path.exists() {
-            bail!(&toml_path, "already exists: bpins never writes into a capture; choose a new folder");
+        let mut w = self.writer(out_dir)?;
+        for data in frames {
+            w.write_frame(data)?;
         }
-        if self.toml_path().is_file() {
-            let src = fs::canonicalize(&self.dir).map_err(|e| Error::Io { path: self.dir.clone(), source: e })?;
-            let targets =
-                std::iter::once(out_dir.to_path_buf()).chain(self.frames.iter().map(|f| out_dir.join(&f.file)));
-            for t in targets {
-                if resolve(&t)?.starts_with(&src) {
-                    bail!(&t, "is inside the capture {}; bpins never writes into a capture", self.dir.display());
-                }
-            }
-        }
-        for f in &self.frames {
-            let p = out_dir.join(&f.file);
-            if p.exists() {
-                bail!(&p, "already exists; bpins never overwrites capture files");
-            }
-        }
-        for (f, data) in self.frames.iter().zip(frames) {
-            let p = out_dir.join(&f.file);
-            if let Some(parent) = p.parent() {
-                fs::create_dir_all(parent).map_err(|e| Error::Io { path: parent.to_path_buf(), source: e })?;
-            }
-            match data {
-                FrameData::Mosaic { width_px, height_px, dn } => images::write_dofp(&p, *width_px, *height_px, dn)?,
-                FrameData::Colocated { width_px, height_px, channels } => {
-                    images::write_colocated(&p, *width_px, *height_px, channels)?
-                }
-            }
-        }
-        fs::create_dir_all(out_dir).map_err(|e| Error::Io { path: out_dir.to_path_buf(), source: e })?;
-        let text = self.to_toml_string().into_bytes();
-        let mut file =
-            fs::File::create_new(&toml_path).map_err(|e| Error::Io { path: toml_path.clone(), source: e })?;
-        file.write_all(&text)
-            .and_then(|_| file.sync_all())
-            .map_err(|e| Error::Io { path: toml_path.clone(), source: e })?;
-        Ok(())
+        w.finish()
     }
 
     /// `capture.toml` text of this capture, every default written out.

@@ -1,0 +1,135 @@
+//! Outputs whole or absent. Every file bpins writes (captures, fit and diagnosis
+//! results, calibration files, reports, maps, tables) goes first to a temporary file
+//! beside its final name (`.bpins-XXXXXX.part`, same folder, so the same file
+//! system), is flushed to the disk, and is then renamed into place: an interrupted
+//! run (SIGKILL, a power cut, a full disk) leaves either the previous file or the
+//! new one, never a half. A rename cannot be torn; a temporary left by a killed run
+//! is never read as a result (its name says so) and the next run ignores it.
+//!
+//! Where the name must not exist yet (capture files: bpins never overwrites a
+//! capture), the new file is linked into place only if nothing is there, in the same
+//! atomic step ([`Replace::Never`]).
+//!
+//! Errors name the path: a read-only folder, a full disk or a missing parent is an
+//! [`Error::Io`] on the file or folder concerned, never a panic.
+
+use crate::error::{Error, Result};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+/// Whether an existing file at the final name may be replaced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Replace {
+    /// Replace it (results a rerun renews: fit.json, reports).
+    Allowed,
+    /// Refuse, naming it (capture files).
+    Never,
+}
+
+/// Writes `path` whole or not at all: `write` fills a buffered temporary file beside
+/// it, which is synced and renamed into place. On any error the temporary is removed
+/// and `path` is left as it was.
+pub fn write_with(
+    path: &Path,
+    replace: Replace,
+    write: impl FnOnce(&mut BufWriter<&mut File>) -> Result<()>,
+) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if replace == Replace::Never && path.exists() {
+        return Err(exists(path));
+    }
+    let io = |p: &Path, e: std::io::Error| Error::Io { path: p.to_path_buf(), source: e };
+    let mut tmp =
+        tempfile::Builder::new().prefix(".bpins-").suffix(".part").tempfile_in(dir).map_err(|e| io(dir, e))?;
+    {
+        let mut w = BufWriter::new(tmp.as_file_mut());
+        write(&mut w)?;
+        w.flush().map_err(|e| io(path, e))?;
+    }
+    tmp.as_file().sync_all().map_err(|e| io(path, e))?;
+    match replace {
+        Replace::Allowed => tmp.persist(path).map(|_| ()).map_err(|e| io(path, e.error)),
+        Replace::Never => tmp.persist_noclobber(path).map(|_| ()).map_err(|e| match e.error.kind() {
+            std::io::ErrorKind::AlreadyExists => exists(path),
+            _ => io(path, e.error),
+        }),
+    }?;
+    // The rename itself reaches the disk with the folder's entry (best effort: some
+    // file systems cannot sync a folder).
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
+}
+
+/// [`write_with`] for bytes in memory.
+pub fn write_bytes(path: &Path, replace: Replace, bytes: &[u8]) -> Result<()> {
+    write_with(path, replace, |w| w.write_all(bytes).map_err(|e| Error::Io { path: path.to_path_buf(), source: e }))
+}
+
+fn exists(path: &Path) -> Error {
+    Error::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::new(std::io::ErrorKind::AlreadyExists, "already exists; bpins never overwrites it"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_is_replaced_whole_or_left_as_it_was() {
+        let t = tempfile::tempdir().unwrap();
+        let p = t.path().join("fit.json");
+        write_bytes(&p, Replace::Allowed, b"first").unwrap();
+        write_bytes(&p, Replace::Allowed, b"second").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"second");
+        // A writer that fails half-way: the old file stays, no temporary is left.
+        let e = write_with(&p, Replace::Allowed, |w| {
+            w.write_all(b"half of a").unwrap();
+            Err(Error::Model("disk full".into()))
+        });
+        assert!(e.is_err());
+        assert_eq!(std::fs::read(&p).unwrap(), b"second");
+        assert_eq!(std::fs::read_dir(t.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn never_replace_refuses_an_existing_file_naming_it() {
+        let t = tempfile::tempdir().unwrap();
+        let p = t.path().join("f000.png");
+        write_bytes(&p, Replace::Never, b"a").unwrap();
+        let e = write_bytes(&p, Replace::Never, b"b").unwrap_err().to_string();
+        assert!(e.contains("f000.png"), "{e}");
+        assert!(format!("{:?}", std::error::Error::source(&write_bytes(&p, Replace::Never, b"b").unwrap_err()))
+            .contains("already exists"));
+        assert_eq!(std::fs::read(&p).unwrap(), b"a");
+        assert_eq!(std::fs::read_dir(t.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_folder_that_cannot_be_written_is_an_error_naming_it() {
+        let t = tempfile::tempdir().unwrap();
+        let missing = t.path().join("no/such/folder/x.json");
+        let e = write_bytes(&missing, Replace::Allowed, b"x").unwrap_err().to_string();
+        assert!(e.contains("no/such/folder"), "{e}");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let ro = t.path().join("ro");
+            std::fs::create_dir(&ro).unwrap();
+            std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
+            // Root may write anyway; then the write succeeds, which is also not a panic.
+            match write_bytes(&ro.join("x.json"), Replace::Allowed, b"x") {
+                Err(e) => assert!(e.to_string().contains("ro"), "{e}"),
+                Ok(()) => assert_eq!(std::fs::read(ro.join("x.json")).unwrap(), b"x"),
+            }
+            std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o755)).unwrap();
+        }
+    }
+}
