@@ -24,6 +24,7 @@ macro_rules! bail {
 
 mod exr;
 mod images;
+pub mod ranges;
 mod spec;
 mod toml_out;
 mod validate;
