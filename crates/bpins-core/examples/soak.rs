@@ -144,15 +144,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let a = args()?;
     let (w, h) = (a.width_px, a.height_px);
     let scale = w as f64 / 612.0;
-    let lens = Intrinsics::new(Projection::Pinhole, scale * 8000.0 / 13.8, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+    let lens =
+        Intrinsics::new(Projection::Pinhole, scale * 8000.0 / 13.8, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
     eprintln!("rendering 16 frames of {w} × {h} px …");
     let pool: Vec<(Vec<u16>, Attitude, f64)> = (0..16)
         .map(|k| {
             let t = k as f64;
             let (tx, ty) = (5.0 * (0.9 * t).sin(), 4.0 * (0.6 * t + 1.0).cos());
             let heading = 22.5 * t;
-            let scene =
-                Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: heading, tilt_x_deg: tx, tilt_y_deg: ty, dmax: 0.6 };
+            let scene = Scene {
+                sun_az_deg: 40.0,
+                sun_el_deg: 25.0,
+                heading_deg: heading,
+                tilt_x_deg: tx,
+                tilt_y_deg: ty,
+                dmax: 0.6,
+            };
             let noise = NoiseIndex { seed: 11, trial: 0, frame: k };
             let f = ChainFrame::new(&Default::default(), &lens, &scene, &Response::samples(3000.0), noise);
             let raw = render_mosaic(&f, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
