@@ -219,7 +219,7 @@ impl BpinsCompassConfig {
 
     /// The front door's configuration; what `Compass::new` does not check (the
     /// enumerations, the mosaic, the options) is checked here.
-    pub(crate) fn to_core(&self) -> Result<CompassConfig, Failure> {
+    pub(crate) fn to_core(self) -> Result<CompassConfig, Failure> {
         let projection = *Projection::ALL
             .get(self.projection as usize)
             .ok_or_else(|| config_error(format!("projection {}: one of BPINS_PROJECTION_* (0…3)", self.projection)))?;
@@ -247,7 +247,7 @@ impl BpinsCompassConfig {
         if self.cell_px % 2 == 1 {
             return Err(config_error(format!("cell_px {}: even (whole 2 × 2 tiles), or 0", self.cell_px)));
         }
-        let o = self;
+        let o = &self;
         for (name, v) in [
             ("horizon_margin_deg", o.horizon_margin_deg),
             ("sun_exclusion_deg", o.sun_exclusion_deg),
@@ -288,7 +288,7 @@ impl BpinsCompassConfig {
 }
 
 impl BpinsSun {
-    pub(crate) fn to_core(&self) -> Result<Sun, Failure> {
+    pub(crate) fn to_core(self) -> Result<Sun, Failure> {
         match self.kind {
             BPINS_SUN_ANGLES => Ok(Sun::Angles {
                 azimuth_deg: self.azimuth_deg,
