@@ -89,6 +89,7 @@ fn the_c_example_reads_the_clean_sample_as_the_rust_front_door_does() {
     let run = Command::new(&exe).arg(&raw_path).args(&args).output().expect("running the example");
     let stdout = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "the example failed: {}{stdout}", String::from_utf8_lossy(&run.stderr));
+    eprintln!("$ heading f000.u16 {}\n{stdout}", args.join(" "));
     let (c_deg, c_sigma) = (value(&stdout, "heading_deg"), value(&stdout, "sigma_deg"));
 
     let mut rust = Compass::new(s.config.clone()).unwrap();
