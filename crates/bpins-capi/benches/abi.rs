@@ -1,6 +1,7 @@
 //! What the C ABI costs per frame over the Rust front door: one 2448 × 2048 u16 DoFP
-//! frame (an IMX250MZR's full resolution, 12 bit, behind a 4 mm lens), read by a warm
-//! `Compass` directly and by the same through `bpins_compass_heading_u16`.
+//! frame (an IMX250MZR's full resolution, 12 bit, behind a 4 mm lens), and a 256 × 256
+//! one, read by a warm `Compass` directly and by another through
+//! `bpins_compass_heading_u16`.
 //!
 //! ```sh
 //! cargo bench -p bpins-capi --bench abi
@@ -20,11 +21,17 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use std::mem::MaybeUninit;
 
-const W: usize = 2448;
-const H: usize = 2048;
-
 fn abi(c: &mut Criterion) {
-    let lens = Intrinsics::new(Projection::Pinhole, 4000.0 / 3.45, 1223.5, 1023.5);
+    // The full frame, and a small one where the compass's own work is short enough
+    // that a fixed cost of the boundary would show.
+    one_size(c, 2448, 2048, 4000.0 / 3.45);
+    one_size(c, 256, 256, 4000.0 / 27.6);
+}
+
+fn one_size(c: &mut Criterion, w: usize, h: usize, f_px: f64) {
+    #[allow(non_snake_case)]
+    let (W, H) = (w, h);
+    let lens = Intrinsics::new(Projection::Pinhole, f_px, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
     let scene =
         Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 2.0, tilt_y_deg: -1.0, dmax: 0.6 };
     let f = ChainFrame::new(
@@ -67,7 +74,7 @@ fn abi(c: &mut Criterion) {
     assert_eq!(s, BpinsStatus::BPINS_OK);
     assert_eq!(unsafe { out.assume_init() }.heading_deg.to_bits(), want.to_bits());
 
-    let mut g = c.benchmark_group("front_door_2448x2048_u16");
+    let mut g = c.benchmark_group(format!("front_door_{W}x{H}_u16"));
     g.sample_size(20);
     g.bench_function("rust_compass_heading", |b| {
         b.iter(|| black_box(rust.heading(RawImage::packed(black_box(&raw), W, H), sun, att).unwrap()))

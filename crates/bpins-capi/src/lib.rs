@@ -18,8 +18,8 @@
 //! - a NULL pointer is an error ([`BpinsStatus::BPINS_ERR_NULL`]), never dereferenced;
 //! - no panic crosses it: every body runs under `catch_unwind`
 //!   ([`BpinsStatus::BPINS_ERR_PANIC`] if one happened, which is a bug to report);
-//! - nothing is printed; nothing the caller owns is written except the `out` argument,
-//!   and that only on success.
+//! - nothing is printed; nothing the caller owns is written except the `out` argument:
+//!   a heading's only on success, a new handle's set to NULL on failure.
 
 mod compass;
 mod types;
