@@ -95,7 +95,10 @@ impl<'py> Borrowed<'py> {
 /// Whether the mosaic was read in place (no copy).
 impl Mosaic<'_> {
     pub(crate) fn borrowed(&self) -> bool {
-        matches!(self, Mosaic::U8(Cow::Borrowed(_), _) | Mosaic::U16(Cow::Borrowed(_), _) | Mosaic::F32(Cow::Borrowed(_), _))
+        matches!(
+            self,
+            Mosaic::U8(Cow::Borrowed(_), _) | Mosaic::U16(Cow::Borrowed(_), _) | Mosaic::F32(Cow::Borrowed(_), _)
+        )
     }
 
     /// Every pixel as f32 DN, row-major and packed (for the simulation and capture paths).

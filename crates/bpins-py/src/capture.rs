@@ -122,7 +122,12 @@ pub fn read_capture<'py>(
 /// array (uint8, uint16 or float32 DN) per entry of `meta["frames"]`, each the
 /// sensor's shape; dofp only. Files are written whole or not at all.
 #[pyfunction]
-pub fn write_capture(py: Python<'_>, path: PathBuf, meta: &Bound<'_, PyAny>, mosaics: &Bound<'_, PyAny>) -> PyResult<()> {
+pub fn write_capture(
+    py: Python<'_>,
+    path: PathBuf,
+    meta: &Bound<'_, PyAny>,
+    mosaics: &Bound<'_, PyAny>,
+) -> PyResult<()> {
     let text = toml::to_string(&py_to_toml(meta, "meta")?).map_err(|e| PyValueError::new_err(format!("meta: {e}")))?;
     let c = Capture::parse(&path, &text).map_err(|e| PyValueError::new_err(format!("meta: {e}")))?;
     let g = &c.sensor.geometry;

@@ -168,8 +168,14 @@ impl Compass {
     ) -> PyResult<Self> {
         let f = finite("focal_length_px", focal_length_px)?;
         let (cx, cy) = principal_point_px.unwrap_or(((width_px as f64 - 1.0) / 2.0, (height_px as f64 - 1.0) / 2.0));
-        let camera = Intrinsics::new(self::projection(projection)?, f, finite("principal_point_px[0]", cx)?, finite("principal_point_px[1]", cy)?);
-        let mut cfg = CompassConfig::dofp(camera, width_px, height_px, bit_depth, finite("black_level_dn", black_level_dn)?);
+        let camera = Intrinsics::new(
+            self::projection(projection)?,
+            f,
+            finite("principal_point_px[0]", cx)?,
+            finite("principal_point_px[1]", cy)?,
+        );
+        let mut cfg =
+            CompassConfig::dofp(camera, width_px, height_px, bit_depth, finite("black_level_dn", black_level_dn)?);
         cfg.mosaic = mosaic_of(mosaic)?;
         cfg.calibration = self::calibration(calibration)?;
         cfg.extractor = self::extractor(extractor)?;
@@ -256,9 +262,15 @@ impl Compass {
         let zero_copy = m.borrowed();
         let compass = &mut self.inner;
         let fix = py.detach(|| match &m {
-            Mosaic::U8(d, s) => compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude),
-            Mosaic::U16(d, s) => compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude),
-            Mosaic::F32(d, s) => compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude),
+            Mosaic::U8(d, s) => {
+                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+            }
+            Mosaic::U16(d, s) => {
+                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+            }
+            Mosaic::F32(d, s) => {
+                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+            }
         });
         Ok(heading_of(&fix.map_err(compass_err)?, zero_copy))
     }

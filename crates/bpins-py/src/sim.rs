@@ -30,7 +30,8 @@ pub(crate) fn effect_set(effects: Option<BTreeMap<String, BTreeMap<String, f64>>
             set.enable(&effect).map_err(|e| PyValueError::new_err(format!("effects[{effect:?}]: {e}")))?;
         }
         for (param, v) in params {
-            set.set(&effect, &param, v).map_err(|e| PyValueError::new_err(format!("effects[{effect:?}][{param:?}]: {e}")))?;
+            set.set(&effect, &param, v)
+                .map_err(|e| PyValueError::new_err(format!("effects[{effect:?}][{param:?}]: {e}")))?;
         }
     }
     Ok(set)
@@ -93,7 +94,10 @@ pub fn simulate<'py>(
         },
         frames: vec![FrameSpec {
             file: "frames/f000.png".into(),
-            sun: SunPosition::given(finite("sun_azimuth_deg", sun_azimuth_deg)?, finite("sun_elevation_deg", sun_elevation_deg)?),
+            sun: SunPosition::given(
+                finite("sun_azimuth_deg", sun_azimuth_deg)?,
+                finite("sun_elevation_deg", sun_elevation_deg)?,
+            ),
             heading_deg: Some(finite("heading_deg", heading_deg)?),
             tilt_x_deg: Some(finite("tilt_x_deg", tilt_x_deg)?),
             tilt_y_deg: Some(finite("tilt_y_deg", tilt_y_deg)?),
@@ -114,24 +118,26 @@ pub fn simulate<'py>(
         seed,
     };
     let (w, h) = (width_px as usize, height_px as usize);
-    let (dn, truth) = py.detach(|| -> bpins_core::Result<_> {
-        let resp = sim_response(&capture, &s, None)?;
-        let FrameData::Mosaic { dn, .. } = simulate_frame(&capture, 0, &model, &resp, &s, None) else {
-            unreachable!("a dofp capture renders a mosaic")
-        };
-        // The truth: the same chain without noise or quantisation, reconstructed
-        // with the true effects known.
-        let ideal = Response::ideal(resp.gain_dn);
-        let f = sim_chain_frame(&capture, 0, &model, &ideal, &s, None);
-        let planes = render_colocated(&f, w, h, &Channel::ALL);
-        let rec = Reconstructor::new(&model, 0.0, &Channel::ALL)?;
-        let refs: Vec<(Channel, &[f32])> = Channel::ALL.iter().copied().zip(planes.iter().map(|p| p.as_slice())).collect();
-        let img = colocated(&refs, w, h, &rec, f64::MAX);
-        let [aop, dolp, aoe] = angle_maps(&img, &capture.intrinsics());
-        let intensity: Vec<f32> = img.iqu.iter().map(|s| s[0] as f32).collect();
-        Ok((dn.into_iter().map(|x| x as u16).collect::<Vec<u16>>(), [aop, dolp, aoe, intensity]))
-    })
-    .map_err(py_err)?;
+    let (dn, truth) = py
+        .detach(|| -> bpins_core::Result<_> {
+            let resp = sim_response(&capture, &s, None)?;
+            let FrameData::Mosaic { dn, .. } = simulate_frame(&capture, 0, &model, &resp, &s, None) else {
+                unreachable!("a dofp capture renders a mosaic")
+            };
+            // The truth: the same chain without noise or quantisation, reconstructed
+            // with the true effects known.
+            let ideal = Response::ideal(resp.gain_dn);
+            let f = sim_chain_frame(&capture, 0, &model, &ideal, &s, None);
+            let planes = render_colocated(&f, w, h, &Channel::ALL);
+            let rec = Reconstructor::new(&model, 0.0, &Channel::ALL)?;
+            let refs: Vec<(Channel, &[f32])> =
+                Channel::ALL.iter().copied().zip(planes.iter().map(|p| p.as_slice())).collect();
+            let img = colocated(&refs, w, h, &rec, f64::MAX);
+            let [aop, dolp, aoe] = angle_maps(&img, &capture.intrinsics());
+            let intensity: Vec<f32> = img.iqu.iter().map(|s| s[0] as f32).collect();
+            Ok((dn.into_iter().map(|x| x as u16).collect::<Vec<u16>>(), [aop, dolp, aoe, intensity]))
+        })
+        .map_err(py_err)?;
     let [aop, dolp, aoe, intensity] = truth;
     let out = PyDict::new(py);
     out.set_item("mosaic", array2(py, dn, h, w)?)?;
@@ -166,7 +172,8 @@ pub fn stokes_maps<'py>(
         return Err(PyValueError::new_err(format!("mosaic: shape ({h}, {w}); expected at least 2 × 2")));
     }
     let dn = Borrowed::new("mosaic", mosaic)?.mosaic().to_f32(w, h);
-    let rec = Reconstructor::new(&Default::default(), finite("black_level_dn", black_level_dn)?, &Channel::ALL).map_err(py_err)?;
+    let rec = Reconstructor::new(&Default::default(), finite("black_level_dn", black_level_dn)?, &Channel::ALL)
+        .map_err(py_err)?;
     let (aop, dolp, intensity) = py.detach(|| {
         let img = demosaic(&dn, w, h, &layout, &rec, f64::MAX);
         let centre = bpins_core::camera::Intrinsics::new(bpins_core::camera::Projection::Pinhole, 1.0, 0.0, 0.0);

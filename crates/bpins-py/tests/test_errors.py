@@ -33,7 +33,7 @@ def test_bad_sun_and_attitude(compass):
         compass.heading(m, sun_azimuth_deg=40.0, sun_elevation_deg=float("nan"))
     with pytest.raises(ValueError, match="the sun: give sun_azimuth_deg and sun_elevation_deg"):
         compass.heading(m, sun_azimuth_deg=40.0)
-    with pytest.raises(ValueError, match="tilt_sigma_deg = -1.0: expected a 1σ ≥ 0"):
+    with pytest.raises(ValueError, match="tilt_sigma_deg = -1: expected a 1σ ≥ 0"):
         compass.heading(m, tilt_sigma_deg=-1.0, **sun())
     with pytest.raises(TypeError, match="time_utc"):
         compass.heading(m, time_utc="noon", latitude_deg=1.0, longitude_deg=2.0)
