@@ -24,6 +24,7 @@ macro_rules! bail {
 
 mod exr;
 mod images;
+pub mod lab;
 mod spec;
 mod toml_out;
 mod validate;
@@ -33,6 +34,7 @@ use std::fs;
 use std::path::{Component, Path, PathBuf};
 
 pub use exr::{read_exr_layers, write_exr_layers, ExrLayers};
+pub use lab::{LabCapture, LabFrame};
 pub use spec::FORMAT;
 pub use writer::CaptureWriter;
 
