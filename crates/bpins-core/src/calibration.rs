@@ -236,6 +236,16 @@ impl Calibration {
         Ok(c)
     }
 
+    /// Writes the per-pixel maps (if any) as `dir/pixels.exr` ([`PIXELS_FILE`]), the
+    /// file `to_toml`'s `[pixels]` names: call it for the folder `calibration.toml`
+    /// goes to.
+    #[cfg(feature = "io")]
+    pub fn write_pixels(&self, dir: &Path) -> Result<()> {
+        let Some(px) = &self.pixels else { return Ok(()) };
+        let present = px.present();
+        crate::capture::write_exr_layers(&dir.join(PIXELS_FILE), px.width_px as u32, px.height_px as u32, &present)
+    }
+
     /// Reads a calibration file.
     #[cfg(feature = "io")]
     pub fn load(path: &Path) -> Result<Self> {

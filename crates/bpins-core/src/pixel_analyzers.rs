@@ -412,8 +412,10 @@ mod tests {
                 (0..3).map(|r| (0..4).map(|k| c.rows[r][k] * (val[k] - c.offset_dn[k])).sum::<f64>()).collect();
             let want = field(u0 as f64 + 3.5, v0 as f64 + 3.5);
             for r in 0..3 {
-                // Exact up to the second-order term (flaw × gradient × position): < 0.05 DN.
-                assert!((st[r] - want[r]).abs() < 0.05, "cell {idx}: {st:?} vs {want:?}");
+                // Exact up to the second-order term Σ w_p δa_p·(∇S·d_p) (flaw × gradient ×
+                // offset, here 10 % × 3 DN/px × 3 px, averaged over 16 pixels): < 0.2 DN
+                // of 2000 (1e-4).
+                assert!((st[r] - want[r]).abs() < 0.2, "cell {idx}: {st:?} vs {want:?}");
             }
         }
     }

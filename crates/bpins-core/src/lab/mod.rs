@@ -16,7 +16,10 @@
 
 pub mod flat;
 pub mod malus;
+pub mod output;
 pub mod photon_transfer;
+pub mod report;
+pub mod simulate;
 pub mod summary;
 
 use crate::capture::LabCapture;
@@ -136,8 +139,32 @@ pub fn calibrate(lab: &LabCapture, progress: &dyn Fn(usize, usize)) -> Result<La
     let mut maps = PixelMaps::nominal(w, h, mosaic);
     let mut sigma = None;
     let mut malus_residual_dn = None;
+    let fit = sums.solve(&angles);
+    // Photon transfer.
+    let photon_transfer = match &dark {
+        None => {
+            leave("conversion gain, read noise, linearity", "photon transfer needs a dark frame".into());
+            None
+        }
+        Some(d) => {
+            let refs: Vec<(f64, &[f32])> = unpol_frames.iter().map(|(e, f)| (*e, f.as_slice())).collect();
+            match photon_transfer::photon_transfer(&refs, d, full) {
+                Ok(p) => {
+                    if let Some(note) = &p.linearity_note {
+                        leave("linearity error", note.clone());
+                    }
+                    Some(p)
+                }
+                Err(why) => {
+                    leave("conversion gain, read noise, linearity", why);
+                    None
+                }
+            }
+        }
+    };
+
     let chan = |i: usize| Layout::dofp_channel(&mosaic, i % w, i / w).index();
-    match sums.solve(&angles) {
+    match fit {
         Ok(fit) => {
             // Pooled residual variance per channel (good pixels).
             let mut pool = [(0.0f64, 0.0f64); 4];
@@ -149,9 +176,35 @@ pub fn calibrate(lab: &LabCapture, progress: &dyn Fn(usize, usize)) -> Result<La
             }
             let var_k = pool.map(|(s, c)| if c > 0.0 { s / c } else { f64::NAN });
             malus_residual_dn = Some(var_k.map(f64::sqrt));
+            // The noise model: photon transfer's, else each channel's residual taken as
+            // shot noise of its mean signal (K_eff = σ²/ȳ).
+            // The offset's own 1σ: the dark frames' read noise over their number (not
+            // known without photon transfer or 2+ dark frames: then left out).
+            let offset_sigma_dn = match (&dark, &photon_transfer) {
+                (Some(d), Some(p)) => p.read_noise_dn / (d.frames as f64).sqrt(),
+                (Some(d), None) => d.noise_dn.as_ref().map_or(0.0, |m| {
+                    (m.iter().map(|&x| (x as f64).powi(2)).sum::<f64>() / m.len() as f64 / d.frames as f64).sqrt()
+                }),
+                _ => 0.0,
+            };
+            let noise_k: Vec<malus::PixelNoise> = (0..4)
+                .map(|k| match &photon_transfer {
+                    Some(p) => malus::PixelNoise {
+                        read_noise_dn: p.read_noise_dn,
+                        k_dn_per_e: p.conversion_gain_dn_per_e,
+                        offset_sigma_dn,
+                    },
+                    None => {
+                        let (s, c) = (0..n)
+                            .filter(|&i| !bad[i] && chan(i) == k)
+                            .fold((0.0, 0.0), |(s, c), i| (s + fit.coef[i][0], c + 1.0));
+                        malus::PixelNoise { read_noise_dn: 0.0, k_dn_per_e: var_k[k] / (s / c), offset_sigma_dn }
+                    }
+                })
+                .collect();
             let per_px: Vec<([f64; 3], [f64; 3])> = (0..n)
                 .into_par_iter()
-                .map(|i| malus::analyzer_of(fit.coef[i], var_k[chan(i)], &fit.cov_unit))
+                .map(|i| malus::analyzer_of(fit.coef[i], &fit.coef_cov(i, &noise_k[chan(i)])))
                 .collect();
             let mean_g = mean_good(&bad, |i| per_px[i].0[0]);
             let ch_means: Vec<[f64; 3]> = (0..4)
@@ -213,29 +266,6 @@ pub fn calibrate(lab: &LabCapture, progress: &dyn Fn(usize, usize)) -> Result<La
             format!("{bad_count} pixel(s) saturated or at zero in a polarized flat: given their channel's mean"),
         );
     }
-
-    // Photon transfer.
-    let photon_transfer = match &dark {
-        None => {
-            leave("conversion gain, read noise, linearity", "photon transfer needs a dark frame".into());
-            None
-        }
-        Some(d) => {
-            let refs: Vec<(f64, &[f32])> = unpol_frames.iter().map(|(e, f)| (*e, f.as_slice())).collect();
-            match photon_transfer::photon_transfer(&refs, d, full) {
-                Ok(p) => {
-                    if let Some(note) = &p.linearity_note {
-                        leave("linearity error", note.clone());
-                    }
-                    Some(p)
-                }
-                Err(why) => {
-                    leave("conversion gain, read noise, linearity", why);
-                    None
-                }
-            }
-        }
-    };
 
     // Flat field.
     let intr = crate::camera::Intrinsics {
