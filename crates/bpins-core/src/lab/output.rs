@@ -22,21 +22,37 @@ pub struct MapFile {
     pub high: f64,
 }
 
-/// Every map of `cal` by name and unit: the pixel maps, their 1σ, the dark noise.
-pub fn maps_of(cal: &LabCalibration) -> Vec<(String, &'static str, &[f32])> {
-    let mut out: Vec<(String, &'static str, &[f32])> = Vec::new();
+/// Every map of `cal` by name and unit: the pixel maps, the analyzer angles' offset
+/// from their channel's nominal angle (`analyzer_offset_deg`, what a picture can
+/// show), the 1σ maps, the dark noise.
+pub fn maps_of(cal: &LabCalibration) -> Vec<(String, &'static str, std::borrow::Cow<'_, [f32]>)> {
+    use std::borrow::Cow;
+    let mut out: Vec<(String, &'static str, Cow<[f32]>)> = Vec::new();
     let units = [("offset_dn", "DN"), ("gain", "1"), ("analyzer_deg", "deg"), ("eps", "1")];
     for (name, m) in cal.maps.present() {
         let unit = units.iter().find(|u| u.0 == name).map_or("1", |u| u.1);
-        out.push((name.to_string(), unit, m));
+        out.push((name.to_string(), unit, Cow::Borrowed(m)));
+    }
+    let px = &cal.maps;
+    if let Some(a) = &px.analyzer_deg {
+        let off = a
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| {
+                let nominal =
+                    crate::sensor::Layout::dofp_channel(&px.mosaic, i % px.width_px, i / px.width_px).angle_deg();
+                (x as f64 - nominal) as f32
+            })
+            .collect();
+        out.push(("analyzer_offset_deg".into(), "deg", Cow::Owned(off)));
     }
     if let Some(s) = &cal.sigma {
-        out.push(("analyzer_deg_sigma".into(), "deg", &s.analyzer_deg));
-        out.push(("eps_sigma".into(), "1", &s.eps));
-        out.push(("gain_sigma".into(), "1", &s.gain));
+        out.push(("analyzer_deg_sigma".into(), "deg", Cow::Borrowed(&s.analyzer_deg)));
+        out.push(("eps_sigma".into(), "1", Cow::Borrowed(&s.eps)));
+        out.push(("gain_sigma".into(), "1", Cow::Borrowed(&s.gain)));
     }
     if let Some(n) = cal.dark.as_ref().and_then(|d| d.noise_dn.as_deref()) {
-        out.push(("dark_noise_dn".into(), "DN", n));
+        out.push(("dark_noise_dn".into(), "DN", Cow::Borrowed(n)));
     }
     out
 }
@@ -45,12 +61,12 @@ pub fn maps_of(cal: &LabCalibration) -> Vec<(String, &'static str, &[f32])> {
 pub fn write_maps(cal: &LabCalibration, dir: &Path) -> Result<Vec<MapFile>> {
     let (w, h) = (cal.maps.width_px as u32, cal.maps.height_px as u32);
     let maps = maps_of(cal);
-    let layers: Vec<(&str, &[f32])> = maps.iter().map(|(n, _, m)| (n.as_str(), *m)).collect();
+    let layers: Vec<(&str, &[f32])> = maps.iter().map(|(n, _, m)| (n.as_str(), m.as_ref())).collect();
     crate::capture::write_exr_layers(&dir.join("maps.exr"), w, h, &layers)?;
     let png_dir = dir.join("png");
     std::fs::create_dir_all(&png_dir).map_err(|e| Error::Io { path: png_dir.clone(), source: e })?;
     let mut files = Vec::new();
-    for (name, unit, m) in maps {
+    for (name, unit, m) in &maps {
         let mut sorted: Vec<f32> = m.iter().copied().filter(|x| x.is_finite()).collect();
         sorted.sort_by(f32::total_cmp);
         let at = |q: f64| sorted.get(((sorted.len().max(1) - 1) as f64 * q) as usize).copied().unwrap_or(0.0) as f64;
@@ -66,7 +82,7 @@ pub fn write_maps(cal: &LabCalibration, dir: &Path) -> Result<Vec<MapFile>> {
             img.write_to(out, image::ImageFormat::Png)
                 .map_err(|e| Error::Capture { path: path.clone(), message: format!("cannot write the PNG: {e}") })
         })?;
-        files.push(MapFile { name, unit: unit.into(), png: rel, low, high });
+        files.push(MapFile { name: name.clone(), unit: (*unit).into(), png: rel, low, high });
     }
     Ok(files)
 }
