@@ -141,8 +141,8 @@ pub struct Args {
     /// Lab: polarizer angles, degrees (image frame).
     #[arg(long, value_delimiter = ',', default_value = "0,15,30,45,60,75,90,105,120,135,150,165")]
     lab_angles_deg: Vec<f64>,
-    /// Lab: exposures of the unpolarized flats, relative (empty: none).
-    #[arg(long, value_delimiter = ',', default_value = "0.3,0.6,1.2")]
+    /// Lab: exposures of the unpolarized flats, relative (the flag alone: none).
+    #[arg(long, value_delimiter = ',', num_args = 0.., default_value = "0.3,0.6,1.2")]
     lab_exposures: Vec<f64>,
     /// Lab: number of dark frames.
     #[arg(long, default_value_t = 1)]

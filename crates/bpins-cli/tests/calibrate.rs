@@ -134,7 +134,6 @@ fn a_simulated_lab_capture_is_calibrated_and_partial_ones_say_what_they_lack() {
         "--lab-angles-deg",
         "30",
         "--lab-exposures",
-        "",
     ]);
     let r = ok(&["calibrate", &s(&one), "--out", &s(&tmp.path().join("one-cal"))]);
     assert!(r.stdout.contains("not determined: analyzer_deg, eps") && r.stdout.contains("has 1 (30°)"), "{}", r.stdout);
