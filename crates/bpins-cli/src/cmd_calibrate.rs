@@ -37,6 +37,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let pb = crate::progress::bar(lab.frames.len() as u64, "frames");
     let cal = calibrate(&lab, &|done, _| pb.set_position(done as u64)).context("calibrating")?;
     pb.finish_and_clear();
+    let t_fit = t0.elapsed().as_secs_f64();
 
     println!("offsets: {}", cal.offset_source);
     println!(
@@ -112,11 +113,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         &a.out.join("report.html"),
         report::report_html(&cal, &a.lab.display().to_string(), &maps).as_bytes(),
     )?;
+    let t_all = t0.elapsed().as_secs_f64();
     eprintln!(
-        "wrote {} (+ pixels.exr), maps.exr, png/, summary.json, report.html to {} in {:.1} s",
+        "wrote {} (+ pixels.exr), maps.exr, png/, summary.json, report.html to {} in {t_all:.1} s \
+         (reading and fitting {t_fit:.1} s, writing {:.1} s)",
         cal_path.display(),
         a.out.display(),
-        t0.elapsed().as_secs_f64()
+        t_all - t_fit
     );
     Ok(())
 }

@@ -154,8 +154,8 @@ pub struct Args {
     /// Lab: white spread (1σ) of each pixel's analyzer angle, degrees.
     #[arg(long, default_value_t = 0.0)]
     pixel_angle_sigma_deg: f64,
-    /// Lab: change of the analyzer angles across the die's width and height, degrees.
-    #[arg(long, value_delimiter = ',', num_args = 2, allow_hyphen_values = true, default_value = "0,0")]
+    /// Lab: change of the analyzer angles across the die's width and height, degrees (X,Y).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0,0")]
     pixel_angle_gradient_deg: Vec<f64>,
     /// Lab: white spread (1σ) of each pixel's extinction ratio ε.
     #[arg(long, default_value_t = 0.0)]
@@ -331,6 +331,9 @@ fn run_lab(a: &Args, model: &bpins_core::effects::Model) -> anyhow::Result<()> {
         if !(v >= 0.0 && v.is_finite()) {
             bail!("{name} {v} must be a finite number ≥ 0");
         }
+    }
+    if a.pixel_angle_gradient_deg.len() != 2 || a.pixel_angle_gradient_deg.iter().any(|x| !x.is_finite()) {
+        bail!("--pixel-angle-gradient-deg takes two finite angles X,Y in degrees");
     }
     let c = build_capture(a)?;
     let g = c.sensor.geometry;

@@ -243,7 +243,7 @@ impl Calibration {
     pub fn write_pixels(&self, dir: &Path) -> Result<()> {
         let Some(px) = &self.pixels else { return Ok(()) };
         let present = px.present();
-        crate::capture::write_exr_layers(&dir.join(PIXELS_FILE), px.width_px as u32, px.height_px as u32, &present)
+        crate::capture::write_exr_layers_fast(&dir.join(PIXELS_FILE), px.width_px as u32, px.height_px as u32, &present)
     }
 
     /// Reads a calibration file.

@@ -62,14 +62,19 @@ pub fn write_maps(cal: &LabCalibration, dir: &Path) -> Result<Vec<MapFile>> {
     let (w, h) = (cal.maps.width_px as u32, cal.maps.height_px as u32);
     let maps = maps_of(cal);
     let layers: Vec<(&str, &[f32])> = maps.iter().map(|(n, _, m)| (n.as_str(), m.as_ref())).collect();
-    crate::capture::write_exr_layers(&dir.join("maps.exr"), w, h, &layers)?;
+    crate::capture::write_exr_layers_fast(&dir.join("maps.exr"), w, h, &layers)?;
     let png_dir = dir.join("png");
     std::fs::create_dir_all(&png_dir).map_err(|e| Error::Io { path: png_dir.clone(), source: e })?;
     let mut files = Vec::new();
     for (name, unit, m) in &maps {
-        let mut sorted: Vec<f32> = m.iter().copied().filter(|x| x.is_finite()).collect();
-        sorted.sort_by(f32::total_cmp);
-        let at = |q: f64| sorted.get(((sorted.len().max(1) - 1) as f64 * q) as usize).copied().unwrap_or(0.0) as f64;
+        let mut finite: Vec<f32> = m.iter().copied().filter(|x| x.is_finite()).collect();
+        let mut at = |q: f64| {
+            if finite.is_empty() {
+                return 0.0;
+            }
+            let k = ((finite.len() - 1) as f64 * q) as usize;
+            *finite.select_nth_unstable_by(k, f32::total_cmp).1 as f64
+        };
         let (low, high) = (at(0.005), at(0.995));
         let span = if high > low { high - low } else { 1.0 };
         let px: Vec<u8> =
