@@ -59,23 +59,17 @@ fn field(c: &mut Criterion) {
         g.bench_function(format!("{name}_compass"), |b| {
             b.iter(|| black_box(compass.heading(RawImage::packed(&dn, w, h), sun, att).expect("a valid frame")))
         });
-        // The same with a lab calibration's per-pixel maps (every map present): each
-        // cell through its own analyzers (pixel_analyzers.rs).
-        let maps = bpins_core::lab::simulate::truth_maps(
-            &Model::default(),
-            &ctx.intr,
-            w,
-            h,
-            DEFAULT_MOSAIC,
-            64.0,
-            &bpins_core::lab::simulate::PixelFlaws {
-                angle_sigma_deg: 0.3,
-                angle_gradient_deg: [0.6, -0.4],
-                eps_sigma: 0.004,
-                prnu: 0.01,
-                dsnu_dn: 1.5,
-                seed: 1,
-            },
+        // The same with a lab calibration's per-pixel maps, every map present (their
+        // values those of the sensor the frame was rendered with, so the estimator
+        // sees the same sky): each cell through its own analyzers (pixel_analyzers.rs).
+        let mut maps = bpins_core::pixel_analyzers::PixelMaps::nominal(w, h, DEFAULT_MOSAIC);
+        maps.offset_dn = Some(vec![64.0; w * h]);
+        maps.gain = Some(vec![1.0; w * h]);
+        maps.eps = Some(vec![0.0; w * h]);
+        maps.analyzer_deg = Some(
+            (0..w * h)
+                .map(|i| bpins_core::sensor::Layout::dofp_channel(&DEFAULT_MOSAIC, i % w, i / w).angle_deg() as f32)
+                .collect(),
         );
         let cal =
             bpins_core::calibration::Calibration { pixels: Some(std::sync::Arc::new(maps)), ..Default::default() };
