@@ -195,7 +195,10 @@ impl Calibration {
             match (key.as_str(), v) {
                 ("format", _) => {}
                 ("source", toml::Value::String(s)) => c.source = s.clone(),
-                ("chi2_per_dof", v) => c.chi2_per_dof = number(v),
+                ("chi2_per_dof", v) => match number(v) {
+                    Some(x) if x.is_finite() && x >= 0.0 => c.chi2_per_dof = Some(x),
+                    _ => return Err(err(format!("chi2_per_dof = {v} must be a finite number ≥ 0"))),
+                },
                 ("effects" | "sigma", toml::Value::Table(effects)) => {
                     for (effect, params) in effects {
                         let Some(params) = params.as_table() else {
@@ -209,6 +212,10 @@ impl Calibration {
                                 c.effects
                                     .set(effect, param, x)
                                     .map_err(|e| err(format!("{key}.{effect}.{param}: {e}")))?;
+                            } else if x.is_nan() || x < 0.0 {
+                                return Err(err(format!(
+                                    "{key}.{effect}.{param} = {x} must be a 1σ ≥ 0 (inf: not measured)"
+                                )));
                             } else {
                                 c.sigmas.push((format!("{effect}.{param}"), x));
                             }

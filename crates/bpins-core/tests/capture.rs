@@ -121,7 +121,7 @@ fn toml_errors_name_file_key_and_frame() {
         format!("{}{}", &t[..i], t[i..].replacen("sun_elevation_deg = 25.0", "sun_elevation_deg = 95", 1))
     });
     let e = load_err(&dir);
-    assert_eq!(e, format!("{toml_s}: frames[3] (frames/f003.png): sun_elevation_deg = 95 is above 90°"));
+    assert_eq!(e, format!("{toml_s}: frames[3] (frames/f003.png): sun_elevation_deg = 95 is outside its range [-90, 90] (from the nadir to the zenith)"));
 
     let (_t, dir) = fixture();
     set_toml(&dir, |t| t.replacen("bit_depth = 12", "bit_depth = 20", 1));

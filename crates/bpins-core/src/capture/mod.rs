@@ -25,6 +25,7 @@ macro_rules! bail {
 mod exr;
 mod images;
 pub mod lab;
+pub mod ranges;
 mod spec;
 mod toml_out;
 mod validate;
@@ -158,6 +159,23 @@ impl Capture {
             }
         }
         Ok(capture)
+    }
+
+    /// Parses and validates the text of a `capture.toml` that lies (or is to lie) in
+    /// `dir`, as [`Capture::load`] does, without looking for the frame files: for a
+    /// capture described in code or in another language before it is written.
+    pub fn parse(dir: &Path, text: &str) -> Result<Capture> {
+        let toml_path = dir.join("capture.toml");
+        let capture = spec::parse(dir, &toml_path, text)?;
+        validate::validate(&capture, &toml_path)?;
+        Ok(capture)
+    }
+
+    /// Checks every range and rule of CAPTURE.md (docs/ranges.md), as reading and
+    /// writing do; for a capture built in code before it is used. Errors are reported
+    /// against [`Capture::toml_path`].
+    pub fn validate(&self) -> Result<()> {
+        validate::validate(self, &self.toml_path())
     }
 
     /// `capture.toml` of this capture.

@@ -246,9 +246,8 @@ fn parse_frame(p: &Path, label: &str, f: RawFrame) -> Result<FrameSpec> {
         }
         (true, false) => match (f.sun_azimuth_deg, f.sun_elevation_deg) {
             (Some(az), Some(el)) => {
-                if !az.is_finite() {
-                    bail!(p, "{label}: sun_azimuth_deg = {az} is not a finite angle");
-                }
+                // Checked before the wrap into [0, 360), which would hide 1e308.
+                super::ranges::SUN_AZIMUTH_DEG.check(p, label, az)?;
                 SunPosition::given(az, el)
             }
             (Some(_), None) => {

@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
 
 use super::spec::{frame_label, image_kind};
-use super::{Capture, FrameSpec, LensSpec, SensorSpec};
+use super::{ranges, Capture, FrameSpec, LensSpec, SensorSpec};
 use crate::sensor::{Channel, Layout};
 use crate::sky::sun::SunSource;
 use crate::Result;
@@ -35,16 +35,10 @@ pub(crate) fn validate(c: &Capture, toml_path: &Path) -> Result<()> {
 /// The `[sensor]` and `[lens]` rules every capture kind shares.
 pub(crate) fn validate_sensor_lens(sensor: &SensorSpec, lens: &LensSpec, p: &Path) -> Result<()> {
     let g = &sensor.geometry;
-    if g.width_px == 0 || g.height_px == 0 {
-        bail!(p, "[sensor] width_px × height_px = {} × {} must both be > 0", g.width_px, g.height_px);
-    }
-    if !(g.pixel_pitch_um.is_finite() && g.pixel_pitch_um > 0.0) {
-        bail!(p, "[sensor] pixel_pitch_um = {} must be finite and > 0", g.pixel_pitch_um);
-    }
-    let bits = sensor.bit_depth;
-    if !(1..=16).contains(&bits) {
-        bail!(p, "[sensor] bit_depth = {bits} must be 1 … 16");
-    }
+    ranges::WIDTH_PX.check(p, "", g.width_px as f64)?;
+    ranges::HEIGHT_PX.check(p, "", g.height_px as f64)?;
+    ranges::PIXEL_PITCH_UM.check(p, "", g.pixel_pitch_um)?;
+    ranges::BIT_DEPTH.check(p, "", sensor.bit_depth as f64)?;
     let full = sensor.full_scale_dn();
     let b = sensor.black_level_dn;
     if !(b.is_finite() && b >= 0.0 && b < full) {
@@ -72,13 +66,19 @@ pub(crate) fn validate_sensor_lens(sensor: &SensorSpec, lens: &LensSpec, p: &Pat
             }
         }
     }
-    let fl = lens.focal_length_mm;
-    if !(fl.is_finite() && fl > 0.0) {
-        bail!(p, "[lens] focal_length_mm = {fl} must be finite and > 0");
-    }
+    ranges::FOCAL_LENGTH_MM.check(p, "", lens.focal_length_mm)?;
     let (px, py) = lens.principal_point_px;
-    if !(px.is_finite() && py.is_finite()) {
-        bail!(p, "[lens] principal_point_px = [{px}, {py}] must be finite");
+    let (w, h) = (g.width_px as f64, g.height_px as f64);
+    if !((-w..=2.0 * w).contains(&px) && (-h..=2.0 * h).contains(&py)) {
+        bail!(
+            p,
+            "[lens] principal_point_px = [{px}, {py}] is more than one image size ({w} × {h} px) \
+             outside the image: x must be in [{}, {}], y in [{}, {}]",
+            -w,
+            2.0 * w,
+            -h,
+            2.0 * h
+        );
     }
     Ok(())
 }
@@ -116,43 +116,24 @@ pub(crate) fn validate_frame_file(p: &Path, label: &str, file: &Path, layout: &L
 fn validate_sun(p: &Path, label: &str, f: &FrameSpec) -> Result<()> {
     match &f.sun.source {
         SunSource::Given => {
-            let (az, el) = (f.sun.azimuth_deg, f.sun.elevation_deg);
-            if !az.is_finite() {
-                bail!(p, "{label}: sun_azimuth_deg = {az} is not a finite angle");
-            }
-            if el.is_nan() || el > 90.0 {
-                bail!(p, "{label}: sun_elevation_deg = {el} is above 90°");
-            }
-            if el < -90.0 {
-                bail!(p, "{label}: sun_elevation_deg = {el} is below −90°");
-            }
+            ranges::SUN_AZIMUTH_DEG.check(p, label, f.sun.azimuth_deg)?;
+            ranges::SUN_ELEVATION_DEG.check(p, label, f.sun.elevation_deg)?;
         }
         SunSource::Spa { latitude_deg, longitude_deg, .. } => {
-            if !(-90.0..=90.0).contains(latitude_deg) {
-                bail!(p, "{label}: latitude_deg = {latitude_deg} is outside [−90°, 90°]");
-            }
-            if !(-180.0..=180.0).contains(longitude_deg) {
-                bail!(p, "{label}: longitude_deg = {longitude_deg} is outside [−180°, 180°]");
-            }
+            ranges::LATITUDE_DEG.check(p, label, *latitude_deg)?;
+            ranges::LONGITUDE_DEG.check(p, label, *longitude_deg)?;
         }
     }
-    if let Some(h) = f.heading_deg {
-        if !h.is_finite() {
-            bail!(p, "{label}: heading_deg = {h} is not a finite angle");
-        }
-    }
-    for (key, t) in [("tilt_x_deg", f.tilt_x_deg), ("tilt_y_deg", f.tilt_y_deg)] {
-        if let Some(t) = t {
-            if !(t.is_finite() && t.abs() < 90.0) {
-                bail!(p, "{label}: {key} = {t} must be strictly between −90° and 90°");
-            }
-        }
-    }
-    for (key, s) in [("tilt_sigma_deg", f.tilt_sigma_deg), ("sun_sigma_deg", f.sun_sigma_deg)] {
-        if let Some(s) = s {
-            if !(s.is_finite() && (0.0..=45.0).contains(&s)) {
-                bail!(p, "{label}: {key} = {s} must be a 1σ between 0° and 45°");
-            }
+    let optional = [
+        (ranges::HEADING_DEG, f.heading_deg),
+        (ranges::TILT_X_DEG, f.tilt_x_deg),
+        (ranges::TILT_Y_DEG, f.tilt_y_deg),
+        (ranges::TILT_SIGMA_DEG, f.tilt_sigma_deg),
+        (ranges::SUN_SIGMA_DEG, f.sun_sigma_deg),
+    ];
+    for (range, v) in optional {
+        if let Some(v) = v {
+            range.check(p, label, v)?;
         }
     }
     Ok(())

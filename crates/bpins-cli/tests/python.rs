@@ -1,0 +1,61 @@
+//! The Python package in the workspace's test command: builds `crates/bpins-py` into
+//! the virtual environment `.venv` at the repository root (`maturin develop`, the
+//! `python` profile) and runs its pytest suite (`crates/bpins-py/tests`), which
+//! compares Python's headings with this CLI's, round-trips captures, checks every
+//! bad-input error, runs `examples/python/quickstart.py` and checks agreement with
+//! polanalyser. `.ci/run` makes the environment (maturin, pytest, numpy,
+//! polanalyser); without it the test says it skipped, and fails where `CI` is set.
+//! `BPINS_PYTHON` names another interpreter (one whose environment has those).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+
+fn python() -> Option<PathBuf> {
+    let p =
+        std::env::var_os("BPINS_PYTHON").map(PathBuf::from).unwrap_or_else(|| Path::new(REPO).join(".venv/bin/python"));
+    p.is_file().then_some(p)
+}
+
+#[test]
+fn the_python_package_builds_and_its_tests_pass() {
+    let Some(py) = python() else {
+        let msg = "no Python environment at .venv (run .ci/run, or see the README's Python section)";
+        if std::env::var_os("CI").is_some() {
+            panic!("{msg}");
+        }
+        println!("skipped: {msg}");
+        return;
+    };
+    let venv = py.parent().and_then(Path::parent).expect("python in <venv>/bin").to_path_buf();
+    let repo = Path::new(REPO);
+    // A target folder of its own: the outer `cargo test` may still hold the
+    // workspace's build lock while it runs this test.
+    let target = repo.join("target/python-ext");
+    let build = Command::new(&py)
+        .args(["-m", "maturin", "develop", "--locked", "--profile", "python", "-m"])
+        .arg(repo.join("crates/bpins-py/Cargo.toml"))
+        .env("VIRTUAL_ENV", &venv)
+        .env("CARGO_TARGET_DIR", &target)
+        .output()
+        .expect("maturin runs");
+    assert!(
+        build.status.success(),
+        "maturin develop failed:\n{}\n{}",
+        String::from_utf8_lossy(&build.stdout),
+        String::from_utf8_lossy(&build.stderr)
+    );
+    let test = Command::new(&py)
+        .args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
+        .arg(repo.join("crates/bpins-py/tests"))
+        .env("BPINS_CLI", env!("CARGO_BIN_EXE_bpins"))
+        .env("BPINS_SAMPLES", repo.join("samples"))
+        .current_dir(repo)
+        .output()
+        .expect("pytest runs");
+    let out = String::from_utf8_lossy(&test.stdout);
+    println!("{out}");
+    assert!(test.status.success(), "pytest failed:\n{out}\n{}", String::from_utf8_lossy(&test.stderr));
+    assert!(out.contains("passed") && !out.contains("skipped"), "pytest skipped tests:\n{out}");
+}

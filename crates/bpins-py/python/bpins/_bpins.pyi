@@ -1,0 +1,118 @@
+"""Type stubs of the native module (crates/bpins-py/src). Units are in the names."""
+
+import datetime
+import os
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+_Path = Union[str, "os.PathLike[str]"]
+_Mosaic = Union[npt.NDArray[np.uint8], npt.NDArray[np.uint16], npt.NDArray[np.float32]]
+_Layout = Sequence[Sequence[float]]
+
+class Heading:
+    """The heading of one frame, or why there is none."""
+
+    heading_deg: Optional[float]
+    """Azimuth of the image top, degrees from North toward East, in [0, 360); None without a heading."""
+    sigma_deg: Optional[float]
+    """1σ of the heading, degrees."""
+    sigma_parts_deg: Optional[Dict[str, float]]
+    """The parts of the 1σ: fit_deg, jackknife_deg, tilt_deg, sun_deg, floor_deg."""
+    used_fraction: float
+    """Fraction of the image the heading rests on (0…1)."""
+    residual_rms_deg: float
+    """Weighted RMS angle residual of the used sky, degrees."""
+    reason: Optional[str]
+    """Why there is no heading; None where there is one."""
+    extractor: str
+    cells_total: int
+    cells_used: int
+    zero_copy: bool
+    """Whether the mosaic was read in place (False: columns not adjacent, copied)."""
+
+class Compass:
+    """The front door: live mosaics in, headings with an honest 1σ out. One per camera and thread."""
+
+    def __init__(
+        self,
+        width_px: int,
+        height_px: int,
+        focal_length_px: float,
+        *,
+        principal_point_px: Optional[Tuple[float, float]] = None,
+        projection: str = "pinhole",
+        bit_depth: int = 12,
+        black_level_dn: float = 0.0,
+        mosaic: _Layout = ((90, 45), (135, 0)),
+        calibration: Optional[_Path] = None,
+        extractor: str = "sun_vector",
+        horizon_margin_deg: Optional[float] = None,
+    ) -> None: ...
+    @staticmethod
+    def from_capture(path: _Path, *, calibration: Optional[_Path] = None, extractor: str = "sun_vector") -> "Compass": ...
+    @property
+    def shape(self) -> Tuple[int, int]:
+        """(height_px, width_px)."""
+    def heading(
+        self,
+        mosaic: _Mosaic,
+        *,
+        sun_azimuth_deg: Optional[float] = None,
+        sun_elevation_deg: Optional[float] = None,
+        time_utc: Optional[datetime.datetime] = None,
+        latitude_deg: Optional[float] = None,
+        longitude_deg: Optional[float] = None,
+        sun_sigma_deg: float = 0.0,
+        tilt_x_deg: float = 0.0,
+        tilt_y_deg: float = 0.0,
+        tilt_sigma_deg: float = 0.0,
+    ) -> Heading:
+        """The heading of one raw mosaic (2-D, the sensor's shape; uint8, uint16 or float32 DN).
+
+        The sun as angles (degrees) or as a timezone-aware datetime and a place (NREL SPA).
+        The GIL is released while it computes; the mosaic is not copied.
+        """
+
+def simulate(
+    width_px: int = 612,
+    height_px: int = 512,
+    *,
+    heading_deg: float = 0.0,
+    sun_azimuth_deg: float = 40.0,
+    sun_elevation_deg: float = 25.0,
+    tilt_x_deg: float = 0.0,
+    tilt_y_deg: float = 0.0,
+    effects: Optional[Dict[str, Dict[str, float]]] = None,
+    seed: int = 1,
+    focal_length_mm: float = 8.0,
+    pixel_pitch_um: float = 13.8,
+    projection: str = "pinhole",
+    bit_depth: int = 12,
+    black_level_dn: float = 64.0,
+    mosaic: _Layout = ((90, 45), (135, 0)),
+    peak_fraction: float = 0.7,
+    read_noise_dn: float = 1.0,
+    system_gain_dn_per_e: float = 0.1,
+    dmax: float = 0.6,
+) -> Dict[str, Any]:
+    """One simulated DoFP frame ("mosaic", uint16 DN) and its noise-free truth
+    ("aop_deg", "dolp", "aoe_deg", "intensity_dn", float32), with "focal_length_px"
+    and "principal_point_px"."""
+
+def stokes_maps(
+    mosaic: _Mosaic, *, black_level_dn: float = 0.0, mosaic_layout: _Layout = ((90, 45), (135, 0))
+) -> Dict[str, npt.NDArray[np.float32]]:
+    """AoP (degrees, image frame), DoLP and intensity (DN) of a raw mosaic, demosaiced bilinearly."""
+
+def read_capture(path: _Path, frames: Optional[Sequence[int]] = None) -> Tuple[Dict[str, Any], List[npt.NDArray[np.float32]]]:
+    """capture.toml as a dict and the frames' DN as float32 arrays."""
+
+def write_capture(path: _Path, meta: Dict[str, Any], mosaics: Sequence[_Mosaic]) -> None:
+    """A new capture folder from a capture.toml dict and one mosaic per frame."""
+
+def effects() -> List[Dict[str, Any]]:
+    """The effect catalog: name, summary, source, stage and params (name, unit, neutral, typical, min, max, doc)."""

@@ -1,0 +1,319 @@
+//! `bpins.Compass`: the front door (`bpins_core::compass`) for numpy mosaics. Built
+//! once from the camera, the sensor and a calibration; per frame a 2-D mosaic, the
+//! sun and the attitude in, a `Heading` out. The mosaic is read in place (no copy)
+//! and the GIL is released while the compass works, so other Python threads run.
+
+use crate::array::{Borrowed, Mosaic};
+use crate::{finite, py_err};
+use bpins_core::calibration::Calibration;
+use bpins_core::camera::{Intrinsics, Projection};
+use bpins_core::capture::Capture;
+use bpins_core::compass::{self as core, Attitude, CompassConfig, CompassError, Sun};
+use bpins_core::heading::field::{FieldHeading, RawImage};
+use bpins_core::heading::Extractor;
+use bpins_core::sensor::{Channel, Layout};
+use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+/// The heading of one frame: `heading_deg` and `sigma_deg` (1σ), both degrees, or
+/// `None` with `reason` saying why the sky gave none.
+#[pyclass(frozen, get_all, module = "bpins")]
+pub struct Heading {
+    /// Azimuth of the image top, degrees from North toward East, in [0, 360); None without a heading.
+    heading_deg: Option<f64>,
+    /// 1σ of the heading, degrees; None without a heading.
+    sigma_deg: Option<f64>,
+    /// The parts of the 1σ (fit, jackknife, tilt, sun, floor), degrees.
+    sigma_parts_deg: Option<std::collections::BTreeMap<String, f64>>,
+    /// Fraction of the image the heading rests on (cells used / cells in the grid).
+    used_fraction: f64,
+    /// Weighted RMS angle residual of the used sky, degrees.
+    residual_rms_deg: f64,
+    /// Why there is no heading (None where there is one).
+    reason: Option<String>,
+    /// The extractor that read it ("sun_vector" or "meridian_line").
+    extractor: String,
+    cells_total: usize,
+    cells_used: usize,
+    /// Whether the mosaic was read in place (False: a copy, for arrays whose columns are not adjacent).
+    zero_copy: bool,
+}
+
+#[pymethods]
+impl Heading {
+    fn __repr__(&self) -> String {
+        match (self.heading_deg, self.sigma_deg) {
+            (Some(h), Some(s)) => format!(
+                "Heading(heading_deg={h:.4}, sigma_deg={s:.4}, used_fraction={:.3}, residual_rms_deg={:.3})",
+                self.used_fraction, self.residual_rms_deg
+            ),
+            _ => format!("Heading(None, reason={:?})", self.reason.as_deref().unwrap_or("")),
+        }
+    }
+}
+
+fn heading_of(fix: &FieldHeading, zero_copy: bool) -> Heading {
+    let q = &fix.quality;
+    let (heading_deg, sigma_deg, sigma_parts_deg, reason) = match &fix.result {
+        Ok((h, s)) => {
+            let parts = [
+                ("fit_deg", s.fit_deg),
+                ("jackknife_deg", s.jackknife_deg),
+                ("tilt_deg", s.tilt_deg),
+                ("sun_deg", s.sun_deg),
+                ("floor_deg", s.floor_deg),
+            ];
+            let parts = parts.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
+            (Some(*h), Some(s.total_deg()), Some(parts), None)
+        }
+        Err(why) => (None, None, None, Some(why.to_string())),
+    };
+    Heading {
+        heading_deg,
+        sigma_deg,
+        sigma_parts_deg,
+        used_fraction: q.used_fraction,
+        residual_rms_deg: q.residual_rms_deg,
+        reason,
+        extractor: fix.extractor.name().to_string(),
+        cells_total: q.cells_total,
+        cells_used: q.cells_used,
+        zero_copy,
+    }
+}
+
+fn compass_err(e: CompassError) -> PyErr {
+    match e {
+        CompassError::Core(e) => py_err(e),
+        other => PyValueError::new_err(other.to_string()),
+    }
+}
+
+pub(crate) fn projection(name: &str) -> PyResult<Projection> {
+    Projection::ALL.into_iter().find(|p| p.name() == name).ok_or_else(|| {
+        let known: Vec<_> = Projection::ALL.iter().map(|p| p.name()).collect();
+        PyValueError::new_err(format!("projection = {name:?}: expected one of {}", known.join(", ")))
+    })
+}
+
+fn extractor(name: &str) -> PyResult<Extractor> {
+    Extractor::ALL.into_iter().find(|e| e.name() == name).ok_or_else(|| {
+        PyValueError::new_err(format!("extractor = {name:?}: expected \"sun_vector\" or \"meridian_line\""))
+    })
+}
+
+pub(crate) fn mosaic_of(m: [[f64; 2]; 2]) -> PyResult<[[Channel; 2]; 2]> {
+    let ch = |deg: f64| {
+        Channel::ALL.into_iter().find(|c| c.angle_deg() == deg).ok_or_else(|| {
+            PyValueError::new_err(format!("mosaic: analyzer angle {deg}; expected 0, 45, 90 or 135 (degrees)"))
+        })
+    };
+    let out = [[ch(m[0][0])?, ch(m[0][1])?], [ch(m[1][0])?, ch(m[1][1])?]];
+    let mut seen: Vec<_> = out.iter().flatten().copied().collect();
+    seen.sort();
+    seen.dedup();
+    if seen.len() != 4 {
+        return Err(PyValueError::new_err(format!("mosaic = {m:?}: expected each of 0, 45, 90, 135 once")));
+    }
+    Ok(out)
+}
+
+fn calibration(path: Option<PathBuf>) -> PyResult<Calibration> {
+    match path {
+        None => Ok(Calibration::default()),
+        Some(p) => Calibration::load(&p).map_err(|e| match e {
+            bpins_core::Error::Io { .. } => PyOSError::new_err(format!("calibration: {e}")),
+            e => PyValueError::new_err(format!("calibration: {e}")),
+        }),
+    }
+}
+
+/// The front door: live mosaics in, headings with an honest 1σ out.
+///
+/// Compass(width_px, height_px, focal_length_px, *, principal_point_px=None,
+///         projection="pinhole", bit_depth=12, black_level_dn=0.0,
+///         mosaic=((90, 45), (135, 0)), calibration=None, extractor="sun_vector",
+///         horizon_margin_deg=None)
+///
+/// Angles are degrees; the frame is the camera's (image +x right, +y down, analyzer
+/// and polarization angles counter-clockwise as displayed; CONVENTIONS.md). One
+/// compass per camera and thread.
+#[pyclass(module = "bpins")]
+pub struct Compass {
+    inner: core::Compass,
+    width_px: usize,
+    height_px: usize,
+}
+
+#[pymethods]
+impl Compass {
+    #[new]
+    #[pyo3(signature = (width_px, height_px, focal_length_px, *, principal_point_px=None, projection="pinhole",
+        bit_depth=12, black_level_dn=0.0, mosaic=[[90.0, 45.0], [135.0, 0.0]], calibration=None,
+        extractor="sun_vector", horizon_margin_deg=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        width_px: usize,
+        height_px: usize,
+        focal_length_px: f64,
+        principal_point_px: Option<(f64, f64)>,
+        projection: &str,
+        bit_depth: u32,
+        black_level_dn: f64,
+        mosaic: [[f64; 2]; 2],
+        calibration: Option<PathBuf>,
+        extractor: &str,
+        horizon_margin_deg: Option<f64>,
+    ) -> PyResult<Self> {
+        let f = finite("focal_length_px", focal_length_px)?;
+        let (cx, cy) = principal_point_px.unwrap_or(((width_px as f64 - 1.0) / 2.0, (height_px as f64 - 1.0) / 2.0));
+        let camera = Intrinsics::new(
+            self::projection(projection)?,
+            f,
+            finite("principal_point_px[0]", cx)?,
+            finite("principal_point_px[1]", cy)?,
+        );
+        let mut cfg =
+            CompassConfig::dofp(camera, width_px, height_px, bit_depth, finite("black_level_dn", black_level_dn)?);
+        cfg.mosaic = mosaic_of(mosaic)?;
+        cfg.calibration = self::calibration(calibration)?;
+        cfg.extractor = self::extractor(extractor)?;
+        if let Some(m) = horizon_margin_deg {
+            cfg.options.horizon_margin_deg = finite("horizon_margin_deg", m)?;
+        }
+        let inner = core::Compass::new(cfg).map_err(compass_err)?;
+        Ok(Compass { inner, width_px, height_px })
+    }
+
+    /// The compass for the sensor and lens a capture folder describes (its capture.toml).
+    #[staticmethod]
+    #[pyo3(signature = (path, *, calibration=None, extractor="sun_vector"))]
+    fn from_capture(path: PathBuf, calibration: Option<PathBuf>, extractor: &str) -> PyResult<Self> {
+        let c = Capture::load(&path).map_err(py_err)?;
+        let Layout::Dofp { mosaic } = c.sensor.layout else {
+            return Err(PyValueError::new_err(format!(
+                "path: {} holds a colocated capture; the compass reads DoFP mosaics",
+                path.display()
+            )));
+        };
+        let g = &c.sensor.geometry;
+        let (w, h) = (g.width_px as usize, g.height_px as usize);
+        let mut cfg = CompassConfig::dofp(c.intrinsics(), w, h, c.sensor.bit_depth, c.sensor.black_level_dn);
+        cfg.mosaic = mosaic;
+        cfg.calibration = self::calibration(calibration)?;
+        cfg.extractor = self::extractor(extractor)?;
+        let inner = core::Compass::new(cfg).map_err(compass_err)?;
+        Ok(Compass { inner, width_px: w, height_px: h })
+    }
+
+    /// The sensor's size, (height_px, width_px) as numpy writes a shape.
+    #[getter]
+    fn shape(&self) -> (usize, usize) {
+        (self.height_px, self.width_px)
+    }
+
+    /// The heading of one raw mosaic.
+    ///
+    /// heading(mosaic, *, sun_azimuth_deg=None, sun_elevation_deg=None, time_utc=None,
+    ///         latitude_deg=None, longitude_deg=None, sun_sigma_deg=0.0,
+    ///         tilt_x_deg=0.0, tilt_y_deg=0.0, tilt_sigma_deg=0.0) -> Heading
+    ///
+    /// The sun: its azimuth (from North toward East) and elevation in degrees, or a
+    /// timezone-aware `datetime` and a place (NREL SPA). The attitude: tilt about the
+    /// camera's x then y axis as the IMU reads it, degrees, each with 1σ
+    /// `tilt_sigma_deg`.
+    #[pyo3(signature = (mosaic, *, sun_azimuth_deg=None, sun_elevation_deg=None, time_utc=None,
+        latitude_deg=None, longitude_deg=None, sun_sigma_deg=0.0, tilt_x_deg=0.0, tilt_y_deg=0.0,
+        tilt_sigma_deg=0.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn heading(
+        &mut self,
+        py: Python<'_>,
+        mosaic: &Bound<'_, PyAny>,
+        sun_azimuth_deg: Option<f64>,
+        sun_elevation_deg: Option<f64>,
+        time_utc: Option<&Bound<'_, PyAny>>,
+        latitude_deg: Option<f64>,
+        longitude_deg: Option<f64>,
+        sun_sigma_deg: f64,
+        tilt_x_deg: f64,
+        tilt_y_deg: f64,
+        tilt_sigma_deg: f64,
+    ) -> PyResult<Heading> {
+        let sun = sun_of(sun_azimuth_deg, sun_elevation_deg, time_utc, latitude_deg, longitude_deg, sun_sigma_deg)?;
+        let attitude = Attitude {
+            tilt_x_deg: finite("tilt_x_deg", tilt_x_deg)?,
+            tilt_y_deg: finite("tilt_y_deg", tilt_y_deg)?,
+            sigma_deg: finite("tilt_sigma_deg", tilt_sigma_deg)?,
+        };
+        if attitude.sigma_deg < 0.0 {
+            return Err(PyValueError::new_err(format!("tilt_sigma_deg = {tilt_sigma_deg}: expected a 1σ ≥ 0")));
+        }
+        let borrowed = Borrowed::new("mosaic", mosaic)?;
+        let (h, w) = crate::array::shape2("mosaic", mosaic)?;
+        if (h, w) != (self.height_px, self.width_px) {
+            return Err(PyValueError::new_err(format!(
+                "mosaic: shape ({h}, {w}); expected the sensor's (height_px, width_px) = ({}, {})",
+                self.height_px, self.width_px
+            )));
+        }
+        let m = borrowed.mosaic();
+        let zero_copy = m.borrowed();
+        let compass = &mut self.inner;
+        let fix = py.detach(|| match &m {
+            Mosaic::U8(d, s) => {
+                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+            }
+            Mosaic::U16(d, s) => {
+                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+            }
+            Mosaic::F32(d, s) => {
+                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+            }
+        });
+        Ok(heading_of(&fix.map_err(compass_err)?, zero_copy))
+    }
+}
+
+/// The sun from the keyword arguments: angles, or a time and a place; not both.
+fn sun_of(
+    az: Option<f64>,
+    el: Option<f64>,
+    time_utc: Option<&Bound<'_, PyAny>>,
+    lat: Option<f64>,
+    lon: Option<f64>,
+    sigma: f64,
+) -> PyResult<Sun> {
+    let sigma_deg = finite("sun_sigma_deg", sigma)?;
+    if sigma_deg < 0.0 {
+        return Err(PyValueError::new_err(format!("sun_sigma_deg = {sigma}: expected a 1σ ≥ 0")));
+    }
+    match (az, el, time_utc, lat, lon) {
+        (Some(az), Some(el), None, None, None) => Ok(Sun::Angles {
+            azimuth_deg: finite("sun_azimuth_deg", az)?,
+            elevation_deg: finite("sun_elevation_deg", el)?,
+            sigma_deg,
+        }),
+        (None, None, Some(t), Some(lat), Some(lon)) => {
+            let tz = t.getattr("tzinfo").map_err(|_| {
+                pyo3::exceptions::PyTypeError::new_err("time_utc: expected a datetime.datetime with a timezone")
+            })?;
+            if tz.is_none() {
+                return Err(PyValueError::new_err(
+                    "time_utc: a naive datetime; expected a timezone-aware one (e.g. tzinfo=datetime.timezone.utc)",
+                ));
+            }
+            let time_s: f64 = t.call_method0("timestamp")?.extract()?;
+            Ok(Sun::UnixTime {
+                time_s,
+                latitude_deg: finite("latitude_deg", lat)?,
+                longitude_deg: finite("longitude_deg", lon)?,
+                sigma_deg,
+            })
+        }
+        _ => Err(PyValueError::new_err(
+            "the sun: give sun_azimuth_deg and sun_elevation_deg, or time_utc, latitude_deg and longitude_deg",
+        )),
+    }
+}

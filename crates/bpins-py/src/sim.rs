@@ -1,0 +1,189 @@
+//! `bpins.simulate` (a frame of the model with its truth) and `bpins.stokes_maps`
+//! (AoP, DoLP and intensity of a raw mosaic, for comparison with other tools).
+
+use crate::array::Borrowed;
+use crate::compass::{mosaic_of, projection};
+use crate::{finite, py_err};
+use bpins_core::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+use bpins_core::effects::EffectSet;
+use bpins_core::pipeline::{sim_chain_frame, sim_response, simulate_frame, SimSensor};
+use bpins_core::recon::{angle_maps, colocated, demosaic, Reconstructor};
+use bpins_core::sensor::{Channel, Geometry, Layout, Response};
+use bpins_core::simulate::render_colocated;
+use bpins_core::sky::sun::SunPosition;
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::collections::BTreeMap;
+
+/// A row-major `h × w` buffer as a 2-D numpy array (moved, not copied).
+fn array2<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>, h: usize, w: usize) -> PyResult<Bound<'py, PyAny>> {
+    Ok(PyArray1::from_vec(py, v).reshape([h, w])?.into_any())
+}
+
+/// `{"effect": {"param": value}}` as an effect set, errors naming the entry.
+pub(crate) fn effect_set(effects: Option<BTreeMap<String, BTreeMap<String, f64>>>) -> PyResult<EffectSet> {
+    let mut set = EffectSet::new();
+    for (effect, params) in effects.unwrap_or_default() {
+        if params.is_empty() {
+            set.enable(&effect).map_err(|e| PyValueError::new_err(format!("effects[{effect:?}]: {e}")))?;
+        }
+        for (param, v) in params {
+            set.set(&effect, &param, v)
+                .map_err(|e| PyValueError::new_err(format!("effects[{effect:?}][{param:?}]: {e}")))?;
+        }
+    }
+    Ok(set)
+}
+
+/// One simulated DoFP frame and its truth.
+///
+/// simulate(width_px=612, height_px=512, *, heading_deg=0.0, sun_azimuth_deg=40.0,
+///          sun_elevation_deg=25.0, tilt_x_deg=0.0, tilt_y_deg=0.0, effects=None,
+///          seed=1, focal_length_mm=8.0, pixel_pitch_um=13.8, projection="pinhole",
+///          bit_depth=12, black_level_dn=64.0, mosaic=((90, 45), (135, 0)),
+///          peak_fraction=0.7, read_noise_dn=1.0, system_gain_dn_per_e=0.1, dmax=0.6) -> dict
+///
+/// Returns a dict: "mosaic" (uint16, height × width, DN, with shot and read noise),
+/// "aop_deg", "dolp", "aoe_deg" and "intensity_dn" (float32, height × width: the
+/// noise-free truth at each pixel as reconstructed with the true effects known; AoP
+/// in the image frame, counter-clockwise as displayed, (−90°, 90°]), and
+/// "focal_length_px" and "principal_point_px" (the nominal camera). `effects` is
+/// {"effect": {"param": value}} with the names of `bpins.effects()`.
+#[pyfunction]
+#[pyo3(signature = (width_px=612, height_px=512, *, heading_deg=0.0, sun_azimuth_deg=40.0, sun_elevation_deg=25.0,
+    tilt_x_deg=0.0, tilt_y_deg=0.0, effects=None, seed=1, focal_length_mm=8.0, pixel_pitch_um=13.8,
+    projection="pinhole", bit_depth=12, black_level_dn=64.0, mosaic=[[90.0, 45.0], [135.0, 0.0]],
+    peak_fraction=0.7, read_noise_dn=1.0, system_gain_dn_per_e=0.1, dmax=0.6))]
+#[allow(clippy::too_many_arguments)]
+pub fn simulate<'py>(
+    py: Python<'py>,
+    width_px: u32,
+    height_px: u32,
+    heading_deg: f64,
+    sun_azimuth_deg: f64,
+    sun_elevation_deg: f64,
+    tilt_x_deg: f64,
+    tilt_y_deg: f64,
+    effects: Option<BTreeMap<String, BTreeMap<String, f64>>>,
+    seed: u64,
+    focal_length_mm: f64,
+    pixel_pitch_um: f64,
+    projection: &str,
+    bit_depth: u32,
+    black_level_dn: f64,
+    mosaic: [[f64; 2]; 2],
+    peak_fraction: f64,
+    read_noise_dn: f64,
+    system_gain_dn_per_e: f64,
+    dmax: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let capture = Capture {
+        dir: ".".into(),
+        sensor: SensorSpec {
+            layout: Layout::Dofp { mosaic: mosaic_of(mosaic)? },
+            geometry: Geometry { width_px, height_px, pixel_pitch_um: finite("pixel_pitch_um", pixel_pitch_um)? },
+            bit_depth,
+            black_level_dn: finite("black_level_dn", black_level_dn)?,
+        },
+        lens: LensSpec {
+            projection: self::projection(projection)?,
+            focal_length_mm: finite("focal_length_mm", focal_length_mm)?,
+            principal_point_px: ((width_px as f64 - 1.0) / 2.0, (height_px as f64 - 1.0) / 2.0),
+        },
+        frames: vec![FrameSpec {
+            file: "frames/f000.png".into(),
+            sun: SunPosition::given(
+                finite("sun_azimuth_deg", sun_azimuth_deg)?,
+                finite("sun_elevation_deg", sun_elevation_deg)?,
+            ),
+            heading_deg: Some(finite("heading_deg", heading_deg)?),
+            tilt_x_deg: Some(finite("tilt_x_deg", tilt_x_deg)?),
+            tilt_y_deg: Some(finite("tilt_y_deg", tilt_y_deg)?),
+            tilt_sigma_deg: None,
+            sun_sigma_deg: None,
+        }],
+    };
+    // The capture's own rules (ranges, sizes) before anything is rendered.
+    capture.validate().map_err(py_err)?;
+    let model = effect_set(effects)?.model();
+    let s = SimSensor {
+        peak_fraction: finite("peak_fraction", peak_fraction)?,
+        read_noise_dn: finite("read_noise_dn", read_noise_dn)?,
+        system_gain_dn_per_e: finite("system_gain_dn_per_e", system_gain_dn_per_e)?,
+        dsnu_dn: 0.0,
+        prnu: 0.0,
+        dmax: finite("dmax", dmax)?,
+        seed,
+    };
+    let (w, h) = (width_px as usize, height_px as usize);
+    let (dn, truth) = py
+        .detach(|| -> bpins_core::Result<_> {
+            let resp = sim_response(&capture, &s, None)?;
+            let FrameData::Mosaic { dn, .. } = simulate_frame(&capture, 0, &model, &resp, &s, None) else {
+                unreachable!("a dofp capture renders a mosaic")
+            };
+            // The truth: the same chain without noise or quantisation, reconstructed
+            // with the true effects known.
+            let ideal = Response::ideal(resp.gain_dn);
+            let f = sim_chain_frame(&capture, 0, &model, &ideal, &s, None);
+            let planes = render_colocated(&f, w, h, &Channel::ALL);
+            let rec = Reconstructor::new(&model, 0.0, &Channel::ALL)?;
+            let refs: Vec<(Channel, &[f32])> =
+                Channel::ALL.iter().copied().zip(planes.iter().map(|p| p.as_slice())).collect();
+            let img = colocated(&refs, w, h, &rec, f64::MAX);
+            let [aop, dolp, aoe] = angle_maps(&img, &capture.intrinsics());
+            let intensity: Vec<f32> = img.iqu.iter().map(|s| s[0] as f32).collect();
+            Ok((dn.into_iter().map(|x| x as u16).collect::<Vec<u16>>(), [aop, dolp, aoe, intensity]))
+        })
+        .map_err(py_err)?;
+    let [aop, dolp, aoe, intensity] = truth;
+    let out = PyDict::new(py);
+    out.set_item("mosaic", array2(py, dn, h, w)?)?;
+    out.set_item("aop_deg", array2(py, aop, h, w)?)?;
+    out.set_item("dolp", array2(py, dolp, h, w)?)?;
+    out.set_item("aoe_deg", array2(py, aoe, h, w)?)?;
+    out.set_item("intensity_dn", array2(py, intensity, h, w)?)?;
+    out.set_item("focal_length_px", capture.focal_length_px())?;
+    out.set_item("principal_point_px", capture.lens.principal_point_px)?;
+    Ok(out)
+}
+
+/// AoP, DoLP and intensity of a raw DoFP mosaic, demosaiced bilinearly per channel
+/// through nominal analyzers (the reconstruction bpins' plain estimator uses).
+///
+/// stokes_maps(mosaic, *, black_level_dn=0.0, mosaic_layout=((90, 45), (135, 0))) -> dict
+///
+/// Returns "aop_deg" (image frame, counter-clockwise as displayed, (−90°, 90°]),
+/// "dolp" and "intensity_dn" (float32, the mosaic's shape; NaN at the border
+/// pixels that lack a neighbour of every channel).
+#[pyfunction]
+#[pyo3(signature = (mosaic, *, black_level_dn=0.0, mosaic_layout=[[90.0, 45.0], [135.0, 0.0]]))]
+pub fn stokes_maps<'py>(
+    py: Python<'py>,
+    mosaic: &Bound<'py, PyAny>,
+    black_level_dn: f64,
+    mosaic_layout: [[f64; 2]; 2],
+) -> PyResult<Bound<'py, PyDict>> {
+    let layout = mosaic_of(mosaic_layout)?;
+    let (h, w) = crate::array::shape2("mosaic", mosaic)?;
+    if h < 2 || w < 2 {
+        return Err(PyValueError::new_err(format!("mosaic: shape ({h}, {w}); expected at least 2 × 2")));
+    }
+    let dn = Borrowed::new("mosaic", mosaic)?.mosaic().to_f32(w, h);
+    let rec = Reconstructor::new(&Default::default(), finite("black_level_dn", black_level_dn)?, &Channel::ALL)
+        .map_err(py_err)?;
+    let (aop, dolp, intensity) = py.detach(|| {
+        let img = demosaic(&dn, w, h, &layout, &rec, f64::MAX);
+        let centre = bpins_core::camera::Intrinsics::new(bpins_core::camera::Projection::Pinhole, 1.0, 0.0, 0.0);
+        let [aop, dolp, _] = angle_maps(&img, &centre);
+        let intensity: Vec<f32> = img.iqu.iter().map(|s| s[0] as f32).collect();
+        (aop, dolp, intensity)
+    });
+    let out = PyDict::new(py);
+    out.set_item("aop_deg", array2(py, aop, h, w)?)?;
+    out.set_item("dolp", array2(py, dolp, h, w)?)?;
+    out.set_item("intensity_dn", array2(py, intensity, h, w)?)?;
+    Ok(out)
+}

@@ -1,0 +1,120 @@
+"""The front door from Python: the same headings as the CLI and the Rust library,
+in-place reading of strided arrays, the sun from a datetime, and the GIL released."""
+
+import datetime
+import json
+import subprocess
+import threading
+
+import numpy as np
+import pytest
+
+import bpins
+
+
+def frame_kwargs(f):
+    return dict(
+        sun_azimuth_deg=f["sun_azimuth_deg"],
+        sun_elevation_deg=f["sun_elevation_deg"],
+        tilt_x_deg=f.get("tilt_x_deg", 0.0),
+        tilt_y_deg=f.get("tilt_y_deg", 0.0),
+        tilt_sigma_deg=f.get("tilt_sigma_deg", 0.0),
+        sun_sigma_deg=f.get("sun_sigma_deg", 0.0),
+    )
+
+
+def test_clean_sample_headings_equal_the_cli(samples, cli, tmp_path):
+    cap = samples / "clean"
+    out = tmp_path / "h.json"
+    subprocess.run([cli, "heading", str(cap), "--extractor", "sun_vector", "--json", str(out)], check=True,
+                   capture_output=True)
+    want = [f for f in json.loads(out.read_text())["frames"] if f["extractor"] == "sun_vector"]
+    meta, mosaics = bpins.read_capture(cap)
+    compass = bpins.Compass.from_capture(cap)
+    assert len(want) == len(mosaics) == len(meta["frames"]) == 8
+    for f, m, w in zip(meta["frames"], mosaics, want):
+        h = compass.heading(m.astype(np.uint16), **frame_kwargs(f))
+        assert h.reason is None, h.reason
+        assert abs(h.heading_deg - w["heading_deg"]) < 1e-9, (h, w)
+        assert abs(h.sigma_deg - w["sigma_deg"]) < 1e-9
+        err = (h.heading_deg - f["heading_deg"] + 180.0) % 360.0 - 180.0
+        assert abs(err) < 3.0 * h.sigma_deg
+        assert 0.5 < h.used_fraction <= 1.0 and h.zero_copy
+
+
+def test_uint8_float32_and_strided_views_read_the_same():
+    sim = bpins.simulate(heading_deg=30.0, seed=3)
+    m16 = sim["mosaic"]
+    c = bpins.Compass(612, 512, sim["focal_length_px"], bit_depth=12, black_level_dn=64.0)
+    ref = c.heading(m16, sun_azimuth_deg=40.0, sun_elevation_deg=25.0)
+    # float32 holds the same DN: the same heading to rounding.
+    f = c.heading(m16.astype(np.float32), sun_azimuth_deg=40.0, sun_elevation_deg=25.0)
+    assert abs(f.heading_deg - ref.heading_deg) < 1e-9
+    # A crop of a larger buffer (row stride 700 px): read in place, the same heading.
+    big = np.zeros((512, 700), dtype=np.uint16)
+    big[:, :612] = m16
+    view = big[:, :612]
+    assert not view.flags["C_CONTIGUOUS"]
+    v = c.heading(view, sun_azimuth_deg=40.0, sun_elevation_deg=25.0)
+    assert v.zero_copy and v.heading_deg == ref.heading_deg
+    # Columns not adjacent: copied, still the same.
+    wide = np.zeros((512, 1224), dtype=np.uint16)
+    wide[:, ::2] = m16
+    w = c.heading(wide[:, ::2], sun_azimuth_deg=40.0, sun_elevation_deg=25.0)
+    assert not w.zero_copy and w.heading_deg == ref.heading_deg
+    # An 8-bit camera: DN scaled to 8 bits, a heading within its 1σ of the truth.
+    c8 = bpins.Compass(612, 512, sim["focal_length_px"], bit_depth=8, black_level_dn=4.0)
+    m8 = np.clip(np.round(m16 / 16.0), 0, 255).astype(np.uint8)
+    h8 = c8.heading(m8, sun_azimuth_deg=40.0, sun_elevation_deg=25.0)
+    assert abs((h8.heading_deg - 30.0 + 180) % 360 - 180) < 3 * h8.sigma_deg
+
+
+def test_simulate_then_heading_round_trip_with_tilt():
+    sim = bpins.simulate(heading_deg=250.0, tilt_x_deg=4.0, tilt_y_deg=-3.0, seed=5, sun_elevation_deg=35.0)
+    c = bpins.Compass(612, 512, sim["focal_length_px"], black_level_dn=64.0, extractor="meridian_line")
+    h = c.heading(sim["mosaic"], sun_azimuth_deg=40.0, sun_elevation_deg=35.0, tilt_x_deg=4.0, tilt_y_deg=-3.0)
+    assert h.extractor == "meridian_line"
+    assert abs((h.heading_deg - 250.0 + 180) % 360 - 180) < 3 * h.sigma_deg
+    assert set(h.sigma_parts_deg) == {"fit_deg", "jackknife_deg", "tilt_deg", "sun_deg", "floor_deg"}
+
+
+def test_sun_from_a_datetime_equals_the_sun_from_its_angles(samples):
+    # The sun at a time and place (NREL SPA) gives the same heading as that sun's angles.
+    t = datetime.datetime(2026, 6, 21, 9, 0, tzinfo=datetime.timezone.utc)
+    meta, mosaics = bpins.read_capture(samples / "clean", frames=[0])
+    c = bpins.Compass.from_capture(samples / "clean")
+    by_time = c.heading(mosaics[0], time_utc=t, latitude_deg=36.07, longitude_deg=120.38)
+    assert by_time.reason is None or "sun" in by_time.reason
+    with pytest.raises(ValueError, match="timezone"):
+        c.heading(mosaics[0], time_utc=datetime.datetime(2026, 6, 21, 9, 0), latitude_deg=36.07, longitude_deg=120.38)
+
+
+def test_the_gil_is_released_while_a_compass_works():
+    sim = bpins.simulate(width_px=1224, height_px=1024, seed=2)
+    compasses = [bpins.Compass(1224, 1024, sim["focal_length_px"], black_level_dn=64.0) for _ in range(2)]
+    ticks = []
+    done = threading.Event()
+
+    def ticker():
+        while not done.is_set():
+            ticks.append(1)
+            done.wait(0.001)
+
+    t = threading.Thread(target=ticker)
+    t.start()
+    results = []
+
+    def work(c):
+        for _ in range(5):
+            results.append(c.heading(sim["mosaic"], sun_azimuth_deg=40.0, sun_elevation_deg=25.0).heading_deg)
+
+    workers = [threading.Thread(target=work, args=(c,)) for c in compasses]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    done.set()
+    t.join()
+    assert len(results) == 10 and len(set(results)) == 1
+    # The ticker ran while the compasses worked: the GIL was not held throughout.
+    assert len(ticks) > 10
