@@ -105,6 +105,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         Some(r.chi2_per_dof),
     )
     .context("the fitted values as a calibration")?;
+    // Per-pixel maps the input calibration applied stay with the new one.
+    let mut cal = cal;
+    if let Some(p) = &a.calibration {
+        cal.pixels = bpins_core::calibration::Calibration::load(p)?.pixels;
+        cal.write_pixels(&a.out).context("writing the pixel maps beside calibration.toml")?;
+    }
     let cal_path = a.out.join("calibration.toml");
     crate::write_output(&cal_path, cal.to_toml().as_bytes())?;
     eprintln!("wrote {} (bpins heading --calibration, fit/diagnose --calibration)", cal_path.display());

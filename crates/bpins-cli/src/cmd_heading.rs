@@ -9,7 +9,7 @@ use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::EffectSet;
 use bpins_core::heading::field::FieldOptions;
 use bpins_core::heading::Extractor;
-use bpins_core::pipeline::{field_headings, frame_headings, ReconMode};
+use bpins_core::pipeline::{apply_pixel_maps, field_headings_of, frame_headings_of, ReconMode};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -35,8 +35,9 @@ pub struct Args {
     /// e.g. --effect array_rotation.dtheta_deg=0.3.
     #[arg(long = "effect", value_name = "EFFECT.PARAM=VALUE")]
     effects: Vec<String>,
-    /// A calibration file (bpins-calibration/1, as `bpins fit` writes it) to
-    /// compensate; `--effect` assignments apply on top of it.
+    /// A calibration file (bpins-calibration/1, as `bpins fit` or `bpins calibrate`
+    /// writes it) to compensate, its per-pixel maps included; `--effect`
+    /// assignments apply on top of it.
     #[arg(long, value_name = "FILE")]
     calibration: Option<PathBuf>,
     /// Write the per-frame results as JSON to this file (never inside the capture).
@@ -73,10 +74,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             ),
         }
     };
-    let mut known = match &a.calibration {
-        Some(p) => bpins_core::calibration::Calibration::load(p)?.effects,
-        None => EffectSet::new(),
+    let cal = match &a.calibration {
+        Some(p) => Some(bpins_core::calibration::Calibration::load(p)?),
+        None => None,
     };
+    let pixels = cal.as_ref().and_then(|c| c.pixels.clone());
+    let mut known = cal.map(|c| c.effects).unwrap_or_else(EffectSet::new);
     for spec in &a.effects {
         known.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
     }
@@ -106,8 +109,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let file = f.file.display().to_string();
         let sun = format!("{:.4}/{:.4}, {}", f.sun.azimuth_deg, f.sun.elevation_deg, f.sun.source.describe());
         let mut frame_rows: Vec<Row> = Vec::new();
+        let mut data = capture.read_frame(i)?;
+        if let Some(m) = &pixels {
+            data = apply_pixel_maps(&capture, data, m)
+                .with_context(|| format!("--calibration {}", a.calibration.as_ref().unwrap().display()))?;
+        }
         if field {
-            for h in field_headings(&capture, i, &known, &opts, &extractors)? {
+            for h in field_headings_of(&capture, i, &data, &known, &opts, &extractors)? {
                 let q = h.quality;
                 let (heading, parts, why) = match &h.result {
                     Ok((hd, p)) => (Some(*hd), Some(*p), None),
@@ -133,7 +141,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 });
             }
         } else {
-            for (e, r) in frame_headings(&capture, i, &known, mode, &extractors)? {
+            for (e, r) in frame_headings_of(&capture, i, &data, &known, mode, &extractors)? {
                 let (heading, sigma, samples, why) = match r {
                     Ok(est) => (Some(est.heading_deg), Some(est.sigma_deg), Some(est.samples), None),
                     Err(err) => (None, None, None, Some(err.to_string())),

@@ -130,6 +130,36 @@ pub struct Args {
     /// Seed of the noise; the same seed gives the same DN.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Instead of a sky capture, a lab capture (kind = "lab", CAPTURE.md) of this
+    /// sensor, for `bpins calibrate`: flats through a polarizer at --lab-angles-deg,
+    /// unpolarized flats at --lab-exposures, --lab-darks dark frames. The sensor's
+    /// per-channel flaws come from --effect (analyzer_angles, extinction_ratio,
+    /// channel_response, array_rotation, vignetting), per-pixel ones from --prnu,
+    /// --dsnu-dn and --pixel-*; --peak-fraction sets a polarized flat's peak.
+    #[arg(long, requires = "out")]
+    lab: bool,
+    /// Lab: polarizer angles, degrees (image frame).
+    #[arg(long, value_delimiter = ',', default_value = "0,15,30,45,60,75,90,105,120,135,150,165")]
+    lab_angles_deg: Vec<f64>,
+    /// Lab: exposures of the unpolarized flats, relative (the flag alone: none).
+    #[arg(long, value_delimiter = ',', num_args = 0.., default_value = "0.3,0.6,1.2")]
+    lab_exposures: Vec<f64>,
+    /// Lab: number of dark frames.
+    #[arg(long, default_value_t = 1)]
+    lab_darks: usize,
+    /// Lab: also write the per-pixel truth (offset_dn, gain, analyzer_deg, eps) to
+    /// this EXR file (outside the capture).
+    #[arg(long, value_name = "FILE")]
+    lab_truth: Option<PathBuf>,
+    /// Lab: white spread (1σ) of each pixel's analyzer angle, degrees.
+    #[arg(long, default_value_t = 0.0)]
+    pixel_angle_sigma_deg: f64,
+    /// Lab: change of the analyzer angles across the die's width and height, degrees (X,Y).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0,0")]
+    pixel_angle_gradient_deg: Vec<f64>,
+    /// Lab: white spread (1σ) of each pixel's extinction ratio ε.
+    #[arg(long, default_value_t = 0.0)]
+    pixel_eps_sigma: f64,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -155,6 +185,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         effects.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
     }
     let model = effects.model();
+    if a.lab {
+        return run_lab(&a, &model);
+    }
     let scene_seed = a.scene_seed.unwrap_or(a.seed);
     let mut field = FieldScene::new(scene_seed);
     for spec in &a.scene {
@@ -273,6 +306,75 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let n = writer.written();
     writer.finish()?;
     eprintln!("wrote {n} frames to {}", out.display());
+    Ok(())
+}
+
+/// `--lab`: a lab capture of the sensor (bpins_core::lab::simulate), written whole
+/// (capture.toml last), and its truth where asked.
+fn run_lab(a: &Args, model: &bpins_core::effects::Model) -> anyhow::Result<()> {
+    use bpins_core::capture::LabCapture;
+    use bpins_core::lab::simulate::{lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
+    if !matches!(a.layout, LayoutArg::Dofp) {
+        bail!("--lab: a lab capture calibrates a dofp mosaic; use --layout dofp");
+    }
+    let out = a.out.as_ref().expect("clap requires --out with --lab");
+    crate::ensure_not_in_capture(out)?;
+    if let Some(t) = &a.lab_truth {
+        crate::ensure_not_in_capture(t)?;
+    }
+    for (name, v) in [
+        ("--prnu", a.prnu),
+        ("--dsnu-dn", a.dsnu_dn),
+        ("--pixel-angle-sigma-deg", a.pixel_angle_sigma_deg),
+        ("--pixel-eps-sigma", a.pixel_eps_sigma),
+    ] {
+        if !(v >= 0.0 && v.is_finite()) {
+            bail!("{name} {v} must be a finite number ≥ 0");
+        }
+    }
+    if a.pixel_angle_gradient_deg.len() != 2 || a.pixel_angle_gradient_deg.iter().any(|x| !x.is_finite()) {
+        bail!("--pixel-angle-gradient-deg takes two finite angles X,Y in degrees");
+    }
+    let c = build_capture(a)?;
+    let g = c.sensor.geometry;
+    let (w, h) = (g.width_px as usize, g.height_px as usize);
+    let flaws = PixelFlaws {
+        angle_sigma_deg: a.pixel_angle_sigma_deg,
+        angle_gradient_deg: [a.pixel_angle_gradient_deg[0], a.pixel_angle_gradient_deg[1]],
+        eps_sigma: a.pixel_eps_sigma,
+        prnu: a.prnu,
+        dsnu_dn: a.dsnu_dn,
+        seed: a.seed,
+    };
+    let plan = LabPlan {
+        angles_deg: a.lab_angles_deg.clone(),
+        source_dolp: 1.0,
+        exposures: a.lab_exposures.clone(),
+        darks: a.lab_darks,
+    };
+    let truth = truth_maps(model, &c.intrinsics(), w, h, DEFAULT_MOSAIC, a.black_level_dn, &flaws);
+    let full = c.sensor.full_scale_dn();
+    let sensor = LabSensor {
+        signal_dn: a.peak_fraction * (full - a.black_level_dn),
+        k_dn_per_e: a.system_gain_dn_per_e,
+        read_noise_dn: a.read_noise_dn,
+        full_scale_dn: full,
+        seed: a.seed,
+    };
+    let lab = LabCapture { dir: out.clone(), sensor: c.sensor.clone(), lens: c.lens.clone(), frames: plan.frames() };
+    eprintln!(
+        "bpins simulate --lab: {} polarized, {} unpolarized, {} dark frames of {w} × {h} px",
+        plan.angles_deg.len(),
+        plan.exposures.len(),
+        plan.darks
+    );
+    let frames = lab_frames(&truth, &plan, &sensor);
+    lab.write(out, &frames)?;
+    if let Some(t) = &a.lab_truth {
+        write_exr_layers(t, g.width_px, g.height_px, &truth.present())?;
+        eprintln!("wrote the per-pixel truth to {}", t.display());
+    }
+    eprintln!("wrote the lab capture {}", out.display());
     Ok(())
 }
 

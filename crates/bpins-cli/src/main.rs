@@ -3,6 +3,7 @@
 
 mod backend;
 mod cmd_agree;
+mod cmd_calibrate;
 mod cmd_diagnose;
 mod cmd_effects;
 mod cmd_fit;
@@ -43,6 +44,9 @@ enum Command {
     Fit(cmd_fit::Args),
     /// Find the catalog effect a capture's model lacks, add it, watch the error fall.
     Diagnose(cmd_diagnose::Args),
+    /// Calibrate a DoFP sensor from a lab capture: per-pixel analyzers, gains,
+    /// offsets, photon transfer; writes maps, a report and calibration.toml.
+    Calibrate(cmd_calibrate::Args),
 }
 
 pub use backend::Backend;
@@ -57,6 +61,7 @@ fn main() -> ExitCode {
         Command::Agree(a) => cmd_agree::run(a),
         Command::Fit(a) => cmd_fit::run(a),
         Command::Diagnose(a) => cmd_diagnose::run(a),
+        Command::Calibrate(a) => cmd_calibrate::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -114,8 +119,9 @@ pub struct FitInput {
     /// instead of fitting a smooth shape × (1 + a1 cos γ + a2 cos²γ) per frame.
     #[arg(long)]
     pub rayleigh_radiance: bool,
-    /// A calibration (bpins-calibration/1, as `bpins fit` writes it): its effects are
-    /// known and held at their values (an effect also named in --effects is fitted).
+    /// A calibration (bpins-calibration/1, as `bpins fit` or `bpins calibrate` writes
+    /// it): its effects are known and held at their values (an effect also named in
+    /// --effects is fitted); its per-pixel maps, if any, are applied to every frame.
     #[arg(long, value_name = "FILE")]
     pub calibration: Option<std::path::PathBuf>,
     /// Fit every pixel, including those each frame's sky mask leaves out as not sky
@@ -146,10 +152,20 @@ impl FitInput {
         }
         ensure_not_in_capture(&self.out)?;
         let c = bpins_core::capture::Capture::load(&self.capture)?;
+        let cal = match &self.calibration {
+            Some(p) => Some(bpins_core::calibration::Calibration::load(p)?),
+            None => None,
+        };
+        let pixels = cal.as_ref().and_then(|c| c.pixels.clone());
         let pb = progress::bar(c.frames.len() as u64, "frames read");
         let mut frames = Vec::with_capacity(c.frames.len());
         for i in 0..c.frames.len() {
-            frames.push(c.read_frame(i)?);
+            let data = c.read_frame(i)?;
+            frames.push(match &pixels {
+                Some(m) => bpins_core::pipeline::apply_pixel_maps(&c, data, m)
+                    .with_context(|| format!("--calibration {}", self.calibration.as_ref().unwrap().display()))?,
+                None => data,
+            });
             pb.inc(1);
         }
         pb.finish_and_clear();
@@ -159,10 +175,7 @@ impl FitInput {
             fixed_dmax: self.fixed_dmax,
             rayleigh_radiance: self.rayleigh_radiance,
             all_pixels: self.all_pixels,
-            known: match &self.calibration {
-                Some(p) => bpins_core::calibration::Calibration::load(p)?.effects,
-                None => Default::default(),
-            },
+            known: cal.map(|c| c.effects).unwrap_or_default(),
         };
         Ok((opts, c, frames))
     }

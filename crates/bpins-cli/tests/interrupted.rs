@@ -115,6 +115,40 @@ fn a_killed_fit_leaves_each_output_absent_or_whole_and_reruns() {
     }
 }
 
+#[test]
+fn a_killed_diagnose_leaves_each_output_absent_or_whole_and_reruns() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let sample = root.join("samples/clean");
+    let t = tempfile::tempdir().unwrap();
+    let out = t.path().join("diag");
+    let args = ["diagnose", sample.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    let outputs = [
+        "diagnosis.json",
+        "report.html",
+        "step0/residual_dn.exr",
+        "step0/residual_pol.exr",
+        "step0/residual_aop.png",
+        "step0/profiles.csv",
+    ];
+    // Killed as soon as the diagnosis is written, and as soon as the first step's maps are.
+    for first in ["diagnosis.json", "step0/residual_dn.exr"] {
+        let mut child = spawn(&args);
+        wait_until(&mut child, || out.join(first).exists());
+        child.kill().unwrap();
+        child.wait().unwrap();
+        check_whole(&out, &outputs);
+        if out.join("report.html").exists() {
+            let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+            assert!(page.trim_end().ends_with("</html>"), "report.html cut short");
+        }
+    }
+    run_ok(&args);
+    check_whole(&out, &outputs);
+    for f in ["diagnosis.json", "report.html"] {
+        assert!(out.join(f).is_file(), "{f} after the rerun");
+    }
+}
+
 /// Each output that exists reads back whole.
 fn check_whole(out: &Path, outputs: &[&str]) {
     for f in outputs {

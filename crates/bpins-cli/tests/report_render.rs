@@ -114,3 +114,30 @@ fn diagnose_report_opens_in_headless_chromium() {
     assert!(problems.iter().any(|p| p.contains("Uncaught ReferenceError")), "script error missed: {problems:?}");
     assert!(problems.iter().any(|p| p.contains(&format!("{}/{imgs}", imgs - 1))), "missing image missed: {problems:?}");
 }
+
+#[test]
+fn calibrate_report_opens_in_headless_chromium() {
+    let Some(browser) = chromium() else {
+        let why = format!("none of {} on PATH", BROWSERS.join(", "));
+        if env::var_os("CI").is_some() {
+            panic!("CI is set and the report cannot be rendered: {why}");
+        }
+        eprintln!("SKIPPED (no chromium: {why})");
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("cal");
+    let lab = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/lab-flawed-sensor/lab");
+    let run = Command::new(env!("CARGO_BIN_EXE_bpins")).args(["calibrate", lab, "--out"]).arg(&out).output().unwrap();
+    assert!(run.status.success(), "`bpins calibrate` failed:\n{}", String::from_utf8_lossy(&run.stderr));
+    let report = out.join("report.html");
+    let html = fs::read_to_string(&report).unwrap();
+    let dom = render(&browser, &report)
+        .unwrap_or_else(|p| panic!("{} does not render cleanly:\n{}", report.display(), p.join("\n")));
+    let imgs = html.matches("<img ").count();
+    assert!(imgs >= 8, "report.html shows {imgs} maps");
+    assert!(dom.contains(&format!("data-images-ok=\"{imgs}/{imgs}\"")), "not every map decoded");
+    for what in ["Per channel: mean, white spread, gradient across the die", "conversion gain K", "Not determined"] {
+        assert!(dom.contains(what), "the rendered report lacks `{what}`");
+    }
+}

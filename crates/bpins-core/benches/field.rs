@@ -6,6 +6,8 @@
 //!   3.45 µm, tilted 4°/−3°, sun 40°/25°); target on the 2-core dev machine ≤ 25 ms.
 //! * `field/dofp_512x612_u16_to_heading`: the samples' sensor; target ≤ 2 ms.
 //! * `field/*_compass`: the same through the front door (`compass::Compass`).
+//! * `field/*_compass_calibrated`: the front door with a lab calibration's per-pixel
+//!   maps (issue 17: ≤ 30 % more than `_compass`).
 //! * `field/*_cells` and `field/*_estimate`: the two stages of the first.
 
 use bpins_core::camera::{Intrinsics, Projection};
@@ -56,6 +58,26 @@ fn field(c: &mut Criterion) {
         let att = Attitude { tilt_x_deg: ctx.tilt_x_deg, tilt_y_deg: ctx.tilt_y_deg, sigma_deg: ctx.tilt_sigma_deg };
         g.bench_function(format!("{name}_compass"), |b| {
             b.iter(|| black_box(compass.heading(RawImage::packed(&dn, w, h), sun, att).expect("a valid frame")))
+        });
+        // The same with a lab calibration's per-pixel maps, every map present (their
+        // values those of the sensor the frame was rendered with, so the estimator
+        // sees the same sky): each cell through its own analyzers (pixel_analyzers.rs).
+        let mut maps = bpins_core::pixel_analyzers::PixelMaps::nominal(w, h, DEFAULT_MOSAIC);
+        maps.offset_dn = Some(vec![64.0; w * h]);
+        maps.gain = Some(vec![1.0; w * h]);
+        maps.eps = Some(vec![0.0; w * h]);
+        maps.analyzer_deg = Some(
+            (0..w * h)
+                .map(|i| bpins_core::sensor::Layout::dofp_channel(&DEFAULT_MOSAIC, i % w, i / w).angle_deg() as f32)
+                .collect(),
+        );
+        let cal =
+            bpins_core::calibration::Calibration { pixels: Some(std::sync::Arc::new(maps)), ..Default::default() };
+        let mut calibrated =
+            Compass::new(CompassConfig { calibration: cal, ..CompassConfig::dofp(ctx.intr, w, h, 12, 64.0) })
+                .expect("maps of the sensor's size");
+        g.bench_function(format!("{name}_compass_calibrated"), |b| {
+            b.iter(|| black_box(calibrated.heading(RawImage::packed(&dn, w, h), sun, att).expect("a valid frame")))
         });
         if w == 2448 {
             let cell = Cells::default_cell_px(w, h);

@@ -20,13 +20,33 @@
 //! Names and ranges are the registry's: an unknown effect or parameter, a value out
 //! of range, an unknown key, or a `format` this reader does not know is an error
 //! naming the file and the key. Parameters not written keep their neutral values.
+//!
+//! A lab calibration (`bpins calibrate`) adds per-pixel maps
+//! ([`crate::pixel_analyzers`]), stored as float channels of an OpenEXR file beside
+//! the toml:
+//!
+//! ```toml
+//! [pixels]
+//! file = "pixels.exr"                  # relative to the calibration file
+//! width_px = 2448                      # the sensor the maps are for
+//! height_px = 2048
+//! mosaic = [[90, 45], [135, 0]]
+//! maps = ["offset_dn", "gain", "analyzer_deg", "eps"]   # those measured
+//! ```
+//!
+//! Per-pixel analyzers replace the global analyzer and channel effects
+//! (`analyzer_angles`, `extinction_ratio`, `channel_response`, `array_rotation`):
+//! a file with both is refused. Reading a frame of another size through the maps
+//! is refused with both sizes named (`PixelMaps::check_sensor`).
 
 use crate::effects::{EffectSet, Model};
 #[cfg(feature = "io")]
 use crate::error::Error;
 use crate::error::Result;
+use crate::pixel_analyzers::PixelMaps;
 #[cfg(feature = "io")]
 use std::path::Path;
+use std::sync::Arc;
 
 /// The value of `format` this reader and writer implement.
 pub const FORMAT: &str = "bpins-calibration/1";
@@ -61,12 +81,34 @@ pub struct Calibration {
     /// Where it came from (free text).
     pub source: String,
     pub chi2_per_dof: Option<f64>,
+    /// Per-pixel maps (a lab calibration), where measured.
+    pub pixels: Option<Arc<PixelMaps>>,
 }
+
+/// The file name `bpins calibrate` gives the pixel maps beside `calibration.toml`.
+pub const PIXELS_FILE: &str = "pixels.exr";
 
 impl Calibration {
     /// The chain's parameter block of the known effects.
     pub fn model(&self) -> Model {
         self.effects.model()
+    }
+
+    /// Why the per-pixel maps cannot be used with the known effects, if they cannot:
+    /// both would correct the analyzers and channel responses.
+    pub fn pixels_conflict(&self) -> Option<String> {
+        self.pixels.as_ref()?;
+        let m = self.model();
+        let d = Model::default();
+        let clash = m.analyzer_delta_deg != d.analyzer_delta_deg
+            || m.analyzer_eps != d.analyzer_eps
+            || m.channel_gain != d.channel_gain
+            || m.channel_offset_dn != d.channel_offset_dn;
+        clash.then(|| {
+            "per-pixel maps ([pixels]) replace the analyzer and channel effects (analyzer_angles, \
+             extinction_ratio, channel_response, array_rotation); give one or the other"
+                .to_string()
+        })
     }
 
     /// From fitted parameters named `effect.param` (as `FitResult::params` has them),
@@ -118,6 +160,21 @@ impl Calibration {
         if !sigma.is_empty() {
             top.insert("sigma".into(), sigma.into());
         }
+        if let Some(px) = &self.pixels {
+            let mut t = toml::Table::new();
+            t.insert("file".into(), PIXELS_FILE.into());
+            t.insert("width_px".into(), (px.width_px as i64).into());
+            t.insert("height_px".into(), (px.height_px as i64).into());
+            let mosaic: Vec<toml::Value> = px
+                .mosaic
+                .iter()
+                .map(|r| toml::Value::Array(r.iter().map(|c| (c.angle_deg() as i64).into()).collect()))
+                .collect();
+            t.insert("mosaic".into(), mosaic.into());
+            let maps: Vec<toml::Value> = px.present().iter().map(|(n, _)| (*n).into()).collect();
+            t.insert("maps".into(), maps.into());
+            top.insert("pixels".into(), t.into());
+        }
         // `format` first (the table writes its keys in order).
         format!("format = \"{FORMAT}\"\n{}", toml::to_string(&top).unwrap_or_default())
     }
@@ -165,9 +222,11 @@ impl Calibration {
                         }
                     }
                 }
+                ("pixels", toml::Value::Table(t)) => c.pixels = Some(Arc::new(read_pixels(path, t)?)),
                 (k, _) => {
                     return Err(err(format!(
-                        "unknown key `{k}` (a calibration has format, source, chi2_per_dof, [effects.*], [sigma.*])"
+                        "unknown key `{k}` (a calibration has format, source, chi2_per_dof, [effects.*], \
+                         [sigma.*], [pixels])"
                     )))
                 }
             }
@@ -178,7 +237,20 @@ impl Calibration {
                 return Err(err(format!("sigma.{name}: no value for it under [effects.{effect}]")));
             }
         }
+        if let Some(m) = c.pixels_conflict() {
+            return Err(err(m));
+        }
         Ok(c)
+    }
+
+    /// Writes the per-pixel maps (if any) as `dir/pixels.exr` ([`PIXELS_FILE`]), the
+    /// file `to_toml`'s `[pixels]` names: call it for the folder `calibration.toml`
+    /// goes to.
+    #[cfg(feature = "io")]
+    pub fn write_pixels(&self, dir: &Path) -> Result<()> {
+        let Some(px) = &self.pixels else { return Ok(()) };
+        let present = px.present();
+        crate::capture::write_exr_layers_fast(&dir.join(PIXELS_FILE), px.width_px as u32, px.height_px as u32, &present)
     }
 
     /// Reads a calibration file.
@@ -187,6 +259,77 @@ impl Calibration {
         let text = std::fs::read_to_string(path).map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?;
         Calibration::parse(path, &text)
     }
+}
+
+/// `[pixels]` of the calibration file `path`: the maps read from the EXR it names.
+#[cfg(feature = "io")]
+fn read_pixels(path: &Path, t: &toml::Table) -> Result<PixelMaps> {
+    use crate::pixel_analyzers::MAP_NAMES;
+    use crate::sensor::Channel;
+    let err = |m: String| Error::Calibration { path: path.to_path_buf(), message: format!("[pixels] {m}") };
+    for k in t.keys() {
+        if !["file", "width_px", "height_px", "mosaic", "maps"].contains(&k.as_str()) {
+            return Err(err(format!("unknown key `{k}` (file, width_px, height_px, mosaic, maps)")));
+        }
+    }
+    let file = t.get("file").and_then(|v| v.as_str()).ok_or_else(|| err("missing required key `file`".into()))?;
+    let size = |k: &str| {
+        t.get(k)
+            .and_then(|v| v.as_integer())
+            .filter(|&x| x > 0)
+            .map(|x| x as usize)
+            .ok_or_else(|| err(format!("`{k}` must be a positive integer")))
+    };
+    let (w, h) = (size("width_px")?, size("height_px")?);
+    let mut mosaic = crate::sensor::DEFAULT_MOSAIC;
+    if let Some(v) = t.get("mosaic") {
+        let rows =
+            v.as_array().filter(|r| r.len() == 2).ok_or_else(|| err("mosaic must be 2 rows of 2 angles".into()))?;
+        for (r, row) in rows.iter().enumerate() {
+            let row = row
+                .as_array()
+                .filter(|x| x.len() == 2)
+                .ok_or_else(|| err("mosaic must be 2 rows of 2 angles".into()))?;
+            for (col, a) in row.iter().enumerate() {
+                mosaic[r][col] = number(a)
+                    .and_then(Channel::from_angle_deg)
+                    .ok_or_else(|| err(format!("mosaic: {a} is not an analyzer angle (0, 45, 90 or 135)")))?;
+            }
+        }
+    }
+    let maps: Vec<String> = match t.get("maps").and_then(|v| v.as_array()) {
+        Some(a) => a
+            .iter()
+            .map(|x| x.as_str().map(str::to_string).ok_or_else(|| err("maps must be names".into())))
+            .collect::<Result<_>>()?,
+        None => return Err(err("missing required key `maps`".into())),
+    };
+    for m in &maps {
+        if !MAP_NAMES.contains(&m.as_str()) {
+            return Err(err(format!("maps: unknown map `{m}` (known: {})", MAP_NAMES.join(", "))));
+        }
+    }
+    let exr_path = path.parent().unwrap_or(Path::new(".")).join(file);
+    let (ew, eh, layers) = crate::capture::read_exr_layers(&exr_path)?;
+    if (ew as usize, eh as usize) != (w, h) {
+        return Err(err(format!("{} is {ew} × {eh} px but width_px × height_px is {w} × {h}", exr_path.display())));
+    }
+    let mut px = PixelMaps::nominal(w, h, mosaic);
+    for m in &maps {
+        let plane = layers
+            .iter()
+            .find(|(n, _)| n == m)
+            .map(|(_, p)| p.clone())
+            .ok_or_else(|| err(format!("{} has no channel `{m}` (maps lists it)", exr_path.display())))?;
+        match m.as_str() {
+            "offset_dn" => px.offset_dn = Some(plane),
+            "gain" => px.gain = Some(plane),
+            "analyzer_deg" => px.analyzer_deg = Some(plane),
+            _ => px.eps = Some(plane),
+        }
+    }
+    px.check().map_err(|m| err(format!("{}: {m}", exr_path.display())))?;
+    Ok(px)
 }
 
 #[cfg(feature = "io")]

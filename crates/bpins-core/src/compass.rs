@@ -44,6 +44,7 @@ use crate::camera::Intrinsics;
 use crate::effects::Model;
 use crate::heading::field::{self, Cells, FieldContext, FieldHeading, FieldOptions, FieldScratch, RawDn, RawImage};
 use crate::heading::Extractor;
+use crate::pixel_analyzers::CellAnalyzers;
 use crate::recon::Reconstructor;
 use crate::sensor::{Channel, DEFAULT_MOSAIC};
 #[cfg(feature = "spa")]
@@ -162,7 +163,8 @@ pub struct CompassConfig {
     pub mosaic: [[Channel; 2]; 2],
     pub bit_depth: u32,
     pub black_level_dn: f64,
-    /// The sensor's known effects (`bpins fit`'s calibration.toml).
+    /// The sensor's known effects (`bpins fit`'s calibration.toml) and per-pixel
+    /// maps (`bpins calibrate`'s), which must be of this sensor's size and mosaic.
     pub calibration: Calibration,
     pub options: FieldOptions,
     pub extractor: Extractor,
@@ -216,6 +218,8 @@ pub struct Compass {
     rec: Reconstructor,
     full_scale_dn: f64,
     cell_px: usize,
+    /// Each cell's own reconstruction where the calibration has per-pixel maps.
+    cell_analyzers: Option<CellAnalyzers>,
     /// The last frame's cells and the estimator's buffers, reused: no allocation per
     /// frame once they have grown to the sensor's grid.
     cells: Cells,
@@ -244,6 +248,17 @@ impl Compass {
         let intr = known.camera(c);
         let rec = Reconstructor::new(&known, cfg.black_level_dn, &Channel::ALL)?;
         let cell_px = cfg.options.cell_px.unwrap_or_else(|| Cells::default_cell_px(cfg.width_px, cfg.height_px));
+        let cell_px = (cell_px.max(2) + 1) & !1;
+        let cell_analyzers = match &cfg.calibration.pixels {
+            None => None,
+            Some(px) => {
+                if let Some(m) = cfg.calibration.pixels_conflict() {
+                    return bad(m);
+                }
+                px.check_sensor(cfg.width_px, cfg.height_px, &cfg.mosaic).map_err(CompassError::Config)?;
+                Some(px.cell_analyzers(cell_px, cfg.black_level_dn))
+            }
+        };
         Ok(Compass {
             cfg,
             known,
@@ -251,6 +266,7 @@ impl Compass {
             rec,
             full_scale_dn,
             cell_px,
+            cell_analyzers,
             cells: Cells::default(),
             scratch: FieldScratch::default(),
         })
@@ -290,14 +306,23 @@ impl Compass {
         if !(tilt_x_deg.abs() < 90.0 && tilt_y_deg.abs() < 90.0 && sigma_deg >= 0.0 && sigma_deg.is_finite()) {
             return Err(CompassError::Attitude(format!("tilt {tilt_x_deg}°, {tilt_y_deg}°, 1σ {sigma_deg}°")));
         }
-        self.cells.fill_from_mosaic(
-            &frame,
-            &self.cfg.mosaic,
-            &self.rec,
-            self.full_scale_dn,
-            self.cell_px,
-            &mut self.scratch.cells,
-        );
+        match &self.cell_analyzers {
+            Some(cal) => self.cells.fill_from_mosaic_calibrated(
+                &frame,
+                &self.cfg.mosaic,
+                cal,
+                self.full_scale_dn,
+                &mut self.scratch.cells,
+            ),
+            None => self.cells.fill_from_mosaic(
+                &frame,
+                &self.cfg.mosaic,
+                &self.rec,
+                self.full_scale_dn,
+                self.cell_px,
+                &mut self.scratch.cells,
+            ),
+        }
         let ctx = FieldContext {
             intr: self.intr,
             lens_rho2: self.known.lens_rho2,

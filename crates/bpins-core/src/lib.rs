@@ -75,12 +75,15 @@ pub mod field_conditions;
 #[cfg(feature = "io")]
 pub mod fit;
 pub mod heading;
+#[cfg(feature = "io")]
+pub mod lab;
 pub mod montecarlo;
 pub mod noise;
 #[cfg(feature = "io")]
 pub mod output;
 #[cfg(feature = "io")]
 pub mod pipeline;
+pub mod pixel_analyzers;
 pub mod recon;
 pub mod scene;
 pub mod sensor;

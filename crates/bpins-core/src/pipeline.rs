@@ -9,6 +9,7 @@ use crate::effects::Model;
 use crate::error::{Error, Result};
 use crate::heading::field::{self, Cells, FieldContext, FieldHeading, FieldOptions, RawImage};
 use crate::heading::{Extractor, HeadingContext, HeadingEstimate, HeadingSums};
+use crate::pixel_analyzers::PixelMaps;
 use crate::recon::{self, PolImage, Reconstructor};
 use crate::scene::{ElementId, FieldScene};
 use crate::sensor::{Layout, Response};
@@ -77,6 +78,23 @@ pub fn reconstruct_frame(c: &Capture, data: &FrameData, known: &Model, mode: Rec
     })
 }
 
+/// Frame `data` of capture `c` as nominal pixels would read it, through a lab
+/// calibration's per-pixel maps ([`PixelMaps::nominal_mosaic`]): then `heading`,
+/// `fit` and `diagnose` read it with nominal analyzers. Maps of another sensor size
+/// or mosaic are refused, with both named.
+pub fn apply_pixel_maps(c: &Capture, data: FrameData, maps: &PixelMaps) -> Result<FrameData> {
+    let g = &c.sensor.geometry;
+    let refuse = |m: String| Error::Capture { path: c.toml_path(), message: m };
+    match (data, &c.sensor.layout) {
+        (FrameData::Mosaic { width_px, height_px, dn }, Layout::Dofp { mosaic }) => {
+            maps.check_sensor(g.width_px as usize, g.height_px as usize, mosaic).map_err(refuse)?;
+            let dn = maps.nominal_mosaic(&dn, c.sensor.black_level_dn, c.sensor.full_scale_dn());
+            Ok(FrameData::Mosaic { width_px, height_px, dn })
+        }
+        _ => Err(refuse("per-pixel maps are for a dofp mosaic; this capture is colocated".into())),
+    }
+}
+
 /// Heading of frame `index` with each extractor in `extractors` (the plain estimator:
 /// every sample, statistical 1σ).
 pub fn frame_headings(
@@ -90,7 +108,7 @@ pub fn frame_headings(
 }
 
 /// [`frame_headings`] of frame `index` whose pixels `data` are already in memory.
-pub(crate) fn frame_headings_of(
+pub fn frame_headings_of(
     c: &Capture,
     index: usize,
     data: &FrameData,
@@ -154,7 +172,7 @@ pub fn field_headings(
 }
 
 /// [`field_headings`] of frame `index` whose pixels `data` are already in memory.
-pub(crate) fn field_headings_of(
+pub fn field_headings_of(
     c: &Capture,
     index: usize,
     data: &FrameData,

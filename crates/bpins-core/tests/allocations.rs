@@ -64,9 +64,25 @@ fn a_warm_compass_allocates_nothing_per_frame() {
             (raw, scene)
         })
         .collect();
-    for extractor in [Extractor::SunVector, Extractor::MeridianLine] {
+    // A lab calibration's per-pixel maps (gain and angle patterns) cost no allocation
+    // per frame either: each cell's reconstruction is made once, in `Compass::new`.
+    let mut maps = bpins_core::pixel_analyzers::PixelMaps::nominal(w, h, DEFAULT_MOSAIC);
+    maps.gain = Some((0..w * h).map(|i| 1.0 + 0.01 * ((i * 7919 % 13) as f32 - 6.0) / 6.0).collect());
+    maps.analyzer_deg = Some(
+        (0..w * h)
+            .map(|i| bpins_core::sensor::Layout::dofp_channel(&DEFAULT_MOSAIC, i % w, i / w).angle_deg() as f32 + 0.01)
+            .collect(),
+    );
+    let calibrated =
+        bpins_core::calibration::Calibration { pixels: Some(std::sync::Arc::new(maps)), ..Default::default() };
+    for (extractor, calibration) in [
+        (Extractor::SunVector, Default::default()),
+        (Extractor::MeridianLine, Default::default()),
+        (Extractor::SunVector, calibrated),
+    ] {
         let mut compass =
-            Compass::new(CompassConfig { extractor, ..CompassConfig::dofp(lens, w, h, 12, 64.0) }).unwrap();
+            Compass::new(CompassConfig { extractor, calibration, ..CompassConfig::dofp(lens, w, h, 12, 64.0) })
+                .unwrap();
         let mut read = |raw: &[u16], s: &Scene| {
             compass
                 .heading(

@@ -24,6 +24,7 @@ macro_rules! bail {
 
 mod exr;
 mod images;
+pub mod lab;
 pub mod ranges;
 mod spec;
 mod toml_out;
@@ -33,7 +34,8 @@ mod writer;
 use std::fs;
 use std::path::{Component, Path, PathBuf};
 
-pub use exr::{read_exr_layers, write_exr_layers, ExrLayers};
+pub use exr::{read_exr_layers, write_exr_layers, write_exr_layers_fast, ExrLayers};
+pub use lab::{LabCapture, LabFrame};
 pub use spec::FORMAT;
 pub use writer::CaptureWriter;
 

@@ -41,7 +41,7 @@ impl Range {
         }
     }
 
-    /// The range as the documentation and the errors write it: `[0.1, 100]`, `(−90, 90)`.
+    /// The range as the documentation and the errors write it: `[0.1, 1000]`, `(−90, 90)`.
     pub fn interval(&self) -> String {
         let (l, r) = if self.open { ('(', ')') } else { ('[', ']') };
         format!("{l}{}, {}{r}", self.min, self.max)
@@ -70,7 +70,12 @@ fn number(v: f64) -> String {
 
 pub const WIDTH_PX: Range = Range::closed("[sensor] width_px", 1.0, 65536.0, "no sensor has more columns");
 pub const HEIGHT_PX: Range = Range::closed("[sensor] height_px", 1.0, 65536.0, "no sensor has more rows");
-pub const PIXEL_PITCH_UM: Range = Range::closed("[sensor] pixel_pitch_um", 0.1, 100.0, "CMOS pixels are 0.5 to 30 µm");
+pub const PIXEL_PITCH_UM: Range = Range::closed(
+    "[sensor] pixel_pitch_um",
+    0.1,
+    1000.0,
+    "CMOS pixels are 0.5 to 30 µm; a sensor binned or simulated small at the same field of view has larger ones",
+);
 pub const BIT_DEPTH: Range = Range::closed("[sensor] bit_depth", 1.0, 16.0, "16-bit images hold at most 16 bits");
 pub const FOCAL_LENGTH_MM: Range =
     Range::closed("[lens] focal_length_mm", 0.1, 10000.0, "from a 1 mm fisheye to a 2 m telephoto, with room");
@@ -110,12 +115,12 @@ mod tests {
 
     #[test]
     fn bounds_are_in_or_out_as_written() {
-        assert!(PIXEL_PITCH_UM.contains(0.1) && PIXEL_PITCH_UM.contains(100.0));
+        assert!(PIXEL_PITCH_UM.contains(0.1) && PIXEL_PITCH_UM.contains(1000.0));
         assert!(!PIXEL_PITCH_UM.contains(1e9) && !PIXEL_PITCH_UM.contains(0.0));
         assert!(!TILT_X_DEG.contains(90.0) && TILT_X_DEG.contains(89.99));
         assert!(!HEADING_DEG.contains(1e308) && !HEADING_DEG.contains(f64::NAN));
         assert_eq!(TILT_X_DEG.interval(), "(-90, 90)");
-        assert_eq!(PIXEL_PITCH_UM.interval(), "[0.1, 100]");
+        assert_eq!(PIXEL_PITCH_UM.interval(), "[0.1, 1000]");
     }
 
     #[test]

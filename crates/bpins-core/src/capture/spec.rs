@@ -72,7 +72,7 @@ struct RawFrame {
 }
 
 /// A serde message in this format's words, on one line.
-fn clean(e: toml::de::Error) -> String {
+pub(crate) fn clean(e: toml::de::Error) -> String {
     let m = e.to_string();
     let m = m.trim().replace("\nin `", " in key `");
     let m = m.replace("unknown field", "unknown key").replace("missing field", "missing required key");
@@ -100,9 +100,17 @@ fn angle_channel(path: &Path, key: &str, deg: f64) -> Result<Channel> {
         .ok_or_else(|| err(path, format!("[sensor] {key}: {deg} is not an analyzer angle (0, 45, 90 or 135)")))
 }
 
-/// Parses `text` (the contents of `toml_path`) into a capture rooted at `dir`.
-/// Ranges are not checked here: see `validate.rs`.
-pub(crate) fn parse(dir: &Path, toml_path: &Path, text: &str) -> Result<Capture> {
+/// What every capture kind shares: `kind`, `[sensor]`, `[lens]` and the raw
+/// `[[frames]]` tables of `text` (the contents of `toml_path`), `format` checked.
+pub(crate) struct Header {
+    pub kind: String,
+    pub sensor: SensorSpec,
+    pub lens: LensSpec,
+    pub frames: Vec<toml::Value>,
+}
+
+/// Parses the parts of `capture.toml` every kind shares (see [`Header`]).
+pub(crate) fn parse_header(toml_path: &Path, text: &str) -> Result<Header> {
     let p = toml_path;
     let table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
         let at = e.span().map(|r| {
@@ -123,18 +131,9 @@ pub(crate) fn parse(dir: &Path, toml_path: &Path, text: &str) -> Result<Capture>
             bail!(p, "format = \"{f}\" is not supported; this reader knows \"{FORMAT}\"")
         }
     }
-    match top.kind.as_deref() {
-        None | Some("sky") => {}
-        Some("lab") => {
-            bail!(
-                p,
-                "kind = \"lab\": this is a lab capture (calibration frames of a uniform source, \
-                 no sky); the sky readers (heading, fit, diagnose) need kind = \"sky\""
-            )
-        }
-        Some(k) => {
-            bail!(p, "kind = \"{k}\" is unknown; use \"sky\" (the default) or \"lab\"")
-        }
+    let kind = top.kind.clone().unwrap_or_else(|| "sky".into());
+    if kind != "sky" && kind != "lab" {
+        bail!(p, "kind = \"{kind}\" is unknown; use \"sky\" (the default) or \"lab\"")
     }
     let s: RawSensor = section(p, "sensor", top.sensor)?;
     let l: RawLens = section(p, "lens", top.lens)?;
@@ -195,7 +194,22 @@ pub(crate) fn parse(dir: &Path, toml_path: &Path, text: &str) -> Result<Capture>
     };
     let lens = LensSpec { projection, focal_length_mm: l.focal_length_mm, principal_point_px };
 
-    let raw_frames = top.frames.unwrap_or_default();
+    Ok(Header { kind, sensor, lens, frames: top.frames.unwrap_or_default() })
+}
+
+/// Parses `text` (the contents of `toml_path`) into a capture rooted at `dir`.
+/// Ranges are not checked here: see `validate.rs`.
+pub(crate) fn parse(dir: &Path, toml_path: &Path, text: &str) -> Result<Capture> {
+    let p = toml_path;
+    let Header { kind, sensor, lens, frames: raw_frames } = parse_header(p, text)?;
+    if kind == "lab" {
+        bail!(
+            p,
+            "kind = \"lab\": this is a lab capture (calibration frames of a uniform source, \
+             no sky); the sky readers (heading, fit, diagnose) need kind = \"sky\"; \
+             calibrate it with `bpins calibrate`"
+        )
+    }
     if raw_frames.is_empty() {
         bail!(p, "no frames: at least one [[frames]] table is required");
     }

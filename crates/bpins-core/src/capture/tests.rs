@@ -122,7 +122,7 @@ fn out_of_range_values_are_errors_naming_key_and_frame() {
         ("heading_deg = 0", "heading_deg = nan", "heading_deg"),
         ("heading_deg = 0", "heading_deg = 1e308", "heading_deg = 1e308 is outside its range [-360, 360]"),
         ("sun_azimuth_deg = 40", "sun_azimuth_deg = -1e308", "sun_azimuth_deg = -1e308 is outside"),
-        ("pixel_pitch_um = 13.8", "pixel_pitch_um = 1e9", "pixel_pitch_um = 1e9 is outside its range [0.1, 100]"),
+        ("pixel_pitch_um = 13.8", "pixel_pitch_um = 1e9", "pixel_pitch_um = 1e9 is outside its range [0.1, 1000]"),
         ("focal_length_mm = 8", "focal_length_mm = 1e30", "focal_length_mm = 1e30 is outside"),
         ("width_px = 612", "width_px = 100000", "width_px = 100000 is outside its range [1, 65536]"),
         ("focal_length_mm = 8", "focal_length_mm = 8\nprincipal_point_px = [1e12, 2]", "principal_point_px"),

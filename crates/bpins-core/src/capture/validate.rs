@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
 
 use super::spec::{frame_label, image_kind};
-use super::{ranges, Capture, FrameSpec};
+use super::{ranges, Capture, FrameSpec, LensSpec, SensorSpec};
 use crate::sensor::{Channel, Layout};
 use crate::sky::sun::SunSource;
 use crate::Result;
@@ -17,17 +17,34 @@ use crate::Result;
 /// file errors are reported against.
 pub(crate) fn validate(c: &Capture, toml_path: &Path) -> Result<()> {
     let p = toml_path;
-    let g = &c.sensor.geometry;
+    validate_sensor_lens(&c.sensor, &c.lens, p)?;
+    if c.frames.is_empty() {
+        bail!(p, "no frames: at least one [[frames]] table is required");
+    }
+    let mut by_file: HashMap<PathBuf, usize> = HashMap::new();
+    for (i, f) in c.frames.iter().enumerate() {
+        let label = frame_label(i, Some(&f.file));
+        validate_frame(p, &label, f, &c.sensor.layout)?;
+        if let Some(j) = by_file.insert(normalised(&f.file), i) {
+            bail!(p, "{label}: the same file is already frames[{j}]; each frame needs its own image");
+        }
+    }
+    Ok(())
+}
+
+/// The `[sensor]` and `[lens]` rules every capture kind shares.
+pub(crate) fn validate_sensor_lens(sensor: &SensorSpec, lens: &LensSpec, p: &Path) -> Result<()> {
+    let g = &sensor.geometry;
     ranges::WIDTH_PX.check(p, "", g.width_px as f64)?;
     ranges::HEIGHT_PX.check(p, "", g.height_px as f64)?;
     ranges::PIXEL_PITCH_UM.check(p, "", g.pixel_pitch_um)?;
-    ranges::BIT_DEPTH.check(p, "", c.sensor.bit_depth as f64)?;
-    let full = c.sensor.full_scale_dn();
-    let b = c.sensor.black_level_dn;
+    ranges::BIT_DEPTH.check(p, "", sensor.bit_depth as f64)?;
+    let full = sensor.full_scale_dn();
+    let b = sensor.black_level_dn;
     if !(b.is_finite() && b >= 0.0 && b < full) {
         bail!(p, "[sensor] black_level_dn = {b} must be ≥ 0 and below full scale {full} DN");
     }
-    match &c.sensor.layout {
+    match &sensor.layout {
         Layout::Dofp { mosaic } => {
             let mut seen: Vec<Channel> = mosaic.iter().flatten().copied().collect();
             seen.sort();
@@ -49,8 +66,8 @@ pub(crate) fn validate(c: &Capture, toml_path: &Path) -> Result<()> {
             }
         }
     }
-    ranges::FOCAL_LENGTH_MM.check(p, "", c.lens.focal_length_mm)?;
-    let (px, py) = c.lens.principal_point_px;
+    ranges::FOCAL_LENGTH_MM.check(p, "", lens.focal_length_mm)?;
+    let (px, py) = lens.principal_point_px;
     let (w, h) = (g.width_px as f64, g.height_px as f64);
     if !((-w..=2.0 * w).contains(&px) && (-h..=2.0 * h).contains(&py)) {
         bail!(
@@ -63,33 +80,28 @@ pub(crate) fn validate(c: &Capture, toml_path: &Path) -> Result<()> {
             2.0 * h
         );
     }
-    if c.frames.is_empty() {
-        bail!(p, "no frames: at least one [[frames]] table is required");
-    }
-    let mut by_file: HashMap<PathBuf, usize> = HashMap::new();
-    for (i, f) in c.frames.iter().enumerate() {
-        let label = frame_label(i, Some(&f.file));
-        validate_frame(p, &label, f, &c.sensor.layout)?;
-        if let Some(j) = by_file.insert(normalised(&f.file), i) {
-            bail!(p, "{label}: the same file is already frames[{j}]; each frame needs its own image");
-        }
-    }
     Ok(())
 }
 
-fn normalised(file: &Path) -> PathBuf {
+pub(crate) fn normalised(file: &Path) -> PathBuf {
     file.components().filter(|c| !matches!(c, Component::CurDir)).collect()
 }
 
 fn validate_frame(p: &Path, label: &str, f: &FrameSpec, layout: &Layout) -> Result<()> {
-    let bad_path = f.file.as_os_str().is_empty()
-        || f.file.to_str().is_none()
-        || f.file.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
-        || f.file.components().all(|c| matches!(c, Component::CurDir));
+    validate_frame_file(p, label, &f.file, layout)?;
+    validate_sun(p, label, f)
+}
+
+/// A frame's file: a relative path inside the capture, of a type its layout reads.
+pub(crate) fn validate_frame_file(p: &Path, label: &str, file: &Path, layout: &Layout) -> Result<()> {
+    let bad_path = file.as_os_str().is_empty()
+        || file.to_str().is_none()
+        || file.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
+        || file.components().all(|c| matches!(c, Component::CurDir));
     if bad_path {
         bail!(p, "{label}: file must be a UTF-8 relative path inside the capture folder (no `..`, not absolute)");
     }
-    match (layout, image_kind(&f.file)) {
+    match (layout, image_kind(file)) {
         (Layout::Dofp { .. }, Some(_)) | (Layout::Colocated { .. }, Some("exr")) => {}
         (Layout::Dofp { .. }, None) => {
             bail!(p, "{label}: a dofp frame must be a .png, .tif/.tiff or .exr file");
@@ -98,6 +110,10 @@ fn validate_frame(p: &Path, label: &str, f: &FrameSpec, layout: &Layout) -> Resu
             bail!(p, "{label}: a colocated frame must be one multi-channel .exr file");
         }
     }
+    Ok(())
+}
+
+fn validate_sun(p: &Path, label: &str, f: &FrameSpec) -> Result<()> {
     match &f.sun.source {
         SunSource::Given => {
             ranges::SUN_AZIMUTH_DEG.check(p, label, f.sun.azimuth_deg)?;

@@ -30,6 +30,7 @@
 //! Frame: image pixels (CONVENTIONS.md); units DN. Only whole cells are kept: a
 //! margin narrower than a cell at the right and bottom edges is not read.
 
+use crate::pixel_analyzers::CellAnalyzers;
 use crate::recon::{PolImage, Reconstructor};
 use crate::sensor::{dn_is_valid, Channel, Layout};
 use crate::stokes::Stokes;
@@ -166,6 +167,32 @@ impl Cells {
         cell_px: usize,
         scratch: &mut CellScratch,
     ) {
+        self.fill_mosaic(img, mosaic, CellRecon::Frame(rec), full_scale_dn, cell_px, scratch)
+    }
+
+    /// As [`Cells::fill_from_mosaic`], each cell reconstructed through its own
+    /// analyzers (a per-pixel calibration, [`crate::pixel_analyzers`]); the grid is
+    /// `cal`'s (its cell size, over the frame `cal` was built for).
+    pub fn fill_from_mosaic_calibrated<T: RawDn>(
+        &mut self,
+        img: &RawImage<T>,
+        mosaic: &[[Channel; 2]; 2],
+        cal: &CellAnalyzers,
+        full_scale_dn: f64,
+        scratch: &mut CellScratch,
+    ) {
+        self.fill_mosaic(img, mosaic, CellRecon::PerCell(cal), full_scale_dn, cal.cell_px, scratch)
+    }
+
+    fn fill_mosaic<T: RawDn>(
+        &mut self,
+        img: &RawImage<T>,
+        mosaic: &[[Channel; 2]; 2],
+        rec: CellRecon,
+        full_scale_dn: f64,
+        cell_px: usize,
+        scratch: &mut CellScratch,
+    ) {
         let cell_px = (cell_px.max(2) + 1) & !1;
         let chan = [0, 1].map(|dv| [0, 1].map(|du| Layout::dofp_channel(mosaic, du, dv).index()));
         // Each channel's place (column, row) in the 2 × 2 tile.
@@ -197,18 +224,26 @@ impl Cells {
         let Some((_, first)) = planes.first() else { return Cells::default() };
         let cell_px = cell_px.max(1);
         let mut cells = Cells::default();
-        cells.build(first.width_px, first.height_px, cell_px, rec, None, &mut CellScratch::default(), |cj, acc| {
-            for (ch, plane) in planes {
-                for (dv, v) in (cj * cell_px..(cj + 1) * cell_px).enumerate() {
-                    let row = plane.row(v);
-                    for (ci, a) in acc.iter_mut().enumerate() {
-                        for (du, &x) in row[ci * cell_px..(ci + 1) * cell_px].iter().enumerate() {
-                            a.add(ch.index(), du as f64, dv as f64, x.dn(), full_scale_dn);
+        cells.build(
+            first.width_px,
+            first.height_px,
+            cell_px,
+            CellRecon::Frame(rec),
+            None,
+            &mut CellScratch::default(),
+            |cj, acc| {
+                for (ch, plane) in planes {
+                    for (dv, v) in (cj * cell_px..(cj + 1) * cell_px).enumerate() {
+                        let row = plane.row(v);
+                        for (ci, a) in acc.iter_mut().enumerate() {
+                            for (du, &x) in row[ci * cell_px..(ci + 1) * cell_px].iter().enumerate() {
+                                a.add(ch.index(), du as f64, dv as f64, x.dn(), full_scale_dn);
+                            }
                         }
                     }
                 }
-            }
-        });
+            },
+        );
         cells
     }
 
@@ -270,13 +305,21 @@ impl Cells {
         width_px: usize,
         height_px: usize,
         cell_px: usize,
-        rec: &Reconstructor,
+        rec: CellRecon,
         place: Option<[Option<(f64, f64)>; 4]>,
         scratch: &mut CellScratch,
         fill: impl Fn(usize, &mut [Acc]) + Sync,
     ) {
         let (cols, rows) = (width_px / cell_px, height_px / cell_px);
-        let (r, inv_gain, _) = rec.parts();
+        if let CellRecon::PerCell(cal) = rec {
+            // A grid other than the calibration's has no rows: no cells (the front
+            // door checks the sizes before it gets here).
+            if (cal.cols, cal.rows, cal.cell_px) != (cols, rows, cell_px) {
+                self.cells.clear();
+                (self.cell_px, self.cols, self.rows) = (cell_px, cols, rows);
+                return;
+            }
+        }
         let CellScratch { acc, slots } = scratch;
         acc.clear();
         acc.resize(cols * rows, Acc::default());
@@ -286,8 +329,26 @@ impl Cells {
             acc.par_chunks_mut(cols).zip(slots.par_chunks_mut(cols)).enumerate().for_each(|(cj, (acc, slots))| {
                 fill(cj, acc);
                 for (ci, (a, slot)) in acc.iter().zip(slots.iter_mut()).enumerate() {
-                    let Some((mean, var)) = a.finish(cell_px, place) else { continue };
-                    let stokes = rec.stokes(&mean);
+                    let Some((mean, mut var)) = a.finish(cell_px, place) else { continue };
+                    let (stokes, r, inv_gain) = match rec {
+                        CellRecon::Frame(rec) => {
+                            let (r, inv_gain, _) = rec.parts();
+                            (rec.stokes(&mean), r, inv_gain)
+                        }
+                        CellRecon::PerCell(cal) => {
+                            let c = &cal.cells[cj * cols + ci];
+                            if !c.ok {
+                                continue;
+                            }
+                            let x: [f64; 4] = std::array::from_fn(|k| mean[k] - c.offset_dn[k]);
+                            let dot = |row: &[f64; 4]| (0..4).map(|k| row[k] * x[k]).sum::<f64>();
+                            let s = Stokes::new(dot(&c.rows[0]), dot(&c.rows[1]), dot(&c.rows[2]), 0.0);
+                            if a.bad == 0.0 && place.is_some() {
+                                remove_fixed_pattern(&mut var, &a.n, &c.pattern, &s);
+                            }
+                            (s, c.rows, [1.0; 4])
+                        }
+                    };
                     let v = |row: &[f64; 4]| (0..4).map(|k| (row[k] * inv_gain[k]).powi(2) * var[k]).sum::<f64>();
                     let c = (cell_px - 1) as f64 * 0.5;
                     *slot = Some(Cell {
@@ -305,6 +366,38 @@ impl Cells {
         self.cells.clear();
         self.cells.extend(slots.iter().flatten());
         (self.cell_px, self.cols, self.rows) = (cell_px, cols, rows);
+    }
+}
+
+/// How a cell's channel values become Stokes: one reconstructor for the frame, or
+/// one per cell (a per-pixel calibration).
+#[derive(Clone, Copy)]
+enum CellRecon<'a> {
+    Frame(&'a Reconstructor),
+    PerCell(&'a CellAnalyzers),
+}
+
+/// Takes the calibrated fixed pattern out of each channel's scatter (variance of its
+/// centre value, `var`): the pattern adds `[S, 1]ᵀ M_k [S, 1]` to the sum of squares
+/// about the plane (`n_k − 3` degrees of freedom). What is left keeps at least a
+/// tenth of the measured variance (a cell never claims to be noise-free).
+fn remove_fixed_pattern(var: &mut [f64; 4], n: &[f64; 4], pattern: &[[f64; 10]; 4], s: &Stokes) {
+    let z = [s.i, s.q, s.u, 1.0];
+    for k in 0..4 {
+        let dof = n[k] - 3.0;
+        if dof <= 0.0 || !var[k].is_finite() {
+            continue;
+        }
+        let m = &pattern[k];
+        let mut q = 0.0;
+        let mut t = 0;
+        for x in 0..4 {
+            for y in x..4 {
+                q += if x == y { 1.0 } else { 2.0 } * m[t] * z[x] * z[y];
+                t += 1;
+            }
+        }
+        var[k] = (var[k] - q / (dof * n[k])).max(0.1 * var[k]);
     }
 }
 

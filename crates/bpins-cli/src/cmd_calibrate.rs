@@ -1,0 +1,125 @@
+//! `bpins calibrate LAB --out DIR`: a DoFP sensor calibrated from a lab capture
+//! (`kind = "lab"`, CAPTURE.md) per pixel (`bpins_core::lab`). Writes
+//! DIR/calibration.toml with DIR/pixels.exr beside it (for `heading`, `fit`,
+//! `diagnose --calibration` and the library's Compass), every map as
+//! DIR/maps.exr and DIR/png/*.png, DIR/summary.json and DIR/report.html.
+
+use crate::{ensure_not_in_capture, write_json, write_output};
+use anyhow::Context;
+use bpins_core::calibration::Calibration;
+use bpins_core::capture::LabCapture;
+use bpins_core::lab::{calibrate, output, report};
+use serde_json::json;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The lab capture folder (bpins-capture/1, kind = "lab").
+    lab: PathBuf,
+    /// Output folder (never inside the capture).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    ensure_not_in_capture(&a.out)?;
+    let t0 = std::time::Instant::now();
+    let lab = LabCapture::load(&a.lab)?;
+    let g = &lab.sensor.geometry;
+    eprintln!(
+        "bpins calibrate: {} frames of {} ({} × {} px)",
+        lab.frames.len(),
+        a.lab.display(),
+        g.width_px,
+        g.height_px
+    );
+    let pb = crate::progress::bar(lab.frames.len() as u64, "frames");
+    let cal = calibrate(&lab, &|done, _| pb.set_position(done as u64)).context("calibrating")?;
+    pb.finish_and_clear();
+    let t_fit = t0.elapsed().as_secs_f64();
+
+    println!("offsets: {}", cal.offset_source);
+    println!(
+        "{:<24} {:>8} {:>22} {:>11} {:>22} {:>22} {:>12}  unit",
+        "quantity", "channel", "mean ± 1σ", "spread", "gradient x ± 1σ", "gradient y ± 1σ", "pixel 1σ"
+    );
+    for s in &cal.summary {
+        println!(
+            "{:<24} {:>7}° {:>11.5} ± {:<8.5} {:>11.5} {:>+11.5} ± {:<8.5} {:>+11.5} ± {:<8.5} {:>12}  {}",
+            s.quantity,
+            s.channel_deg,
+            s.mean,
+            s.mean_sigma,
+            s.spread,
+            s.gradient_x,
+            s.gradient_x_sigma,
+            s.gradient_y,
+            s.gradient_y_sigma,
+            s.pixel_sigma_rms.map_or("—".into(), |x| format!("{x:.5}")),
+            s.unit
+        );
+    }
+    if let Some(p) = &cal.photon_transfer {
+        println!(
+            "photon transfer: K {:.5} ± {:.5} DN/e⁻, read noise {:.3} ± {:.3} DN, linearity error {}",
+            p.conversion_gain_dn_per_e,
+            p.conversion_gain_sigma,
+            p.read_noise_dn,
+            p.read_noise_sigma_dn,
+            p.linearity_error_pct.map_or("—".into(), |x| format!("{x:.4} %"))
+        );
+    }
+    if let Some(d) = &cal.dark {
+        println!(
+            "dark: mean offset {:.3} DN, DSNU {:.3} DN over {} dark frame(s)",
+            d.mean_offset_dn, d.dsnu_dn, d.frames
+        );
+    }
+    if let Some(f) = &cal.flat {
+        println!(
+            "flat field: vignetting v2 {:.5} ± {:.5}, v4 {:.5} ± {:.5} (r in focal lengths), PRNU {:.3} %",
+            f.v2, f.v2_sigma, f.v4, f.v4_sigma, f.prnu_pct
+        );
+    }
+    for l in &cal.left_out {
+        println!("not determined: {}: {}", l.quantity, l.reason);
+    }
+
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    let maps = output::write_maps(&cal, &a.out).context("writing the maps")?;
+    let calibration = Calibration {
+        source: format!("bpins calibrate {}", a.lab.display()),
+        pixels: Some(Arc::new(cal.maps.clone())),
+        ..Default::default()
+    };
+    calibration.write_pixels(&a.out).context("writing pixels.exr")?;
+    let cal_path = a.out.join("calibration.toml");
+    write_output(&cal_path, calibration.to_toml().as_bytes())?;
+    let summary = json!({
+        "lab": a.lab.display().to_string(),
+        "width_px": g.width_px, "height_px": g.height_px,
+        "offset_source": cal.offset_source,
+        "channels": cal.summary,
+        "photon_transfer": cal.photon_transfer,
+        "dark": cal.dark.as_ref().map(|d| json!({"frames": d.frames, "mean_offset_dn": d.mean_offset_dn, "dsnu_dn": d.dsnu_dn})),
+        "flat_field": cal.flat,
+        "malus_residual_dn": cal.malus_residual_dn,
+        "left_out": cal.left_out,
+        "maps": maps,
+    });
+    write_json(&a.out.join("summary.json"), &summary)?;
+    write_output(
+        &a.out.join("report.html"),
+        report::report_html(&cal, &a.lab.display().to_string(), &maps).as_bytes(),
+    )?;
+    let t_all = t0.elapsed().as_secs_f64();
+    eprintln!(
+        "wrote {} (+ pixels.exr), maps.exr, png/, summary.json, report.html to {} in {t_all:.1} s \
+         (reading and fitting {t_fit:.1} s, writing {:.1} s)",
+        cal_path.display(),
+        a.out.display(),
+        t_all - t_fit
+    );
+    Ok(())
+}
