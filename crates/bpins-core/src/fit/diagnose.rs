@@ -7,8 +7,8 @@
 //! for their real Δχ², ranked by ΔBIC = Δχ²·n_eff/n − k·ln n_eff (k the combinations
 //! of its parameters the data constrain beside the model's — fewer than its
 //! parameters where some trade exactly against the model's —, n the samples, n_eff
-//! their effective count under the candidate's model, `correlation`: a candidate that
-//! leaves a smooth misfit behind earns less evidence than its Δχ² says). The winner
+//! their effective count under the model it adds to, `correlation`: residuals
+//! correlated between neighbours carry less evidence than their Δχ² says). The winner
 //! is added if ΔBIC > 10 ("very strong" evidence, Kass & Raftery 1995) and it removes
 //! at least half of the model's excess χ² (χ² − dof); where it alone does not, the
 //! two best refitted together are added if both pass ΔBIC and together they remove
@@ -74,25 +74,27 @@ pub fn inseparable(c: &Capture, opts: &FitOptions) -> Vec<(&'static str, String)
         out.push((
             "vignetting",
             "an intensity-only radial falloff: the sky's radiance nuisance takes the same shape (a sky brightens \
-             toward the horizon, radially for a camera looking up); a lab flat field measures it (`bpins calibrate`)"
+             toward the horizon, radially for a camera looking up); a lab flat field measures it (then `--calibration FILE` holds it)"
                 .to_string(),
         ));
     }
     if opts.fixed_dmax.is_none() {
         out.push((
             "sky_depolarization",
-            "a factor on the sky's d_max, which each frame fits: give the sky's d_max (--dmax) to measure it"
+            "a factor on the sky's d_max, which each frame fits: give the sky's d_max (--fixed-dmax) to measure it"
                 .to_string(),
         ));
-        if matches!(c.sensor.layout, Layout::Dofp { .. }) {
-            out.push((
-                "crosstalk",
+    }
+    if matches!(c.sensor.layout, Layout::Dofp { .. }) {
+        out.push((
+            "crosstalk",
+            format!(
                 "away from the sensor's border (not fitted) crosstalk between a pixel and its four neighbours lowers \
-                 the modulation like a lower d_max, which each frame fits: give the sky's d_max (--dmax), or use a lab \
-                 polarizer capture"
-                    .to_string(),
-            ));
-        }
+                 the modulation as a lower sky DoLP does ({}); a lab capture through a polarizer measures it, or fit \
+                 it alone with the sky's d_max given (`fit --effects crosstalk --fixed-dmax D`)",
+                if opts.fixed_dmax.is_none() { "each frame's d_max" } else { "sky_depolarization" }
+            ),
+        ));
     }
     out
 }
@@ -139,10 +141,12 @@ pub struct Diagnosis {
 }
 
 /// ΔBIC of a refit that lowered χ² by `delta_chi2` with `k` more constrained
-/// combinations: the evidence at the refit's effective sample count.
-fn delta_bic(delta_chi2: f64, k: usize, r: &FitResult) -> f64 {
-    let n = r.samples.max(2) as f64;
-    let n_eff = r.n_eff.clamp(2.0, n);
+/// combinations, at the effective sample count of the model it adds to (`base`):
+/// where that model's residual is smooth, Δχ² counts for n_eff/n of itself (the same
+/// factor for every candidate of a step, so it does not reorder them by noise in n_eff).
+fn delta_bic(delta_chi2: f64, k: usize, base: &FitResult) -> f64 {
+    let n = base.samples.max(2) as f64;
+    let n_eff = base.n_eff.clamp(2.0, n);
     delta_chi2 * n_eff / n - k as f64 * n_eff.ln()
 }
 
@@ -188,7 +192,11 @@ pub fn diagnose(
                 effect: e.name,
                 score: s.delta_chi2,
                 delta_chi2: s.delta_chi2,
-                delta_bic: s.delta_chi2 - s.added_rank as f64 * (s.samples.max(2) as f64).ln(),
+                // At the subsample's share of the model's effective sample count.
+                delta_bic: {
+                    let f = (current.n_eff / current.samples.max(1) as f64).clamp(0.0, 1.0);
+                    s.delta_chi2 * f - s.added_rank as f64 * (f * s.samples as f64).max(2.0).ln()
+                },
                 refitted: false,
                 identifiable: s.identifiable,
                 added_rank: s.added_rank,
@@ -199,9 +207,9 @@ pub fn diagnose(
         ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.delta_bic.total_cmp(&a.delta_bic)));
         // Refit the strongest identifiable ones for their real Δχ².
         let mut fits = Vec::new();
-        // The strongest by score are refitted where the score is beyond noise: under
-        // the null it is χ²_k (mean k, σ √(2k)); a refit needs it 3σ above.
-        ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.score.total_cmp(&a.score)));
+        // The strongest by predicted ΔBIC (a candidate with more parameters than an
+        // equal rival pays for them) are refitted where the score is beyond noise:
+        // under the null it is χ²_k (mean k, σ √(2k)); a refit needs it 3σ above.
         for cand in ranking
             .iter_mut()
             .filter(|c| {
@@ -223,7 +231,7 @@ pub fn diagnose(
             cand.identifiable = cand.added_rank > 0;
             let k = cand.added_rank as f64;
             cand.delta_chi2 = current.chi2 - r.chi2;
-            cand.delta_bic = delta_bic(cand.delta_chi2, k as usize, &r);
+            cand.delta_bic = delta_bic(cand.delta_chi2, k as usize, &current);
             cand.refitted = true;
             cand.params =
                 r.params.iter().filter(|p| p.name.starts_with(&format!("{}.", cand.effect))).cloned().collect();
@@ -273,7 +281,7 @@ pub fn diagnose(
             let r = fit_from(c, frames, &m, Some(&start), &|_, _| {})?;
             let dc = current.chi2 - r.chi2;
             let k = r.rank.saturating_sub(current.rank);
-            if dc < EXCESS_FRACTION * excess || delta_bic(dc, k, &r) < 2.0 * BIC_THRESHOLD {
+            if dc < EXCESS_FRACTION * excess || delta_bic(dc, k, &current) < 2.0 * BIC_THRESHOLD {
                 break;
             }
             model = m;
