@@ -159,6 +159,7 @@ impl FitInput {
             fixed_dmax: self.fixed_dmax,
             rayleigh_radiance: self.rayleigh_radiance,
             all_pixels: self.all_pixels,
+            sky_masks: None,
             known: match &self.calibration {
                 Some(p) => bpins_core::calibration::Calibration::load(p)?.effects,
                 None => Default::default(),

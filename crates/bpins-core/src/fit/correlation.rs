@@ -41,21 +41,21 @@ pub(super) fn effective_samples(pb: &Problem, theta: &[f64], samples: usize) -> 
     let mut buf = Vec::new();
     for k in 0..pb.frames.len() {
         let f = pb.chain(theta, k)?;
-        // Residual map: per pixel, per sample (NaN where not usable).
-        let mut z: Vec<Vec<f64>> = vec![Vec::new(); w * h];
+        // Residual map: per pixel, per sample (NaN where not usable), flat.
+        let nq = match &pb.capture.sensor.layout {
+            Layout::Dofp { .. } => 1,
+            Layout::Colocated { channels } => channels.len(),
+        };
+        let mut z = vec![f64::NAN; w * h * nq];
         for v in 0..h {
             for u in 0..w {
                 pb.pixel(&f, k, u, v, &mut buf);
-                z[v * w + u] = buf
-                    .iter()
-                    .map(|&(y, m)| {
-                        if pb.usable(k, u, v, y) {
-                            (y - m) / pb.noise.variance_dn2(m - pb.capture.sensor.black_level_dn).sqrt()
-                        } else {
-                            f64::NAN
-                        }
-                    })
-                    .collect();
+                for (q, &(y, m)) in buf.iter().enumerate().take(nq) {
+                    if pb.usable(k, u, v, y) {
+                        let var = pb.noise.variance_dn2(m - pb.capture.sensor.black_level_dn);
+                        z[(v * w + u) * nq + q] = (y - m) / var.sqrt();
+                    }
+                }
             }
         }
         let add = |acc: &mut [f64; 3], a: &[f64], b: &[f64]| {
@@ -67,13 +67,14 @@ pub(super) fn effective_samples(pb: &Problem, theta: &[f64], samples: usize) -> 
                 }
             }
         };
+        let at = |u: usize, v: usize| &z[(v * w + u) * nq..][..nq];
         for v in 0..h {
             for u in 0..w {
                 if u + lag < w {
-                    add(&mut lags.x, &z[v * w + u], &z[v * w + u + lag]);
+                    add(&mut lags.x, at(u, v), at(u + lag, v));
                 }
                 if v + lag < h {
-                    add(&mut lags.y, &z[v * w + u], &z[(v + lag) * w + u]);
+                    add(&mut lags.y, at(u, v), at(u, v + lag));
                 }
             }
         }
