@@ -84,6 +84,9 @@ fn print_steps(d: &Diagnosis) {
         }
     }
     println!("selected: {}", if d.selected.is_empty() { "nothing".into() } else { d.selected.join(", ") });
+    for (e, why) in &d.inseparable {
+        println!("inseparable on this capture (not fitted): {e}: {why}");
+    }
     for (a, b) in &d.confusable {
         println!("confusable: {a} and {b} explain the data about equally well");
     }
@@ -134,6 +137,8 @@ fn to_json(d: &Diagnosis, capture: &std::path::Path) -> Value {
         "confusable": d.confusable.iter().map(|(a, b)| json!([a, b])).collect::<Vec<_>>(),
         "unexplained": d.unexplained,
         "unexplained_summary": d.unexplained_summary,
+        "inseparable": d.inseparable.iter().map(|(e, why)| json!({ "effect": e, "why": why })).collect::<Vec<_>>(),
+        "effective_samples": d.steps.last().map(|s| s.fit.n_eff),
         "bic_threshold": bpins_core::fit::diagnose::BIC_THRESHOLD,
     })
 }
@@ -207,7 +212,7 @@ fn report_html(d: &Diagnosis, capture: &std::path::Path, figures: &[crate::resid
     }
     for (i, r) in d.rankings.iter().enumerate() {
         h += &format!(
-            "<h2>Step {}: candidates (ΔBIC = Δχ² − k ln n; added above {})</h2>\n",
+            "<h2>Step {}: candidates (ΔBIC = Δχ²·n_eff/n − k ln n_eff; added above {})</h2>\n",
             i + 1,
             bpins_core::fit::diagnose::BIC_THRESHOLD
         );
@@ -240,23 +245,29 @@ fn report_html(d: &Diagnosis, capture: &std::path::Path, figures: &[crate::resid
     for (a, b) in &d.confusable {
         h += &format!("<p><b>Confusable:</b> {a} and {b} explain the data about equally well.</p>\n");
     }
+    if !d.inseparable.is_empty() {
+        h += "<h2>What this capture cannot tell</h2><p>These effects cannot be separated from the fit's nuisances (the sky's radiance and d_max of each frame) on a sky capture; they were not fitted or named:</p><ul>\n";
+        for (e, why) in &d.inseparable {
+            h += &format!("<li><b>{e}</b>: {}</li>\n", esc(why));
+        }
+        h += "</ul>\n";
+    }
     h += &format!(
         "<h2>What remains</h2><p class=\"{}\">{}</p>\n",
         if d.unexplained { "no" } else { "yes" },
         esc(&d.unexplained_summary)
     );
     if let Some(last) = d.steps.last() {
-        h += "<h2>Final model: frames</h2><table><tr><th>frame</th><th>heading (°)</th><th>± (°)</th><th>reference (°)</th><th>error (°)</th><th>d_max</th><th>radiance shape a1, a2</th><th>χ²/dof</th></tr>\n";
+        h += "<h2>Final model: frames</h2><table><tr><th>frame</th><th>heading (°)</th><th>± (°)</th><th>reference (°)</th><th>error (°)</th><th>d_max</th><th>radiance coefficients</th><th>χ²/dof</th></tr>\n";
         for (k, f) in last.fit.frames.iter().enumerate() {
             h += &format!(
-                "<tr><td>{k}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:+.4}, {:+.4}</td><td>{:.4}</td></tr>\n",
+                "<tr><td>{k}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{}</td><td>{:.4}</td></tr>\n",
                 f.heading_deg,
                 f.heading_sigma_deg,
                 opt(f.reference_deg),
                 opt(f.heading_error_deg),
                 f.dmax,
-                f.radiance_shape[0],
-                f.radiance_shape[1],
+                f.radiance.iter().map(|c| format!("{c:+.3}")).collect::<Vec<_>>().join(" "),
                 f.chi2_per_dof
             );
         }

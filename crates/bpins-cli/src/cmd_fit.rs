@@ -28,19 +28,25 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .context("fitting")?;
     spinner.finish_and_clear();
     println!(
-        "χ²/dof {:.4} ({:.0} / {:.0}), {} samples, {} iterations; noise σ_read {:.3} DN, K {:.4} DN/e⁻",
-        r.chi2_per_dof, r.chi2, r.dof, r.samples, r.iterations, r.noise.read_dn, r.noise.k_dn_per_e
+        "χ²/dof {:.4} ({:.0} / {:.0}), {} samples ({:.0} effective), {} iterations; noise σ_read {:.3} DN, K {:.4} DN/e⁻, PRNU {:.4} %",
+        r.chi2_per_dof,
+        r.chi2,
+        r.dof,
+        r.samples,
+        r.n_eff,
+        r.iterations,
+        r.noise.read_dn,
+        r.noise.k_dn_per_e,
+        100.0 * r.noise.prnu
     );
     println!("AoP residual RMS {:.4}°, DoLP residual RMS {:.5}", r.aop_rms_deg, r.dolp_rms);
     for p in &r.params {
         println!("  {:<34} {:>+12.5} ± {:<10.5} {}", p.name, p.value, p.sigma, p.unit);
     }
-    println!(
-        "frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max  shape a1  shape a2   χ²/dof"
-    );
+    println!("frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max  radiance ±range   χ²/dof");
     for (k, f) in r.frames.iter().enumerate() {
         println!(
-            "{:>5}  {:>11.4} {:>10.4} {:>15} {:>10} {:>11.2} {:>7.4} {:>+9.4} {:>+9.4} {:>8.4}",
+            "{:>5}  {:>11.4} {:>10.4} {:>15} {:>10} {:>11.2} {:>7.4} {:>14.4} {:>8.4}",
             k,
             f.heading_deg,
             f.heading_sigma_deg,
@@ -48,8 +54,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             f.heading_error_deg.map_or("—".into(), |x| format!("{x:+.4}")),
             f.scale_dn,
             f.dmax,
-            f.radiance_shape[0],
-            f.radiance_shape[1],
+            f.radiance.iter().map(|c| c.abs()).sum::<f64>(),
             f.chi2_per_dof
         );
     }
@@ -75,7 +80,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         // Sigmas of parameters in these combinations are null (unbounded).
         "degenerate": r.degenerate,
         "rank": r.rank,
-        "noise": { "read_dn": r.noise.read_dn, "k_dn_per_e": r.noise.k_dn_per_e },
+        "noise": { "read_dn": r.noise.read_dn, "k_dn_per_e": r.noise.k_dn_per_e, "prnu": r.noise.prnu },
+        "effective_samples": r.n_eff,
         "frames": r.frames.iter().map(|f| json!({
             "heading_deg": f.heading_deg,
             "heading_sigma_deg": f.heading_sigma_deg,
@@ -83,7 +89,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "heading_error_deg": f.heading_error_deg,
             "scale_dn": f.scale_dn,
             "dmax": f.dmax,
-            "radiance_shape": f.radiance_shape,
+            "radiance_coefficients": f.radiance,
             "chi2_per_dof": f.chi2_per_dof,
         })).collect::<Vec<_>>(),
     });

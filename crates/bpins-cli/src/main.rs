@@ -175,6 +175,7 @@ impl FitInput {
             fixed_dmax: self.fixed_dmax,
             rayleigh_radiance: self.rayleigh_radiance,
             all_pixels: self.all_pixels,
+            sky_masks: None,
             known: cal.map(|c| c.effects).unwrap_or_default(),
         };
         Ok((opts, c, frames))

@@ -4,12 +4,19 @@
 //! (`score_candidate`: the Δχ² one Gauss–Newton step predicts, a score test, on every
 //! third row and column); the strongest `refit_top` whose score is beyond noise (more
 //! than 3σ above its null distribution χ²_k: > k + 3√(2k)) are refitted on every pixel
-//! for their real Δχ², ranked by ΔBIC = Δχ² − k·ln n (k the combinations of its
-//! parameters the data constrain beside the model's — fewer than its parameters where
-//! some trade exactly against the model's —, n the samples). The winner is added if
-//! ΔBIC > 10 ("very strong" evidence, Kass & Raftery 1995) and it removes at least
-//! 30 % of the model's excess χ² (χ² − dof) — an effect that only nibbles at a misfit
-//! it does not describe is not named — and the search repeats. Two candidates within
+//! for their real Δχ², ranked by ΔBIC = Δχ²·n_eff/n − k·ln n_eff (k the combinations
+//! of its parameters the data constrain beside the model's — fewer than its
+//! parameters where some trade exactly against the model's —, n the samples, n_eff
+//! their effective count under the model it adds to, `correlation`: residuals
+//! correlated between neighbours carry less evidence than their Δχ² says). The winner
+//! is added if ΔBIC > 10 ("very strong" evidence, Kass & Raftery 1995) and it removes
+//! at least half of the model's excess χ² (χ² − dof); where it alone does not, the
+//! two best refitted together are added if both pass ΔBIC and together they remove
+//! half (two effects that each explain a part) — an effect that only nibbles at a
+//! misfit it does not describe is not named — and the search repeats. Effects a sky
+//! capture cannot tell from the fit's nuisances ([`inseparable`]: vignetting from the
+//! sky's radiance, a factor on d_max from each frame's d_max) are not candidates but
+//! listed, with why, as what the capture cannot tell. Two candidates within
 //! 10 of each other in ΔBIC are reported as confusable (the data cannot tell them
 //! apart; the better one is still taken). When no effect is worth its parameters but
 //! χ²/dof stays clearly above 1, the residual is reported as unexplained, described by
@@ -17,10 +24,11 @@
 //! (`profiles::describe`) instead of naming the least-bad effect.
 
 use super::profiles::{Axis, Profile};
-use super::{fit_from, residual_maps, score_candidate, FitOptions, FitResult, Param};
+use super::{fit_from, residual_maps, score_candidate, sky_masks, FitOptions, FitResult, Param};
 use crate::capture::{Capture, FrameData};
 use crate::effects::{EffectDef, REGISTRY};
 use crate::error::Result;
+use crate::sensor::Layout;
 
 /// How the search runs.
 #[derive(Clone, Debug)]
@@ -52,10 +60,44 @@ impl Default for DiagnoseOptions {
 /// ΔBIC an effect must bring to be added.
 pub const BIC_THRESHOLD: f64 = 10.0;
 
-/// Fraction of the model's excess χ² (χ² − dof) an effect must remove to be added:
-/// an effect that only nibbles at a misfit it does not describe (a tilt absorbing a
-/// little of a gain ramp) is not named.
-pub const EXCESS_FRACTION: f64 = 0.3;
+/// Fraction of the model's excess χ² (χ² − dof) an effect — or the best two together
+/// — must remove to be added: an effect that only nibbles at a misfit it does not
+/// describe (a tilt absorbing a little of a gain ramp, a lens term bending to a sky's
+/// radiance) is not named.
+pub const EXCESS_FRACTION: f64 = 0.5;
+
+/// The catalog effects a sky capture fitted under `opts` cannot separate from the
+/// fit's own nuisances, each with why and what would measure it.
+pub fn inseparable(c: &Capture, opts: &FitOptions) -> Vec<(&'static str, String)> {
+    let mut out = Vec::new();
+    if !opts.rayleigh_radiance {
+        out.push((
+            "vignetting",
+            "an intensity-only radial falloff: the sky's radiance nuisance takes the same shape (a sky brightens \
+             toward the horizon, radially for a camera looking up); a lab flat field measures it (then `--calibration FILE` holds it)"
+                .to_string(),
+        ));
+    }
+    if opts.fixed_dmax.is_none() {
+        out.push((
+            "sky_depolarization",
+            "a factor on the sky's d_max, which each frame fits: give the sky's d_max (--fixed-dmax) to measure it"
+                .to_string(),
+        ));
+    }
+    if matches!(c.sensor.layout, Layout::Dofp { .. }) {
+        out.push((
+            "crosstalk",
+            format!(
+                "away from the sensor's border (not fitted) crosstalk between a pixel and its four neighbours lowers \
+                 the modulation as a lower sky DoLP does ({}); a lab capture through a polarizer measures it, or fit \
+                 it alone with the sky's d_max given (`fit --effects crosstalk --fixed-dmax D`)",
+                if opts.fixed_dmax.is_none() { "each frame's d_max" } else { "sky_depolarization" }
+            ),
+        ));
+    }
+    out
+}
 
 /// One candidate of one step.
 #[derive(Clone, Debug, PartialEq)]
@@ -93,6 +135,19 @@ pub struct Diagnosis {
     pub confusable: Vec<(&'static str, &'static str)>,
     pub unexplained: bool,
     pub unexplained_summary: String,
+    /// Effects this capture cannot tell from the fit's nuisances, with why (not
+    /// candidates): [`inseparable`], and any the scoring found unidentifiable.
+    pub inseparable: Vec<(&'static str, String)>,
+}
+
+/// ΔBIC of a refit that lowered χ² by `delta_chi2` with `k` more constrained
+/// combinations, at the effective sample count of the model it adds to (`base`):
+/// where that model's residual is smooth, Δχ² counts for n_eff/n of itself (the same
+/// factor for every candidate of a step, so it does not reorder them by noise in n_eff).
+fn delta_bic(delta_chi2: f64, k: usize, base: &FitResult) -> f64 {
+    let n = base.samples.max(2) as f64;
+    let n_eff = base.n_eff.clamp(2.0, n);
+    delta_chi2 * n_eff / n - k as f64 * n_eff.ln()
 }
 
 /// Runs the diagnosis; `progress(what)` as it goes.
@@ -103,6 +158,12 @@ pub fn diagnose(
     progress: &dyn Fn(&str),
 ) -> Result<Diagnosis> {
     let mut model = opts.base.clone();
+    if model.sky_masks.is_none() && !model.all_pixels {
+        // Once for every fit of the search.
+        progress("finding the sky in each frame");
+        model.sky_masks = Some(std::sync::Arc::new(sky_masks(c, frames, &model)?));
+    }
+    let insep = inseparable(c, &model);
     progress("fitting the starting model");
     let mut current = fit_from(c, frames, &model, None, &|_, _| {})?;
     let mut d = Diagnosis {
@@ -112,12 +173,14 @@ pub fn diagnose(
         confusable: Vec::new(),
         unexplained: false,
         unexplained_summary: String::new(),
+        inseparable: insep.clone(),
     };
     for _ in 0..opts.max_added {
         let candidates: Vec<&'static EffectDef> = REGISTRY
             .iter()
             .copied()
             .filter(|e| !model.effects.iter().any(|m| m.name == e.name) && !opts.exclude.contains(&e.name))
+            .filter(|e| !insep.iter().any(|(n, _)| *n == e.name))
             .collect();
         let mut ranking = Vec::new();
         for e in &candidates {
@@ -129,7 +192,11 @@ pub fn diagnose(
                 effect: e.name,
                 score: s.delta_chi2,
                 delta_chi2: s.delta_chi2,
-                delta_bic: s.delta_chi2 - s.added_rank as f64 * (s.samples.max(2) as f64).ln(),
+                // At the subsample's share of the model's effective sample count.
+                delta_bic: {
+                    let f = (current.n_eff / current.samples.max(1) as f64).clamp(0.0, 1.0);
+                    s.delta_chi2 * f - s.added_rank as f64 * (f * s.samples as f64).max(2.0).ln()
+                },
                 refitted: false,
                 identifiable: s.identifiable,
                 added_rank: s.added_rank,
@@ -140,9 +207,9 @@ pub fn diagnose(
         ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.delta_bic.total_cmp(&a.delta_bic)));
         // Refit the strongest identifiable ones for their real Δχ².
         let mut fits = Vec::new();
-        // The strongest by score are refitted where the score is beyond noise: under
-        // the null it is χ²_k (mean k, σ √(2k)); a refit needs it 3σ above.
-        ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.score.total_cmp(&a.score)));
+        // The strongest by predicted ΔBIC (a candidate with more parameters than an
+        // equal rival pays for them) are refitted where the score is beyond noise:
+        // under the null it is χ²_k (mean k, σ √(2k)); a refit needs it 3σ above.
         for cand in ranking
             .iter_mut()
             .filter(|c| {
@@ -164,7 +231,7 @@ pub fn diagnose(
             cand.identifiable = cand.added_rank > 0;
             let k = cand.added_rank as f64;
             cand.delta_chi2 = current.chi2 - r.chi2;
-            cand.delta_bic = cand.delta_chi2 - k * (r.samples as f64).ln();
+            cand.delta_bic = delta_bic(cand.delta_chi2, k as usize, &current);
             cand.refitted = true;
             cand.params =
                 r.params.iter().filter(|p| p.name.starts_with(&format!("{}.", cand.effect))).cloned().collect();
@@ -181,19 +248,50 @@ pub fn diagnose(
         let runner = ranking.get(1).cloned();
         d.rankings.push(ranking);
         let excess = (current.chi2 - current.dof).max(0.0);
-        let explains =
-            |c: &Candidate| c.refitted && c.delta_bic > BIC_THRESHOLD && c.delta_chi2 >= EXCESS_FRACTION * excess;
-        let Some(best) = best.filter(|b| explains(b)) else { break };
-        if let Some(r) = runner.filter(|r| explains(r)) {
-            if best.delta_bic - r.delta_bic < BIC_THRESHOLD {
-                d.confusable.push((best.effect, r.effect));
+        for cand in d.rankings.last().expect("pushed").iter().filter(|c| !c.identifiable && !c.refitted) {
+            if !d.inseparable.iter().any(|(n, _)| *n == cand.effect) {
+                let why =
+                    "the data cannot tell it from the fit's other parameters (it adds no constrained combination)";
+                d.inseparable.push((cand.effect, why.to_string()));
             }
         }
-        let (_, m, r) = fits.into_iter().find(|(e, _, _)| *e == best.effect).expect("refitted");
-        model = m;
-        current = r;
-        d.selected.push(best.effect);
+        let evident = |c: &Candidate| c.refitted && c.delta_bic > BIC_THRESHOLD;
+        let explains = |c: &Candidate| evident(c) && c.delta_chi2 >= EXCESS_FRACTION * excess;
+        let Some(best) = best.filter(|b| evident(b)) else { break };
+        if explains(&best) {
+            if let Some(r) = runner.filter(|r| explains(r)) {
+                if best.delta_bic - r.delta_bic < BIC_THRESHOLD {
+                    d.confusable.push((best.effect, r.effect));
+                }
+            }
+            let (_, m, r) = fits.into_iter().find(|(e, _, _)| *e == best.effect).expect("refitted");
+            model = m;
+            current = r;
+            d.selected.push(best.effect);
+        } else {
+            // Neither explains half alone: the best two together, each evident alone.
+            let Some(second) = runner.filter(|r| evident(r)) else { break };
+            progress(&format!("refitting with {} and {}", best.effect, second.effect));
+            let mut m = model.clone();
+            let mut start = current.state.clone();
+            for cand in [&best, &second] {
+                m.effects.push(crate::effects::find(cand.effect)?);
+                start.effect_values.extend(cand.params.iter().map(|p| (p.name.clone(), p.value)));
+            }
+            let r = fit_from(c, frames, &m, Some(&start), &|_, _| {})?;
+            let dc = current.chi2 - r.chi2;
+            let k = r.rank.saturating_sub(current.rank);
+            if dc < EXCESS_FRACTION * excess || delta_bic(dc, k, &current) < 2.0 * BIC_THRESHOLD {
+                break;
+            }
+            model = m;
+            current = r;
+            d.selected.extend([best.effect, second.effect]);
+        }
         d.steps.push(Step { model: model.effects.iter().map(|e| e.name).collect(), fit: current.clone() });
+        if d.selected.len() >= opts.max_added {
+            break;
+        }
     }
     // Whatever remains: is it noise?
     let dof = current.dof;

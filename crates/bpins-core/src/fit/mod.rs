@@ -16,17 +16,25 @@
 //! third row and column (all channels), then on every pixel until converged; the
 //! reported numbers are from every pixel. 1σ from the inverse of JᵀWJ.
 //!
-//! The radiance shape (`sky::radiance_shape`: × (1 + a1 cos γ + a2 cos²γ) about the
-//! sun) keeps a sky brighter toward the sun than Rayleigh's from being blamed on a
-//! catalog effect; `FitOptions::rayleigh_radiance` holds it at Rayleigh's.
+//! The sky's radiance is a per-frame nuisance (`radiance`: × R(p), a smooth
+//! orthonormal basis in the image position and the scattering angle), so a real sky's
+//! radiance is never blamed on a catalog effect; `FitOptions::rayleigh_radiance` holds
+//! it at Rayleigh's. Pixels within [`BORDER_PX`] of the sensor's edge are left out (a
+//! misfit confined to them — crosstalk's neighbour outside the sensor — must not bias
+//! a global parameter). Each parameter's 1σ is widened by √(n/n_eff), n_eff the
+//! effective sample count of neighbour-correlated residuals (`correlation`).
 
+pub mod correlation;
 pub mod diagnose;
 pub mod linalg;
+mod masks;
 pub mod noise;
 pub mod profiles;
+pub mod radiance;
 mod residuals;
 mod score;
 
+pub use masks::sky_masks;
 pub use residuals::{residual_maps, FrameMaps, ResidualMaps};
 pub use score::{score_candidate, Score};
 
@@ -36,7 +44,7 @@ use crate::chain::{mosaic_pixel_signal_dn, pixel_signal_dn, pixel_stokes, ChainF
 use crate::conventions::wrap_deg_180;
 use crate::effects::{EffectDef, EffectSet};
 use crate::error::{Error, Result};
-use crate::heading::field::{self, FieldOptions, SkyMask};
+use crate::heading::field::SkyMask;
 use crate::sensor::{Layout, Response};
 use noise::NoiseModel;
 use rayon::prelude::*;
@@ -63,7 +71,13 @@ pub struct FitOptions {
     /// the model's pattern — clouds, trees, buildings, the ground, the sun's aureole —
     /// so that a scene is never blamed on the lens or the sensor.
     pub all_pixels: bool,
+    /// Each frame's sky mask, computed once ([`sky_masks`]) for many fits of the same
+    /// capture (a diagnosis); `None`: computed by the fit.
+    pub sky_masks: Option<std::sync::Arc<Vec<Option<SkyMask>>>>,
 }
+
+/// Pixels this close to the sensor's edge are not fitted.
+pub const BORDER_PX: usize = 2;
 
 /// One fitted parameter.
 #[derive(Clone, Debug, PartialEq)]
@@ -87,8 +101,8 @@ pub struct FrameFit {
     pub heading_error_deg: Option<f64>,
     pub scale_dn: f64,
     pub dmax: f64,
-    /// The sky's radiance shape (a1, a2): × (1 + a1 cos γ + a2 cos²γ).
-    pub radiance_shape: [f64; 2],
+    /// The sky's radiance nuisance: coefficients of the frame's basis ([`radiance`]).
+    pub radiance: [f64; radiance::N],
     pub chi2_per_dof: f64,
 }
 
@@ -111,6 +125,9 @@ pub struct FitResult {
     /// RMS over frames of fitted − reference heading, degrees (None without references).
     pub heading_rms_deg: Option<f64>,
     pub iterations: usize,
+    /// Effective number of independent samples of the residual ([`correlation`]):
+    /// `samples` when it is white, fewer when neighbours are correlated.
+    pub n_eff: f64,
     /// Number of independent combinations of the free parameters the data constrain
     /// (the rank of JᵀWJ); less than the free parameters when some are degenerate.
     pub rank: usize,
@@ -135,6 +152,9 @@ struct Slot {
     /// The model is proportional to this parameter above the offsets (the radiance
     /// scale): its derivative is (model − offset)/value, no evaluation needed.
     proportional: bool,
+    /// Coefficient `i` of the frame's radiance basis: its derivative is
+    /// (model − offset)·ψ_i/R, no evaluation needed.
+    radiance: Option<usize>,
 }
 
 /// The problem: the capture's frames and the parameter slots.
@@ -149,20 +169,35 @@ struct Problem<'a> {
     noise: NoiseModel,
     full_scale_dn: f64,
     /// Per frame: the sky mask (None: every pixel).
-    sky: Vec<Option<SkyMask>>,
+    sky: std::sync::Arc<Vec<Option<SkyMask>>>,
+    /// Per frame: the radiance basis.
+    basis: Vec<radiance::Basis>,
 }
 
-/// Per frame: heading, radiance scale, d_max, radiance shape a1, a2.
-pub const PER_FRAME: usize = 5;
+/// Per frame: heading, radiance scale, d_max, then the radiance coefficients.
+pub const PER_FRAME: usize = 3 + radiance::N;
+
+/// One frame's chain and its radiance nuisance.
+pub(crate) struct FitFrame {
+    chain: ChainFrame,
+    radiance: [f64; radiance::N],
+}
+
+impl std::ops::Deref for FitFrame {
+    type Target = ChainFrame;
+    fn deref(&self) -> &ChainFrame {
+        &self.chain
+    }
+}
 
 impl Problem<'_> {
     fn frame_slots(&self, k: usize) -> [usize; PER_FRAME] {
         let b = self.n_global + PER_FRAME * k;
-        [b, b + 1, b + 2, b + 3, b + 4]
+        std::array::from_fn(|i| b + i)
     }
 
     /// The chain of frame `k` under parameters `theta`.
-    fn chain(&self, theta: &[f64], k: usize) -> Result<ChainFrame> {
+    fn chain(&self, theta: &[f64], k: usize) -> Result<FitFrame> {
         let mut set = self.opts.known.clone();
         let mut i = 0;
         for e in &self.opts.effects {
@@ -172,7 +207,8 @@ impl Problem<'_> {
             }
         }
         let spec = &self.capture.frames[k];
-        let [h, s, d, a1, a2] = self.frame_slots(k);
+        let slots = self.frame_slots(k);
+        let [h, s, d] = [slots[0], slots[1], slots[2]];
         let scene = Scene {
             sun_az_deg: spec.sun.azimuth_deg,
             sun_el_deg: spec.sun.elevation_deg,
@@ -186,27 +222,35 @@ impl Problem<'_> {
             bit_depth: self.capture.sensor.bit_depth,
             ..Response::ideal(theta[s])
         };
-        let mut f =
+        let chain =
             ChainFrame::new(&set.model(), &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
-        f.radiance_shape = [theta[a1], theta[a2]];
-        Ok(f)
+        Ok(FitFrame { chain, radiance: std::array::from_fn(|i| theta[slots[3 + i]]) })
+    }
+
+    /// The radiance nuisance of frame `k` at pixel (u, v): (R, ψ).
+    #[inline]
+    fn radiance(&self, f: &FitFrame, k: usize, u: usize, v: usize) -> (f64, [f64; radiance::N]) {
+        let phi = radiance::raw_at(&f.intr, f.sun_cam, u, v, self.w(), self.h());
+        let psi = self.basis[k].psi(&phi);
+        (radiance::factor(&f.radiance, &psi), psi)
     }
 
     /// Model DN of the samples of pixel (u, v) of frame `k` into `out` (1 for DoFP, one
     /// per channel for colocated), with the measured values beside them.
-    fn pixel(&self, f: &ChainFrame, k: usize, u: usize, v: usize, out: &mut Vec<(f64, f64)>) {
+    fn pixel(&self, f: &FitFrame, k: usize, u: usize, v: usize, out: &mut Vec<(f64, f64)>) {
         out.clear();
         let (w, h) = (self.w(), self.h());
+        let r = if f.radiance == [0.0; radiance::N] { 1.0 } else { self.radiance(f, k, u, v).0 };
         match (&self.capture.sensor.layout, &self.frames[k]) {
             (Layout::Dofp { mosaic }, FrameData::Mosaic { dn, .. }) => {
                 let ch = Layout::dofp_channel(mosaic, u, v).index();
-                let m = mosaic_pixel_signal_dn(f, u, v, w, h, mosaic) + f.offset_dn[ch];
+                let m = r * mosaic_pixel_signal_dn(f, u, v, w, h, mosaic) + f.offset_dn[ch];
                 out.push((dn[v * w + u] as f64, m));
             }
             (_, FrameData::Colocated { channels, .. }) => {
                 let s = pixel_stokes(f, u as f64, v as f64);
                 for (c, plane) in channels {
-                    let m = pixel_signal_dn(f, s, c.index()) + f.offset_dn[c.index()];
+                    let m = r * pixel_signal_dn(f, s, c.index()) + f.offset_dn[c.index()];
                     out.push((plane[v * w + u] as f64, m));
                 }
             }
@@ -231,9 +275,17 @@ impl Problem<'_> {
     }
 
     /// Whether sample value `y` of pixel (u, v) of frame `k` enters the fit: neither
-    /// clipped nor saturated, and sky by the frame's sky mask.
+    /// clipped nor saturated, not within [`BORDER_PX`] of the edge, and sky by the
+    /// frame's sky mask.
     fn usable(&self, k: usize, u: usize, v: usize, y: f64) -> bool {
-        y > 0.0 && y < self.full_scale_dn && self.sky[k].as_ref().is_none_or(|m| m.is_sky(u, v))
+        let b = BORDER_PX;
+        y > 0.0
+            && y < self.full_scale_dn
+            && u >= b
+            && v >= b
+            && u + b < self.w()
+            && v + b < self.h()
+            && self.sky[k].as_ref().is_none_or(|m| m.is_sky(u, v))
     }
 
     /// χ² and, with `normal`, JᵀWJ and JᵀWr over the free slots, on every `stride`-th
@@ -255,6 +307,10 @@ impl Problem<'_> {
                         pm.push(Column::Proportional { value: theta[i] });
                         continue;
                     }
+                    if let Some(j) = sl.radiance {
+                        pm.push(Column::Radiance { index: j });
+                        continue;
+                    }
                     // Central differences, one-sided at a bound of the parameter.
                     let (mut tp, mut tm) = (theta.to_vec(), theta.to_vec());
                     tp[i] = (theta[i] + h).min(sl.max);
@@ -269,7 +325,7 @@ impl Problem<'_> {
                     }
                     let dh = tp[i] - tm[i];
                     // A side at θ itself is the base chain (not evaluated again).
-                    let side = |t: &[f64]| -> Result<Option<ChainFrame>> {
+                    let side = |t: &[f64]| -> Result<Option<FitFrame>> {
                         if t[i] == theta[i] {
                             Ok(None)
                         } else {
@@ -289,6 +345,7 @@ impl Problem<'_> {
                     let mut d = vec![0.0; nl];
                     for u in (0..self.w()).step_by(stride) {
                         self.pixel(&base, k, u, v, &mut s0);
+                        let rad = (normal && !s0.is_empty()).then(|| self.radiance(&base, k, u, v));
                         for (q, &(y, m)) in s0.iter().enumerate() {
                             if !self.usable(k, u, v, y) {
                                 continue;
@@ -301,6 +358,11 @@ impl Problem<'_> {
                                 for (j, col) in pm.iter().enumerate() {
                                     d[j] = match col {
                                         Column::Proportional { value } => (m - self.offset_dn(&base, u, v, q)) / value,
+                                        Column::Radiance { index } => {
+                                            let (r, psi) = rad.expect("evaluated where normal");
+                                            let _ = r;
+                                            (m - self.offset_dn(&base, u, v, q)) * psi[*index]
+                                        }
                                         Column::Difference { plus, minus, dh } => {
                                             let mp = plus.as_ref().map_or(m, |fp| {
                                                 self.pixel(fp, k, u, v, &mut sp);
@@ -357,9 +419,11 @@ impl Problem<'_> {
 /// How one parameter's column of the Jacobian is formed.
 enum Column {
     /// (model at plus − model at minus)/dh; `None` is the base chain.
-    Difference { plus: Option<ChainFrame>, minus: Option<ChainFrame>, dh: f64 },
+    Difference { plus: Option<FitFrame>, minus: Option<FitFrame>, dh: f64 },
     /// (model − offset)/value.
     Proportional { value: f64 },
+    /// (model − offset)·ψ_index/R.
+    Radiance { index: usize },
 }
 
 struct Accum {
@@ -388,11 +452,13 @@ impl Accum {
 }
 
 /// A fit's parameter values, for warm starts: the effects' by `effect.param` name, and
-/// each frame's (heading °, scale DN, d_max, radiance shape a1, a2).
+/// each frame's (heading °, scale DN, d_max, radiance coefficients) with the radiance
+/// basis they are coefficients of.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FitState {
     pub effect_values: Vec<(String, f64)>,
     pub frames: Vec<[f64; PER_FRAME]>,
+    pub radiance_basis: Vec<radiance::Basis>,
 }
 
 /// Fits `opts` to the capture `c` whose frames are `frames`; `progress(stage, step)`
@@ -435,6 +501,7 @@ fn problem<'a>(
                 free: true,
                 secant: false,
                 proportional: false,
+                radiance: None,
             });
             theta.push(value);
         }
@@ -443,16 +510,10 @@ fn problem<'a>(
     let ctx_intr = c.intrinsics();
     // Each frame's sky (and, for a frame without a reference, its first heading) from
     // the field estimator, on the frames in memory.
-    let field: Vec<Option<SkyMask>> = frames
-        .iter()
-        .enumerate()
-        .map(|(k, data)| {
-            let known = opts.known.model();
-            let cells = crate::pipeline::frame_cells(c, data, &known, None)?;
-            let ctx = crate::pipeline::field_context(c, &c.frames[k], &known);
-            Ok(field::sky_mask(&cells, &ctx, &FieldOptions::default()).ok())
-        })
-        .collect::<Result<_>>()?;
+    let field = match &opts.sky_masks {
+        Some(m) if m.len() == frames.len() => m.clone(),
+        _ => std::sync::Arc::new(sky_masks(c, frames, opts)?),
+    };
     for (k, f) in c.frames.iter().enumerate() {
         let warm = start.and_then(|s| s.frames.get(k));
         let heading = match (warm, f.heading_deg, &field[k]) {
@@ -471,6 +532,7 @@ fn problem<'a>(
             free: free_heading,
             secant: false,
             proportional: false,
+            radiance: None,
         });
         slots.push(Slot {
             name: format!("frame{k}.scale_dn"),
@@ -482,6 +544,7 @@ fn problem<'a>(
             free: true,
             secant: false,
             proportional: true,
+            radiance: None,
         });
         slots.push(Slot {
             name: format!("frame{k}.dmax"),
@@ -493,26 +556,45 @@ fn problem<'a>(
             // The sky's Q and U are linear in d_max, and every later stage linear in them.
             secant: true,
             proportional: false,
+            radiance: None,
         });
-        for name in ["shape_a1", "shape_a2"] {
+        for i in 0..radiance::N {
             slots.push(Slot {
-                name: format!("frame{k}.{name}"),
+                name: format!("frame{k}.radiance_c{i}"),
                 unit: "1",
-                min: -1.0,
-                max: 1.0,
-                step: 1e-6,
+                min: -1e3,
+                max: 1e3,
+                // Unused: its column is analytic.
+                step: 0.0,
                 free: !opts.rayleigh_radiance,
-                // The radiance is linear in a1 and a2 (while the factor stays > 0).
-                secant: true,
+                secant: false,
                 proportional: false,
+                radiance: Some(i),
             });
         }
         let dmax = opts.fixed_dmax.or(warm.map(|w| w[2])).unwrap_or(0.5);
-        let shape = |j: usize| if opts.rayleigh_radiance { 0.0 } else { warm.map_or(0.0, |w| w[j]) };
-        theta.extend([heading, warm.map_or(1.0, |w| w[1]), dmax, shape(3), shape(4)]);
+        theta.extend([heading, warm.map_or(1.0, |w| w[1]), dmax]);
+        theta.extend(
+            (0..radiance::N).map(|i| if opts.rayleigh_radiance { 0.0 } else { warm.map_or(0.0, |w| w[3 + i]) }),
+        );
     }
-    let sky = if opts.all_pixels { vec![None; frames.len()] } else { field };
-    let pb = Problem { capture: c, frames, nominal: ctx_intr, opts, slots, n_global, noise, full_scale_dn, sky };
+    let sky = if opts.all_pixels { std::sync::Arc::new(vec![None; frames.len()]) } else { field };
+    let warm_basis = start.map(|s| &s.radiance_basis).filter(|b| b.len() == frames.len());
+    let basis = warm_basis.cloned().unwrap_or_else(|| vec![Default::default(); frames.len()]);
+    let mut pb =
+        Problem { capture: c, frames, nominal: ctx_intr, opts, slots, n_global, noise, full_scale_dn, sky, basis };
+    if warm_basis.is_none() {
+        // Each frame's basis orthonormal over its sky at the start (every 4th pixel).
+        pb.basis = (0..frames.len())
+            .map(|k| {
+                let f = pb.chain(&theta, k)?;
+                let (w, h) = (pb.w(), pb.h());
+                let at = (0..h).step_by(4).flat_map(|v| (0..w).step_by(4).map(move |u| (u, v)));
+                let sky = at.filter(|&(u, v)| pb.usable(k, u, v, 1.0));
+                Ok(radiance::Basis::orthonormal(sky.map(|(u, v)| radiance::raw_at(&f.intr, f.sun_cam, u, v, w, h))))
+            })
+            .collect::<Result<_>>()?;
+    }
     for k in 0..frames.len() {
         let s = pb.frame_slots(k)[1];
         if start.and_then(|st| st.frames.get(k)).is_none() {
@@ -562,14 +644,18 @@ pub fn fit_from(
     let nf = free.len();
     let cov = linalg::PseudoInverse::new(&acc.a, nf);
     let degenerate = cov.null.iter().map(|d| describe_null(&pb, &free, d)).collect();
-    let sigma = |i: usize| free.iter().position(|&f| f == i).map_or(0.0, |p| cov.sigma(p));
+    // Neighbour-correlated residuals carry less information than their count.
+    let n_eff = correlation::effective_samples(&pb, &theta, acc.n)?;
+    let widen = (acc.n as f64 / n_eff.max(1.0)).sqrt().max(1.0);
+    let sigma = |i: usize| free.iter().position(|&f| f == i).map_or(0.0, |p| widen * cov.sigma(p));
     let params = (0..n_global)
         .map(|i| Param { name: pb.slots[i].name.clone(), unit: pb.slots[i].unit, value: theta[i], sigma: sigma(i) })
         .collect();
     let dof = (acc.n as f64 - nf as f64).max(1.0);
     let frames_out: Vec<FrameFit> = (0..frames.len())
         .map(|k| {
-            let [h, s, d, a1, a2] = pb.frame_slots(k);
+            let slots = pb.frame_slots(k);
+            let [h, s, d] = [slots[0], slots[1], slots[2]];
             let reference = c.frames[k].heading_deg;
             let (chi2, n) = acc.frame_chi2[k];
             FrameFit {
@@ -579,7 +665,7 @@ pub fn fit_from(
                 heading_error_deg: reference.map(|r| wrap_deg_180(theta[h] - r)),
                 scale_dn: theta[s],
                 dmax: theta[d],
-                radiance_shape: [theta[a1], theta[a2]],
+                radiance: std::array::from_fn(|i| theta[slots[3 + i]]),
                 chi2_per_dof: chi2 / (n as f64 - PER_FRAME as f64).max(1.0),
             }
         })
@@ -600,11 +686,13 @@ pub fn fit_from(
         dolp_rms,
         heading_rms_deg,
         iterations,
+        n_eff,
         rank: cov.rank(),
         degenerate,
         state: FitState {
             effect_values: (0..n_global).map(|i| (pb.slots[i].name.clone(), theta[i])).collect(),
             frames: (0..frames.len()).map(|k| pb.frame_slots(k).map(|i| theta[i])).collect(),
+            radiance_basis: pb.basis.clone(),
         },
     })
 }

@@ -84,3 +84,34 @@ pub fn typical(set: &mut EffectSet, effect: &str) {
         set.set(e.name, p.name, p.typical).expect("typical lies in range");
     }
 }
+
+/// The frames of `c` under the effects `set` beneath a real-looking sky: the scene
+/// elements of `field` (e.g. the CIE type-12 radiance of `sky_radiance`) and a
+/// multiplicative sensor noise (PRNU `prnu`, a fraction of the signal), noise from `seed`.
+pub fn simulate_in(
+    c: &Capture,
+    set: &EffectSet,
+    seed: u64,
+    field: &bpins_core::scene::FieldScene,
+    prnu: f64,
+) -> Vec<FrameData> {
+    let sim = SimSensor {
+        peak_fraction: 0.7,
+        read_noise_dn: 1.0,
+        system_gain_dn_per_e: 0.1,
+        dsnu_dn: 0.0,
+        prnu,
+        dmax: DMAX,
+        seed,
+    };
+    let resp = sim_response(c, &sim, Some(field)).expect("a valid simulated sensor");
+    let model = set.model();
+    (0..c.frames.len()).map(|i| simulate_frame(c, i, &model, &resp, &sim, Some(field))).collect()
+}
+
+/// The CIE standard clear sky (type 12) radiance and nothing else.
+pub fn cie_sky() -> bpins_core::scene::FieldScene {
+    let mut f = bpins_core::scene::FieldScene::new(1);
+    f.enable("sky_radiance").expect("a scene element");
+    f
+}

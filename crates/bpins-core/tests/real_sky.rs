@@ -1,0 +1,177 @@
+//! Diagnosis under a real-looking sky (issue 16): captures simulated beneath the CIE
+//! standard clear sky (type 12: brighter toward the sun and the horizon, not
+//! Rayleigh's radiance) with multiplicative sensor noise (1 % PRNU). The fit's
+//! radiance nuisance (`fit::radiance`) follows the sky, so: a capture with no effect
+//! names nothing and fits to the noise; every effect a sky capture can separate is
+//! still named first and recovered within 3σ; two hidden effects are both named; the
+//! effects the capture cannot separate are listed as such, never named.
+
+mod common;
+
+use bpins_core::capture::{Capture, FrameData};
+use bpins_core::effects::{EffectSet, REGISTRY};
+use bpins_core::fit::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
+use bpins_core::fit::FitOptions;
+use common::{cie_sky, simulate_in, small_capture, typical, DMAX};
+
+const PRNU: f64 = 0.01;
+
+fn run(c: &Capture, frames: &[FrameData], max_added: usize, fixed_dmax: Option<f64>) -> Diagnosis {
+    let base = FitOptions { fixed_dmax, ..Default::default() };
+    diagnose(c, frames, &DiagnoseOptions { base, max_added, ..Default::default() }, &|_| {}).unwrap()
+}
+
+/// What is wrong with the diagnosis of a capture hiding `set` (empty when right).
+fn problems(d: &Diagnosis, set: &EffectSet, names: &[&str]) -> Vec<String> {
+    let mut out = Vec::new();
+    let top = d.rankings[0].first().map(|c| c.effect);
+    if top != Some(names[0]) {
+        out.push(format!("ranked first: {top:?}"));
+    }
+    let (mut got, mut want) = (d.selected.clone(), names.to_vec());
+    got.sort();
+    want.sort();
+    if got != want {
+        out.push(format!("selected {:?}", d.selected));
+    }
+    let last = &d.steps.last().unwrap().fit;
+    if last.chi2_per_dof > 1.1 {
+        out.push(format!("χ²/dof {:.4} > 1.1", last.chi2_per_dof));
+    }
+    for (e, values) in set.iter() {
+        for (p, truth) in e.params.iter().zip(values) {
+            let name = format!("{}.{}", e.name, p.name);
+            let Some(f) = last.params.iter().find(|q| q.name == name) else { continue };
+            if !((f.value - truth).abs() <= 3.0 * f.sigma) {
+                out.push(format!("{name} = {:.5} ± {:.5}, truth {truth}", f.value, f.sigma));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn a_clean_capture_under_a_cie_sky_names_nothing_and_fits_to_the_noise() {
+    let c = small_capture();
+    let frames = simulate_in(&c, &EffectSet::new(), 11, &cie_sky(), PRNU);
+    let t0 = std::time::Instant::now();
+    let d = run(&c, &frames, 2, None);
+    let fit = &d.steps.last().unwrap().fit;
+    eprintln!(
+        "χ²/dof {:.4}, n_eff/n {:.3}, noise {:?}, AoP RMS {:.4}°, {:.1} s; {}",
+        fit.chi2_per_dof,
+        fit.n_eff / fit.samples as f64,
+        fit.noise,
+        fit.aop_rms_deg,
+        t0.elapsed().as_secs_f64(),
+        d.unexplained_summary
+    );
+    assert!(d.selected.is_empty(), "selected {:?}", d.selected);
+    assert!(fit.chi2_per_dof <= 1.1, "χ²/dof {}", fit.chi2_per_dof);
+    assert!(!d.unexplained, "{}", d.unexplained_summary);
+    // The multiplicative noise is read off the frames.
+    assert!((fit.noise.prnu - PRNU).abs() < 0.3 * PRNU, "{:?}", fit.noise);
+    // What the capture cannot tell is listed, not fitted.
+    let listed: Vec<&str> = d.inseparable.iter().map(|x| x.0).collect();
+    assert!(listed.contains(&"vignetting") && listed.contains(&"sky_depolarization"), "{listed:?}");
+    for f in &fit.frames {
+        assert!(f.heading_error_deg.unwrap().abs() < 0.05, "heading error {:?}", f.heading_error_deg);
+    }
+}
+
+#[test]
+fn every_separable_effect_hidden_under_a_cie_sky_is_named_first_and_recovered() {
+    let c = small_capture();
+    let sky = cie_sky();
+    let mut failures = Vec::new();
+    let listed: Vec<&str> = inseparable(&c, &FitOptions::default()).iter().map(|x| x.0).collect();
+    for (i, e) in REGISTRY.iter().enumerate() {
+        let mut set = EffectSet::new();
+        typical(&mut set, e.name);
+        if e.name == "lens_retardance" {
+            // At its typical 10° per r² it is below this capture's noise (1 % PRNU:
+            // χ²/dof 0.9992 with it and without, measured): twice that, whose
+            // signal (second order in δ) is four times larger.
+            set.set(e.name, "delta2_deg", 20.0).unwrap();
+        }
+        let frames = simulate_in(&c, &set, 200 + i as u64, &sky, PRNU);
+        let t0 = std::time::Instant::now();
+        let mut d = run(&c, &frames, 1, None);
+        let mut how = "";
+        if listed.contains(&e.name) {
+            // What the capture cannot tell is never named for it.
+            if d.selected.contains(&e.name) || !d.inseparable.iter().any(|x| x.0 == e.name) {
+                failures.push(format!("{}: inseparable, yet selected {:?}", e.name, d.selected));
+            }
+            if e.name == "vignetting" {
+                // The sky's radiance is not Rayleigh's: nothing on a sky capture separates it.
+                eprintln!("{:<20} inseparable (listed, not named: selected {:?})", e.name, d.selected);
+                continue;
+            }
+            if e.name == "crosstalk" {
+                // Not told from a DoLP factor by the diagnosis; fitted alone with the
+                // sky's d_max given, border pixels left out, it is recovered.
+                let opts = FitOptions { effects: vec![e], fixed_dmax: Some(DMAX), ..Default::default() };
+                let r = bpins_core::fit::fit(&c, &frames, &opts, &|_, _| {}).unwrap();
+                let truth = set.iter().next().expect("one effect").1[0];
+                let p = &r.params[0];
+                eprintln!(
+                    "{:<20} inseparable; fitted alone {} = {:.5} ± {:.5} (truth {truth})",
+                    e.name, p.name, p.value, p.sigma
+                );
+                if !((p.value - truth).abs() <= 3.0 * p.sigma) || r.chi2_per_dof > 1.1 {
+                    failures.push(format!("crosstalk alone: {} ± {}, χ²/dof {}", p.value, p.sigma, r.chi2_per_dof));
+                }
+                continue;
+            }
+            // A factor on the DoLP: separable once the sky's d_max is given.
+            d = run(&c, &frames, 1, Some(DMAX));
+            how = " (d_max given)";
+        }
+        let p = problems(&d, &set, &[e.name]);
+        let (first, last) = (&d.steps[0].fit, &d.steps.last().unwrap().fit);
+        eprintln!(
+            "{:<20} χ²/dof {:.4} → {:.4}{how}, {:.0} s{}",
+            e.name,
+            first.chi2_per_dof,
+            last.chi2_per_dof,
+            t0.elapsed().as_secs_f64(),
+            if p.is_empty() { String::new() } else { format!(" — {}", p.join("; ")) }
+        );
+        if !p.is_empty() {
+            failures.push(format!("{}: {}", e.name, p.join("; ")));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn two_effects_hidden_under_a_cie_sky_are_both_named() {
+    let c = small_capture();
+    let mut set = EffectSet::new();
+    typical(&mut set, "principal_point");
+    typical(&mut set, "analyzer_angles");
+    let frames = simulate_in(&c, &set, 17, &cie_sky(), PRNU);
+    let d = run(&c, &frames, 3, None);
+    eprintln!("selected {:?}; {}", d.selected, d.unexplained_summary);
+    let p = problems(&d, &set, &["analyzer_angles", "principal_point"]);
+    assert!(p.iter().all(|x| x.starts_with("ranked first")), "{}", p.join("\n"));
+    assert!(!d.unexplained, "{}", d.unexplained_summary);
+}
+
+#[test]
+fn clouds_and_a_skyline_under_a_cie_sky_blame_no_lens_or_sensor_effect() {
+    // Half the frames tilted 30° so that the skyline and the ground come into view.
+    let mut c = small_capture();
+    for (i, f) in c.frames.iter_mut().enumerate() {
+        f.tilt_x_deg = (i % 2 == 1).then_some(30.0);
+    }
+    let mut field = cie_sky();
+    field.parse("clouds.count=8").unwrap();
+    field.parse("skyline").unwrap();
+    let frames = simulate_in(&c, &EffectSet::new(), 23, &field, PRNU);
+    let d = run(&c, &frames, 2, None);
+    eprintln!("selected {:?}; χ²/dof {:.4}; {}", d.selected, d.steps[0].fit.chi2_per_dof, d.unexplained_summary);
+    assert!(d.selected.is_empty(), "the scene was blamed on {:?}", d.selected);
+    assert!(d.steps[0].fit.heading_rms_deg.unwrap() < 0.1, "heading RMS {:?}", d.steps[0].fit.heading_rms_deg);
+}
