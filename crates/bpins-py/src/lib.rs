@@ -1,6 +1,6 @@
-//! Python bindings of bpins (`import bpins`): the front door ([`compass`]), simulated
-//! frames with their truth ([`sim`]), capture folders to and from arrays and the
-//! effect catalog ([`capture`]). Every failure is a Python exception naming the
+//! Python bindings of bpins (`import bpins`): the front door (`compass.rs`), simulated
+//! frames with their truth (`sim.rs`), capture folders to and from arrays and the
+//! effect catalog (`capture.rs`). Every failure is a Python exception naming the
 //! argument and what was expected (`ValueError` for a bad value, `TypeError` for a
 //! wrong type), never a crash of the interpreter: the crate's typed errors are
 //! turned into exceptions here, and bpins-core does not panic on input.
