@@ -36,31 +36,10 @@ fn separating(c: &Capture, effect: &str) -> Option<FitOptions> {
     None
 }
 
-/// What is wrong with the diagnosis of a capture hiding `set` (empty when right):
-/// the effects named in order, the truth recovered within 3σ, χ²/dof ≤ 1.1.
+/// What is wrong with the diagnosis of a capture hiding `set` (empty when right),
+/// the effects selected in order.
 fn problems(d: &Diagnosis, set: &EffectSet, names: &[&str]) -> Vec<String> {
-    let mut out = Vec::new();
-    let top = d.rankings[0].first().map(|c| c.effect);
-    if top != Some(names[0]) {
-        out.push(format!("ranked first: {top:?}"));
-    }
-    if d.selected != names {
-        out.push(format!("selected {:?}", d.selected));
-    }
-    let last = &d.steps.last().unwrap().fit;
-    if last.chi2_per_dof > 1.1 {
-        out.push(format!("χ²/dof {:.4} > 1.1", last.chi2_per_dof));
-    }
-    for (e, values) in set.iter() {
-        for (p, truth) in e.params.iter().zip(values) {
-            let name = format!("{}.{}", e.name, p.name);
-            let Some(f) = last.params.iter().find(|q| q.name == name) else { continue };
-            if !((f.value - truth).abs() <= 3.0 * f.sigma) {
-                out.push(format!("{name} = {:.5} ± {:.5}, truth {truth}", f.value, f.sigma));
-            }
-        }
-    }
-    out
+    common::diagnosis_problems(d, set, names, true)
 }
 
 #[test]

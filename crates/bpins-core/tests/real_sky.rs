@@ -21,33 +21,10 @@ fn run(c: &Capture, frames: &[FrameData], max_added: usize, fixed_dmax: Option<f
     diagnose(c, frames, &DiagnoseOptions { base, max_added, ..Default::default() }, &|_| {}).unwrap()
 }
 
-/// What is wrong with the diagnosis of a capture hiding `set` (empty when right).
+/// What is wrong with the diagnosis of a capture hiding `set` (empty when right),
+/// the effects selected in any order.
 fn problems(d: &Diagnosis, set: &EffectSet, names: &[&str]) -> Vec<String> {
-    let mut out = Vec::new();
-    let top = d.rankings[0].first().map(|c| c.effect);
-    if top != Some(names[0]) {
-        out.push(format!("ranked first: {top:?}"));
-    }
-    let (mut got, mut want) = (d.selected.clone(), names.to_vec());
-    got.sort();
-    want.sort();
-    if got != want {
-        out.push(format!("selected {:?}", d.selected));
-    }
-    let last = &d.steps.last().unwrap().fit;
-    if last.chi2_per_dof > 1.1 {
-        out.push(format!("χ²/dof {:.4} > 1.1", last.chi2_per_dof));
-    }
-    for (e, values) in set.iter() {
-        for (p, truth) in e.params.iter().zip(values) {
-            let name = format!("{}.{}", e.name, p.name);
-            let Some(f) = last.params.iter().find(|q| q.name == name) else { continue };
-            if !((f.value - truth).abs() <= 3.0 * f.sigma) {
-                out.push(format!("{name} = {:.5} ± {:.5}, truth {truth}", f.value, f.sigma));
-            }
-        }
-    }
-    out
+    common::diagnosis_problems(d, set, names, false)
 }
 
 #[test]

@@ -115,3 +115,42 @@ pub fn cie_sky() -> bpins_core::scene::FieldScene {
     f.enable("sky_radiance").expect("a scene element");
     f
 }
+
+/// What is wrong with the diagnosis of a capture hiding `set` (empty when right):
+/// `names[0]` ranked first, the effects selected (`names` in that order where
+/// `ordered`, as a set otherwise), χ²/dof ≤ 1.1, and every hidden parameter the last
+/// fit holds recovered within 3σ of its truth.
+pub fn diagnosis_problems(
+    d: &bpins_core::fit::diagnose::Diagnosis,
+    set: &EffectSet,
+    names: &[&str],
+    ordered: bool,
+) -> Vec<String> {
+    let mut out = Vec::new();
+    let top = d.rankings[0].first().map(|c| c.effect);
+    if top != Some(names[0]) {
+        out.push(format!("ranked first: {top:?}"));
+    }
+    let (mut got, mut want) = (d.selected.clone(), names.to_vec());
+    if !ordered {
+        got.sort();
+        want.sort();
+    }
+    if got != want {
+        out.push(format!("selected {:?}", d.selected));
+    }
+    let last = &d.steps.last().unwrap().fit;
+    if last.chi2_per_dof > 1.1 {
+        out.push(format!("χ²/dof {:.4} > 1.1", last.chi2_per_dof));
+    }
+    for (e, values) in set.iter() {
+        for (p, truth) in e.params.iter().zip(values) {
+            let name = format!("{}.{}", e.name, p.name);
+            let Some(f) = last.params.iter().find(|q| q.name == name) else { continue };
+            if !((f.value - truth).abs() <= 3.0 * f.sigma) {
+                out.push(format!("{name} = {:.5} ± {:.5}, truth {truth}", f.value, f.sigma));
+            }
+        }
+    }
+    out
+}
