@@ -104,7 +104,11 @@ impl Mosaic<'_> {
     /// Every pixel as f32 DN, row-major and packed (for the simulation and capture paths).
     pub(crate) fn to_f32(&self, w: usize, h: usize) -> Vec<f32> {
         fn rows<T: Copy>(d: &[T], s: usize, w: usize, h: usize, f: impl Fn(T) -> f32) -> Vec<f32> {
-            (0..h).flat_map(|v| d[v * s..v * s + w].iter().map(|&x| f(x)).collect::<Vec<_>>()).collect()
+            let mut out = Vec::with_capacity(w * h);
+            for v in 0..h {
+                out.extend(d[v * s..v * s + w].iter().map(|&x| f(x)));
+            }
+            out
         }
         match self {
             Mosaic::U8(d, s) => rows(d, *s, w, h, f32::from),
