@@ -1,13 +1,18 @@
 //! Validates every WGSL kernel with naga at build time, so a broken shader fails
 //! `cargo build` on a machine with no GPU (as Vello's `vello_shaders` does).
 //!
-//! A kernel module is `shaders/common/*.wgsl` + `shaders/effects/*.wgsl` +
-//! `shaders/kernels/<kernel>.wgsl` (WGSL declarations are order-free). At run time
-//! `shaders.rs` assembles the same module with the effects taken from the registry; a
-//! test checks that the registry's WGSL twins are exactly the files validated here.
+//! A kernel module is `shaders/common/*.wgsl` + `shaders/effects/*.wgsl` + the
+//! per-pixel effects' dispatch (`ray_dispatch.rs`, here over the effect files that
+//! define a per-pixel function) + `shaders/kernels/<kernel>.wgsl` (WGSL declarations
+//! are order-free). At run time `shaders.rs` assembles the same module with the effects
+//! and the dispatch order taken from the registry; a test checks that the registry's
+//! WGSL twins and per-pixel effects are exactly the files and functions validated here.
 
 use std::fs;
 use std::path::{Path, PathBuf};
+
+#[path = "src/ray_dispatch.rs"]
+mod ray_dispatch;
 
 fn wgsl_files(dir: &Path) -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = fs::read_dir(dir)
@@ -23,14 +28,20 @@ fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
     println!("cargo:rerun-if-changed={}", root.display());
     let mut shared = String::new();
+    let mut effects = Vec::new();
     for dir in ["common", "effects"] {
         println!("cargo:rerun-if-changed={}", root.join(dir).display());
         for f in wgsl_files(&root.join(dir)) {
             println!("cargo:rerun-if-changed={}", f.display());
-            shared += &fs::read_to_string(&f).unwrap_or_else(|e| panic!("reading {}: {e}", f.display()));
+            let src = fs::read_to_string(&f).unwrap_or_else(|e| panic!("reading {}: {e}", f.display()));
+            shared += &src;
             shared.push('\n');
+            if dir == "effects" {
+                effects.push((f.file_stem().unwrap().to_string_lossy().into_owned(), src));
+            }
         }
     }
+    shared += &ray_dispatch::ray_effects_wgsl(&ray_dispatch::ray_effects_in(&effects));
     let mut failures = Vec::new();
     for k in wgsl_files(&root.join("kernels")) {
         println!("cargo:rerun-if-changed={}", k.display());

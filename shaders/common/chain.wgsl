@@ -3,11 +3,13 @@
 // order and step comments. The host builds FrameParams from the CPU's ChainFrame
 // (crates/bpins-gpu/src/params.rs; keep the two structs in sync, a test checks the
 // layout). Effects folded on the host (principal_point, mount_tilt, array_rotation,
-// channel_response) arrive inside these fields; per-pixel effects are called below.
+// channel_response) arrive inside these fields; the per-pixel effects of the registry
+// arrive as one vector each in `ray` and run in `ray_effects`, which is generated from
+// the registry (crates/bpins-gpu/src/ray_dispatch.rs) with `RAY_COUNT`.
 //
 // pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β      camera frame
-//   sky_stokes → lens_diattenuation → lens_retardance → lens_depolarization → vignetting
-//   → meridional_to_image
+//   sky_stokes (or sky_neutral_points) → ray_effects (lens_diattenuation → lens_retardance
+//   → lens_depolarization → vignetting → …, registry order) → meridional_to_image
 //   → analyzer_intensity
 //   → × g(1 + gain_k) → sensor_dn (PRNU, offsets, DSNU, read + shot noise, rounding)
 
@@ -16,7 +18,6 @@ struct FrameParams {
     camera: Wide4,     // f_px, cx_px, cy_px (true camera), projection id
     distortion: Wide4, // radial distortion k1, k2 of the true camera, 0, 0
     sun: Wide4,        // unit sun vector in the true camera frame (x, y, z), d_max
-    lens: Wide4,       // lens_diattenuation rho2, lens_retardance delta2 (rad), vignetting v2, v4
     cos2t: Wide4,      // true analyzers by channel (0°, 45°, 90°, 135°): cos 2θ_k
     sin2t: Wide4,      //   sin 2θ_k
     eps: Wide4,        //   ε_k = 1/ER
@@ -31,8 +32,7 @@ struct FrameParams {
     np_half01: Wide4,  //   (cos θ_P/2, sin θ_P/2) of the sun's pair
     np_half23: Wide4,  //   and of the anti-sun's pair
     np_eia: Wide4,     //   cos A, sin A, 0, 0
-    lens2: Wide4,      // lens_depolarization p2, 0, 0, 0
-    shape: Wide4,      // the sky's radiance shape a1, a2 (fit nuisance), 0, 0
+    ray: array<Wide4, RAY_COUNT>, // per-pixel effects' vectors, registry order
     key: vec4<u32>,    // temporal noise key of this frame
     fixed_key: vec4<u32>, // fixed-pattern key of this trial
 }
@@ -41,11 +41,7 @@ struct ChainFrame {
     intr: Intrinsics,
     sun_cam: vec3<f64>,
     dmax: f64,
-    radiance_shape: vec2<f64>,
-    lens_rho2: f64,
-    lens_delta2_rad: f64,
-    lens_depol_p2: f64,
-    vignetting: vec2<f64>,
+    ray: array<vec4<f64>, RAY_COUNT>,
     cos2t: vec4<f64>,
     sin2t: vec4<f64>,
     eps: vec4<f64>,
@@ -64,13 +60,17 @@ struct ChainFrame {
 fn chain_frame(p: FrameParams) -> ChainFrame {
     let sun = wide(p.sun);
     let adc = wide(p.adc);
-    let lens = wide(p.lens);
+    var wide_ray = p.ray;
+    var ray: array<vec4<f64>, RAY_COUNT>;
+    for (var k = 0u; k < RAY_COUNT; k++) {
+        ray[k] = wide(wide_ray[k]);
+    }
     let east = wide(p.np_east);
     let h01 = wide(p.np_half01);
     let h23 = wide(p.np_half23);
     let np = NeutralPoints(east.xyz, wide(p.np_north).xyz, wide(p.np_up).xyz,
         array<vec2<f64>, 4>(h01.xy, h01.zw, h23.xy, h23.zw), wide(p.np_eia).xy);
-    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, wide(p.shape).xy, lens.x, lens.y, wide(p.lens2).x, lens.zw, wide(p.cos2t), wide(p.sin2t),
+    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, ray, wide(p.cos2t), wide(p.sin2t),
         wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, wide(p.mosaic).x, east.w != 0.0lf, np, p.key,
         p.fixed_key);
 }
@@ -90,15 +90,8 @@ fn ray_stokes(f: ChainFrame, g: RayGeometry) -> Stokes {
     } else {
         s = sky_stokes(f.sun_cam, f.dmax, g.d, g.basis);
     }
-    // The sky's smooth radiance shape about the sun (a scalar).
-    s = radiance_shape(f.radiance_shape.x, f.radiance_shape.y, dot3(f.sun_cam, g.d), s);
-    // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
-    s = lens_diattenuation(f.lens_rho2, g.r2, s);
-    s = lens_retardance(f.lens_delta2_rad, g.r2, s);
-    // Depolarization by the lens (isotropic, so any frame).
-    s = lens_depolarization(f.lens_depol_p2, g.r2, s);
-    // Radial falloff of the lens (a scalar).
-    s = vignetting(f.vignetting.x, f.vignetting.y, g.r2, s);
+    // Per-pixel effects (lens Mueller matrices, falloff), meridional frame, in registry order.
+    s = ray_effects(f.ray, g, s);
     // Rotate from the meridional frame to the image x frame.
     return meridional_to_image(s, g.basis.cos2b, g.basis.sin2b);
 }

@@ -9,9 +9,10 @@ fn rho_at(rho2: f64, r2: f64) -> f64 {
     return min(max(rho2 * r2, -RHO_LIMIT), RHO_LIMIT);
 }
 
-// Applies the lens Mueller matrix to a meridional-frame Stokes vector.
-fn lens_diattenuation(rho2: f64, r2: f64, s: Stokes) -> Stokes {
-    let rho = rho_at(rho2, r2);
+// Applies the lens Mueller matrix to a meridional-frame Stokes vector; p = (rho2, 0, 0, 0).
+fn lens_diattenuation(p: vec4<f64>, g: RayGeometry, s: Stokes) -> Stokes {
+    // ρ at the ray's squared normalised radius, clamped below 1.
+    let rho = rho_at(p.x, g.r2);
     let c = sqrt(1.0lf - rho * rho);
     return Stokes(s.i + rho * s.q, rho * s.i + s.q, c * s.u, c * s.v);
 }

@@ -325,7 +325,7 @@ impl Compass {
         }
         let ctx = FieldContext {
             intr: self.intr,
-            lens_rho2: self.known.lens_rho2,
+            lens_rho2: crate::effects::lens_diattenuation::rho2(&self.known),
             sun_az_deg: az,
             sun_el_deg: el,
             sun_sigma_deg: sun_sigma,

@@ -54,7 +54,7 @@ pub(crate) fn heading_context(c: &Capture, f: &FrameSpec, known: &Model) -> Head
     ctx.tilt_x_deg = f.tilt_x_deg.unwrap_or(0.0);
     ctx.tilt_y_deg = f.tilt_y_deg.unwrap_or(0.0);
     ctx.mount_tilt_deg = known.mount_tilt_deg;
-    ctx.lens_rho2 = known.lens_rho2;
+    ctx.lens_rho2 = crate::effects::lens_diattenuation::rho2(known);
     ctx
 }
 
@@ -127,7 +127,7 @@ pub fn frame_headings_of(
 pub(crate) fn field_context(c: &Capture, f: &FrameSpec, known: &Model) -> FieldContext {
     FieldContext {
         intr: assumed_intrinsics(c, known),
-        lens_rho2: known.lens_rho2,
+        lens_rho2: crate::effects::lens_diattenuation::rho2(known),
         sun_az_deg: f.sun.azimuth_deg,
         sun_el_deg: f.sun.elevation_deg,
         sun_sigma_deg: f.sun_sigma_deg.unwrap_or(0.0),

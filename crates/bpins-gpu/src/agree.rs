@@ -133,7 +133,8 @@ pub fn trial_frame(case: &Case, trial: u32, seed: u64) -> Result<TrialFrame> {
     let frame = ChainFrame::new(&model, &nominal, &scene, &response, NoiseIndex { seed, trial, frame: 0 });
     let rec = Reconstructor::new(&Default::default(), response.black_level_dn, &Channel::ALL)?;
     let ctx = HeadingContext::new(nominal, WIDTH_PX, HEIGHT_PX, scene.sun_az_deg, scene.sun_el_deg);
-    let contexts = vec![ctx, HeadingContext { lens_rho2: model.lens_rho2, ..ctx }];
+    let contexts =
+        vec![ctx, HeadingContext { lens_rho2: bpins_core::effects::lens_diattenuation::rho2(&model), ..ctx }];
     Ok(TrialFrame { frame, rec, contexts, label: format!("{} trial {trial} ({})", case.name, projection.name()) })
 }
 

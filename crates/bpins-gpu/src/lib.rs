@@ -21,6 +21,7 @@ pub mod agree;
 mod device;
 pub mod montecarlo;
 pub mod params;
+pub mod ray_dispatch;
 mod render;
 pub mod shaders;
 mod sums;

@@ -10,6 +10,7 @@
 use crate::{GpuError, Result};
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::chain::ChainFrame;
+use bpins_core::effects::RAY_COUNT;
 use bpins_core::heading::HeadingContext;
 use bpins_core::recon::Reconstructor;
 use bpins_core::sensor::Channel;
@@ -63,7 +64,6 @@ pub struct FrameParams {
     pub camera: Wide4,
     pub distortion: Wide4,
     pub sun: Wide4,
-    pub lens: Wide4,
     pub cos2t: Wide4,
     pub sin2t: Wide4,
     pub eps: Wide4,
@@ -78,8 +78,9 @@ pub struct FrameParams {
     pub np_half01: Wide4,
     pub np_half23: Wide4,
     pub np_eia: Wide4,
-    pub lens2: Wide4,
-    pub shape: Wide4,
+    /// The per-pixel effects' vectors in registry order (`ChainFrame::ray`), WGSL
+    /// `array<Wide4, RAY_COUNT>`: sized by the registry, filled without naming an effect.
+    pub ray: [Wide4; RAY_COUNT],
     pub key: [u32; 4],
     pub fixed_key: [u32; 4],
 }
@@ -102,7 +103,6 @@ impl TryFrom<&ChainFrame> for FrameParams {
             camera: camera(&f.intr),
             distortion: distortion(&f.intr),
             sun: Wide4::new([f.sun_cam.x, f.sun_cam.y, f.sun_cam.z, f.dmax]),
-            lens: Wide4::new([f.lens_rho2, f.lens_delta2_rad, f.vignetting[0], f.vignetting[1]]),
             cos2t: Wide4::new(f.analyzers.map(|a| a.cos2t)),
             sin2t: Wide4::new(f.analyzers.map(|a| a.sin2t)),
             eps: Wide4::new(f.analyzers.map(|a| a.eps)),
@@ -123,8 +123,7 @@ impl TryFrom<&ChainFrame> for FrameParams {
                 Wide4::new([h[2][0], h[2][1], h[3][0], h[3][1]])
             }),
             np_eia: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.eia[0], n.eia[1], 0.0, 0.0])),
-            lens2: Wide4::new([f.lens_depol_p2, 0.0, 0.0, 0.0]),
-            shape: Wide4::new([f.radiance_shape[0], f.radiance_shape[1], 0.0, 0.0]),
+            ray: f.ray.map(Wide4::new),
             key: f.key.0,
             fixed_key: f.fixed_key.0,
         })
@@ -262,8 +261,8 @@ mod tests {
             "render",
             FrameParams,
             [
-                camera, distortion, sun, lens, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, mosaic, np_east,
-                np_north, np_up, np_half01, np_half23, np_eia, lens2, shape, key, fixed_key
+                camera, distortion, sun, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, mosaic, np_east, np_north,
+                np_up, np_half01, np_half23, np_eia, ray, key, fixed_key
             ]
         );
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);

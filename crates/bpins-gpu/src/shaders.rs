@@ -1,8 +1,10 @@
-//! Assembles the WGSL modules: `shaders/common/*.wgsl`, the per-pixel effects' twins
-//! from the effect registry (`EffectDef::wgsl`), then one kernel file. `build.rs` has
-//! validated the same modules with naga (a test checks the two assemble the same text).
+//! Assembles the WGSL modules: `shaders/common/*.wgsl`, the effects' twins from the
+//! effect registry (`EffectDef::wgsl`), the per-pixel effects' dispatch generated from
+//! the registry (`ray_dispatch.rs`), then one kernel file. `build.rs` has validated the
+//! same modules with naga (a test checks the two assemble the same text).
 
-use bpins_core::effects::REGISTRY;
+use crate::ray_dispatch::ray_effects_wgsl;
+use bpins_core::effects::{RAY_EFFECTS, REGISTRY};
 
 /// The shared WGSL files, in file-name order (as build.rs reads them).
 const COMMON: &[(&str, &str)] = &[
@@ -38,6 +40,8 @@ pub fn module_source(kernel: &str) -> Option<String> {
         src += s;
         src.push('\n');
     }
+    // The per-pixel effects in chain order, each with its slot of FrameParams::ray.
+    src += &ray_effects_wgsl(&RAY_EFFECTS.map(|e| e.name));
     src += body;
     Some(src)
 }
@@ -69,6 +73,32 @@ mod tests {
                 .validate(&module)
                 .unwrap_or_else(|e| panic!("{k}: {e:?}"));
         }
+    }
+
+    #[test]
+    fn build_rs_finds_the_registry_per_pixel_effects() {
+        // build.rs validates the dispatch over the effect files with the per-pixel
+        // signature; the registry's per-pixel effects must be exactly those.
+        let mut files: Vec<(String, String)> =
+            REGISTRY.iter().filter_map(|e| e.wgsl.map(|w| (e.name.to_string(), w.to_string()))).collect();
+        files.sort();
+        let mut found = crate::ray_dispatch::ray_effects_in(&files);
+        found.sort();
+        let mut registry = RAY_EFFECTS.map(|e| e.name).to_vec();
+        registry.sort();
+        assert_eq!(found, registry);
+    }
+
+    #[test]
+    fn the_dispatch_calls_every_per_pixel_effect_in_registry_order() {
+        let src = module_source("render").unwrap();
+        let mut at = 0;
+        for (k, e) in RAY_EFFECTS.iter().enumerate() {
+            let call = format!("out = {}(p[{k}], g, out);", e.name);
+            let pos = src[at..].find(&call).unwrap_or_else(|| panic!("{call} missing or out of order"));
+            at += pos + call.len();
+        }
+        assert!(src.contains(&format!("const RAY_COUNT: u32 = {}u;", RAY_EFFECTS.len())));
     }
 
     #[test]

@@ -12,11 +12,9 @@
 //!    or sky_neutral_points(…)        the quartic sky, where it is on     (effects)
 //!   field_stokes(field, d, basis, S) scene elements: CIE radiance, clouds, (scene)
 //!                                    sun disc, skyline — CPU only
-//!   radiance_shape(a₁, a₂, cos γ, S) the sky's radiance shape (fit nuisance) (sky)
-//!   lens_diattenuation(ρ₂, r², S)    lens Mueller, meridional frame      (effects)
-//!   lens_retardance(δ₂, r², S)       lens retarder, meridional frame     (effects)
-//!   lens_depolarization(p₂, r², S)   lens depolarizer (isotropic)         (effects)
-//!   vignetting(v₂, v₄, r², S)        radial falloff                      (effects)
+//!   ray_effects(ray, g, S)           every per-pixel effect of the registry, (effects)
+//!                                    in its order: lens_diattenuation, lens_retardance,
+//!                                    lens_depolarization, vignetting, …
 //!   meridional_to_image(S, 2β)       rotate to the image x frame          (stokes)
 //!   analyzer_intensity(S, θ_k, ε_k)  micro-polarizer k                    (stokes)
 //!   × g(1 + gain_k)                  photo-signal in DN                   (sensor)
@@ -27,22 +25,21 @@
 //! vectorizes, bitwise equal to calling them pixel by pixel (tested there).
 //!
 //! Effects enter through the frame's parameters ([`Model`] folded by the registry)
-//! and, for lens effects, through their per-pixel functions called here in order.
+//! and, for per-pixel effects, through [`ray_effects`]: the registry's per-pixel
+//! functions in registry order, each fed its slot of [`ChainFrame::ray`]. Nothing here
+//! names a per-pixel effect; the WGSL twin of `ray_effects` is generated from the same
+//! registry by `bpins-gpu`.
 
 use crate::camera::{Intrinsics, RayGeometry};
 use crate::conventions::{enu_from_az_el_deg, level_from_camera, world_from_camera};
 use crate::effects::crosstalk::crosstalk;
-use crate::effects::lens_depolarization::lens_depolarization;
-use crate::effects::lens_diattenuation::lens_diattenuation;
-use crate::effects::lens_retardance::lens_retardance;
 use crate::effects::sky_neutral_points::{sky_neutral_points, NeutralPoints};
-use crate::effects::vignetting::vignetting;
-use crate::effects::Model;
+use crate::effects::{neutral_ray_params, Model, RayParams, RAY_COUNT, RAY_FNS};
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
 use crate::scene::{field_stokes, FieldFrame, FieldScene};
 
 use crate::sensor::{Channel, Response};
-use crate::sky::{radiance_shape, sky_stokes};
+use crate::sky::sky_stokes;
 use crate::stokes::{analyzer_intensity, meridional_to_image, Analyzer, Stokes};
 use glam::{DMat3, DVec3};
 
@@ -81,21 +78,14 @@ pub struct ChainFrame {
     /// Unit sun direction in the true camera frame.
     pub sun_cam: DVec3,
     pub dmax: f64,
-    pub lens_rho2: f64,
+    /// Each per-pixel effect's vector, in registry order (`Model::ray`); the ideal
+    /// chain has every slot at its effect's neutral vector.
+    pub ray: [RayParams; RAY_COUNT],
     /// The quartic sky's frame constants where `sky_neutral_points` is on.
     pub neutral: Option<NeutralPoints>,
     /// The scene elements of a field capture (`scene`), folded for this frame; `None`
     /// for the lab-clean sky. The GPU backend refuses frames that have one.
     pub field: Option<FieldFrame>,
-    /// The sky's radiance shape (a1, a2): × (1 + a1 cos γ + a2 cos²γ); a per-frame
-    /// nuisance the fit sets, 0 otherwise.
-    pub radiance_shape: [f64; 2],
-    /// Lens retardance per r², radians (`lens_retardance`).
-    pub lens_delta2_rad: f64,
-    /// Lens depolarization per r² (`lens_depolarization`).
-    pub lens_depol_p2: f64,
-    /// Vignetting (v2, v4).
-    pub vignetting: [f64; 2],
     /// True analyzers by channel index (0, 45, 90, 135).
     pub analyzers: [Analyzer; 4],
     /// DN per unit radiance of each channel: g·(1 + gain_k).
@@ -125,14 +115,10 @@ impl ChainFrame {
             sun_cam,
             // The sky's true peak DoLP (sky_depolarization), at most 1.
             dmax: (scene.dmax * model.sky_dmax_factor).min(1.0),
-            lens_rho2: model.lens_rho2,
+            ray: model.ray,
             neutral: (model.neutral_separation_deg != 0.0)
                 .then(|| NeutralPoints::new(&world_from_cam, sun_cam, model.neutral_separation_deg.to_radians())),
             field: None,
-            radiance_shape: [0.0; 2],
-            lens_delta2_rad: model.lens_delta2_deg.to_radians(),
-            lens_depol_p2: model.lens_depol_p2,
-            vignetting: model.vignetting,
             analyzers,
             gain_dn: model.channel_gain.map(|g| g * response.gain_dn),
             offset_dn: model.channel_offset_dn.map(|o| o + response.black_level_dn),
@@ -161,15 +147,10 @@ impl ChainFrame {
         f
     }
 
-    /// Whether any per-pixel effect is on (the row kernels skip them otherwise).
+    /// Whether any per-pixel step is on: the quartic sky, scene elements, or a
+    /// per-pixel effect off its neutral vector (the row kernels skip them otherwise).
     pub fn has_pixel_effects(&self) -> bool {
-        self.neutral.is_some()
-            || self.field.is_some()
-            || self.radiance_shape != [0.0; 2]
-            || self.lens_rho2 != 0.0
-            || self.lens_delta2_rad != 0.0
-            || self.lens_depol_p2 != 0.0
-            || self.vignetting != [0.0; 2]
+        self.neutral.is_some() || self.field.is_some() || self.ray != *neutral_ray_params()
     }
 
     /// A frame with unit gain, no black level and no noise: DN = radiance behind the analyzer.
@@ -215,17 +196,24 @@ pub(crate) fn ray_stokes_field<const FIELD: bool>(f: &ChainFrame, g: &RayGeometr
         Some(field) if FIELD => field_stokes(field, g.d, &g.basis, s),
         _ => s,
     };
-    // The sky's smooth radiance shape about the sun (a scalar).
-    let s = radiance_shape(f.radiance_shape[0], f.radiance_shape[1], f.sun_cam.dot(g.d), s);
-    // Lens Mueller matrices act in the meridional frame (r² in focal lengths²).
-    let s = lens_diattenuation(f.lens_rho2, g.r2, s);
-    let s = lens_retardance(f.lens_delta2_rad, g.r2, s);
-    // Depolarization by the lens (isotropic, so any frame).
-    let s = lens_depolarization(f.lens_depol_p2, g.r2, s);
-    // Radial falloff of the lens (a scalar).
-    let s = vignetting(f.vignetting[0], f.vignetting[1], g.r2, s);
+    // Per-pixel effects (lens Mueller matrices, falloff), meridional frame, in registry order.
+    let s = ray_effects(&f.ray, g, s);
     // Rotate from the meridional frame to the image x frame.
     meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
+}
+
+/// Every per-pixel effect of the registry on the ray `g`'s meridional-frame Stokes
+/// vector, in registry order, effect `k` with its vector `ray[k]`. WGSL twin:
+/// `ray_effects`, generated from the registry (`bpins-gpu`, `shaders.rs`).
+#[inline(always)]
+pub fn ray_effects(ray: &[RayParams; RAY_COUNT], g: &RayGeometry, s: Stokes) -> Stokes {
+    // A constant table of functions: the loop unrolls and each call inlines, so the
+    // row kernels still vectorize.
+    let mut s = s;
+    for k in 0..RAY_COUNT {
+        s = RAY_FNS[k](&ray[k], g, s);
+    }
+    s
 }
 
 /// Photo-signal in DN of channel `ch` (index) for Stokes `s`: analyzer, then gain.
@@ -362,6 +350,12 @@ pub(crate) mod tests {
 
     pub(crate) fn stokes_at(f: &ChainFrame, u: f64, v: f64) -> Stokes {
         pixel_stokes(f, u, v)
+    }
+
+    /// A ray of the samples' camera with its squared normalised radius set to `r2`
+    /// (what the radially symmetric lens effects read).
+    pub(crate) fn ray_at_r2(r2: f64) -> RayGeometry {
+        RayGeometry { r2, ..intrinsics().geometry(100.0, 100.0) }
     }
 
     #[test]

@@ -23,7 +23,7 @@
 //! Cannot: errors that vary across the array (per pixel), or a retardance of the
 //! analyzers.
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 const fn angle(name: &'static str, typical: f64, doc: &'static str) -> ParamSpec {
     ParamSpec { name, unit: "deg", neutral: 0.0, typical, min: -45.0, max: 45.0, doc }
@@ -40,7 +40,7 @@ pub const EFFECT: EffectDef = EffectDef {
         angle("d90_deg", -0.4, "angle error of the 90° analyzer"),
         angle("d135_deg", -0.6, "angle error of the 135° analyzer"),
     ],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: None,
 };
 

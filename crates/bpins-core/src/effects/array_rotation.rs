@@ -16,7 +16,7 @@
 //! Cannot: per-channel errors (that is `analyzer_angles`) or a rotation that varies
 //! across the array.
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "array_rotation",
@@ -32,7 +32,7 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 90.0,
         doc: "rotation of the array, counter-clockwise as displayed",
     }],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: None,
 };
 

@@ -18,7 +18,7 @@
 //! Cannot: non-linear response, gains that vary across the sensor (vignetting is a
 //! separate effect), or a gain on channel 0 (it is the intensity scale).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "channel_response",
@@ -34,7 +34,7 @@ pub const EFFECT: EffectDef = EffectDef {
         ParamSpec { name: "offset90_dn", unit: "DN", neutral: 0.0, typical: 5.0, min: -1000.0, max: 1000.0, doc: "offset of the 90° channel" },
         ParamSpec { name: "offset135_dn", unit: "DN", neutral: 0.0, typical: 3.0, min: -1000.0, max: 1000.0, doc: "offset of the 135° channel" },
     ],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: None,
 };
 

@@ -22,7 +22,7 @@
 //! Cannot: diagonal neighbours, anisotropic crosstalk (rows ≠ columns), or crosstalk
 //! that depends on the angle of incidence.
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "crosstalk",
@@ -38,7 +38,7 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 0.125,
         doc: "fraction of its signal a pixel gives to each edge neighbour",
     }],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: Some(include_str!("../../../../shaders/effects/crosstalk.wgsl")),
 };
 

@@ -21,7 +21,7 @@
 //! Cannot: an extinction ratio that varies across the array or with wavelength, or
 //! diattenuation that is not along the analyzer's axis.
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 const fn eps(name: &'static str, typical: f64, doc: &'static str) -> ParamSpec {
     ParamSpec { name, unit: "1", neutral: 0.0, typical, min: 0.0, max: 0.5, doc }
@@ -38,7 +38,7 @@ pub const EFFECT: EffectDef = EffectDef {
         eps("eps90", 0.01, "1/ER of the 90° analyzer"),
         eps("eps135", 0.02, "1/ER of the 135° analyzer"),
     ],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: None,
 };
 

@@ -17,7 +17,7 @@
 //! Cannot: a focal length that differs along x and y (anamorphic), or that varies
 //! over the field (that is `radial_distortion`).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "focal_length",
@@ -33,7 +33,7 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 0.5,
         doc: "relative error of the focal length",
     }],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: None,
 };
 

@@ -26,7 +26,8 @@
 //! rotationally symmetric about the principal point; a uniform depolarization over
 //! the whole field is indistinguishable from the sky's d_max (`sky_depolarization`).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, ParamSpec, RayParams, Stage};
+use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
 
 pub const EFFECT: EffectDef = EffectDef {
@@ -43,26 +44,22 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 2.0,
         doc: "depolarized fraction per r² (focal lengths²)",
     }],
-    apply,
+    apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], pixel: lens_depolarization },
     wgsl: Some(include_str!("../../../../shaders/effects/lens_depolarization.wgsl")),
 };
 
-fn apply(v: &[f64], m: &mut Model) {
-    m.lens_depol_p2 += v[0];
-}
-
-/// Applies the depolarizer at squared normalised radius `r2` (any frame).
+/// Applies the depolarizer to the ray's Stokes vector (any frame); `p = [p2, 0, 0, 0]`.
 #[inline(always)]
-pub fn lens_depolarization(p2: f64, r2: f64, s: Stokes) -> Stokes {
+pub fn lens_depolarization(p: &RayParams, g: &RayGeometry, s: Stokes) -> Stokes {
     // Retained polarized fraction a = 1 − p2·r², at least 0; exactly 1 at p2 = 0.
-    let a = (1.0 - p2 * r2).max(0.0);
+    let a = (1.0 - p[0] * g.r2).max(0.0);
     Stokes { i: s.i, q: a * s.q, u: a * s.u, v: a * s.v }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain::tests::{ideal_frame, intrinsics, stokes_at};
+    use crate::chain::tests::{ideal_frame, intrinsics, ray_at_r2, stokes_at};
     use crate::effects::{EffectSet, Model};
 
     #[test]
@@ -84,13 +81,14 @@ mod tests {
     #[test]
     fn zero_strength_is_the_identity_and_it_commutes_with_rotations() {
         let s = Stokes::new(1.0, 0.3, -0.2, 0.05);
-        assert_eq!(lens_depolarization(0.0, 0.7, s), s);
+        assert_eq!(lens_depolarization(&[0.0; 4], &ray_at_r2(0.7), s), s);
         // Never more than completely depolarized.
-        assert_eq!(lens_depolarization(2.0, 1.0, s), Stokes::new(1.0, 0.0, 0.0, 0.0));
+        assert_eq!(lens_depolarization(&[2.0, 0.0, 0.0, 0.0], &ray_at_r2(1.0), s), Stokes::new(1.0, 0.0, 0.0, 0.0));
         // Isotropic: rotating the frame before or after gives the same Stokes vector.
         let rot =
             |s: Stokes, t: f64| Stokes::new(s.i, s.q * t.cos() + s.u * t.sin(), -s.q * t.sin() + s.u * t.cos(), s.v);
-        let (a, b) = (lens_depolarization(0.4, 0.5, rot(s, 0.7)), rot(lens_depolarization(0.4, 0.5, s), 0.7));
+        let (p, g) = ([0.4, 0.0, 0.0, 0.0], ray_at_r2(0.5));
+        let (a, b) = (lens_depolarization(&p, &g, rot(s, 0.7)), rot(lens_depolarization(&p, &g, s), 0.7));
         for (x, y) in [(a.i, b.i), (a.q, b.q), (a.u, b.u), (a.v, b.v)] {
             assert!((x - y).abs() < 1e-15);
         }

@@ -21,7 +21,8 @@
 //! Cannot: retardance (see `lens_retardance`), depolarization, or a ρ that is not
 //! rotationally symmetric (decentred or tilted elements).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, RayParams, Stage};
+use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
 
 pub const EFFECT: EffectDef = EffectDef {
@@ -38,12 +39,13 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 50.0,
         doc: "diattenuation per squared normalised radius",
     }],
-    apply,
+    apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], pixel: lens_diattenuation },
     wgsl: Some(include_str!("../../../../shaders/effects/lens_diattenuation.wgsl")),
 };
 
-fn apply(v: &[f64], m: &mut Model) {
-    m.lens_rho2 += v[0];
+/// The lens's rho2 in `model` (what a reconstruction that knows the lens inverts).
+pub fn rho2(model: &Model) -> f64 {
+    model.ray_params(&EFFECT)[0]
 }
 
 /// Largest |ρ| the matrix is evaluated at (ρ = ±1 is a perfect polarizer, singular).
@@ -56,10 +58,11 @@ pub(crate) fn rho_at(rho2: f64, r2: f64) -> f64 {
     (rho2 * r2).max(-RHO_LIMIT).min(RHO_LIMIT)
 }
 
-/// Applies the lens Mueller matrix to a meridional-frame Stokes vector.
+/// Applies the lens Mueller matrix to a meridional-frame Stokes vector; `p = [rho2, 0, 0, 0]`.
 #[inline(always)]
-pub fn lens_diattenuation(rho2: f64, r2: f64, s: Stokes) -> Stokes {
-    let rho = rho_at(rho2, r2);
+pub fn lens_diattenuation(p: &RayParams, g: &RayGeometry, s: Stokes) -> Stokes {
+    // ρ at the ray's squared normalised radius, clamped below 1.
+    let rho = rho_at(p[0], g.r2);
     let c = (1.0 - rho * rho).sqrt();
     Stokes { i: s.i + rho * s.q, q: rho * s.i + s.q, u: c * s.u, v: c * s.v }
 }
@@ -76,28 +79,28 @@ pub(crate) fn lens_diattenuation_inverse(rho2: f64, r2: f64, s: Stokes) -> Stoke
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain::tests::{ideal_frame, scene, stokes_at};
+    use crate::chain::tests::{ideal_frame, ray_at_r2, scene, stokes_at};
     use crate::conventions::{enu_from_az_el_deg, wrap_deg_90};
     use crate::effects::EffectSet;
 
     #[test]
     fn zero_strength_is_exactly_identity() {
         let s = Stokes::new(1.3, 0.2, -0.4, 0.01);
-        assert_eq!(lens_diattenuation(0.0, 0.7, s), s);
+        assert_eq!(lens_diattenuation(&[0.0; 4], &ray_at_r2(0.7), s), s);
         assert_eq!(lens_diattenuation_inverse(0.0, 0.7, s), s);
     }
 
     #[test]
     fn inverse_undoes_the_lens() {
         let s = Stokes::new(1.3, 0.2, -0.4, 0.0);
-        let back = lens_diattenuation_inverse(2.0, 0.1, lens_diattenuation(2.0, 0.1, s));
+        let back = lens_diattenuation_inverse(2.0, 0.1, lens_diattenuation(&[2.0, 0.0, 0.0, 0.0], &ray_at_r2(0.1), s));
         assert!((back.i - s.i).abs() < 1e-14 && (back.q - s.q).abs() < 1e-14 && (back.u - s.u).abs() < 1e-14);
     }
 
     #[test]
     fn diattenuation_matches_tau_definition() {
         // Unpolarized light through a lens with ρ: DoLP out = |ρ| along p.
-        let out = lens_diattenuation(0.5, 0.4, Stokes::new(1.0, 0.0, 0.0, 0.0));
+        let out = lens_diattenuation(&[0.5, 0.0, 0.0, 0.0], &ray_at_r2(0.4), Stokes::new(1.0, 0.0, 0.0, 0.0));
         assert!((out.dolp() - 0.2).abs() < 1e-15);
         assert_eq!(out.u, 0.0);
     }

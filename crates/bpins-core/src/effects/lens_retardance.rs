@@ -23,7 +23,8 @@
 //! Cannot: a retarder whose fast axis is not radial (stress birefringence, decentred
 //! elements), or circular retardance (optical activity).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, ParamSpec, RayParams, Stage};
+use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
 
 pub const EFFECT: EffectDef = EffectDef {
@@ -40,38 +41,35 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 180.0,
         doc: "retardance per squared normalised radius",
     }],
-    apply,
+    apply: Apply::Ray { params: |v| [v[0].to_radians(), 0.0, 0.0, 0.0], pixel: lens_retardance },
     wgsl: Some(include_str!("../../../../shaders/effects/lens_retardance.wgsl")),
 };
 
-fn apply(v: &[f64], m: &mut Model) {
-    m.lens_delta2_deg += v[0];
-}
-
-/// Applies the retarder to a meridional-frame Stokes vector; `delta2_rad` per r².
+/// Applies the retarder to a meridional-frame Stokes vector; `p = [delta2 (rad per r²), 0, 0, 0]`.
 #[inline(always)]
-pub fn lens_retardance(delta2_rad: f64, r2: f64, s: Stokes) -> Stokes {
-    let (sd, cd) = (delta2_rad * r2).sin_cos();
+pub fn lens_retardance(p: &RayParams, g: &RayGeometry, s: Stokes) -> Stokes {
+    // Retardance δ = delta2·r² at the ray, fast axis p.
+    let (sd, cd) = (p[0] * g.r2).sin_cos();
     Stokes { i: s.i, q: s.q, u: cd * s.u + sd * s.v, v: -sd * s.u + cd * s.v }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain::tests::{ideal_frame, scene, stokes_at};
+    use crate::chain::tests::{ideal_frame, ray_at_r2, scene, stokes_at};
     use crate::conventions::{enu_from_az_el_deg, wrap_deg_90};
     use crate::effects::{EffectSet, Model};
 
     #[test]
     fn zero_strength_is_the_identity() {
         let s = Stokes::new(1.0, 0.3, -0.2, 0.05);
-        assert_eq!(lens_retardance(0.0, 0.9, s), s);
+        assert_eq!(lens_retardance(&[0.0; 4], &ray_at_r2(0.9), s), s);
     }
 
     #[test]
     fn total_polarization_is_kept_and_u_turns_into_v() {
         let s = Stokes::new(1.0, 0.3, -0.2, 0.0);
-        let t = lens_retardance(30f64.to_radians(), 1.0, s);
+        let t = lens_retardance(&[30f64.to_radians(), 0.0, 0.0, 0.0], &ray_at_r2(1.0), s);
         assert!(((t.q * t.q + t.u * t.u + t.v * t.v) - (0.09 + 0.04)).abs() < 1e-15);
         assert!((t.u - (-0.2 * 30f64.to_radians().cos())).abs() < 1e-15);
         assert_eq!((t.i, t.q), (s.i, s.q));

@@ -18,7 +18,7 @@
 //!
 //! Cannot: a tilt that changes between frames (that is the frame's `tilt_*_deg`).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "mount_tilt",
@@ -45,7 +45,7 @@ pub const EFFECT: EffectDef = EffectDef {
             doc: "rotation about camera y",
         },
     ],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: None,
 };
 

@@ -16,7 +16,7 @@
 //!
 //! Cannot: a principal point that moves with focus, or a tilted sensor (Scheimpflug).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "principal_point",
@@ -43,7 +43,7 @@ pub const EFFECT: EffectDef = EffectDef {
             doc: "offset along image y (rows, down)",
         },
     ],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: None,
 };
 

@@ -23,7 +23,7 @@
 //! Cannot: decentring or thin-prism distortion, or a distortion that is not monotonic
 //! over the image (1 + 3 k1 r² + 5 k2 r⁴ must stay positive).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "radial_distortion",
@@ -50,7 +50,7 @@ pub const EFFECT: EffectDef = EffectDef {
             doc: "radial distortion per r⁴",
         },
     ],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: None,
 };
 

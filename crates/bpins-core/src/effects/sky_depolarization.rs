@@ -17,7 +17,7 @@
 //! Cannot: a depolarization that varies over the sky (near the horizon, around
 //! clouds), or the neutral points (that is `sky_neutral_points`).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "sky_depolarization",
@@ -33,7 +33,7 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 1.6,
         doc: "factor on the scene's peak DoLP (the true d_max is scene d_max × dmax ≤ 1)",
     }],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: None,
 };
 

@@ -31,7 +31,7 @@
 //! within half a separation of the zenith (a neutral point crosses the chart's pole
 //! at the nadir there and the orientation jumps).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 use crate::camera::MeridionalBasis;
 use crate::stokes::Stokes;
 use glam::{DMat3, DVec3};
@@ -50,7 +50,7 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 60.0,
         doc: "angular separation of each pair of neutral points",
     }],
-    apply,
+    apply: Apply::Frame(apply),
     wgsl: Some(include_str!("../../../../shaders/effects/sky_neutral_points.wgsl")),
 };
 

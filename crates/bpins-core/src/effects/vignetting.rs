@@ -21,7 +21,8 @@
 //! Cannot: a falloff that is not rotationally symmetric about the principal point,
 //! or that depends on polarization (that is `lens_diattenuation`).
 
-use super::{EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamSpec, RayParams, Stage};
+use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
 
 pub const EFFECT: EffectDef = EffectDef {
@@ -33,26 +34,34 @@ pub const EFFECT: EffectDef = EffectDef {
         ParamSpec { name: "v2", unit: "1", neutral: 0.0, typical: -0.2, min: -2.0, max: 2.0, doc: "falloff per r²" },
         ParamSpec { name: "v4", unit: "1", neutral: 0.0, typical: 0.05, min: -2.0, max: 2.0, doc: "falloff per r⁴" },
     ],
-    apply,
+    apply: Apply::Ray { params: |v| [v[0], v[1], 0.0, 0.0], pixel: vignetting },
     wgsl: Some(include_str!("../../../../shaders/effects/vignetting.wgsl")),
 };
 
-fn apply(v: &[f64], m: &mut Model) {
-    m.vignetting[0] += v[0];
-    m.vignetting[1] += v[1];
+/// The falloff (v2, v4) in `model`: what a lab simulation of a flat field applies.
+pub fn coefficients(model: &Model) -> [f64; 2] {
+    let p = model.ray_params(&EFFECT);
+    [p[0], p[1]]
 }
 
-/// Applies the radial falloff at squared normalised radius `r2` (any frame).
+/// The falloff factor max(1 + v2·r² + v4·r⁴, 0) at squared normalised radius `r2`.
 #[inline(always)]
-pub fn vignetting(v2: f64, v4: f64, r2: f64, s: Stokes) -> Stokes {
-    let k = (1.0 + v2 * r2 + v4 * r2 * r2).max(0.0);
+pub fn factor(v2: f64, v4: f64, r2: f64) -> f64 {
+    (1.0 + v2 * r2 + v4 * r2 * r2).max(0.0)
+}
+
+/// Applies the radial falloff to the ray's Stokes vector (any frame); `p = [v2, v4, 0, 0]`.
+#[inline(always)]
+pub fn vignetting(p: &RayParams, g: &RayGeometry, s: Stokes) -> Stokes {
+    // Falloff factor at the ray's squared normalised radius, at least 0.
+    let k = factor(p[0], p[1], g.r2);
     Stokes { i: k * s.i, q: k * s.q, u: k * s.u, v: k * s.v }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain::tests::{ideal_frame, intrinsics, stokes_at};
+    use crate::chain::tests::{ideal_frame, intrinsics, ray_at_r2, stokes_at};
     use crate::effects::{EffectSet, Model};
 
     #[test]
@@ -75,7 +84,7 @@ mod tests {
     #[test]
     fn zero_strength_is_the_identity_and_the_factor_never_goes_negative() {
         let s = Stokes::new(1.0, 0.3, -0.2, 0.0);
-        assert_eq!(vignetting(0.0, 0.0, 0.7, s), s);
-        assert_eq!(vignetting(-2.0, 0.0, 1.0, s).i, 0.0);
+        assert_eq!(vignetting(&[0.0; 4], &ray_at_r2(0.7), s), s);
+        assert_eq!(vignetting(&[-2.0, 0.0, 0.0, 0.0], &ray_at_r2(1.0), s).i, 0.0);
     }
 }

@@ -110,6 +110,7 @@ pub fn truth_maps(
 ) -> PixelMaps {
     let key = FrameKey::new(flaws.seed, 0xF1A5, 0);
     let n = w * h;
+    let [vig_v2, vig_v4] = crate::effects::vignetting::coefficients(model);
     let per_px: Vec<(f32, f32, f64, f32)> = (0..n)
         .into_par_iter()
         .map(|i| {
@@ -125,7 +126,7 @@ pub fn truth_maps(
                 + flaws.angle_sigma_deg * key.normal(p, 0, 0);
             let eps = (model.analyzer_eps[k] + flaws.eps_sigma * key.normal(p, 1, 0)).max(0.0);
             let r2 = ((u as f64 - intr.cx_px).powi(2) + (v as f64 - intr.cy_px).powi(2)) / (intr.f_px * intr.f_px);
-            let vig = (1.0 + model.vignetting[0] * r2 + model.vignetting[1] * r2 * r2).max(1e-3);
+            let vig = crate::effects::vignetting::factor(vig_v2, vig_v4, r2).max(1e-3);
             let gain = model.channel_gain[k] * vig * (1.0 + flaws.prnu * key.normal(p, 2, 0));
             let offset = black_level_dn + model.channel_offset_dn[k] + flaws.dsnu_dn * key.normal(p, 3, 0);
             (angle as f32, eps as f32, gain, offset as f32)
