@@ -81,6 +81,7 @@
 
 pub mod cells;
 mod robust;
+mod stats;
 
 pub use cells::{Cell, CellScratch, Cells, RawDn, RawImage};
 

@@ -1,5 +1,6 @@
 //! The robust loop of the field estimator (steps 1–5 of `mod.rs`).
 
+use super::stats::{clustered, dilate, median, quantile, tukey};
 use super::{Cells, FieldContext, FieldHeading, FieldOptions, FieldQuality, NoHeading, SigmaParts};
 use crate::camera::meridional_basis;
 use crate::conventions::{heading_deg_from_level_sun, image_angle_rad, level_from_camera, wrap_deg_180};
@@ -21,8 +22,6 @@ const SEARCH_CELLS: usize = 400;
 /// A second minimum of the start cost within this of the first is ambiguous (χ² units
 /// of the 1° per-cell error the search assumes).
 const AMBIGUITY_CHI2: f64 = 9.0;
-/// Tukey's biweight constant (95 % efficiency at the normal).
-const TUKEY_C: f64 = 4.685;
 const MAX_ITERATIONS: usize = 8;
 /// Cells whose DoLP is below this fraction of the sky's Rayleigh DoLP are not sky.
 const DOLP_FRACTION: f64 = 0.6;
@@ -241,47 +240,6 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
     tau2.sqrt()
 }
 
-/// Into `out`: the cells of `mask` with at least two others of it among their eight
-/// neighbours (clusters, not lone cells).
-fn clustered(mask: &[bool], cols: usize, out: &mut Vec<bool>) {
-    let rows = mask.len() / cols.max(1);
-    out.clear();
-    out.resize(mask.len(), false);
-    for r in 0..rows {
-        for c in 0..cols {
-            if !mask[r * cols + c] {
-                continue;
-            }
-            let mut near = 0;
-            for rr in r.saturating_sub(1)..=(r + 1).min(rows - 1) {
-                for cc in c.saturating_sub(1)..=(c + 1).min(cols - 1) {
-                    near += mask[rr * cols + cc] as usize;
-                }
-            }
-            out[r * cols + c] = near >= 3; // itself and two others
-        }
-    }
-}
-
-/// Into `out`: `mask` grown by `r` cells (a square window), as two separable passes
-/// (`h`: the first pass).
-fn dilate(mask: &[bool], cols: usize, rows: usize, r: usize, h: &mut Vec<bool>, out: &mut Vec<bool>) {
-    h.clear();
-    h.resize(mask.len(), false);
-    for row in 0..rows {
-        for c in 0..cols {
-            h[row * cols + c] = (c.saturating_sub(r)..=(c + r).min(cols - 1)).any(|cc| mask[row * cols + cc]);
-        }
-    }
-    out.clear();
-    out.resize(mask.len(), false);
-    for row in 0..rows {
-        for c in 0..cols {
-            out[row * cols + c] = (row.saturating_sub(r)..=(row + r).min(rows - 1)).any(|rr| h[rr * cols + c]);
-        }
-    }
-}
-
 /// |cos γ| back from sin²γ.
 fn cg_of(sg2: f64) -> f64 {
     (1.0 - sg2).max(0.0).sqrt()
@@ -309,29 +267,6 @@ fn depolarized(obs: &[Obs], res: &[(f64, f64, f64)], tau2: f64, ratios: &mut Vec
             .zip(res)
             .map(|(o, r)| dmax.is_finite() && dpred(r.2) > 0.2 && o.dolp < DOLP_FRACTION * dmax * dpred(r.2)),
     );
-}
-
-fn tukey(r: f64) -> f64 {
-    let u = r / TUKEY_C;
-    if u.abs() < 1.0 {
-        (1.0 - u * u).powi(2)
-    } else {
-        0.0
-    }
-}
-
-/// Median of `v` (reordered); NaN when empty.
-fn median(v: &mut [f64]) -> f64 {
-    quantile(v, 0.5)
-}
-
-/// The `q` quantile of `v` (reordered; nearest rank); NaN when empty.
-fn quantile(v: &mut [f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let k = ((v.len() as f64 * q) as usize).min(v.len() - 1);
-    *v.select_nth_unstable_by(k, |a, b| a.total_cmp(b)).1
 }
 
 /// Per-block weighted sums of one extractor: the sun vector's scatter, or the
