@@ -65,3 +65,25 @@ fn chain_maps(@builtin(global_invocation_id) gid: vec3<u32>) {
     out[base + 5u] = f32(dolp(s));
     out[base + 6u] = f32(wrap_deg_90(a - beta));
 }
+
+// The sky's AoP (degrees, (−90, 90]), DoLP and AoE (AoP − β about the true principal
+// point, degrees) of the light reaching the analyzers, noise-free, no DN rendered:
+// out[3·pixel + k]. CPU twin: simulate::sky_maps (chain::angles_row), same steps.
+@compute @workgroup_size(16, 16, 1)
+fn sky_maps(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let w = dims.size.x;
+    let h = dims.size.y;
+    if (gid.x >= w || gid.y >= h || gid.z >= dims.size.z) {
+        return;
+    }
+    let f = chain_frame(frames[gid.z]);
+    let s = pixel_stokes(f, f64(gid.x), f64(gid.y));
+    let base = 3u * ((gid.z * h + gid.y) * w + gid.x);
+    // AoP of the Stokes vector reaching the analyzers, image frame.
+    let a = aop_rad(s) * DEG_PER_RAD_F64;
+    // β: the image angle of the pixel about the true principal point.
+    let beta = image_angle_rad(f64(gid.x) - f.intr.cx_px, f64(gid.y) - f.intr.cy_px) * DEG_PER_RAD_F64;
+    out[base] = f32(wrap_deg_90(a));
+    out[base + 1u] = f32(dolp(s));
+    out[base + 2u] = f32(wrap_deg_90(a - beta));
+}

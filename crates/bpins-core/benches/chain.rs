@@ -21,7 +21,7 @@ use bpins_core::heading::{Extractor, HeadingContext, HeadingSums};
 use bpins_core::montecarlo::{run_sweep, run_trial, Source, SweepConfig};
 use bpins_core::recon::{superpixels, Reconstructor};
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::{mosaic_heading_sums, render_mosaic};
+use bpins_core::simulate::{mosaic_heading_sums, render_colocated, render_mosaic, sky_maps};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use std::time::Duration;
@@ -75,6 +75,18 @@ fn frame(c: &mut Criterion) {
     g.finish();
 }
 
+/// The sky's AoP/DoLP/AoE maps of a full frame (`simulate::sky_maps`, no DN) against
+/// the chain that renders the same frame's four colocated channels (issue: the map
+/// route within 1.2× of the chain).
+fn maps(c: &mut Criterion) {
+    let (f, _, _) = frame_setup();
+    let mut g = c.benchmark_group("maps");
+    g.sample_size(20).measurement_time(Duration::from_secs(8));
+    g.bench_function("chain_colocated_2048x2448", |b| b.iter(|| black_box(render_colocated(&f, W, H, &Channel::ALL))));
+    g.bench_function("sky_maps_2048x2448", |b| b.iter(|| black_box(sky_maps(&f, W, H))));
+    g.finish();
+}
+
 fn sweep(c: &mut Criterion) {
     let cfg = SweepConfig::default();
     let mut g = c.benchmark_group("sweep");
@@ -91,5 +103,5 @@ fn sweep(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, frame, sweep);
+criterion_group!(benches, frame, maps, sweep);
 criterion_main!(benches);

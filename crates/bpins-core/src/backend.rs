@@ -21,6 +21,7 @@ use crate::chain::ChainFrame;
 use crate::error::Result;
 use crate::montecarlo::{Source, SweepConfig, TrialResult};
 use crate::sensor::Channel;
+use crate::simulate::SkyMaps;
 
 /// A compute backend for the per-pixel chain. Errors are the core's
 /// ([`crate::Error::Backend`] for what a backend itself cannot do).
@@ -45,6 +46,10 @@ pub trait Backend: Send + Sync {
         h: usize,
         channels: &[Channel],
     ) -> Result<Vec<Vec<Vec<f32>>>>;
+
+    /// The sky's AoP, DoLP and AoE maps of each frame on a `w × h` sensor, without
+    /// rendering DN ([`crate::simulate::sky_maps`]).
+    fn sky_maps(&self, frames: &[ChainFrame], w: usize, h: usize) -> Result<Vec<SkyMaps>>;
 
     /// The seed paper's Monte Carlo sweep (`bpins run`).
     fn run_sweep(
@@ -82,6 +87,10 @@ impl Backend for Cpu {
         channels: &[Channel],
     ) -> Result<Vec<Vec<Vec<f32>>>> {
         Ok(frames.iter().map(|f| crate::simulate::render_colocated(f, w, h, channels)).collect())
+    }
+
+    fn sky_maps(&self, frames: &[ChainFrame], w: usize, h: usize) -> Result<Vec<SkyMaps>> {
+        Ok(frames.iter().map(|f| crate::simulate::sky_maps(f, w, h)).collect())
     }
 
     fn run_sweep(

@@ -77,6 +77,7 @@ pub mod fit;
 pub mod heading;
 #[cfg(feature = "io")]
 pub mod lab;
+pub(crate) mod math;
 pub mod montecarlo;
 pub mod noise;
 #[cfg(feature = "io")]

@@ -343,21 +343,29 @@ pub fn colocated(
 /// (−90, 90], β about the principal point of `intr`), NaN where invalid.
 pub fn angle_maps(img: &PolImage, intr: &crate::camera::Intrinsics) -> [Vec<f32>; 3] {
     use crate::conventions::{image_angle_rad, wrap_deg_90};
+    use rayon::prelude::*;
     let n = img.width * img.height;
     let (mut aop, mut dolp, mut aoe) = (vec![f32::NAN; n], vec![f32::NAN; n], vec![f32::NAN; n]);
-    for j in 0..img.height {
-        for i in 0..img.width {
-            if let Some(s) = img.stokes(i, j) {
-                let (x, y) = img.position_px(i, j);
-                let a = s.aop_rad().to_degrees();
-                let beta = image_angle_rad(x - intr.cx_px, y - intr.cy_px).to_degrees();
-                let k = j * img.width + i;
-                aop[k] = wrap_deg_90(a) as f32;
-                dolp[k] = s.dolp() as f32;
-                aoe[k] = wrap_deg_90(a - beta) as f32;
-            }
-        }
+    if img.width == 0 {
+        return [aop, dolp, aoe];
     }
+    // Rows in parallel (each writes its own rows of the three maps).
+    aop.par_chunks_mut(img.width)
+        .zip(dolp.par_chunks_mut(img.width))
+        .zip(aoe.par_chunks_mut(img.width))
+        .enumerate()
+        .for_each(|(j, ((aop, dolp), aoe))| {
+            for i in 0..img.width {
+                if let Some(s) = img.stokes(i, j) {
+                    let (x, y) = img.position_px(i, j);
+                    let a = s.aop_rad().to_degrees();
+                    let beta = image_angle_rad(x - intr.cx_px, y - intr.cy_px).to_degrees();
+                    aop[i] = wrap_deg_90(a) as f32;
+                    dolp[i] = s.dolp() as f32;
+                    aoe[i] = wrap_deg_90(a - beta) as f32;
+                }
+            }
+        });
     [aop, dolp, aoe]
 }
 

@@ -5,7 +5,8 @@
 
 use crate::camera::Intrinsics;
 use crate::chain::{
-    pixel_signal_dn, pixel_stokes, sensor_dn4_row, sensor_dn_row, signal4_row, signal_row, ChainFrame, NoiseRows, Scene,
+    angles_row, pixel_signal_dn, pixel_stokes, sensor_dn4_row, sensor_dn_row, signal4_row, signal_row, ChainFrame,
+    NoiseRows, Scene,
 };
 use crate::effects::Model;
 use crate::heading::{HeadingContext, HeadingSums, RowScratch};
@@ -207,6 +208,51 @@ pub fn render_colocated(f: &ChainFrame, w: usize, h: usize, channels: &[Channel]
     planes
 }
 
+/// The sky as a camera sees it: per pixel (row-major, `width_px × height_px`), the
+/// polarization of the light reaching the analyzers, noise-free and before any DN is
+/// rendered. Image frame and angles as CONVENTIONS.md; NaN nowhere (an unpolarized
+/// pixel has DoLP 0 and the angle atan2 gives).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SkyMaps {
+    pub width_px: usize,
+    pub height_px: usize,
+    /// Angle of polarization α, degrees, (−90°, 90°], counter-clockwise from image +x as displayed.
+    pub aop_deg: Vec<f32>,
+    /// Degree of linear polarization, 1.
+    pub dolp: Vec<f32>,
+    /// Angle of the E-vector to the local meridian φ = α − β (β: the pixel's image angle
+    /// about the frame's true principal point), degrees, (−90°, 90°].
+    pub aoe_deg: Vec<f32>,
+}
+
+/// The AoP, DoLP and AoE maps of frame `f` (camera, sun, attitude and effects as
+/// [`ChainFrame::noise_free`] or [`ChainFrame::new`] fold them) on a `w × h` sensor,
+/// without rendering DN: the per-pixel chain up to the analyzers, rows in parallel.
+/// The GPU backend's `sky_maps` runs the WGSL twin (`chain_maps`).
+///
+/// ```
+/// use bpins_core::camera::{Intrinsics, Projection};
+/// use bpins_core::chain::{ChainFrame, Scene};
+/// let intr = Intrinsics::new(Projection::Equidistant, 40.0, 31.5, 31.5);
+/// let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 0.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+/// let maps = bpins_core::simulate::sky_maps(&ChainFrame::noise_free(&Default::default(), &intr, &scene), 64, 64);
+/// // Rayleigh: the DoLP peaks (at d_max) 90° from the sun.
+/// let peak = maps.dolp.iter().cloned().fold(0.0f32, f32::max);
+/// assert!((peak - 0.6).abs() < 0.01);
+/// ```
+pub fn sky_maps(f: &ChainFrame, w: usize, h: usize) -> SkyMaps {
+    let n = w * h;
+    let (mut aop, mut dolp, mut aoe) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
+    if w > 0 {
+        aop.par_chunks_mut(w)
+            .zip(dolp.par_chunks_mut(w))
+            .zip(aoe.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(v, ((a, d), e))| angles_row(f, v as f64, a, d, e));
+    }
+    SkyMaps { width_px: w, height_px: h, aop_deg: aop, dolp, aoe_deg: aoe }
+}
+
 /// Largest noise-free analyzer intensity (sky radiance units, gain 1) over the frame,
 /// sampled on a grid of `stride_px` plus the last row and column: divide the wanted
 /// peak DN by it to get the sensor gain.
@@ -245,6 +291,30 @@ mod tests {
     use crate::chain::tests::{intrinsics, scene};
     use crate::chain::NoiseIndex;
     use crate::sensor::{Response, DEFAULT_MOSAIC};
+
+    #[test]
+    fn sky_maps_are_the_per_pixel_chain_and_the_aoe_rule() {
+        use crate::conventions::{image_angle_rad, wrap_deg_90};
+        let f = ChainFrame::noise_free(&Model::default(), &intrinsics(), &scene());
+        let (w, h) = (61, 47);
+        let m = sky_maps(&f, w, h);
+        assert_eq!(
+            (m.width_px, m.height_px, m.aop_deg.len(), m.dolp.len(), m.aoe_deg.len()),
+            (w, h, w * h, w * h, w * h)
+        );
+        for (u, v) in [(0, 0), (w - 1, h - 1), (30, 20), (5, 46)] {
+            let k = v * w + u;
+            let s = pixel_stokes(&f, u as f64, v as f64);
+            let d = wrap_deg_90(m.aop_deg[k] as f64 - s.aop_rad().to_degrees());
+            assert!(d.abs() < 1e-5, "AoP at ({u}, {v}) off by {d} deg");
+            assert_eq!(m.dolp[k], s.dolp() as f32);
+            // AoE = AoP − β about the principal point (CONVENTIONS.md), within f32 rounding.
+            let beta = image_angle_rad(u as f64 - f.intr.cx_px, v as f64 - f.intr.cy_px).to_degrees();
+            let d = wrap_deg_90(m.aoe_deg[k] as f64 - (m.aop_deg[k] as f64 - beta));
+            assert!(d.abs() < 1e-4, "AoE at ({u}, {v}) off the rule by {d} deg");
+        }
+        assert_eq!(sky_maps(&f, 0, 5).aop_deg.len(), 0);
+    }
 
     #[test]
     fn mosaic_is_bit_identical_whatever_the_thread_count() {

@@ -20,6 +20,7 @@ pub(crate) struct Pipelines {
     pub render_mosaic: wgpu::ComputePipeline,
     pub render_colocated: wgpu::ComputePipeline,
     pub chain_maps: wgpu::ComputePipeline,
+    pub sky_maps: wgpu::ComputePipeline,
     pub frame_sums: wgpu::ComputePipeline,
     pub reduce_partials: wgpu::ComputePipeline,
 }
@@ -226,6 +227,7 @@ impl Pipelines {
             render_mosaic: pipeline(&render, "render_mosaic"),
             render_colocated: pipeline(&render, "render_colocated"),
             chain_maps: pipeline(&render, "chain_maps"),
+            sky_maps: pipeline(&render, "sky_maps"),
             frame_sums: pipeline(&sums, "frame_sums"),
             reduce_partials: pipeline(&reduce, "reduce_partials"),
         })

@@ -92,6 +92,15 @@ impl bpins_core::backend::Backend for Gpu {
         Gpu::render_colocated(self, frames, w, h, channels).map_err(into_core)
     }
 
+    fn sky_maps(
+        &self,
+        frames: &[bpins_core::chain::ChainFrame],
+        w: usize,
+        h: usize,
+    ) -> bpins_core::Result<Vec<bpins_core::simulate::SkyMaps>> {
+        Gpu::sky_maps(self, frames, w, h).map_err(into_core)
+    }
+
     fn run_sweep(
         &self,
         cfg: &bpins_core::montecarlo::SweepConfig,

@@ -6,6 +6,7 @@ use crate::params::{mosaic_positions, FrameParams, RenderDims};
 use crate::{GpuError, Result};
 use bpins_core::chain::ChainFrame;
 use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+use bpins_core::simulate::SkyMaps;
 
 /// Workgroup edge of the 2-D kernels (`@workgroup_size(16, 16, 1)`).
 pub(crate) const WG_EDGE: u32 = 16;
@@ -91,6 +92,24 @@ impl Gpu {
     }
 
     /// The noise-free chain of every pixel of each frame (`w × h`, row-major).
+    /// The sky's AoP, DoLP and AoE maps of `frames` (`w × h`), no DN rendered: the WGSL
+    /// twin of `bpins_core::simulate::sky_maps`.
+    pub fn sky_maps(&self, frames: &[ChainFrame], w: usize, h: usize) -> Result<Vec<SkyMaps>> {
+        let all = self.render(&self.pipelines.sky_maps, frames, w, h, &DEFAULT_MOSAIC, 3)?;
+        Ok(all
+            .iter()
+            .map(|px| {
+                let mut m = SkyMaps { width_px: w, height_px: h, ..Default::default() };
+                for c in px.chunks_exact(3) {
+                    m.aop_deg.push(c[0]);
+                    m.dolp.push(c[1]);
+                    m.aoe_deg.push(c[2]);
+                }
+                m
+            })
+            .collect())
+    }
+
     pub fn chain_maps(&self, frames: &[ChainFrame], w: usize, h: usize) -> Result<Vec<Vec<ChainSample>>> {
         let all = self.render(&self.pipelines.chain_maps, frames, w, h, &DEFAULT_MOSAIC, 7)?;
         Ok(all

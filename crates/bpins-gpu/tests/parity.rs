@@ -101,3 +101,30 @@ fn the_gpu_is_a_library_backend_like_the_cpu() {
     let e = Backend::render_mosaic(gpu, frames, 1 << 20, 1 << 20, &bpins_core::sensor::DEFAULT_MOSAIC).unwrap_err();
     assert!(matches!(e, bpins_core::Error::Backend { .. }), "{e}");
 }
+
+#[test]
+fn sky_maps_agree_on_both_backends_for_every_effect() {
+    use bpins_core::backend::{Backend, Cpu};
+    use bpins_gpu::tolerance::{aop_diff_deg, AOP_DEG, AOP_MIN_DOLP, DOLP_ABS};
+    let Some(gpu) = gpu() else { return };
+    // The ideal chain and every effect together, at typical strength and at a range end.
+    for (name, trial) in [("ideal", 2), ("all_effects", 1), ("all_effects", 3)] {
+        let case = cases().into_iter().find(|c| c.name == name).unwrap();
+        let t = trial_frame(&case, trial, 11).unwrap();
+        let frames = std::slice::from_ref(&t.frame);
+        let (w, h) = (153, 128);
+        let backends: [&dyn Backend; 2] = [&Cpu, gpu];
+        let [c, g] = backends.map(|b| b.sky_maps(frames, w, h).unwrap().remove(0));
+        assert_eq!((g.width_px, g.height_px, g.aop_deg.len()), (w, h, w * h));
+        let (mut aop, mut aoe, mut dolp) = (0f64, 0f64, 0f64);
+        for p in 0..w * h {
+            dolp = dolp.max((c.dolp[p] - g.dolp[p]).abs() as f64);
+            if c.dolp[p] as f64 > AOP_MIN_DOLP {
+                aop = aop.max(aop_diff_deg(c.aop_deg[p] as f64, g.aop_deg[p] as f64).abs());
+                aoe = aoe.max(aop_diff_deg(c.aoe_deg[p] as f64, g.aoe_deg[p] as f64).abs());
+            }
+        }
+        eprintln!("{}: sky maps differ by AoP {aop:e} deg, AoE {aoe:e} deg, DoLP {dolp:e}", t.label);
+        assert!(aop <= AOP_DEG && aoe <= AOP_DEG && dolp <= DOLP_ABS, "{}", t.label);
+    }
+}

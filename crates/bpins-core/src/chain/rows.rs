@@ -63,6 +63,63 @@ fn signal4_row_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, v_px: f64
     );
 }
 
+/// Row kernel: `[aop[u], dolp[u], aoe[u]] = sky_angles(pixel_stokes(f, u, v_px), u, v_px,
+/// principal point)` for `u = 0..aop.len()`: the light reaching the analyzers,
+/// noise-free, as f32. One branch-free loop (the angles through `math::atan2`), so it
+/// vectorizes like the chain. CPU twin of WGSL `sky_maps` (`render.wgsl`).
+pub(crate) fn angles_row(f: &ChainFrame, v_px: f64, aop: &mut [f32], dolp: &mut [f32], aoe: &mut [f32]) {
+    match (f.has_pixel_effects(), f.field.is_some()) {
+        (false, _) => angles_row_in::<false, false>(f, v_px, aop, dolp, aoe),
+        (true, false) => angles_row_in::<true, false>(f, v_px, aop, dolp, aoe),
+        (true, true) => angles_row_in::<true, true>(f, v_px, aop, dolp, aoe),
+    }
+}
+
+#[inline(always)]
+fn angles_row_in<const LENS: bool, const FIELD: bool>(
+    f: &ChainFrame,
+    v_px: f64,
+    aop: &mut [f32],
+    dolp: &mut [f32],
+    aoe: &mut [f32],
+) {
+    let n = aop.len().min(dolp.len()).min(aoe.len());
+    let (aop, dolp, aoe) = (&mut aop[..n], &mut dolp[..n], &mut aoe[..n]);
+    let c = (f.intr.cx_px, f.intr.cy_px);
+    f.intr.for_row(
+        v_px,
+        0.0,
+        1.0,
+        n,
+        #[inline(always)]
+        |u, g| {
+            let [a, d, e] = sky_angles(ray_stokes_in::<LENS, FIELD>(f, g), u as f64, v_px, c);
+            aop[u] = a;
+            dolp[u] = d;
+            aoe[u] = e;
+        },
+    );
+}
+
+/// The AoP (degrees, (−90°, 90°], image frame), DoLP (1) and AoE (AoP − β, β the image
+/// angle of pixel `(u, v)` about the principal point `c`; degrees, (−90°, 90°]) of the
+/// image-frame Stokes vector `s`, as f32; pure and branch-free. Equal to
+/// `Stokes::aop_rad`, `Stokes::dolp` and `conventions::image_angle_rad` with libm's
+/// atan2 to within a few ulp before the rounding to f32 (tested).
+#[inline(always)]
+pub fn sky_angles(s: Stokes, u_px: f64, v_px: f64, c: (f64, f64)) -> [f32; 3] {
+    use crate::math::{atan2, wrap_deg_90_near};
+    // AoP α = ½ atan2(U, Q), in (−90°, 90°].
+    let a = 0.5 * atan2(s.u, s.q);
+    let a = if a <= -std::f64::consts::FRAC_PI_2 { a + std::f64::consts::PI } else { a };
+    let a_deg = a.to_degrees();
+    // DoLP √(Q² + U²)/I, 0 where no light arrives.
+    let d = if s.i > 0.0 { (s.q * s.q + s.u * s.u).sqrt() / s.i } else { 0.0 };
+    // β: the image angle of the pixel about the principal point (CCW as displayed).
+    let beta_deg = atan2(-(v_px - c.1), u_px - c.0).to_degrees();
+    [wrap_deg_90_near(a_deg) as f32, d as f32, wrap_deg_90_near(a_deg - beta_deg) as f32]
+}
+
 /// [`ray_stokes`] for the row kernels, `LENS = false` only where no per-pixel
 /// effect is on (the sky is Rayleigh, no scene elements) ([`ChainFrame::has_pixel_effects`]);
 /// `FIELD = false` only where the frame has no field. Then the lens is the identity and
@@ -229,6 +286,28 @@ mod tests {
                     let p = (v * w + u) as u32;
                     assert_eq!(dn[u], sensor_dn(&f, want, ch, &sensor_noise(&f, p, ch)) as f32, "DN at {u}");
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn angle_row_kernel_is_bitwise_the_per_pixel_chain_and_libm_to_f32() {
+        use crate::conventions::{image_angle_rad, wrap_deg_90};
+        let (w, v) = (612usize, 37usize);
+        let (mut aop, mut dolp, mut aoe) = (vec![0f32; w], vec![0f32; w], vec![0f32; w]);
+        for f in [noisy_frame(false), ideal_frame(&Model::default()), field_frame()] {
+            let c = (f.intr.cx_px, f.intr.cy_px);
+            angles_row(&f, v as f64, &mut aop, &mut dolp, &mut aoe);
+            for u in 0..w {
+                let s = pixel_stokes(&f, u as f64, v as f64);
+                assert_eq!([aop[u], dolp[u], aoe[u]], sky_angles(s, u as f64, v as f64, c), "at {u}");
+                // With libm's atan2 and the remainder wrap: the same to f32 rounding.
+                let a = s.aop_rad().to_degrees();
+                let beta = image_angle_rad(u as f64 - c.0, v as f64 - c.1).to_degrees();
+                let near = |x: f32, y: f64| (wrap_deg_90(x as f64 - y)).abs() <= 1e-5;
+                assert!(near(aop[u], wrap_deg_90(a)), "AoP at {u}: {} vs {} ({s:?})", aop[u], wrap_deg_90(a));
+                assert!(near(aoe[u], wrap_deg_90(a - beta)), "AoE at {u}: {} vs {}", aoe[u], wrap_deg_90(a - beta));
+                assert_eq!(dolp[u], s.dolp() as f32, "DoLP at {u}");
             }
         }
     }
