@@ -96,6 +96,17 @@ fn ray_stokes(f: ChainFrame, g: RayGeometry) -> Stokes {
     return meridional_to_image(s, g.basis.cos2b, g.basis.sin2b);
 }
 
+// The AoP (degrees, (−90, 90], image frame), DoLP and AoE (AoP − β, β the image angle
+// of pixel (u, v) about the principal point c; degrees) of the image-frame Stokes
+// vector s, as f32. CPU twin: chain::sky_angles (rows.rs), the same steps.
+fn sky_angles(s: Stokes, u_px: f64, v_px: f64, c: vec2<f64>) -> vec3<f32> {
+    // AoP α = ½ atan2(U, Q), in (−90°, 90°].
+    let a_deg = aop_rad(s) * DEG_PER_RAD_F64;
+    // β: the image angle of the pixel about the principal point (CCW as displayed).
+    let beta_deg = image_angle_rad(u_px - c.x, v_px - c.y) * DEG_PER_RAD_F64;
+    return vec3<f32>(f32(wrap_deg_90(a_deg)), f32(dolp(s)), f32(wrap_deg_90(a_deg - beta_deg)));
+}
+
 // Photo-signal in DN of channel ch for Stokes s: analyzer, then gain.
 fn pixel_signal_dn(f: ChainFrame, s: Stokes, ch: u32) -> f64 {
     return analyzer_intensity(s, Analyzer(f.cos2t[ch], f.sin2t[ch], f.eps[ch])) * f.gain_dn[ch];

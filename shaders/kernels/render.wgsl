@@ -59,11 +59,10 @@ fn chain_maps(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var ch = 0u; ch < 4u; ch++) {
         out[base + ch] = f32(pixel_signal_dn(f, s, ch));
     }
-    let a = aop_rad(s) * DEG_PER_RAD_F64;
-    let beta = image_angle_rad(f64(gid.x) - f.intr.cx_px, f64(gid.y) - f.intr.cy_px) * DEG_PER_RAD_F64;
-    out[base + 4u] = f32(wrap_deg_90(a));
-    out[base + 5u] = f32(dolp(s));
-    out[base + 6u] = f32(wrap_deg_90(a - beta));
+    let angles = sky_angles(s, f64(gid.x), f64(gid.y), vec2<f64>(f.intr.cx_px, f.intr.cy_px));
+    out[base + 4u] = angles.x;
+    out[base + 5u] = angles.y;
+    out[base + 6u] = angles.z;
 }
 
 // The sky's AoP (degrees, (−90, 90]), DoLP and AoE (AoP − β about the true principal
@@ -79,11 +78,8 @@ fn sky_maps(@builtin(global_invocation_id) gid: vec3<u32>) {
     let f = chain_frame(frames[gid.z]);
     let s = pixel_stokes(f, f64(gid.x), f64(gid.y));
     let base = 3u * ((gid.z * h + gid.y) * w + gid.x);
-    // AoP of the Stokes vector reaching the analyzers, image frame.
-    let a = aop_rad(s) * DEG_PER_RAD_F64;
-    // β: the image angle of the pixel about the true principal point.
-    let beta = image_angle_rad(f64(gid.x) - f.intr.cx_px, f64(gid.y) - f.intr.cy_px) * DEG_PER_RAD_F64;
-    out[base] = f32(wrap_deg_90(a));
-    out[base + 1u] = f32(dolp(s));
-    out[base + 2u] = f32(wrap_deg_90(a - beta));
+    let angles = sky_angles(s, f64(gid.x), f64(gid.y), vec2<f64>(f.intr.cx_px, f.intr.cy_px));
+    out[base] = angles.x;
+    out[base + 1u] = angles.y;
+    out[base + 2u] = angles.z;
 }

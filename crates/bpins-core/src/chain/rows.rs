@@ -66,7 +66,8 @@ fn signal4_row_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, v_px: f64
 /// Row kernel: `[aop[u], dolp[u], aoe[u]] = sky_angles(pixel_stokes(f, u, v_px), u, v_px,
 /// principal point)` for `u = 0..aop.len()`: the light reaching the analyzers,
 /// noise-free, as f32. One branch-free loop (the angles through `math::atan2`), so it
-/// vectorizes like the chain. CPU twin of WGSL `sky_maps` (`render.wgsl`).
+/// vectorizes like the chain. CPU twin of WGSL `sky_maps` (`render.wgsl`), whose
+/// angles come from the WGSL `sky_angles` (`common/chain.wgsl`).
 pub(crate) fn angles_row(f: &ChainFrame, v_px: f64, aop: &mut [f32], dolp: &mut [f32], aoe: &mut [f32]) {
     match (f.has_pixel_effects(), f.field.is_some()) {
         (false, _) => angles_row_in::<false, false>(f, v_px, aop, dolp, aoe),
