@@ -14,7 +14,7 @@ pub fn ray_signature(name: &str) -> String {
 
 /// The per-pixel effects among WGSL `files` (file stem, source): those whose source
 /// defines [`ray_signature`] of their stem, in the order given.
-pub fn ray_effects_in<'a>(files: &'a [(String, String)]) -> Vec<&'a str> {
+pub fn ray_effects_in(files: &[(String, String)]) -> Vec<&str> {
     files.iter().filter(|(stem, src)| src.contains(&ray_signature(stem))).map(|(stem, _)| stem.as_str()).collect()
 }
 
