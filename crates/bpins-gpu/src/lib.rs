@@ -24,6 +24,7 @@ pub mod params;
 mod render;
 pub mod shaders;
 mod sums;
+pub mod sweep;
 pub mod tolerance;
 
 pub use device::Gpu;

@@ -375,7 +375,7 @@ pub fn run_units(
     // The gain depends on the sun only: one peak per (elevation, azimuth).
     let mut peaks: Vec<((usize, u64), f64)> = Vec::new();
     let mut out = Vec::with_capacity(total);
-    let full = if spec.quantize { spec.sensor.full_scale_dn() } else { f64::MAX };
+    let full = spec.sensor.full_scale_dn();
     for chunk in units.chunks(engine.batch().max(1)) {
         for u in chunk {
             let key = (u.elevation, spec.sun_azimuth_deg(u.trial).to_bits());
