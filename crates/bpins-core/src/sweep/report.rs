@@ -49,12 +49,19 @@ pub fn html(spec: &SweepSpec, summary: &Summary) -> String {
     for e in &spec.errors {
         let _ = writeln!(
             h,
-            "<tr><td class=l>{}</td><td class=l>{}</td><td class=l>{}</td><td class=l>{:?}</td><td class=l>{:?}</td></tr>",
+            "<tr><td class=l>{}</td><td class=l>{}</td><td class=l>{}</td><td class=l>{}</td><td class=l>{}</td></tr>",
             esc(&e.source),
             esc(&e.target.name()),
             esc(&e.distribution.describe()),
-            e.per,
-            e.known
+            match e.per {
+                super::spec::Per::Trial => "trial",
+                super::spec::Per::Pixel => "pixel",
+            },
+            match e.known {
+                super::spec::Known::No => "no",
+                super::spec::Known::Yes => "yes",
+                super::spec::Known::Both => "both (rows for each)",
+            }
         );
     }
     h += "</table>\n";
