@@ -99,3 +99,42 @@ fn merged_slices_equal_the_unsharded_sweep_and_slices_restart() {
     let o = bpins(&args, Some(&merged));
     assert!(String::from_utf8_lossy(&o.stderr).contains("trials_per_source"));
 }
+
+/// Whether the GPU twin can run here; without an adapter the GPU test reports itself
+/// skipped, except with `CI` set, where that is a failure.
+fn gpu_available() -> bool {
+    match bpins_gpu::Gpu::new() {
+        Ok(_) => true,
+        Err(e) if std::env::var_os("CI").is_some() => panic!("CI is set and the GPU backend cannot run: {e}"),
+        Err(e) => {
+            eprintln!("SKIPPED (no usable Vulkan adapter): {e}");
+            false
+        }
+    }
+}
+
+#[test]
+fn the_gpu_sweep_gives_the_cpu_trials_within_the_heading_tolerance() {
+    if !gpu_available() {
+        return;
+    }
+    let t = tempfile::tempdir().unwrap();
+    let (cpu, gpu) = (t.path().join("cpu"), t.path().join("gpu"));
+    ok(&["sweep", TINY, "--trials", "3"], &cpu);
+    ok(&["sweep", TINY, "--trials", "3", "--backend", "gpu"], &gpu);
+    let read = |d: &Path| fs::read_to_string(d.join("trials.csv")).unwrap();
+    let (c, g) = (read(&cpu), read(&gpu));
+    assert_eq!(c.lines().count(), g.lines().count());
+    let mut worst: f64 = 0.0;
+    for (a, b) in c.lines().zip(g.lines()).skip(1) {
+        let (ka, ea) = a.rsplit_once(',').unwrap();
+        let (kb, eb) = b.rsplit_once(',').unwrap();
+        assert_eq!(ka, kb, "the same trial on both lines");
+        let (x, y): (f64, f64) = (ea.parse().unwrap(), eb.parse().unwrap());
+        worst = worst.max(bpins_gpu::tolerance::heading_diff_deg(x, y));
+    }
+    assert!(worst <= bpins_gpu::tolerance::HEADING_DEG, "CPU and GPU trials differ by {worst}°");
+    // Slices of different backends are not merged.
+    let o = bpins(&["merge", cpu.to_str().unwrap(), gpu.to_str().unwrap()], Some(&t.path().join("m")));
+    assert!(!o.status.success());
+}
