@@ -62,8 +62,9 @@ pub struct Budget {
     pub root_sum_square_deg: f64,
     /// root_sum_square_deg / combined_std_deg.
     pub quadrature_ratio: f64,
-    /// Whether the ratio is within two standard errors of a σ estimated from the
-    /// combined row's trials (1 ± 2/√(2(n − 1))).
+    /// Whether the ratio is within two standard errors of 1: the ratio of two
+    /// independent σ estimates from n trials each has a relative standard error of
+    /// about 1/√(n − 1), so the test is |ratio − 1| ≤ 2/√(n − 1).
     pub adds_in_quadrature: bool,
 }
 
@@ -186,7 +187,7 @@ fn budget(spec: &SweepSpec, rows: &[Row]) -> Vec<Budget> {
         }
         let rss = sum_var.sqrt();
         let ratio = rss / c.std_deg;
-        let tol = if c.trials > 1 { 2.0 / (2.0 * (c.trials - 1) as f64).sqrt() } else { f64::INFINITY };
+        let tol = if c.trials > 1 { 2.0 / ((c.trials - 1) as f64).sqrt() } else { f64::INFINITY };
         out.push(Budget {
             extractor: c.extractor.clone(),
             sun_elevation_deg: c.sun_elevation_deg,
