@@ -10,7 +10,8 @@
 //! title = "My sensor at noon"      # optional, shown in the report
 //! seed = 2023                      # every draw is keyed by (seed, source, trial)
 //! trials = 160                     # per source and sun elevation (--trials overrides)
-//! extractors = ["sun_vector", "meridian_line"]   # default: all
+//! extractors = ["sun_vector", "meridian_line"]   # default these two; also "edge_point"
+//!                                  # (the seed paper's own, colocated sensors: `edge_point`)
 //! combined = true                  # also a row drawing every source at once (default)
 //! sources = ["principal_point", "array_rotation"]  # optional: the rows' order (keys the draws);
 //!                                  # default: order of first appearance in [[errors]]
@@ -71,18 +72,20 @@
 //! quadrature), `summary.csv`, `budget.csv`, `report.html`, every trial's error in
 //! `trials.csv`, and `shard.toml` written last (the slice is complete).
 
+mod edge_point;
 mod report;
 mod run;
 mod spec;
 mod stats;
 mod store;
 
+pub use edge_point::heading as edge_point_heading;
 pub use report::html as report_html;
 pub use run::{
     columns, draws, peak, run_units, unit, unit_count, unit_index, variants, CpuSums, Reading, Shard, SumsEngine,
     SumsJob, TrialRecord, TrialSetup, Unit, MAX_CONTEXTS,
 };
-pub use spec::{Distribution, ErrorSpec, Known, Per, PixelNoise, SweepSpec, Target, COMBINED, FORMAT};
+pub use spec::{Distribution, ErrorSpec, Known, Per, PixelNoise, SweepExtractor, SweepSpec, Target, COMBINED, FORMAT};
 pub use stats::{describe, percentile_sorted, summarise, Budget, Row, Share, Summary, SUMMARY_FORMAT};
 pub use store::{merge, read_trials, run_to_dir, write_outputs, Outcome, ShardMeta, SHARD_FORMAT};
 

@@ -16,7 +16,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-use super::spec::{Known, Per, PixelNoise, SweepSpec, Target};
+use super::spec::{Known, Per, PixelNoise, SweepExtractor, SweepSpec, Target};
 use crate::camera::Intrinsics;
 use crate::chain::{ChainFrame, NoiseIndex, Scene};
 use crate::conventions::wrap_deg_180;
@@ -95,7 +95,7 @@ pub fn variants(spec: &SweepSpec, source: usize) -> Vec<Option<bool>> {
 }
 
 /// The columns of a source's trial record: every extractor under every variant.
-pub fn columns(spec: &SweepSpec, source: usize) -> Vec<(Extractor, Option<bool>)> {
+pub fn columns(spec: &SweepSpec, source: usize) -> Vec<(SweepExtractor, Option<bool>)> {
     let v = variants(spec, source);
     spec.extractors.iter().flat_map(|&e| v.iter().map(move |&k| (e, k))).collect()
 }
@@ -231,11 +231,23 @@ impl TrialSetup {
         for &e in &spec.extractors {
             for &(r, c) in &self.slots {
                 let ctx = &self.readings[r].contexts[c];
-                let err = match sums[r][c].solve(e, ctx) {
-                    Ok(est) => wrap_deg_180(est.heading_deg - 0.0),
-                    Err(_) => f64::NAN,
+                let heading = match e {
+                    SweepExtractor::Plain(e) => sums[r][c].solve(e, ctx).ok().map(|est| est.heading_deg),
+                    SweepExtractor::EdgePoint => {
+                        // Started from the sun vector's answer (which half is the sun's).
+                        let start = sums[r][c].solve(Extractor::SunVector, ctx).ok().map(|est| est.heading_deg);
+                        let (w, h) = spec.size_px();
+                        let mut used = [false; 4];
+                        for ch in spec.channels() {
+                            used[ch.index()] = true;
+                        }
+                        start.and_then(|s| {
+                            super::edge_point::heading(&self.frame, w, h, used, &self.readings[r].rec, ctx, s)
+                                .map(|x| x.0)
+                        })
+                    }
                 };
-                errors_deg.push(err);
+                errors_deg.push(heading.map(|hd| wrap_deg_180(hd - 0.0)).unwrap_or(f64::NAN));
             }
         }
         TrialRecord { unit: self.unit, sun_azimuth_deg: self.sun_azimuth_deg, errors_deg }
@@ -397,10 +409,9 @@ pub fn run_units(
             .flat_map(|t| t.readings.iter().map(|r| SumsJob { frame: &t.frame, rec: &r.rec, contexts: &r.contexts }))
             .collect();
         let mut sums = engine.heading_sums(&jobs, &spec.sensor.layout, w, h, full)?.into_iter();
-        for t in &setups {
-            let mine: Vec<Vec<HeadingSums>> = sums.by_ref().take(t.readings.len()).collect();
-            out.push(t.finish(spec, &mine));
-        }
+        let per_trial: Vec<Vec<Vec<HeadingSums>>> =
+            setups.iter().map(|t| sums.by_ref().take(t.readings.len()).collect()).collect();
+        out.par_extend(setups.par_iter().zip(per_trial.par_iter()).map(|(t, s)| t.finish(spec, s)));
         progress(out.len(), total);
     }
     Ok(out)

@@ -51,10 +51,38 @@ pub struct SweepSpec {
     /// The sources (rows), in order of first appearance, then [`COMBINED`] when on.
     pub sources: Vec<String>,
     pub combined: bool,
-    pub extractors: Vec<Extractor>,
+    pub extractors: Vec<SweepExtractor>,
     /// Trials per source and sun elevation.
     pub trials: usize,
     pub seed: u64,
+}
+
+/// A heading extractor a sweep can use: bpins' two ([`Extractor`], solved from the
+/// additive sums, on either backend) or `edge_point`, the seed paper's own as the
+/// README reads it ([`super::edge_point`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SweepExtractor {
+    Plain(Extractor),
+    EdgePoint,
+}
+
+impl SweepExtractor {
+    pub const ALL: [SweepExtractor; 3] = [
+        SweepExtractor::Plain(Extractor::SunVector),
+        SweepExtractor::Plain(Extractor::MeridianLine),
+        SweepExtractor::EdgePoint,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SweepExtractor::Plain(e) => e.name(),
+            SweepExtractor::EdgePoint => "edge_point",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<SweepExtractor> {
+        SweepExtractor::ALL.into_iter().find(|e| e.name() == name)
+    }
 }
 
 /// One error: a parameter, its distribution, and whether the reconstruction knows it.
@@ -267,7 +295,7 @@ impl SweepSpec {
         let trials =
             req(p, "trials", opt_int(p, "trials", table.get("trials"), 1, 10_000_000)?, "a whole number ≥ 1")? as usize;
         let extractors = match table.get("extractors") {
-            None => Extractor::ALL.to_vec(),
+            None => Extractor::ALL.iter().map(|&e| SweepExtractor::Plain(e)).collect(),
             Some(v) => {
                 let list = v.as_array().ok_or_else(|| bad(p, "extractors", expected_list_of_extractors()))?;
                 let mut out = Vec::new();
@@ -275,7 +303,7 @@ impl SweepSpec {
                     let key = format!("extractors[{i}]");
                     let x = e
                         .as_str()
-                        .and_then(Extractor::from_name)
+                        .and_then(SweepExtractor::from_name)
                         .ok_or_else(|| bad(p, &key, format!("found {e}; expected one of {}", extractor_names())))?;
                     if out.contains(&x) {
                         return Err(bad(p, &key, format!("`{}` is listed twice", x.name())));
@@ -292,6 +320,15 @@ impl SweepSpec {
 
         let (sensor, lens) = parse_sensor_lens(p, table.get("sensor").cloned(), table.get("lens").cloned())?;
         validate_sensor_lens(&sensor, &lens, p)?;
+        if let (Some(i), Layout::Dofp { .. }) =
+            (extractors.iter().position(|e| *e == SweepExtractor::EdgePoint), &sensor.layout)
+        {
+            return Err(bad(
+                p,
+                &format!("extractors[{i}]"),
+                "edge_point reads the ring pixel by pixel: it needs [sensor] layout = \"colocated\"".into(),
+            ));
+        }
         if let Layout::Dofp { .. } = sensor.layout {
             if sensor.geometry.width_px < 2 || sensor.geometry.height_px < 2 {
                 return Err(bad(p, "sensor.width_px", "a DoFP sensor needs at least 2 × 2 px".into()));
@@ -479,7 +516,7 @@ impl SweepSpec {
     }
 }
 
-fn parse_error(p: &Path, i: usize, v: &Value, extractors: &[Extractor]) -> Result<ErrorSpec> {
+fn parse_error(p: &Path, i: usize, v: &Value, extractors: &[SweepExtractor]) -> Result<ErrorSpec> {
     let pre = format!("errors[{i}]");
     let t = v.as_table().ok_or_else(|| bad(p, &pre, format!("found {v}; expected a table")))?;
     let k = |name: &str| format!("{pre}.{name}");
@@ -594,7 +631,10 @@ fn parse_error(p: &Path, i: usize, v: &Value, extractors: &[Extractor]) -> Resul
             format!("the reconstruction cannot compensate `{pname}`; expected known = false"),
         ));
     }
-    if matches!(target, Target::ImuTilt { .. }) && known != Known::No && extractors.contains(&Extractor::MeridianLine) {
+    if matches!(target, Target::ImuTilt { .. })
+        && known != Known::No
+        && extractors.iter().any(|e| *e != SweepExtractor::Plain(Extractor::SunVector))
+    {
         return Err(bad(
             p,
             &k("known"),
@@ -628,7 +668,7 @@ pub(crate) fn bad(p: &Path, key: &str, message: String) -> Error {
 }
 
 fn extractor_names() -> String {
-    Extractor::ALL.iter().map(|e| format!("\"{}\"", e.name())).collect::<Vec<_>>().join(", ")
+    SweepExtractor::ALL.iter().map(|e| format!("\"{}\"", e.name())).collect::<Vec<_>>().join(", ")
 }
 
 fn expected_list_of_extractors() -> String {
@@ -794,7 +834,7 @@ mod tests {
         assert_eq!(s.sun_elevations_deg, vec![5.0, 30.0]);
         assert_eq!(s.sun_azimuths_deg, vec![10.0, 20.0, 30.0, 40.0]);
         assert_eq!(s.sources, vec!["array_rotation", "grayscale", "combined"]);
-        assert_eq!(s.extractors, Extractor::ALL.to_vec());
+        assert_eq!(s.extractors, SweepExtractor::ALL[..2].to_vec());
         assert_eq!(s.errors[1].per, Per::Pixel);
         assert_eq!(s.sun_azimuth_deg(5), 20.0);
         assert_eq!(s.intrinsics().cx_px, 31.5);
