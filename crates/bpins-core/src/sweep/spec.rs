@@ -59,7 +59,7 @@ pub struct SweepSpec {
 
 /// A heading extractor a sweep can use: bpins' two ([`Extractor`], solved from the
 /// additive sums, on either backend) or `edge_point`, the seed paper's own as the
-/// README reads it ([`super::edge_point`]).
+/// README reads it (`sweep/edge_point.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SweepExtractor {
     Plain(Extractor),
