@@ -89,7 +89,7 @@ pub fn heading(
                 }
             }
             let s = rec.stokes(&dn);
-            if !(s.i > 0.0) {
+            if s.i.is_nan() || s.i <= 0.0 {
                 continue;
             }
             let dolp = (s.q * s.q + s.u * s.u).sqrt() / s.i;
@@ -117,7 +117,7 @@ pub fn heading(
         return None;
     }
     let vertex = -c.y / (2.0 * c.z);
-    if !(vertex.abs() <= half) {
+    if vertex.is_nan() || vertex.abs() > half {
         return None;
     }
     // The meridian point's angle about the assumed principal point.

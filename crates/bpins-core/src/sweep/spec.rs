@@ -602,7 +602,7 @@ fn parse_error(p: &Path, i: usize, v: &Value, extractors: &[SweepExtractor]) -> 
     // What fits what.
     match (target, per) {
         (Target::PixelNoise(_), Per::Pixel) => match distribution {
-            Distribution::Normal { mean, .. } if mean == 0.0 => {}
+            Distribution::Normal { mean: 0.0, .. } => {}
             _ => {
                 return Err(bad(
                     p,
@@ -749,7 +749,7 @@ fn list_or_range(p: &Path, key: &str, v: Option<&Value>) -> Result<Option<Vec<f6
             check_keys(p, &pre, t, &["from", "to", "step"])?;
             let get = |n: &str| req(p, &format!("{pre}{n}"), opt_num(p, &format!("{pre}{n}"), t.get(n))?, "a number");
             let (from, to, step) = (get("from")?, get("to")?, get("step")?);
-            if !(step > 0.0) || to < from {
+            if step.is_nan() || step <= 0.0 || to < from {
                 return Err(bad(
                     p,
                     key,
