@@ -13,7 +13,7 @@
 //! extractors = ["sun_vector", "meridian_line"]   # default these two; also "edge_point"
 //!                                  # (the seed paper's own, colocated sensors: `edge_point`)
 //! combined = true                  # also a row drawing every source at once (default)
-//! sources = ["principal_point", "array_rotation"]  # optional: the rows' order (keys the draws);
+//! sources = ["principal_point"]   # optional: the rows' order (keys the draws);
 //!                                  # default: order of first appearance in [[errors]]
 //!
 //! [sensor]                         # exactly a capture's [sensor] (docs/spec/CAPTURE.md)
