@@ -829,6 +829,20 @@ mod tests {
     }
 
     #[test]
+    fn every_shipped_sweep_file_parses() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/sweeps");
+        let mut n = 0;
+        for f in std::fs::read_dir(&dir).unwrap() {
+            let p = f.unwrap().path();
+            if p.extension().and_then(|e| e.to_str()) == Some("toml") {
+                SweepSpec::load(&p).unwrap_or_else(|e| panic!("{e}"));
+                n += 1;
+            }
+        }
+        assert!(n >= 6, "{n} sweep files in {}", dir.display());
+    }
+
+    #[test]
     fn a_small_sweep_parses_with_its_defaults() {
         let s = parse(TINY).unwrap();
         assert_eq!(s.sun_elevations_deg, vec![5.0, 30.0]);
