@@ -134,6 +134,14 @@ fn the_gpu_sweep_gives_the_cpu_trials_within_the_heading_tolerance() {
         worst = worst.max(bpins_gpu::tolerance::heading_diff_deg(x, y));
     }
     assert!(worst <= bpins_gpu::tolerance::HEADING_DEG, "CPU and GPU trials differ by {worst}°");
+    // Field conditions are the CPU's only: the GPU refuses them, saying so.
+    let cloudy = t.path().join("cloudy.toml");
+    fs::write(&cloudy, fs::read_to_string(TINY).unwrap().replacen("dmax = 0.6", "dmax = 0.6\nscene = [\"clouds\"]", 1))
+        .unwrap();
+    let o = bpins(&["sweep", cloudy.to_str().unwrap(), "--trials", "1", "--backend", "gpu"], Some(&t.path().join("c")));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("CPU backend only"), "{e}");
+    ok(&["sweep", cloudy.to_str().unwrap(), "--trials", "1"], &t.path().join("c-cpu"));
     // Slices of different backends are not merged.
     let o = bpins(&["merge", cpu.to_str().unwrap(), gpu.to_str().unwrap()], Some(&t.path().join("m")));
     assert!(!o.status.success());

@@ -13,6 +13,10 @@ impl SumsEngine for Gpu {
         "gpu"
     }
 
+    fn field_scenes(&self) -> bool {
+        false
+    }
+
     fn heading_sums(
         &self,
         jobs: &[CoreJob],

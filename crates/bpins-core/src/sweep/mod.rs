@@ -32,6 +32,8 @@
 //! sun_azimuths_deg = { from = 10, to = 80, step = 10 } # default [0]
 //! trials_per_azimuth = 20          # trial t: azimuth [(t / this) mod count]; default 1
 //! dmax = 0.6                       # default 0.6
+//! scene = ["clouds"]               # optional field conditions, as `bpins simulate --scene`
+//!                                  # (element or element.param=value; drawn per trial; CPU only)
 //!
 //! [response]
 //! peak_dn = 153.0                  # nominal sensor's peak response (sets the gain); default 1000

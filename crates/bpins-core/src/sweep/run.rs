@@ -197,12 +197,14 @@ impl TrialSetup {
                 Target::PixelNoise(PixelNoise::ReadNoise) => resp.read_noise_dn = v,
             }
         }
-        let frame = ChainFrame::new(
+        let field = spec.field_scene(u.trial);
+        let frame = ChainFrame::new_in_field(
             &truth.model(),
             &nominal,
             &scene,
             &resp,
             NoiseIndex { seed: spec.seed, trial: u.trial as u32, frame: u.source as u32 },
+            field.as_ref(),
         );
         let variants = variants(spec, u.source);
         let channels = spec.channels();
@@ -326,6 +328,11 @@ pub trait SumsEngine: Sync {
         mask_full_scale_dn: f64,
     ) -> Result<Vec<Vec<HeadingSums>>>;
 
+    /// Whether it renders field conditions (`[sky] scene`); the GPU does not.
+    fn field_scenes(&self) -> bool {
+        true
+    }
+
     /// Trials per call (progress is reported between calls).
     fn batch(&self) -> usize {
         64
@@ -381,6 +388,12 @@ pub fn run_units(
     engine: &dyn SumsEngine,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Vec<TrialRecord>> {
+    if !spec.scene.is_empty() && !engine.field_scenes() {
+        return Err(crate::Error::Backend {
+            backend: engine.name().to_string(),
+            message: "field conditions ([sky] scene) run on the CPU backend only; use --backend cpu".into(),
+        });
+    }
     let total = range.len();
     let units: Vec<Unit> = range.map(|i| unit(spec, i)).collect();
     let (w, h) = spec.size_px();
@@ -462,6 +475,21 @@ pub(crate) mod tests {
         let b = TrialSetup::new(&s, Unit { elevation: 1, source: 0, trial: 3 }, 1.0).unwrap();
         assert_eq!(a.readings[0].rec, b.readings[0].rec);
         assert_eq!(a.frame.intr, b.frame.intr);
+    }
+
+    #[test]
+    fn field_conditions_change_the_trials_and_vary_from_trial_to_trial() {
+        let clean = tiny();
+        let text = super::super::spec::TINY_FOR_TESTS.replacen(
+            "trials_per_azimuth = 1",
+            "trials_per_azimuth = 1\nscene = [\"clouds.count=64\", \"clouds.radius_min_deg=30\", \"clouds.radius_max_deg=45\"]",
+            1,
+        );
+        let cloudy = SweepSpec::parse(Path::new("cloudy.toml"), &text).unwrap();
+        assert_ne!(cloudy.field_scene(0), cloudy.field_scene(1));
+        let a = run_units(&clean, 0..4, &CpuSums, &|_, _| {}).unwrap();
+        let b = run_units(&cloudy, 0..4, &CpuSums, &|_, _| {}).unwrap();
+        assert!(a.iter().zip(&b).any(|(x, y)| x.errors_deg != y.errors_deg), "clouds changed nothing");
     }
 
     #[test]

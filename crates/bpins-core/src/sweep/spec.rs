@@ -42,6 +42,9 @@ pub struct SweepSpec {
     pub trials_per_azimuth: usize,
     /// The sky's peak degree of linear polarization.
     pub dmax: f64,
+    /// Field conditions (`bpins simulate --scene` elements: clouds, skyline, …) as
+    /// written in `[sky] scene`; empty: the lab-clean Rayleigh sky.
+    pub scene: Vec<String>,
     /// The nominal sensor's largest noise-free response, DN (sets the gain).
     pub peak_dn: f64,
     /// Round and clip the DN to `[sensor] bit_depth` (default off: a continuous sensor).
@@ -337,7 +340,12 @@ impl SweepSpec {
 
         // [sky]
         let sky = table_of(p, "sky", table.get("sky"))?;
-        check_keys(p, "sky.", &sky, &["sun_elevations_deg", "sun_azimuths_deg", "trials_per_azimuth", "dmax"])?;
+        check_keys(
+            p,
+            "sky.",
+            &sky,
+            &["sun_elevations_deg", "sun_azimuths_deg", "trials_per_azimuth", "dmax", "scene"],
+        )?;
         let sun_elevations_deg = req(
             p,
             "sky.sun_elevations_deg",
@@ -361,6 +369,34 @@ impl SweepSpec {
         if !(dmax > 0.0 && dmax <= 1.0) {
             return Err(bad(p, "sky.dmax", format!("{dmax} is outside (0, 1]")));
         }
+
+        let scene = match sky.get("scene") {
+            None => Vec::new(),
+            Some(Value::Array(a)) => {
+                let mut out = Vec::new();
+                let mut check = crate::scene::FieldScene::new(0);
+                for (i, x) in a.iter().enumerate() {
+                    let key = format!("sky.scene[{i}]");
+                    let spec = x.as_str().ok_or_else(|| bad(p, &key, format!("found {x}; expected a string")))?;
+                    check.parse(spec).map_err(|e| {
+                        bad(
+                            p,
+                            &key,
+                            format!("{e}; expected an element of `bpins simulate --scene` or element.param=value"),
+                        )
+                    })?;
+                    out.push(spec.to_string());
+                }
+                out
+            }
+            Some(v) => {
+                return Err(bad(
+                    p,
+                    "sky.scene",
+                    format!("found {v}; expected a list like [\"clouds\", \"clouds.count=8\"]"),
+                ))
+            }
+        };
 
         // [response]
         let resp = match table.get("response") {
@@ -451,6 +487,7 @@ impl SweepSpec {
             sun_azimuths_deg,
             trials_per_azimuth,
             dmax,
+            scene,
             peak_dn,
             quantize,
             errors,
@@ -507,6 +544,20 @@ impl SweepSpec {
     /// Whether source `s` has rows with the `Known::Both` errors known and unknown.
     pub fn has_both(&self, s: usize) -> bool {
         self.errors.iter().any(|e| e.known == Known::Both && self.in_source(e, s))
+    }
+
+    /// The field conditions of trial `trial`: drawn anew per trial (their seed mixes
+    /// the sweep's seed and the trial), the same at every sun elevation; `None` for
+    /// the lab-clean sky.
+    pub fn field_scene(&self, trial: usize) -> Option<crate::scene::FieldScene> {
+        if self.scene.is_empty() {
+            return None;
+        }
+        let mut f = crate::scene::FieldScene::new(self.seed ^ (trial as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        for s in &self.scene {
+            f.parse(s).expect("checked when the file was read");
+        }
+        Some(f)
     }
 
     /// The trial's sun azimuth, degrees.
@@ -872,6 +923,7 @@ mod tests {
             ),
             ("format = \"bpins-sweep/1\"", "format = \"bpins-sweep/2\"", "format"),
             ("peak_dn = 153", "peak_dn = 1e9", "response.peak_dn"),
+            ("trials_per_azimuth = 1", "trials_per_azimuth = 1\nscene = [\"fog\"]", "sky.scene[0]"),
         ];
         for (from, to, key) in cases {
             assert!(TINY.contains(from), "{from}");
