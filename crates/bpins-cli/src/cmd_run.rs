@@ -1,12 +1,19 @@
 //! `bpins run`: the seed paper's Monte Carlo sweep, Table 3 side by side with the paper.
+//! A shortcut to `bpins sweep examples/sweeps/paper-table3.toml` (the file is built
+//! in): the same trials, bit for bit, printed as Table 3 with the paper's figures.
 
 use crate::progress::bar;
 use crate::{write_json, Backend};
 use anyhow::Context;
-use bpins_core::montecarlo::{summarise, Row, Source, SweepConfig};
-use bpins_core::sensor::Channel;
+use bpins_core::heading::Extractor;
+use bpins_core::montecarlo::{paper_figures_deg, Row, Source};
+use bpins_core::sensor::{Channel, Layout};
+use bpins_core::sweep::{run_units, summarise, unit_count, SumsEngine, SweepSpec};
 use serde_json::json;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// The paper's sweep file, as shipped.
+const PAPER_SWEEP: &str = include_str!("../../../examples/sweeps/paper-table3.toml");
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -28,46 +35,87 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let cfg = SweepConfig {
-        trials_per_azimuth: a.trials_per_azimuth as usize,
-        seed: a.seed,
-        channels: if a.channels == 4 { Channel::ALL.to_vec() } else { vec![Channel::C0, Channel::C45, Channel::C90] },
-        ..SweepConfig::default()
-    };
-    let total = (cfg.trials_per_source() * Source::ALL.len()) as u64;
+    let mut spec = SweepSpec::parse(Path::new("examples/sweeps/paper-table3.toml"), PAPER_SWEEP)
+        .context("the built-in paper sweep")?;
+    spec.trials_per_azimuth = a.trials_per_azimuth as usize;
+    spec.trials = spec.trials_per_azimuth * spec.sun_azimuths_deg.len();
+    spec.seed = a.seed;
+    if a.channels == 4 {
+        spec.sensor.layout = Layout::Colocated { channels: Channel::ALL.to_vec() };
+    }
+    let channels = spec.channels();
+    let total = unit_count(&spec) as u64;
+    let (w, h) = spec.size_px();
     eprintln!(
         "bpins run: {} trials on the {} backend ({} per source), {}×{} px colocated, {} channels, seed {}",
         total,
         a.backend.name(),
-        cfg.trials_per_source(),
-        cfg.width_px,
-        cfg.height_px,
-        cfg.channels.len(),
-        cfg.seed
+        spec.trials,
+        w,
+        h,
+        channels.len(),
+        spec.seed
     );
-    let engine = crate::backend::open(a.backend)?;
+    let gpu;
+    let engine: &dyn SumsEngine = match a.backend {
+        Backend::Cpu => &bpins_core::sweep::CpuSums,
+        Backend::Gpu => {
+            gpu = bpins_gpu::Gpu::new().context("opening the GPU backend")?;
+            eprintln!("GPU adapter: {}{}", gpu.adapter_name(), if gpu.is_cpu() { " — a CPU rasterizer" } else { "" });
+            &gpu
+        }
+    };
     let pb = bar(total, "trials");
     let t0 = std::time::Instant::now();
-    let results =
-        engine.run_sweep(&cfg, &Source::ALL, &|done, _| pb.set_position(done as u64)).context("Monte Carlo sweep")?;
+    let records = run_units(&spec, 0..unit_count(&spec), engine, &|done, _| pb.set_position(done as u64))
+        .context("Monte Carlo sweep")?;
     pb.finish_and_clear();
-    let rows = summarise(&results);
+    let rows = table3(&spec, &records);
     print_table(&rows);
     eprintln!("{} trials in {:.1} s", total, t0.elapsed().as_secs_f64());
     if let Some(path) = &a.json {
         let v = json!({
             "backend": a.backend.name(),
-            "seed": cfg.seed,
-            "trials_per_azimuth": cfg.trials_per_azimuth,
-            "sun_azimuths_deg": cfg.sun_azimuths_deg,
-            "sun_elevation_deg": cfg.sun_el_deg,
-            "channels_deg": cfg.channels.iter().map(|c| c.angle_deg()).collect::<Vec<_>>(),
+            "seed": spec.seed,
+            "trials_per_azimuth": spec.trials_per_azimuth,
+            "sun_azimuths_deg": spec.sun_azimuths_deg,
+            "sun_elevation_deg": spec.sun_elevations_deg[0],
+            "channels_deg": channels.iter().map(|c| c.angle_deg()).collect::<Vec<_>>(),
             "rows": rows,
         });
         write_json(path, &v)?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The sweep's rows as Table 3: the paper's figures beside, ρ known before unknown.
+fn table3(spec: &SweepSpec, records: &[bpins_core::sweep::TrialRecord]) -> Vec<Row> {
+    let summary = summarise(spec, records);
+    let mut rows: Vec<(usize, Row)> = Vec::new();
+    for r in summary.rows {
+        let Some(si) = Source::ALL.iter().position(|s| s.name() == r.source) else { continue };
+        let source = Source::ALL[si];
+        let Some(e) = Extractor::from_name(&r.extractor) else { continue };
+        let (pm, ps) = paper_figures_deg(source, r.known);
+        let order = (si * Extractor::ALL.len() + Extractor::ALL.iter().position(|x| *x == e).unwrap_or(0)) * 2
+            + usize::from(r.known == Some(false));
+        rows.push((
+            order,
+            Row {
+                source: source.name(),
+                extractor: e.name(),
+                lens_rho_known: r.known,
+                mean_deg: r.mean_deg,
+                std_deg: r.std_deg,
+                trials: r.trials,
+                paper_mean_deg: pm,
+                paper_std_deg: ps,
+            },
+        ));
+    }
+    rows.sort_by_key(|(k, _)| *k);
+    rows.into_iter().map(|(_, r)| r).collect()
 }
 
 fn opt(x: Option<f64>) -> String {

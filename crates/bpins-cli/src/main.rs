@@ -10,6 +10,7 @@ mod cmd_fit;
 mod cmd_heading;
 mod cmd_run;
 mod cmd_simulate;
+mod cmd_sweep;
 mod profiles;
 mod progress;
 mod residuals;
@@ -47,6 +48,11 @@ enum Command {
     /// Calibrate a DoFP sensor from a lab capture: per-pixel analyzers, gains,
     /// offsets, photon transfer; writes maps, a report and calibration.toml.
     Calibrate(cmd_calibrate::Args),
+    /// A Monte Carlo sweep from a bpins-sweep/1 file: heading error per source, sun
+    /// elevation and extractor, and the error budget; one slice with --shard I/N.
+    Sweep(cmd_sweep::Args),
+    /// Merge the slices of a sharded sweep (bit for bit the unsharded result).
+    Merge(cmd_sweep::MergeArgs),
 }
 
 pub use backend::Backend;
@@ -62,6 +68,8 @@ fn main() -> ExitCode {
         Command::Fit(a) => cmd_fit::run(a),
         Command::Diagnose(a) => cmd_diagnose::run(a),
         Command::Calibrate(a) => cmd_calibrate::run(a),
+        Command::Sweep(a) => cmd_sweep::run(a),
+        Command::Merge(a) => cmd_sweep::run_merge(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -24,6 +24,12 @@ fn chromium() -> Option<PathBuf> {
 /// "Uncaught ReferenceError: …"), images that did not load or decode (counted by the
 /// page itself into `<body data-images-ok="decoded/all">`), a browser that failed or hung.
 fn render(browser: &Path, page: &Path) -> Result<String, Vec<String>> {
+    render_with(browser, page, true)
+}
+
+/// [`render`]; `images`: whether the page counts its images (a page without images or
+/// scripts, such as the sweep report, does not).
+fn render_with(browser: &Path, page: &Path, images: bool) -> Result<String, Vec<String>> {
     let work = tempfile::tempdir().unwrap();
     let (dom_path, log_path) = (work.path().join("dom.html"), work.path().join("stderr.txt"));
     let mut child = Command::new(browser)
@@ -60,6 +66,7 @@ fn render(browser: &Path, page: &Path) -> Result<String, Vec<String>> {
         Some(_) => {}
     }
     match dom.split_once("data-images-ok=\"").and_then(|(_, rest)| rest.split_once('"')) {
+        None if !images => {}
         None => problems.push("no data-images-ok on <body>: the page's load script did not run".into()),
         Some((counts, _)) => match counts.split_once('/') {
             Some((ok, all)) if ok == all => {}
@@ -138,6 +145,40 @@ fn calibrate_report_opens_in_headless_chromium() {
     assert!(imgs >= 8, "report.html shows {imgs} maps");
     assert!(dom.contains(&format!("data-images-ok=\"{imgs}/{imgs}\"")), "not every map decoded");
     for what in ["Per channel: mean, white spread, gradient across the die", "conversion gain K", "Not determined"] {
+        assert!(dom.contains(what), "the rendered report lacks `{what}`");
+    }
+}
+
+#[test]
+fn sweep_report_opens_in_headless_chromium() {
+    let Some(browser) = chromium() else {
+        let why = format!("none of {} on PATH", BROWSERS.join(", "));
+        if env::var_os("CI").is_some() {
+            panic!("CI is set and the report cannot be rendered: {why}");
+        }
+        eprintln!("SKIPPED (no chromium: {why})");
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("sweep");
+    let tiny = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sweeps/tiny.toml");
+    let run = Command::new(env!("CARGO_BIN_EXE_bpins"))
+        .args(["sweep", tiny, "--trials", "4", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "`bpins sweep` failed:\n{}", String::from_utf8_lossy(&run.stderr));
+    let report = out.join("report.html");
+    let html = fs::read_to_string(&report).unwrap();
+    assert!(!html.contains("<script"), "the sweep report needs no script");
+    let dom = render_with(&browser, &report, false)
+        .unwrap_or_else(|p| panic!("{} does not render cleanly:\n{}", report.display(), p.join("\n")));
+    // One σ-against-elevation plot per extractor (2) and a histogram per row (5 sources
+    // × 2 extractors × 3 elevations), every one in the rendered DOM.
+    assert_eq!(dom.matches("<svg").count(), 2 + 30, "svg plots in the rendered report");
+    assert_eq!(dom.matches("<polyline").count(), 2 * 5, "one line per source and extractor");
+    for what in ["σ of the heading error against the sun elevation", "Error budget", "Histograms of the heading error"]
+    {
         assert!(dom.contains(what), "the rendered report lacks `{what}`");
     }
 }

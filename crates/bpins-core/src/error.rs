@@ -8,6 +8,11 @@ pub enum Error {
     /// A capture (`capture.toml` or a frame) that cannot be read as CAPTURE.md says.
     #[error("{path}: {message}")]
     Capture { path: PathBuf, message: String },
+    /// A sweep file (`bpins-sweep/1`) or a sweep's output folder that cannot be read:
+    /// the file, the key (`errors[2].sigma`, `sky.sun_elevations_deg`) and what was
+    /// expected.
+    #[error("{path}: {key}: {message}")]
+    Sweep { path: PathBuf, key: String, message: String },
     /// A calibration file that cannot be read as `bpins-calibration/1`.
     #[error("{path}: {message}")]
     Calibration { path: PathBuf, message: String },

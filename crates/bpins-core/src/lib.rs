@@ -91,5 +91,7 @@ pub mod sensor;
 pub mod simulate;
 pub mod sky;
 pub mod stokes;
+#[cfg(feature = "io")]
+pub mod sweep;
 
 pub use error::{Error, Result};

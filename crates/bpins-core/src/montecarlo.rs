@@ -317,8 +317,7 @@ pub fn summarise(results: &[TrialResult]) -> Vec<Row> {
                 let mean = errs.iter().sum::<f64>() / n as f64;
                 let var =
                     if n > 1 { errs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64 } else { 0.0 };
-                // The paper's figures are for its eq. 13 inversion, which knows ρ.
-                let (pm, ps) = if known == Some(false) { (None, None) } else { source.paper_deg() };
+                let (pm, ps) = paper_figures_deg(source, known);
                 rows.push(Row {
                     source: source.name(),
                     extractor: e.name(),
@@ -333,6 +332,17 @@ pub fn summarise(results: &[TrialResult]) -> Vec<Row> {
         }
     }
     rows
+}
+
+/// Seed Table 3's (μ, σ) in degrees for a row of `source` with the lens ρ known
+/// (`Some(true)`), unknown (`Some(false)`) or not involved (`None`): the paper's
+/// figures are for its eq. 13 inversion, which knows ρ, so an unknown-ρ row has none.
+pub fn paper_figures_deg(source: Source, lens_rho_known: Option<bool>) -> (Option<f64>, Option<f64>) {
+    if lens_rho_known == Some(false) {
+        (None, None)
+    } else {
+        source.paper_deg()
+    }
 }
 
 /// Runs the whole sweep: every source, `trials_per_source` trials each, calling

@@ -25,6 +25,7 @@ pub mod ray_dispatch;
 mod render;
 pub mod shaders;
 mod sums;
+pub mod sweep;
 pub mod tolerance;
 
 pub use device::Gpu;

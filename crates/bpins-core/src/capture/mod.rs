@@ -36,7 +36,9 @@ use std::path::{Component, Path, PathBuf};
 
 pub use exr::{read_exr_layers, write_exr_layers, write_exr_layers_fast, ExrLayers};
 pub use lab::{LabCapture, LabFrame};
+pub(crate) use spec::parse_sensor_lens;
 pub use spec::FORMAT;
+pub(crate) use validate::validate_sensor_lens;
 pub use writer::CaptureWriter;
 
 use crate::camera::{Intrinsics, Projection};

@@ -135,8 +135,21 @@ pub(crate) fn parse_header(toml_path: &Path, text: &str) -> Result<Header> {
     if kind != "sky" && kind != "lab" {
         bail!(p, "kind = \"{kind}\" is unknown; use \"sky\" (the default) or \"lab\"")
     }
-    let s: RawSensor = section(p, "sensor", top.sensor)?;
-    let l: RawLens = section(p, "lens", top.lens)?;
+    let (sensor, lens) = parse_sensor_lens(p, top.sensor, top.lens)?;
+    Ok(Header { kind, sensor, lens, frames: top.frames.unwrap_or_default() })
+}
+
+/// The `[sensor]` and `[lens]` tables of a capture (or of any file that embeds them,
+/// such as a sweep file: `crate::sweep`), parsed with CAPTURE.md's defaults; errors
+/// name `toml_path` and the key. Ranges are checked by `validate_sensor_lens`.
+pub(crate) fn parse_sensor_lens(
+    toml_path: &Path,
+    sensor: Option<toml::Value>,
+    lens: Option<toml::Value>,
+) -> Result<(SensorSpec, LensSpec)> {
+    let p = toml_path;
+    let s: RawSensor = section(p, "sensor", sensor)?;
+    let l: RawLens = section(p, "lens", lens)?;
 
     let layout = match s.layout.as_str() {
         "dofp" => {
@@ -194,7 +207,7 @@ pub(crate) fn parse_header(toml_path: &Path, text: &str) -> Result<Header> {
     };
     let lens = LensSpec { projection, focal_length_mm: l.focal_length_mm, principal_point_px };
 
-    Ok(Header { kind, sensor, lens, frames: top.frames.unwrap_or_default() })
+    Ok((sensor, lens))
 }
 
 /// Parses `text` (the contents of `toml_path`) into a capture rooted at `dir`.

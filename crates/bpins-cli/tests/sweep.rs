@@ -1,0 +1,148 @@
+//! End-to-end tests of `bpins sweep` and `bpins merge` on examples/sweeps/tiny.toml:
+//! a bad sweep file is refused before any trial runs, naming the file, the key and
+//! what was expected; slices merge into the unsharded result bit for bit; a finished
+//! slice is not recomputed, a half-written one is.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const TINY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sweeps/tiny.toml");
+const FILES: [&str; 6] = ["summary.json", "summary.csv", "budget.csv", "trials.csv", "report.html", "shard.toml"];
+
+fn bpins(args: &[&str], out: Option<&Path>) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_bpins"));
+    c.args(args);
+    if let Some(o) = out {
+        c.arg("--out").arg(o);
+    }
+    let o = c.output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "`bpins {args:?}` panicked:\n{err}");
+    o
+}
+
+fn ok(args: &[&str], out: &Path) -> (String, String) {
+    let o = bpins(args, Some(out));
+    let (so, se) = (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned());
+    assert!(o.status.success(), "`bpins {args:?}` failed:\n{se}");
+    (so, se)
+}
+
+#[test]
+fn a_bad_sweep_file_is_refused_before_any_trial_naming_file_key_and_expectation() {
+    let t = tempfile::tempdir().unwrap();
+    let text = fs::read_to_string(TINY).unwrap();
+    for (from, to, key) in [
+        ("sigma = 0.1", "sigma = -0.1", "errors[0].sigma"),
+        ("distribution = \"uniform\"", "distribution = \"cauchy\"", "errors[1].distribution"),
+        ("param = \"imu.tilt_x_deg\"", "param = \"imu.roll_deg\"", "errors[3].param"),
+        ("trials = 12", "trials = \"many\"", "trials"),
+        ("sun_azimuths_deg = [10, 40, 70]", "sun_azimuths_deg = \"north\"", "sky.sun_azimuths_deg"),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let bad = t.path().join("bad-sweep.toml");
+        fs::write(&bad, text.replacen(from, to, 1)).unwrap();
+        let out = t.path().join("out");
+        let o = bpins(&["sweep", bad.to_str().unwrap()], Some(&out));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("bad-sweep.toml") && err.contains(key) && err.contains("expected"), "{key}: {err}");
+        assert!(!out.exists(), "the output folder was made before the file was checked");
+    }
+    // Interface errors: a shard that does not exist.
+    let o = bpins(&["sweep", TINY, "--shard", "3/3"], Some(&t.path().join("x")));
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("I/N"));
+}
+
+#[test]
+fn merged_slices_equal_the_unsharded_sweep_and_slices_restart() {
+    let t = tempfile::tempdir().unwrap();
+    let whole = t.path().join("whole");
+    let (stdout, _) = ok(&["sweep", TINY, "--trials", "6"], &whole);
+    assert!(stdout.contains("installation_angle") && stdout.contains("budget"), "{stdout}");
+    let v: serde_json::Value = serde_json::from_str(&fs::read_to_string(whole.join("summary.json")).unwrap()).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 5 * 2 * 3);
+    for key in ["source", "extractor", "sun_elevation_deg", "mean_deg", "std_deg", "rms_deg", "p95_deg", "trials"] {
+        assert!(rows.iter().all(|r| !r[key].is_null()), "a row lacks {key}");
+    }
+    assert!(rows.iter().all(|r| r["trials"] == 6));
+    assert!(!v["budget"].as_array().unwrap().is_empty());
+
+    let shards: Vec<PathBuf> = (0..4).map(|i| t.path().join(format!("shard-{i}"))).collect();
+    for (i, d) in shards.iter().enumerate() {
+        ok(&["sweep", TINY, "--trials", "6", "--shard", &format!("{i}/4")], d);
+    }
+    // A finished slice is not recomputed …
+    let before = fs::metadata(shards[2].join("trials.csv")).unwrap().modified().unwrap();
+    let (_, err) = ok(&["sweep", TINY, "--trials", "6", "--shard", "2/4"], &shards[2]);
+    assert!(err.contains("already complete"), "{err}");
+    assert_eq!(fs::metadata(shards[2].join("trials.csv")).unwrap().modified().unwrap(), before);
+    // … a half-written one (killed before its shard.toml) is, and merge refuses it until then.
+    fs::remove_file(shards[1].join("shard.toml")).unwrap();
+    fs::write(shards[1].join("trials.csv"), "sun_elevation_deg,source\n5,install").unwrap();
+    let merged = t.path().join("merged");
+    let mut args = vec!["merge"];
+    let names: Vec<String> = shards.iter().map(|p| p.display().to_string()).collect();
+    args.extend(names.iter().map(String::as_str));
+    let o = bpins(&args, Some(&merged));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("shard-1") && e.contains("incomplete"), "{e}");
+    ok(&["sweep", TINY, "--trials", "6", "--shard", "1/4"], &shards[1]);
+    ok(&args, &merged);
+    for f in FILES {
+        assert_eq!(fs::read(whole.join(f)).unwrap(), fs::read(merged.join(f)).unwrap(), "{f} differs");
+    }
+    // Slices of another trial count are not merged with these.
+    ok(&["sweep", TINY, "--trials", "5", "--shard", "3/4"], &shards[3]);
+    let o = bpins(&args, Some(&merged));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("trials_per_source"));
+}
+
+/// Whether the GPU twin can run here; without an adapter the GPU test reports itself
+/// skipped, except with `CI` set, where that is a failure.
+fn gpu_available() -> bool {
+    match bpins_gpu::Gpu::new() {
+        Ok(_) => true,
+        Err(e) if std::env::var_os("CI").is_some() => panic!("CI is set and the GPU backend cannot run: {e}"),
+        Err(e) => {
+            eprintln!("SKIPPED (no usable Vulkan adapter): {e}");
+            false
+        }
+    }
+}
+
+#[test]
+fn the_gpu_sweep_gives_the_cpu_trials_within_the_heading_tolerance() {
+    if !gpu_available() {
+        return;
+    }
+    let t = tempfile::tempdir().unwrap();
+    let (cpu, gpu) = (t.path().join("cpu"), t.path().join("gpu"));
+    ok(&["sweep", TINY, "--trials", "3"], &cpu);
+    ok(&["sweep", TINY, "--trials", "3", "--backend", "gpu"], &gpu);
+    let read = |d: &Path| fs::read_to_string(d.join("trials.csv")).unwrap();
+    let (c, g) = (read(&cpu), read(&gpu));
+    assert_eq!(c.lines().count(), g.lines().count());
+    let mut worst: f64 = 0.0;
+    for (a, b) in c.lines().zip(g.lines()).skip(1) {
+        let (ka, ea) = a.rsplit_once(',').unwrap();
+        let (kb, eb) = b.rsplit_once(',').unwrap();
+        assert_eq!(ka, kb, "the same trial on both lines");
+        let (x, y): (f64, f64) = (ea.parse().unwrap(), eb.parse().unwrap());
+        worst = worst.max(bpins_gpu::tolerance::heading_diff_deg(x, y));
+    }
+    assert!(worst <= bpins_gpu::tolerance::HEADING_DEG, "CPU and GPU trials differ by {worst}°");
+    // Field conditions are the CPU's only: the GPU refuses them, saying so.
+    let cloudy = t.path().join("cloudy.toml");
+    fs::write(&cloudy, fs::read_to_string(TINY).unwrap().replacen("dmax = 0.6", "dmax = 0.6\nscene = [\"clouds\"]", 1))
+        .unwrap();
+    let o = bpins(&["sweep", cloudy.to_str().unwrap(), "--trials", "1", "--backend", "gpu"], Some(&t.path().join("c")));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("CPU backend only"), "{e}");
+    ok(&["sweep", cloudy.to_str().unwrap(), "--trials", "1"], &t.path().join("c-cpu"));
+    // Slices of different backends are not merged.
+    let o = bpins(&["merge", cpu.to_str().unwrap(), gpu.to_str().unwrap()], Some(&t.path().join("m")));
+    assert!(!o.status.success());
+}

@@ -1,0 +1,39 @@
+//! `bpins sweep` on the GPU: the core's [`bpins_core::sweep::SumsEngine`] with the
+//! WGSL twin. The trials are set up on the host exactly as for the CPU (same draws,
+//! same frames, same noise); only their pixels are reduced on the device.
+
+use crate::device::Gpu;
+use crate::sums::{SampleLayout, SumsJob};
+use bpins_core::heading::HeadingSums;
+use bpins_core::sensor::Layout;
+use bpins_core::sweep::{SumsEngine, SumsJob as CoreJob, MAX_CONTEXTS};
+
+impl SumsEngine for Gpu {
+    fn name(&self) -> &str {
+        "gpu"
+    }
+
+    fn field_scenes(&self) -> bool {
+        false
+    }
+
+    fn heading_sums(
+        &self,
+        jobs: &[CoreJob],
+        layout: &Layout,
+        w: usize,
+        h: usize,
+        mask_full_scale_dn: f64,
+    ) -> bpins_core::Result<Vec<Vec<HeadingSums>>> {
+        const _: () = assert!(MAX_CONTEXTS <= crate::sums::MAX_CONTEXTS);
+        let (sample, mask) = match layout {
+            Layout::Colocated { .. } => (SampleLayout::Colocated, 0.0),
+            Layout::Dofp { mosaic } => (SampleLayout::Superpixels { mosaic: *mosaic }, mask_full_scale_dn),
+        };
+        let gpu_jobs: Vec<SumsJob> = jobs
+            .iter()
+            .map(|j| SumsJob { frame: j.frame, rec: j.rec, mask_full_scale_dn: mask, contexts: j.contexts.to_vec() })
+            .collect();
+        Gpu::heading_sums(self, &gpu_jobs, w, h, sample).map_err(crate::into_core)
+    }
+}
