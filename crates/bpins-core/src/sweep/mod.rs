@@ -75,6 +75,7 @@
 //! `trials.csv`, and `shard.toml` written last (the slice is complete).
 
 mod edge_point;
+mod parse;
 mod report;
 mod run;
 mod spec;
