@@ -1,10 +1,11 @@
-//! Parsing a sweep file (`bpins-sweep/1`, the format is documented in [`super`]).
+//! A sweep file (`bpins-sweep/1`, the format is documented in [`super`]) as types:
+//! the spec, its error sources, targets and distributions. `parse.rs` reads one.
 //!
-//! Everything is checked here, before any trial runs: unknown keys, missing keys,
-//! wrong types, ranges, parameters the registry does not know, distributions that do
-//! not fit their parameter, `known` where the reconstruction cannot compensate. Every
-//! error is [`Error::Sweep`]: the file, the key (`errors[2].sigma`) and what was
-//! expected.
+//! Everything is checked while parsing, before any trial runs: unknown keys, missing
+//! keys, wrong types, ranges, parameters the registry does not know, distributions that
+//! do not fit their parameter, `known` where the reconstruction cannot compensate.
+//! Every error is [`Error::Sweep`]: the file, the key (`errors[2].sigma`) and what
+//! was expected.
 
 use std::path::{Path, PathBuf};
 
