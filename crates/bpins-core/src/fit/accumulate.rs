@@ -78,9 +78,10 @@ impl Problem<'_> {
                 .into_iter()
                 // In row order: the same sums whatever the threads.
                 .fold(Accum::new(columns.len(), 0), Accum::add);
-            // Scatter the frame's local sums into the free-slot system.
+            // Scatter the frame's local sums into the free-slot system (none without
+            // `normal`: no columns).
             let pos: Vec<usize> = local.iter().map(|i| free.binary_search(i).expect("a free slot")).collect();
-            for (a, &pa) in pos.iter().enumerate() {
+            for (a, &pa) in pos.iter().enumerate().take(columns.len()) {
                 total.b[pa] += fr.b[a];
                 for (c, &pc) in pos.iter().enumerate().take(a + 1) {
                     total.a[pa.max(pc) * nf + pa.min(pc)] += fr.a[a * columns.len() + c];
