@@ -41,13 +41,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     write_json(&a.out.join("diagnosis.json"), &json)?;
     // Residual maps of every step, side by side in the report.
     let mut maps = Vec::new();
+    let mut ends = Vec::new();
     for (k, s) in d.steps.iter().enumerate() {
         let effects = s.model.iter().map(|n| bpins_core::effects::find(n)).collect::<Result<Vec<_>, _>>()?;
         let opts = FitOptions { effects, ..opts.base.clone() };
         let m = residual_maps(&c, &frames, &opts, &s.fit.state, s.fit.noise).context("residual maps")?;
         maps.push(crate::residuals::write(&a.out.join(format!("step{k}")), &m)?);
+        // The first and the last step's, for the report's before → after.
+        if k == 0 || k + 1 == d.steps.len() {
+            ends.push(m);
+        }
     }
-    let html = crate::report::diagnosis(&d, &a.capture.display().to_string(), &maps)?;
+    let (first, last) = (&ends[0], ends.last().expect("a starting step"));
+    let pair = crate::residuals::before_after(&a.out.join("answer"), first, last)?;
+    let html = crate::report::diagnosis(&d, &a.capture.display().to_string(), &maps, &pair)?;
     let page = a.out.join("report.html");
     crate::write_output(&page, html.as_bytes())?;
     eprintln!("wrote {} and {}", a.out.join("diagnosis.json").display(), page.display());

@@ -122,11 +122,17 @@ struct FrameRow {
 }
 
 /// The report of `d`, whose steps' figures are `figures` (in `step<k>/`).
-pub fn diagnosis(d: &Diagnosis, capture: &str, figures: &[Figures]) -> anyhow::Result<String> {
+/// `before_after`: the χ² excess of the first and the last step on one scale.
+pub fn diagnosis(
+    d: &Diagnosis,
+    capture: &str,
+    figures: &[Figures],
+    before_after: &[Written; 2],
+) -> anyhow::Result<String> {
     let steps: Vec<StepView> = d.steps.iter().zip(figures).enumerate().map(|(k, (s, f))| step(k, s, f)).collect();
     let page = Page {
         capture: capture.to_string(),
-        answer: answer(d, figures),
+        answer: answer(d, before_after),
         steps,
         remains: Verdict { class: if d.unexplained() { "no" } else { "yes" }, text: d.summary() },
         confusable: d.confusable.clone(),
@@ -196,7 +202,7 @@ fn plus_minus(p: &Param) -> String {
 
 /// What is missing, its parameters, the error before and after, the DN residual before
 /// and after.
-fn answer(d: &Diagnosis, figures: &[Figures]) -> Answer {
+fn answer(d: &Diagnosis, pair: &[Written; 2]) -> Answer {
     let (first, last) = (&d.steps[0], d.steps.last().expect("a starting step"));
     let verdict = match (d.selected.is_empty(), d.unexplained()) {
         (false, false) => format!("Missing: {}. With it the residual is at the noise.", d.selected.join(", then ")),
@@ -230,29 +236,30 @@ fn answer(d: &Diagnosis, figures: &[Figures]) -> Answer {
         },
         BeforeAfter { what: "DoLP RMS", before: format!("{:.5}", b.dolp_rms), after: format!("{:.5}", a.dolp_rms) },
     ];
-    // The DN residual of the first and the last step.
+    // The χ² excess of the first and the last step, on one scale.
     let last_k = d.steps.len() - 1;
-    let mut shown = vec![0];
-    if last_k > 0 {
-        shown.push(last_k);
-    }
+    let shown: &[(usize, &Written, &str)] = if last_k == 0 {
+        &[(0, &pair[0], "the model")]
+    } else {
+        &[(0, &pair[0], "before"), (last_k, &pair[1], "after")]
+    };
     let figures = shown
         .iter()
-        .filter_map(|&k| {
-            let w = figures.get(k)?.maps.iter().find(|m| m.png == "residual_dn.png")?;
-            let when = if k == 0 { "before" } else { "after" };
+        .map(|&(k, w, when)| {
             let name = model_name(&d.steps[k].model);
-            Some(Figure {
-                src: format!("step{k}/{}", w.png),
+            Figure {
+                src: w.png.clone(),
                 alt: format!("{} {when}: {name}", w.what),
-                caption: format!("{when}: {name} — {} (± {:.3} {})", w.what, w.scale, w.unit),
-            })
+                caption: format!("{when}: {name} — {} (± {:.3})", w.what, w.scale),
+            }
         })
         .collect();
     let figure_note = if last_k == 0 {
-        "Nothing was added: one model, one residual (mean over frames of measured − model, blue below, red above)."
+        "Nothing was added. The map: χ² per sample − 1 over the sensor, mean over frames (white where the model fits \
+         to the noise, red where the data stray from it more than noise does, blue less)."
     } else {
-        "Mean over frames of measured − model, before and after: blue below the model, white on it, red above."
+        "χ² per sample − 1 over the sensor, mean over frames, before and after on one colour scale: white where the \
+         model fits to the noise, red where the data stray from it more than noise does, blue less."
     };
     Answer {
         verdict,
