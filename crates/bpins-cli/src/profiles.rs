@@ -43,9 +43,12 @@ const STRIP_H: f64 = 76.0;
 const TOP: f64 = 22.0;
 const PANEL_H: f64 = TOP + STRIP_H * 3.0 + 34.0;
 
+/// One strip of a panel: its label, its unit, its value in a bin.
+type Strip = (&'static str, &'static str, fn(&ProfileBin) -> f64);
+
 /// The profiles as one SVG, a panel per axis, [`COLUMNS`] to a row.
 fn svg(profiles: &[Profile]) -> String {
-    let strips: [(&str, &str, fn(&ProfileBin) -> f64); 3] =
+    let strips: [Strip; 3] =
         [("χ²/sample − 1", "", |b| b.chi2_per_sample - 1.0), ("AoP", "°", |b| b.aop_deg), ("DoLP", "", |b| b.dolp)];
     let rows = profiles.len().div_ceil(COLUMNS).max(1);
     let (w, h) = (PANEL_W * COLUMNS.min(profiles.len().max(1)) as f64, PANEL_H * rows as f64);

@@ -40,12 +40,15 @@ impl Accum {
 /// How one parameter's column of the Jacobian is formed.
 enum Column {
     /// (model at plus − model at minus)/dh; `None` is the base chain.
-    Difference { plus: Option<FitFrame>, minus: Option<FitFrame>, dh: f64 },
+    Difference { plus: Option<Box<FitFrame>>, minus: Option<Box<FitFrame>>, dh: f64 },
     /// (model − offset)/value.
     Proportional { value: f64 },
     /// (model − offset)·ψ_index/R.
     Radiance { index: usize },
 }
+
+/// A pixel's samples: (measured, model) DN.
+type Samples = Vec<(f64, f64)>;
 
 /// One frame's model and its local columns: what each of its samples needs.
 struct FrameModel<'f> {
@@ -122,13 +125,13 @@ impl Problem<'_> {
                 Derivative::Secant if theta[i] + sl.step <= sl.max => (theta[i], theta[i] + sl.step),
                 Derivative::Secant => ((theta[i] - sl.step).max(sl.min), theta[i]),
             };
-            let side = |x: f64| -> Result<Option<FitFrame>> {
+            let side = |x: f64| -> Result<Option<Box<FitFrame>>> {
                 if x == theta[i] {
                     return Ok(None);
                 }
                 let mut t = theta.to_vec();
                 t[i] = x;
-                self.chain(&t, k).map(Some)
+                self.chain(&t, k).map(|f| Some(Box::new(f)))
             };
             out.push(Column::Difference { plus: side(hi)?, minus: side(lo)?, dh: hi - lo });
         }
@@ -177,7 +180,7 @@ impl Problem<'_> {
         (u, v, q): (usize, usize, usize),
         m: f64,
         psi: Option<&[f64; super::radiance::N]>,
-        bufs: &mut (Vec<(f64, f64)>, Vec<(f64, f64)>, Vec<(f64, f64)>),
+        bufs: &mut (Samples, Samples, Samples),
     ) -> f64 {
         match col {
             Column::Proportional { value } => (m - self.offset_dn(fm.base, u, v, q)) / value,
@@ -185,7 +188,7 @@ impl Problem<'_> {
                 (m - self.offset_dn(fm.base, u, v, q)) * psi.expect("evaluated where normal")[*index]
             }
             Column::Difference { plus, minus, dh } => {
-                let at = |f: &Option<FitFrame>, buf: &mut Vec<(f64, f64)>| {
+                let at = |f: &Option<Box<FitFrame>>, buf: &mut Samples| {
                     f.as_ref().map_or(m, |f| {
                         self.pixel(f, fm.k, u, v, buf);
                         buf[q].1
