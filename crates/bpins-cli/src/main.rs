@@ -10,6 +10,7 @@ mod cmd_fit;
 mod cmd_heading;
 mod cmd_run;
 mod cmd_simulate;
+mod names;
 mod profiles;
 mod progress;
 mod report;
