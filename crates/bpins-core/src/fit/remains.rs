@@ -141,3 +141,40 @@ impl std::fmt::Display for Remains {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::profiles::{Quantity, TrendPoint};
+
+    #[test]
+    fn the_sentence_is_rendered_from_the_data() {
+        let bin = |lo: f64, chi2: f64| ProfileBin { lo, hi: lo + 1.0, chi2_per_sample: chi2, ..Default::default() };
+        let trend = Trend {
+            quantity: Quantity::DolpResidual,
+            axis: Axis::Radius,
+            min: TrendPoint { at: 0.05, value: 0.0 },
+            max: TrendPoint { at: 0.55, value: -0.002 },
+        };
+        let u = Unexplained {
+            partial: vec!["lens_retardance"],
+            by_channel: vec![bin(0.0, 1.1), bin(1.0, 1.3)],
+            by_radius: vec![],
+            trends: vec![trend],
+        };
+        let r = Remains { chi2_per_dof: 1.135, noise_limit: 1.02, unexplained: Some(u) };
+        assert!(r.is_unexplained());
+        assert_eq!(r.trend(Quantity::DolpResidual).map(|t| t.axis), Some(Axis::Radius));
+        assert!(r.trend(Quantity::MeanDnResidualSigma).is_none());
+        let s = r.to_string();
+        assert!(s.starts_with("χ²/dof 1.135 remains (noise alone: ≤ 1.020) after adding lens_retardance"), "{s}");
+        assert!(
+            s.contains("lens_retardance explains part of the misfit and was added, but is no more than a partial"),
+            "{s}"
+        );
+        assert!(s.contains("largest in the 45° channel (χ² per sample 1.300"), "{s}");
+        assert!(s.contains("In sky space, the DoLP residual (measured − model) varies most along the radius"), "{s}");
+        let quiet = Remains { chi2_per_dof: 0.999, noise_limit: 1.02, unexplained: None };
+        assert_eq!(quiet.to_string(), "χ²/dof 0.999 is within the noise (≤ 1.020): nothing structured remains.");
+    }
+}
