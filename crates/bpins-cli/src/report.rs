@@ -152,7 +152,10 @@ fn render(page: &impl Serialize) -> anyhow::Result<String> {
     env.set_formatter(escape_html);
     env.add_template("diagnosis.html", TEMPLATE).context("the report template")?;
     let t = env.get_template("diagnosis.html").context("the report template")?;
-    t.render(minijinja::value::Serde(page)).context("rendering the report")
+    let mut html = t.render(minijinja::value::Serde(page)).context("rendering the report")?;
+    // The template's last newline (minijinja drops it): a page ends with one.
+    html.push('\n');
+    Ok(html)
 }
 
 /// The HTML escaping of text and attribute values: `& < > " '` (a `/` in a file name
