@@ -4,8 +4,18 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::fit::fit;
-use serde_json::json;
+use bpins_core::fit::{fit, FitResult};
+
+/// `fit.json`: the capture, the model's effects and the fit's own fields
+/// ([`FitResult`], the schema every fit result shares; README, "fit.json and
+/// diagnosis.json").
+#[derive(serde::Serialize)]
+struct FitJson<'a> {
+    capture: String,
+    effects: &'a [&'a str],
+    #[serde(flatten)]
+    fit: &'a FitResult,
+}
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -64,35 +74,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for d in &r.degenerate {
         println!("degenerate (1σ shown as inf): {d}");
     }
-    let v = json!({
-        "capture": a.capture.display().to_string(),
-        "effects": names,
-        "params": r.params.iter().map(|p| (p.name.clone(), json!(p.value))).collect::<serde_json::Map<_, _>>(),
-        "sigmas": r.params.iter().map(|p| (p.name.clone(), json!(p.sigma))).collect::<serde_json::Map<_, _>>(),
-        "units": r.params.iter().map(|p| (p.name.clone(), json!(p.unit))).collect::<serde_json::Map<_, _>>(),
-        "chi2": r.chi2,
-        "dof": r.dof,
-        "chi2_per_dof": r.chi2_per_dof,
-        "samples": r.samples,
-        "aop_rms_deg": r.aop_rms_deg,
-        "dolp_rms": r.dolp_rms,
-        "heading_rms_deg": r.heading_rms_deg,
-        // Sigmas of parameters in these combinations are null (unbounded).
-        "degenerate": r.degenerate,
-        "rank": r.rank,
-        "noise": { "read_dn": r.noise.read_dn, "k_dn_per_e": r.noise.k_dn_per_e, "prnu": r.noise.prnu },
-        "effective_samples": r.n_eff,
-        "frames": r.frames.iter().map(|f| json!({
-            "heading_deg": f.heading_deg,
-            "heading_sigma_deg": f.heading_sigma_deg,
-            "reference_deg": f.reference_deg,
-            "heading_error_deg": f.heading_error_deg,
-            "scale_dn": f.scale_dn,
-            "dmax": f.dmax,
-            "radiance_coefficients": f.radiance,
-            "chi2_per_dof": f.chi2_per_dof,
-        })).collect::<Vec<_>>(),
-    });
+    let v = FitJson { capture: a.capture.display().to_string(), effects: &names, fit: &r };
     let path = a.out.join("fit.json");
     write_json(&path, &v)?;
     // The calibration: the known effects as given, then the fitted ones with their 1σ.

@@ -28,9 +28,11 @@ pub struct Args {
     /// Field estimator: cell size in pixels (default: about 1/64 of the shorter side).
     #[arg(long)]
     cell_px: Option<usize>,
-    /// Plain estimator: how DoFP mosaics become Stokes samples.
-    #[arg(long, value_enum, default_value_t = Recon::Demosaic)]
-    recon: Recon,
+    /// Plain estimator: how DoFP mosaics become Stokes samples: `demosaic` (bilinear,
+    /// every pixel its own ray; most accurate) or `superpixel` (2×2 tiles at their
+    /// centres; faster, biased by ~0.05° on gradients).
+    #[arg(long, value_parser = crate::names::by_name(&ReconMode::ALL, ReconMode::name), default_value = "demosaic")]
+    recon: ReconMode,
     /// A known calibration to compensate, as effect.param=value (repeatable),
     /// e.g. --effect array_rotation.dtheta_deg=0.3.
     #[arg(long = "effect", value_name = "EFFECT.PARAM=VALUE")]
@@ -51,14 +53,6 @@ enum Estimator {
     Field,
     /// Every sample, least squares, statistical 1σ (the Monte Carlo's extractors).
     Plain,
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-enum Recon {
-    /// Bilinear demosaicing: every pixel its own ray (default; most accurate).
-    Demosaic,
-    /// 2×2 superpixels at the tile centres (faster; biased by ~0.05° on gradients).
-    Superpixel,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -84,10 +78,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         known.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
     }
     let known = known.model();
-    let mode = match a.recon {
-        Recon::Demosaic => ReconMode::Demosaic,
-        Recon::Superpixel => ReconMode::Superpixel,
-    };
+    let mode = a.recon;
     if let Some(c) = a.cell_px {
         if c < 2 {
             bail!("--cell-px {c}: a cell must be at least 2 pixels (one DoFP tile)");

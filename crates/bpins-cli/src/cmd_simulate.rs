@@ -75,9 +75,9 @@ pub struct Args {
     /// Black level, DN.
     #[arg(long, default_value_t = 64.0)]
     black_level_dn: f64,
-    /// Lens projection.
-    #[arg(long, value_enum, default_value_t = ProjectionArg::Pinhole)]
-    projection: ProjectionArg,
+    /// Lens projection: pinhole, equidistant, equisolid or stereographic.
+    #[arg(long, value_parser = crate::names::by_name(&Projection::ALL, Projection::name), default_value = "pinhole")]
+    projection: Projection,
     /// Focal length, millimetres.
     #[arg(long, default_value_t = 8.0)]
     focal_length_mm: f64,
@@ -168,14 +168,6 @@ enum LayoutArg {
     Dofp,
     /// Every pixel measures every channel (the seed paper's idealisation).
     Colocated,
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-enum ProjectionArg {
-    Pinhole,
-    Equidistant,
-    Equisolid,
-    Stereographic,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -416,12 +408,7 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
         Some(v) => (v[0], v[1]),
         None => image_centre_px(a.width_px, a.height_px),
     };
-    let projection = match a.projection {
-        ProjectionArg::Pinhole => Projection::Pinhole,
-        ProjectionArg::Equidistant => Projection::Equidistant,
-        ProjectionArg::Equisolid => Projection::Equisolid,
-        ProjectionArg::Stereographic => Projection::Stereographic,
-    };
+    let projection = a.projection;
     Ok(Capture {
         dir: PathBuf::new(),
         sensor: SensorSpec {

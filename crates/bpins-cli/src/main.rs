@@ -11,8 +11,10 @@ mod cmd_heading;
 mod cmd_run;
 mod cmd_simulate;
 mod cmd_sweep;
+mod names;
 mod profiles;
 mod progress;
+mod report;
 mod residuals;
 
 use clap::{Parser, Subcommand};
@@ -81,7 +83,7 @@ fn main() -> ExitCode {
 }
 
 /// Writes `value` as pretty JSON to `path`, with context on failure.
-pub fn write_json(path: &std::path::Path, value: &serde_json::Value) -> anyhow::Result<()> {
+pub fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
     use anyhow::Context;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

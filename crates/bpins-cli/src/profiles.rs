@@ -1,5 +1,5 @@
 //! Residual profiles on disk: `profiles.csv` (the numbers, one row per bin) and
-//! `profiles.svg` (one panel per axis — scattering angle, radius, image azimuth,
+//! `profiles.svg` (one panel per axis, three to a row — scattering angle, radius, image azimuth,
 //! mosaic position, channel, model DoLP — each with three strips: raw-DN χ² per sample − 1,
 //! AoP residual and DoLP residual against that axis, each strip on its own symmetric
 //! scale, zero dashed). A missing effect shows as a trend along its own axis.
@@ -35,28 +35,37 @@ pub fn write(dir: &Path, profiles: &[Profile]) -> anyhow::Result<String> {
     Ok("profiles.svg".into())
 }
 
-const PANEL_W: f64 = 230.0;
-const STRIP_H: f64 = 52.0;
-const TOP: f64 = 18.0;
+// Panels in a grid of `COLUMNS`, each wide enough to read at the report's width
+// (1280 px: three panels of ~420 px) without zooming.
+const COLUMNS: usize = 3;
+const PANEL_W: f64 = 430.0;
+const STRIP_H: f64 = 76.0;
+const TOP: f64 = 22.0;
+const PANEL_H: f64 = TOP + STRIP_H * 3.0 + 34.0;
 
-/// The profiles as one SVG, a panel per axis.
+/// One strip of a panel: its label, its unit, its value in a bin.
+type Strip = (&'static str, &'static str, fn(&ProfileBin) -> f64);
+
+/// The profiles as one SVG, a panel per axis, [`COLUMNS`] to a row.
 fn svg(profiles: &[Profile]) -> String {
-    let strips: [(&str, &str, fn(&ProfileBin) -> f64); 3] =
+    let strips: [Strip; 3] =
         [("χ²/sample − 1", "", |b| b.chi2_per_sample - 1.0), ("AoP", "°", |b| b.aop_deg), ("DoLP", "", |b| b.dolp)];
-    let (w, h) = (PANEL_W * profiles.len() as f64, TOP + STRIP_H * 3.0 + 30.0);
+    let rows = profiles.len().div_ceil(COLUMNS).max(1);
+    let (w, h) = (PANEL_W * COLUMNS.min(profiles.len().max(1)) as f64, PANEL_H * rows as f64);
     let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"10\">\n<rect width=\"{w}\" height=\"{h}\" fill=\"white\"/>\n"
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"13\">\n<rect width=\"{w}\" height=\"{h}\" fill=\"white\"/>\n"
     );
     for (i, p) in profiles.iter().enumerate() {
-        let x0 = PANEL_W * i as f64 + 8.0;
-        let pw = PANEL_W - 16.0;
-        let _ = writeln!(s, "<text x=\"{}\" y=\"12\" font-weight=\"bold\">{}</text>", x0, p.axis.title());
+        let x0 = PANEL_W * (i % COLUMNS) as f64 + 10.0;
+        let top = PANEL_H * (i / COLUMNS) as f64;
+        let pw = PANEL_W - 20.0;
+        let _ = writeln!(s, "<text x=\"{}\" y=\"{}\" font-weight=\"bold\">{}</text>", x0, top + 15.0, p.axis.title());
         let (lo, hi) = match (p.bins.first(), p.bins.last()) {
             (Some(a), Some(b)) => (a.lo, b.hi),
             _ => continue,
         };
         for (j, (name, unit, get)) in strips.iter().enumerate() {
-            let y0 = TOP + STRIP_H * j as f64;
+            let y0 = top + TOP + STRIP_H * j as f64;
             let vals: Vec<(f64, f64)> =
                 p.bins.iter().map(|b| (0.5 * (b.lo + b.hi), get(b))).filter(|(_, v)| v.is_finite()).collect();
             let scale = vals.iter().fold(0.0f64, |m, (_, v)| m.max(v.abs())).max(1e-300);
@@ -72,7 +81,7 @@ fn svg(profiles: &[Profile]) -> String {
                 py(0.0),
                 py(0.0),
                 x0 + 3.0,
-                y0 + 10.0,
+                y0 + 13.0,
             );
             let pts: Vec<String> = vals.iter().map(|&(x, v)| format!("{:.1},{:.1}", px(x), py(v))).collect();
             let colour = ["#222", "#c33", "#33c"][j];
@@ -85,17 +94,17 @@ fn svg(profiles: &[Profile]) -> String {
             }
             for pt in &pts {
                 let (x, y) = pt.split_once(',').unwrap_or(("0", "0"));
-                let _ = writeln!(s, "<circle cx=\"{x}\" cy=\"{y}\" r=\"2\" fill=\"{colour}\"/>");
+                let _ = writeln!(s, "<circle cx=\"{x}\" cy=\"{y}\" r=\"2.5\" fill=\"{colour}\"/>");
             }
         }
-        let yb = TOP + STRIP_H * 3.0 + 4.0;
+        let yb = top + TOP + STRIP_H * 3.0 + 6.0;
         let _ = writeln!(
             s,
             "<text x=\"{x0}\" y=\"{}\">{}</text><text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text>",
-            yb + 8.0,
+            yb + 10.0,
             short(lo),
             x0 + pw,
-            yb + 8.0,
+            yb + 10.0,
             short(hi)
         );
     }

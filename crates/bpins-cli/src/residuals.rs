@@ -77,28 +77,72 @@ pub fn write(dir: &Path, maps: &ResidualMaps) -> anyhow::Result<Figures> {
 /// noise; the EXR keeps every pixel) on a symmetric diverging scale of four RMS of the
 /// binned map, at least `floor`; returns that scale.
 fn binned_png(path: &Path, data: &[f32], w: u32, h: u32, bin: u32, floor: f64) -> anyhow::Result<f64> {
-    let (bw, bh) = (w.div_ceil(bin), h.div_ceil(bin));
-    let mut binned = vec![(0.0f64, 0u32); (bw * bh) as usize];
-    for y in 0..h {
-        for x in 0..w {
-            let t = data[(y * w + x) as usize];
-            if t.is_finite() {
-                let b = &mut binned[((y / bin) * bw + x / bin) as usize];
-                b.0 += t as f64;
-                b.1 += 1;
+    let b = Binned::new(data, w, h, bin);
+    let scale = b.scale(floor);
+    b.write_png(path, scale)?;
+    Ok(scale)
+}
+
+/// A map binned to blocks (mean of the finite values; NaN where none).
+struct Binned {
+    values: Vec<f64>,
+    w: u32,
+    h: u32,
+}
+
+impl Binned {
+    fn new(data: &[f32], w: u32, h: u32, bin: u32) -> Binned {
+        let (bw, bh) = (w.div_ceil(bin), h.div_ceil(bin));
+        let mut sums = vec![(0.0f64, 0u32); (bw * bh) as usize];
+        for y in 0..h {
+            for x in 0..w {
+                let t = data[(y * w + x) as usize];
+                if t.is_finite() {
+                    let b = &mut sums[((y / bin) * bw + x / bin) as usize];
+                    b.0 += t as f64;
+                    b.1 += 1;
+                }
             }
         }
+        let values = sums.iter().map(|&(s, n)| if n > 0 { s / n as f64 } else { f64::NAN }).collect();
+        Binned { values, w: bw, h: bh }
     }
-    let binned: Vec<f64> = binned.iter().map(|&(s, n)| if n > 0 { s / n as f64 } else { f64::NAN }).collect();
-    let v: Vec<f64> = binned.iter().copied().filter(|x| x.is_finite()).collect();
-    let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
-    let scale = (4.0 * rms).max(floor);
-    let img = image::RgbImage::from_fn(bw, bh, |x, y| image::Rgb(colour(binned[(y * bw + x) as usize] / scale)));
-    let mut png = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .with_context(|| format!("encoding {}", path.display()))?;
-    crate::write_output(path, &png)?;
-    Ok(scale)
+
+    /// Four RMS of the binned values, at least `floor`.
+    fn scale(&self, floor: f64) -> f64 {
+        let v: Vec<f64> = self.values.iter().copied().filter(|x| x.is_finite()).collect();
+        let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+        (4.0 * rms).max(floor)
+    }
+
+    fn write_png(&self, path: &Path, scale: f64) -> anyhow::Result<()> {
+        let img = image::RgbImage::from_fn(self.w, self.h, |x, y| {
+            image::Rgb(colour(self.values[(y * self.w + x) as usize] / scale))
+        });
+        let mut png = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .with_context(|| format!("encoding {}", path.display()))?;
+        crate::write_output(path, &png)
+    }
+}
+
+/// The χ² per sample − 1 of `before` and `after` (stacked over frames), on one colour
+/// scale so that the two compare at a glance: `dir/before_chi2.png` and
+/// `dir/after_chi2.png` (names relative to `dir`'s parent: `<dir name>/…`).
+pub fn before_after(dir: &Path, before: &ResidualMaps, after: &ResidualMaps) -> anyhow::Result<[Written; 2]> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let binned = [before, after].map(|m| {
+        let excess: Vec<f32> = m.dn_chi2.iter().map(|x| x - 1.0).collect();
+        Binned::new(&excess, m.width_px, m.height_px, 8)
+    });
+    let scale = binned.iter().map(|b| b.scale(0.1)).fold(0.0, f64::max);
+    let folder = dir.file_name().map_or(String::new(), |n| format!("{}/", n.to_string_lossy()));
+    let mut out = Vec::new();
+    for (b, name) in binned.iter().zip(["before_chi2.png", "after_chi2.png"]) {
+        b.write_png(&dir.join(name), scale)?;
+        out.push(Written { png: format!("{folder}{name}"), what: "χ² per sample − 1", scale, unit: "" });
+    }
+    Ok(out.try_into().unwrap_or_else(|_| unreachable!("two maps")))
 }
 
 /// Blue (−1) – white (0) – red (+1); grey for NaN.

@@ -808,7 +808,8 @@ fn fit_writes_its_json_and_refuses_bad_input() {
     let r = bpins(&["fit", CLEAN, "--out", &s(&out)]).ok();
     assert!(r.stdout.contains("χ²/dof"), "{}", r.stdout);
     let v = read_json(&out.join("fit.json"));
-    for key in ["params", "sigmas", "chi2_per_dof", "frames"] {
+    // One schema (FitResult): each parameter carries its value, 1σ and unit.
+    for key in ["params", "chi2_per_dof", "frames", "noise", "effective_samples"] {
         assert!(!v[key].is_null(), "fit.json lacks {key}");
     }
     assert_eq!(v["frames"].as_array().unwrap().len(), 8);
@@ -834,10 +835,16 @@ fn diagnose_writes_its_json_and_report() {
     for key in ["model", "chi2_per_dof", "aop_rms_deg", "dolp_rms", "heading_rms_deg"] {
         assert!(!step[key].is_null(), "steps[0] lacks {key}");
     }
-    let first = &v["ranking"][0];
-    for key in ["effect", "delta_chi2", "delta_bic", "params", "sigmas"] {
-        assert!(!first[key].is_null(), "ranking[0] lacks {key}");
+    let first = &v["rankings"][0][0];
+    for key in ["effect", "delta_chi2", "delta_bic", "params"] {
+        assert!(!first[key].is_null(), "rankings[0][0] lacks {key}");
     }
+    let param = first["params"][0].as_object().expect("a candidate's parameters");
+    for key in ["name", "value", "sigma", "unit"] {
+        assert!(param.contains_key(key), "rankings[0][0].params[0] lacks {key}");
+    }
+    // Each step has the fields of fit.json.
+    assert!(step["frames"].is_array() && step["params"].is_array() && step["noise"].is_object(), "{step:#}");
     assert!(v["selected"].is_array() && v["unexplained"].is_boolean() && v["unexplained_summary"].is_string());
     for f in [
         "residual_chi2.png",
@@ -862,6 +869,18 @@ fn diagnose_writes_its_json_and_report() {
     assert!(html.contains("step0/residual_chi2.png"));
     assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
     bpins(&["diagnose", CLEAN, "--effects", "nope", "--out", &s(&tmp.path().join("x"))]).fails().stderr_has("nope");
+}
+
+#[test]
+fn the_report_escapes_a_capture_named_with_html_characters() {
+    let tmp = tempfile::tempdir().unwrap();
+    let odd = tmp.path().join("it's \"<b>odd</b>\" & more");
+    copy_dir(Path::new(CLEAN), &odd);
+    let out = tmp.path().join("diag");
+    bpins(&["diagnose", &s(&odd), "--max-added", "0", "--out", &s(&out)]).ok();
+    let html = fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("it&#39;s &quot;&lt;b&gt;odd&lt;/b&gt;&quot; &amp; more"), "{html}");
+    assert!(!html.contains("<b>odd</b>") && !html.contains("it's \""), "unescaped name in the report");
 }
 
 #[test]
@@ -914,6 +933,10 @@ fn a_fitted_calibration_is_handed_to_heading_and_the_error_falls_to_the_noise() 
     // fit --calibration holds the effects: nothing left to find (χ²/dof ≈ 1).
     let out2 = tmp.path().join("fit2");
     bpins(&["fit", &hidden, "--calibration", &c, "--out", &s(&out2)]).ok();
+    // fit.json: each parameter with its value, 1σ and unit.
+    let fitted = read_json(&out.join("fit.json"));
+    let p = fitted["params"].as_array().unwrap().iter().find(|p| p["name"] == "analyzer_angles.d45_deg").unwrap();
+    assert!(p["sigma"].as_f64().unwrap() > 0.0 && p["unit"] == "deg", "{p:#}");
     let chi2 = f64_of(&read_json(&out2.join("fit.json")), "chi2_per_dof");
     assert!((chi2 - 1.0).abs() < 0.03, "χ²/dof with the calibration held: {chi2}");
     // A broken calibration is refused, naming the file and the key.

@@ -26,6 +26,8 @@ pub enum ReconMode {
 }
 
 impl ReconMode {
+    pub const ALL: [ReconMode; 2] = [ReconMode::Demosaic, ReconMode::Superpixel];
+
     pub fn name(self) -> &'static str {
         match self {
             ReconMode::Superpixel => "superpixel",

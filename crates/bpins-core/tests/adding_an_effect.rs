@@ -10,6 +10,7 @@ mod common;
 
 use bpins_core::effects::EffectSet;
 use bpins_core::fit::diagnose::{diagnose, DiagnoseOptions};
+use bpins_core::fit::profiles::{Axis, Quantity};
 use common::{simulate, small_capture, typical};
 
 #[test]
@@ -21,25 +22,23 @@ fn the_worked_effect_is_unexplained_without_it_and_noise_with_it() {
 
     let before = DiagnoseOptions { max_added: 2, exclude: vec!["lens_depolarization"], ..Default::default() };
     let d = diagnose(&c, &frames, &before, &|_| {}).unwrap();
-    eprintln!("without it: selected {:?}; {}", d.selected, d.unexplained_summary);
-    assert!(d.unexplained, "{}", d.unexplained_summary);
+    eprintln!("without it: selected {:?}; {}", d.selected, d.summary());
+    assert!(d.unexplained(), "{}", d.summary());
     let misfit = d.steps.last().unwrap().fit.chi2_per_dof;
     assert!(misfit > 1.05, "χ²/dof {misfit}");
     // Described as what it is: the data less polarized than the model toward the edge.
-    assert!(
-        d.unexplained_summary.contains("DoLP residual (measured − model) varies most along the radius"),
-        "{}",
-        d.unexplained_summary
-    );
+    let trend = d.remains.trend(Quantity::DolpResidual).map(|t| t.axis);
+    assert_eq!(trend, Some(Axis::Radius), "{}", d.summary());
     if !d.selected.is_empty() {
-        assert!(d.unexplained_summary.contains("partial"), "{}", d.unexplained_summary);
+        let partial = &d.remains.unexplained.as_ref().unwrap().partial;
+        assert_eq!(partial, &d.selected, "{}", d.summary());
     }
 
     let after = DiagnoseOptions { max_added: 2, ..Default::default() };
     let d = diagnose(&c, &frames, &after, &|_| {}).unwrap();
-    eprintln!("with it: selected {:?}; {}", d.selected, d.unexplained_summary);
+    eprintln!("with it: selected {:?}; {}", d.selected, d.summary());
     assert_eq!(d.selected, ["lens_depolarization"]);
-    assert!(!d.unexplained, "{}", d.unexplained_summary);
+    assert!(!d.unexplained(), "{}", d.summary());
     let fit = &d.steps.last().unwrap().fit;
     assert!(fit.chi2_per_dof < 1.02 && fit.chi2_per_dof < misfit, "{} vs {misfit}", fit.chi2_per_dof);
     let p = fit.params.iter().find(|p| p.name == "lens_depolarization.p2").unwrap();

@@ -110,7 +110,7 @@ fn a_colocated_capture_is_diagnosed_the_same_way() {
     let d = run(&c, &frames, 2, separating(&c, "vignetting").unwrap());
     let p = problems(&d, &set, &["vignetting"]);
     assert!(p.is_empty(), "{}", p.join("\n"));
-    assert!(!d.unexplained, "{}", d.unexplained_summary);
+    assert!(!d.unexplained(), "{}", d.summary());
 }
 
 #[test]
@@ -121,12 +121,12 @@ fn two_hidden_effects_are_both_found_and_the_error_falls_to_the_noise() {
     typical(&mut set, "analyzer_angles");
     let frames = simulate(&c, &set, 7);
     let d = run(&c, &frames, 3, FitOptions::default());
-    eprintln!("selected {:?}; {}", d.selected, d.unexplained_summary);
+    eprintln!("selected {:?}; {}", d.selected, d.summary());
     // The stronger first; both, and nothing else.
     let mut found = d.selected.clone();
     found.sort();
     assert_eq!(found, ["analyzer_angles", "principal_point"], "selected {:?}", d.selected);
     let p = problems(&d, &set, &d.selected.clone());
     assert!(p.is_empty(), "{}", p.join("\n"));
-    assert!(!d.unexplained, "{}", d.unexplained_summary);
+    assert!(!d.unexplained(), "{}", d.summary());
 }

@@ -41,11 +41,11 @@ fn a_clean_capture_under_a_cie_sky_names_nothing_and_fits_to_the_noise() {
         fit.noise,
         fit.aop_rms_deg,
         t0.elapsed().as_secs_f64(),
-        d.unexplained_summary
+        d.summary()
     );
     assert!(d.selected.is_empty(), "selected {:?}", d.selected);
     assert!(fit.chi2_per_dof <= 1.1, "χ²/dof {}", fit.chi2_per_dof);
-    assert!(!d.unexplained, "{}", d.unexplained_summary);
+    assert!(!d.unexplained(), "{}", d.summary());
     // The multiplicative noise is read off the frames.
     assert!((fit.noise.prnu - PRNU).abs() < 0.3 * PRNU, "{:?}", fit.noise);
     // What the capture cannot tell is listed, not fitted.
@@ -130,10 +130,10 @@ fn two_effects_hidden_under_a_cie_sky_are_both_named() {
     typical(&mut set, "analyzer_angles");
     let frames = simulate_in(&c, &set, 17, &cie_sky(), PRNU);
     let d = run(&c, &frames, 3, None);
-    eprintln!("selected {:?}; {}", d.selected, d.unexplained_summary);
+    eprintln!("selected {:?}; {}", d.selected, d.summary());
     let p = problems(&d, &set, &["analyzer_angles", "principal_point"]);
     assert!(p.iter().all(|x| x.starts_with("ranked first")), "{}", p.join("\n"));
-    assert!(!d.unexplained, "{}", d.unexplained_summary);
+    assert!(!d.unexplained(), "{}", d.summary());
 }
 
 #[test]
@@ -148,7 +148,7 @@ fn clouds_and_a_skyline_under_a_cie_sky_blame_no_lens_or_sensor_effect() {
     field.parse("skyline").unwrap();
     let frames = simulate_in(&c, &EffectSet::new(), 23, &field, PRNU);
     let d = run(&c, &frames, 2, None);
-    eprintln!("selected {:?}; χ²/dof {:.4}; {}", d.selected, d.steps[0].fit.chi2_per_dof, d.unexplained_summary);
+    eprintln!("selected {:?}; χ²/dof {:.4}; {}", d.selected, d.steps[0].fit.chi2_per_dof, d.summary());
     assert!(d.selected.is_empty(), "the scene was blamed on {:?}", d.selected);
     assert!(d.steps[0].fit.heading_rms_deg.unwrap() < 0.1, "heading RMS {:?}", d.steps[0].fit.heading_rms_deg);
 }

@@ -19,7 +19,7 @@
 //! ρ is clamped to ≤ 0.999 (n_eff ≥ n/4·10⁻⁶); a residual that is white (noise only)
 //! has ρ ≈ 0 ± 1/√n, so n_eff ≈ n.
 
-use super::Problem;
+use super::problem::Problem;
 use crate::error::Result;
 use crate::sensor::Layout;
 

@@ -21,9 +21,10 @@
 //! apart; the better one is still taken). When no effect is worth its parameters but
 //! χ²/dof stays clearly above 1, the residual is reported as unexplained, described by
 //! channel, by radius and by the strongest trend of its sky-space profiles
-//! (`profiles::describe`) instead of naming the least-bad effect.
+//! (`profiles::trends`) instead of naming the least-bad effect: as data
+//! ([`Remains`]), with the sentence rendered from it.
 
-use super::profiles::{Axis, Profile};
+use super::remains::Remains;
 use super::{fit_from, residual_maps, score_candidate, sky_masks, FitOptions, FitResult, Param};
 use crate::capture::{Capture, FrameData};
 use crate::effects::{EffectDef, REGISTRY};
@@ -100,10 +101,11 @@ pub fn inseparable(c: &Capture, opts: &FitOptions) -> Vec<(&'static str, String)
 }
 
 /// One candidate of one step.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Candidate {
     pub effect: &'static str,
     /// Predicted (score test) Δχ².
+    #[serde(rename = "score_delta_chi2")]
     pub score: f64,
     /// Real Δχ² where refitted, else the prediction.
     pub delta_chi2: f64,
@@ -114,18 +116,22 @@ pub struct Candidate {
     /// Independent combinations of its parameters the data constrain beside the
     /// model's: the k its ΔBIC pays for (less than its parameters where some trade
     /// exactly against the model's, e.g. a common extinction ratio against d_max).
+    #[serde(rename = "constrained_params")]
     pub added_rank: usize,
     pub params: Vec<Param>,
 }
 
-/// One model along the way.
-#[derive(Clone, Debug, PartialEq)]
+/// One model along the way: its effects and its fit (the fit's fields beside
+/// `model` in JSON).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Step {
     pub model: Vec<&'static str>,
+    #[serde(flatten)]
     pub fit: FitResult,
 }
 
-#[derive(Clone, Debug, PartialEq)]
+/// The result of a diagnosis.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Diagnosis {
     pub steps: Vec<Step>,
     /// Candidates of each step, best first.
@@ -133,11 +139,36 @@ pub struct Diagnosis {
     pub selected: Vec<&'static str>,
     /// Pairs the evidence could not separate (best, runner-up).
     pub confusable: Vec<(&'static str, &'static str)>,
-    pub unexplained: bool,
-    pub unexplained_summary: String,
+    /// What the final model leaves: noise, or a residual no catalog effect explains.
+    pub remains: Remains,
     /// Effects this capture cannot tell from the fit's nuisances, with why (not
     /// candidates): [`inseparable`], and any the scoring found unidentifiable.
+    #[serde(serialize_with = "effects_with_why")]
     pub inseparable: Vec<(&'static str, String)>,
+    /// ΔBIC an effect must bring to be added ([`BIC_THRESHOLD`]).
+    pub bic_threshold: f64,
+}
+
+impl Diagnosis {
+    /// Whether a structured residual remains that no catalog effect explains.
+    pub fn unexplained(&self) -> bool {
+        self.remains.is_unexplained()
+    }
+
+    /// What remains, in words (rendered from [`Diagnosis::remains`]).
+    pub fn summary(&self) -> String {
+        self.remains.to_string()
+    }
+}
+
+/// `[(effect, why)]` as `[{"effect": …, "why": …}]`.
+fn effects_with_why<S: serde::Serializer>(v: &[(&'static str, String)], s: S) -> std::result::Result<S::Ok, S::Error> {
+    #[derive(serde::Serialize)]
+    struct EffectWhy<'a> {
+        effect: &'a str,
+        why: &'a str,
+    }
+    s.collect_seq(v.iter().map(|(effect, why)| EffectWhy { effect, why }))
 }
 
 /// ΔBIC of a refit that lowered χ² by `delta_chi2` with `k` more constrained
@@ -171,9 +202,9 @@ pub fn diagnose(
         rankings: Vec::new(),
         selected: Vec::new(),
         confusable: Vec::new(),
-        unexplained: false,
-        unexplained_summary: String::new(),
+        remains: Remains { chi2_per_dof: current.chi2_per_dof, noise_limit: f64::NAN, unexplained: None },
         inseparable: insep.clone(),
+        bic_threshold: BIC_THRESHOLD,
     };
     for _ in 0..opts.max_added {
         let candidates: Vec<&'static EffectDef> = REGISTRY
@@ -224,7 +255,7 @@ pub fn diagnose(
             // Start the candidate at its score step (an effect that enters at second
             // order has no slope at neutral to start from).
             let mut start = current.state.clone();
-            start.effect_values.extend(cand.params.iter().map(|p| (p.name.clone(), p.value)));
+            start.effect_values.extend(cand.params.iter().map(|p| (p.id, p.value)));
             let r = fit_from(c, frames, &m, Some(&start), &|_, _| {})?;
             // Its parameters pay only for the combinations the data constrain.
             cand.added_rank = r.rank.saturating_sub(current.rank);
@@ -233,8 +264,7 @@ pub fn diagnose(
             cand.delta_chi2 = current.chi2 - r.chi2;
             cand.delta_bic = delta_bic(cand.delta_chi2, k as usize, &current);
             cand.refitted = true;
-            cand.params =
-                r.params.iter().filter(|p| p.name.starts_with(&format!("{}.", cand.effect))).cloned().collect();
+            cand.params = r.params.iter().filter(|p| p.id.effect == cand.effect).cloned().collect();
             fits.push((cand.effect, m, r));
         }
         // Refitted (real ΔBIC) first, then the rest by score.
@@ -276,7 +306,7 @@ pub fn diagnose(
             let mut start = current.state.clone();
             for cand in [&best, &second] {
                 m.effects.push(crate::effects::find(cand.effect)?);
-                start.effect_values.extend(cand.params.iter().map(|p| (p.name.clone(), p.value)));
+                start.effect_values.extend(cand.params.iter().map(|p| (p.id, p.value)));
             }
             let r = fit_from(c, frames, &m, Some(&start), &|_, _| {})?;
             let dc = current.chi2 - r.chi2;
@@ -294,71 +324,13 @@ pub fn diagnose(
         }
     }
     // Whatever remains: is it noise?
-    let dof = current.dof;
-    let limit = 1.0 + (5.0 * (2.0 / dof).sqrt()).max(0.02);
-    if current.chi2_per_dof > limit {
-        d.unexplained = true;
+    let limit = Remains::noise_limit(current.dof);
+    d.remains = if current.chi2_per_dof > limit {
         progress("describing the residual");
         let maps = residual_maps(c, frames, &model, &current.state, current.noise)?;
-        let along = |a: Axis| maps.profiles.iter().find(|p| p.axis == a).map_or(&[][..], |p: &Profile| &p.bins[..]);
-        let (by_channel, by_radius) = (along(Axis::Channel), along(Axis::Radius));
-        let worst_ch = by_channel.iter().max_by(|a, b| a.chi2_per_sample.total_cmp(&b.chi2_per_sample));
-        let worst_r = by_radius.iter().max_by(|a, b| a.chi2_per_sample.total_cmp(&b.chi2_per_sample));
-        let mut s = format!(
-            "χ²/dof {:.3} remains (noise alone: ≤ {:.3}) after {}; no catalog effect explains it (none removes {:.0} % of the excess χ² with ΔBIC > {}).",
-            current.chi2_per_dof,
-            limit,
-            if d.selected.is_empty() { "the starting model".to_string() } else { format!("adding {}", d.selected.join(", ")) },
-            100.0 * EXCESS_FRACTION,
-            BIC_THRESHOLD
-        );
-        if !d.selected.is_empty() {
-            s += &format!(
-                " {} explain{} part of the misfit and {} added, but {} no more than a partial explanation: it may stand in for an effect outside the catalog.",
-                d.selected.join(", "),
-                if d.selected.len() == 1 { "s" } else { "" },
-                if d.selected.len() == 1 { "was" } else { "were" },
-                if d.selected.len() == 1 { "is" } else { "are" },
-            );
-        }
-        if let Some(w) = worst_ch {
-            s += &format!(
-                " The raw DN misfit is largest in {} (χ² per sample {:.3}; channels: {}).",
-                Axis::Channel.describe(w.lo),
-                w.chi2_per_sample,
-                by_channel
-                    .iter()
-                    .map(|b| format!("{:.0}° {:.3}", 45.0 * b.lo, b.chi2_per_sample))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        }
-        if let Some(w) = worst_r {
-            s += &format!(
-                " By radius from the principal point it peaks at r = {:.3}–{:.3} focal lengths (χ² per sample {:.3}, mean residual {:+.2}σ: the data are {} than the model there); profile: {}.",
-                w.lo,
-                w.hi,
-                w.chi2_per_sample,
-                w.mean_z,
-                if w.mean_z > 0.0 { "brighter" } else { "darker" },
-                by_radius
-                    .iter()
-                    .map(|b| format!("{:.2}–{:.2}: {:.2}", b.lo, b.hi, b.chi2_per_sample))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        }
-        // Where in sky space: the axis of the strongest trend.
-        let trend = super::profiles::describe(&maps.profiles, 1000);
-        if !trend.is_empty() {
-            s += &format!(" In sky space, {trend}.");
-        }
-        d.unexplained_summary = s;
+        Remains::unexplained(current.chi2_per_dof, limit, d.selected.clone(), &maps.profiles)
     } else {
-        d.unexplained_summary = format!(
-            "χ²/dof {:.3} is within the noise (≤ {:.3}): nothing structured remains.",
-            current.chi2_per_dof, limit
-        );
-    }
+        Remains { chi2_per_dof: current.chi2_per_dof, noise_limit: limit, unexplained: None }
+    };
     Ok(d)
 }

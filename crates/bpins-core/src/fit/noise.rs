@@ -17,7 +17,7 @@
 use crate::capture::FrameData;
 
 /// EMVA noise model of one sensor: variance σ_r² + K·s + (p·s)² in DN².
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct NoiseModel {
     /// Read noise (and rounding), DN.
     pub read_dn: f64,
@@ -76,8 +76,9 @@ pub fn estimate(frames: &[FrameData], black_dn: f64, full_scale_dn: f64) -> Opti
         return None;
     }
     // The quadratic (normal equations), or the line where it curves down.
-    let quad = super::linalg::cholesky(&[n, s, s2, s, s2, s3, s2, s3, s4], 3)
-        .map(|l| super::linalg::cholesky_solve(&l, 3, &[y, sy, s2y]))
+    let normal = nalgebra::Matrix3::new(n, s, s2, s, s2, s3, s2, s3, s4);
+    let quad = nalgebra::Cholesky::new(normal)
+        .map(|l| l.solve(&nalgebra::Vector3::new(y, sy, s2y)))
         .filter(|x| x[2] >= 0.0 && x.iter().all(|v| v.is_finite()));
     let (a, b, c) = match quad {
         Some(x) => (x[0], x[1], x[2]),

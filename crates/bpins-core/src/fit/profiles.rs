@@ -10,7 +10,7 @@
 //! polarization residual (mean measured − model AoP in degrees, where the model DoLP
 //! > 0.01, and DoLP), over every frame.
 
-/// What a profile is plotted against.
+/// What a profile is plotted against (in files: its [`Axis::name`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Axis {
     /// Angle between the pixel's ray and the sun, degrees (the model's sky).
@@ -81,6 +81,12 @@ impl Axis {
     }
 }
 
+impl serde::Serialize for Axis {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
 /// Where one sample lies on every axis (NaN: not on that axis).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Position {
@@ -105,8 +111,8 @@ impl Position {
     }
 }
 
-/// One bin of a profile.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// One bin of a profile (lo, hi in the axis's unit).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct ProfileBin {
     pub lo: f64,
     pub hi: f64,
@@ -122,7 +128,7 @@ pub struct ProfileBin {
 }
 
 /// A residual profile along one axis.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Profile {
     pub axis: Axis,
     pub bins: Vec<ProfileBin>,
@@ -219,43 +225,93 @@ impl Profiler {
     }
 }
 
-/// The strongest trend of the profiles, in words: along which axis the mean raw-DN
-/// residual (in σ) and the DoLP residual vary most between bins, from where to where.
-/// Bins with fewer than `min_samples` samples are ignored (their means are noise).
-pub fn describe(profiles: &[Profile], min_samples: usize) -> String {
+/// A residual quantity whose trend [`trends`] looks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    /// The mean raw-DN residual, (measured − model)/σ.
+    MeanDnResidualSigma,
+    /// The DoLP residual, measured − model.
+    DolpResidual,
+}
+
+impl Quantity {
+    fn label(self) -> &'static str {
+        match self {
+            Quantity::MeanDnResidualSigma => "the mean raw-DN residual (σ)",
+            Quantity::DolpResidual => "the DoLP residual (measured − model)",
+        }
+    }
+
+    /// A value of this quantity with its unit.
+    pub fn format(self, v: f64) -> String {
+        match self {
+            Quantity::MeanDnResidualSigma => format!("{v:+.2}σ"),
+            Quantity::DolpResidual => format!("{v:+.4}"),
+        }
+    }
+}
+
+/// A point of a trend: the bin centre on the axis, and the quantity's value there.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct TrendPoint {
+    pub at: f64,
+    pub value: f64,
+}
+
+/// The strongest trend of one quantity: the axis along which it varies most between
+/// bins, and where it is lowest and highest.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Trend {
+    pub quantity: Quantity,
+    pub axis: Axis,
+    pub min: TrendPoint,
+    pub max: TrendPoint,
+}
+
+impl std::fmt::Display for Trend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let q = self.quantity;
+        write!(
+            f,
+            "{} varies most along {}: from {} at {} to {} at {}",
+            q.label(),
+            label(self.axis),
+            q.format(self.min.value),
+            self.axis.describe(self.min.at),
+            q.format(self.max.value),
+            self.axis.describe(self.max.at)
+        )
+    }
+}
+
+/// The strongest trend of each quantity: along which axis the mean raw-DN residual
+/// (in σ) and the DoLP residual vary most between bins, from where to where. Bins
+/// with fewer than `min_samples` samples are ignored (their means are noise).
+pub fn trends(profiles: &[Profile], min_samples: usize) -> Vec<Trend> {
     let centre = |b: &ProfileBin| 0.5 * (b.lo + b.hi);
-    // (range, axis, (x at min, min), (x at max, max)) of a quantity along each axis.
-    let trend = |get: &dyn Fn(&ProfileBin) -> Option<f64>| {
+    let value = |q: Quantity, b: &ProfileBin| match q {
+        Quantity::MeanDnResidualSigma => (b.dn_samples >= min_samples && b.mean_z.is_finite()).then_some(b.mean_z),
+        Quantity::DolpResidual => (b.pol_samples >= min_samples / 4 && b.dolp.is_finite()).then_some(b.dolp),
+    };
+    let strongest = |q: Quantity| {
         profiles
             .iter()
             .filter_map(|p| {
-                let pts: Vec<(f64, f64)> = p.bins.iter().filter_map(|b| get(b).map(|v| (centre(b), v))).collect();
-                let lo = pts.iter().copied().min_by(|a, b| a.1.total_cmp(&b.1))?;
-                let hi = pts.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1))?;
-                Some((hi.1 - lo.1, p.axis, lo, hi))
+                let pts: Vec<TrendPoint> =
+                    p.bins.iter().filter_map(|b| value(q, b).map(|v| TrendPoint { at: centre(b), value: v })).collect();
+                let min = pts.iter().copied().min_by(|a, b| a.value.total_cmp(&b.value))?;
+                let max = pts.iter().copied().max_by(|a, b| a.value.total_cmp(&b.value))?;
+                Some(Trend { quantity: q, axis: p.axis, min, max })
             })
-            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .max_by(|a, b| (a.max.value - a.min.value).total_cmp(&(b.max.value - b.min.value)))
     };
-    let dn = |b: &ProfileBin| (b.dn_samples >= min_samples && b.mean_z.is_finite()).then_some(b.mean_z);
-    let dolp = |b: &ProfileBin| (b.pol_samples >= min_samples / 4 && b.dolp.is_finite()).then_some(b.dolp);
-    let quantities: [(&str, &dyn Fn(&ProfileBin) -> Option<f64>, fn(f64) -> String); 2] = [
-        ("the mean raw-DN residual (σ)", &dn, |v| format!("{v:+.2}σ")),
-        ("the DoLP residual (measured − model)", &dolp, |v| format!("{v:+.4}")),
-    ];
-    let mut out = Vec::new();
-    for (what, get, fmt) in quantities {
-        if let Some((_, axis, lo, hi)) = trend(get) {
-            out.push(format!(
-                "{what} varies most along {}: from {} at {} to {} at {}",
-                label(axis),
-                fmt(lo.1),
-                axis.describe(lo.0),
-                fmt(hi.1),
-                axis.describe(hi.0)
-            ));
-        }
-    }
-    out.join("; ")
+    [Quantity::MeanDnResidualSigma, Quantity::DolpResidual].into_iter().filter_map(strongest).collect()
+}
+
+/// [`trends`] in words, `; ` between them.
+pub fn describe(profiles: &[Profile], min_samples: usize) -> String {
+    trends(profiles, min_samples).iter().map(|t| t.to_string()).collect::<Vec<_>>().join("; ")
 }
 
 fn label(a: Axis) -> &'static str {

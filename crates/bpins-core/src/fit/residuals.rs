@@ -2,8 +2,9 @@
 //! residual maps (measured − model).
 
 use super::noise::NoiseModel;
+use super::problem::{problem, Problem};
 use super::profiles::{Position, Profile, Profiler};
-use super::{problem, FitOptions, FitState, Problem};
+use super::{FitOptions, FitState};
 use crate::capture::{Capture, FrameData};
 use crate::conventions::wrap_deg_90;
 use crate::error::Result;

@@ -1,7 +1,9 @@
 //! The score test of a candidate effect: how much of what a fitted model leaves
 //! unexplained one Gauss–Newton step with the candidate freed would remove.
 
-use super::{linalg, problem, FitOptions, FitResult, Param};
+use super::problem::problem;
+use super::slots::{Derivative, SlotId};
+use super::{linalg, FitOptions, FitResult, Param};
 use crate::capture::{Capture, FrameData};
 use crate::effects::EffectDef;
 use crate::error::Result;
@@ -23,11 +25,12 @@ pub fn score_candidate(
     let mut opts = base_opts.clone();
     opts.effects.push(candidate);
     let (mut pb, theta) = problem(c, frames, &opts, Some(&base.state), base.noise)?;
-    for s in pb.slots.iter_mut().filter(|s| s.name.starts_with(&format!("{}.", candidate.name))) {
+    for i in pb.slots.of_effect(candidate.name).collect::<Vec<_>>() {
         // A forward secant (backward at the upper bound): first- and second-order
         // effects alike get a column of their shape.
+        let s = &mut pb.slots.all[i];
         s.step = probe * (s.max - s.min);
-        s.secant = true;
+        s.derivative = Derivative::Secant;
     }
     // An odd stride samples every channel of a DoFP mosaic.
     let acc = pb.accumulate(&theta, stride | 1, true)?;
@@ -58,13 +61,9 @@ pub fn score_candidate(
     };
     for (j, p) in candidate.params.iter().enumerate() {
         let i = first + j;
-        let s = &pb.slots[i];
-        score.params.push(Param {
-            name: s.name.clone(),
-            unit: p.unit,
-            value: (theta[i] + x[i]).clamp(s.min, s.max),
-            sigma: cov.sigma(i),
-        });
+        let s = &pb.slots.all[i];
+        let SlotId::Effect(id) = s.id else { unreachable!("effect slots come first") };
+        score.params.push(Param::new(id, p.unit, (theta[i] + x[i]).clamp(s.min, s.max), cov.sigma(i)));
     }
     Ok(score)
 }

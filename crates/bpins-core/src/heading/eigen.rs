@@ -1,50 +1,20 @@
-//! Eigen-decomposition of a symmetric 3 × 3 matrix by cyclic Jacobi rotations
-//! (Golub & Van Loan, Matrix Computations, 4th ed., §8.5.2). Small and exact enough
-//! for the E-vector scatter matrix; no linear-algebra crate needed for one 3 × 3.
+//! Eigen-decomposition of a symmetric 3 × 3 matrix (the E-vector scatter matrix):
+//! nalgebra's symmetric QR algorithm, its results sorted and returned as glam vectors.
+//! (A non-finite matrix gives NaN: an unbounded iteration must never see one.)
 
 use glam::{DMat3, DVec3};
 
 /// Eigenvalues in ascending order and their unit eigenvectors.
-#[allow(clippy::needless_range_loop)] // index form mirrors the textbook rotation
 pub(crate) fn symmetric_eigen(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
-    let mut a = m.to_cols_array_2d(); // a[col][row]; symmetric, so a[i][j] = a[j][i]
-    let mut v = DMat3::IDENTITY.to_cols_array_2d();
-    for _sweep in 0..50 {
-        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-        let scale = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2] + off;
-        if off <= 1e-30 * scale.max(f64::MIN_POSITIVE) {
-            break;
-        }
-        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
-            if a[p][q] == 0.0 {
-                continue;
-            }
-            // Rotation that zeroes a[p][q].
-            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-            let t = if theta == 0.0 { 1.0 } else { t };
-            let c = 1.0 / (t * t + 1.0).sqrt();
-            let s = t * c;
-            for k in 0..3 {
-                let (akp, akq) = (a[k][p], a[k][q]);
-                a[k][p] = c * akp - s * akq;
-                a[k][q] = s * akp + c * akq;
-            }
-            for k in 0..3 {
-                let (apk, aqk) = (a[p][k], a[q][k]);
-                a[p][k] = c * apk - s * aqk;
-                a[q][k] = s * apk + c * aqk;
-            }
-            for row in &mut v {
-                let (vp, vq) = (row[p], row[q]);
-                row[p] = c * vp - s * vq;
-                row[q] = s * vp + c * vq;
-            }
-        }
-    }
-    // v[row][k]: column k of the rotation product is eigenvector k.
-    let mut pairs: [(f64, DVec3); 3] =
-        std::array::from_fn(|k| (a[k][k], DVec3::new(v[0][k], v[1][k], v[2][k]).normalize()));
+    let a = nalgebra::Matrix3::from_fn(|i, j| m.col(j)[i]);
+    // Non-finite input (or no convergence) gives NaN, which the caller refuses.
+    let Some(eig) = a.try_symmetric_eigen(f64::EPSILON, 1000).filter(|_| a.iter().all(|x| x.is_finite())) else {
+        return ([f64::NAN; 3], [DVec3::NAN; 3]);
+    };
+    let mut pairs: [(f64, DVec3); 3] = std::array::from_fn(|k| {
+        let v = eig.eigenvectors.column(k);
+        (eig.eigenvalues[k], DVec3::new(v[0], v[1], v[2]).normalize())
+    });
     pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
     ([pairs[0].0, pairs[1].0, pairs[2].0], [pairs[0].1, pairs[1].1, pairs[2].1])
 }

@@ -1,0 +1,177 @@
+//! The problem a fit solves: the capture's frames (in memory), the typed parameter
+//! slots, the noise and each frame's sky mask and radiance basis; and the model it
+//! evaluates — one frame's chain under a parameter vector, one pixel's model DN.
+
+use super::noise::NoiseModel;
+use super::slots::{Nuisance, SlotId, Slots};
+use super::{radiance, start, FitOptions, FitState, BORDER_PX};
+use crate::camera::Intrinsics;
+use crate::capture::{Capture, FrameData};
+use crate::chain::{mosaic_pixel_signal_dn, pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
+use crate::error::Result;
+use crate::heading::field::SkyMask;
+use crate::sensor::{Layout, Response};
+use std::sync::Arc;
+
+/// The problem: the capture's frames and the parameter slots.
+pub(crate) struct Problem<'a> {
+    pub capture: &'a Capture,
+    pub frames: &'a [FrameData],
+    pub nominal: Intrinsics,
+    pub opts: &'a FitOptions,
+    pub slots: Slots,
+    pub noise: NoiseModel,
+    pub full_scale_dn: f64,
+    /// Per frame: the sky mask (None: every pixel).
+    pub sky: Arc<Vec<Option<SkyMask>>>,
+    /// Per frame: the radiance basis.
+    pub basis: Vec<radiance::Basis>,
+}
+
+/// One frame's chain and its radiance nuisance.
+pub(crate) struct FitFrame {
+    pub chain: ChainFrame,
+    pub radiance: [f64; radiance::N],
+}
+
+impl std::ops::Deref for FitFrame {
+    type Target = ChainFrame;
+    fn deref(&self) -> &ChainFrame {
+        &self.chain
+    }
+}
+
+/// The problem of fitting `opts`, starting from `start` where it names a value (else
+/// the starting guesses of [`start`]).
+pub(crate) fn problem<'a>(
+    c: &'a Capture,
+    frames: &'a [FrameData],
+    opts: &'a FitOptions,
+    warm: Option<&FitState>,
+    noise: NoiseModel,
+) -> Result<(Problem<'a>, Vec<f64>)> {
+    let reference: Vec<bool> = c.frames.iter().map(|f| f.heading_deg.is_some()).collect();
+    let slots = Slots::new(opts, &reference);
+    // Each frame's sky (and, for a frame without a reference, its first heading) from
+    // the field estimator, on the frames in memory.
+    let field = match &opts.sky_masks {
+        Some(m) if m.len() == frames.len() => m.clone(),
+        _ => Arc::new(super::sky_masks(c, frames, opts)?),
+    };
+    let sky = if opts.all_pixels { Arc::new(vec![None; frames.len()]) } else { field.clone() };
+    let warm_basis = warm.map(|s| &s.radiance_basis).filter(|b| b.len() == frames.len());
+    let basis = warm_basis.cloned().unwrap_or_else(|| vec![Default::default(); frames.len()]);
+    let mut pb = Problem {
+        capture: c,
+        frames,
+        nominal: c.intrinsics(),
+        opts,
+        slots,
+        noise,
+        full_scale_dn: c.sensor.full_scale_dn(),
+        sky,
+        basis,
+    };
+    let mut theta = start::theta(&pb, warm, &field)?;
+    if warm_basis.is_none() {
+        pb.basis = start::radiance_bases(&pb, &theta)?;
+    }
+    for k in 0..frames.len() {
+        if warm.and_then(|st| st.frames.get(k)).is_none() {
+            // Radiance scale from the first guess (linear in the scale).
+            theta[pb.slots.at(k, Nuisance::Scale)] = start::scale(&pb, &theta, k)?;
+        }
+    }
+    Ok((pb, theta))
+}
+
+impl Problem<'_> {
+    /// The chain of frame `k` under parameters `theta`.
+    pub fn chain(&self, theta: &[f64], k: usize) -> Result<FitFrame> {
+        let mut set = self.opts.known.clone();
+        for (slot, value) in self.slots.all[..self.slots.n_global].iter().zip(theta) {
+            if let SlotId::Effect(p) = slot.id {
+                set.set(p.effect, p.param, *value)?;
+            }
+        }
+        let spec = &self.capture.frames[k];
+        let at = |n: Nuisance| theta[self.slots.at(k, n)];
+        let scene = Scene {
+            sun_az_deg: spec.sun.azimuth_deg,
+            sun_el_deg: spec.sun.elevation_deg,
+            heading_deg: at(Nuisance::Heading),
+            tilt_x_deg: spec.tilt_x_deg.unwrap_or(0.0),
+            tilt_y_deg: spec.tilt_y_deg.unwrap_or(0.0),
+            dmax: at(Nuisance::Dmax),
+        };
+        let resp = Response {
+            black_level_dn: self.capture.sensor.black_level_dn,
+            bit_depth: self.capture.sensor.bit_depth,
+            ..Response::ideal(at(Nuisance::Scale))
+        };
+        let chain =
+            ChainFrame::new(&set.model(), &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
+        Ok(FitFrame { chain, radiance: std::array::from_fn(|i| at(Nuisance::Radiance(i))) })
+    }
+
+    /// The radiance nuisance of frame `k` at pixel (u, v): (R, ψ).
+    #[inline]
+    pub fn radiance(&self, f: &FitFrame, k: usize, u: usize, v: usize) -> (f64, [f64; radiance::N]) {
+        let phi = radiance::raw_at(&f.intr, f.sun_cam, u, v, self.w(), self.h());
+        let psi = self.basis[k].psi(&phi);
+        (radiance::factor(&f.radiance, &psi), psi)
+    }
+
+    /// Model DN of the samples of pixel (u, v) of frame `k` into `out` (1 for DoFP, one
+    /// per channel for colocated), with the measured values beside them.
+    pub fn pixel(&self, f: &FitFrame, k: usize, u: usize, v: usize, out: &mut Vec<(f64, f64)>) {
+        out.clear();
+        let (w, h) = (self.w(), self.h());
+        let r = if f.radiance == [0.0; radiance::N] { 1.0 } else { self.radiance(f, k, u, v).0 };
+        match (&self.capture.sensor.layout, &self.frames[k]) {
+            (Layout::Dofp { mosaic }, FrameData::Mosaic { dn, .. }) => {
+                let ch = Layout::dofp_channel(mosaic, u, v).index();
+                let m = r * mosaic_pixel_signal_dn(f, u, v, w, h, mosaic) + f.offset_dn[ch];
+                out.push((dn[v * w + u] as f64, m));
+            }
+            (_, FrameData::Colocated { channels, .. }) => {
+                let s = pixel_stokes(f, u as f64, v as f64);
+                for (c, plane) in channels {
+                    let m = r * pixel_signal_dn(f, s, c.index()) + f.offset_dn[c.index()];
+                    out.push((plane[v * w + u] as f64, m));
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// The offset (black level + channel offset) of sample `q` of pixel (u, v), DN.
+    pub fn offset_dn(&self, f: &ChainFrame, u: usize, v: usize, q: usize) -> f64 {
+        match &self.capture.sensor.layout {
+            Layout::Dofp { mosaic } => f.offset_dn[Layout::dofp_channel(mosaic, u, v).index()],
+            Layout::Colocated { channels } => f.offset_dn[channels[q].index()],
+        }
+    }
+
+    pub fn w(&self) -> usize {
+        self.capture.sensor.geometry.width_px as usize
+    }
+
+    pub fn h(&self) -> usize {
+        self.capture.sensor.geometry.height_px as usize
+    }
+
+    /// Whether sample value `y` of pixel (u, v) of frame `k` enters the fit: neither
+    /// clipped nor saturated, not within [`BORDER_PX`] of the edge, and sky by the
+    /// frame's sky mask.
+    pub fn usable(&self, k: usize, u: usize, v: usize, y: f64) -> bool {
+        let b = BORDER_PX;
+        y > 0.0
+            && y < self.full_scale_dn
+            && u >= b
+            && v >= b
+            && u + b < self.w()
+            && v + b < self.h()
+            && self.sky[k].as_ref().is_none_or(|m| m.is_sky(u, v))
+    }
+}

@@ -1,0 +1,180 @@
+//! What remains after a diagnosis, as data — the final χ²/dof against what noise alone
+//! gives and, where it is above, where the misfit lies (by channel, by radius, the
+//! strongest trends in sky space) — with the English sentence rendered from it.
+
+use super::diagnose::{BIC_THRESHOLD, EXCESS_FRACTION};
+use super::profiles::{trends, Axis, Profile, ProfileBin, Trend};
+
+/// The residual the final model leaves.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Remains {
+    /// χ²/dof of the final model.
+    pub chi2_per_dof: f64,
+    /// The most noise alone gives: 1 + max(5·√(2/dof), 0.02).
+    pub noise_limit: f64,
+    /// Present when χ²/dof is above the noise limit and no catalog effect explains it.
+    pub unexplained: Option<Unexplained>,
+}
+
+/// Where an unexplained residual lies.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Unexplained {
+    /// Effects the search added, each a partial explanation at most (empty: none).
+    pub partial: Vec<&'static str>,
+    /// The raw-DN misfit by analyzer channel (bins of [`Axis::Channel`]).
+    pub by_channel: Vec<ProfileBin>,
+    /// The raw-DN misfit by radius from the principal point, focal lengths.
+    pub by_radius: Vec<ProfileBin>,
+    /// The strongest trend of each residual quantity in sky space.
+    pub trends: Vec<Trend>,
+}
+
+/// Fewest samples of a profile bin whose mean a trend believes.
+const TREND_MIN_SAMPLES: usize = 1000;
+
+impl Remains {
+    /// The χ²/dof above which a residual is structured (more than 5σ of χ²'s spread
+    /// above 1, at least 2 %).
+    pub fn noise_limit(dof: f64) -> f64 {
+        1.0 + (5.0 * (2.0 / dof).sqrt()).max(0.02)
+    }
+
+    /// An unexplained residual, described from its profiles.
+    pub fn unexplained(
+        chi2_per_dof: f64,
+        noise_limit: f64,
+        partial: Vec<&'static str>,
+        profiles: &[Profile],
+    ) -> Remains {
+        let along = |a: Axis| profiles.iter().find(|p| p.axis == a).map_or(Vec::new(), |p| p.bins.clone());
+        let u = Unexplained {
+            partial,
+            by_channel: along(Axis::Channel),
+            by_radius: along(Axis::Radius),
+            trends: trends(profiles, TREND_MIN_SAMPLES),
+        };
+        Remains { chi2_per_dof, noise_limit, unexplained: Some(u) }
+    }
+
+    /// Whether a structured residual remains that no catalog effect explains.
+    pub fn is_unexplained(&self) -> bool {
+        self.unexplained.is_some()
+    }
+
+    /// The strongest trend of `quantity`, if any.
+    pub fn trend(&self, quantity: super::profiles::Quantity) -> Option<&Trend> {
+        self.unexplained.as_ref()?.trends.iter().find(|t| t.quantity == quantity)
+    }
+}
+
+impl Unexplained {
+    /// The channel bin with the largest χ² per sample.
+    pub fn worst_channel(&self) -> Option<&ProfileBin> {
+        self.by_channel.iter().max_by(|a, b| a.chi2_per_sample.total_cmp(&b.chi2_per_sample))
+    }
+
+    /// The radius bin with the largest χ² per sample.
+    pub fn worst_radius(&self) -> Option<&ProfileBin> {
+        self.by_radius.iter().max_by(|a, b| a.chi2_per_sample.total_cmp(&b.chi2_per_sample))
+    }
+}
+
+impl std::fmt::Display for Remains {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let Some(u) = &self.unexplained else {
+            return write!(
+                f,
+                "χ²/dof {:.3} is within the noise (≤ {:.3}): nothing structured remains.",
+                self.chi2_per_dof, self.noise_limit
+            );
+        };
+        let n = u.partial.len();
+        let added = u.partial.join(", ");
+        write!(
+            f,
+            "χ²/dof {:.3} remains (noise alone: ≤ {:.3}) after {}; no catalog effect explains it (none removes {:.0} % of the excess χ² with ΔBIC > {}).",
+            self.chi2_per_dof,
+            self.noise_limit,
+            if n == 0 { "the starting model".to_string() } else { format!("adding {added}") },
+            100.0 * EXCESS_FRACTION,
+            BIC_THRESHOLD
+        )?;
+        if n > 0 {
+            write!(
+                f,
+                " {added} explain{} part of the misfit and {} added, but {} no more than a partial explanation: it may stand in for an effect outside the catalog.",
+                if n == 1 { "s" } else { "" },
+                if n == 1 { "was" } else { "were" },
+                if n == 1 { "is" } else { "are" },
+            )?;
+        }
+        if let Some(w) = u.worst_channel() {
+            let each: Vec<String> =
+                u.by_channel.iter().map(|b| format!("{:.0}° {:.3}", 45.0 * b.lo, b.chi2_per_sample)).collect();
+            write!(
+                f,
+                " The raw DN misfit is largest in {} (χ² per sample {:.3}; channels: {}).",
+                Axis::Channel.describe(w.lo),
+                w.chi2_per_sample,
+                each.join(", ")
+            )?;
+        }
+        if let Some(w) = u.worst_radius() {
+            let each: Vec<String> =
+                u.by_radius.iter().map(|b| format!("{:.2}–{:.2}: {:.2}", b.lo, b.hi, b.chi2_per_sample)).collect();
+            write!(
+                f,
+                " By radius from the principal point it peaks at r = {:.3}–{:.3} focal lengths (χ² per sample {:.3}, mean residual {:+.2}σ: the data are {} than the model there); profile: {}.",
+                w.lo,
+                w.hi,
+                w.chi2_per_sample,
+                w.mean_z,
+                if w.mean_z > 0.0 { "brighter" } else { "darker" },
+                each.join(", ")
+            )?;
+        }
+        // Where in sky space: the axis of the strongest trend.
+        if !u.trends.is_empty() {
+            let t: Vec<String> = u.trends.iter().map(|t| t.to_string()).collect();
+            write!(f, " In sky space, {}.", t.join("; "))?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::profiles::{Quantity, TrendPoint};
+
+    #[test]
+    fn the_sentence_is_rendered_from_the_data() {
+        let bin = |lo: f64, chi2: f64| ProfileBin { lo, hi: lo + 1.0, chi2_per_sample: chi2, ..Default::default() };
+        let trend = Trend {
+            quantity: Quantity::DolpResidual,
+            axis: Axis::Radius,
+            min: TrendPoint { at: 0.05, value: 0.0 },
+            max: TrendPoint { at: 0.55, value: -0.002 },
+        };
+        let u = Unexplained {
+            partial: vec!["lens_retardance"],
+            by_channel: vec![bin(0.0, 1.1), bin(1.0, 1.3)],
+            by_radius: vec![],
+            trends: vec![trend],
+        };
+        let r = Remains { chi2_per_dof: 1.135, noise_limit: 1.02, unexplained: Some(u) };
+        assert!(r.is_unexplained());
+        assert_eq!(r.trend(Quantity::DolpResidual).map(|t| t.axis), Some(Axis::Radius));
+        assert!(r.trend(Quantity::MeanDnResidualSigma).is_none());
+        let s = r.to_string();
+        assert!(s.starts_with("χ²/dof 1.135 remains (noise alone: ≤ 1.020) after adding lens_retardance"), "{s}");
+        assert!(
+            s.contains("lens_retardance explains part of the misfit and was added, but is no more than a partial"),
+            "{s}"
+        );
+        assert!(s.contains("largest in the 45° channel (χ² per sample 1.300"), "{s}");
+        assert!(s.contains("In sky space, the DoLP residual (measured − model) varies most along the radius"), "{s}");
+        let quiet = Remains { chi2_per_dof: 0.999, noise_limit: 1.02, unexplained: None };
+        assert_eq!(quiet.to_string(), "χ²/dof 0.999 is within the noise (≤ 1.020): nothing structured remains.");
+    }
+}

@@ -1,0 +1,87 @@
+//! What a fit returns: the effects' parameters with their 1σ, each frame's nuisances,
+//! the goodness of fit — one typed schema, serialised as is into `fit.json` and into
+//! each step of `diagnosis.json` (README, "fit.json and diagnosis.json").
+
+use super::noise::NoiseModel;
+use super::radiance;
+use super::slots::{EffectParam, PER_FRAME};
+
+/// One fitted effect parameter.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Param {
+    /// Which parameter, by the registry's names.
+    #[serde(skip)]
+    pub id: EffectParam,
+    /// `effect.param`.
+    pub name: String,
+    pub unit: &'static str,
+    pub value: f64,
+    /// 1σ; 0 for a parameter held fixed; infinite (`null` in JSON) for one the data
+    /// cannot tell from others (see [`FitResult::degenerate`]).
+    pub sigma: f64,
+}
+
+impl Param {
+    pub fn new(id: EffectParam, unit: &'static str, value: f64, sigma: f64) -> Param {
+        Param { id, name: id.to_string(), unit, value, sigma }
+    }
+}
+
+/// One frame's result.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FrameFit {
+    pub heading_deg: f64,
+    pub heading_sigma_deg: f64,
+    pub reference_deg: Option<f64>,
+    /// Fitted − reference heading, degrees, in (−180, 180].
+    pub heading_error_deg: Option<f64>,
+    pub scale_dn: f64,
+    pub dmax: f64,
+    /// The sky's radiance nuisance: coefficients of the frame's basis ([`radiance`]).
+    #[serde(rename = "radiance_coefficients")]
+    pub radiance: [f64; radiance::N],
+    pub chi2_per_dof: f64,
+}
+
+/// The result of a fit.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FitResult {
+    /// The enabled effects' parameters.
+    pub params: Vec<Param>,
+    pub frames: Vec<FrameFit>,
+    pub chi2: f64,
+    pub dof: f64,
+    pub chi2_per_dof: f64,
+    /// Samples used (unmasked).
+    pub samples: usize,
+    pub noise: NoiseModel,
+    /// RMS of measured − model AoP (degrees, where the model DoLP > 0.01) and DoLP,
+    /// over superpixels (DoFP) or pixels (colocated), with the nominal inversion.
+    pub aop_rms_deg: f64,
+    pub dolp_rms: f64,
+    /// RMS over frames of fitted − reference heading, degrees (None without references).
+    pub heading_rms_deg: Option<f64>,
+    pub iterations: usize,
+    /// Effective number of independent samples of the residual ([`super::correlation`]):
+    /// `samples` when it is white, fewer when neighbours are correlated.
+    #[serde(rename = "effective_samples")]
+    pub n_eff: f64,
+    /// Number of independent combinations of the free parameters the data constrain
+    /// (the rank of JᵀWJ); less than the free parameters when some are degenerate.
+    pub rank: usize,
+    /// Each combination of parameters the data cannot constrain, in words.
+    pub degenerate: Vec<String>,
+    /// The fitted values, to start another fit from (not serialised).
+    #[serde(skip)]
+    pub state: FitState,
+}
+
+/// A fit's parameter values, for warm starts: the effects' by parameter, and each
+/// frame's (heading °, scale DN, d_max, radiance coefficients) with the radiance basis
+/// they are coefficients of.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FitState {
+    pub effect_values: Vec<(EffectParam, f64)>,
+    pub frames: Vec<[f64; PER_FRAME]>,
+    pub radiance_basis: Vec<radiance::Basis>,
+}
