@@ -2,6 +2,9 @@
 //! checking exit status, what it prints, the JSON it writes, and that a capture is
 //! never written into. Every output goes to a temporary folder; samples/ is only read.
 //! No invocation may panic: every run checks stderr for "panicked".
+//!
+//! (Over 500 lines on purpose: one test binary for every subcommand, since each file
+//! in tests/ links its own binary and the suite's time on 2 cores is mostly linking.)
 
 use std::collections::BTreeMap;
 use std::ffi::OsStr;

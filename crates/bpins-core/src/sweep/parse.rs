@@ -1,5 +1,6 @@
 //! Parsing a sweep file into [`SweepSpec`] (the types are in `spec.rs`, the format is
 //! documented in [`super`]): every check runs here, before any trial.
+//! (Over 500 lines: one linear reader of one format, key by key, each with its error.)
 
 use std::path::Path;
 

@@ -1,4 +1,6 @@
 //! The robust loop of the field estimator (steps 1–5 of `mod.rs`).
+//! (About 540 lines: the loop reads as one sequence of its steps; its masks and order
+//! statistics are in `stats.rs`.)
 
 use super::stats::{clustered, dilate, median, quantile, tukey};
 use super::{Cells, FieldContext, FieldHeading, FieldOptions, FieldQuality, NoHeading, SigmaParts};
