@@ -24,10 +24,22 @@ impl Backend {
 pub fn open(b: Backend) -> anyhow::Result<Box<dyn bpins_core::backend::Backend>> {
     Ok(match b {
         Backend::Cpu => Box::new(bpins_core::backend::Cpu),
-        Backend::Gpu => {
-            let g = bpins_gpu::Gpu::new().context("opening the GPU backend")?;
-            eprintln!("GPU adapter: {}{}", g.adapter_name(), if g.is_cpu() { " — a CPU rasterizer" } else { "" });
-            Box::new(g)
-        }
+        Backend::Gpu => Box::new(open_gpu()?),
+    })
+}
+
+/// Opens the GPU twin and names its adapter on stderr.
+fn open_gpu() -> anyhow::Result<bpins_gpu::Gpu> {
+    let g = bpins_gpu::Gpu::new().context("opening the GPU backend")?;
+    eprintln!("GPU adapter: {}{}", g.adapter_name(), if g.is_cpu() { " — a CPU rasterizer" } else { "" });
+    Ok(g)
+}
+
+/// A sweep's engine on backend `b`: the rayon reference, or the GPU twin opened into
+/// `gpu` (which the engine borrows, so it lives as long as the caller's slot).
+pub fn sums_engine(b: Backend, gpu: &mut Option<bpins_gpu::Gpu>) -> anyhow::Result<&dyn bpins_core::sweep::SumsEngine> {
+    Ok(match b {
+        Backend::Cpu => &bpins_core::sweep::CpuSums,
+        Backend::Gpu => gpu.insert(open_gpu()?),
     })
 }

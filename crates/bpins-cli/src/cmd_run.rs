@@ -8,7 +8,7 @@ use anyhow::Context;
 use bpins_core::heading::Extractor;
 use bpins_core::montecarlo::{paper_figures_deg, Row, Source};
 use bpins_core::sensor::{Channel, Layout};
-use bpins_core::sweep::{run_units, summarise, unit_count, SumsEngine, SweepSpec};
+use bpins_core::sweep::{run_units, summarise, unit_count, SweepSpec};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -56,15 +56,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         channels.len(),
         spec.seed
     );
-    let gpu;
-    let engine: &dyn SumsEngine = match a.backend {
-        Backend::Cpu => &bpins_core::sweep::CpuSums,
-        Backend::Gpu => {
-            gpu = bpins_gpu::Gpu::new().context("opening the GPU backend")?;
-            eprintln!("GPU adapter: {}{}", gpu.adapter_name(), if gpu.is_cpu() { " — a CPU rasterizer" } else { "" });
-            &gpu
-        }
-    };
+    let mut gpu = None;
+    let engine = crate::backend::sums_engine(a.backend, &mut gpu)?;
     let pb = bar(total, "trials");
     let t0 = std::time::Instant::now();
     let records = run_units(&spec, 0..unit_count(&spec), engine, &|done, _| pb.set_position(done as u64))

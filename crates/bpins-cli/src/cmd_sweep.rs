@@ -5,7 +5,7 @@
 use crate::progress::bar;
 use crate::Backend;
 use anyhow::Context;
-use bpins_core::sweep::{merge, run_to_dir, unit_count, Outcome, Shard, Summary, SumsEngine, SweepSpec};
+use bpins_core::sweep::{merge, run_to_dir, unit_count, Outcome, Shard, Summary, SweepSpec};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -61,15 +61,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.backend.name(),
         spec.seed
     );
-    let gpu;
-    let engine: &dyn SumsEngine = match a.backend {
-        Backend::Cpu => &bpins_core::sweep::CpuSums,
-        Backend::Gpu => {
-            gpu = bpins_gpu::Gpu::new().context("opening the GPU backend")?;
-            eprintln!("GPU adapter: {}{}", gpu.adapter_name(), if gpu.is_cpu() { " — a CPU rasterizer" } else { "" });
-            &gpu
-        }
-    };
+    let mut gpu = None;
+    let engine = crate::backend::sums_engine(a.backend, &mut gpu)?;
     let pb = bar(units as u64, "trials");
     let t0 = std::time::Instant::now();
     let outcome = run_to_dir(&spec, shard, engine, &a.out, &|done, _| pb.set_position(done as u64))
