@@ -168,18 +168,8 @@ fn escape_html(
     if value.is_safe() || !matches!(state.auto_escape(), AutoEscape::Html) {
         return minijinja::escape_formatter(out, state, value);
     }
-    let mut s = String::new();
-    for ch in value.to_string().chars() {
-        match ch {
-            '&' => s.push_str("&amp;"),
-            '<' => s.push_str("&lt;"),
-            '>' => s.push_str("&gt;"),
-            '"' => s.push_str("&quot;"),
-            '\'' => s.push_str("&#39;"),
-            c => s.push(c),
-        }
-    }
-    out.write_str(&s).map_err(|_| minijinja::Error::new(minijinja::ErrorKind::WriteFailure, "writing the report"))
+    out.write_str(&bpins_core::output::escape_html(&value.to_string()))
+        .map_err(|_| minijinja::Error::new(minijinja::ErrorKind::WriteFailure, "writing the report"))
 }
 
 fn model_name(model: &[&str]) -> String {

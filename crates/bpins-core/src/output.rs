@@ -78,9 +78,35 @@ fn exists(path: &Path) -> Error {
     }
 }
 
+/// `s` as HTML text or attribute value: `& < > " '` escaped, nothing else (a `/` in a
+/// file name stays as it is). Every report bpins writes escapes through this.
+pub fn escape_html(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for ch in s.chars() {
+        match ch {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn html_escaping_covers_the_five_characters_and_nothing_else() {
+        assert_eq!(
+            escape_html(r#"it's "<b>odd</b>" & more/x.png"#),
+            "it&#39;s &quot;&lt;b&gt;odd&lt;/b&gt;&quot; &amp; more/x.png"
+        );
+        assert_eq!(escape_html("plain °σ"), "plain °σ");
+    }
 
     #[test]
     fn a_file_is_replaced_whole_or_left_as_it_was() {

@@ -5,10 +5,7 @@
 
 use super::output::MapFile;
 use super::LabCalibration;
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
-}
+use crate::output::escape_html as esc;
 
 /// The page for `cal` of the capture `source`, with the written `maps`.
 pub fn report_html(cal: &LabCalibration, source: &str, maps: &[MapFile]) -> String {

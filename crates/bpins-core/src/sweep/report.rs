@@ -6,12 +6,9 @@ use std::fmt::Write;
 
 use super::spec::SweepSpec;
 use super::stats::{Row, Summary};
+use crate::output::escape_html as esc;
 
 const COLOURS: [&str; 8] = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf"];
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
-}
 
 fn known_label(k: Option<bool>) -> &'static str {
     match k {
