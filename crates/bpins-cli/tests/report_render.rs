@@ -14,6 +14,20 @@ const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
 const BROWSERS: [&str; 3] = ["chromium", "chromium-browser", "google-chrome"];
 
 /// The first of `BROWSERS` found on PATH.
+/// The browser, or `None` after reporting the test skipped; with `CI` set a missing
+/// browser fails the test instead.
+fn browser_or_skip() -> Option<PathBuf> {
+    let browser = chromium();
+    if browser.is_none() {
+        let why = format!("none of {} on PATH", BROWSERS.join(", "));
+        if env::var_os("CI").is_some() {
+            panic!("CI is set and the report cannot be rendered: {why}");
+        }
+        eprintln!("SKIPPED (no chromium: {why})");
+    }
+    browser
+}
+
 fn chromium() -> Option<PathBuf> {
     let path = env::var_os("PATH")?;
     BROWSERS.iter().flat_map(|b| env::split_paths(&path).map(move |d| d.join(b))).find(|p| p.is_file())
@@ -82,14 +96,7 @@ fn render_with(browser: &Path, page: &Path, images: bool) -> Result<String, Vec<
 
 #[test]
 fn diagnose_report_opens_in_headless_chromium() {
-    let Some(browser) = chromium() else {
-        let why = format!("none of {} on PATH", BROWSERS.join(", "));
-        if env::var_os("CI").is_some() {
-            panic!("CI is set and the report cannot be rendered: {why}");
-        }
-        eprintln!("SKIPPED (no chromium: {why})");
-        return;
-    };
+    let Some(browser) = browser_or_skip() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("diag");
     let run = Command::new(env!("CARGO_BIN_EXE_bpins"))
@@ -124,14 +131,7 @@ fn diagnose_report_opens_in_headless_chromium() {
 
 #[test]
 fn calibrate_report_opens_in_headless_chromium() {
-    let Some(browser) = chromium() else {
-        let why = format!("none of {} on PATH", BROWSERS.join(", "));
-        if env::var_os("CI").is_some() {
-            panic!("CI is set and the report cannot be rendered: {why}");
-        }
-        eprintln!("SKIPPED (no chromium: {why})");
-        return;
-    };
+    let Some(browser) = browser_or_skip() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("cal");
     let lab = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/lab-flawed-sensor/lab");
@@ -151,14 +151,7 @@ fn calibrate_report_opens_in_headless_chromium() {
 
 #[test]
 fn sweep_report_opens_in_headless_chromium() {
-    let Some(browser) = chromium() else {
-        let why = format!("none of {} on PATH", BROWSERS.join(", "));
-        if env::var_os("CI").is_some() {
-            panic!("CI is set and the report cannot be rendered: {why}");
-        }
-        eprintln!("SKIPPED (no chromium: {why})");
-        return;
-    };
+    let Some(browser) = browser_or_skip() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("sweep");
     let tiny = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sweeps/tiny.toml");
