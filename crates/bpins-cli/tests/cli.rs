@@ -6,6 +6,9 @@
 //! (Over 500 lines on purpose: one test binary for every subcommand, since each file
 //! in tests/ links its own binary and the suite's time on 2 cores is mostly linking.)
 
+mod common;
+
+use common::gpu_available;
 use std::collections::BTreeMap;
 use std::ffi::OsStr;
 use std::fs;
@@ -705,19 +708,6 @@ fn effects_lists_the_scene_elements_after_the_effects() {
 }
 
 // ---------------------------------------------------------------- the GPU backend
-
-/// Whether the GPU twin can run here; without an adapter the GPU tests report
-/// themselves skipped, except with `CI` set, where that is a failure.
-fn gpu_available() -> bool {
-    match bpins_gpu::Gpu::new() {
-        Ok(_) => true,
-        Err(e) if std::env::var_os("CI").is_some() => panic!("CI is set and the GPU backend cannot run: {e}"),
-        Err(e) => {
-            eprintln!("SKIPPED (no usable Vulkan adapter): {e}");
-            false
-        }
-    }
-}
 
 #[test]
 fn gpu_run_gives_the_cpu_table_within_a_thousandth_of_a_degree() {

@@ -3,6 +3,9 @@
 //! what was expected; slices merge into the unsharded result bit for bit; a finished
 //! slice is not recomputed, a half-written one is.
 
+mod common;
+
+use common::gpu_available;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -98,19 +101,6 @@ fn merged_slices_equal_the_unsharded_sweep_and_slices_restart() {
     ok(&["sweep", TINY, "--trials", "5", "--shard", "3/4"], &shards[3]);
     let o = bpins(&args, Some(&merged));
     assert!(String::from_utf8_lossy(&o.stderr).contains("trials_per_source"));
-}
-
-/// Whether the GPU twin can run here; without an adapter the GPU test reports itself
-/// skipped, except with `CI` set, where that is a failure.
-fn gpu_available() -> bool {
-    match bpins_gpu::Gpu::new() {
-        Ok(_) => true,
-        Err(e) if std::env::var_os("CI").is_some() => panic!("CI is set and the GPU backend cannot run: {e}"),
-        Err(e) => {
-            eprintln!("SKIPPED (no usable Vulkan adapter): {e}");
-            false
-        }
-    }
 }
 
 #[test]
