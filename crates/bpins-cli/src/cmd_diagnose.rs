@@ -7,6 +7,7 @@
 use crate::write_json;
 use anyhow::Context;
 use bpins_core::fit::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+use bpins_core::fit::DiagnosisJson;
 use bpins_core::fit::{residual_maps, FitOptions};
 
 #[derive(clap::Args)]
@@ -22,7 +23,7 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     let max_added = a.max_added;
     let a = a.input;
-    let (base, c, frames) = a.load()?;
+    let bpins_core::fit::Loaded { options: base, capture: c, frames } = a.load()?;
     let opts = DiagnoseOptions { base, max_added, ..Default::default() };
     let spinner = indicatif::ProgressBar::new_spinner();
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
@@ -32,12 +33,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     print_steps(&d);
     eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
-    let json = DiagnosisJson {
-        capture: a.capture.display().to_string(),
-        diagnosis: &d,
-        unexplained: d.unexplained(),
-        unexplained_summary: d.summary(),
-    };
+    let json = DiagnosisJson::new(&a.capture, &d);
     write_json(&a.out.join("diagnosis.json"), &json)?;
     // Residual maps of every step, side by side in the report.
     let mut maps = Vec::new();
@@ -104,16 +100,4 @@ fn print_steps(d: &Diagnosis) {
         println!("confusable: {a} and {b} explain the data about equally well");
     }
     println!("{}", d.summary());
-}
-
-/// `diagnosis.json`: the capture, the diagnosis's own fields ([`Diagnosis`]: each
-/// step carries the same fields as `fit.json`) and, for readers that want only the
-/// verdict, whether a residual remains unexplained and what remains in words.
-#[derive(serde::Serialize)]
-struct DiagnosisJson<'a> {
-    capture: String,
-    #[serde(flatten)]
-    diagnosis: &'a Diagnosis,
-    unexplained: bool,
-    unexplained_summary: String,
 }

@@ -4,18 +4,7 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::fit::{fit, FitResult};
-
-/// `fit.json`: the capture, the model's effects and the fit's own fields
-/// ([`FitResult`], the schema every fit result shares; README, "fit.json and
-/// diagnosis.json").
-#[derive(serde::Serialize)]
-struct FitJson<'a> {
-    capture: String,
-    effects: &'a [&'a str],
-    #[serde(flatten)]
-    fit: &'a FitResult,
-}
+use bpins_core::fit::{fit, FitJson};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -25,7 +14,7 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let a = a.input;
-    let (opts, c, frames) = a.load()?;
+    let bpins_core::fit::Loaded { options: opts, capture: c, frames } = a.load()?;
     let names: Vec<&str> = opts.effects.iter().map(|e| e.name).collect();
     eprintln!(
         "bpins fit: {} frames of {}, effects: {}",
@@ -74,7 +63,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for d in &r.degenerate {
         println!("degenerate (1σ shown as inf): {d}");
     }
-    let v = FitJson { capture: a.capture.display().to_string(), effects: &names, fit: &r };
+    let v = FitJson::new(&a.capture, &opts, &r);
     let path = a.out.join("fit.json");
     write_json(&path, &v)?;
     // The calibration: the known effects as given, then the fitted ones with their 1σ.

@@ -145,49 +145,35 @@ pub struct FitInput {
 }
 
 impl FitInput {
-    /// The named effects (each checked against the registry) as fit options, then the
-    /// capture with all its frames (a progress bar while reading). `out` must lie
-    /// outside the capture.
-    pub fn load(
-        &self,
-    ) -> anyhow::Result<(bpins_core::fit::FitOptions, bpins_core::capture::Capture, Vec<bpins_core::capture::FrameData>)>
-    {
+    /// The request as the library takes it (the effects checked against the registry
+    /// there), then the capture with all its frames (a progress bar while reading).
+    /// `out` must lie outside the capture.
+    pub fn load(&self) -> anyhow::Result<bpins_core::fit::Loaded> {
         use anyhow::Context;
-        let mut effects = Vec::new();
-        for name in self.effects.iter().map(|s| s.trim()).filter(|s| !s.is_empty()) {
-            effects.push(bpins_core::effects::find(name).with_context(|| format!("--effects {name}"))?);
-        }
         if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
             anyhow::bail!("--fixed-dmax {d} must lie in [0, 1]");
         }
         ensure_not_in_capture(&self.out)?;
-        let c = bpins_core::capture::Capture::load(&self.capture)?;
-        let cal = match &self.calibration {
-            Some(p) => Some(bpins_core::calibration::Calibration::load(p)?),
-            None => None,
-        };
-        let pixels = cal.as_ref().and_then(|c| c.pixels.clone());
-        let pb = progress::bar(c.frames.len() as u64, "frames read");
-        let mut frames = Vec::with_capacity(c.frames.len());
-        for i in 0..c.frames.len() {
-            let data = c.read_frame(i)?;
-            frames.push(match &pixels {
-                Some(m) => bpins_core::pipeline::apply_pixel_maps(&c, data, m)
-                    .with_context(|| format!("--calibration {}", self.calibration.as_ref().unwrap().display()))?,
-                None => data,
-            });
-            pb.inc(1);
-        }
-        pb.finish_and_clear();
-        let opts = bpins_core::fit::FitOptions {
-            effects,
+        let request = bpins_core::fit::FitRequest {
+            capture: self.capture.clone(),
+            effects: self.effects.clone(),
             trust_reference: self.trust_reference,
             fixed_dmax: self.fixed_dmax,
             rayleigh_radiance: self.rayleigh_radiance,
+            calibration: self.calibration.clone(),
             all_pixels: self.all_pixels,
-            sky_masks: None,
-            known: cal.map(|c| c.effects).unwrap_or_default(),
         };
-        Ok((opts, c, frames))
+        let pb = progress::bar(0, "frames read");
+        let loaded = request
+            .load(&|done, n| {
+                pb.set_length(n as u64);
+                pb.set_position(done as u64);
+            })
+            .with_context(|| match &self.calibration {
+                Some(p) => format!("reading {} with --calibration {}", self.capture.display(), p.display()),
+                None => format!("reading {}", self.capture.display()),
+            })?;
+        pb.finish_and_clear();
+        Ok(loaded)
     }
 }

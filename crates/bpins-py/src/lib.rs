@@ -1,5 +1,6 @@
 //! Python bindings of bpins (`import bpins`): the front door (`compass.rs`), simulated
-//! frames with their truth (`sim.rs`), capture folders to and from arrays and the
+//! frames with their truth (`sim.rs`), `fit` and `diagnose` on a capture with the
+//! data of fit.json and diagnosis.json (`fit.rs`), capture folders to and from arrays and the
 //! effect catalog (`capture.rs`). Every failure is a Python exception naming the
 //! argument and what was expected (`ValueError` for a bad value, `TypeError` for a
 //! wrong type), never a crash of the interpreter: the crate's typed errors are
@@ -14,6 +15,7 @@ use pyo3::prelude::*;
 mod array;
 mod capture;
 mod compass;
+mod fit;
 mod sim;
 
 /// A bpins-core error as the Python exception a user expects: files that cannot be
@@ -45,5 +47,7 @@ fn _bpins(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(capture::read_capture, m)?)?;
     m.add_function(wrap_pyfunction!(capture::write_capture, m)?)?;
     m.add_function(wrap_pyfunction!(capture::effects, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::diagnose, m)?)?;
     Ok(())
 }

@@ -35,6 +35,7 @@ mod problem;
 pub mod profiles;
 pub mod radiance;
 pub mod remains;
+mod request;
 mod residuals;
 mod result;
 mod score;
@@ -42,6 +43,7 @@ pub mod slots;
 mod start;
 
 pub use masks::sky_masks;
+pub use request::{DiagnosisJson, FitJson, FitRequest, Loaded};
 pub use residuals::{residual_maps, FrameMaps, ResidualMaps};
 pub use result::{FitResult, FitState, FrameFit, Param};
 pub use score::{score_candidate, Score};

@@ -4,8 +4,10 @@ The front door is :class:`Compass` (built once from the camera, the sensor and a
 calibration; per frame a raw numpy mosaic, the sun and the attitude in, a
 :class:`Heading` out). :func:`simulate` makes frames with their truth,
 :func:`read_capture` and :func:`write_capture` move capture folders to and from
-arrays, :func:`stokes_maps` gives AoP and DoLP of a raw mosaic, :func:`effects` the
-effect catalog.
+arrays, :func:`stokes_maps` gives AoP and DoLP of a raw mosaic, :func:`fit` and
+:func:`diagnose` fit the model to a capture folder and search the catalog for what
+it misses (returning the data of the CLI's fit.json and diagnosis.json),
+:func:`effects` the effect catalog.
 
 Angles are degrees. In-image angles (analyzer orientation, angle of polarization)
 are measured from image +x toward image −y: counter-clockwise as displayed
@@ -17,7 +19,9 @@ from ._bpins import (
     Compass,
     Heading,
     __version__,
+    diagnose,
     effects,
+    fit,
     read_capture,
     simulate,
     stokes_maps,
@@ -28,7 +32,9 @@ __all__ = [
     "Compass",
     "Heading",
     "__version__",
+    "diagnose",
     "effects",
+    "fit",
     "read_capture",
     "simulate",
     "stokes_maps",

@@ -116,3 +116,39 @@ def write_capture(path: _Path, meta: Dict[str, Any], mosaics: Sequence[_Mosaic])
 
 def effects() -> List[Dict[str, Any]]:
     """The effect catalog: name, summary, source, stage and params (name, unit, neutral, typical, min, max, doc)."""
+
+def fit(
+    capture: _Path,
+    effects: Optional[Sequence[str]] = None,
+    *,
+    calibration: Optional[_Path] = None,
+    fixed_dmax: Optional[float] = None,
+    trust_reference: bool = False,
+    rayleigh_radiance: bool = False,
+    all_pixels: bool = False,
+) -> Dict[str, Any]:
+    """Fits the named catalog effects (and each frame's heading, scale, radiance shape
+    and d_max) to a capture folder's raw DN. Returns the data of the CLI's fit.json:
+    "capture", "effects", "params" (each: name with unit suffix, value, sigma = 1σ,
+    unit), "chi2_per_dof", "noise", "aop_rms_deg", "dolp_rms", "frames" (per frame:
+    heading_deg, heading_sigma_deg, reference_deg, heading_error_deg, scale_dn, dmax,
+    radiance, chi2_per_dof), ... `fixed_dmax` in [0, 1]; `calibration` a
+    calibration.toml. Raises ValueError (bad argument, unknown effect, bad capture)
+    or OSError (unreadable file). Releases the GIL."""
+
+def diagnose(
+    capture: _Path,
+    effects: Optional[Sequence[str]] = None,
+    *,
+    max_added: int = 3,
+    calibration: Optional[_Path] = None,
+    fixed_dmax: Optional[float] = None,
+    trust_reference: bool = False,
+    rayleigh_radiance: bool = False,
+    all_pixels: bool = False,
+) -> Dict[str, Any]:
+    """Fits `effects` (kept), then adds the catalog effect the evidence names, at most
+    `max_added` of them. Returns the data of the CLI's diagnosis.json: "selected",
+    "steps" (each "model" beside fit.json's fields), "rankings" (candidates with
+    delta_chi2, delta_bic), "inseparable" ([effect, reason]), "confusable",
+    "unexplained" (bool) and "unexplained_summary". Releases the GIL."""

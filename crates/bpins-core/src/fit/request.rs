@@ -1,0 +1,123 @@
+//! What `bpins fit` and `bpins diagnose` are asked, and what they write, in one place
+//! for every front end (the CLI, the Python package): a [`FitRequest`] names the
+//! capture, the model's effects, the options and a calibration, and [`FitRequest::load`]
+//! checks it and reads the capture into [`FitOptions`] and frames; [`FitJson`] and
+//! [`DiagnosisJson`] are `fit.json` and `diagnosis.json` (README, "fit.json and
+//! diagnosis.json"), so every front end writes the same schema.
+
+use super::diagnose::Diagnosis;
+use super::{FitOptions, FitResult};
+use crate::calibration::Calibration;
+use crate::capture::{Capture, FrameData};
+use crate::error::{Error, Result};
+use std::path::PathBuf;
+
+/// A fit or a diagnosis to run on a capture.
+#[derive(Clone, Debug, Default)]
+pub struct FitRequest {
+    /// The capture folder (bpins-capture/1).
+    pub capture: PathBuf,
+    /// Effects whose parameters are fitted, by registry name (`bpins effects`).
+    pub effects: Vec<String>,
+    /// Hold each frame's heading at its reference instead of fitting it.
+    pub trust_reference: bool,
+    /// The sky's peak degree of linear polarization when known, in [0, 1].
+    pub fixed_dmax: Option<f64>,
+    /// Hold every frame's sky radiance at Rayleigh's instead of fitting its shape.
+    pub rayleigh_radiance: bool,
+    /// A calibration (bpins-calibration/1): its effects are known and held at their
+    /// values (an effect also in `effects` is fitted); its per-pixel maps, if any, are
+    /// applied to every frame.
+    pub calibration: Option<PathBuf>,
+    /// Fit every pixel, including those each frame's sky mask leaves out.
+    pub all_pixels: bool,
+}
+
+/// A checked request with its capture read.
+#[derive(Debug)]
+pub struct Loaded {
+    pub options: FitOptions,
+    pub capture: Capture,
+    pub frames: Vec<FrameData>,
+}
+
+impl FitRequest {
+    /// Checks the request (every effect named in the registry, d_max in [0, 1]), reads
+    /// the calibration and every frame of the capture, applying the calibration's
+    /// per-pixel maps; `progress(frames_read, frames)` after each frame.
+    pub fn load(&self, progress: &dyn Fn(usize, usize)) -> Result<Loaded> {
+        let effects = self
+            .effects
+            .iter()
+            .map(|s| s.trim())
+            .filter(|s| !s.is_empty())
+            .map(crate::effects::find)
+            .collect::<Result<Vec<_>>>()?;
+        if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
+            return Err(Error::Model(format!("fixed d_max {d}: must lie in [0, 1]")));
+        }
+        let capture = Capture::load(&self.capture)?;
+        let cal = self.calibration.as_deref().map(Calibration::load).transpose()?;
+        let pixels = cal.as_ref().and_then(|c| c.pixels.as_ref());
+        let n = capture.frames.len();
+        let mut frames = Vec::with_capacity(n);
+        for i in 0..n {
+            let data = capture.read_frame(i)?;
+            frames.push(match pixels {
+                Some(m) => crate::pipeline::apply_pixel_maps(&capture, data, m)?,
+                None => data,
+            });
+            progress(i + 1, n);
+        }
+        let options = FitOptions {
+            effects,
+            trust_reference: self.trust_reference,
+            fixed_dmax: self.fixed_dmax,
+            rayleigh_radiance: self.rayleigh_radiance,
+            all_pixels: self.all_pixels,
+            sky_masks: None,
+            known: cal.map(|c| c.effects).unwrap_or_default(),
+        };
+        Ok(Loaded { options, capture, frames })
+    }
+}
+
+/// `fit.json`: the capture, the model's effects and the fit's own fields
+/// ([`FitResult`], the schema every fit result shares).
+#[derive(serde::Serialize)]
+pub struct FitJson<'a> {
+    pub capture: String,
+    pub effects: Vec<&'static str>,
+    #[serde(flatten)]
+    pub fit: &'a FitResult,
+}
+
+impl<'a> FitJson<'a> {
+    pub fn new(capture: &std::path::Path, options: &FitOptions, fit: &'a FitResult) -> Self {
+        let effects = options.effects.iter().map(|e| e.name).collect();
+        FitJson { capture: capture.display().to_string(), effects, fit }
+    }
+}
+
+/// `diagnosis.json`: the capture, the diagnosis's own fields ([`Diagnosis`]: each step
+/// carries the same fields as `fit.json`) and, for readers that want only the verdict,
+/// whether a residual remains unexplained and what remains in words.
+#[derive(serde::Serialize)]
+pub struct DiagnosisJson<'a> {
+    pub capture: String,
+    #[serde(flatten)]
+    pub diagnosis: &'a Diagnosis,
+    pub unexplained: bool,
+    pub unexplained_summary: String,
+}
+
+impl<'a> DiagnosisJson<'a> {
+    pub fn new(capture: &std::path::Path, diagnosis: &'a Diagnosis) -> Self {
+        DiagnosisJson {
+            capture: capture.display().to_string(),
+            diagnosis,
+            unexplained: diagnosis.unexplained(),
+            unexplained_summary: diagnosis.summary(),
+        }
+    }
+}

@@ -1,0 +1,75 @@
+"""fit and diagnose from Python: the same data as the CLI's fit.json and
+diagnosis.json (one schema), the hidden effect of a sample found, and bad
+arguments refused with their name."""
+
+import json
+import subprocess
+
+import pytest
+
+import bpins
+
+
+def cli_json(cli, args, out, name):
+    subprocess.run([cli, *args, "--out", str(out)], check=True, capture_output=True)
+    return json.loads((out / name).read_text())
+
+
+def same(a, b, at="$"):
+    """Where two JSON values differ (None: nowhere); numbers to 1e-9 relative."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        if a.keys() != b.keys():
+            return f"{at}: keys {sorted(a)} vs {sorted(b)}"
+        return next((d for k in a if (d := same(a[k], b[k], f"{at}.{k}"))), None)
+    if isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            return f"{at}: {len(a)} vs {len(b)} items"
+        return next((d for i, (x, y) in enumerate(zip(a, b)) if (d := same(x, y, f"{at}[{i}]"))), None)
+    if isinstance(a, float) and isinstance(b, float):
+        return None if abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b)) else f"{at}: {a} vs {b}"
+    return None if a == b else f"{at}: {a!r} vs {b!r}"
+
+
+def test_fit_returns_the_cli_fit_json(samples, cli, tmp_path):
+    cap = samples / "hidden-analyzer-angles"
+    got = bpins.fit(cap, ["analyzer_angles"])
+    want = cli_json(cli, ["fit", str(cap), "--effects", "analyzer_angles"], tmp_path / "fit", "fit.json")
+    assert got.keys() == want.keys()
+    assert got["effects"] == want["effects"] == ["analyzer_angles"]
+    # The same fit, to 1e-9.
+    assert same(got, want) is None, same(got, want)
+    params = {p["name"]: p for p in got["params"]}
+    # The sample's truth: d45 = +1.0°, d135 = −0.6°, recovered within 3σ.
+    for name, truth in [("analyzer_angles.d45_deg", 1.0), ("analyzer_angles.d135_deg", -0.6)]:
+        p = params[name]
+        assert p["unit"] == "deg"
+        assert abs(p["value"] - truth) <= 3.0 * p["sigma"], p
+    assert 0.9 < got["chi2_per_dof"] < 1.1
+    assert len(got["frames"]) == 8
+
+
+def test_diagnose_names_the_hidden_effect_as_the_cli_does(samples, cli, tmp_path):
+    cap = samples / "hidden-analyzer-angles"
+    got = bpins.diagnose(cap, max_added=1)
+    want = cli_json(cli, ["diagnose", str(cap), "--max-added", "1"], tmp_path / "d", "diagnosis.json")
+    assert same(got, want) is None, same(got, want)
+    assert got["selected"] == ["analyzer_angles"]
+    assert got["unexplained"] is False
+    assert isinstance(got["unexplained_summary"], str)
+    # Each step carries fit.json's fields beside its model.
+    assert got["steps"][-1]["model"] == ["analyzer_angles"]
+    assert got["steps"][-1]["chi2_per_dof"] < 1.1
+
+
+def test_bad_fit_arguments_name_themselves(samples, tmp_path):
+    cap = samples / "clean"
+    with pytest.raises(ValueError, match="effects: unknown effect `no_such_effect`"):
+        bpins.fit(cap, ["no_such_effect"])
+    with pytest.raises(TypeError):
+        bpins.fit(cap, "analyzer_angles")  # a str, not a list of names
+    with pytest.raises(ValueError, match="fixed_dmax"):
+        bpins.fit(cap, fixed_dmax=float("nan"))
+    with pytest.raises(ValueError, match="fixed_dmax"):
+        bpins.diagnose(cap, fixed_dmax=1.5)
+    with pytest.raises(ValueError, match="no-capture-here/capture.toml: not found"):
+        bpins.fit(tmp_path / "no-capture-here")
