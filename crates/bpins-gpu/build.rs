@@ -11,6 +11,9 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
+#[path = "src/precision.rs"]
+#[allow(dead_code)]
+mod precision;
 #[path = "src/ray_dispatch.rs"]
 mod ray_dispatch;
 
@@ -27,6 +30,8 @@ fn wgsl_files(dir: &Path) -> Vec<PathBuf> {
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
     println!("cargo:rerun-if-changed={}", root.display());
+    println!("cargo:rerun-if-changed=src/precision.rs");
+    println!("cargo:rerun-if-changed=src/ray_dispatch.rs");
     let mut shared = String::new();
     let mut effects = Vec::new();
     for dir in ["common", "effects"] {
@@ -45,17 +50,21 @@ fn main() {
     let mut failures = Vec::new();
     for k in wgsl_files(&root.join("kernels")) {
         println!("cargo:rerun-if-changed={}", k.display());
-        let src = shared.clone() + &fs::read_to_string(&k).unwrap_or_else(|e| panic!("reading {}: {e}", k.display()));
+        let src64 = shared.clone() + &fs::read_to_string(&k).unwrap_or_else(|e| panic!("reading {}: {e}", k.display()));
         let name = k.file_name().unwrap().to_string_lossy().to_string();
-        match naga::front::wgsl::parse_str(&src) {
-            Err(e) => failures.push(format!("{name}: {}", e.emit_to_string(&src))),
-            Ok(module) => {
-                let mut v = naga::valid::Validator::new(
-                    naga::valid::ValidationFlags::all(),
-                    naga::valid::Capabilities::FLOAT64,
-                );
-                if let Err(e) = v.validate(&module) {
-                    failures.push(format!("{name}: {}", e.emit_to_string(&src)));
+        // Each kernel at both precisions: f64 with the FLOAT64 capability, the f32 twin
+        // (precision.rs) without it, so an f64 left in the f32 module fails the build.
+        for (tag, src, caps) in [
+            ("f64", src64.clone(), naga::valid::Capabilities::FLOAT64),
+            ("f32", precision::to_f32(&src64), naga::valid::Capabilities::empty()),
+        ] {
+            match naga::front::wgsl::parse_str(&src) {
+                Err(e) => failures.push(format!("{name} ({tag}): {}", e.emit_to_string(&src))),
+                Ok(module) => {
+                    let mut v = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), caps);
+                    if let Err(e) = v.validate(&module) {
+                        failures.push(format!("{name} ({tag}): {}", e.emit_to_string(&src)));
+                    }
                 }
             }
         }

@@ -25,16 +25,33 @@ fn intrinsics_from(w: Wide4, k: Wide4) -> Intrinsics {
 }
 
 // Ideal normalised coordinates of the distorted ones: r·(1 + k1 r² + k2 r⁴) = r_d by
-// twelve Newton steps from r = r_d, direction unchanged (camera::undistort).
+// twelve Newton steps from r = min(r_d, r_fold), each kept in [0, r_fold]; beyond the
+// distortion's fold a pixel sees the fold's ray (camera::undistort).
 fn undistort(k: vec2<f64>, xd: f64, yd: f64) -> vec2<f64> {
     let rd = sqrt(xd * xd + yd * yd);
-    var r = rd;
+    let fold = distortion_fold(k);
+    var r = select(rd, min(rd, fold.x), fold.y != 0.0lf);
     for (var n = 0; n < 12; n++) {
         let r2 = r * r;
-        r -= (r * (1.0lf + k.x * r2 + k.y * r2 * r2) - rd) / (1.0lf + 3.0lf * k.x * r2 + 5.0lf * k.y * r2 * r2);
+        let slope = 1.0lf + 3.0lf * k.x * r2 + 5.0lf * k.y * r2 * r2;
+        // At the fold (slope 0) the step is undefined: r stays.
+        var next = max(r - (r * (1.0lf + k.x * r2 + k.y * r2 * r2) - rd) / slope, 0.0lf);
+        next = select(next, min(next, fold.x), fold.y != 0.0lf);
+        r = select(r, next, slope > 0.0lf);
     }
     let scale = select(1.0lf, r / rd, rd > 0.0lf);
     return vec2<f64>(xd * scale, yd * scale);
+}
+
+// (r_fold, 1) for the smallest r > 0 where 1 + 3 k1 r² + 5 k2 r⁴ = 0, or (0, 0) where
+// the distortion never folds (camera::distortion_fold_r): with s = r², the roots of
+// 5 k2 s² + 3 k1 s + 1 = 0 are 2 / (−3 k1 ∓ √(9 k1² − 20 k2)).
+fn distortion_fold(k: vec2<f64>) -> vec2<f64> {
+    let b = 3.0lf * k.x;
+    let disc = b * b - 20.0lf * k.y;
+    let d = select(-b + sqrt(max(disc, 0.0lf)), 0.0lf, disc < 0.0lf);
+    let has = d > 0.0lf;
+    return vec2<f64>(select(0.0lf, sqrt(2.0lf / select(1.0lf, d, has)), has), select(0.0lf, 1.0lf, has));
 }
 
 struct MeridionalBasis {

@@ -242,18 +242,45 @@ impl Intrinsics {
 
 /// Ideal normalised coordinates of the distorted ones `(x_d, y_d)`: the radius r with
 /// r·(1 + k1 r² + k2 r⁴) = r_d by twelve Newton steps from r = r_d (a fixed count, so
-/// the WGSL twin takes the same steps), the direction unchanged. Meaningful where the
-/// distortion is monotonic over the image (1 + 3 k1 r² + 5 k2 r⁴ > 0).
+/// the WGSL twin takes the same steps), the direction unchanged.
+///
+/// Where the distortion folds (its slope 1 + 3 k1 r² + 5 k2 r⁴ reaches 0 at r_fold,
+/// [`distortion_fold_r`]), no ray lands beyond the fold's distorted radius: such a
+/// pixel sees the fold's ray (r = r_fold), and every Newton step is kept in
+/// [0, r_fold], so the map is defined, continuous and the same at any float precision
+/// everywhere instead of wandering where the polynomial has no inverse.
 #[inline(always)]
 pub fn undistort(k: [f64; 2], x_d: f64, y_d: f64) -> (f64, f64) {
     let rd = (x_d * x_d + y_d * y_d).sqrt();
-    let mut r = rd;
+    let r_fold = distortion_fold_r(k);
+    let mut r = rd.min(r_fold);
     for _ in 0..12 {
         let r2 = r * r;
-        r -= (r * (1.0 + k[0] * r2 + k[1] * r2 * r2) - rd) / (1.0 + 3.0 * k[0] * r2 + 5.0 * k[1] * r2 * r2);
+        let slope = 1.0 + 3.0 * k[0] * r2 + 5.0 * k[1] * r2 * r2;
+        // At the fold (slope 0) the step is undefined: r stays.
+        let next = (r - (r * (1.0 + k[0] * r2 + k[1] * r2 * r2) - rd) / slope).clamp(0.0, r_fold);
+        r = if slope > 0.0 { next } else { r };
     }
     let scale = if rd > 0.0 { r / rd } else { 1.0 };
     (x_d * scale, y_d * scale)
+}
+
+/// The smallest normalised radius r > 0 where the distortion's slope
+/// 1 + 3 k1 r² + 5 k2 r⁴ vanishes (its fold), or `f64::MAX` where it never does. With
+/// s = r²: 5 k2 s² + 3 k1 s + 1 = 0, whose roots are 2 / (−3 k1 ∓ √(9 k1² − 20 k2))
+/// (the form that holds at k2 = 0 too).
+#[inline(always)]
+pub fn distortion_fold_r(k: [f64; 2]) -> f64 {
+    let b = 3.0 * k[0];
+    let disc = b * b - 20.0 * k[1];
+    let sq = disc.max(0.0).sqrt();
+    // A root s = 2/d is positive where d > 0; the smaller s is the larger d, −b + √.
+    let d = if disc < 0.0 { 0.0 } else { -b + sq };
+    if d > 0.0 {
+        (2.0 / d).sqrt()
+    } else {
+        f64::MAX
+    }
 }
 
 /// A pixel's unit ray `d` (camera frame), its meridional basis and its squared

@@ -44,17 +44,6 @@ pub struct StageDiff {
     pub worst: String,
 }
 
-/// The stages in report order: (name, tolerance, unit).
-pub const STAGES: [(&str, f64, &str); 7] = [
-    ("intensity", INTENSITY_REL, "relative"),
-    ("aop_deg", AOP_DEG, "deg"),
-    ("dolp", DOLP_ABS, "1"),
-    ("aoe_deg", AOP_DEG, "deg"),
-    ("dn", DN_MAX_ABS, "DN"),
-    ("dn_off_fraction", DN_OFF_FRACTION, "fraction of pixels"),
-    ("heading_deg", HEADING_DEG, "deg"),
-];
-
 /// A case: a name and the effect parameters it sets.
 #[derive(Clone, Debug)]
 pub struct Case {
@@ -142,7 +131,7 @@ fn fxhash(s: &str) -> u32 {
     s.bytes().fold(0x811c_9dc5u32, |h, b| (h ^ b as u32).wrapping_mul(0x0100_0193)) & 0xFFFF
 }
 
-/// Largest difference of each stage for one trial frame, in [`STAGES`] order.
+/// Largest difference of each stage for one trial frame, in [`stages`] order.
 pub fn compare(gpu: &Gpu, t: &TrialFrame) -> Result<[f64; 7]> {
     let (w, h) = (WIDTH_PX, HEIGHT_PX);
     let f = &t.frame;
@@ -235,7 +224,8 @@ fn heading_gap(cpu: &HeadingSums, gpu: &HeadingSums, ctx: &HeadingContext) -> f6
 pub fn agree(gpu: &Gpu, trials: u32, seed: u64, progress: &dyn Fn(usize, usize)) -> Result<Vec<StageDiff>> {
     let cases = cases();
     let total = cases.len() * trials as usize;
-    let mut worst: Vec<(f64, String)> = vec![(0.0, String::new()); STAGES.len()];
+    let stages = stages(gpu.precision());
+    let mut worst: Vec<(f64, String)> = vec![(0.0, String::new()); stages.len()];
     let mut done = 0;
     for case in &cases {
         for trial in 0..trials {
@@ -251,7 +241,7 @@ pub fn agree(gpu: &Gpu, trials: u32, seed: u64, progress: &dyn Fn(usize, usize))
             progress(done, total);
         }
     }
-    Ok(STAGES
+    Ok(stages
         .iter()
         .zip(worst)
         .map(|(&(stage, tolerance, unit), (max, at))| StageDiff {

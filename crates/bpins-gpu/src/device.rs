@@ -1,7 +1,11 @@
-//! The device: a Vulkan adapter with f64 shaders, its pipelines, and buffer plumbing.
+//! The device: an adapter, the kernels' precision (f64 where it has `SHADER_F64`,
+//! f32 otherwise or by choice: `precision.rs`), its pipelines, and buffer plumbing.
 
-use crate::shaders::module_source;
+use crate::precision::Precision;
+use crate::shaders::module_source_at;
+use crate::timing::{KernelTime, Timer};
 use crate::{GpuError, Result};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use wgpu::util::DeviceExt;
 
@@ -10,10 +14,23 @@ pub struct Gpu {
     pub(crate) device: wgpu::Device,
     pub(crate) queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
+    pub(crate) precision: Precision,
     pub(crate) limits: wgpu::Limits,
     pub(crate) pipelines: Pipelines,
     /// Errors wgpu reports outside an error scope (kept, never a panic).
     uncaptured: Arc<Mutex<Vec<String>>>,
+    /// Bytes written to the device and read back since the last [`Gpu::take_traffic`].
+    uploaded: AtomicU64,
+    downloaded: AtomicU64,
+    /// Per-kernel timestamps, where the adapter has them.
+    timer: Option<Timer>,
+}
+
+/// Host ↔ device traffic: bytes uploaded (parameters, inputs) and downloaded (results).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Traffic {
+    pub uploaded_bytes: u64,
+    pub downloaded_bytes: u64,
 }
 
 pub(crate) struct Pipelines {
@@ -26,45 +43,46 @@ pub(crate) struct Pipelines {
 }
 
 impl Gpu {
-    /// Opens the best Vulkan adapter (a discrete GPU before an integrated one before
-    /// Mesa lavapipe), or the one whose name contains `$BPINS_GPU_ADAPTER`. Errors,
-    /// never panics, when there is none or it lacks f64 shaders.
+    /// Opens the best adapter ([`open_adapter`]: Vulkan, Metal or DX12, then GL; a
+    /// discrete GPU before an integrated one before a CPU rasterizer), with the f64
+    /// kernels where it has f64 shaders and the f32 ones where it has not. Errors,
+    /// never panics, when there is none.
     pub fn new() -> Result<Gpu> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-            backends: wgpu::Backends::VULKAN,
-            ..wgpu::InstanceDescriptor::new_without_display_handle()
-        });
-        let adapter = match std::env::var("BPINS_GPU_ADAPTER") {
-            // A named adapter: the first whose name contains the text (any case).
-            Ok(want) if !want.is_empty() => {
-                let all = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
-                let names: Vec<String> = all.iter().map(|a| a.get_info().name).collect();
-                all.into_iter().find(|a| a.get_info().name.to_lowercase().contains(&want.to_lowercase())).ok_or_else(
-                    || {
-                        GpuError::NoAdapter(format!(
-                            "BPINS_GPU_ADAPTER={want} matches none of the Vulkan adapters [{}]",
-                            names.join(", ")
-                        ))
-                    },
-                )?
-            }
-            _ => pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-                power_preference: wgpu::PowerPreference::HighPerformance,
-                ..Default::default()
-            }))
-            .map_err(|e| GpuError::NoAdapter(e.to_string()))?,
-        };
+        Gpu::with_precision(None)
+    }
+
+    /// [`Gpu::new`] at a chosen precision (`None`: f64 where the adapter has it); f64
+    /// on an adapter without f64 shaders is an error naming the adapter.
+    pub fn with_precision(precision: Option<Precision>) -> Result<Gpu> {
+        Gpu::open(precision, None)
+    }
+
+    /// [`Gpu::with_precision`] on the given wgpu backends only (`None`: as
+    /// [`Gpu::new`] chooses), e.g. `wgpu::Backends::GL` for wgpu's GL backend.
+    pub fn open(precision: Option<Precision>, backends: Option<wgpu::Backends>) -> Result<Gpu> {
+        let adapter = open_adapter(backends)?;
         let info = adapter.get_info();
-        if !adapter.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(GpuError::MissingFeature {
-                adapter: info.name.clone(),
-                feature: "SHADER_F64 (f64 in shaders)",
-            });
-        }
+        let has_f64 = adapter.features().contains(wgpu::Features::SHADER_F64);
+        let precision = match precision {
+            Some(Precision::F64) if !has_f64 => {
+                return Err(GpuError::MissingFeature {
+                    adapter: info.name.clone(),
+                    feature: "SHADER_F64 (f64 in shaders; --gpu-precision f32 runs without it)",
+                })
+            }
+            Some(p) => p,
+            None if has_f64 => Precision::F64,
+            None => Precision::F32,
+        };
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let required_features = match precision {
+            Precision::F64 => wgpu::Features::SHADER_F64,
+            Precision::F32 => wgpu::Features::empty(),
+        } | if timestamps { wgpu::Features::TIMESTAMP_QUERY } else { wgpu::Features::empty() };
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("bpins"),
-            required_features: wgpu::Features::SHADER_F64,
+            required_features,
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -77,11 +95,22 @@ impl Gpu {
             }
         }));
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipelines = Pipelines::new(&device)?;
+        let pipelines = Pipelines::new(&device, precision)?;
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Shader(e.to_string()));
         }
-        Ok(Gpu { device, queue, info, limits, pipelines, uncaptured })
+        Ok(Gpu {
+            device,
+            info,
+            precision,
+            limits,
+            pipelines,
+            uncaptured,
+            uploaded: AtomicU64::new(0),
+            downloaded: AtomicU64::new(0),
+            timer: timestamps.then(|| Timer::new(&queue)),
+            queue,
+        })
     }
 
     /// The adapter, as "name (driver, backend)".
@@ -90,6 +119,25 @@ impl Gpu {
         let driver =
             if i.driver_info.is_empty() { i.driver.clone() } else { format!("{} {}", i.driver, i.driver_info) };
         format!("{} ({}, {:?})", i.name, driver, i.backend)
+    }
+
+    /// The precision the kernels run at.
+    pub fn precision(&self) -> Precision {
+        self.precision
+    }
+
+    /// The traffic since the last call (or since the device opened), then zero again.
+    pub fn take_traffic(&self) -> Traffic {
+        Traffic {
+            uploaded_bytes: self.uploaded.swap(0, Ordering::Relaxed),
+            downloaded_bytes: self.downloaded.swap(0, Ordering::Relaxed),
+        }
+    }
+
+    /// Device time per kernel since the last call (or since the device opened), then
+    /// zero again; `None` where the adapter has no timestamp queries.
+    pub fn take_kernel_times(&self) -> Option<Vec<KernelTime>> {
+        self.timer.as_ref().map(Timer::take)
     }
 
     /// Whether the adapter is a CPU rasterizer (lavapipe, SwiftShader).
@@ -103,6 +151,7 @@ impl Gpu {
     }
 
     pub(crate) fn storage<T: bytemuck::Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {
+        self.uploaded.fetch_add(std::mem::size_of_val(data) as u64, Ordering::Relaxed);
         self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
             contents: bytemuck::cast_slice(data),
@@ -111,6 +160,7 @@ impl Gpu {
     }
 
     pub(crate) fn uniform<T: bytemuck::Pod>(&self, label: &str, data: &T) -> wgpu::Buffer {
+        self.uploaded.fetch_add(std::mem::size_of::<T>() as u64, Ordering::Relaxed);
         self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
             contents: bytemuck::bytes_of(data),
@@ -158,15 +208,38 @@ impl Gpu {
             mapped_at_creation: false,
         });
         let mut enc = self.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            for (pipeline, group, [x, y, z]) in passes {
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, Some(*group), &[]);
-                pass.dispatch_workgroups(*x, *y, *z);
+        let pending = match &self.timer {
+            None => {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                for (pipeline, group, [x, y, z]) in passes {
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(0, Some(*group), &[]);
+                    pass.dispatch_workgroups(*x, *y, *z);
+                }
+                None
             }
-        }
+            // One pass per dispatch, a timestamp at its start and its end.
+            Some(timer) => {
+                let queries = timer.queries(&self.device, passes.len());
+                for (k, (pipeline, group, [x, y, z])) in passes.iter().enumerate() {
+                    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: None,
+                        timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                            query_set: &queries.0,
+                            beginning_of_pass_write_index: Some(2 * k as u32),
+                            end_of_pass_write_index: Some(2 * k as u32 + 1),
+                        }),
+                    });
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(0, Some(*group), &[]);
+                    pass.dispatch_workgroups(*x, *y, *z);
+                }
+                let kernels = passes.iter().map(|(p, ..)| self.pipelines.name_of(p)).collect();
+                Some(timer.resolve(&mut enc, queries, kernels))
+            }
+        };
         enc.copy_buffer_to_buffer(out, 0, &staging, 0, size);
+        self.downloaded.fetch_add(size, Ordering::Relaxed);
         self.queue.submit([enc.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
         staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
@@ -182,6 +255,9 @@ impl Gpu {
             return Err(GpuError::Device(e.to_string()));
         }
         self.check_uncaptured()?;
+        if let (Some(timer), Some(p)) = (&self.timer, pending) {
+            timer.finish(&self.device, p);
+        }
         rx.recv()
             .map_err(|_| GpuError::Device("read-back never completed".into()))?
             .map_err(|e| GpuError::Device(format!("read-back: {e}")))?;
@@ -203,10 +279,71 @@ impl Gpu {
     }
 }
 
+/// The backends to look on: those chosen, else `$WGPU_BACKEND` (wgpu's own variable: `vulkan`, `metal`,
+/// `dx12`, `gl`, comma-separated) or every backend compiled in, the primary ones
+/// (Vulkan, Metal, DX12) first, GL only where they offer no adapter.
+fn backend_tiers(chosen: Option<wgpu::Backends>) -> Vec<wgpu::Backends> {
+    match chosen.or_else(wgpu::Backends::from_env) {
+        Some(b) => vec![b],
+        None => vec![wgpu::Backends::PRIMARY, wgpu::Backends::GL],
+    }
+}
+
+/// The adapter: the one whose name contains `$BPINS_GPU_ADAPTER` (any case), else the
+/// high-performance one of the first backend tier that has any.
+fn open_adapter(chosen: Option<wgpu::Backends>) -> Result<wgpu::Adapter> {
+    let want = std::env::var("BPINS_GPU_ADAPTER").ok().filter(|w| !w.is_empty());
+    let mut seen = Vec::new();
+    for backends in backend_tiers(chosen) {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends,
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        let all = pollster::block_on(instance.enumerate_adapters(backends));
+        seen.extend(all.iter().map(|a| format!("{} ({:?})", a.get_info().name, a.get_info().backend)));
+        if let Some(want) = &want {
+            if let Some(a) = all.into_iter().find(|a| a.get_info().name.to_lowercase().contains(&want.to_lowercase())) {
+                return Ok(a);
+            }
+            continue;
+        }
+        if all.is_empty() {
+            continue;
+        }
+        if let Ok(a) = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            ..Default::default()
+        })) {
+            return Ok(a);
+        }
+    }
+    Err(GpuError::NoAdapter(match want {
+        Some(w) => format!("BPINS_GPU_ADAPTER={w} matches none of the adapters [{}]", seen.join(", ")),
+        None if seen.is_empty() => "no Vulkan, Metal, DX12 or GL adapter".into(),
+        None => format!("none of [{}] could be opened", seen.join(", ")),
+    }))
+}
+
 impl Pipelines {
-    fn new(device: &wgpu::Device) -> Result<Pipelines> {
+    /// The entry point of one of these pipelines.
+    fn name_of(&self, p: &wgpu::ComputePipeline) -> &'static str {
+        [
+            (&self.render_mosaic, "render_mosaic"),
+            (&self.render_colocated, "render_colocated"),
+            (&self.chain_maps, "chain_maps"),
+            (&self.sky_maps, "sky_maps"),
+            (&self.frame_sums, "frame_sums"),
+            (&self.reduce_partials, "reduce_partials"),
+        ]
+        .into_iter()
+        .find(|(q, _)| std::ptr::eq(*q, p))
+        .map_or("other", |(_, n)| n)
+    }
+
+    fn new(device: &wgpu::Device, precision: Precision) -> Result<Pipelines> {
         let module = |kernel: &str| -> Result<wgpu::ShaderModule> {
-            let src = module_source(kernel).ok_or_else(|| GpuError::Shader(format!("no kernel {kernel}")))?;
+            let src =
+                module_source_at(kernel, precision).ok_or_else(|| GpuError::Shader(format!("no kernel {kernel}")))?;
             Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(kernel),
                 source: wgpu::ShaderSource::Wgsl(src.into()),

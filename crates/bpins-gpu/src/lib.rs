@@ -2,14 +2,16 @@
 //!
 //! The GPU twin of `bpins-core`: the same per-pixel chain (sky, projection, lens
 //! Mueller, effects, analyzers, sensor response with noise, Stokes, AoP/DoLP, heading
-//! sums) in `shaders/`, run through wgpu on Vulkan — Mesa lavapipe where there is no
-//! GPU, the vendor driver where there is. The CPU code is the reference: every WGSL
+//! sums) in `shaders/`, run through wgpu on Vulkan, Metal, DX12 or GL — Mesa lavapipe
+//! where there is no GPU, the vendor driver where there is. The CPU code is the reference: every WGSL
 //! function has a CPU twin of the same name, argument order and step comments.
 //!
 //! * Noise: the CPU's counter-based generator (`common/noise.wgsl`), so both backends
 //!   draw the same numbers and agree trial by trial.
-//! * Precision: the radiometric chain and the sums run in f64 (`SHADER_F64`); the
-//!   noise's transcendentals in f32 exactly as the CPU evaluates them.
+//! * Precision: the radiometric chain and the sums run in f64 (`SHADER_F64`), the
+//!   noise's transcendentals in f32 exactly as the CPU evaluates them; where the
+//!   adapter lacks f64, or by choice, the same source runs in f32 ([`precision`]),
+//!   with statistical tolerances.
 //! * Heading: reduced on the device (workgroup tree sums, then a per-frame reduce);
 //!   119 numbers per frame come back, never the frame.
 //! * Batches: many frames (trials) per dispatch, split where the device's buffer
@@ -21,22 +23,28 @@ pub mod agree;
 mod device;
 pub mod montecarlo;
 pub mod params;
+pub mod precision;
 pub mod ray_dispatch;
 mod render;
 pub mod shaders;
 mod sums;
 pub mod sweep;
+mod timing;
 pub mod tolerance;
 
-pub use device::Gpu;
+pub use device::{Gpu, Traffic};
+pub use precision::Precision;
 pub use render::ChainSample;
 pub use sums::{SampleLayout, SumsJob, SUMS_LEN};
+pub use timing::KernelTime;
+/// wgpu, as this crate's API names its types (`wgpu::Backends` in [`Gpu::open`]).
+pub use wgpu;
 
 /// What can go wrong on the device.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
     #[error(
-        "no Vulkan adapter found ({0}); install a Vulkan driver (Debian: mesa-vulkan-drivers libvulkan1 for lavapipe)"
+        "no GPU adapter found ({0}); install a Vulkan driver (Debian: mesa-vulkan-drivers libvulkan1 for lavapipe)"
     )]
     NoAdapter(String),
     #[error("the adapter {adapter} lacks {feature}, which the bpins kernels need")]

@@ -3,6 +3,7 @@
 //! the registry (`ray_dispatch.rs`), then one kernel file. `build.rs` has validated the
 //! same modules with naga (a test checks the two assemble the same text).
 
+use crate::precision::Precision;
 use crate::ray_dispatch::ray_effects_wgsl;
 use bpins_core::effects::{RAY_EFFECTS, REGISTRY};
 
@@ -25,7 +26,12 @@ pub const KERNELS: &[(&str, &str)] = &[
     ("reduce", include_str!("../../../shaders/kernels/reduce.wgsl")),
 ];
 
-/// The full WGSL source of `kernel`; `None` for an unknown kernel name.
+/// The full WGSL source of `kernel` at `precision`; `None` for an unknown kernel name.
+pub fn module_source_at(kernel: &str, precision: Precision) -> Option<String> {
+    module_source(kernel).map(|src| precision.source(&src))
+}
+
+/// The full WGSL source of `kernel` as written (f64); `None` for an unknown kernel name.
 pub fn module_source(kernel: &str) -> Option<String> {
     let (_, body) = KERNELS.iter().find(|(k, _)| *k == kernel)?;
     let mut src = String::new();
@@ -67,11 +73,17 @@ mod tests {
             assert_eq!(*text, std::fs::read_to_string(root.join("common").join(name)).unwrap(), "{name}");
         }
         for (k, _) in KERNELS {
-            let src = module_source(k).unwrap();
-            let module = naga::front::wgsl::parse_str(&src).unwrap();
-            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::FLOAT64)
-                .validate(&module)
-                .unwrap_or_else(|e| panic!("{k}: {e:?}"));
+            // The f64 modules with FLOAT64, the f32 ones without it: no f64 is left.
+            for (p, caps) in [
+                (Precision::F64, naga::valid::Capabilities::FLOAT64),
+                (Precision::F32, naga::valid::Capabilities::empty()),
+            ] {
+                let src = module_source_at(k, p).unwrap();
+                let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{k} {p:?}: {e}"));
+                naga::valid::Validator::new(naga::valid::ValidationFlags::all(), caps)
+                    .validate(&module)
+                    .unwrap_or_else(|e| panic!("{k} {p:?}: {e:?}"));
+            }
         }
     }
 

@@ -5,6 +5,7 @@
 
 use crate::device::Gpu;
 use crate::params::{FrameParams, HeadingParams, ReconParams, ReduceDims, SampleGrid, SumsDims};
+use crate::precision::Precision;
 use crate::render::WG_EDGE;
 use crate::{GpuError, Result};
 use bpins_core::chain::ChainFrame;
@@ -66,7 +67,8 @@ impl Gpu {
         let wg_x = (sw as u32).div_ceil(WG_EDGE * SAMPLES_PER_INVOCATION);
         let wg_y = (sh as u32).div_ceil(WG_EDGE);
         let n_wg = (wg_x * wg_y) as u64;
-        let per_job = n_ctx as u64 * n_wg * SUMS_LEN as u64 * 8;
+        let float = self.precision.float_bytes();
+        let per_job = n_ctx as u64 * n_wg * SUMS_LEN as u64 * float;
         let batch = self.batch_size(jobs.len(), per_job, &format!("partial sums of a {w} × {h} px frame"))?;
         let mut out = Vec::with_capacity(jobs.len());
         for chunk in jobs.chunks(batch) {
@@ -95,18 +97,20 @@ impl Gpu {
                 self.storage("heading", &heading),
             );
             let partials = self.output("partials", per_job * chunk.len() as u64);
-            let sums = self.output("sums", n_jobs as u64 * SUMS_LEN as u64 * 8);
+            let sums = self.output("sums", n_jobs as u64 * SUMS_LEN as u64 * float);
             let ru = self.uniform("reduce dims", &rdims);
             let p = &self.pipelines;
             let g1 = self.bind(&p.frame_sums, &[&u, &f, &r, &hb, &partials]);
             let g2 = self.bind(&p.reduce_partials, &[&ru, &partials, &sums]);
-            let data: Vec<f64> = self.run(
-                &[
-                    (&p.frame_sums, &g1, [wg_x, wg_y, chunk.len() as u32]),
-                    (&p.reduce_partials, &g2, [SUMS_LEN as u32, n_jobs, 1]),
-                ],
-                &sums,
-            )?;
+            let passes = [
+                (&p.frame_sums, &g1, [wg_x, wg_y, chunk.len() as u32]),
+                (&p.reduce_partials, &g2, [SUMS_LEN as u32, n_jobs, 1]),
+            ];
+            // The sums come back in the kernels' precision.
+            let data: Vec<f64> = match self.precision {
+                Precision::F64 => self.run(&passes, &sums)?,
+                Precision::F32 => self.run::<f32>(&passes, &sums)?.into_iter().map(f64::from).collect(),
+            };
             for (j, job) in chunk.iter().enumerate() {
                 let of_job = &data[j * n_ctx * SUMS_LEN..][..n_ctx * SUMS_LEN];
                 out.push(of_job.chunks_exact(SUMS_LEN).take(job.contexts.len()).map(sums_from).collect());

@@ -1,6 +1,8 @@
 //! How closely the GPU must reproduce the CPU reference (`TOLERANCES.md` explains
 //! each figure). Enforced by the parity tests and by `bpins agree`.
 
+use crate::precision::Precision;
+
 /// Noise-free photo-signal (analyzer intensity × gain), relative to the CPU value.
 pub const INTENSITY_REL: f64 = 1e-5;
 /// Rounded DN: at most this many DN apart...
@@ -14,6 +16,43 @@ pub const AOP_MIN_DOLP: f64 = 0.01;
 pub const DOLP_ABS: f64 = 1e-5;
 /// Heading from the same frame, degrees, every extractor.
 pub const HEADING_DEG: f64 = 1e-3;
+
+/// The f32 kernels' bounds (TOLERANCES.md, "The f32 path"): statistical, since f32's
+/// 6e-8 puts a few pixels in a thousand on the other side of a rounding boundary.
+pub mod f32 {
+    /// Noise-free photo-signal, relative.
+    pub const INTENSITY_REL: f64 = 1e-4;
+    /// Rounded DN: at most this many DN apart...
+    pub const DN_MAX_ABS: f64 = 1.0;
+    /// ...on at most this fraction of pixels (1 %).
+    pub const DN_OFF_FRACTION: f64 = 1e-2;
+    /// AoP and AoE, degrees, where DoLP > [`super::AOP_MIN_DOLP`].
+    pub const AOP_DEG: f64 = 1e-2;
+    /// DoLP, absolute.
+    pub const DOLP_ABS: f64 = 1e-4;
+    /// Heading from the same frame, degrees.
+    pub const HEADING_DEG: f64 = 1e-2;
+}
+
+/// The stages `bpins agree` and the parity tests compare, in report order, with their
+/// bound at `precision`: (name, tolerance, unit).
+pub fn stages(precision: Precision) -> [(&'static str, f64, &'static str); 7] {
+    let t = match precision {
+        Precision::F64 => [INTENSITY_REL, AOP_DEG, DOLP_ABS, DN_MAX_ABS, DN_OFF_FRACTION, HEADING_DEG],
+        Precision::F32 => {
+            [f32::INTENSITY_REL, f32::AOP_DEG, f32::DOLP_ABS, f32::DN_MAX_ABS, f32::DN_OFF_FRACTION, f32::HEADING_DEG]
+        }
+    };
+    [
+        ("intensity", t[0], "relative"),
+        ("aop_deg", t[1], "deg"),
+        ("dolp", t[2], "1"),
+        ("aoe_deg", t[1], "deg"),
+        ("dn", t[3], "DN"),
+        ("dn_off_fraction", t[4], "fraction of pixels"),
+        ("heading_deg", t[5], "deg"),
+    ]
+}
 
 /// Largest |a − b| over two DN images and the fraction of samples that differ.
 pub fn dn_diff(cpu: &[f32], gpu: &[f32]) -> (f64, f64) {

@@ -3,20 +3,35 @@
 //! the reason — except with `CI` set, where a missing adapter fails them.
 
 use bpins_core::montecarlo::{self, Source, SweepConfig};
-use bpins_gpu::agree::{cases, compare, trial_frame, STAGES};
-use bpins_gpu::Gpu;
+use bpins_gpu::agree::{cases, compare, trial_frame};
+use bpins_gpu::tolerance::stages;
+use bpins_gpu::{Gpu, Precision};
 use std::sync::OnceLock;
 
-fn gpu() -> Option<&'static Gpu> {
-    static GPU: OnceLock<Result<Gpu, String>> = OnceLock::new();
-    match GPU.get_or_init(|| Gpu::new().map_err(|e| e.to_string())) {
+/// The device at `precision` (each opened once), or None (skipped) without an adapter.
+fn gpu_at(precision: Precision) -> Option<&'static Gpu> {
+    static GPUS: [OnceLock<Result<Gpu, String>>; 2] = [OnceLock::new(), OnceLock::new()];
+    let slot = &GPUS[precision as usize];
+    match slot.get_or_init(|| Gpu::with_precision(Some(precision)).map_err(|e| e.to_string())) {
         Ok(g) => Some(g),
-        Err(e) if std::env::var_os("CI").is_some() => panic!("CI is set and the GPU twin cannot run: {e}"),
+        Err(e) if std::env::var_os("CI").is_some() => {
+            panic!("CI is set and the GPU twin cannot run at {}: {e}", precision.name())
+        }
         Err(e) => {
-            eprintln!("SKIPPED (no usable Vulkan adapter): {e}");
+            eprintln!("SKIPPED (no usable adapter for the {} kernels): {e}", precision.name());
             None
         }
     }
+}
+
+/// The f64 kernels (the pixel-for-pixel reference twin).
+fn gpu() -> Option<&'static Gpu> {
+    gpu_at(Precision::F64)
+}
+
+/// Both precisions' devices, each checked against its own tolerances.
+fn gpus() -> Vec<&'static Gpu> {
+    [Precision::F64, Precision::F32].into_iter().filter_map(gpu_at).collect()
 }
 
 /// Runs `trials` trials of the case named `name` and asserts every stage's tolerance.
@@ -25,51 +40,69 @@ fn assert_case_agrees(gpu: &Gpu, name: &str, trials: u32) {
     for trial in 0..trials {
         let t = trial_frame(&case, trial, 2026).unwrap();
         let d = compare(gpu, &t).unwrap();
-        eprintln!("{}: {:?}", t.label, d);
-        for ((stage, tol, unit), x) in STAGES.iter().zip(d) {
-            assert!(x <= *tol, "{}: {stage} differs by {x:e} {unit} (tolerance {tol:e})", t.label);
+        eprintln!("{} ({}): {:?}", t.label, gpu.precision().name(), d);
+        for ((stage, tol, unit), x) in stages(gpu.precision()).iter().zip(d) {
+            assert!(
+                x <= *tol,
+                "{} ({}): {stage} differs by {x:e} {unit} (tolerance {tol:e})",
+                t.label,
+                gpu.precision().name()
+            );
         }
     }
 }
 
 #[test]
 fn every_registered_effect_agrees_on_both_backends() {
-    let Some(gpu) = gpu() else { return };
-    eprintln!("adapter: {}", gpu.adapter_name());
-    // Neutral, typical, minimum, maximum and a draw over the range for each effect
-    // of the registry (the projections cycle with the trial).
-    for e in bpins_core::effects::REGISTRY {
-        assert_case_agrees(gpu, e.name, 5);
+    for gpu in gpus() {
+        eprintln!("adapter: {}, {} kernels", gpu.adapter_name(), gpu.precision().name());
+        // Neutral, typical, minimum, maximum and a draw over the range for each effect
+        // of the registry (the projections cycle with the trial).
+        for e in bpins_core::effects::REGISTRY {
+            assert_case_agrees(gpu, e.name, 5);
+        }
     }
 }
 
 #[test]
 fn whole_chain_agrees_ideal_and_with_every_effect() {
-    let Some(gpu) = gpu() else { return };
-    assert_case_agrees(gpu, "ideal", 4);
-    assert_case_agrees(gpu, "all_effects", 4);
+    for gpu in gpus() {
+        assert_case_agrees(gpu, "ideal", 4);
+        assert_case_agrees(gpu, "all_effects", 4);
+    }
 }
 
 #[test]
 fn monte_carlo_trials_agree_trial_by_trial() {
-    let Some(gpu) = gpu() else { return };
-    // A small paper sweep: every source, two azimuths, three trials each.
-    let cfg = SweepConfig {
-        width_px: 306,
-        height_px: 256,
-        sun_azimuths_deg: vec![10.0, 50.0],
-        trials_per_azimuth: 3,
-        ..SweepConfig::default()
-    };
-    let cpu = montecarlo::run_sweep(&cfg, &Source::ALL, &|_, _| {}).unwrap();
-    let gpu_r = bpins_gpu::montecarlo::run_sweep(gpu, &cfg, &Source::ALL, &|_, _| {}).unwrap();
-    assert_eq!(cpu.len(), gpu_r.len());
-    for (c, g) in cpu.iter().zip(&gpu_r) {
-        assert_eq!((c.source, c.trial, c.draw), (g.source, g.trial, g.draw));
-        assert_eq!(c.errors.len(), g.errors.len());
-        for (a, b) in c.errors.iter().zip(&g.errors) {
-            assert_eq!((a.0, a.1), (b.0, b.1));
-            assert!((a.2 - b.2).abs() <= 1e-3, "{:?} trial {}: {:?} CPU {} GPU {}", c.source, c.trial, a.0, a.2, b.2);
+    for gpu in gpus() {
+        let tol = bpins_gpu::tolerance::stages(gpu.precision())[6].1;
+        // A small paper sweep: every source, two azimuths, three trials each.
+        let cfg = SweepConfig {
+            width_px: 306,
+            height_px: 256,
+            sun_azimuths_deg: vec![10.0, 50.0],
+            trials_per_azimuth: 3,
+            ..SweepConfig::default()
+        };
+        let cpu = montecarlo::run_sweep(&cfg, &Source::ALL, &|_, _| {}).unwrap();
+        let gpu_r = bpins_gpu::montecarlo::run_sweep(gpu, &cfg, &Source::ALL, &|_, _| {}).unwrap();
+        assert_eq!(cpu.len(), gpu_r.len());
+        for (c, g) in cpu.iter().zip(&gpu_r) {
+            assert_eq!((c.source, c.trial, c.draw), (g.source, g.trial, g.draw));
+            assert_eq!(c.errors.len(), g.errors.len());
+            for (a, b) in c.errors.iter().zip(&g.errors) {
+                assert_eq!((a.0, a.1), (b.0, b.1));
+                assert!(
+                    (a.2 - b.2).abs() <= tol,
+                    "{:?} trial {} ({}): {:?} CPU {} GPU {}",
+                    c.source,
+                    c.trial,
+                    gpu.precision().name(),
+                    a.0,
+                    a.2,
+                    b.2
+                );
+            }
         }
     }
 }
@@ -105,26 +138,49 @@ fn the_gpu_is_a_library_backend_like_the_cpu() {
 #[test]
 fn sky_maps_agree_on_both_backends_for_every_effect() {
     use bpins_core::backend::{Backend, Cpu};
-    use bpins_gpu::tolerance::{aop_diff_deg, AOP_DEG, AOP_MIN_DOLP, DOLP_ABS};
-    let Some(gpu) = gpu() else { return };
-    // The ideal chain and every effect together, at typical strength and at a range end.
-    for (name, trial) in [("ideal", 2), ("all_effects", 1), ("all_effects", 3)] {
-        let case = cases().into_iter().find(|c| c.name == name).unwrap();
-        let t = trial_frame(&case, trial, 11).unwrap();
-        let frames = std::slice::from_ref(&t.frame);
-        let (w, h) = (153, 128);
-        let backends: [&dyn Backend; 2] = [&Cpu, gpu];
-        let [c, g] = backends.map(|b| b.sky_maps(frames, w, h).unwrap().remove(0));
-        assert_eq!((g.width_px, g.height_px, g.aop_deg.len()), (w, h, w * h));
-        let (mut aop, mut aoe, mut dolp) = (0f64, 0f64, 0f64);
-        for p in 0..w * h {
-            dolp = dolp.max((c.dolp[p] - g.dolp[p]).abs() as f64);
-            if c.dolp[p] as f64 > AOP_MIN_DOLP {
-                aop = aop.max(aop_diff_deg(c.aop_deg[p] as f64, g.aop_deg[p] as f64).abs());
-                aoe = aoe.max(aop_diff_deg(c.aoe_deg[p] as f64, g.aoe_deg[p] as f64).abs());
+    use bpins_gpu::tolerance::{aop_diff_deg, stages, AOP_MIN_DOLP};
+    for gpu in gpus() {
+        let st = stages(gpu.precision());
+        let (aop_tol, dolp_tol) = (st[1].1, st[2].1);
+        // The ideal chain and every effect together, at typical strength and at a range end.
+        for (name, trial) in [("ideal", 2), ("all_effects", 1), ("all_effects", 3)] {
+            let case = cases().into_iter().find(|c| c.name == name).unwrap();
+            let t = trial_frame(&case, trial, 11).unwrap();
+            let frames = std::slice::from_ref(&t.frame);
+            let (w, h) = (153, 128);
+            let backends: [&dyn Backend; 2] = [&Cpu, gpu];
+            let [c, g] = backends.map(|b| b.sky_maps(frames, w, h).unwrap().remove(0));
+            assert_eq!((g.width_px, g.height_px, g.aop_deg.len()), (w, h, w * h));
+            let (mut aop, mut aoe, mut dolp) = (0f64, 0f64, 0f64);
+            for p in 0..w * h {
+                dolp = dolp.max((c.dolp[p] - g.dolp[p]).abs() as f64);
+                if c.dolp[p] as f64 > AOP_MIN_DOLP {
+                    aop = aop.max(aop_diff_deg(c.aop_deg[p] as f64, g.aop_deg[p] as f64).abs());
+                    aoe = aoe.max(aop_diff_deg(c.aoe_deg[p] as f64, g.aoe_deg[p] as f64).abs());
+                }
             }
+            let p = gpu.precision().name();
+            eprintln!("{} ({p}): sky maps differ by AoP {aop:e} deg, AoE {aoe:e} deg, DoLP {dolp:e}", t.label);
+            assert!(aop <= aop_tol && aoe <= aop_tol && dolp <= dolp_tol, "{} ({p})", t.label);
         }
-        eprintln!("{}: sky maps differ by AoP {aop:e} deg, AoE {aoe:e} deg, DoLP {dolp:e}", t.label);
-        assert!(aop <= AOP_DEG && aoe <= AOP_DEG && dolp <= DOLP_ABS, "{}", t.label);
     }
+}
+
+/// wgpu's GL backend (Mesa llvmpipe through headless EGL here) with the f32 kernels:
+/// the same stages within the f32 tolerances as on Vulkan. Skipped without a GL
+/// adapter, except with `CI` set (`.ci/run` installs libegl1, libgles2, libgl1-mesa-dri).
+#[test]
+fn gl_backend_runs_the_f32_chain_within_its_tolerances() {
+    let gl = match Gpu::open(Some(Precision::F32), Some(bpins_gpu::wgpu::Backends::GL)) {
+        Ok(g) => g,
+        Err(e) if std::env::var_os("CI").is_some() => panic!("CI is set and wgpu's GL backend cannot open: {e}"),
+        Err(e) => {
+            eprintln!("SKIPPED (no GL adapter): {e}");
+            return;
+        }
+    };
+    eprintln!("GL adapter: {}", gl.adapter_name());
+    assert!(gl.adapter_name().contains("Gl"), "{}", gl.adapter_name());
+    assert_case_agrees(&gl, "ideal", 2);
+    assert_case_agrees(&gl, "all_effects", 2);
 }

@@ -20,8 +20,13 @@
 //! | `k1`  | 1    | 0       | ±1    |
 //! | `k2`  | 1    | 0       | ±1    |
 //!
-//! Cannot: decentring or thin-prism distortion, or a distortion that is not monotonic
-//! over the image (1 + 3 k1 r² + 5 k2 r⁴ must stay positive).
+//! Where the distortion folds inside the image (1 + 3 k1 r² + 5 k2 r⁴ reaches 0 at
+//! r_fold, as k1 = k2 = −1 does at r = 0.49), no ray lands beyond the fold's radius:
+//! those pixels see the fold's ray (`camera::distortion_fold_r`), defined alike at f64
+//! and f32 on both backends.
+//!
+//! Cannot: decentring or thin-prism distortion, or what a real folding lens shows
+//! beyond its fold (vignetting to black, or a second image).
 
 use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
@@ -61,7 +66,7 @@ fn apply(v: &[f64], m: &mut Model) {
 
 #[cfg(test)]
 mod tests {
-    use crate::camera::undistort;
+    use crate::camera::{distortion_fold_r, undistort};
     use crate::chain::tests::{ideal_frame, intrinsics, stokes_at};
     use crate::effects::{EffectSet, Model};
 
@@ -75,6 +80,36 @@ mod tests {
             assert!((ux - x).abs() < 1e-14 && (uy - y).abs() < 1e-14, "({x}, {y}) → ({ux}, {uy})");
         }
         assert_eq!(undistort([0.0, 0.0], 0.3, 0.2), (0.3, 0.2));
+    }
+
+    #[test]
+    fn beyond_the_fold_a_pixel_sees_the_folds_ray_and_the_map_stays_continuous() {
+        // k1 = k2 = −1 (the range's corner): the slope 1 − 3r² − 5r⁴ vanishes at r² = (√29 − 3)/10.
+        let k = [-1.0, -1.0];
+        let r_fold = distortion_fold_r(k);
+        assert!((r_fold * r_fold - (29f64.sqrt() - 3.0) / 10.0).abs() < 1e-15);
+        let slope = |r: f64| 1.0 + 3.0 * k[0] * r * r + 5.0 * k[1] * r.powi(4);
+        assert!(slope(r_fold).abs() < 1e-12);
+        let rd_fold = r_fold * (1.0 + k[0] * r_fold * r_fold + k[1] * r_fold.powi(4));
+        let mut last = 0.0;
+        for n in 0..=400 {
+            let rd = 1.5 * n as f64 / 400.0;
+            let r = undistort(k, rd, 0.0).0;
+            assert!(r.is_finite() && r >= last - 1e-12 && r <= r_fold * (1.0 + 1e-15), "r_d {rd}: r {r} after {last}");
+            if rd < 0.9 * rd_fold {
+                // Inside the fold the polynomial is inverted.
+                assert!((r * (1.0 + k[0] * r * r + k[1] * r.powi(4)) - rd).abs() < 1e-12, "r_d {rd}");
+            }
+            if rd > rd_fold {
+                // Newton halves its distance to a fold each step: within 2⁻¹² of r_fold.
+                assert!(r_fold - r < 1e-4, "r_d {rd}: r {r}, fold {r_fold}");
+            }
+            last = r;
+        }
+        // No fold: monotonic distortions, and none at all.
+        assert_eq!(distortion_fold_r([0.0, 0.0]), f64::MAX);
+        assert_eq!(distortion_fold_r([0.2, 0.05]), f64::MAX);
+        assert!((distortion_fold_r([-0.05, 0.0]) - (1.0f64 / 0.15).sqrt()).abs() < 1e-12);
     }
 
     #[test]
