@@ -1,13 +1,22 @@
 //! The compute backend a command runs on: the rayon reference or the GPU twin.
 
 use anyhow::Context;
+use std::sync::OnceLock;
+
+/// `--gpu-precision` (global: every command that opens the GPU reads it).
+static GPU_PRECISION: OnceLock<Option<bpins_gpu::Precision>> = OnceLock::new();
+
+/// Sets `--gpu-precision` once, before any command runs.
+pub fn set_gpu_precision(p: Option<bpins_gpu::Precision>) {
+    let _ = GPU_PRECISION.set(p);
+}
 
 /// `--backend`.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
     /// The rayon reference implementation.
     Cpu,
-    /// The WGSL twin through wgpu on Vulkan (lavapipe where there is no GPU).
+    /// The WGSL twin through wgpu (lavapipe where there is no GPU); --gpu-precision.
     Gpu,
 }
 
@@ -28,10 +37,20 @@ pub fn open(b: Backend) -> anyhow::Result<Box<dyn bpins_core::backend::Backend>>
     })
 }
 
-/// Opens the GPU twin and names its adapter on stderr.
-fn open_gpu() -> anyhow::Result<bpins_gpu::Gpu> {
-    let g = bpins_gpu::Gpu::new().context("opening the GPU backend")?;
-    eprintln!("GPU adapter: {}{}", g.adapter_name(), if g.is_cpu() { " — a CPU rasterizer" } else { "" });
+/// Opens the GPU twin at `--gpu-precision` (default: f64 where the adapter has it).
+pub fn open_gpu_quiet() -> anyhow::Result<bpins_gpu::Gpu> {
+    bpins_gpu::Gpu::with_precision(GPU_PRECISION.get().copied().flatten()).context("opening the GPU backend")
+}
+
+/// Opens the GPU twin and names its adapter and precision on stderr.
+pub fn open_gpu() -> anyhow::Result<bpins_gpu::Gpu> {
+    let g = open_gpu_quiet()?;
+    eprintln!(
+        "GPU adapter: {}{}, {} kernels",
+        g.adapter_name(),
+        if g.is_cpu() { " — a CPU rasterizer" } else { "" },
+        g.precision().name()
+    );
     Ok(g)
 }
 

@@ -23,13 +23,14 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let gpu = bpins_gpu::Gpu::new().context("opening the GPU backend")?;
+    let gpu = crate::backend::open_gpu_quiet()?;
     let n_cases = cases().len();
     eprintln!(
-        "bpins agree: {} cases × {} trials, 612 × 512 px, CPU (rayon) vs GPU {}",
+        "bpins agree: {} cases × {} trials, 612 × 512 px, CPU (rayon) vs GPU {}, {} kernels",
         n_cases,
         a.trials,
-        gpu.adapter_name()
+        gpu.adapter_name(),
+        gpu.precision().name()
     );
     let pb = crate::progress::bar((n_cases as u64) * a.trials as u64, "trials");
     let stages =
@@ -52,6 +53,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         crate::ensure_not_in_capture(path)?;
         let v = json!({
             "adapter": gpu.adapter_name(),
+            "precision": gpu.precision().name(),
             "trials": a.trials,
             "seed": a.seed,
             "cases": cases().iter().map(|c| c.name.clone()).collect::<Vec<_>>(),

@@ -34,12 +34,18 @@ pub struct Args {
     json: Option<PathBuf>,
 }
 
-pub fn run(a: Args) -> anyhow::Result<()> {
+/// The built-in paper sweep with `trials_per_azimuth` trials per sun azimuth.
+pub(crate) fn paper_spec(trials_per_azimuth: u32, seed: u64) -> anyhow::Result<SweepSpec> {
     let mut spec = SweepSpec::parse(Path::new("examples/sweeps/paper-table3.toml"), PAPER_SWEEP)
         .context("the built-in paper sweep")?;
-    spec.trials_per_azimuth = a.trials_per_azimuth as usize;
+    spec.trials_per_azimuth = trials_per_azimuth as usize;
     spec.trials = spec.trials_per_azimuth * spec.sun_azimuths_deg.len();
-    spec.seed = a.seed;
+    spec.seed = seed;
+    Ok(spec)
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let mut spec = paper_spec(a.trials_per_azimuth, a.seed)?;
     if a.channels == 4 {
         spec.sensor.layout = Layout::Colocated { channels: Channel::ALL.to_vec() };
     }

@@ -3,6 +3,7 @@
 
 mod backend;
 mod cmd_agree;
+mod cmd_bench;
 mod cmd_calibrate;
 mod cmd_diagnose;
 mod cmd_effects;
@@ -29,6 +30,16 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Precision of the GPU kernels (with --backend gpu, and for `bpins agree`): f64
+    /// agrees with the CPU pixel for pixel and needs an adapter with f64 shaders; f32
+    /// runs on every adapter, within the statistical tolerances of TOLERANCES.md.
+    /// Default: f64 where the adapter has it, else f32.
+    #[arg(long, global = true, value_name = "f32|f64", value_parser = parse_precision)]
+    gpu_precision: Option<bpins_gpu::Precision>,
+}
+
+fn parse_precision(s: &str) -> Result<bpins_gpu::Precision, String> {
+    s.parse()
 }
 
 #[derive(Subcommand)]
@@ -43,6 +54,8 @@ enum Command {
     Effects(cmd_effects::Args),
     /// Run seeded trials over every effect on the CPU and the GPU and compare them.
     Agree(cmd_agree::Args),
+    /// Time a 2448 × 2048 frame, batched frames and the paper sweep on the GPU or CPU.
+    Bench(cmd_bench::Args),
     /// Fit the enabled effects and each frame's nuisances to a capture's raw DN.
     Fit(cmd_fit::Args),
     /// Find the catalog effect a capture's model lacks, add it, watch the error fall.
@@ -61,12 +74,14 @@ pub use backend::Backend;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    backend::set_gpu_precision(cli.gpu_precision);
     let result = match cli.command {
         Command::Run(a) => cmd_run::run(a),
         Command::Simulate(a) => cmd_simulate::run(*a),
         Command::Heading(a) => cmd_heading::run(a),
         Command::Effects(a) => cmd_effects::run(a),
         Command::Agree(a) => cmd_agree::run(a),
+        Command::Bench(a) => cmd_bench::run(a),
         Command::Fit(a) => cmd_fit::run(a),
         Command::Diagnose(a) => cmd_diagnose::run(a),
         Command::Calibrate(a) => cmd_calibrate::run(a),

@@ -20,8 +20,8 @@ pub const HEADING_DEG: f64 = 1e-3;
 /// The f32 kernels' bounds (TOLERANCES.md, "The f32 path"): statistical, since f32's
 /// 6e-8 puts a few pixels in a thousand on the other side of a rounding boundary.
 pub mod f32 {
-    /// Noise-free photo-signal, relative.
-    pub const INTENSITY_REL: f64 = 1e-4;
+    /// Noise-free photo-signal, relative (see [`INTENSITY_FLOOR`]).
+    pub const INTENSITY_REL: f64 = 1e-3;
     /// Rounded DN: at most this many DN apart...
     pub const DN_MAX_ABS: f64 = 1.0;
     /// ...on at most this fraction of pixels (1 %).
@@ -30,8 +30,16 @@ pub mod f32 {
     pub const AOP_DEG: f64 = 1e-2;
     /// DoLP, absolute.
     pub const DOLP_ABS: f64 = 1e-4;
-    /// Heading from the same frame, degrees.
+    /// Heading from the same frame, degrees, for an estimate whose own 1σ is at most
+    /// HEADING_SIGMA_SHARE × this; a less determined estimate may differ by
+    /// σ / HEADING_SIGMA_SHARE (`agree::compare`).
     pub const HEADING_DEG: f64 = 1e-2;
+    /// The share of an estimate's own 1σ that f32 rounding may move it by: 1/10.
+    pub const HEADING_SIGMA_SHARE: f64 = 10.0;
+    /// The intensity is compared relative to the pixel's value, or to this share of
+    /// the frame's brightest pixel where the pixel is darker (f32 loses the digits a
+    /// near-black pixel's cancellations cost, as at a strong vignetting's corner).
+    pub const INTENSITY_FLOOR: f64 = 1e-3;
 }
 
 /// The stages `bpins agree` and the parity tests compare, in report order, with their

@@ -3,8 +3,7 @@
 //! the reason — except with `CI` set, where a missing adapter fails them.
 
 use bpins_core::montecarlo::{self, Source, SweepConfig};
-use bpins_gpu::agree::{cases, compare, trial_frame};
-use bpins_gpu::tolerance::stages;
+use bpins_gpu::agree::{cases, compare, tolerances, trial_frame};
 use bpins_gpu::{Gpu, Precision};
 use std::sync::OnceLock;
 
@@ -41,7 +40,7 @@ fn assert_case_agrees(gpu: &Gpu, name: &str, trials: u32) {
         let t = trial_frame(&case, trial, 2026).unwrap();
         let d = compare(gpu, &t).unwrap();
         eprintln!("{} ({}): {:?}", t.label, gpu.precision().name(), d);
-        for ((stage, tol, unit), x) in stages(gpu.precision()).iter().zip(d) {
+        for ((stage, tol, unit), x) in tolerances(gpu.precision(), &t).iter().zip(d) {
             assert!(
                 x <= *tol,
                 "{} ({}): {stage} differs by {x:e} {unit} (tolerance {tol:e})",

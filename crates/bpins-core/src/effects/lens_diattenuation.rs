@@ -54,7 +54,7 @@ pub const RHO_LIMIT: f64 = 0.999;
 /// ρ at squared normalised radius `r2`, clamped to ±[`RHO_LIMIT`].
 #[inline(always)]
 #[allow(clippy::manual_clamp)] // f64::clamp may panic, which stops row loops vectorizing
-pub(crate) fn rho_at(rho2: f64, r2: f64) -> f64 {
+pub fn rho_at(rho2: f64, r2: f64) -> f64 {
     (rho2 * r2).max(-RHO_LIMIT).min(RHO_LIMIT)
 }
 
