@@ -783,13 +783,50 @@ fn gpu_simulate_writes_the_cpu_exr_dump() {
 
 #[test]
 fn no_vulkan_adapter_is_a_clear_error_not_a_panic() {
-    // No Vulkan driver visible to the loader: `--backend gpu` must fail cleanly.
-    let envs = [("VK_ICD_FILENAMES", "/nonexistent/icd.json"), ("VK_DRIVER_FILES", "/nonexistent/icd.json")];
+    // No Vulkan driver visible to the loader, and Vulkan the only backend allowed
+    // (otherwise GL would stand in): `--backend gpu` must fail cleanly.
+    let envs = [
+        ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+        ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+        ("WGPU_BACKEND", "vulkan"),
+    ];
     let r = bpins_env(&["run", "--backend", "gpu", "--trials-per-azimuth", "1"], &envs).fails();
     r.stderr_has("GPU");
     // A named adapter that does not exist: the error lists what exists.
     let r = bpins_env(&["agree", "--trials", "1"], &[("BPINS_GPU_ADAPTER", "no-such-gpu-9000")]).fails();
     r.stderr_has("no-such-gpu-9000");
+}
+
+#[test]
+fn bench_times_a_frame_and_counts_the_traffic() {
+    let tmp = tempfile::tempdir().unwrap();
+    let args = |backend: &str, json: &Path| -> Vec<String> {
+        let a = ["bench", "--backend", backend, "--repeats", "1", "--frames", "2", "--no-sweep", "--json"];
+        a.iter().map(|x| x.to_string()).chain([s(json)]).collect()
+    };
+    // The CPU: a frame time, no device traffic.
+    let json = tmp.path().join("cpu.json");
+    let r = bpins(&args("cpu", &json)).ok();
+    assert!(r.stdout.contains("one frame") && r.stdout.contains("rayon"), "{}", r.stdout);
+    let v = read_json(&json);
+    assert!(f64_of(&v, "frame_ms_median") > 0.0 && f64_of(&v, "batched_frames_per_s") > 0.0, "{v}");
+    assert!(v["downloaded_bytes_per_frame"].is_null() && v["paper_sweep_s"].is_null(), "{v}");
+    if !gpu_available() {
+        return;
+    }
+    // The GPU at f32: only parameters go up and only the 119 sums come down per frame.
+    let json = tmp.path().join("gpu.json");
+    let mut a = args("gpu", &json);
+    a.extend(["--gpu-precision".to_string(), "f32".to_string()]);
+    bpins(&a).ok();
+    let v = read_json(&json);
+    assert_eq!(v["precision"], "f32", "{v}");
+    assert_eq!(v["downloaded_bytes_per_frame"], 119 * 4, "{v}");
+    let up = v["uploaded_bytes_per_frame"].as_u64().unwrap();
+    assert!(up > 0 && up < 4096, "{up} B uploaded per frame: parameters only, never a frame");
+    assert!(v["adapter"].as_str().is_some_and(|a| !a.is_empty()), "{v}");
+    // A precision the adapter cannot have, or a bad name, is a clear refusal.
+    bpins(&["bench", "--gpu-precision", "f16", "--no-sweep"]).fails().stderr_has("f16");
 }
 
 // ---------------------------------------------------------------- bpins fit
