@@ -8,7 +8,7 @@
 // the registry (crates/bpins-gpu/src/ray_dispatch.rs) with `RAY_COUNT`.
 //
 // pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β      camera frame
-//   sky_stokes (or sky_neutral_points) → ray_effects (lens_diattenuation → lens_retardance
+//   sky_stokes (or sky_neutral_points) → sky_dolp_shape → ray_effects (lens_diattenuation → lens_retardance
 //   → lens_depolarization → vignetting → …, registry order) → meridional_to_image
 //   → analyzer_intensity
 //   → × g(1 + gain_k) → sensor_dn (PRNU, offsets, DSNU, read + shot noise, rounding)
@@ -32,6 +32,7 @@ struct FrameParams {
     np_half01: Wide4,  //   (cos θ_P/2, sin θ_P/2) of the sun's pair
     np_half23: Wide4,  //   and of the anti-sun's pair
     np_eia: Wide4,     //   cos A, sin A, 0, 0
+    sky_shape: Wide4,  // sky_dolp_shape: diffuse share t (0: off), 0, 0, 0
     ray: array<Wide4, RAY_COUNT>, // per-pixel effects' vectors, registry order
     key: vec4<u32>,    // temporal noise key of this frame
     fixed_key: vec4<u32>, // fixed-pattern key of this trial
@@ -53,6 +54,7 @@ struct ChainFrame {
     crosstalk: f64,
     neutral_on: bool,
     neutral: NeutralPoints,
+    diffuse: f64,
     key: vec4<u32>,
     fixed_key: vec4<u32>,
 }
@@ -71,7 +73,7 @@ fn chain_frame(p: FrameParams) -> ChainFrame {
     let np = NeutralPoints(east.xyz, wide(p.np_north).xyz, wide(p.np_up).xyz,
         array<vec2<f64>, 4>(h01.xy, h01.zw, h23.xy, h23.zw), wide(p.np_eia).xy);
     return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, ray, wide(p.cos2t), wide(p.sin2t),
-        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, wide(p.mosaic).x, east.w != 0.0lf, np, p.key,
+        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, wide(p.mosaic).x, east.w != 0.0lf, np, wide(p.sky_shape).x, p.key,
         p.fixed_key);
 }
 
@@ -89,6 +91,10 @@ fn ray_stokes(f: ChainFrame, g: RayGeometry) -> Stokes {
         s = sky_neutral_points(f.neutral, f.sun_cam, f.dmax, g.d, g.basis);
     } else {
         s = sky_stokes(f.sun_cam, f.dmax, g.d, g.basis);
+    }
+    // The sky's DoLP shape (a diffuse share), where it is on.
+    if (f.diffuse != 0.0lf) {
+        s = sky_dolp_shape(f.diffuse, f.dmax, s);
     }
     // Per-pixel effects (lens Mueller matrices, falloff), meridional frame, in registry order.
     s = ray_effects(f.ray, g, s);

@@ -2,6 +2,8 @@
 //! in samples/README.md): the clean capture fits with no effect at χ²/dof ≈ 1
 //! and every heading at its reference; the hidden analyzer angles are recovered.
 
+mod common;
+
 use bpins_core::capture::{Capture, FrameData};
 use bpins_core::effects::find;
 use bpins_core::fit::{fit, FitOptions, FitResult};
@@ -40,4 +42,33 @@ fn hidden_analyzer_angles_are_recovered_within_three_sigma() {
         assert!(p.sigma > 0.0 && p.sigma < 0.05, "{name}: σ {}", p.sigma);
         assert!((p.value - want).abs() < 3.0 * p.sigma, "{name}: {} ± {} (truth {want})", p.value, p.sigma);
     }
+}
+
+#[test]
+fn every_candidate_scored_in_one_pass_scores_as_alone() {
+    // The diagnosis scores its candidates from one pass over the samples; each must
+    // get what scoring it alone gives (a small capture hiding the sky's DoLP shape and
+    // a principal point, fitted with the principal point: a model with an effect).
+    use bpins_core::effects::{EffectSet, REGISTRY};
+    use bpins_core::fit::{score_candidate, score_candidates};
+    let c = common::small_capture();
+    let mut set = EffectSet::new();
+    common::typical(&mut set, "sky_dolp_shape");
+    common::typical(&mut set, "principal_point");
+    let frames = common::simulate(&c, &set, 5);
+    let opts = FitOptions { effects: vec![find("principal_point").unwrap()], ..Default::default() };
+    let base = fit(&c, &frames, &opts, &|_, _| {}).unwrap();
+    let cands: Vec<_> = REGISTRY.iter().copied().filter(|e| e.name != "principal_point").collect();
+    let all = score_candidates(&c, &frames, &opts, &base, &cands, 3, 1e-3).unwrap();
+    let close = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-7 * a.abs().max(b.abs()).max(1e-6);
+    for (e, s) in cands.iter().zip(&all) {
+        let one = score_candidate(&c, &frames, &opts, &base, e, 3, 1e-3).unwrap();
+        assert_eq!((s.added_rank, s.samples), (one.added_rank, one.samples), "{}", e.name);
+        assert!(close(s.delta_chi2, one.delta_chi2), "{}: {} vs {}", e.name, s.delta_chi2, one.delta_chi2);
+        for (p, q) in s.params.iter().zip(&one.params) {
+            assert!(close(p.value, q.value) && close(p.sigma, q.sigma), "{}: {p:?} vs {q:?}", e.name);
+        }
+    }
+    let top = cands.iter().zip(&all).max_by(|a, b| a.1.delta_chi2.total_cmp(&b.1.delta_chi2)).unwrap();
+    assert_eq!(top.0.name, "sky_dolp_shape", "the hidden effect scores highest");
 }

@@ -78,6 +78,8 @@ pub struct FrameParams {
     pub np_half01: Wide4,
     pub np_half23: Wide4,
     pub np_eia: Wide4,
+    /// (t, 0, 0, 0): `sky_dolp_shape`'s diffuse share (0: off).
+    pub sky_shape: Wide4,
     /// The per-pixel effects' vectors in registry order (`ChainFrame::ray`), WGSL
     /// `array<Wide4, RAY_COUNT>`: sized by the registry, filled without naming an effect.
     pub ray: [Wide4; RAY_COUNT],
@@ -123,6 +125,7 @@ impl TryFrom<&ChainFrame> for FrameParams {
                 Wide4::new([h[2][0], h[2][1], h[3][0], h[3][1]])
             }),
             np_eia: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.eia[0], n.eia[1], 0.0, 0.0])),
+            sky_shape: Wide4::new([f.diffuse, 0.0, 0.0, 0.0]),
             ray: f.ray.map(Wide4::new),
             key: f.key.0,
             fixed_key: f.fixed_key.0,
@@ -262,7 +265,7 @@ mod tests {
             FrameParams,
             [
                 camera, distortion, sun, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, mosaic, np_east, np_north,
-                np_up, np_half01, np_half23, np_eia, ray, key, fixed_key
+                np_up, np_half01, np_half23, np_eia, sky_shape, ray, key, fixed_key
             ]
         );
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);

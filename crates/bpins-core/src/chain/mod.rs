@@ -10,6 +10,7 @@
 //!   ray_stokes(frame, ray):
 //!   sky_stokes(sun, d_max, d)        Rayleigh, meridional frame          (sky::rayleigh)
 //!    or sky_neutral_points(…)        the quartic sky, where it is on     (effects)
+//!   sky_dolp_shape(t, d_max, S)      the sky's DoLP shape, where it is on (effects)
 //!   field_stokes(field, d, basis, S) scene elements: CIE radiance, clouds, (scene)
 //!                                    sun disc, skyline — CPU only
 //!   ray_effects(ray, g, S)           every per-pixel effect of the registry, (effects)
@@ -33,6 +34,7 @@
 use crate::camera::{Intrinsics, RayGeometry};
 use crate::conventions::{enu_from_az_el_deg, level_from_camera, world_from_camera};
 use crate::effects::crosstalk::crosstalk;
+use crate::effects::sky_dolp_shape::sky_dolp_shape;
 use crate::effects::sky_neutral_points::{sky_neutral_points, NeutralPoints};
 use crate::effects::{neutral_ray_params, Model, RayParams, RAY_COUNT, RAY_FNS};
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
@@ -83,6 +85,8 @@ pub struct ChainFrame {
     pub ray: [RayParams; RAY_COUNT],
     /// The quartic sky's frame constants where `sky_neutral_points` is on.
     pub neutral: Option<NeutralPoints>,
+    /// The sky's unpolarized diffuse share t (`sky_dolp_shape`; 0: Rayleigh's DoLP shape).
+    pub diffuse: f64,
     /// The scene elements of a field capture (`scene`), folded for this frame; `None`
     /// for the lab-clean sky. The GPU backend refuses frames that have one.
     pub field: Option<FieldFrame>,
@@ -118,6 +122,7 @@ impl ChainFrame {
             ray: model.ray,
             neutral: (model.neutral_separation_deg != 0.0)
                 .then(|| NeutralPoints::new(&world_from_cam, sun_cam, model.neutral_separation_deg.to_radians())),
+            diffuse: model.sky_diffuse,
             field: None,
             analyzers,
             gain_dn: model.channel_gain.map(|g| g * response.gain_dn),
@@ -147,10 +152,11 @@ impl ChainFrame {
         f
     }
 
-    /// Whether any per-pixel step is on: the quartic sky, scene elements, or a
-    /// per-pixel effect off its neutral vector (the row kernels skip them otherwise).
+    /// Whether any per-pixel step is on: the quartic sky, the sky's DoLP shape, scene
+    /// elements, or a per-pixel effect off its neutral vector (the row kernels skip
+    /// them otherwise).
     pub fn has_pixel_effects(&self) -> bool {
-        self.neutral.is_some() || self.field.is_some() || self.ray != *neutral_ray_params()
+        self.neutral.is_some() || self.diffuse != 0.0 || self.field.is_some() || self.ray != *neutral_ray_params()
     }
 
     /// A frame with unit gain, no black level and no noise: DN = radiance behind the analyzer.
@@ -191,6 +197,8 @@ pub(crate) fn ray_stokes_field<const FIELD: bool>(f: &ChainFrame, g: &RayGeometr
         None => sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis),
         Some(np) => sky_neutral_points(np, f.sun_cam, f.dmax, g.d, &g.basis),
     };
+    // The sky's DoLP shape (a diffuse share), where it is on.
+    let s = if f.diffuse != 0.0 { sky_dolp_shape(f.diffuse, f.dmax, s) } else { s };
     // Field conditions: the scene's radiance, clouds, sun and skyline (world-fixed).
     let s = match &f.field {
         Some(field) if FIELD => field_stokes(field, g.d, &g.basis, s),

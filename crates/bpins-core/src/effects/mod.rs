@@ -37,6 +37,7 @@ pub mod mount_tilt;
 pub mod principal_point;
 pub mod radial_distortion;
 pub mod sky_depolarization;
+pub mod sky_dolp_shape;
 pub mod sky_neutral_points;
 pub mod vignetting;
 
@@ -104,7 +105,7 @@ pub struct EffectDef {
     /// The WGSL twin of the effect's per-pixel functions (`shaders/effects/<name>.wgsl`,
     /// same function names), from which the GPU crate assembles its chain: required for
     /// [`Apply::Ray`]; also for a frame effect whose frame parameters the GPU evaluates
-    /// per pixel (`sky_neutral_points`, `crosstalk`); `None` for an effect that acts
+    /// per pixel (`sky_neutral_points`, `sky_dolp_shape`, `crosstalk`); `None` for an effect that acts
     /// only through the frame's parameters, which runs nothing per pixel.
     pub wgsl: Option<&'static str>,
 }
@@ -166,6 +167,7 @@ const ALL: &[&EffectDef] = &[
     &mount_tilt::EFFECT,
     &sky_depolarization::EFFECT,
     &sky_neutral_points::EFFECT,
+    &sky_dolp_shape::EFFECT,
     &lens_diattenuation::EFFECT,
     &lens_retardance::EFFECT,
     &lens_depolarization::EFFECT,
@@ -258,6 +260,9 @@ pub struct Model {
     pub sky_dmax_factor: f64,
     /// Separation of each pair of the sky's neutral points, degrees (0: Rayleigh).
     pub neutral_separation_deg: f64,
+    /// Unpolarized diffuse share of the sky's radiance at 90° from the sun, which
+    /// flattens its DoLP fall-off (0: Rayleigh's shape; `sky_dolp_shape`).
+    pub sky_diffuse: f64,
     /// Each per-pixel effect's vector, slot `k` for [`RAY_EFFECTS`]`[k]` (its neutral
     /// vector where the effect is off). Read one through its module (e.g.
     /// `lens_diattenuation::rho2`), never by a slot number written out.
@@ -284,6 +289,7 @@ impl Default for Model {
             distortion: [0.0; 2],
             sky_dmax_factor: 1.0,
             neutral_separation_deg: 0.0,
+            sky_diffuse: 0.0,
             ray: *neutral_ray_params(),
             mount_tilt_deg: [0.0; 2],
             analyzer_delta_deg: [0.0; 4],

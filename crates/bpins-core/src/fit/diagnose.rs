@@ -1,8 +1,8 @@
 //! Diagnosis: which catalog effect the model lacks.
 //!
 //! From a fitted model (default: no effect), every catalog effect not in it is scored
-//! (`score_candidate`: the Δχ² one Gauss–Newton step predicts, a score test, on every
-//! third row and column); the strongest `refit_top` whose score is beyond noise (more
+//! (`score_candidates`: the Δχ² one Gauss–Newton step predicts, a score test, on every
+//! third row and column, every candidate from one pass over the samples); the strongest `refit_top` whose score is beyond noise (more
 //! than 3σ above its null distribution χ²_k: > k + 3√(2k)) are refitted on every pixel
 //! for their real Δχ², ranked by ΔBIC = Δχ²·n_eff/n − k·ln n_eff (k the combinations
 //! of its parameters the data constrain beside the model's — fewer than its
@@ -25,7 +25,8 @@
 //! ([`Remains`]), with the sentence rendered from it.
 
 use super::remains::Remains;
-use super::{fit_from, residual_maps, score_candidate, sky_masks, FitOptions, FitResult, Param};
+use super::score::score_candidates;
+use super::{fit_from, residual_maps, sky_masks, FitOptions, FitResult, Param};
 use crate::capture::{Capture, FrameData};
 use crate::effects::{EffectDef, REGISTRY};
 use crate::error::Result;
@@ -213,12 +214,13 @@ pub fn diagnose(
             .filter(|e| !model.effects.iter().any(|m| m.name == e.name) && !opts.exclude.contains(&e.name))
             .filter(|e| !insep.iter().any(|(n, _)| *n == e.name))
             .collect();
+        // On the scoring subsample, every candidate from one pass (the base model's
+        // columns once): under the null the score is χ²_k whatever the sample size,
+        // so it is compared with k·ln n of that subsample.
+        progress(&format!("scoring {} candidates", candidates.len()));
+        let scores = score_candidates(c, frames, &model, &current, &candidates, opts.score_stride, 1e-3)?;
         let mut ranking = Vec::new();
-        for e in &candidates {
-            progress(&format!("scoring {}", e.name));
-            // On the scoring subsample: under the null the score is χ²_k whatever the
-            // sample size, so it is compared with k·ln n of that subsample.
-            let s = score_candidate(c, frames, &model, &current, e, opts.score_stride, 1e-3)?;
+        for (e, s) in candidates.iter().zip(scores) {
             ranking.push(Candidate {
                 effect: e.name,
                 score: s.delta_chi2,

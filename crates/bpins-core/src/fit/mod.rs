@@ -46,7 +46,7 @@ pub use masks::sky_masks;
 pub use request::{DiagnosisJson, FitJson, FitRequest, Loaded};
 pub use residuals::{residual_maps, FrameMaps, ResidualMaps};
 pub use result::{FitResult, FitState, FrameFit, Param};
-pub use score::{score_candidate, Score};
+pub use score::{score_candidate, score_candidates, Score};
 pub use slots::PER_FRAME;
 
 use crate::capture::{Capture, FrameData};

@@ -32,6 +32,8 @@ pub(crate) struct Problem<'a> {
 pub(crate) struct FitFrame {
     pub chain: ChainFrame,
     pub radiance: [f64; radiance::N],
+    /// The same as weights of the raw functions (`radiance::Basis::weights`).
+    pub radiance_weights: [f64; radiance::N + 1],
 }
 
 impl std::ops::Deref for FitFrame {
@@ -111,7 +113,9 @@ impl Problem<'_> {
         };
         let chain =
             ChainFrame::new(&set.model(), &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
-        Ok(FitFrame { chain, radiance: std::array::from_fn(|i| at(Nuisance::Radiance(i))) })
+        let radiance: [f64; radiance::N] = std::array::from_fn(|i| at(Nuisance::Radiance(i)));
+        let radiance_weights = self.basis.get(k).map_or([0.0; radiance::N + 1], |b| b.weights(&radiance));
+        Ok(FitFrame { chain, radiance, radiance_weights })
     }
 
     /// The radiance nuisance of frame `k` at pixel (u, v): (R, ψ).
@@ -127,7 +131,13 @@ impl Problem<'_> {
     pub fn pixel(&self, f: &FitFrame, k: usize, u: usize, v: usize, out: &mut Vec<(f64, f64)>) {
         out.clear();
         let (w, h) = (self.w(), self.h());
-        let r = if f.radiance == [0.0; radiance::N] { 1.0 } else { self.radiance(f, k, u, v).0 };
+        let r = if f.radiance == [0.0; radiance::N] {
+            1.0
+        } else {
+            // R = exp(w·φ): the frame's weights, not ψ (the fit's hottest line).
+            let phi = radiance::raw_at(&f.intr, f.sun_cam, u, v, w, h);
+            radiance::factor_raw(&f.radiance_weights, &phi)
+        };
         match (&self.capture.sensor.layout, &self.frames[k]) {
             (Layout::Dofp { mosaic }, FrameData::Mosaic { dn, .. }) => {
                 let ch = Layout::dofp_channel(mosaic, u, v).index();

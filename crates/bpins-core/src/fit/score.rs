@@ -22,50 +22,86 @@ pub fn score_candidate(
     stride: usize,
     probe: f64,
 ) -> Result<Score> {
+    let mut s = score_candidates(c, frames, base_opts, base, &[candidate], stride, probe)?;
+    Ok(s.pop().expect("one score per candidate"))
+}
+
+/// [`score_candidate`] for each of `candidates` (in their order), from one pass over
+/// the samples: the base model's Jacobian columns are evaluated once and every
+/// candidate's beside them, each candidate then scored on its own block of the joint
+/// system (the base slots and its own). The same numbers as one candidate at a time,
+/// at a fraction of the chain evaluations (a candidate at neutral leaves the chain
+/// bitwise ideal, so the others do not see it).
+pub fn score_candidates(
+    c: &Capture,
+    frames: &[FrameData],
+    base_opts: &FitOptions,
+    base: &FitResult,
+    candidates: &[&'static EffectDef],
+    stride: usize,
+    probe: f64,
+) -> Result<Vec<Score>> {
     let mut opts = base_opts.clone();
-    opts.effects.push(candidate);
+    opts.effects.extend_from_slice(candidates);
     let (mut pb, theta) = problem(c, frames, &opts, Some(&base.state), base.noise)?;
-    for i in pb.slots.of_effect(candidate.name).collect::<Vec<_>>() {
-        // A forward secant (backward at the upper bound): first- and second-order
-        // effects alike get a column of their shape.
-        let s = &mut pb.slots.all[i];
-        s.step = probe * (s.max - s.min);
-        s.derivative = Derivative::Secant;
+    for e in candidates {
+        for i in pb.slots.of_effect(e.name).collect::<Vec<_>>() {
+            // A forward secant (backward at the upper bound): first- and second-order
+            // effects alike get a column of their shape.
+            let s = &mut pb.slots.all[i];
+            s.step = probe * (s.max - s.min);
+            s.derivative = Derivative::Secant;
+        }
     }
     // An odd stride samples every channel of a DoFP mosaic.
     let acc = pb.accumulate(&theta, stride | 1, true)?;
     let nf = acc.b.len();
-    // The candidate's slots come right after the base effects' (free, in order).
+    // The candidates' slots come right after the base effects' (free, in order).
     let first = base_opts.effects.iter().map(|e| e.params.len()).sum::<usize>();
-    let k = candidate.params.len();
-    // Pseudo-inverses: a candidate (or part of one) that trades exactly against the
-    // model's other parameters adds no constrained direction and no Δχ².
-    let cov = linalg::PseudoInverse::new(&acc.a, nf);
-    let x = cov.solve(&acc.b);
-    // Score test: the joint model's predicted Δχ² minus the base model's own (the base
-    // optimum on these samples is not exactly the one on every pixel).
-    let joint = x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>();
-    let keep: Vec<usize> = (0..nf).filter(|&i| i < first || i >= first + k).collect();
-    let a0: Vec<f64> =
-        keep.iter().flat_map(|&i| keep.iter().map(move |&j| (i, j))).map(|(i, j)| acc.a[i * nf + j]).collect();
-    let b0: Vec<f64> = keep.iter().map(|&i| acc.b[i]).collect();
-    let own_cov = linalg::PseudoInverse::new(&a0, keep.len());
-    let own = own_cov.solve(&b0).iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>();
-    let added = cov.rank().saturating_sub(own_cov.rank());
-    let mut score = Score {
-        delta_chi2: if added > 0 { (joint - own).max(0.0) } else { 0.0 },
-        params: Vec::new(),
-        samples: acc.n,
-        added_rank: added,
-        identifiable: added > 0,
+    let all = candidates.iter().map(|e| e.params.len()).sum::<usize>();
+    // The base model's own predicted Δχ² on these samples (its optimum on them is not
+    // exactly the one on every pixel), on the system without any candidate.
+    let (acc_a, acc_b) = (&acc.a, &acc.b);
+    let block = |keep: &[usize]| -> (Vec<f64>, Vec<f64>) {
+        let a = keep.iter().flat_map(|&i| keep.iter().map(move |&j| acc_a[i * nf + j])).collect();
+        (a, keep.iter().map(|&i| acc_b[i]).collect())
     };
-    for (j, p) in candidate.params.iter().enumerate() {
-        let i = first + j;
-        let s = &pb.slots.all[i];
-        let SlotId::Effect(id) = s.id else { unreachable!("effect slots come first") };
-        score.params.push(Param::new(id, p.unit, (theta[i] + x[i]).clamp(s.min, s.max), cov.sigma(i)));
+    let base_keep: Vec<usize> = (0..nf).filter(|&i| i < first || i >= first + all).collect();
+    let (a0, b0) = block(&base_keep);
+    let own_cov = linalg::PseudoInverse::new(&a0, base_keep.len());
+    let own = own_cov.solve(&b0).iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>();
+    let mut out = Vec::with_capacity(candidates.len());
+    let mut at = first;
+    for candidate in candidates {
+        let k = candidate.params.len();
+        // The joint system of the base and this candidate: its slots where the
+        // single-candidate system has them (right after the base effects').
+        let keep: Vec<usize> = (0..first).chain(at..at + k).chain(first + all..nf).collect();
+        let (a, b) = block(&keep);
+        // Pseudo-inverses: a candidate (or part of one) that trades exactly against
+        // the model's other parameters adds no constrained direction and no Δχ².
+        let cov = linalg::PseudoInverse::new(&a, keep.len());
+        let x = cov.solve(&b);
+        // Score test: the joint model's predicted Δχ² minus the base model's own.
+        let joint = x.iter().zip(&b).map(|(a, b)| a * b).sum::<f64>();
+        let added = cov.rank().saturating_sub(own_cov.rank());
+        let mut score = Score {
+            delta_chi2: if added > 0 { (joint - own).max(0.0) } else { 0.0 },
+            params: Vec::new(),
+            samples: acc.n,
+            added_rank: added,
+            identifiable: added > 0,
+        };
+        for (j, p) in candidate.params.iter().enumerate() {
+            let (i, l) = (at + j, first + j);
+            let s = &pb.slots.all[i];
+            let SlotId::Effect(id) = s.id else { unreachable!("effect slots come first") };
+            score.params.push(Param::new(id, p.unit, (theta[i] + x[l]).clamp(s.min, s.max), cov.sigma(l)));
+        }
+        out.push(score);
+        at += k;
     }
-    Ok(score)
+    Ok(out)
 }
 
 /// What [`score_candidate`] predicts: Δχ² and the one-step parameters with their 1σ.
