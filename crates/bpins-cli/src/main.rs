@@ -139,18 +139,45 @@ pub struct FitInput {
     /// depolarized clusters and the rays below the horizon).
     #[arg(long)]
     pub all_pixels: bool,
+    /// Most pixels of each frame the fit reads (default 524288): a larger frame is read
+    /// through a stratified, seeded sample of 8 × 8-pixel blocks (whole 2 × 2 tiles),
+    /// which bounds the time and the memory per frame; each 1σ then grows about as
+    /// √(frame pixels / sampled pixels), which the result states (`sample`).
+    #[arg(long, value_name = "PIXELS", conflicts_with = "full")]
+    pub sample_budget: Option<usize>,
+    /// Read every pixel of every frame, however large (no sample budget).
+    #[arg(long)]
+    pub full: bool,
     /// Output folder (never inside the capture).
     #[arg(long)]
     pub out: std::path::PathBuf,
 }
 
+/// What of each frame a fit read, in words (`FitResult::sample`).
+pub fn sample_line(s: &bpins_core::fit::Sample) -> String {
+    let budget = s.budget_px.map_or("none (--full)".to_string(), |b| format!("{b} px per frame"));
+    if s.pixels_per_frame >= s.frame_px {
+        format!("every pixel of each frame ({} px; sample budget {budget})", s.frame_px)
+    } else {
+        format!(
+            "a sample of {} of each frame's {} px (budget {budget}): one {b} × {b} block per {t} × {t} stratum; \
+             every pixel would give each 1σ × {:.2} (--sample-budget N raises it, --full reads every pixel)",
+            s.pixels_per_frame,
+            s.frame_px,
+            s.full_sigma_factor,
+            b = s.block_px,
+            t = s.stratum_px
+        )
+    }
+}
+
 impl FitInput {
     /// The named effects (each checked against the registry) as fit options, then the
-    /// capture with all its frames (a progress bar while reading). `out` must lie
-    /// outside the capture.
+    /// capture with its frames as the fit reads them (whole, or sampled within the
+    /// budget; a progress bar while reading). `out` must lie outside the capture.
     pub fn load(
         &self,
-    ) -> anyhow::Result<(bpins_core::fit::FitOptions, bpins_core::capture::Capture, Vec<bpins_core::capture::FrameData>)>
+    ) -> anyhow::Result<(bpins_core::fit::FitOptions, bpins_core::capture::Capture, bpins_core::fit::FitFrames<'static>)>
     {
         use anyhow::Context;
         let mut effects = Vec::new();
@@ -160,6 +187,12 @@ impl FitInput {
         if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
             anyhow::bail!("--fixed-dmax {d} must lie in [0, 1]");
         }
+        let min = bpins_core::fit::frames::MIN_BUDGET_PX;
+        if let Some(b) = self.sample_budget.filter(|&b| b < min) {
+            anyhow::bail!("--sample-budget {b} is below the smallest budget, {min} pixels (16 blocks of 8 × 8)");
+        }
+        let budget =
+            if self.full { None } else { Some(self.sample_budget.unwrap_or(bpins_core::fit::DEFAULT_BUDGET_PX)) };
         ensure_not_in_capture(&self.out)?;
         let c = bpins_core::capture::Capture::load(&self.capture)?;
         let cal = match &self.calibration {
@@ -167,18 +200,6 @@ impl FitInput {
             None => None,
         };
         let pixels = cal.as_ref().and_then(|c| c.pixels.clone());
-        let pb = progress::bar(c.frames.len() as u64, "frames read");
-        let mut frames = Vec::with_capacity(c.frames.len());
-        for i in 0..c.frames.len() {
-            let data = c.read_frame(i)?;
-            frames.push(match &pixels {
-                Some(m) => bpins_core::pipeline::apply_pixel_maps(&c, data, m)
-                    .with_context(|| format!("--calibration {}", self.calibration.as_ref().unwrap().display()))?,
-                None => data,
-            });
-            pb.inc(1);
-        }
-        pb.finish_and_clear();
         let opts = bpins_core::fit::FitOptions {
             effects,
             trust_reference: self.trust_reference,
@@ -188,6 +209,13 @@ impl FitInput {
             sky_masks: None,
             known: cal.map(|c| c.effects).unwrap_or_default(),
         };
+        let pb = progress::bar(c.frames.len() as u64, "frames read");
+        let frames = bpins_core::fit::FitFrames::load(&c, budget, pixels, &opts, &|n| pb.set_position(n as u64))
+            .with_context(|| match &self.calibration {
+                Some(p) => format!("reading the frames (--calibration {})", p.display()),
+                None => "reading the frames".to_string(),
+            })?;
+        pb.finish_and_clear();
         Ok((opts, c, frames))
     }
 }
