@@ -107,6 +107,13 @@ enum Edit {
         line: usize,
         factor: f64,
     },
+    /// Replace the `nth` number on line `line` (inside a list or an inline table too)
+    /// with one of EXTREMES.
+    Number {
+        line: usize,
+        nth: usize,
+        value: usize,
+    },
     DropLine(usize),
     DoubleLine(usize),
     /// Rename the key on line `line`.
@@ -124,6 +131,7 @@ fn edit() -> impl Strategy<Value = Edit> {
         (any::<usize>(), 0..EXTREMES.len()).prop_map(|(line, value)| Edit::Value { line, value }),
         (any::<usize>(), prop_oneof![Just(-1.0), Just(1e3), Just(1e9), Just(0.5), Just(1e-9)])
             .prop_map(|(line, factor)| Edit::Scale { line, factor }),
+        (any::<usize>(), 0usize..4, 0..EXTREMES.len()).prop_map(|(line, nth, value)| Edit::Number { line, nth, value }),
         any::<usize>().prop_map(Edit::DropLine),
         any::<usize>().prop_map(Edit::DoubleLine),
         any::<usize>().prop_map(Edit::RenameKey),
@@ -154,6 +162,32 @@ fn apply(text: &str, e: &Edit) -> Vec<u8> {
             if let Some(eq) = l.find('=') {
                 if let Ok(v) = l[eq + 1..].trim().parse::<f64>() {
                     *l = format!("{}= {:?}", &l[..eq], v * factor);
+                }
+            }
+        }
+        Edit::Number { line, nth, value } => {
+            let l = &mut lines[line % n];
+            if let Some(eq) = l.find('=') {
+                // Numbers after the first `=`: runs of digits, signs, points and exponents.
+                let is_num = |c: char| c.is_ascii_digit() || "+-.eE".contains(c);
+                let b = l.as_bytes();
+                let mut spans = Vec::new();
+                let mut i = eq + 1;
+                while i < b.len() {
+                    if b[i].is_ascii_digit() && (i == 0 || !b[i - 1].is_ascii_alphabetic()) {
+                        let start = if i > 0 && (b[i - 1] == b'-' || b[i - 1] == b'+') { i - 1 } else { i };
+                        let mut end = i;
+                        while end < b.len() && is_num(b[end] as char) {
+                            end += 1;
+                        }
+                        spans.push((start, end));
+                        i = end;
+                    } else {
+                        i += 1;
+                    }
+                }
+                if let Some(&(a, z)) = spans.get(nth % spans.len().max(1)) {
+                    *l = format!("{}{}{}", &l[..a], EXTREMES[value], &l[z..]);
                 }
             }
         }
