@@ -143,12 +143,20 @@ pub struct FitFrames<'a> {
     sample: Sample,
 }
 
-/// Blocks per stratum side for `budget` pixels per frame of `w × h` (1: every pixel).
+/// Blocks per stratum side for `budget` pixels per frame of `w × h` (1: every pixel):
+/// the least s ≥ 2 whose blocks (one per stratum with room for a whole block, the
+/// last column and row of strata included) fit the budget.
 fn blocks_per_stratum(w: usize, h: usize, budget: Option<usize>) -> usize {
-    match budget {
-        Some(b) if w * h > b => ((w * h) as f64 / b.max(MIN_BUDGET_PX) as f64).sqrt().ceil().max(2.0) as usize,
-        _ => 1,
+    let b = match budget {
+        Some(b) if w * h > b => b.max(MIN_BUDGET_PX),
+        _ => return 1,
+    };
+    let along = |n: usize, sp: usize| n / sp + usize::from(n % sp >= BLOCK_PX);
+    let mut s = (((w * h) as f64 / b as f64).sqrt().ceil() as usize).max(2);
+    while along(w, s * BLOCK_PX) * along(h, s * BLOCK_PX) * BLOCK_PX * BLOCK_PX > b {
+        s += 1;
     }
+    s
 }
 
 /// A seeded offset in 0..n (splitmix64 of the seed, the frame and the stratum).
@@ -504,8 +512,12 @@ mod tests {
         let (w, h) = (100, 60);
         assert_eq!(blocks_per_stratum(w, h, None), 1);
         assert_eq!(blocks_per_stratum(w, h, Some(6000)), 1);
-        let s = blocks_per_stratum(w, h, Some(1500));
+        assert_eq!(blocks_per_stratum(w, h, Some(1500)), 3, "s = 2 keeps 6 × 4 blocks, 1536 px");
+        let s = blocks_per_stratum(w, h, Some(1600));
         assert_eq!(s, 2);
+        // 153 × 128 under a quarter: s = 2 would keep 10 × 8 blocks (the last column
+        // of strata, 9 px wide, holds one), 5120 px > 4896; s = 3 keeps 7 × 6.
+        assert_eq!(blocks_per_stratum(153, 128, Some(4896)), 3);
         let grid = Grid { s, cols: w.div_ceil(16), rows: h.div_ceil(16) };
         let (a, b) = (offsets_of(&grid, 0, w, h), offsets_of(&grid, 1, w, h));
         assert_ne!(a, b, "frames are sampled at different places");
