@@ -590,7 +590,7 @@ fn list_or_range(p: &Path, key: &str, v: Option<&Value>) -> Result<Option<Vec<f6
             // Counted in floating point first: a tiny step (1e-320) or a huge span
             // overflows any integer.
             let count = ((to - from) / step + 1e-9).floor() + 1.0;
-            if !(count <= 100_000.0) {
+            if count > 100_000.0 {
                 return Err(bad(p, key, format!("{count:.3e} values; expected at most 100000")));
             }
             (0..count as usize).map(|k| from + step * k as f64).collect()
