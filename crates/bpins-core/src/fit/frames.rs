@@ -40,7 +40,7 @@ use std::borrow::Cow;
 use std::sync::Arc;
 
 /// Pixels per frame a fit reads by default: a 612 × 512 frame is read whole, a
-/// 2448 × 2048 one by a sample of 1/16 of it (313 344 pixels).
+/// 2448 × 2048 one by a sample of 1/15.9 of it (315 392 pixels).
 pub const DEFAULT_BUDGET_PX: usize = 1 << 19;
 
 /// Side of a sampled block, pixels (even: whole 2 × 2 tiles).
