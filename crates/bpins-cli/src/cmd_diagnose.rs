@@ -6,9 +6,8 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::fit::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use bpins_core::fit::DiagnosisJson;
-use bpins_core::fit::{residual_maps, FitOptions};
+use bpins_core::fit::diagnose::{diagnose_frames, DiagnoseOptions, Diagnosis};
+use bpins_core::fit::{DiagnosisJson, FitOptions};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -28,7 +27,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let spinner = indicatif::ProgressBar::new_spinner();
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
     let t0 = std::time::Instant::now();
-    let d = diagnose(&c, &frames, &opts, &|what| spinner.set_message(what.to_string())).context("diagnosing")?;
+    let d = diagnose_frames(&c, &frames, &opts, &|what| spinner.set_message(what.to_string())).context("diagnosing")?;
     spinner.finish_and_clear();
     print_steps(&d);
     eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
@@ -41,8 +40,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for (k, s) in d.steps.iter().enumerate() {
         let effects = s.model.iter().map(|n| bpins_core::effects::find(n)).collect::<Result<Vec<_>, _>>()?;
         let opts = FitOptions { effects, ..opts.base.clone() };
-        let m = residual_maps(&c, &frames, &opts, &s.fit.state, s.fit.noise).context("residual maps")?;
-        maps.push(crate::residuals::write(&a.out.join(format!("step{k}")), &m)?);
+        let (figures, m) =
+            crate::residuals::compute_and_write(&a.out.join(format!("step{k}")), &c, &frames, &opts, &s.fit)?;
+        maps.push(figures);
         // The first and the last step's, for the report's before → after.
         if k == 0 || k + 1 == d.steps.len() {
             ends.push(m);
@@ -87,10 +87,13 @@ fn print_steps(d: &Diagnosis) {
                 } else if c.refitted {
                     "(refitted)"
                 } else {
-                    "(score test, 1/9 of the pixels)"
+                    "(score test, 1/9 of the pixels fitted)"
                 }
             );
         }
+    }
+    if let Some(s) = d.steps.first() {
+        println!("{}", crate::sample_line(&s.fit.sample));
     }
     println!("selected: {}", if d.selected.is_empty() { "nothing".into() } else { d.selected.join(", ") });
     for (e, why) in &d.inseparable {

@@ -4,7 +4,7 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::fit::{fit, FitJson};
+use bpins_core::fit::{fit_from, FitJson};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -23,7 +23,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if names.is_empty() { "none".to_string() } else { names.join(", ") }
     );
     let spinner = indicatif::ProgressBar::new_spinner();
-    let r = fit(&c, &frames, &opts, &|stage, it| spinner.set_message(format!("iteration {it} ({stage})")))
+    let r = fit_from(&c, &frames, &opts, None, &|stage, it| spinner.set_message(format!("iteration {it} ({stage})")))
         .context("fitting")?;
     spinner.finish_and_clear();
     println!(
@@ -39,6 +39,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         100.0 * r.noise.prnu
     );
     println!("AoP residual RMS {:.4}°, DoLP residual RMS {:.5}", r.aop_rms_deg, r.dolp_rms);
+    println!("{}", crate::sample_line(&r.sample));
     for p in &r.params {
         println!("  {:<34} {:>+12.5} ± {:<10.5} {}", p.name, p.value, p.sigma, p.unit);
     }
@@ -91,8 +92,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let cal_path = a.out.join("calibration.toml");
     crate::write_output(&cal_path, cal.to_toml().as_bytes())?;
     eprintln!("wrote {} (bpins heading --calibration, fit/diagnose --calibration)", cal_path.display());
-    let maps = bpins_core::fit::residual_maps(&c, &frames, &opts, &r.state, r.noise).context("residual maps")?;
-    crate::residuals::write(&a.out, &maps)?;
+    crate::residuals::compute_and_write(&a.out, &c, &frames, &opts, &r)?;
     eprintln!("wrote residual maps (EXR and PNG) and sky-space profiles (CSV and SVG) to {}", a.out.display());
     eprintln!("wrote {}", path.display());
     Ok(())

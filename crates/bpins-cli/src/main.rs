@@ -154,20 +154,54 @@ pub struct FitInput {
     /// depolarized clusters and the rays below the horizon).
     #[arg(long)]
     pub all_pixels: bool,
+    /// Most pixels of each frame the fit reads (default 524288): a larger frame is read
+    /// through a stratified, seeded sample of 8 × 8-pixel blocks (whole 2 × 2 tiles),
+    /// which bounds the time and the memory per frame; each 1σ then grows about as
+    /// √(frame pixels / sampled pixels), which the result states (`sample`).
+    #[arg(long, value_name = "PIXELS", conflicts_with = "full")]
+    pub sample_budget: Option<usize>,
+    /// Read every pixel of every frame, however large (no sample budget).
+    #[arg(long)]
+    pub full: bool,
     /// Output folder (never inside the capture).
     #[arg(long)]
     pub out: std::path::PathBuf,
 }
 
+/// What of each frame a fit read, in words (`FitResult::sample`).
+pub fn sample_line(s: &bpins_core::fit::Sample) -> String {
+    let budget = s.budget_px.map_or("none (--full)".to_string(), |b| format!("{b} px per frame"));
+    if s.pixels_per_frame >= s.frame_px {
+        format!("every pixel of each frame ({} px; sample budget {budget})", s.frame_px)
+    } else {
+        format!(
+            "a sample of {} of each frame's {} px (budget {budget}): one {b} × {b} block per {t} × {t} stratum; \
+             every pixel would give each 1σ × {:.2} (--sample-budget N raises it, --full reads every pixel)",
+            s.pixels_per_frame,
+            s.frame_px,
+            s.full_sigma_factor,
+            b = s.block_px,
+            t = s.stratum_px
+        )
+    }
+}
+
 impl FitInput {
     /// The request as the library takes it (the effects checked against the registry
-    /// there), then the capture with all its frames (a progress bar while reading).
-    /// `out` must lie outside the capture.
+    /// there), then the capture with its frames as the fit reads them (whole, or
+    /// sampled within the budget; a progress bar while reading). `out` must lie
+    /// outside the capture.
     pub fn load(&self) -> anyhow::Result<bpins_core::fit::Loaded> {
         use anyhow::Context;
         if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
             anyhow::bail!("--fixed-dmax {d} must lie in [0, 1]");
         }
+        let min = bpins_core::fit::frames::MIN_BUDGET_PX;
+        if let Some(b) = self.sample_budget.filter(|&b| b < min) {
+            anyhow::bail!("--sample-budget {b} is below the smallest budget, {min} pixels (16 blocks of 8 × 8)");
+        }
+        let budget =
+            if self.full { None } else { Some(self.sample_budget.unwrap_or(bpins_core::fit::DEFAULT_BUDGET_PX)) };
         ensure_not_in_capture(&self.out)?;
         let request = bpins_core::fit::FitRequest {
             capture: self.capture.clone(),
@@ -177,6 +211,7 @@ impl FitInput {
             rayleigh_radiance: self.rayleigh_radiance,
             calibration: self.calibration.clone(),
             all_pixels: self.all_pixels,
+            sample_budget_px: budget,
         };
         let pb = progress::bar(0, "frames read");
         let loaded = request

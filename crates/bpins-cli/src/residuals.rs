@@ -1,11 +1,11 @@
-//! Residual maps on disk: EXR (the numbers: stacked over frames, and each frame's as
-//! layers `f<k>_…`) and PNG (a diverging colour scale a person reads at a glance: blue
+//! Residual maps on disk: EXR (the numbers: stacked over frames, and each frame's in
+//! `frames/f<k>_residual_{dn,pol}.exr`, written as it is made) and PNG (a diverging colour scale a person reads at a glance: blue
 //! where the data lie below the model, red above, grey masked), and the residual
 //! profiles in sky space (`crate::profiles`).
 
 use anyhow::Context;
 use bpins_core::capture::write_exr_layers;
-use bpins_core::fit::ResidualMaps;
+use bpins_core::fit::{FrameMaps, ResidualMaps};
 use std::path::Path;
 
 /// One written map: its PNG file name (relative to the step folder) and its scale.
@@ -26,21 +26,24 @@ pub struct Figures {
     pub profiles_svg: String,
 }
 
-/// Writes `maps` into `dir` (EXR, PNG, profiles CSV and SVG).
-pub fn write(dir: &Path, maps: &ResidualMaps) -> anyhow::Result<Figures> {
+/// Writes the stacked `maps` into `dir` (EXR, PNG, profiles CSV and SVG); `frames`:
+/// what [`write_frame`] wrote of each frame, and every frame `maps` still holds is
+/// written now.
+pub fn write(dir: &Path, maps: &ResidualMaps, mut frames: Vec<Vec<Written>>) -> anyhow::Result<Figures> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let names: Vec<[String; 3]> =
-        (0..maps.frames.len()).map(|k| [format!("f{k}_dn_z"), format!("f{k}_AoP_deg"), format!("f{k}_DoLP")]).collect();
-    let mut dn_layers: Vec<(&str, &[f32])> = vec![("dn_z", &maps.dn_z), ("dn_chi2", &maps.dn_chi2)];
-    let mut pol_layers: Vec<(&str, &[f32])> = vec![("AoP_deg", &maps.aop_deg), ("DoLP", &maps.dolp)];
-    for (n, f) in names.iter().zip(&maps.frames) {
-        dn_layers.push((&n[0], &f.dn_z));
-        pol_layers.push((&n[1], &f.aop_deg));
-        pol_layers.push((&n[2], &f.dolp));
-    }
-    write_exr_layers(&dir.join("residual_dn.exr"), maps.width_px, maps.height_px, &dn_layers)?;
+    write_exr_layers(
+        &dir.join("residual_dn.exr"),
+        maps.width_px,
+        maps.height_px,
+        &[("dn_z", &maps.dn_z), ("dn_chi2", &maps.dn_chi2)],
+    )?;
     let excess: Vec<f32> = maps.dn_chi2.iter().map(|x| x - 1.0).collect();
-    write_exr_layers(&dir.join("residual_pol.exr"), maps.pol_width, maps.pol_height, &pol_layers)?;
+    write_exr_layers(
+        &dir.join("residual_pol.exr"),
+        maps.pol_width,
+        maps.pol_height,
+        &[("AoP_deg", &maps.aop_deg), ("DoLP", &maps.dolp)],
+    )?;
     let mut out = Vec::new();
     for (name, what, data, w, h, unit, floor, bin) in [
         ("residual_chi2.png", "χ² per sample − 1", &excess, maps.width_px, maps.height_px, "", 0.1, 8),
@@ -51,25 +54,82 @@ pub fn write(dir: &Path, maps: &ResidualMaps) -> anyhow::Result<Figures> {
         let scale = binned_png(&dir.join(name), data, w, h, bin, floor)?;
         out.push(Written { png: name.to_string(), what, scale, unit });
     }
-    // Each frame's DN, AoP and DoLP residual (frames/f<k>_….png).
-    let mut frames = Vec::new();
-    if !maps.frames.is_empty() {
-        std::fs::create_dir_all(dir.join("frames")).with_context(|| format!("creating {}/frames", dir.display()))?;
-    }
-    for (k, f) in maps.frames.iter().enumerate() {
-        let mut row = Vec::new();
-        for (name, what, data, w, h, unit, floor, bin) in [
-            (format!("frames/f{k}_dn.png"), "DN residual / σ", &f.dn_z, maps.width_px, maps.height_px, "σ", 0.3, 8),
-            (format!("frames/f{k}_aop.png"), "AoP residual", &f.aop_deg, maps.pol_width, maps.pol_height, "°", 0.02, 4),
-            (format!("frames/f{k}_dolp.png"), "DoLP residual", &f.dolp, maps.pol_width, maps.pol_height, "", 0.001, 4),
-        ] {
-            let scale = binned_png(&dir.join(&name), data, w, h, bin, floor)?;
-            row.push(Written { png: name, what, scale, unit });
-        }
-        frames.push(row);
+    for f in &maps.frames {
+        let k = frames.len();
+        frames.push(write_frame(dir, k, maps, f)?);
     }
     let profiles_svg = crate::profiles::write(dir, &maps.profiles)?;
     Ok(Figures { maps: out, frames, profiles_svg })
+}
+
+/// Writes frame `k`'s DN, AoP and DoLP residual `f` (sizes as in `size`) into
+/// `dir/frames/`: EXR `f<k>_residual_dn.exr` (layer `dn_z`) and `f<k>_residual_pol.exr`
+/// (`AoP_deg`, `DoLP`), PNG `f<k>_{dn,aop,dolp}.png`.
+pub fn write_frame(dir: &Path, k: usize, size: &ResidualMaps, f: &FrameMaps) -> anyhow::Result<Vec<Written>> {
+    let fd = dir.join("frames");
+    std::fs::create_dir_all(&fd).with_context(|| format!("creating {}", fd.display()))?;
+    let (w, h, pw, ph) = (size.width_px, size.height_px, size.pol_width, size.pol_height);
+    write_exr_layers(&fd.join(format!("f{k}_residual_dn.exr")), w, h, &[("dn_z", &f.dn_z)])?;
+    write_exr_layers(
+        &fd.join(format!("f{k}_residual_pol.exr")),
+        pw,
+        ph,
+        &[("AoP_deg", &f.aop_deg), ("DoLP", &f.dolp)],
+    )?;
+    let mut row = Vec::new();
+    for (name, what, data, w, h, unit, floor, bin) in [
+        (format!("frames/f{k}_dn.png"), "DN residual / σ", &f.dn_z, w, h, "σ", 0.3, 8),
+        (format!("frames/f{k}_aop.png"), "AoP residual", &f.aop_deg, pw, ph, "°", 0.02, 4),
+        (format!("frames/f{k}_dolp.png"), "DoLP residual", &f.dolp, pw, ph, "", 0.001, 4),
+    ] {
+        let scale = binned_png(&dir.join(&name), data, w, h, bin, floor)?;
+        row.push(Written { png: name, what, scale, unit });
+    }
+    Ok(row)
+}
+
+/// The residual maps of `state` under `opts` on every pixel of `frames`, each frame's
+/// written into `dir` as it is made ([`write_frame`]), then the stacked ones
+/// ([`write`]): one frame's maps in memory at a time.
+pub fn compute_and_write(
+    dir: &Path,
+    c: &bpins_core::capture::Capture,
+    frames: &bpins_core::fit::FitFrames,
+    opts: &bpins_core::fit::FitOptions,
+    fit: &bpins_core::fit::FitResult,
+) -> anyhow::Result<(Figures, ResidualMaps)> {
+    // The map sizes, for the frames written before the stacked maps exist.
+    let g = &c.sensor.geometry;
+    let dofp = matches!(c.sensor.layout, bpins_core::sensor::Layout::Dofp { .. });
+    let (pw, ph) = if dofp { (g.width_px / 2, g.height_px / 2) } else { (g.width_px, g.height_px) };
+    let size = ResidualMaps {
+        width_px: g.width_px,
+        height_px: g.height_px,
+        dn_z: Vec::new(),
+        dn_chi2: Vec::new(),
+        pol_width: pw,
+        pol_height: ph,
+        aop_deg: Vec::new(),
+        dolp: Vec::new(),
+        frames: Vec::new(),
+        profiles: Vec::new(),
+    };
+    let mut written = Vec::new();
+    let mut failed = None;
+    let maps = bpins_core::fit::residual_maps_of(c, frames, opts, &fit.state, fit.noise, &mut |k, f| {
+        if failed.is_none() {
+            match write_frame(dir, k, &size, &f) {
+                Ok(w) => written.push(w),
+                Err(e) => failed = Some(e),
+            }
+        }
+    })
+    .context("residual maps")?;
+    if let Some(e) = failed {
+        return Err(e);
+    }
+    let figures = write(dir, &maps, written)?;
+    Ok((figures, maps))
 }
 
 /// Writes `data` (w × h, NaN masked) to `path` as a PNG binned to blocks of `bin` px

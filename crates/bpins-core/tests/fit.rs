@@ -59,10 +59,11 @@ fn every_candidate_scored_in_one_pass_scores_as_alone() {
     let opts = FitOptions { effects: vec![find("principal_point").unwrap()], ..Default::default() };
     let base = fit(&c, &frames, &opts, &|_, _| {}).unwrap();
     let cands: Vec<_> = REGISTRY.iter().copied().filter(|e| e.name != "principal_point").collect();
-    let all = score_candidates(&c, &frames, &opts, &base, &cands, 3, 1e-3).unwrap();
+    let held = bpins_core::fit::FitFrames::all(&c, &frames).unwrap();
+    let all = score_candidates(&c, &held, &opts, &base, &cands, 3, 1e-3).unwrap();
     let close = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-7 * a.abs().max(b.abs()).max(1e-6);
     for (e, s) in cands.iter().zip(&all) {
-        let one = score_candidate(&c, &frames, &opts, &base, e, 3, 1e-3).unwrap();
+        let one = score_candidate(&c, &held, &opts, &base, e, 3, 1e-3).unwrap();
         assert_eq!((s.added_rank, s.samples), (one.added_rank, one.samples), "{}", e.name);
         assert!(close(s.delta_chi2, one.delta_chi2), "{}: {} vs {}", e.name, s.delta_chi2, one.delta_chi2);
         for (p, q) in s.params.iter().zip(&one.params) {

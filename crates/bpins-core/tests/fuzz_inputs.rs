@@ -1,5 +1,5 @@
-//! Fuzzing the readers of what users bring: `capture.toml`, its frame images and
-//! `calibration.toml`. proptest mutates valid files (numbers swapped for extremes,
+//! Fuzzing the readers of what users bring: `capture.toml`, its frame images,
+//! `calibration.toml` and sweep files (`bpins-sweep/1`, every one of `examples/sweeps/`). proptest mutates valid files (numbers swapped for extremes,
 //! lines dropped or doubled, keys renamed, bytes flipped, files cut short) and each
 //! reader must answer with a value that meets every range of docs/ranges.md or with an
 //! error naming the file, never a panic, and never a write into the capture.
@@ -22,9 +22,11 @@ use bpins_core::calibration::Calibration;
 use bpins_core::capture::{ranges, Capture, FrameData};
 use bpins_core::effects::EffectSet;
 use bpins_core::sky::sun::sun_from_time_place;
+use bpins_core::sweep::{Distribution, SweepSpec};
 use proptest::prelude::*;
 
 const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
+const SWEEPS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sweeps");
 const CASES_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fuzz-cases");
 const W: u32 = 8;
 const H: u32 = 6;
@@ -105,6 +107,13 @@ enum Edit {
         line: usize,
         factor: f64,
     },
+    /// Replace the `nth` number on line `line` (inside a list or an inline table too)
+    /// with one of EXTREMES.
+    Number {
+        line: usize,
+        nth: usize,
+        value: usize,
+    },
     DropLine(usize),
     DoubleLine(usize),
     /// Rename the key on line `line`.
@@ -122,6 +131,7 @@ fn edit() -> impl Strategy<Value = Edit> {
         (any::<usize>(), 0..EXTREMES.len()).prop_map(|(line, value)| Edit::Value { line, value }),
         (any::<usize>(), prop_oneof![Just(-1.0), Just(1e3), Just(1e9), Just(0.5), Just(1e-9)])
             .prop_map(|(line, factor)| Edit::Scale { line, factor }),
+        (any::<usize>(), 0usize..4, 0..EXTREMES.len()).prop_map(|(line, nth, value)| Edit::Number { line, nth, value }),
         any::<usize>().prop_map(Edit::DropLine),
         any::<usize>().prop_map(Edit::DoubleLine),
         any::<usize>().prop_map(Edit::RenameKey),
@@ -152,6 +162,32 @@ fn apply(text: &str, e: &Edit) -> Vec<u8> {
             if let Some(eq) = l.find('=') {
                 if let Ok(v) = l[eq + 1..].trim().parse::<f64>() {
                     *l = format!("{}= {:?}", &l[..eq], v * factor);
+                }
+            }
+        }
+        Edit::Number { line, nth, value } => {
+            let l = &mut lines[line % n];
+            if let Some(eq) = l.find('=') {
+                // Numbers after the first `=`: runs of digits, signs, points and exponents.
+                let is_num = |c: char| c.is_ascii_digit() || "+-.eE".contains(c);
+                let b = l.as_bytes();
+                let mut spans = Vec::new();
+                let mut i = eq + 1;
+                while i < b.len() {
+                    if b[i].is_ascii_digit() && (i == 0 || !b[i - 1].is_ascii_alphabetic()) {
+                        let start = if i > 0 && (b[i - 1] == b'-' || b[i - 1] == b'+') { i - 1 } else { i };
+                        let mut end = i;
+                        while end < b.len() && is_num(b[end] as char) {
+                            end += 1;
+                        }
+                        spans.push((start, end));
+                        i = end;
+                    } else {
+                        i += 1;
+                    }
+                }
+                if let Some(&(a, z)) = spans.get(nth % spans.len().max(1)) {
+                    *l = format!("{}{}{}", &l[..a], EXTREMES[value], &l[z..]);
                 }
             }
         }
@@ -308,9 +344,98 @@ proptest! {
     }
 }
 
+/// The example sweep files (name, text), sorted.
+fn sweep_examples() -> &'static [(String, String)] {
+    static EXAMPLES: std::sync::OnceLock<Vec<(String, String)>> = std::sync::OnceLock::new();
+    EXAMPLES.get_or_init(|| {
+        let mut out: Vec<(String, String)> = fs::read_dir(SWEEPS)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+            .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), fs::read_to_string(&p).unwrap()))
+            .collect();
+        out.sort();
+        assert!(out.len() >= 3, "examples/sweeps holds {} sweep files", out.len());
+        out
+    })
+}
+
+/// Parses a sweep file's text as `sweeps/<name>`; `Err(message)` where refused. A
+/// panic fails the test with the text.
+fn read_sweep(name: &str, text: &str) -> Result<SweepSpec, String> {
+    let path = PathBuf::from("sweeps").join(name);
+    match catch_unwind(|| SweepSpec::parse(&path, text)) {
+        Ok(Ok(s)) => Ok(s),
+        Ok(Err(e)) => Err(e.to_string()),
+        Err(_) => panic!("the sweep reader panicked on:\n{text}"),
+    }
+}
+
+/// What an accepted sweep must satisfy: the capture's ranges for its sensor and lens,
+/// the sweep format's own (module doc of `bpins_core::sweep`), and draws that are
+/// finite numbers for every source.
+fn assert_sweep_in_range(s: &SweepSpec) {
+    let g = &s.sensor.geometry;
+    assert!(ranges::WIDTH_PX.contains(g.width_px as f64) && ranges::HEIGHT_PX.contains(g.height_px as f64));
+    assert!(ranges::PIXEL_PITCH_UM.contains(g.pixel_pitch_um), "pitch {}", g.pixel_pitch_um);
+    assert!(ranges::FOCAL_LENGTH_MM.contains(s.lens.focal_length_mm), "focal {}", s.lens.focal_length_mm);
+    assert!(ranges::BIT_DEPTH.contains(s.sensor.bit_depth as f64));
+    assert!(s.trials >= 1 && s.trials_per_azimuth >= 1 && !s.errors.is_empty() && !s.extractors.is_empty());
+    assert!(s.sun_elevations_deg.iter().all(|e| *e > 0.0 && *e < 90.0), "{:?}", s.sun_elevations_deg);
+    assert!(
+        s.sun_azimuths_deg.iter().all(|a| ranges::SUN_AZIMUTH_DEG.contains(*a)),
+        "sun azimuths {:?} accepted",
+        s.sun_azimuths_deg
+    );
+    assert!(s.dmax > 0.0 && s.dmax <= 1.0 && s.peak_dn > 0.0 && s.peak_dn <= s.sensor.full_scale_dn());
+    for e in &s.errors {
+        match e.distribution {
+            Distribution::Normal { mean, sigma } => assert!(mean.is_finite() && sigma.is_finite() && sigma >= 0.0),
+            Distribution::Uniform { min, max } => assert!(min.is_finite() && max.is_finite() && min <= max),
+            Distribution::Fixed { value } => assert!(value.is_finite()),
+        }
+    }
+    assert!(bpins_core::sweep::unit_count(s) >= 1);
+    assert!(s.corner_r2().is_finite());
+    for source in 0..s.sources.len() {
+        for trial in 0..2 {
+            let d = bpins_core::sweep::draws(s, source, trial);
+            assert!(d.iter().all(|x| x.is_finite()), "source {source} trial {trial} draws {d:?}");
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(config())]
+
+    /// A mutated sweep file parses to a sweep within every range, or is refused naming
+    /// the file and the key.
+    #[test]
+    fn sweep_file_mutations(which in any::<usize>(), edits in prop::collection::vec(edit(), 1..4)) {
+        let examples = sweep_examples();
+        let (name, original) = &examples[which % examples.len()];
+        let mut text = original.clone();
+        for e in &edits {
+            text = String::from_utf8_lossy(&apply(&text, e)).into_owned();
+        }
+        match read_sweep(name, &text) {
+            Ok(s) => assert_sweep_in_range(&s),
+            Err(msg) => prop_assert!(msg.starts_with(&format!("sweeps/{name}: ")), "an error that names no file: {msg}"),
+        }
+    }
+}
+
+/// Every example sweep file parses and meets every range (the fuzzer's starting points).
+#[test]
+fn example_sweeps_parse_within_range() {
+    for (name, text) in sweep_examples() {
+        assert_sweep_in_range(&read_sweep(name, text).unwrap_or_else(|e| panic!("{name}: {e}")));
+    }
+}
+
 /// Every kept regression case is refused with an error naming its file, and reading
 /// it does not panic. `capture-*.toml` replace the base capture's TOML;
-/// `calibration-*.toml` are calibration files.
+/// `calibration-*.toml` are calibration files; `sweep-*.toml` sweep files.
 #[test]
 fn kept_regression_cases_are_refused() {
     let mut seen = 0;
@@ -327,6 +452,9 @@ fn kept_regression_cases_are_refused() {
         } else if name.starts_with("calibration-") {
             let msg = Calibration::parse(&path, &text).expect_err(&format!("{name} was accepted")).to_string();
             assert!(msg.contains(&name), "{name}: {msg}");
+        } else if name.starts_with("sweep-") {
+            let msg = read_sweep(&name, &text).expect_err(&format!("{name} was accepted"));
+            assert!(msg.starts_with(&format!("sweeps/{name}: ")), "{name}: {msg}");
         } else {
             continue;
         }

@@ -5,8 +5,8 @@
 //! ([`FitJson`], [`DiagnosisJson`]; README, "fit.json and diagnosis.json").
 
 use crate::{finite, py_err};
-use bpins_core::fit::diagnose::{diagnose as run_diagnose, DiagnoseOptions};
-use bpins_core::fit::{fit as run_fit, DiagnosisJson, FitJson, FitRequest};
+use bpins_core::fit::diagnose::{diagnose_frames, DiagnoseOptions};
+use bpins_core::fit::{fit_from, DiagnosisJson, FitJson, FitRequest};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -20,7 +20,14 @@ fn request(
     trust_reference: bool,
     rayleigh_radiance: bool,
     all_pixels: bool,
+    sample_budget_px: Option<usize>,
 ) -> PyResult<FitRequest> {
+    let min = bpins_core::fit::frames::MIN_BUDGET_PX;
+    if let Some(b) = sample_budget_px.filter(|&b| b < min) {
+        return Err(PyValueError::new_err(format!(
+            "sample_budget_px = {b}: expected at least {min} (or None: every pixel)"
+        )));
+    }
     if let Some(d) = fixed_dmax {
         if !(0.0..=1.0).contains(&finite("fixed_dmax", d)?) {
             return Err(PyValueError::new_err(format!("fixed_dmax = {d}: expected a value in [0, 1]")));
@@ -30,7 +37,16 @@ fn request(
     for name in &effects {
         bpins_core::effects::find(name).map_err(|e| PyValueError::new_err(format!("effects: {e}")))?;
     }
-    Ok(FitRequest { capture, effects, trust_reference, fixed_dmax, rayleigh_radiance, calibration, all_pixels })
+    Ok(FitRequest {
+        capture,
+        effects,
+        trust_reference,
+        fixed_dmax,
+        rayleigh_radiance,
+        calibration,
+        all_pixels,
+        sample_budget_px,
+    })
 }
 
 /// A result serialised as its JSON file is (or the error doing so), as the dict
@@ -43,19 +59,22 @@ fn to_dict<'py>(py: Python<'py>, json: serde_json::Result<String>) -> PyResult<B
 /// Fits the model to a capture folder.
 ///
 /// fit(capture, effects=None, *, calibration=None, fixed_dmax=None,
-///     trust_reference=False, rayleigh_radiance=False, all_pixels=False) -> dict
+///     trust_reference=False, rayleigh_radiance=False, all_pixels=False,
+///     sample_budget_px=524288) -> dict
 ///
 /// `effects`: the catalog effects whose parameters are fitted (names of
 /// `bpins.effects()`; default none: only each frame's heading, scale, radiance shape
 /// and d_max). `calibration`: a calibration.toml whose effects are held at their values
 /// and whose per-pixel maps are applied. `fixed_dmax`: the sky's peak DoLP in [0, 1]
-/// when known. Returns the dict `bpins fit` writes as fit.json: "capture", "effects",
+/// when known. `sample_budget_px`: most pixels of each frame read (a larger frame
+/// is fitted on a seeded sample of whole 2 × 2 tiles, its 1σ grown as "sample" says;
+/// None reads every pixel). Returns the dict `bpins fit` writes as fit.json: "capture", "effects",
 /// "params" (name with unit suffix, value, sigma (1σ), unit), "chi2_per_dof", "noise",
 /// "aop_rms_deg", "dolp_rms", "frames" (per frame: heading_deg and its 1σ, reference,
 /// error, scale_dn, dmax, radiance, chi2_per_dof), ... The GIL is released while it fits.
 #[pyfunction]
 #[pyo3(signature = (capture, effects=None, *, calibration=None, fixed_dmax=None, trust_reference=false,
-    rayleigh_radiance=false, all_pixels=false))]
+    rayleigh_radiance=false, all_pixels=false, sample_budget_px=Some(bpins_core::fit::DEFAULT_BUDGET_PX)))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit<'py>(
     py: Python<'py>,
@@ -66,12 +85,22 @@ pub fn fit<'py>(
     trust_reference: bool,
     rayleigh_radiance: bool,
     all_pixels: bool,
+    sample_budget_px: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let req = request(capture, effects, calibration, fixed_dmax, trust_reference, rayleigh_radiance, all_pixels)?;
+    let req = request(
+        capture,
+        effects,
+        calibration,
+        fixed_dmax,
+        trust_reference,
+        rayleigh_radiance,
+        all_pixels,
+        sample_budget_px,
+    )?;
     let text = py
         .detach(|| {
             let l = req.load(&|_, _| {})?;
-            let r = run_fit(&l.capture, &l.frames, &l.options, &|_, _| {})?;
+            let r = fit_from(&l.capture, &l.frames, &l.options, None, &|_, _| {})?;
             Ok::<_, bpins_core::Error>(serde_json::to_string(&FitJson::new(&req.capture, &l.options, &r)))
         })
         .map_err(py_err)?;
@@ -84,7 +113,7 @@ pub fn fit<'py>(
 ///
 /// diagnose(capture, effects=None, *, max_added=3, calibration=None,
 ///          fixed_dmax=None, trust_reference=False, rayleigh_radiance=False,
-///          all_pixels=False) -> dict
+///          all_pixels=False, sample_budget_px=524288) -> dict
 ///
 /// The arguments are `fit`'s (`effects`: the model to start from and keep) and
 /// `max_added`, the most effects added. Returns the dict `bpins diagnose` writes as
@@ -94,7 +123,8 @@ pub fn fit<'py>(
 /// "unexplained" (bool) and "unexplained_summary" (words). The GIL is released.
 #[pyfunction]
 #[pyo3(signature = (capture, effects=None, *, max_added=3, calibration=None, fixed_dmax=None,
-    trust_reference=false, rayleigh_radiance=false, all_pixels=false))]
+    trust_reference=false, rayleigh_radiance=false, all_pixels=false,
+    sample_budget_px=Some(bpins_core::fit::DEFAULT_BUDGET_PX)))]
 #[allow(clippy::too_many_arguments)]
 pub fn diagnose<'py>(
     py: Python<'py>,
@@ -106,13 +136,23 @@ pub fn diagnose<'py>(
     trust_reference: bool,
     rayleigh_radiance: bool,
     all_pixels: bool,
+    sample_budget_px: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let req = request(capture, effects, calibration, fixed_dmax, trust_reference, rayleigh_radiance, all_pixels)?;
+    let req = request(
+        capture,
+        effects,
+        calibration,
+        fixed_dmax,
+        trust_reference,
+        rayleigh_radiance,
+        all_pixels,
+        sample_budget_px,
+    )?;
     let text = py
         .detach(|| {
             let l = req.load(&|_, _| {})?;
             let opts = DiagnoseOptions { base: l.options, max_added, ..Default::default() };
-            let d = run_diagnose(&l.capture, &l.frames, &opts, &|_| {})?;
+            let d = diagnose_frames(&l.capture, &l.frames, &opts, &|_| {})?;
             Ok::<_, bpins_core::Error>(serde_json::to_string(&DiagnosisJson::new(&req.capture, &d)))
         })
         .map_err(py_err)?;

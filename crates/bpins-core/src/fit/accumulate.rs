@@ -3,9 +3,10 @@
 //!
 //! Per frame: the chain at θ and, for each of the frame's free slots (the global ones
 //! and its own), how its Jacobian column is formed ([`Column`]); then the rows of the
-//! frame in parallel, each usable sample adding w·r², w·d·r and w·d·dᵀ over those
+//! frame (or its sampled blocks, `super::frames`) in parallel, each usable sample adding w·r², w·d·r and w·d·dᵀ over those
 //! local slots; then the frame's local sums scattered into the free-slot system.
 
+use super::frames::Rect;
 use super::problem::{FitFrame, Problem};
 use super::slots::Derivative;
 use crate::error::Result;
@@ -60,7 +61,7 @@ struct FrameModel<'f> {
 
 impl Problem<'_> {
     /// χ² and, with `normal`, JᵀWJ and JᵀWr over the free slots, on every `stride`-th
-    /// row and column, in free-slot order.
+    /// row and column of the pixels the frames hold, in free-slot order.
     pub(crate) fn accumulate(&self, theta: &[f64], stride: usize, normal: bool) -> Result<Accum> {
         let free = self.slots.free();
         let nf = free.len();
@@ -73,13 +74,14 @@ impl Problem<'_> {
             let base = self.chain(theta, k)?;
             let columns = if normal { self.columns(theta, k, &local)? } else { Vec::new() };
             let fm = FrameModel { k, base: &base, columns: &columns, normal };
-            let fr = (0..self.h())
+            let fr = self
+                .frames
+                .parts(k, stride)
                 .into_par_iter()
-                .filter(|v| v % stride == 0)
-                .map(|v| self.accumulate_row(&fm, v, stride))
+                .map(|r| self.accumulate_part(&fm, r, stride))
                 .collect::<Vec<_>>()
                 .into_iter()
-                // In row order: the same sums whatever the threads.
+                // In row (block) order: the same sums whatever the threads.
                 .fold(Accum::new(columns.len(), 0), Accum::add);
             // Scatter the frame's local sums into the free-slot system (none without
             // `normal`: no columns).
@@ -138,13 +140,14 @@ impl Problem<'_> {
         Ok(out)
     }
 
-    /// The sums of row `v` of one frame, every `stride`-th column.
-    fn accumulate_row(&self, fm: &FrameModel, v: usize, stride: usize) -> Accum {
+    /// The sums of part `r` of one frame (a row, a block), every `stride`-th row and
+    /// column.
+    fn accumulate_part(&self, fm: &FrameModel, r: Rect, stride: usize) -> Accum {
         let nl = fm.columns.len();
         let mut acc = Accum::new(nl, 0);
         let mut bufs = (Vec::new(), Vec::new(), Vec::new());
         let mut d = vec![0.0; nl];
-        for u in (0..self.w()).step_by(stride) {
+        for (u, v) in r.points(stride) {
             self.pixel(fm.base, fm.k, u, v, &mut bufs.0);
             let samples = std::mem::take(&mut bufs.0);
             let psi = (fm.normal && !samples.is_empty()).then(|| self.radiance(fm.base, fm.k, u, v).1);

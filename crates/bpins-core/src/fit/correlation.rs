@@ -30,51 +30,53 @@ struct Lags {
     y: [f64; 3],
 }
 
-/// n_eff of the residuals of `theta` over every usable sample.
+/// n_eff of the residuals of `theta` over every usable sample. The lag pairs lie
+/// within each rectangle the frames hold (the whole frame, or each sampled block of
+/// whole 2 × 2 tiles: neighbours stay adjacent).
 pub(super) fn effective_samples(pb: &Problem, theta: &[f64], samples: usize) -> Result<f64> {
-    let (w, h) = (pb.w(), pb.h());
     let lag = match pb.capture.sensor.layout {
         Layout::Dofp { .. } => 2,
         Layout::Colocated { .. } => 1,
+    };
+    let nq = match &pb.capture.sensor.layout {
+        Layout::Dofp { .. } => 1,
+        Layout::Colocated { channels } => channels.len(),
     };
     let mut lags = Lags::default();
     let mut buf = Vec::new();
     for k in 0..pb.frames.len() {
         let f = pb.chain(theta, k)?;
-        // Residual map: per pixel, per sample (NaN where not usable), flat.
-        let nq = match &pb.capture.sensor.layout {
-            Layout::Dofp { .. } => 1,
-            Layout::Colocated { channels } => channels.len(),
-        };
-        let mut z = vec![f64::NAN; w * h * nq];
-        for v in 0..h {
-            for u in 0..w {
+        for r in pb.frames.rects(k) {
+            let (w, h) = (r.u1 - r.u0, r.v1 - r.v0);
+            // Residual map of the rectangle: per pixel, per sample (NaN where not usable).
+            let mut z = vec![f64::NAN; w * h * nq];
+            for (u, v) in r.points(1) {
                 pb.pixel(&f, k, u, v, &mut buf);
                 for (q, &(y, m)) in buf.iter().enumerate().take(nq) {
                     if pb.usable(k, u, v, y) {
                         let var = pb.noise.variance_dn2(m - pb.capture.sensor.black_level_dn);
-                        z[(v * w + u) * nq + q] = (y - m) / var.sqrt();
+                        z[((v - r.v0) * w + u - r.u0) * nq + q] = (y - m) / var.sqrt();
                     }
                 }
             }
-        }
-        let add = |acc: &mut [f64; 3], a: &[f64], b: &[f64]| {
-            for (&p, &q) in a.iter().zip(b) {
-                if p.is_finite() && q.is_finite() {
-                    acc[0] += p * q;
-                    acc[1] += p * p;
-                    acc[2] += q * q;
+            let add = |acc: &mut [f64; 3], a: &[f64], b: &[f64]| {
+                for (&p, &q) in a.iter().zip(b) {
+                    if p.is_finite() && q.is_finite() {
+                        acc[0] += p * q;
+                        acc[1] += p * p;
+                        acc[2] += q * q;
+                    }
                 }
-            }
-        };
-        let at = |u: usize, v: usize| &z[(v * w + u) * nq..][..nq];
-        for v in 0..h {
-            for u in 0..w {
-                if u + lag < w {
-                    add(&mut lags.x, at(u, v), at(u + lag, v));
-                }
-                if v + lag < h {
-                    add(&mut lags.y, at(u, v), at(u, v + lag));
+            };
+            let at = |u: usize, v: usize| &z[(v * w + u) * nq..][..nq];
+            for v in 0..h {
+                for u in 0..w {
+                    if u + lag < w {
+                        add(&mut lags.x, at(u, v), at(u + lag, v));
+                    }
+                    if v + lag < h {
+                        add(&mut lags.y, at(u, v), at(u, v + lag));
+                    }
                 }
             }
         }

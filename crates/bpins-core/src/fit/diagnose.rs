@@ -26,7 +26,7 @@
 
 use super::remains::Remains;
 use super::score::score_candidates;
-use super::{fit_from, residual_maps, sky_masks, FitOptions, FitResult, Param};
+use super::{fit_from, residual_maps_of, FitFrames, FitOptions, FitResult, Param};
 use crate::capture::{Capture, FrameData};
 use crate::effects::{EffectDef, REGISTRY};
 use crate::error::Result;
@@ -182,10 +182,21 @@ fn delta_bic(delta_chi2: f64, k: usize, base: &FitResult) -> f64 {
     delta_chi2 * n_eff / n - k as f64 * n_eff.ln()
 }
 
-/// Runs the diagnosis; `progress(what)` as it goes.
+/// Runs the diagnosis on every pixel of `frames`; `progress(what)` as it goes.
 pub fn diagnose(
     c: &Capture,
     frames: &[FrameData],
+    opts: &DiagnoseOptions,
+    progress: &dyn Fn(&str),
+) -> Result<Diagnosis> {
+    diagnose_frames(c, &FitFrames::all(c, frames)?, opts, progress)
+}
+
+/// [`diagnose`] on the frames as [`FitFrames`] hold them (every pixel or a sample
+/// within a budget: each step's fit says which, `FitResult::sample`).
+pub fn diagnose_frames(
+    c: &Capture,
+    frames: &FitFrames,
     opts: &DiagnoseOptions,
     progress: &dyn Fn(&str),
 ) -> Result<Diagnosis> {
@@ -193,7 +204,7 @@ pub fn diagnose(
     if model.sky_masks.is_none() && !model.all_pixels {
         // Once for every fit of the search.
         progress("finding the sky in each frame");
-        model.sky_masks = Some(std::sync::Arc::new(sky_masks(c, frames, &model)?));
+        model.sky_masks = Some(frames.sky_masks(c, &model)?);
     }
     let insep = inseparable(c, &model);
     progress("fitting the starting model");
@@ -329,7 +340,7 @@ pub fn diagnose(
     let limit = Remains::noise_limit(current.dof);
     d.remains = if current.chi2_per_dof > limit {
         progress("describing the residual");
-        let maps = residual_maps(c, frames, &model, &current.state, current.noise)?;
+        let maps = residual_maps_of(c, frames, &model, &current.state, current.noise, &mut |_, _| {})?;
         Remains::unexplained(current.chi2_per_dof, limit, d.selected.clone(), &maps.profiles)
     } else {
         Remains { chi2_per_dof: current.chi2_per_dof, noise_limit: limit, unexplained: None }

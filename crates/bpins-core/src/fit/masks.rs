@@ -2,6 +2,7 @@
 
 use super::FitOptions;
 use crate::capture::{Capture, FrameData};
+use crate::effects::Model;
 use crate::error::Result;
 use crate::heading::field::{self, FieldOptions, SkyMask};
 use rayon::prelude::*;
@@ -12,13 +13,12 @@ use rayon::prelude::*;
 /// diagnosis computes them once and hands them to each of its fits.
 pub fn sky_masks(c: &Capture, frames: &[FrameData], opts: &FitOptions) -> Result<Vec<Option<SkyMask>>> {
     let known = opts.known.model();
-    frames
-        .par_iter()
-        .enumerate()
-        .map(|(k, data)| {
-            let cells = crate::pipeline::frame_cells(c, data, &known, None)?;
-            let ctx = crate::pipeline::field_context(c, &c.frames[k], &known);
-            Ok(field::sky_mask(&cells, &ctx, &FieldOptions::default()).ok())
-        })
-        .collect()
+    frames.par_iter().enumerate().map(|(k, data)| sky_mask_of(c, k, data, &known)).collect()
+}
+
+/// The sky mask of frame `k` of `c` whose pixels are `data`, read with `known`.
+pub(crate) fn sky_mask_of(c: &Capture, k: usize, data: &FrameData, known: &Model) -> Result<Option<SkyMask>> {
+    let cells = crate::pipeline::frame_cells(c, data, known, None)?;
+    let ctx = crate::pipeline::field_context(c, &c.frames[k], known);
+    Ok(field::sky_mask(&cells, &ctx, &FieldOptions::default()).ok())
 }

@@ -14,7 +14,10 @@
 //! masked. The noise comes from the frames themselves (`noise::estimate`), so χ²/dof
 //! measures the model: ≈ 1 when it explains the data. Iterations first run on every
 //! third row and column (all channels), then on every pixel until converged; the
-//! reported numbers are from every pixel. 1σ from the inverse of JᵀWJ.
+//! reported numbers are from every pixel. 1σ from the inverse of JᵀWJ. "Every pixel"
+//! is every pixel the frames hold ([`frames`]): a frame larger than the sample budget
+//! is read through a stratified sample of whole 2 × 2 tiles, and the result says so
+//! ([`FitResult::sample`], with the factor that scales its 1σ to full resolution).
 //!
 //! The sky's radiance is a per-frame nuisance (`radiance`: × R(p), a smooth
 //! orthonormal basis in the image position and the scattering angle), so a real sky's
@@ -27,6 +30,7 @@
 mod accumulate;
 pub mod correlation;
 pub mod diagnose;
+pub mod frames;
 pub mod linalg;
 mod lm;
 mod masks;
@@ -42,9 +46,10 @@ mod score;
 pub mod slots;
 mod start;
 
+pub use frames::{FitFrames, Sample, DEFAULT_BUDGET_PX};
 pub use masks::sky_masks;
 pub use request::{DiagnosisJson, FitJson, FitRequest, Loaded};
-pub use residuals::{residual_maps, FrameMaps, ResidualMaps};
+pub use residuals::{residual_maps, residual_maps_of, FrameMaps, ResidualMaps};
 pub use result::{FitResult, FitState, FrameFit, Param};
 pub use score::{score_candidate, score_candidates, Score};
 pub use slots::PER_FRAME;
@@ -88,10 +93,10 @@ pub struct FitOptions {
 /// Pixels this close to the sensor's edge are not fitted.
 pub const BORDER_PX: usize = 2;
 
-/// Fits `opts` to the capture `c` whose frames are `frames`; `progress(stage, step)`
-/// after each iteration.
+/// Fits `opts` to the capture `c` whose frames are `frames` (every pixel);
+/// `progress(stage, step)` after each iteration.
 pub fn fit(c: &Capture, frames: &[FrameData], opts: &FitOptions, progress: &dyn Fn(&str, usize)) -> Result<FitResult> {
-    fit_from(c, frames, opts, None, progress)
+    fit_from(c, &FitFrames::all(c, frames)?, opts, None, progress)
 }
 
 /// The sensor noise of a capture (photon transfer over its frames).
@@ -100,15 +105,16 @@ pub fn capture_noise(c: &Capture, frames: &[FrameData]) -> Result<NoiseModel> {
         .ok_or_else(|| Error::Model("too few usable pixels to estimate the sensor noise".into()))
 }
 
-/// [`fit`] from a warm start.
+/// [`fit`] on the frames as [`FitFrames`] hold them (every pixel or a sample), from a
+/// warm start where given.
 pub fn fit_from(
     c: &Capture,
-    frames: &[FrameData],
+    frames: &FitFrames,
     opts: &FitOptions,
     start: Option<&FitState>,
     progress: &dyn Fn(&str, usize),
 ) -> Result<FitResult> {
-    let noise = capture_noise(c, frames)?;
+    let noise = frames.noise(c)?;
     let (pb, theta) = problem(c, frames, opts, start, noise)?;
     let (theta, iterations) = lm::minimise(&pb, theta, progress)?;
     // Final: every pixel, covariance from JᵀWJ (its pseudo-inverse: a combination the
@@ -166,6 +172,7 @@ pub fn fit_from(
         dof,
         chi2_per_dof: acc.chi2 / dof,
         samples: acc.n,
+        sample: frames.sample(),
         noise,
         aop_rms_deg,
         dolp_rms,

@@ -39,30 +39,46 @@ impl NoiseModel {
 /// Estimates the noise from `frames` (black level `black_dn`, usable DN in
 /// (0, `full_scale_dn`)); `None` when too few samples.
 pub fn estimate(frames: &[FrameData], black_dn: f64, full_scale_dn: f64) -> Option<NoiseModel> {
-    // Sums for y = a + b·s + c·s²: n, Σs, Σs², Σs³, Σs⁴, Σy, Σsy, Σs²y.
-    let mut acc = [0.0f64; 8];
-    let mut add = |plane: &[f32], w: usize, h: usize| {
-        for v in 0..h {
-            let row = &plane[v * w..][..w];
-            for u in 2..w.saturating_sub(2) {
-                let (l, c, r) = (row[u - 2] as f64, row[u] as f64, row[u + 2] as f64);
-                let ok = |x: f64| x > 0.0 && x < full_scale_dn;
-                if !(ok(l) && ok(c) && ok(r)) {
-                    continue;
-                }
-                let d = c - 0.5 * (l + r);
-                let (s, y) = (c - black_dn, d * d / 1.5);
-                // In units of the full scale (a well-conditioned quadratic).
-                let s = s / full_scale_dn;
-                let s2 = s * s;
-                for (a, x) in acc.iter_mut().zip([1.0, s, s2, s2 * s, s2 * s2, y, s * y, s2 * y]) {
-                    *a += x;
+    let mut sums = NoiseSums::default();
+    for f in frames {
+        sums.add(f, black_dn, full_scale_dn);
+    }
+    sums.model(full_scale_dn)
+}
+
+/// The sums of the photon-transfer fit, frame by frame: a capture's frames need not
+/// be in memory together (`fit::frames` adds each as it reads it).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoiseSums {
+    /// For y = a + b·s + c·s²: n, Σs, Σs², Σs³, Σs⁴, Σy, Σsy, Σs²y.
+    acc: [f64; 8],
+}
+
+impl NoiseSums {
+    /// Adds every usable second difference of `frame`.
+    pub fn add(&mut self, frame: &FrameData, black_dn: f64, full_scale_dn: f64) {
+        let acc = &mut self.acc;
+        let mut add = |plane: &[f32], w: usize, h: usize| {
+            for v in 0..h {
+                let row = &plane[v * w..][..w];
+                for u in 2..w.saturating_sub(2) {
+                    let (l, c, r) = (row[u - 2] as f64, row[u] as f64, row[u + 2] as f64);
+                    let ok = |x: f64| x > 0.0 && x < full_scale_dn;
+                    if !(ok(l) && ok(c) && ok(r)) {
+                        continue;
+                    }
+                    let d = c - 0.5 * (l + r);
+                    let (s, y) = (c - black_dn, d * d / 1.5);
+                    // In units of the full scale (a well-conditioned quadratic).
+                    let s = s / full_scale_dn;
+                    let s2 = s * s;
+                    for (a, x) in acc.iter_mut().zip([1.0, s, s2, s2 * s, s2 * s2, y, s * y, s2 * y]) {
+                        *a += x;
+                    }
                 }
             }
-        }
-    };
-    for f in frames {
-        match f {
+        };
+        match frame {
             FrameData::Mosaic { width_px, height_px, dn } => add(dn, *width_px as usize, *height_px as usize),
             FrameData::Colocated { width_px, height_px, channels } => {
                 for (_, p) in channels {
@@ -71,28 +87,37 @@ pub fn estimate(frames: &[FrameData], black_dn: f64, full_scale_dn: f64) -> Opti
             }
         }
     }
-    let [n, s, s2, s3, s4, y, sy, s2y] = acc;
-    if n < 100.0 {
-        return None;
+
+    /// Adds the sums of other frames.
+    pub fn merge(&mut self, o: &NoiseSums) {
+        self.acc.iter_mut().zip(o.acc).for_each(|(a, b)| *a += b);
     }
-    // The quadratic (normal equations), or the line where it curves down.
-    let normal = nalgebra::Matrix3::new(n, s, s2, s, s2, s3, s2, s3, s4);
-    let quad = nalgebra::Cholesky::new(normal)
-        .map(|l| l.solve(&nalgebra::Vector3::new(y, sy, s2y)))
-        .filter(|x| x[2] >= 0.0 && x.iter().all(|v| v.is_finite()));
-    let (a, b, c) = match quad {
-        Some(x) => (x[0], x[1], x[2]),
-        None => {
-            let det = n * s2 - s * s;
-            if det > 0.0 {
-                ((s2 * y - s * sy) / det, (n * sy - s * y) / det, 0.0)
-            } else {
-                (y / n, 0.0, 0.0)
-            }
+
+    /// The noise model of the sums; `None` when too few samples.
+    pub fn model(&self, full_scale_dn: f64) -> Option<NoiseModel> {
+        let [n, s, s2, s3, s4, y, sy, s2y] = self.acc;
+        if n < 100.0 {
+            return None;
         }
-    };
-    let (b, c) = (b / full_scale_dn, c / (full_scale_dn * full_scale_dn));
-    Some(NoiseModel { read_dn: a.max(1.0 / 12.0).sqrt(), k_dn_per_e: b.max(0.0), prnu: c.sqrt() })
+        // The quadratic (normal equations), or the line where it curves down.
+        let normal = nalgebra::Matrix3::new(n, s, s2, s, s2, s3, s2, s3, s4);
+        let quad = nalgebra::Cholesky::new(normal)
+            .map(|l| l.solve(&nalgebra::Vector3::new(y, sy, s2y)))
+            .filter(|x| x[2] >= 0.0 && x.iter().all(|v| v.is_finite()));
+        let (a, b, c) = match quad {
+            Some(x) => (x[0], x[1], x[2]),
+            None => {
+                let det = n * s2 - s * s;
+                if det > 0.0 {
+                    ((s2 * y - s * sy) / det, (n * sy - s * y) / det, 0.0)
+                } else {
+                    (y / n, 0.0, 0.0)
+                }
+            }
+        };
+        let (b, c) = (b / full_scale_dn, c / (full_scale_dn * full_scale_dn));
+        Some(NoiseModel { read_dn: a.max(1.0 / 12.0).sqrt(), k_dn_per_e: b.max(0.0), prnu: c.sqrt() })
+    }
 }
 
 #[cfg(test)]

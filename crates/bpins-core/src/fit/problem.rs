@@ -1,12 +1,14 @@
-//! The problem a fit solves: the capture's frames (in memory), the typed parameter
+//! The problem a fit solves: the capture's frames (every pixel or a sample), the typed parameter
 //! slots, the noise and each frame's sky mask and radiance basis; and the model it
 //! evaluates — one frame's chain under a parameter vector, one pixel's model DN.
 
+use super::frames::{value_of, FitFrames};
 use super::noise::NoiseModel;
 use super::slots::{Nuisance, SlotId, Slots};
 use super::{radiance, start, FitOptions, FitState, BORDER_PX};
 use crate::camera::Intrinsics;
-use crate::capture::{Capture, FrameData};
+use crate::capture::Capture;
+use crate::capture::FrameData as Whole;
 use crate::chain::{mosaic_pixel_signal_dn, pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
 use crate::error::Result;
 use crate::heading::field::SkyMask;
@@ -16,7 +18,7 @@ use std::sync::Arc;
 /// The problem: the capture's frames and the parameter slots.
 pub(crate) struct Problem<'a> {
     pub capture: &'a Capture,
-    pub frames: &'a [FrameData],
+    pub frames: &'a FitFrames<'a>,
     pub nominal: Intrinsics,
     pub opts: &'a FitOptions,
     pub slots: Slots,
@@ -47,7 +49,7 @@ impl std::ops::Deref for FitFrame {
 /// the starting guesses of [`start`]).
 pub(crate) fn problem<'a>(
     c: &'a Capture,
-    frames: &'a [FrameData],
+    frames: &'a FitFrames<'a>,
     opts: &'a FitOptions,
     warm: Option<&FitState>,
     noise: NoiseModel,
@@ -55,10 +57,10 @@ pub(crate) fn problem<'a>(
     let reference: Vec<bool> = c.frames.iter().map(|f| f.heading_deg.is_some()).collect();
     let slots = Slots::new(opts, &reference);
     // Each frame's sky (and, for a frame without a reference, its first heading) from
-    // the field estimator, on the frames in memory.
+    // the field estimator, on the whole frames.
     let field = match &opts.sky_masks {
         Some(m) if m.len() == frames.len() => m.clone(),
-        _ => Arc::new(super::sky_masks(c, frames, opts)?),
+        _ => frames.sky_masks(c, opts)?,
     };
     let sky = if opts.all_pixels { Arc::new(vec![None; frames.len()]) } else { field.clone() };
     let warm_basis = warm.map(|s| &s.radiance_basis).filter(|b| b.len() == frames.len());
@@ -127,8 +129,20 @@ impl Problem<'_> {
     }
 
     /// Model DN of the samples of pixel (u, v) of frame `k` into `out` (1 for DoFP, one
-    /// per channel for colocated), with the measured values beside them.
+    /// per channel for colocated), with the measured values beside them (a pixel the
+    /// fit's frames hold).
+    #[inline]
     pub fn pixel(&self, f: &FitFrame, k: usize, u: usize, v: usize, out: &mut Vec<(f64, f64)>) {
+        self.pixel_with(f, u, v, |q| self.frames.value(k, u, v, q), out)
+    }
+
+    /// [`Problem::pixel`] measured on `data`, a frame whole.
+    pub fn pixel_of(&self, f: &FitFrame, u: usize, v: usize, data: &Whole, out: &mut Vec<(f64, f64)>) {
+        self.pixel_with(f, u, v, |q| value_of(data, self.w(), u, v, q), out)
+    }
+
+    #[inline(always)]
+    fn pixel_with(&self, f: &FitFrame, u: usize, v: usize, measured: impl Fn(usize) -> f32, out: &mut Vec<(f64, f64)>) {
         out.clear();
         let (w, h) = (self.w(), self.h());
         let r = if f.radiance == [0.0; radiance::N] {
@@ -138,20 +152,19 @@ impl Problem<'_> {
             let phi = radiance::raw_at(&f.intr, f.sun_cam, u, v, w, h);
             radiance::factor_raw(&f.radiance_weights, &phi)
         };
-        match (&self.capture.sensor.layout, &self.frames[k]) {
-            (Layout::Dofp { mosaic }, FrameData::Mosaic { dn, .. }) => {
+        match &self.capture.sensor.layout {
+            Layout::Dofp { mosaic } => {
                 let ch = Layout::dofp_channel(mosaic, u, v).index();
                 let m = r * mosaic_pixel_signal_dn(f, u, v, w, h, mosaic) + f.offset_dn[ch];
-                out.push((dn[v * w + u] as f64, m));
+                out.push((measured(0) as f64, m));
             }
-            (_, FrameData::Colocated { channels, .. }) => {
+            Layout::Colocated { channels } => {
                 let s = pixel_stokes(f, u as f64, v as f64);
-                for (c, plane) in channels {
+                for (q, c) in channels.iter().enumerate() {
                     let m = r * pixel_signal_dn(f, s, c.index()) + f.offset_dn[c.index()];
-                    out.push((plane[v * w + u] as f64, m));
+                    out.push((measured(q) as f64, m));
                 }
             }
-            _ => {}
         }
     }
 

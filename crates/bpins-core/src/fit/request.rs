@@ -6,9 +6,10 @@
 //! diagnosis.json"), so every front end writes the same schema.
 
 use super::diagnose::Diagnosis;
+use super::frames::{FitFrames, MIN_BUDGET_PX};
 use super::{FitOptions, FitResult};
 use crate::calibration::Calibration;
-use crate::capture::{Capture, FrameData};
+use crate::capture::Capture;
 use crate::error::{Error, Result};
 use std::path::PathBuf;
 
@@ -31,20 +32,24 @@ pub struct FitRequest {
     pub calibration: Option<PathBuf>,
     /// Fit every pixel, including those each frame's sky mask leaves out.
     pub all_pixels: bool,
+    /// Most pixels of each frame the fit reads (`fit::frames`: a larger frame is read
+    /// through a seeded sample of whole 2 × 2 tiles); `None` reads every pixel.
+    /// [`super::DEFAULT_BUDGET_PX`] is the CLI's default.
+    pub sample_budget_px: Option<usize>,
 }
 
-/// A checked request with its capture read.
-#[derive(Debug)]
+/// A checked request with its capture read (each frame whole, or its sample).
 pub struct Loaded {
     pub options: FitOptions,
     pub capture: Capture,
-    pub frames: Vec<FrameData>,
+    pub frames: FitFrames<'static>,
 }
 
 impl FitRequest {
-    /// Checks the request (every effect named in the registry, d_max in [0, 1]), reads
-    /// the calibration and every frame of the capture, applying the calibration's
-    /// per-pixel maps; `progress(frames_read, frames)` after each frame.
+    /// Checks the request (every effect named in the registry, d_max in [0, 1], the
+    /// budget at least [`MIN_BUDGET_PX`]), reads the calibration and the capture's
+    /// frames as the fit holds them (whole, or sampled within the budget; the
+    /// calibration's per-pixel maps applied); `progress(frames_read, frames)`.
     pub fn load(&self, progress: &dyn Fn(usize, usize)) -> Result<Loaded> {
         let effects = self
             .effects
@@ -56,19 +61,14 @@ impl FitRequest {
         if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
             return Err(Error::Model(format!("fixed d_max {d}: must lie in [0, 1]")));
         }
+        if let Some(b) = self.sample_budget_px.filter(|&b| b < MIN_BUDGET_PX) {
+            return Err(Error::Model(format!(
+                "sample budget {b} px: below the smallest, {MIN_BUDGET_PX} px (16 blocks of 8 × 8)"
+            )));
+        }
         let capture = Capture::load(&self.capture)?;
         let cal = self.calibration.as_deref().map(Calibration::load).transpose()?;
-        let pixels = cal.as_ref().and_then(|c| c.pixels.as_ref());
-        let n = capture.frames.len();
-        let mut frames = Vec::with_capacity(n);
-        for i in 0..n {
-            let data = capture.read_frame(i)?;
-            frames.push(match pixels {
-                Some(m) => crate::pipeline::apply_pixel_maps(&capture, data, m)?,
-                None => data,
-            });
-            progress(i + 1, n);
-        }
+        let pixels = cal.as_ref().and_then(|c| c.pixels.clone());
         let options = FitOptions {
             effects,
             trust_reference: self.trust_reference,
@@ -78,6 +78,8 @@ impl FitRequest {
             sky_masks: None,
             known: cal.map(|c| c.effects).unwrap_or_default(),
         };
+        let n = capture.frames.len();
+        let frames = FitFrames::load(&capture, self.sample_budget_px, pixels, &options, &|k| progress(k, n))?;
         Ok(Loaded { options, capture, frames })
     }
 }

@@ -1,6 +1,7 @@
 //! What a fitted model leaves: AoP and DoLP residual RMS, residual profiles and
 //! residual maps (measured − model).
 
+use super::frames::FitFrames;
 use super::noise::NoiseModel;
 use super::problem::{problem, Problem};
 use super::profiles::{Position, Profile, Profiler};
@@ -28,7 +29,6 @@ fn pol_residual(rec: &Reconstructor, meas: &[f64; 4], model: &[f64; 4]) -> (Opti
 pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64, f64)> {
     let c = pb.capture;
     let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &c.sensor.channels())?;
-    let (w, h) = (pb.w(), pb.h());
     let (mut sa, mut na, mut sd, mut nd) = (0.0, 0usize, 0.0, 0usize);
     for k in 0..pb.frames.len() {
         let f = pb.chain(theta, k)?;
@@ -46,24 +46,25 @@ pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64
             sd += dd * dd;
             nd += 1;
         };
-        match &c.sensor.layout {
-            Layout::Dofp { mosaic } => {
-                for j in 0..h / 2 {
-                    for i in 0..w / 2 {
-                        let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
-                        for (dv, row) in mosaic.iter().enumerate() {
-                            for (du, ch) in row.iter().enumerate() {
-                                pb.pixel(&f, k, 2 * i + du, 2 * j + dv, &mut buf);
-                                (meas[ch.index()], model[ch.index()]) = buf[0];
+        for r in pb.frames.rects(k) {
+            match &c.sensor.layout {
+                Layout::Dofp { mosaic } => {
+                    // Whole 2 × 2 tiles (a sampled block starts at even coordinates).
+                    for j in r.v0.div_ceil(2)..r.v1 / 2 {
+                        for i in r.u0.div_ceil(2)..r.u1 / 2 {
+                            let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
+                            for (dv, row) in mosaic.iter().enumerate() {
+                                for (du, ch) in row.iter().enumerate() {
+                                    pb.pixel(&f, k, 2 * i + du, 2 * j + dv, &mut buf);
+                                    (meas[ch.index()], model[ch.index()]) = buf[0];
+                                }
                             }
+                            add(2 * i, 2 * j, meas, model);
                         }
-                        add(2 * i, 2 * j, meas, model);
                     }
                 }
-            }
-            Layout::Colocated { channels } => {
-                for v in 0..h {
-                    for u in 0..w {
+                Layout::Colocated { channels } => {
+                    for (u, v) in r.points(1) {
                         pb.pixel(&f, k, u, v, &mut buf);
                         let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
                         for (c, &(y, m)) in channels.iter().zip(&buf) {
@@ -111,13 +112,31 @@ pub struct FrameMaps {
     pub dolp: Vec<f32>,
 }
 
-/// The residual maps and profiles of `state` under `opts`.
+/// The residual maps and profiles of `state` under `opts`, every frame's maps kept.
 pub fn residual_maps(
     c: &Capture,
     frames: &[FrameData],
     opts: &FitOptions,
     state: &FitState,
     noise: NoiseModel,
+) -> Result<ResidualMaps> {
+    let mut each = Vec::with_capacity(frames.len());
+    let mut maps = residual_maps_of(c, &FitFrames::all(c, frames)?, opts, state, noise, &mut |_, m| each.push(m))?;
+    maps.frames = each;
+    Ok(maps)
+}
+
+/// The residual maps and profiles of `state` under `opts` on every pixel of every
+/// frame (a sampled frame is read again whole, one at a time), each frame's maps handed
+/// to `each_frame(k, maps)` as they are made instead of kept (`ResidualMaps::frames`
+/// stays empty): memory bounded by the frame, not the capture.
+pub fn residual_maps_of(
+    c: &Capture,
+    frames: &FitFrames,
+    opts: &FitOptions,
+    state: &FitState,
+    noise: NoiseModel,
+    each_frame: &mut dyn FnMut(usize, FrameMaps),
 ) -> Result<ResidualMaps> {
     let (pb, theta) = problem(c, frames, opts, Some(state), noise)?;
     let (w, h) = (pb.w(), pb.h());
@@ -141,23 +160,27 @@ pub fn residual_maps(
             model_dolp: f64::NAN,
         }
     };
+    // Stacked sums: Σz with its count, Σz² (the same count).
     let mut z = vec![(0.0f64, 0u32); w * h];
-    let mut z2 = vec![(0.0f64, 0u32); w * h];
+    let mut z2 = vec![0.0f64; w * h];
     let mut aop = vec![(0.0f64, 0u32); pw * ph];
     let mut dolp = vec![(0.0f64, 0u32); pw * ph];
-    let mut per_frame = Vec::with_capacity(frames.len());
     let mut buf = Vec::new();
+    // Pixel rows per polarization row (a superpixel is two rows of a DoFP mosaic).
+    let rows_per = if dofp { 2 } else { 1 };
     for k in 0..frames.len() {
         let f = pb.chain(&theta, k)?;
+        let data = frames.full_frame(c, k)?;
         let mut fm =
             FrameMaps { dn_z: vec![f32::NAN; w * h], aop_deg: vec![f32::NAN; pw * ph], dolp: vec![f32::NAN; pw * ph] };
-        // Per pixel: DN residuals; gather the channels of each polarization sample.
-        let mut meas = vec![[1.0f64; 4]; pw * ph];
-        let mut model = vec![[1.0f64; 4]; pw * ph];
-        let mut ok = vec![true; pw * ph];
+        // Per pixel: DN residuals; gather the channels of each polarization sample of
+        // the current polarization row, then its residuals.
+        let mut meas = vec![[1.0f64; 4]; pw];
+        let mut model = vec![[1.0f64; 4]; pw];
+        let mut ok = vec![true; pw];
         for v in 0..h {
             for u in 0..w {
-                pb.pixel(&f, k, u, v, &mut buf);
+                pb.pixel_of(&f, u, v, &data, &mut buf);
                 let (pu, pv) = if dofp { (u / 2, v / 2) } else { (u, v) };
                 let inside = pu < pw && pv < ph;
                 // The pixel's ray through the fitted camera, once for all it is used for.
@@ -177,44 +200,44 @@ pub fn residual_maps(
                         let r = (y - m) / pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
                         z[v * w + u].0 += r;
                         z[v * w + u].1 += 1;
-                        z2[v * w + u].0 += r * r;
-                        z2[v * w + u].1 += 1;
+                        z2[v * w + u] += r * r;
                         fm.dn_z[v * w + u] = r as f32;
                         profiler.add_dn(&Position { channel: ch as f64, ..at }, r);
                     }
                     if !inside {
                         continue;
                     }
-                    let i = pv * pw + pu;
-                    meas[i][ch] = y;
-                    model[i][ch] = m;
-                    ok[i] &= usable;
+                    meas[pu][ch] = y;
+                    model[pu][ch] = m;
+                    ok[pu] &= usable;
                 }
             }
-        }
-        for i in 0..pw * ph {
-            if !ok[i] {
+            let pv = v / rows_per;
+            if v % rows_per != rows_per - 1 || pv >= ph {
                 continue;
             }
-            let (da, dd, model_dolp) = pol_residual(&rec, &meas[i], &model[i]);
-            if let Some(x) = da {
-                aop[i].0 += x;
-                aop[i].1 += 1;
-                fm.aop_deg[i] = x as f32;
+            for pu in 0..pw {
+                let i = pv * pw + pu;
+                if ok[pu] {
+                    let (da, dd, model_dolp) = pol_residual(&rec, &meas[pu], &model[pu]);
+                    if let Some(x) = da {
+                        aop[i].0 += x;
+                        aop[i].1 += 1;
+                        fm.aop_deg[i] = x as f32;
+                    }
+                    dolp[i].0 += dd;
+                    dolp[i].1 += 1;
+                    fm.dolp[i] = dd as f32;
+                    // A superpixel sits at the centre of its four pixels.
+                    let (u, v) =
+                        if dofp { (2.0 * pu as f64 + 0.5, 2.0 * pv as f64 + 0.5) } else { (pu as f64, pv as f64) };
+                    let d = f.intr.geometry(u, v).d;
+                    profiler.add_pol(&Position { model_dolp, ..position(&f, d, u, v) }, da, dd);
+                }
+                (meas[pu], model[pu], ok[pu]) = ([1.0; 4], [1.0; 4], true);
             }
-            dolp[i].0 += dd;
-            dolp[i].1 += 1;
-            fm.dolp[i] = dd as f32;
-            // A superpixel sits at the centre of its four pixels.
-            let (u, v) = if dofp {
-                (2.0 * (i % pw) as f64 + 0.5, 2.0 * (i / pw) as f64 + 0.5)
-            } else {
-                ((i % pw) as f64, (i / pw) as f64)
-            };
-            let d = f.intr.geometry(u, v).d;
-            profiler.add_pol(&Position { model_dolp, ..position(&f, d, u, v) }, da, dd);
         }
-        per_frame.push(fm);
+        each_frame(k, fm);
     }
     let mean = |v: &[(f64, u32)]| -> Vec<f32> {
         v.iter().map(|&(s, n)| if n > 0 { (s / n as f64) as f32 } else { f32::NAN }).collect()
@@ -223,12 +246,16 @@ pub fn residual_maps(
         width_px: w as u32,
         height_px: h as u32,
         dn_z: mean(&z),
-        dn_chi2: mean(&z2),
+        dn_chi2: z
+            .iter()
+            .zip(&z2)
+            .map(|(&(_, n), &s2)| if n > 0 { (s2 / n as f64) as f32 } else { f32::NAN })
+            .collect(),
         pol_width: pw as u32,
         pol_height: ph as u32,
         aop_deg: mean(&aop),
         dolp: mean(&dolp),
-        frames: per_frame,
+        frames: Vec::new(),
         profiles: profiler.finish(),
     })
 }

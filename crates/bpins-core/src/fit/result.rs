@@ -54,6 +54,9 @@ pub struct FitResult {
     pub chi2_per_dof: f64,
     /// Samples used (unmasked).
     pub samples: usize,
+    /// What of each frame the fit read: every pixel, or a sample within a budget
+    /// (`super::frames`), with the factor that scales each 1σ to full resolution.
+    pub sample: super::frames::Sample,
     pub noise: NoiseModel,
     /// RMS of measured − model AoP (degrees, where the model DoLP > 0.01) and DoLP,
     /// over superpixels (DoFP) or pixels (colocated), with the nominal inversion.

@@ -1,10 +1,11 @@
 //! The score test of a candidate effect: how much of what a fitted model leaves
 //! unexplained one Gauss–Newton step with the candidate freed would remove.
 
+use super::frames::FitFrames;
 use super::problem::problem;
 use super::slots::{Derivative, SlotId};
 use super::{linalg, FitOptions, FitResult, Param};
-use crate::capture::{Capture, FrameData};
+use crate::capture::Capture;
 use crate::effects::EffectDef;
 use crate::error::Result;
 
@@ -15,7 +16,7 @@ use crate::error::Result;
 /// that enters at second order (neutral points splitting) still scores.
 pub fn score_candidate(
     c: &Capture,
-    frames: &[FrameData],
+    frames: &FitFrames,
     base_opts: &FitOptions,
     base: &FitResult,
     candidate: &'static EffectDef,
@@ -34,7 +35,7 @@ pub fn score_candidate(
 /// bitwise ideal, so the others do not see it).
 pub fn score_candidates(
     c: &Capture,
-    frames: &[FrameData],
+    frames: &FitFrames,
     base_opts: &FitOptions,
     base: &FitResult,
     candidates: &[&'static EffectDef],

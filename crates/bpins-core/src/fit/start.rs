@@ -1,6 +1,6 @@
 //! Starting guesses: where a fit begins when no warm start names a value. Effects at
 //! neutral; each frame's heading at its reference, else the field estimator's (from
-//! the sky mask), else the sun-vector extractor's on the frame in memory; d_max 0.5
+//! the sky mask), else the sun-vector extractor's on the whole frame; d_max 0.5
 //! (or the given one); no radiance shape; the radiance scale that fits best (linear).
 
 use super::problem::Problem;
@@ -45,17 +45,9 @@ pub(super) fn theta(pb: &Problem, warm: Option<&FitState>, field: &[Option<SkyMa
 }
 
 /// First heading guess of frame `k` without a reference: the sun-vector extractor on
-/// the frame in memory.
+/// the whole frame.
 fn heading(pb: &Problem, k: usize) -> Result<f64> {
-    let est = crate::pipeline::frame_headings_of(
-        pb.capture,
-        k,
-        &pb.frames[k],
-        &Default::default(),
-        crate::pipeline::ReconMode::Superpixel,
-        &[crate::heading::Extractor::SunVector],
-    )?;
-    est.into_iter().next().expect("one extractor").1.map(|e| e.heading_deg)
+    pb.frames.first_heading(pb.capture, k)
 }
 
 /// Each frame's radiance basis, orthonormal over its sky at the start (every 4th
@@ -73,7 +65,8 @@ pub(super) fn radiance_bases(pb: &Problem, theta: &[f64]) -> Result<Vec<radiance
 }
 
 /// The radiance scale that fits frame `k` best with the rest of `theta` (linear: the
-/// model at unit scale, the black level taken as the offset, every 7th row and column).
+/// model at unit scale, the black level taken as the offset, every 7th row and column
+/// of the pixels the frames hold).
 pub(super) fn scale(pb: &Problem, theta: &[f64], k: usize) -> Result<f64> {
     let mut t = theta.to_vec();
     t[pb.slots.at(k, Nuisance::Scale)] = 1.0;
@@ -81,8 +74,7 @@ pub(super) fn scale(pb: &Problem, theta: &[f64], k: usize) -> Result<f64> {
     let black = pb.capture.sensor.black_level_dn;
     let (mut sy, mut ss) = (0.0, 0.0);
     let mut buf = Vec::new();
-    let at = (0..pb.h()).step_by(7).flat_map(|v| (0..pb.w()).step_by(7).map(move |u| (u, v)));
-    for (u, v) in at {
+    for (u, v) in pb.frames.parts(k, 7).into_iter().flat_map(|r| r.points(7)) {
         pb.pixel(&f, k, u, v, &mut buf);
         for &(y, m) in buf.iter().filter(|(y, _)| pb.usable(k, u, v, *y)) {
             sy += (y - black) * (m - black);

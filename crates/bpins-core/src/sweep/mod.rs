@@ -28,8 +28,9 @@
 //! focal_length_mm = 8.0
 //!
 //! [sky]                            # Rayleigh sky, level camera at heading 0°
-//! sun_elevations_deg = [5, 30, 60]                    # a list, or { from, to, step }
-//! sun_azimuths_deg = { from = 10, to = 80, step = 10 } # default [0]
+//! sun_elevations_deg = [5, 30, 60]                    # a list, or { from, to, step }; in (0°, 90°)
+//! sun_azimuths_deg = { from = 10, to = 80, step = 10 } # default [0]; in [−360°, 360°]
+//!                                  # (a range of at most 100 000 values)
 //! trials_per_azimuth = 20          # trial t: azimuth [(t / this) mod count]; default 1
 //! dmax = 0.6                       # default 0.6
 //! scene = ["clouds"]               # optional field conditions, as `bpins simulate --scene`
@@ -49,7 +50,8 @@
 //! ```
 //!
 //! `param` is any catalog effect parameter `effect.param` (`bpins effects` lists them;
-//! the draw must stay in the parameter's range), or:
+//! the draw must stay in the parameter's range), or the following (any distribution
+//! whose draws are finite: |mean| + 10σ, max − min and value finite):
 //!
 //! | param | what it is |
 //! |---|---|

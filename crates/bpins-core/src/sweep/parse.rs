@@ -124,6 +124,15 @@ impl SweepSpec {
         }
         let sun_azimuths_deg =
             list_or_range(p, "sky.sun_azimuths_deg", sky.get("sun_azimuths_deg"))?.unwrap_or_else(|| vec![0.0]);
+        for (i, &a) in sun_azimuths_deg.iter().enumerate() {
+            if !(-360.0..=360.0).contains(&a) {
+                return Err(bad(
+                    p,
+                    &format!("sky.sun_azimuths_deg[{i}]"),
+                    format!("{a}° is outside [−360°, 360°] (one turn either way of north, as in a capture)"),
+                ));
+            }
+        }
         let trials_per_azimuth =
             opt_int(p, "sky.trials_per_azimuth", sky.get("trials_per_azimuth"), 1, i64::MAX)?.unwrap_or(1) as usize;
         let dmax = opt_num(p, "sky.dmax", sky.get("dmax"))?.unwrap_or(0.6);
@@ -400,6 +409,20 @@ fn parse_error(p: &Path, i: usize, v: &Value, extractors: &[SweepExtractor]) -> 
             ))
         }
     };
+    // Every draw finite: a normal's draws reach a few σ (|n| < 7 from 32-bit uniforms),
+    // a uniform's span max − min.
+    let reach = match distribution {
+        Distribution::Normal { mean, sigma } => mean.abs() + 10.0 * sigma,
+        Distribution::Uniform { min, max } => max - min,
+        Distribution::Fixed { value } => value,
+    };
+    if !reach.is_finite() {
+        return Err(bad(
+            p,
+            &k("distribution"),
+            format!("{} can draw values beyond any finite number", distribution.describe()),
+        ));
+    }
     let per = match opt_str(p, &k("per"), t.get("per"))?.as_deref() {
         None | Some("trial") => Per::Trial,
         Some("pixel") => Per::Pixel,
@@ -564,11 +587,13 @@ fn list_or_range(p: &Path, key: &str, v: Option<&Value>) -> Result<Option<Vec<f6
                     format!("expected from ≤ to and step > 0, found from = {from}, to = {to}, step = {step}"),
                 ));
             }
-            let n = ((to - from) / step + 1e-9).floor() as usize + 1;
-            if n > 100_000 {
-                return Err(bad(p, key, format!("{n} values; expected at most 100000")));
+            // Counted in floating point first: a tiny step (1e-320) or a huge span
+            // overflows any integer.
+            let count = ((to - from) / step + 1e-9).floor() + 1.0;
+            if count > 100_000.0 {
+                return Err(bad(p, key, format!("{count:.3e} values; expected at most 100000")));
             }
-            (0..n).map(|k| from + step * k as f64).collect()
+            (0..count as usize).map(|k| from + step * k as f64).collect()
         }
         Some(v) => return Err(bad(p, key, format!("found {v}; expected a list of numbers or {{ from, to, step }}"))),
     };

@@ -126,6 +126,7 @@ def fit(
     trust_reference: bool = False,
     rayleigh_radiance: bool = False,
     all_pixels: bool = False,
+    sample_budget_px: Optional[int] = 524288,
 ) -> Dict[str, Any]:
     """Fits the named catalog effects (and each frame's heading, scale, radiance shape
     and d_max) to a capture folder's raw DN. Returns the data of the CLI's fit.json:
@@ -133,7 +134,8 @@ def fit(
     unit), "chi2_per_dof", "noise", "aop_rms_deg", "dolp_rms", "frames" (per frame:
     heading_deg, heading_sigma_deg, reference_deg, heading_error_deg, scale_dn, dmax,
     radiance, chi2_per_dof), ... `fixed_dmax` in [0, 1]; `calibration` a
-    calibration.toml. Raises ValueError (bad argument, unknown effect, bad capture)
+    calibration.toml; `sample_budget_px` the most pixels read per frame (None: every
+    pixel; "sample" in the result says what was read). Raises ValueError (bad argument, unknown effect, bad capture)
     or OSError (unreadable file). Releases the GIL."""
 
 def diagnose(
@@ -146,6 +148,7 @@ def diagnose(
     trust_reference: bool = False,
     rayleigh_radiance: bool = False,
     all_pixels: bool = False,
+    sample_budget_px: Optional[int] = 524288,
 ) -> Dict[str, Any]:
     """Fits `effects` (kept), then adds the catalog effect the evidence names, at most
     `max_added` of them. Returns the data of the CLI's diagnosis.json: "selected",
