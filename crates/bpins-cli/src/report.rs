@@ -27,6 +27,8 @@ struct Page {
     selected: String,
     inseparable: Vec<Why>,
     frames: Vec<FrameRow>,
+    /// What of each frame the fits read (the sample budget), in words.
+    sample: String,
 }
 
 #[derive(Serialize)]
@@ -141,6 +143,7 @@ pub fn diagnosis(
         selected: if d.selected.is_empty() { "No effect.".into() } else { d.selected.join(", then ") },
         inseparable: d.inseparable.iter().map(|(effect, why)| Why { effect, why: why.clone() }).collect(),
         frames: d.steps.last().map_or(Vec::new(), |s| frame_rows(&s.fit)),
+        sample: d.steps.first().map_or(String::new(), |s| crate::sample_line(&s.fit.sample)),
     };
     render(&page)
 }

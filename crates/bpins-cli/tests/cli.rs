@@ -897,6 +897,8 @@ fn diagnose_writes_its_json_and_report() {
     }
     let html = fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("step0/residual_chi2.png"));
+    // The sample budget, stated: the clean sample's 612 × 512 frames are read whole.
+    assert!(html.contains("every pixel of each frame (313344 px; sample budget 524288 px per frame)"), "{html}");
     assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
     bpins(&["diagnose", CLEAN, "--effects", "nope", "--out", &s(&tmp.path().join("x"))]).fails().stderr_has("nope");
 }
