@@ -34,15 +34,17 @@ pub mod lens_depolarization;
 pub mod lens_diattenuation;
 pub mod lens_retardance;
 pub mod mount_tilt;
+pub mod polarimetric_nonuniformity;
 pub mod principal_point;
 pub mod radial_distortion;
+pub mod sensor_nonlinearity;
 pub mod sky_depolarization;
 pub mod sky_neutral_points;
 pub mod vignetting;
 
 use crate::camera::RayGeometry;
 use crate::error::{Error, Result};
-use crate::stokes::Stokes;
+use crate::stokes::{Analyzer, Stokes};
 
 /// Where in the chain an effect acts (for listings and documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -116,6 +118,34 @@ pub type RayParams = [f64; 4];
 /// meridional-frame Stokes`, pure; WGSL `fn name(p: vec4<f64>, g: RayGeometry, s: Stokes) -> Stokes`.
 pub type RayFn = fn(p: &RayParams, g: &RayGeometry, s: Stokes) -> Stokes;
 
+/// The per-frame parameter vector of one analyzer effect (WGSL `array<vec4<f64>, 2>`:
+/// `p[0]` is `(x[0], …, x[3])`, `p[1]` is `(x[4], …, x[7])`).
+pub type AnalyzerParams = [f64; 8];
+
+/// Where an analyzer sits: pixel column `u` and row `v`, its channel index `ch`, and its
+/// position relative to the principal point, px (WGSL struct `PixelSite`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelSite {
+    pub u: u32,
+    pub v: u32,
+    pub ch: u32,
+    pub x_px: f64,
+    pub y_px: f64,
+}
+
+/// One pixel's analyzer and the gain behind it, DN per unit radiance (WGSL struct
+/// `PixelAnalyzer`): what the analyzer effects change.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelAnalyzer {
+    pub analyzer: Analyzer,
+    pub gain: f64,
+}
+
+/// An analyzer effect's function: `(its AnalyzerParams, the pixel's site, its ray, the
+/// pixel's analyzer) → the pixel's analyzer`, pure; WGSL `fn name(p: array<vec4<f64>, 2>,
+/// site: PixelSite, g: RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer`.
+pub type AnalyzerFn = fn(p: &AnalyzerParams, site: &PixelSite, g: &RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer;
+
 /// How an effect enters the chain.
 #[derive(Clone, Copy, Debug)]
 pub enum Apply {
@@ -128,11 +158,22 @@ pub enum Apply {
     /// give a vector at which `pixel` is exactly the identity); `pixel` is the per-pixel
     /// function, named as the effect and its WGSL twin.
     Ray { params: fn(values: &[f64]) -> RayParams, pixel: RayFn },
+    /// Changes each pixel's analyzer (angle, ε) and the gain behind it, per pixel and
+    /// channel, in the image frame: after the channel's analyzer (`analyzer_angles`,
+    /// `extinction_ratio`, `array_rotation`) and gain (`channel_response`), in registry
+    /// order. `params` turns the values into the per-pixel vector once per frame
+    /// (neutral values must give a vector at which `pixel` is exactly the identity);
+    /// `pixel` reads the pixel's site and ray (`chain::site_signal_dn`).
+    Analyzer { params: fn(values: &[f64]) -> AnalyzerParams, pixel: AnalyzerFn },
 }
 
 impl Apply {
     const fn is_ray(&self) -> bool {
         matches!(self, Apply::Ray { .. })
+    }
+
+    const fn is_analyzer(&self) -> bool {
+        matches!(self, Apply::Analyzer { .. })
     }
 }
 
@@ -149,7 +190,15 @@ impl EffectDef {
     fn neutral_ray_params(&self) -> Option<RayParams> {
         match self.apply {
             Apply::Ray { params, .. } => Some(params(&self.neutral_values())),
-            Apply::Frame(_) => None,
+            _ => None,
+        }
+    }
+
+    /// The analyzer vector at neutral values (`None` for another kind of effect).
+    fn neutral_analyzer_params(&self) -> Option<AnalyzerParams> {
+        match self.apply {
+            Apply::Analyzer { params, .. } => Some(params(&self.neutral_values())),
+            _ => None,
         }
     }
 }
@@ -173,8 +222,10 @@ const ALL: &[&EffectDef] = &[
     &array_rotation::EFFECT,
     &analyzer_angles::EFFECT,
     &extinction_ratio::EFFECT,
+    &polarimetric_nonuniformity::EFFECT,
     &channel_response::EFFECT,
     &crosstalk::EFFECT,
+    &sensor_nonlinearity::EFFECT,
 ];
 
 /// How many effects act per pixel ([`Apply::Ray`]): the length of [`Model::ray`].
@@ -223,6 +274,65 @@ fn identity_ray(_: &RayParams, _: &RayGeometry, s: Stokes) -> Stokes {
     s
 }
 
+/// How many effects act on each pixel's analyzer ([`Apply::Analyzer`]): the length of
+/// [`Model::analyzer`].
+pub const ANALYZER_COUNT: usize = {
+    let mut n = 0;
+    let mut i = 0;
+    while i < ALL.len() {
+        if ALL[i].apply.is_analyzer() {
+            n += 1;
+        }
+        i += 1;
+    }
+    n
+};
+
+/// The analyzer effects in chain order: slot `k` of [`Model::analyzer`] is `ANALYZER_EFFECTS[k]`.
+pub static ANALYZER_EFFECTS: [&EffectDef; ANALYZER_COUNT] = {
+    let mut out = [ALL[0]; ANALYZER_COUNT];
+    let (mut i, mut k) = (0, 0);
+    while i < ALL.len() {
+        if ALL[i].apply.is_analyzer() {
+            out[k] = ALL[i];
+            k += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+/// The analyzer effects' functions in chain order (`chain::analyzer_effects`).
+pub(crate) const ANALYZER_FNS: [AnalyzerFn; ANALYZER_COUNT] = {
+    let mut out: [AnalyzerFn; ANALYZER_COUNT] = [identity_analyzer; ANALYZER_COUNT];
+    let (mut i, mut k) = (0, 0);
+    while i < ALL.len() {
+        if let Apply::Analyzer { pixel, .. } = ALL[i].apply {
+            out[k] = pixel;
+            k += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+fn identity_analyzer(_: &AnalyzerParams, _: &PixelSite, _: &RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer {
+    a
+}
+
+/// The slot of analyzer effect `def` in [`Model::analyzer`] (`None` for another kind).
+pub fn analyzer_slot(def: &EffectDef) -> Option<usize> {
+    ANALYZER_EFFECTS.iter().position(|e| e.name == def.name)
+}
+
+/// Every analyzer effect at its neutral vector: the ideal chain's [`Model::analyzer`].
+pub fn neutral_analyzer_params() -> &'static [AnalyzerParams; ANALYZER_COUNT] {
+    static NEUTRAL: std::sync::LazyLock<[AnalyzerParams; ANALYZER_COUNT]> = std::sync::LazyLock::new(|| {
+        ANALYZER_EFFECTS.map(|e| e.neutral_analyzer_params().expect("ANALYZER_EFFECTS holds analyzer effects only"))
+    });
+    &NEUTRAL
+}
+
 /// The slot of per-pixel effect `def` in [`Model::ray`] (`None` for a frame effect).
 pub fn ray_slot(def: &EffectDef) -> Option<usize> {
     RAY_EFFECTS.iter().position(|e| e.name == def.name)
@@ -262,6 +372,9 @@ pub struct Model {
     /// vector where the effect is off). Read one through its module (e.g.
     /// `lens_diattenuation::rho2`), never by a slot number written out.
     pub ray: [RayParams; RAY_COUNT],
+    /// Each analyzer effect's vector, slot `k` for [`ANALYZER_EFFECTS`]`[k]` (its
+    /// neutral vector where the effect is off).
+    pub analyzer: [AnalyzerParams; ANALYZER_COUNT],
     /// Camera tilt on its mount about camera x then y, degrees.
     pub mount_tilt_deg: [f64; 2],
     /// Each analyzer's angle minus nominal, degrees, by channel index (0, 45, 90, 135).
@@ -274,6 +387,8 @@ pub struct Model {
     pub channel_offset_dn: [f64; 4],
     /// DoFP crosstalk: the fraction of its signal a pixel gives each edge neighbour.
     pub crosstalk: f64,
+    /// The sensor's quadratic response coefficient β (`sensor_nonlinearity`).
+    pub nonlinearity: f64,
 }
 
 impl Default for Model {
@@ -285,12 +400,14 @@ impl Default for Model {
             sky_dmax_factor: 1.0,
             neutral_separation_deg: 0.0,
             ray: *neutral_ray_params(),
+            analyzer: *neutral_analyzer_params(),
             mount_tilt_deg: [0.0; 2],
             analyzer_delta_deg: [0.0; 4],
             analyzer_eps: [0.0; 4],
             channel_gain: [1.0; 4],
             channel_offset_dn: [0.0; 4],
             crosstalk: 0.0,
+            nonlinearity: 0.0,
         }
     }
 }
@@ -391,6 +508,9 @@ impl EffectSet {
                 Apply::Frame(fold) => fold(vals, &mut m),
                 Apply::Ray { params, .. } => {
                     m.ray[ray_slot(def).expect("a per-pixel effect has a slot")] = params(vals)
+                }
+                Apply::Analyzer { params, .. } => {
+                    m.analyzer[analyzer_slot(def).expect("an analyzer effect has a slot")] = params(vals)
                 }
             }
         }
