@@ -25,6 +25,7 @@
 //! Catalog: docs/spec/EFFECTS.md, every effect of it.
 
 pub mod analyzer_angles;
+pub mod analyzer_incidence;
 pub mod array_rotation;
 pub mod channel_response;
 pub mod crosstalk;
@@ -223,6 +224,7 @@ const ALL: &[&EffectDef] = &[
     &analyzer_angles::EFFECT,
     &extinction_ratio::EFFECT,
     &polarimetric_nonuniformity::EFFECT,
+    &analyzer_incidence::EFFECT,
     &channel_response::EFFECT,
     &crosstalk::EFFECT,
     &sensor_nonlinearity::EFFECT,
