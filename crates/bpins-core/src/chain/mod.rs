@@ -14,7 +14,8 @@
 //!                                    sun disc, skyline — CPU only
 //!   ray_effects(ray, g, S)           every per-pixel effect of the registry, (effects)
 //!                                    in its order: lens_diattenuation, lens_retardance,
-//!                                    lens_depolarization, vignetting, …
+//!                                    lens_depolarization, stray_light (the
+//!                                    sun from the frame), vignetting, …
 //!   meridional_to_image(S, 2β)       rotate to the image x frame          (stokes)
 //!   analyzer_effects(site, g, A_k)   the pixel's own analyzer: every analyzer (effects)
 //!                                    effect of the registry, in its order:
@@ -40,8 +41,8 @@ use crate::effects::crosstalk::crosstalk;
 use crate::effects::sensor_nonlinearity::sensor_nonlinearity;
 use crate::effects::sky_neutral_points::{sky_neutral_points, NeutralPoints};
 use crate::effects::{
-    neutral_analyzer_params, neutral_ray_params, AnalyzerParams, Model, PixelAnalyzer, PixelSite, RayParams,
-    ANALYZER_COUNT, ANALYZER_FNS, RAY_COUNT, RAY_FNS,
+    frame_ray_params, neutral_analyzer_params, neutral_ray_params, AnalyzerParams, FrameContext, Model, PixelAnalyzer,
+    PixelSite, RayParams, ANALYZER_COUNT, ANALYZER_FNS, RAY_COUNT, RAY_FNS,
 };
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
 use crate::scene::{field_stokes, FieldFrame, FieldScene};
@@ -127,7 +128,9 @@ impl ChainFrame {
             sun_cam,
             // The sky's true peak DoLP (sky_depolarization), at most 1.
             dmax: (scene.dmax * model.sky_dmax_factor).min(1.0),
-            ray: model.ray,
+            // Per-pixel vectors, completed with the frame's context (the sun) where an
+            // effect asks for it.
+            ray: frame_ray_params(&model.ray, &FrameContext { sun_cam }),
             analyzer: model.analyzer,
             neutral: (model.neutral_separation_deg != 0.0)
                 .then(|| NeutralPoints::new(&world_from_cam, sun_cam, model.neutral_separation_deg.to_radians())),

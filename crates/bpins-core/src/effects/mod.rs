@@ -41,6 +41,7 @@ pub mod radial_distortion;
 pub mod sensor_nonlinearity;
 pub mod sky_depolarization;
 pub mod sky_neutral_points;
+pub mod stray_light;
 pub mod vignetting;
 
 use crate::camera::RayGeometry;
@@ -119,6 +120,13 @@ pub type RayParams = [f64; 4];
 /// meridional-frame Stokes`, pure; WGSL `fn name(p: vec4<f64>, g: RayGeometry, s: Stokes) -> Stokes`.
 pub type RayFn = fn(p: &RayParams, g: &RayGeometry, s: Stokes) -> Stokes;
 
+/// What a per-pixel effect may know of the frame beyond its own values (`Apply::Ray`'s
+/// `frame`): the sun, a unit vector in the true camera frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameContext {
+    pub sun_cam: glam::DVec3,
+}
+
 /// The per-frame parameter vector of one analyzer effect (WGSL `array<vec4<f64>, 2>`:
 /// `p[0]` is `(x[0], …, x[3])`, `p[1]` is `(x[4], …, x[7])`).
 pub type AnalyzerParams = [f64; 8];
@@ -157,8 +165,16 @@ pub enum Apply {
     /// scene and before the rotation to the image frame, in registry order. `params`
     /// turns the values into the per-pixel vector once per frame (neutral values must
     /// give a vector at which `pixel` is exactly the identity); `pixel` is the per-pixel
-    /// function, named as the effect and its WGSL twin.
-    Ray { params: fn(values: &[f64]) -> RayParams, pixel: RayFn },
+    /// function, named as the effect and its WGSL twin. `frame`, where given, completes
+    /// the vector with the frame's context ([`FrameContext`]: the sun in the camera
+    /// frame) when the chain's frame is built (`ChainFrame::new`; it must leave a
+    /// neutral vector as it is), so the pixel function and its WGSL twin read the
+    /// sun from their vector on both backends (`stray_light`).
+    Ray {
+        params: fn(values: &[f64]) -> RayParams,
+        frame: Option<fn(p: RayParams, context: &FrameContext) -> RayParams>,
+        pixel: RayFn,
+    },
     /// Changes each pixel's analyzer (angle, ε) and the gain behind it, per pixel and
     /// channel, in the image frame: after the channel's analyzer (`analyzer_angles`,
     /// `extinction_ratio`, `array_rotation`) and gain (`channel_response`), in registry
@@ -219,6 +235,7 @@ const ALL: &[&EffectDef] = &[
     &lens_diattenuation::EFFECT,
     &lens_retardance::EFFECT,
     &lens_depolarization::EFFECT,
+    &stray_light::EFFECT,
     &vignetting::EFFECT,
     &array_rotation::EFFECT,
     &analyzer_angles::EFFECT,
@@ -338,6 +355,32 @@ pub fn neutral_analyzer_params() -> &'static [AnalyzerParams; ANALYZER_COUNT] {
 /// The slot of per-pixel effect `def` in [`Model::ray`] (`None` for a frame effect).
 pub fn ray_slot(def: &EffectDef) -> Option<usize> {
     RAY_EFFECTS.iter().position(|e| e.name == def.name)
+}
+
+/// The per-pixel effects' frame completions, slot by slot (`Apply::Ray::frame`).
+const RAY_FRAME_FNS: [Option<fn(RayParams, &FrameContext) -> RayParams>; RAY_COUNT] = {
+    let mut out: [Option<fn(RayParams, &FrameContext) -> RayParams>; RAY_COUNT] = [None; RAY_COUNT];
+    let (mut i, mut k) = (0, 0);
+    while i < ALL.len() {
+        if let Apply::Ray { frame, .. } = ALL[i].apply {
+            out[k] = frame;
+            k += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+/// The frame's per-pixel vectors: `ray` (`Model::ray`) with each effect's frame
+/// completion applied under `context` (`ChainFrame::ray`).
+pub fn frame_ray_params(ray: &[RayParams; RAY_COUNT], context: &FrameContext) -> [RayParams; RAY_COUNT] {
+    let mut out = *ray;
+    for (p, f) in out.iter_mut().zip(RAY_FRAME_FNS) {
+        if let Some(f) = f {
+            *p = f(*p, context);
+        }
+    }
+    out
 }
 
 /// Every per-pixel effect at its neutral vector: the ideal chain's [`Model::ray`].

@@ -83,7 +83,7 @@ fn per_pixel_tables_are_the_registry_in_order() {
     for (k, e) in RAY_EFFECTS.iter().enumerate() {
         assert_eq!(ray_slot(e), Some(k));
         // Slot k's function is the effect's own (same output at its typical strength).
-        let Apply::Ray { params, pixel } = e.apply else { unreachable!() };
+        let Apply::Ray { params, pixel, .. } = e.apply else { unreachable!() };
         let p = params(&e.params.iter().map(|p| p.typical).collect::<Vec<_>>());
         assert_eq!(RAY_FNS[k](&p, &g, s), pixel(&p, &g, s), "{}: slot {k} calls another function", e.name);
         assert_ne!(pixel(&p, &g, s), s, "{}: typical strength changes nothing", e.name);
