@@ -21,6 +21,13 @@
 //! |-------|------|---------|--------|
 //! | `a`   | 1    | 0       | [0, 1] |
 //!
+//! Separable from a sky capture only where the sky's radiance is known: with the
+//! radiance a free nuisance the fit weighs the glare against the fitted radiance
+//! toward the sun (under the CIE clear sky, type 12, `a` = 0.05 is read 0.030 ± 0.002,
+//! measured), so the diagnosis lists it as inseparable there
+//! (`fit::diagnose::inseparable`) and measures it with the radiance held at
+//! Rayleigh's.
+//!
 //! Cannot: ghost images (discrete reflections between surfaces, off the sun's
 //! direction), polarized flare, a lens hood that cuts off a sun outside the field,
 //! glare of other bright sources (clouds, ground), or a spread whose width differs
