@@ -10,8 +10,9 @@
 // pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β      camera frame
 //   sky_stokes (or sky_neutral_points) → sky_dolp_shape → ray_effects (lens_diattenuation → lens_retardance
 //   → lens_depolarization → vignetting → …, registry order) → meridional_to_image
-//   → analyzer_intensity
-//   → × g(1 + gain_k) → sensor_dn (PRNU, offsets, DSNU, read + shot noise, rounding)
+//   → analyzer_effects (the pixel's own analyzer: polarimetric_nonuniformity, …) → analyzer_intensity
+//   → × g(1 + gain_k) → sensor_dn (PRNU, non-linearity, offsets, DSNU, read + shot noise,
+//   rounding)
 
 // Keep in sync with `FrameParams` in crates/bpins-gpu/src/params.rs.
 struct FrameParams {
@@ -24,8 +25,8 @@ struct FrameParams {
     gain_dn: Wide4,    // DN per unit radiance g·(1 + gain_k)
     offset_dn: Wide4,  // black level + offset_k, DN
     noise: Wide4,      // read_noise_dn, system_gain_dn_per_e, dsnu_dn, prnu
-    adc: Wide4,        // quantize (0/1), full_scale_dn, 0, 0
-    mosaic: Wide4,     // crosstalk c (DoFP), 0, 0, 0
+    adc: Wide4,        // quantize (0/1), full_scale_dn, non-linearity β (sensor_nonlinearity), 0
+    mosaic: Wide4,     // crosstalk c (DoFP), analyzer effects on (0/1), 0, 0
     np_east: Wide4,    // sky_neutral_points: world East in the camera frame, on (0/1)
     np_north: Wide4,   //   world North, 0
     np_up: Wide4,      //   world Up, 0
@@ -34,6 +35,7 @@ struct FrameParams {
     np_eia: Wide4,     //   cos A, sin A, 0, 0
     sky_shape: Wide4,  // sky_dolp_shape: diffuse share t (0: off), 0, 0, 0
     ray: array<Wide4, RAY_COUNT>, // per-pixel effects' vectors, registry order
+    analyzer: array<array<Wide4, 2>, ANALYZER_COUNT>, // analyzer effects' vectors, registry order
     key: vec4<u32>,    // temporal noise key of this frame
     fixed_key: vec4<u32>, // fixed-pattern key of this trial
 }
@@ -43,6 +45,8 @@ struct ChainFrame {
     sun_cam: vec3<f64>,
     dmax: f64,
     ray: array<vec4<f64>, RAY_COUNT>,
+    analyzer: array<array<vec4<f64>, 2>, ANALYZER_COUNT>,
+    analyzer_on: bool,
     cos2t: vec4<f64>,
     sin2t: vec4<f64>,
     eps: vec4<f64>,
@@ -52,6 +56,7 @@ struct ChainFrame {
     quantize: bool,
     full_scale_dn: f64,
     crosstalk: f64,
+    nonlinearity: f64,
     neutral_on: bool,
     neutral: NeutralPoints,
     diffuse: f64,
@@ -67,13 +72,20 @@ fn chain_frame(p: FrameParams) -> ChainFrame {
     for (var k = 0u; k < RAY_COUNT; k++) {
         ray[k] = wide(wide_ray[k]);
     }
+    var wide_analyzer = p.analyzer;
+    var analyzer: array<array<vec4<f64>, 2>, ANALYZER_COUNT>;
+    for (var k = 0u; k < ANALYZER_COUNT; k++) {
+        analyzer[k] = array<vec4<f64>, 2>(wide(wide_analyzer[k][0]), wide(wide_analyzer[k][1]));
+    }
     let east = wide(p.np_east);
     let h01 = wide(p.np_half01);
     let h23 = wide(p.np_half23);
     let np = NeutralPoints(east.xyz, wide(p.np_north).xyz, wide(p.np_up).xyz,
         array<vec2<f64>, 4>(h01.xy, h01.zw, h23.xy, h23.zw), wide(p.np_eia).xy);
-    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, ray, wide(p.cos2t), wide(p.sin2t),
-        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, wide(p.mosaic).x, east.w != 0.0lf, np, wide(p.sky_shape).x, p.key,
+    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, ray, analyzer, wide(p.mosaic).y != 0.0lf,
+        wide(p.cos2t), wide(p.sin2t),
+        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, wide(p.mosaic).x, adc.z, east.w != 0.0lf, np,
+        wide(p.sky_shape).x, p.key,
         p.fixed_key);
 }
 
@@ -113,9 +125,42 @@ fn sky_angles(s: Stokes, u_px: f64, v_px: f64, c: vec2<f64>) -> vec3<f32> {
     return vec3<f32>(f32(wrap_deg_90(a_deg)), f32(dolp(s)), f32(wrap_deg_90(a_deg - beta_deg)));
 }
 
-// Photo-signal in DN of channel ch for Stokes s: analyzer, then gain.
+// Photo-signal in DN of channel ch for Stokes s: the channel's analyzer, then gain.
 fn pixel_signal_dn(f: ChainFrame, s: Stokes, ch: u32) -> f64 {
     return analyzer_intensity(s, Analyzer(f.cos2t[ch], f.sin2t[ch], f.eps[ch])) * f.gain_dn[ch];
+}
+
+// Where an analyzer sits: column u, row v, channel ch, position from the principal point (px).
+struct PixelSite {
+    u: u32,
+    v: u32,
+    ch: u32,
+    x_px: f64,
+    y_px: f64,
+}
+
+// One pixel's analyzer and the gain behind it (DN per unit radiance).
+struct PixelAnalyzer {
+    analyzer: Analyzer,
+    gain: f64,
+}
+
+// The analyzer of channel ch at pixel column u, row v (ray g) and the gain behind it:
+// the channel's, changed by the analyzer effects where the frame has any.
+fn pixel_analyzer(f: ChainFrame, g: RayGeometry, u: u32, v: u32, ch: u32) -> PixelAnalyzer {
+    let a = PixelAnalyzer(Analyzer(f.cos2t[ch], f.sin2t[ch], f.eps[ch]), f.gain_dn[ch]);
+    if (!f.analyzer_on) {
+        return a;
+    }
+    let site = PixelSite(u, v, ch, f64(u) - f.intr.cx_px, f64(v) - f.intr.cy_px);
+    return analyzer_effects(f.analyzer, site, g, a);
+}
+
+// Photo-signal in DN of channel ch at pixel (u, v), whose ray is g, for Stokes s: the
+// pixel's own analyzer, then gain.
+fn site_signal_dn(f: ChainFrame, s: Stokes, g: RayGeometry, u: u32, v: u32, ch: u32) -> f64 {
+    let a = pixel_analyzer(f, g, u, v, ch);
+    return analyzer_intensity(s, a.analyzer) * a.gain;
 }
 
 struct SensorNoise {
@@ -143,7 +188,9 @@ fn sensor_noise(f: ChainFrame, pixel: u32, ch: u32) -> SensorNoise {
 // The sensor's output DN for signal_dn on channel ch with the draws n.
 fn sensor_dn(f: ChainFrame, signal_dn: f64, ch: u32, n: SensorNoise) -> f64 {
     // Gain non-uniformity (fixed pattern).
-    let sig = signal_dn * (1.0lf + f.noise.w * n.prnu);
+    let sig0 = signal_dn * (1.0lf + f.noise.w * n.prnu);
+    // Non-linear response (EMVA 1288 linearity error), the identity at β = 0.
+    let sig = sensor_nonlinearity(f.nonlinearity, sig0, f.full_scale_dn);
     // Black level, channel offset and offset non-uniformity (fixed pattern).
     var dn = sig + f.offset_dn[ch] + f.noise.z * n.dsnu;
     // Temporal noise: read noise plus shot noise of variance K·signal.
@@ -160,7 +207,8 @@ fn sensor_dn(f: ChainFrame, signal_dn: f64, ch: u32, n: SensorNoise) -> f64 {
 // channel at its position in the 2 × 2 mosaic, `mosaic[2·(v mod 2) + (u mod 2)]`).
 fn mosaic_signal_at(f: ChainFrame, u: u32, v: u32, mosaic: vec4<u32>) -> f64 {
     let ch = mosaic[2u * (v & 1u) + (u & 1u)];
-    return pixel_signal_dn(f, pixel_stokes(f, f64(u), f64(v)), ch);
+    let g = geometry(f.intr, f64(u), f64(v));
+    return site_signal_dn(f, ray_stokes(f, g), g, u, v, ch);
 }
 
 // Photo-signal of DoFP pixel (u, v) of a w × h mosaic, with crosstalk from its edge

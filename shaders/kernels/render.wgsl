@@ -33,11 +33,12 @@ fn render_colocated(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let f = chain_frame(frames[gid.z]);
-    let s = pixel_stokes(f, f64(gid.x), f64(gid.y));
+    let g = geometry(f.intr, f64(gid.x), f64(gid.y));
+    let s = ray_stokes(f, g);
     let pixel = gid.y * w + gid.x;
     let base = 4u * ((gid.z * h + gid.y) * w + gid.x);
     for (var ch = 0u; ch < 4u; ch++) {
-        let signal = pixel_signal_dn(f, s, ch);
+        let signal = site_signal_dn(f, s, g, gid.x, gid.y, ch);
         out[base + ch] = f32(sensor_dn(f, signal, ch, sensor_noise(f, pixel, ch)));
     }
 }
@@ -54,10 +55,11 @@ fn chain_maps(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let f = chain_frame(frames[gid.z]);
-    let s = pixel_stokes(f, f64(gid.x), f64(gid.y));
+    let g = geometry(f.intr, f64(gid.x), f64(gid.y));
+    let s = ray_stokes(f, g);
     let base = 7u * ((gid.z * h + gid.y) * w + gid.x);
     for (var ch = 0u; ch < 4u; ch++) {
-        out[base + ch] = f32(pixel_signal_dn(f, s, ch));
+        out[base + ch] = f32(site_signal_dn(f, s, g, gid.x, gid.y, ch));
     }
     let angles = sky_angles(s, f64(gid.x), f64(gid.y), vec2<f64>(f.intr.cx_px, f.intr.cy_px));
     out[base + 4u] = angles.x;

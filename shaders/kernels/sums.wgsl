@@ -67,13 +67,14 @@ fn mosaic_sample(f: ChainFrame, rp: ReconParams, i: u32, j: u32) -> Sample {
 
 // Colocated pixel (u, v): four channels' DN (f64, as run_trial keeps them), then Stokes.
 fn colocated_sample(f: ChainFrame, rp: ReconParams, u: u32, v: u32) -> Sample {
-    let s = pixel_stokes(f, f64(u), f64(v));
+    let g = geometry(f.intr, f64(u), f64(v));
+    let s = ray_stokes(f, g);
     let pixel = v * dims.image.x + u;
     var d = vec4<f64>(0.0lf);
     var ok = true;
     let full_scale = wide(rp.valid).x;
     for (var ch = 0u; ch < 4u; ch++) {
-        let x = sensor_dn(f, pixel_signal_dn(f, s, ch), ch, sensor_noise(f, pixel, ch));
+        let x = sensor_dn(f, site_signal_dn(f, s, g, u, v, ch), ch, sensor_noise(f, pixel, ch));
         ok = ok && (full_scale == 0.0lf || dn_is_valid(x, full_scale));
         d[ch] = x;
     }

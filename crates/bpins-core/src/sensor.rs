@@ -5,6 +5,7 @@
 //!
 //! ```text
 //! signal_dn = g · (1 + gain_k) · (1 + prnu·n₁) · I_θ          photo-signal, DN
+//! signal_dn ← signal_dn · (1 − β·signal_dn/FS)                 non-linearity (β: `sensor_nonlinearity`)
 //! DN        = signal_dn + b + offset_k + dsnu·n₂ + n           n ~ N(0, σ_read² + K·signal_dn)
 //! DN        = clamp(floor(DN + ½), 0, 2^bits − 1)              when rounding is on
 //! ```
@@ -13,7 +14,7 @@
 //! black level, `K` the system gain in DN/e⁻ (shot-noise variance K·signal), n₁, n₂
 //! fixed-pattern standard normals keyed by pixel (constant over frames), n temporal.
 //! `gain_k`, `offset_k` are the `channel_response` effect's parameters.
-//! Cannot: model non-linearity, dark current over exposure time, or row noise.
+//! Cannot: model dark current over exposure time, or row noise.
 
 use serde::{Deserialize, Serialize};
 

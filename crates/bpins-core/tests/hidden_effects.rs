@@ -5,9 +5,10 @@
 //! at once must both be found. The effects come from the registry: a new effect is
 //! tested here by being registered. An effect a sky capture cannot separate from
 //! the fit's nuisances (`diagnose::inseparable`: vignetting from the sky's radiance,
-//! a factor on d_max from each frame's d_max) must be listed as such and not named;
-//! it is then found with what separates it (the radiance held at Rayleigh's, which
-//! this sky is; the sky's d_max given).
+//! a factor on d_max from each frame's d_max, glare toward the sun from the sky's
+//! radiance toward it) must be listed as such and not named; it is then found with
+//! what separates it (the radiance held at Rayleigh's, which this sky is; the sky's
+//! d_max given).
 
 mod common;
 
@@ -27,7 +28,7 @@ fn separating(c: &Capture, effect: &str) -> Option<FitOptions> {
     let mut o = FitOptions::default();
     for _ in 0..3 {
         match inseparable(c, &o).iter().find(|(e, _)| *e == effect).map(|x| x.0) {
-            Some("vignetting") => o.rayleigh_radiance = true,
+            Some("vignetting" | "stray_light") => o.rayleigh_radiance = true,
             Some("sky_depolarization") => o.fixed_dmax = Some(DMAX),
             Some(_) => return None,
             None => return Some(o),

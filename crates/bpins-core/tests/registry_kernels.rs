@@ -1,14 +1,14 @@
 //! Registry-wide: every catalog effect, at its typical strength and at both ends of
 //! its range, runs the same through the row kernels (the drivers `render_mosaic` and
 //! `render_colocated`, as `bpins simulate` and the fit's frames use them) as through
-//! the per-pixel reference (`mosaic_pixel_signal_dn`; `pixel_stokes` +
-//! `pixel_signal_dn`), value for value. An effect whose per-pixel step the row
+//! the per-pixel reference (`mosaic_pixel_signal_dn`; `ray_stokes` +
+//! `site_signal_dn`), value for value. An effect whose per-pixel step the row
 //! kernels skip — a frame parameter left out of `ChainFrame::has_pixel_effects` —
 //! fails here by name, whatever its file says.
 
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::chain::{
-    mosaic_pixel_signal_dn, pixel_signal_dn, pixel_stokes, sensor_dn, ChainFrame, NoiseIndex, Scene, SensorNoise,
+    mosaic_pixel_signal_dn, ray_stokes, sensor_dn, site_signal_dn, ChainFrame, NoiseIndex, Scene, SensorNoise,
 };
 use bpins_core::effects::{EffectSet, REGISTRY};
 use bpins_core::sensor::{Channel, Layout, Response, DEFAULT_MOSAIC};
@@ -56,10 +56,11 @@ fn every_effect_runs_the_same_in_the_row_kernels_as_per_pixel() {
                         "{} at {label}: DoFP ({u}, {v}) row kernel {got} vs per pixel {want}",
                         e.name
                     );
-                    let s = pixel_stokes(&f, u as f64, v as f64);
+                    let g = f.intr.geometry(u as f64, v as f64);
+                    let s = ray_stokes(&f, &g);
                     for (c, plane) in Channel::ALL.iter().zip(&planes) {
-                        let want =
-                            sensor_dn(&f, pixel_signal_dn(&f, s, c.index()), c.index(), &SensorNoise::default()) as f32;
+                        let sig = site_signal_dn(&f, s, &g, u as u32, v as u32, c.index());
+                        let want = sensor_dn(&f, sig, c.index(), &SensorNoise::default()) as f32;
                         let got = plane[v * W + u];
                         assert!(
                             same(got as f64, want as f64),

@@ -21,7 +21,7 @@ use crate::sums::{SampleLayout, SumsJob};
 use crate::tolerance::*;
 use crate::{Gpu, Result};
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
+use bpins_core::chain::{ray_stokes, site_signal_dn, ChainFrame, NoiseIndex, Scene};
 use bpins_core::conventions::{image_angle_rad, wrap_deg_90};
 use bpins_core::effects::{EffectSet, REGISTRY};
 use bpins_core::heading::{Extractor, HeadingContext, HeadingSums};
@@ -184,11 +184,12 @@ pub fn compare(gpu: &Gpu, t: &TrialFrame) -> Result<[f64; 7]> {
         .into_par_iter()
         .map(|p| {
             let (u, v) = ((p % w) as f64, (p / w) as f64);
-            let s = pixel_stokes(f, u, v);
+            let ray = f.intr.geometry(u, v);
+            let s = ray_stokes(f, &ray);
             let g = &maps[p];
             let mut rel: f64 = 0.0;
             for ch in 0..4 {
-                let c = pixel_signal_dn(f, s, ch);
+                let c = site_signal_dn(f, s, &ray, u as u32, v as u32, ch);
                 rel = rel.max((g.signal_dn[ch] as f64 - c).abs() / c.abs().max(floor));
             }
             // AoP and AoE (as recon::angle_maps forms them) where the light is polarized.

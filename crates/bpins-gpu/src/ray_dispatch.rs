@@ -36,3 +36,31 @@ pub fn ray_effects_wgsl(names: &[&str]) -> String {
     s += "    return out;\n}\n";
     s
 }
+
+/// The signature every analyzer effect's WGSL twin defines (`name` its effect's name).
+pub fn analyzer_signature(name: &str) -> String {
+    format!("fn {name}(p: array<vec4<f64>, 2>, site: PixelSite, g: RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer")
+}
+
+/// The analyzer effects among WGSL `files` (file stem, source): those whose source
+/// defines [`analyzer_signature`] of their stem, in the order given.
+pub fn analyzer_effects_in(files: &[(String, String)]) -> Vec<&str> {
+    files.iter().filter(|(stem, src)| src.contains(&analyzer_signature(stem))).map(|(stem, _)| stem.as_str()).collect()
+}
+
+/// WGSL: `ANALYZER_COUNT` and `analyzer_effects`, which applies the analyzer effects
+/// `names` in order, effect `k` with its vectors `p[k]` (`FrameParams::analyzer`); the
+/// twin of `chain::analyzer_effects`. At least one name (WGSL has no empty arrays).
+pub fn analyzer_effects_wgsl(names: &[&str]) -> String {
+    let mut s = String::from("// Generated from the effect registry by crates/bpins-gpu/src/ray_dispatch.rs.\n\n");
+    s += &format!("const ANALYZER_COUNT: u32 = {}u;\n\n", names.len());
+    s += "// Every analyzer effect on pixel site's analyzer a (ray g), in registry order.\n";
+    s += "fn analyzer_effects(p: array<array<vec4<f64>, 2>, ANALYZER_COUNT>, site: PixelSite, g: RayGeometry, \
+          a: PixelAnalyzer) -> PixelAnalyzer {\n";
+    s += "    var out = a;\n";
+    for (k, name) in names.iter().enumerate() {
+        s += &format!("    out = {name}(p[{k}], site, g, out);\n");
+    }
+    s += "    return out;\n}\n";
+    s
+}

@@ -4,8 +4,8 @@
 //! same modules with naga (a test checks the two assemble the same text).
 
 use crate::precision::Precision;
-use crate::ray_dispatch::ray_effects_wgsl;
-use bpins_core::effects::{RAY_EFFECTS, REGISTRY};
+use crate::ray_dispatch::{analyzer_effects_wgsl, ray_effects_wgsl};
+use bpins_core::effects::{ANALYZER_EFFECTS, RAY_EFFECTS, REGISTRY};
 
 /// The shared WGSL files, in file-name order (as build.rs reads them).
 const COMMON: &[(&str, &str)] = &[
@@ -48,6 +48,8 @@ pub fn module_source(kernel: &str) -> Option<String> {
     }
     // The per-pixel effects in chain order, each with its slot of FrameParams::ray.
     src += &ray_effects_wgsl(&RAY_EFFECTS.map(|e| e.name));
+    // The analyzer effects in chain order, each with its slot of FrameParams::analyzer.
+    src += &analyzer_effects_wgsl(&ANALYZER_EFFECTS.map(|e| e.name));
     src += body;
     Some(src)
 }
@@ -99,6 +101,25 @@ mod tests {
         let mut registry = RAY_EFFECTS.map(|e| e.name).to_vec();
         registry.sort();
         assert_eq!(found, registry);
+    }
+
+    #[test]
+    fn build_rs_finds_the_registry_analyzer_effects_and_the_dispatch_calls_them_in_order() {
+        let files: Vec<(String, String)> =
+            REGISTRY.iter().filter_map(|e| e.wgsl.map(|w| (e.name.to_string(), w.to_string()))).collect();
+        let mut found = crate::ray_dispatch::analyzer_effects_in(&files);
+        found.sort();
+        let mut registry = ANALYZER_EFFECTS.map(|e| e.name).to_vec();
+        registry.sort();
+        assert_eq!(found, registry);
+        let src = module_source("render").unwrap();
+        let mut at = 0;
+        for (k, e) in ANALYZER_EFFECTS.iter().enumerate() {
+            let call = format!("out = {}(p[{k}], site, g, out);", e.name);
+            let pos = src[at..].find(&call).unwrap_or_else(|| panic!("{call} missing or out of order"));
+            at += pos + call.len();
+        }
+        assert!(src.contains(&format!("const ANALYZER_COUNT: u32 = {}u;", ANALYZER_EFFECTS.len())));
     }
 
     #[test]

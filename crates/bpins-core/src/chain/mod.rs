@@ -15,11 +15,16 @@
 //!                                    sun disc, skyline — CPU only
 //!   ray_effects(ray, g, S)           every per-pixel effect of the registry, (effects)
 //!                                    in its order: lens_diattenuation, lens_retardance,
-//!                                    lens_depolarization, vignetting, …
+//!                                    lens_depolarization, stray_light (the
+//!                                    sun from the frame), vignetting, …
 //!   meridional_to_image(S, 2β)       rotate to the image x frame          (stokes)
-//!   analyzer_intensity(S, θ_k, ε_k)  micro-polarizer k                    (stokes)
-//!   × g(1 + gain_k)                  photo-signal in DN                   (sensor)
-//!   sensor_dn(signal, pixel, k)      PRNU, offsets, DSNU, read+shot noise, rounding
+//!   analyzer_effects(site, g, A_k)   the pixel's own analyzer: every analyzer (effects)
+//!                                    effect of the registry, in its order:
+//!                                    polarimetric_nonuniformity, …
+//!   analyzer_intensity(S, θ_p, ε_p)  micro-polarizer of the pixel          (stokes)
+//!   × g(1 + gain_k)·G_p              photo-signal in DN                   (sensor)
+//!   sensor_dn(signal, pixel, k)      PRNU, non-linearity, offsets, DSNU, read+shot
+//!                                    noise, rounding
 //! ```
 //!
 //! `rows.rs` maps these functions over a row of pixels as loops the compiler
@@ -34,9 +39,13 @@
 use crate::camera::{Intrinsics, RayGeometry};
 use crate::conventions::{enu_from_az_el_deg, level_from_camera, world_from_camera};
 use crate::effects::crosstalk::crosstalk;
+use crate::effects::sensor_nonlinearity::sensor_nonlinearity;
 use crate::effects::sky_dolp_shape::sky_dolp_shape;
 use crate::effects::sky_neutral_points::{sky_neutral_points, NeutralPoints};
-use crate::effects::{neutral_ray_params, Model, RayParams, RAY_COUNT, RAY_FNS};
+use crate::effects::{
+    frame_ray_params, neutral_analyzer_params, neutral_ray_params, AnalyzerParams, FrameContext, Model, PixelAnalyzer,
+    PixelSite, RayParams, ANALYZER_COUNT, ANALYZER_FNS, RAY_COUNT, RAY_FNS,
+};
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
 use crate::scene::{field_stokes, FieldFrame, FieldScene};
 
@@ -83,6 +92,8 @@ pub struct ChainFrame {
     /// Each per-pixel effect's vector, in registry order (`Model::ray`); the ideal
     /// chain has every slot at its effect's neutral vector.
     pub ray: [RayParams; RAY_COUNT],
+    /// Each analyzer effect's vector, in registry order (`Model::analyzer`).
+    pub analyzer: [AnalyzerParams; ANALYZER_COUNT],
     /// The quartic sky's frame constants where `sky_neutral_points` is on.
     pub neutral: Option<NeutralPoints>,
     /// The sky's unpolarized diffuse share t (`sky_dolp_shape`; 0: Rayleigh's DoLP shape).
@@ -99,6 +110,8 @@ pub struct ChainFrame {
     pub response: Response,
     /// DoFP crosstalk c (`crosstalk`).
     pub crosstalk: f64,
+    /// The sensor's quadratic response coefficient β (`sensor_nonlinearity`).
+    pub nonlinearity: f64,
     /// Temporal noise key of this frame; fixed-pattern key of this trial.
     pub key: FrameKey,
     pub fixed_key: FrameKey,
@@ -119,7 +132,10 @@ impl ChainFrame {
             sun_cam,
             // The sky's true peak DoLP (sky_depolarization), at most 1.
             dmax: (scene.dmax * model.sky_dmax_factor).min(1.0),
-            ray: model.ray,
+            // Per-pixel vectors, completed with the frame's context (the sun) where an
+            // effect asks for it.
+            ray: frame_ray_params(&model.ray, &FrameContext { sun_cam }),
+            analyzer: model.analyzer,
             neutral: (model.neutral_separation_deg != 0.0)
                 .then(|| NeutralPoints::new(&world_from_cam, sun_cam, model.neutral_separation_deg.to_radians())),
             diffuse: model.sky_diffuse,
@@ -129,6 +145,7 @@ impl ChainFrame {
             offset_dn: model.channel_offset_dn.map(|o| o + response.black_level_dn),
             response: *response,
             crosstalk: model.crosstalk,
+            nonlinearity: model.nonlinearity,
             key: FrameKey::new(noise.seed, noise.trial, noise.frame),
             fixed_key: FrameKey::new(noise.seed, noise.trial, FIXED_PATTERN_FRAME),
         }
@@ -157,6 +174,12 @@ impl ChainFrame {
     /// them otherwise).
     pub fn has_pixel_effects(&self) -> bool {
         self.neutral.is_some() || self.diffuse != 0.0 || self.field.is_some() || self.ray != *neutral_ray_params()
+    }
+
+    /// Whether any analyzer effect is off its neutral vector (the row kernels use the
+    /// channel's analyzer for every pixel otherwise).
+    pub fn has_analyzer_effects(&self) -> bool {
+        self.analyzer != *neutral_analyzer_params()
     }
 
     /// A frame with unit gain, no black level and no noise: DN = radiance behind the analyzer.
@@ -224,14 +247,50 @@ pub fn ray_effects(ray: &[RayParams; RAY_COUNT], g: &RayGeometry, s: Stokes) -> 
     s
 }
 
-/// Photo-signal in DN of channel `ch` (index) for Stokes `s`: analyzer, then gain.
+/// Photo-signal in DN of channel `ch` (index) for Stokes `s`: the channel's analyzer,
+/// then gain (no analyzer effect: [`site_signal_dn`] where the pixel is known).
 #[inline(always)]
 pub fn pixel_signal_dn(f: &ChainFrame, s: Stokes, ch: usize) -> f64 {
     analyzer_intensity(s, &f.analyzers[ch]) * f.gain_dn[ch]
 }
 
+/// Every analyzer effect of the registry on pixel `site`'s analyzer `a` (its ray `g`),
+/// in registry order, effect `k` with its vector `p[k]`. WGSL twin: `analyzer_effects`,
+/// generated from the registry (`bpins-gpu`, `ray_dispatch.rs`).
+#[inline(always)]
+pub fn analyzer_effects(
+    p: &[AnalyzerParams; ANALYZER_COUNT],
+    site: &PixelSite,
+    g: &RayGeometry,
+    a: PixelAnalyzer,
+) -> PixelAnalyzer {
+    let mut a = a;
+    for k in 0..ANALYZER_COUNT {
+        a = ANALYZER_FNS[k](&p[k], site, g, a);
+    }
+    a
+}
+
+/// The analyzer of channel `ch` at pixel column `u`, row `v` (ray `g`) and the gain
+/// behind it: the channel's, changed by the analyzer effects.
+#[inline(always)]
+pub fn pixel_analyzer(f: &ChainFrame, g: &RayGeometry, u: u32, v: u32, ch: usize) -> PixelAnalyzer {
+    let a = PixelAnalyzer { analyzer: f.analyzers[ch], gain: f.gain_dn[ch] };
+    let site = PixelSite { u, v, ch: ch as u32, x_px: u as f64 - f.intr.cx_px, y_px: v as f64 - f.intr.cy_px };
+    analyzer_effects(&f.analyzer, &site, g, a)
+}
+
+/// Photo-signal in DN of channel `ch` at pixel (u, v), whose ray is `g`, for Stokes `s`:
+/// the pixel's own analyzer ([`pixel_analyzer`]), then gain. Bitwise
+/// [`pixel_signal_dn`] where no analyzer effect is on.
+#[inline(always)]
+pub fn site_signal_dn(f: &ChainFrame, s: Stokes, g: &RayGeometry, u: u32, v: u32, ch: usize) -> f64 {
+    let a = pixel_analyzer(f, g, u, v, ch);
+    analyzer_intensity(s, &a.analyzer) * a.gain
+}
+
 /// Photo-signal in DN of DoFP pixel `(u, v)` of a `w × h` mosaic: its own ray and
-/// analyzer, then crosstalk with its edge neighbours (each through its own ray and
+/// analyzer (the analyzer effects at its site), then crosstalk with its edge neighbours (each through its own ray and
 /// analyzer; 0 outside the sensor) where the frame has any.
 pub fn mosaic_pixel_signal_dn(
     f: &ChainFrame,
@@ -243,7 +302,8 @@ pub fn mosaic_pixel_signal_dn(
 ) -> f64 {
     let signal = |u: usize, v: usize| {
         let ch = crate::sensor::Layout::dofp_channel(mosaic, u, v).index();
-        pixel_signal_dn(f, pixel_stokes(f, u as f64, v as f64), ch)
+        let g = f.intr.geometry(u as f64, v as f64);
+        site_signal_dn(f, ray_stokes(f, &g), &g, u as u32, v as u32, ch)
     };
     let own = signal(u, v);
     if f.crosstalk == 0.0 {
@@ -307,17 +367,21 @@ pub fn sensor_noise4(f: &ChainFrame, pixel: u32) -> [SensorNoise; 4] {
 }
 
 /// The sensor's output DN for `signal_dn` on channel `ch` with the draws `n`:
-/// PRNU, offsets, DSNU, read + shot noise, then rounding and clipping (sensor.rs).
+/// PRNU, non-linearity (`sensor_nonlinearity`), offsets, DSNU, read + shot noise, then
+/// rounding and clipping (sensor.rs).
 #[inline(always)]
 pub fn sensor_dn(f: &ChainFrame, signal_dn: f64, ch: usize, n: &SensorNoise) -> f64 {
-    sensor_response(&f.response, f.offset_dn[ch], signal_dn, n)
+    sensor_response(&f.response, f.nonlinearity, f.offset_dn[ch], signal_dn, n)
 }
 
-/// [`sensor_dn`] with the channel's offset (black level + offset_k) already looked up.
+/// [`sensor_dn`] with the frame's non-linearity β and the channel's offset (black
+/// level + offset_k) already looked up.
 #[inline(always)]
-fn sensor_response(r: &Response, offset_dn: f64, signal_dn: f64, n: &SensorNoise) -> f64 {
+fn sensor_response(r: &Response, beta: f64, offset_dn: f64, signal_dn: f64, n: &SensorNoise) -> f64 {
     // Gain non-uniformity (fixed pattern).
     let sig = signal_dn * (1.0 + r.prnu * n.prnu);
+    // Non-linear response (EMVA 1288 linearity error), the identity at β = 0.
+    let sig = sensor_nonlinearity(beta, sig, r.full_scale_dn());
     // Black level, channel offset and offset non-uniformity (fixed pattern).
     let mut dn = sig + offset_dn + r.dsnu_dn * n.dsnu;
     // Temporal noise: read noise plus shot noise of variance K·signal.
@@ -376,8 +440,12 @@ pub(crate) mod tests {
             for (u, v) in [(0.0, 0.0), (305.5, 255.5), (611.0, 511.0), (17.0, 400.0)] {
                 let (a, b) = (pixel_stokes(&f, u, v), pixel_stokes(&ideal, u, v));
                 assert_eq!(a, b, "{}", e.name);
+                let g = f.intr.geometry(u, v);
                 for ch in 0..4 {
                     assert_eq!(pixel_signal_dn(&f, a, ch), pixel_signal_dn(&ideal, b, ch), "{}", e.name);
+                    let (uu, vv) = (u as u32, v as u32);
+                    let site = site_signal_dn(&f, a, &g, uu, vv, ch);
+                    assert_eq!(site, pixel_signal_dn(&ideal, b, ch), "{} at its site", e.name);
                 }
             }
         }

@@ -5,19 +5,27 @@
 
 use super::*;
 
-/// Row kernel: `out[u] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), chans[u & 1])`
-/// for pixels `u = 0..out.len()` of row `v_px` (a DoFP row alternates two channels;
-/// give the same channel twice for one).
+/// Row kernel: `out[u] = site_signal_dn(f, s, g, u, v_px, chans[u & 1])` with `g` pixel
+/// (u, v_px)'s ray and `s = ray_stokes(f, g)`, for pixels `u = 0..out.len()` of row
+/// `v_px` (a whole number; a DoFP row alternates two channels; give the same channel
+/// twice for one). Without analyzer effects, `pixel_signal_dn` (bitwise the same).
 pub(crate) fn signal_row(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
-    match (f.has_pixel_effects(), f.field.is_some()) {
-        (false, _) => signal_row_in::<false, false>(f, v_px, chans, out),
-        (true, false) => signal_row_in::<true, false>(f, v_px, chans, out),
-        (true, true) => signal_row_in::<true, true>(f, v_px, chans, out),
+    match (f.has_pixel_effects(), f.field.is_some(), f.has_analyzer_effects()) {
+        (_, false, true) => signal_row_in::<true, false, true>(f, v_px, chans, out),
+        (_, true, true) => signal_row_in::<true, true, true>(f, v_px, chans, out),
+        (false, _, false) => signal_row_in::<false, false, false>(f, v_px, chans, out),
+        (true, false, false) => signal_row_in::<true, false, false>(f, v_px, chans, out),
+        (true, true, false) => signal_row_in::<true, true, false>(f, v_px, chans, out),
     }
 }
 
 #[inline(always)]
-fn signal_row_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, v_px: f64, chans: [usize; 2], out: &mut [f64]) {
+fn signal_row_in<const LENS: bool, const FIELD: bool, const ANALYZER: bool>(
+    f: &ChainFrame,
+    v_px: f64,
+    chans: [usize; 2],
+    out: &mut [f64],
+) {
     let (a0, a1) = (f.analyzers[chans[0]], f.analyzers[chans[1]]);
     let (g0, g1) = (f.gain_dn[chans[0]], f.gain_dn[chans[1]]);
     // (Closures forced inline: a call in the row loop stops it vectorizing.)
@@ -30,6 +38,10 @@ fn signal_row_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, v_px: f64,
         |u, g| {
             let s = ray_stokes_in::<LENS, FIELD>(f, g);
             let even = u & 1 == 0;
+            if ANALYZER {
+                // site_signal_dn: the pixel's own analyzer, then gain.
+                return site_signal_dn(f, s, g, u as u32, v_px as u32, chans[u & 1]);
+            }
             let a = if even { a0 } else { a1 };
             // pixel_signal_dn: analyzer, then gain.
             analyzer_intensity(s, &a) * if even { g0 } else { g1 }
@@ -37,26 +49,37 @@ fn signal_row_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, v_px: f64,
     );
 }
 
-/// Row kernel: `out[u][ch] = pixel_signal_dn(f, pixel_stokes(f, u, v_px), ch)`, all
+/// Row kernel: `out[u][ch] = site_signal_dn(f, s, g, u, v_px, ch)` as [`signal_row`], all
 /// four channels (colocated).
 pub(crate) fn signal4_row(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
-    match (f.has_pixel_effects(), f.field.is_some()) {
-        (false, _) => signal4_row_in::<false, false>(f, v_px, out),
-        (true, false) => signal4_row_in::<true, false>(f, v_px, out),
-        (true, true) => signal4_row_in::<true, true>(f, v_px, out),
+    match (f.has_pixel_effects(), f.field.is_some(), f.has_analyzer_effects()) {
+        (_, false, true) => signal4_row_in::<true, false, true>(f, v_px, out),
+        (_, true, true) => signal4_row_in::<true, true, true>(f, v_px, out),
+        (false, _, false) => signal4_row_in::<false, false, false>(f, v_px, out),
+        (true, false, false) => signal4_row_in::<true, false, false>(f, v_px, out),
+        (true, true, false) => signal4_row_in::<true, true, false>(f, v_px, out),
     }
 }
 
 #[inline(always)]
-fn signal4_row_in<const LENS: bool, const FIELD: bool>(f: &ChainFrame, v_px: f64, out: &mut [[f64; 4]]) {
+fn signal4_row_in<const LENS: bool, const FIELD: bool, const ANALYZER: bool>(
+    f: &ChainFrame,
+    v_px: f64,
+    out: &mut [[f64; 4]],
+) {
     f.intr.map_row(
         v_px,
         0.0,
         1.0,
         out,
         #[inline(always)]
-        |_, g| {
+        |u, g| {
             let s = ray_stokes_in::<LENS, FIELD>(f, g);
+            if ANALYZER {
+                let (u, v) = (u as u32, v_px as u32);
+                let sig = |ch| site_signal_dn(f, s, g, u, v, ch);
+                return [sig(0), sig(1), sig(2), sig(3)];
+            }
             // (Spelled out: `array::map` is not always inlined, and a call stops vectorizing.)
             [pixel_signal_dn(f, s, 0), pixel_signal_dn(f, s, 1), pixel_signal_dn(f, s, 2), pixel_signal_dn(f, s, 3)]
         },
@@ -188,7 +211,7 @@ pub(crate) fn sensor_dn_row(
     let draws = t.iter().zip(d).zip(p);
     for (u, ((o, &sig), ((&temporal, &dsnu), &prnu))) in out.iter_mut().zip(signal).zip(draws).enumerate() {
         let offset = if u & 1 == 0 { o0 } else { o1 };
-        *o = sensor_response(r, offset, sig, &SensorNoise { temporal, dsnu, prnu }) as f32;
+        *o = sensor_response(r, f.nonlinearity, offset, sig, &SensorNoise { temporal, dsnu, prnu }) as f32;
     }
 }
 
@@ -221,7 +244,7 @@ pub(crate) fn sensor_dn4_row(
     for (o, (sig, ((t, d), p))) in out.iter_mut().zip(signal.iter().zip(t.iter().zip(d).zip(p))) {
         let dn = |ch: usize| {
             let n = SensorNoise { temporal: t[ch], dsnu: d[ch], prnu: p[ch] };
-            let dn = sensor_response(r, f.offset_dn[ch], sig[ch], &n);
+            let dn = sensor_response(r, f.nonlinearity, f.offset_dn[ch], sig[ch], &n);
             if used[ch] {
                 dn
             } else {
@@ -243,6 +266,9 @@ mod tests {
         set.set("channel_response", "offset90_dn", 3.0).unwrap();
         set.set("array_rotation", "dtheta_deg", 0.3).unwrap();
         set.set("lens_diattenuation", "rho2", 0.4).unwrap();
+        // An analyzer effect: every pixel's own analyzer (the rows' per-site path).
+        set.set("polarimetric_nonuniformity", "angle_sigma_deg", 0.5).unwrap();
+        set.set("polarimetric_nonuniformity", "gain_sigma", 0.01).unwrap();
         let resp = Response {
             black_level_dn: 64.0,
             read_noise_dn: 1.5,
@@ -282,8 +308,12 @@ mod tests {
                 sensor_dn_row(&f, (v * w) as u32, chans, &sig, &mut scratch, &mut dn);
                 for u in 0..w {
                     let ch = chans[u & 1];
-                    let want = pixel_signal_dn(&f, pixel_stokes(&f, u as f64, v as f64), ch);
+                    let g = f.intr.geometry(u as f64, v as f64);
+                    let want = site_signal_dn(&f, ray_stokes(&f, &g), &g, u as u32, v as u32, ch);
                     assert_eq!(sig[u], want, "signal at {u}");
+                    if !f.has_analyzer_effects() {
+                        assert_eq!(want, pixel_signal_dn(&f, pixel_stokes(&f, u as f64, v as f64), ch));
+                    }
                     let p = (v * w + u) as u32;
                     assert_eq!(dn[u], sensor_dn(&f, want, ch, &sensor_noise(&f, p, ch)) as f32, "DN at {u}");
                 }
@@ -325,10 +355,11 @@ mod tests {
             signal4_row(&f, v as f64, &mut sig);
             sensor_dn4_row(&f, (v * w) as u32, used, &sig, &mut scratch, &mut dn);
             for u in 0..w {
-                let s = pixel_stokes(&f, u as f64, v as f64);
+                let g = f.intr.geometry(u as f64, v as f64);
+                let s = ray_stokes(&f, &g);
                 let noise = sensor_noise4(&f, (v * w + u) as u32);
                 for ch in 0..4 {
-                    assert_eq!(sig[u][ch], pixel_signal_dn(&f, s, ch));
+                    assert_eq!(sig[u][ch], site_signal_dn(&f, s, &g, u as u32, v as u32, ch));
                     let want = if used[ch] { sensor_dn(&f, sig[u][ch], ch, &noise[ch]) } else { 0.0 };
                     assert_eq!(dn[u][ch], want);
                 }

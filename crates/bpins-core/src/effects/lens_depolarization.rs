@@ -44,7 +44,7 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 2.0,
         doc: "depolarized fraction per r² (focal lengths²)",
     }],
-    apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], pixel: lens_depolarization },
+    apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: None, pixel: lens_depolarization },
     wgsl: Some(include_str!("../../../../shaders/effects/lens_depolarization.wgsl")),
 };
 

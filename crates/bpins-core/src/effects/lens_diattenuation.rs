@@ -39,7 +39,7 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 50.0,
         doc: "diattenuation per squared normalised radius",
     }],
-    apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], pixel: lens_diattenuation },
+    apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: None, pixel: lens_diattenuation },
     wgsl: Some(include_str!("../../../../shaders/effects/lens_diattenuation.wgsl")),
 };
 

@@ -41,7 +41,7 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 180.0,
         doc: "retardance per squared normalised radius",
     }],
-    apply: Apply::Ray { params: |v| [v[0].to_radians(), 0.0, 0.0, 0.0], pixel: lens_retardance },
+    apply: Apply::Ray { params: |v| [v[0].to_radians(), 0.0, 0.0, 0.0], frame: None, pixel: lens_retardance },
     wgsl: Some(include_str!("../../../../shaders/effects/lens_retardance.wgsl")),
 };
 

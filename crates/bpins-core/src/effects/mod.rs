@@ -25,6 +25,7 @@
 //! Catalog: docs/spec/EFFECTS.md, every effect of it.
 
 pub mod analyzer_angles;
+pub mod analyzer_incidence;
 pub mod array_rotation;
 pub mod channel_response;
 pub mod crosstalk;
@@ -34,16 +35,19 @@ pub mod lens_depolarization;
 pub mod lens_diattenuation;
 pub mod lens_retardance;
 pub mod mount_tilt;
+pub mod polarimetric_nonuniformity;
 pub mod principal_point;
 pub mod radial_distortion;
+pub mod sensor_nonlinearity;
 pub mod sky_depolarization;
 pub mod sky_dolp_shape;
 pub mod sky_neutral_points;
+pub mod stray_light;
 pub mod vignetting;
 
 use crate::camera::RayGeometry;
 use crate::error::{Error, Result};
-use crate::stokes::Stokes;
+use crate::stokes::{Analyzer, Stokes};
 
 /// Where in the chain an effect acts (for listings and documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -117,6 +121,41 @@ pub type RayParams = [f64; 4];
 /// meridional-frame Stokes`, pure; WGSL `fn name(p: vec4<f64>, g: RayGeometry, s: Stokes) -> Stokes`.
 pub type RayFn = fn(p: &RayParams, g: &RayGeometry, s: Stokes) -> Stokes;
 
+/// What a per-pixel effect may know of the frame beyond its own values (`Apply::Ray`'s
+/// `frame`): the sun, a unit vector in the true camera frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameContext {
+    pub sun_cam: glam::DVec3,
+}
+
+/// The per-frame parameter vector of one analyzer effect (WGSL `array<vec4<f64>, 2>`:
+/// `p[0]` is `(x[0], …, x[3])`, `p[1]` is `(x[4], …, x[7])`).
+pub type AnalyzerParams = [f64; 8];
+
+/// Where an analyzer sits: pixel column `u` and row `v`, its channel index `ch`, and its
+/// position relative to the principal point, px (WGSL struct `PixelSite`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelSite {
+    pub u: u32,
+    pub v: u32,
+    pub ch: u32,
+    pub x_px: f64,
+    pub y_px: f64,
+}
+
+/// One pixel's analyzer and the gain behind it, DN per unit radiance (WGSL struct
+/// `PixelAnalyzer`): what the analyzer effects change.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelAnalyzer {
+    pub analyzer: Analyzer,
+    pub gain: f64,
+}
+
+/// An analyzer effect's function: `(its AnalyzerParams, the pixel's site, its ray, the
+/// pixel's analyzer) → the pixel's analyzer`, pure; WGSL `fn name(p: array<vec4<f64>, 2>,
+/// site: PixelSite, g: RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer`.
+pub type AnalyzerFn = fn(p: &AnalyzerParams, site: &PixelSite, g: &RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer;
+
 /// How an effect enters the chain.
 #[derive(Clone, Copy, Debug)]
 pub enum Apply {
@@ -127,13 +166,32 @@ pub enum Apply {
     /// scene and before the rotation to the image frame, in registry order. `params`
     /// turns the values into the per-pixel vector once per frame (neutral values must
     /// give a vector at which `pixel` is exactly the identity); `pixel` is the per-pixel
-    /// function, named as the effect and its WGSL twin.
-    Ray { params: fn(values: &[f64]) -> RayParams, pixel: RayFn },
+    /// function, named as the effect and its WGSL twin. `frame`, where given, completes
+    /// the vector with the frame's context ([`FrameContext`]: the sun in the camera
+    /// frame) when the chain's frame is built (`ChainFrame::new`; it must leave a
+    /// neutral vector as it is), so the pixel function and its WGSL twin read the
+    /// sun from their vector on both backends (`stray_light`).
+    Ray {
+        params: fn(values: &[f64]) -> RayParams,
+        frame: Option<fn(p: RayParams, context: &FrameContext) -> RayParams>,
+        pixel: RayFn,
+    },
+    /// Changes each pixel's analyzer (angle, ε) and the gain behind it, per pixel and
+    /// channel, in the image frame: after the channel's analyzer (`analyzer_angles`,
+    /// `extinction_ratio`, `array_rotation`) and gain (`channel_response`), in registry
+    /// order. `params` turns the values into the per-pixel vector once per frame
+    /// (neutral values must give a vector at which `pixel` is exactly the identity);
+    /// `pixel` reads the pixel's site and ray (`chain::site_signal_dn`).
+    Analyzer { params: fn(values: &[f64]) -> AnalyzerParams, pixel: AnalyzerFn },
 }
 
 impl Apply {
     const fn is_ray(&self) -> bool {
         matches!(self, Apply::Ray { .. })
+    }
+
+    const fn is_analyzer(&self) -> bool {
+        matches!(self, Apply::Analyzer { .. })
     }
 }
 
@@ -150,7 +208,15 @@ impl EffectDef {
     fn neutral_ray_params(&self) -> Option<RayParams> {
         match self.apply {
             Apply::Ray { params, .. } => Some(params(&self.neutral_values())),
-            Apply::Frame(_) => None,
+            _ => None,
+        }
+    }
+
+    /// The analyzer vector at neutral values (`None` for another kind of effect).
+    fn neutral_analyzer_params(&self) -> Option<AnalyzerParams> {
+        match self.apply {
+            Apply::Analyzer { params, .. } => Some(params(&self.neutral_values())),
+            _ => None,
         }
     }
 }
@@ -171,12 +237,16 @@ const ALL: &[&EffectDef] = &[
     &lens_diattenuation::EFFECT,
     &lens_retardance::EFFECT,
     &lens_depolarization::EFFECT,
+    &stray_light::EFFECT,
     &vignetting::EFFECT,
     &array_rotation::EFFECT,
     &analyzer_angles::EFFECT,
     &extinction_ratio::EFFECT,
+    &polarimetric_nonuniformity::EFFECT,
+    &analyzer_incidence::EFFECT,
     &channel_response::EFFECT,
     &crosstalk::EFFECT,
+    &sensor_nonlinearity::EFFECT,
 ];
 
 /// How many effects act per pixel ([`Apply::Ray`]): the length of [`Model::ray`].
@@ -225,9 +295,94 @@ fn identity_ray(_: &RayParams, _: &RayGeometry, s: Stokes) -> Stokes {
     s
 }
 
+/// How many effects act on each pixel's analyzer ([`Apply::Analyzer`]): the length of
+/// [`Model::analyzer`].
+pub const ANALYZER_COUNT: usize = {
+    let mut n = 0;
+    let mut i = 0;
+    while i < ALL.len() {
+        if ALL[i].apply.is_analyzer() {
+            n += 1;
+        }
+        i += 1;
+    }
+    n
+};
+
+/// The analyzer effects in chain order: slot `k` of [`Model::analyzer`] is `ANALYZER_EFFECTS[k]`.
+pub static ANALYZER_EFFECTS: [&EffectDef; ANALYZER_COUNT] = {
+    let mut out = [ALL[0]; ANALYZER_COUNT];
+    let (mut i, mut k) = (0, 0);
+    while i < ALL.len() {
+        if ALL[i].apply.is_analyzer() {
+            out[k] = ALL[i];
+            k += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+/// The analyzer effects' functions in chain order (`chain::analyzer_effects`).
+pub(crate) const ANALYZER_FNS: [AnalyzerFn; ANALYZER_COUNT] = {
+    let mut out: [AnalyzerFn; ANALYZER_COUNT] = [identity_analyzer; ANALYZER_COUNT];
+    let (mut i, mut k) = (0, 0);
+    while i < ALL.len() {
+        if let Apply::Analyzer { pixel, .. } = ALL[i].apply {
+            out[k] = pixel;
+            k += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+fn identity_analyzer(_: &AnalyzerParams, _: &PixelSite, _: &RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer {
+    a
+}
+
+/// The slot of analyzer effect `def` in [`Model::analyzer`] (`None` for another kind).
+pub fn analyzer_slot(def: &EffectDef) -> Option<usize> {
+    ANALYZER_EFFECTS.iter().position(|e| e.name == def.name)
+}
+
+/// Every analyzer effect at its neutral vector: the ideal chain's [`Model::analyzer`].
+pub fn neutral_analyzer_params() -> &'static [AnalyzerParams; ANALYZER_COUNT] {
+    static NEUTRAL: std::sync::LazyLock<[AnalyzerParams; ANALYZER_COUNT]> = std::sync::LazyLock::new(|| {
+        ANALYZER_EFFECTS.map(|e| e.neutral_analyzer_params().expect("ANALYZER_EFFECTS holds analyzer effects only"))
+    });
+    &NEUTRAL
+}
+
 /// The slot of per-pixel effect `def` in [`Model::ray`] (`None` for a frame effect).
 pub fn ray_slot(def: &EffectDef) -> Option<usize> {
     RAY_EFFECTS.iter().position(|e| e.name == def.name)
+}
+
+/// The per-pixel effects' frame completions, slot by slot (`Apply::Ray::frame`).
+const RAY_FRAME_FNS: [Option<fn(RayParams, &FrameContext) -> RayParams>; RAY_COUNT] = {
+    let mut out: [Option<fn(RayParams, &FrameContext) -> RayParams>; RAY_COUNT] = [None; RAY_COUNT];
+    let (mut i, mut k) = (0, 0);
+    while i < ALL.len() {
+        if let Apply::Ray { frame, .. } = ALL[i].apply {
+            out[k] = frame;
+            k += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+/// The frame's per-pixel vectors: `ray` (`Model::ray`) with each effect's frame
+/// completion applied under `context` (`ChainFrame::ray`).
+pub fn frame_ray_params(ray: &[RayParams; RAY_COUNT], context: &FrameContext) -> [RayParams; RAY_COUNT] {
+    let mut out = *ray;
+    for (p, f) in out.iter_mut().zip(RAY_FRAME_FNS) {
+        if let Some(f) = f {
+            *p = f(*p, context);
+        }
+    }
+    out
 }
 
 /// Every per-pixel effect at its neutral vector: the ideal chain's [`Model::ray`].
@@ -267,6 +422,9 @@ pub struct Model {
     /// vector where the effect is off). Read one through its module (e.g.
     /// `lens_diattenuation::rho2`), never by a slot number written out.
     pub ray: [RayParams; RAY_COUNT],
+    /// Each analyzer effect's vector, slot `k` for [`ANALYZER_EFFECTS`]`[k]` (its
+    /// neutral vector where the effect is off).
+    pub analyzer: [AnalyzerParams; ANALYZER_COUNT],
     /// Camera tilt on its mount about camera x then y, degrees.
     pub mount_tilt_deg: [f64; 2],
     /// Each analyzer's angle minus nominal, degrees, by channel index (0, 45, 90, 135).
@@ -279,6 +437,8 @@ pub struct Model {
     pub channel_offset_dn: [f64; 4],
     /// DoFP crosstalk: the fraction of its signal a pixel gives each edge neighbour.
     pub crosstalk: f64,
+    /// The sensor's quadratic response coefficient β (`sensor_nonlinearity`).
+    pub nonlinearity: f64,
 }
 
 impl Default for Model {
@@ -291,12 +451,14 @@ impl Default for Model {
             neutral_separation_deg: 0.0,
             sky_diffuse: 0.0,
             ray: *neutral_ray_params(),
+            analyzer: *neutral_analyzer_params(),
             mount_tilt_deg: [0.0; 2],
             analyzer_delta_deg: [0.0; 4],
             analyzer_eps: [0.0; 4],
             channel_gain: [1.0; 4],
             channel_offset_dn: [0.0; 4],
             crosstalk: 0.0,
+            nonlinearity: 0.0,
         }
     }
 }
@@ -397,6 +559,9 @@ impl EffectSet {
                 Apply::Frame(fold) => fold(vals, &mut m),
                 Apply::Ray { params, .. } => {
                     m.ray[ray_slot(def).expect("a per-pixel effect has a slot")] = params(vals)
+                }
+                Apply::Analyzer { params, .. } => {
+                    m.analyzer[analyzer_slot(def).expect("an analyzer effect has a slot")] = params(vals)
                 }
             }
         }

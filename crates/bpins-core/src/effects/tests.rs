@@ -49,6 +49,14 @@ fn per_pixel_effects_have_their_wgsl_twin_and_only_they() {
             let sig = format!("fn {}(p: vec4<f64>, g: RayGeometry, s: Stokes) -> Stokes", e.name);
             assert!(e.wgsl.is_some_and(|w| w.contains(&sig)), "{}: its WGSL twin must define `{sig}`", e.name);
         }
+        if e.apply.is_analyzer() {
+            // The analyzer signature the generated WGSL `analyzer_effects` calls.
+            let sig = format!(
+                "fn {}(p: array<vec4<f64>, 2>, site: PixelSite, g: RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer",
+                e.name
+            );
+            assert!(e.wgsl.is_some_and(|w| w.contains(&sig)), "{}: its WGSL twin must define `{sig}`", e.name);
+        }
         match e.wgsl {
             Some(src) => {
                 assert!(src.contains(&format!("fn {}(", e.name)), "{}: WGSL lacks fn {}", e.name, e.name);
@@ -75,7 +83,7 @@ fn per_pixel_tables_are_the_registry_in_order() {
     for (k, e) in RAY_EFFECTS.iter().enumerate() {
         assert_eq!(ray_slot(e), Some(k));
         // Slot k's function is the effect's own (same output at its typical strength).
-        let Apply::Ray { params, pixel } = e.apply else { unreachable!() };
+        let Apply::Ray { params, pixel, .. } = e.apply else { unreachable!() };
         let p = params(&e.params.iter().map(|p| p.typical).collect::<Vec<_>>());
         assert_eq!(RAY_FNS[k](&p, &g, s), pixel(&p, &g, s), "{}: slot {k} calls another function", e.name);
         assert_ne!(pixel(&p, &g, s), s, "{}: typical strength changes nothing", e.name);
@@ -83,6 +91,32 @@ fn per_pixel_tables_are_the_registry_in_order() {
         assert_eq!(e.stage, Stage::Lens, "{}", e.name);
     }
     assert!(ray_slot(&array_rotation::EFFECT).is_none());
+}
+
+#[test]
+fn analyzer_tables_are_the_registry_in_order_and_neutral_is_exactly_the_identity() {
+    let names: Vec<_> = REGISTRY.iter().filter(|e| e.apply.is_analyzer()).map(|e| e.name).collect();
+    assert_eq!(ANALYZER_EFFECTS.map(|e| e.name).to_vec(), names);
+    assert!(ANALYZER_COUNT > 0 && ANALYZER_COUNT == names.len());
+    let g = crate::camera::Intrinsics::new(crate::camera::Projection::Equidistant, 40.0, 31.5, 23.5).geometry(3.0, 5.0);
+    let a = PixelAnalyzer { analyzer: Analyzer::at(135.0, 0.3, 0.02), gain: 1.07 };
+    for (k, e) in ANALYZER_EFFECTS.iter().enumerate() {
+        assert_eq!(analyzer_slot(e), Some(k));
+        assert_eq!(e.stage, Stage::Analyzer, "{}", e.name);
+        let Apply::Analyzer { params, pixel } = e.apply else { unreachable!() };
+        let p = params(&e.params.iter().map(|p| p.typical).collect::<Vec<_>>());
+        for (u, v, ch) in [(0, 0, 0), (31, 23, 3), (1000, 7, 1)] {
+            let site = PixelSite { u, v, ch, x_px: u as f64 - 31.5, y_px: v as f64 - 23.5 };
+            // Slot k's function is the effect's own; it changes something at typical
+            // strength (off the principal point) and nothing at neutral.
+            assert_eq!(ANALYZER_FNS[k](&p, &site, &g, a), pixel(&p, &site, &g, a), "{}", e.name);
+            assert_eq!(ANALYZER_FNS[k](&neutral_analyzer_params()[k], &site, &g, a), a, "{} at ({u}, {v})", e.name);
+            if u > 0 {
+                assert_ne!(pixel(&p, &site, &g, a), a, "{}: typical strength changes nothing", e.name);
+            }
+        }
+    }
+    assert!(analyzer_slot(&extinction_ratio::EFFECT).is_none());
 }
 
 #[test]

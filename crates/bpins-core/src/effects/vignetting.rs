@@ -34,7 +34,7 @@ pub const EFFECT: EffectDef = EffectDef {
         ParamSpec { name: "v2", unit: "1", neutral: 0.0, typical: -0.2, min: -2.0, max: 2.0, doc: "falloff per r²" },
         ParamSpec { name: "v4", unit: "1", neutral: 0.0, typical: 0.05, min: -2.0, max: 2.0, doc: "falloff per r⁴" },
     ],
-    apply: Apply::Ray { params: |v| [v[0], v[1], 0.0, 0.0], pixel: vignetting },
+    apply: Apply::Ray { params: |v| [v[0], v[1], 0.0, 0.0], frame: None, pixel: vignetting },
     wgsl: Some(include_str!("../../../../shaders/effects/vignetting.wgsl")),
 };
 

@@ -80,6 +80,16 @@ pub fn inseparable(c: &Capture, opts: &FitOptions) -> Vec<(&'static str, String)
                 .to_string(),
         ));
     }
+    if !opts.rayleigh_radiance {
+        out.push((
+            "stray_light",
+            "unpolarized glare toward the sun: with the sky's radiance a free nuisance (a real sky brightens toward \
+             the sun), the capture weighs the glare only against the fitted radiance, not in the sky's unit at the \
+             sun (under the CIE clear sky it is read 40 % low, measured); where the sky's radiance is known \
+             (Rayleigh's, `--rayleigh-radiance`) it is measured, or measure the lens's glare spread in the lab"
+                .to_string(),
+        ));
+    }
     if opts.fixed_dmax.is_none() {
         out.push((
             "sky_depolarization",

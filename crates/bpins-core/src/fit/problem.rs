@@ -9,7 +9,7 @@ use super::{radiance, start, FitOptions, FitState, BORDER_PX};
 use crate::camera::Intrinsics;
 use crate::capture::Capture;
 use crate::capture::FrameData as Whole;
-use crate::chain::{mosaic_pixel_signal_dn, pixel_signal_dn, pixel_stokes, ChainFrame, NoiseIndex, Scene};
+use crate::chain::{mosaic_pixel_signal_dn, ray_stokes, site_signal_dn, ChainFrame, NoiseIndex, Scene};
 use crate::error::Result;
 use crate::heading::field::SkyMask;
 use crate::sensor::{Layout, Response};
@@ -155,13 +155,15 @@ impl Problem<'_> {
         match &self.capture.sensor.layout {
             Layout::Dofp { mosaic } => {
                 let ch = Layout::dofp_channel(mosaic, u, v).index();
-                let m = r * mosaic_pixel_signal_dn(f, u, v, w, h, mosaic) + f.offset_dn[ch];
+                let m = nonlinear(f, r * mosaic_pixel_signal_dn(f, u, v, w, h, mosaic)) + f.offset_dn[ch];
                 out.push((measured(0) as f64, m));
             }
             Layout::Colocated { channels } => {
-                let s = pixel_stokes(f, u as f64, v as f64);
+                let g = f.intr.geometry(u as f64, v as f64);
+                let s = ray_stokes(f, &g);
                 for (q, c) in channels.iter().enumerate() {
-                    let m = r * pixel_signal_dn(f, s, c.index()) + f.offset_dn[c.index()];
+                    let signal = site_signal_dn(f, s, &g, u as u32, v as u32, c.index());
+                    let m = nonlinear(f, r * signal) + f.offset_dn[c.index()];
                     out.push((measured(q) as f64, m));
                 }
             }
@@ -197,4 +199,11 @@ impl Problem<'_> {
             && v + b < self.h()
             && self.sky[k].as_ref().is_none_or(|m| m.is_sky(u, v))
     }
+}
+
+/// The sensor's response to the model photo-signal `signal_dn` (`sensor_nonlinearity`;
+/// the identity at β = 0), as the chain's `sensor_dn` applies it.
+#[inline(always)]
+fn nonlinear(f: &ChainFrame, signal_dn: f64) -> f64 {
+    crate::effects::sensor_nonlinearity::sensor_nonlinearity(f.nonlinearity, signal_dn, f.response.full_scale_dn())
 }

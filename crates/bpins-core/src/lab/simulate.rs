@@ -11,7 +11,12 @@
 //!
 //! Channel-level truth comes from the catalog's model (`analyzer_angles`,
 //! `extinction_ratio`, `channel_response`, `array_rotation`, `vignetting`; r in focal
-//! lengths); the per-pixel spreads from [`PixelFlaws`]. Noise: shot noise
+//! lengths), each pixel's own analyzer from the catalog's analyzer effects
+//! (`polarimetric_nonuniformity`, `analyzer_incidence`: the chain's `pixel_analyzer`,
+//! so a lab capture and a sky capture of one simulated sensor share its die; the lab's
+//! source is seen through the lens, at each pixel's chief ray); further per-pixel
+//! spreads from [`PixelFlaws`]. Not simulated here: `sensor_nonlinearity` (the lab
+//! calibration assumes a linear sensor). Noise: shot noise
 //! `K·signal` (DN²), read noise, rounding, clipping to `[0, full scale]`, seeded per
 //! pixel and frame ([`crate::noise::FrameKey`]). An unpolarized flat is the same
 //! source without the polarizer (`I = 1`, `Q = U = 0`); a dark frame is `o_p` plus read
@@ -110,6 +115,16 @@ pub fn truth_maps(
 ) -> PixelMaps {
     let key = FrameKey::new(flaws.seed, 0xF1A5, 0);
     let n = w * h;
+    // The chain's frame, for each pixel's analyzer (the scene does not matter here).
+    let scene = crate::chain::Scene {
+        sun_az_deg: 0.0,
+        sun_el_deg: 90.0,
+        heading_deg: 0.0,
+        tilt_x_deg: 0.0,
+        tilt_y_deg: 0.0,
+        dmax: 0.0,
+    };
+    let frame = crate::chain::ChainFrame::noise_free(model, intr, &scene);
     let [vig_v2, vig_v4] = crate::effects::vignetting::coefficients(model);
     let per_px: Vec<(f32, f32, f64, f32)> = (0..n)
         .into_par_iter()
@@ -119,15 +134,27 @@ pub fn truth_maps(
             let k = ch.index();
             let (x, y) = ((u as f64 + 0.5) / w as f64 - 0.5, (v as f64 + 0.5) / h as f64 - 0.5);
             let p = i as u32;
+            // The pixel's own analyzer against its channel's (the analyzer effects):
+            // doubled-angle turn, ε and gain changes; exactly 0, 0 and 1 without them.
+            let chan = frame.analyzers[k];
+            let own =
+                crate::chain::pixel_analyzer(&frame, &frame.intr.geometry(u as f64, v as f64), u as u32, v as u32, k);
+            let a = own.analyzer;
+            let turn_deg = 0.5
+                * (a.sin2t * chan.cos2t - a.cos2t * chan.sin2t)
+                    .atan2(a.cos2t * chan.cos2t + a.sin2t * chan.sin2t)
+                    .to_degrees();
             let angle = ch.angle_deg()
                 + model.analyzer_delta_deg[k]
+                + turn_deg
                 + flaws.angle_gradient_deg[0] * x
                 + flaws.angle_gradient_deg[1] * y
                 + flaws.angle_sigma_deg * key.normal(p, 0, 0);
-            let eps = (model.analyzer_eps[k] + flaws.eps_sigma * key.normal(p, 1, 0)).max(0.0);
+            let eps = (model.analyzer_eps[k] + (a.eps - chan.eps) + flaws.eps_sigma * key.normal(p, 1, 0)).max(0.0);
             let r2 = ((u as f64 - intr.cx_px).powi(2) + (v as f64 - intr.cy_px).powi(2)) / (intr.f_px * intr.f_px);
             let vig = crate::effects::vignetting::factor(vig_v2, vig_v4, r2).max(1e-3);
-            let gain = model.channel_gain[k] * vig * (1.0 + flaws.prnu * key.normal(p, 2, 0));
+            let own_gain = own.gain / frame.gain_dn[k];
+            let gain = model.channel_gain[k] * own_gain * vig * (1.0 + flaws.prnu * key.normal(p, 2, 0));
             let offset = black_level_dn + model.channel_offset_dn[k] + flaws.dsnu_dn * key.normal(p, 3, 0);
             (angle as f32, eps as f32, gain, offset as f32)
         })

@@ -32,7 +32,7 @@
 //! Colocated sensors only (the ring is read pixel by pixel); on either backend the
 //! ring is read on the CPU.
 
-use crate::chain::{pixel_signal_dn, pixel_stokes, sensor_dn, sensor_noise, ChainFrame};
+use crate::chain::{ray_stokes, sensor_dn, sensor_noise, site_signal_dn, ChainFrame};
 
 use crate::heading::HeadingContext;
 use crate::recon::Reconstructor;
@@ -80,12 +80,14 @@ pub fn heading(
                 continue;
             }
             // The sensor's DN of every channel, as the chain renders them.
-            let s_true = pixel_stokes(f, u as f64, v as f64);
+            let g = f.intr.geometry(u as f64, v as f64);
+            let s_true = ray_stokes(f, &g);
             let mut dn = [0.0; 4];
             for (ch, d) in dn.iter_mut().enumerate() {
                 if used[ch] {
                     let noise = sensor_noise(f, (v * w + u) as u32, ch);
-                    *d = sensor_dn(f, pixel_signal_dn(f, s_true, ch), ch, &noise);
+                    let signal = site_signal_dn(f, s_true, &g, u as u32, v as u32, ch);
+                    *d = sensor_dn(f, signal, ch, &noise);
                 }
             }
             let s = rec.stokes(&dn);
