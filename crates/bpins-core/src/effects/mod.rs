@@ -44,6 +44,7 @@ pub mod sky_dolp_shape;
 pub mod sky_neutral_points;
 pub mod stray_light;
 pub mod vignetting;
+pub mod window;
 
 use crate::camera::RayGeometry;
 use crate::error::{Error, Result};
@@ -234,6 +235,7 @@ const ALL: &[&EffectDef] = &[
     &sky_depolarization::EFFECT,
     &sky_neutral_points::EFFECT,
     &sky_dolp_shape::EFFECT,
+    &window::EFFECT,
     &lens_diattenuation::EFFECT,
     &lens_retardance::EFFECT,
     &lens_depolarization::EFFECT,
