@@ -11,10 +11,10 @@ struct ReduceDims {
 @group(0) @binding(1) var<storage, read> partials: array<f64>;
 @group(0) @binding(2) var<storage, read_write> sums: array<f64>;
 
-const WG_SIZE: u32 = 256u;
+const WG_SIZE: u32 = 64u;
 var<workgroup> red1: array<f64, WG_SIZE>;
 
-@compute @workgroup_size(256, 1, 1)
+@compute @workgroup_size(64, 1, 1)
 fn reduce_partials(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: vec3<u32>) {
     let k = wid.x;
     let job = wid.y;
