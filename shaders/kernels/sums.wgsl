@@ -41,6 +41,28 @@ override SUMS_LAYOUT: u32 = 0u;
 // 1: every context puts every sample on the same assumed ray (the host checked the
 // cameras, distortions and grids), so the geometry is computed once for all.
 override SHARED_RAYS: u32 = 0u;
+// The sensor noise any frame of the dispatch draws: bit 0 temporal, 1 DSNU, 2 PRNU.
+override SUMS_NOISE: u32 = 7u;
+
+// sensor_noise (chain.wgsl) without the draws no frame of the dispatch makes (left out
+// at compile time; the host sets SUMS_NOISE from the frames' noise parameters). The
+// draws it keeps are sensor_noise's, under the same per-frame conditions.
+fn sample_noise(f: ChainFrame, pixel: u32, ch: u32) -> SensorNoise {
+    if (SUMS_NOISE == 7u) {
+        return sensor_noise(f, pixel, ch);
+    }
+    var n = SensorNoise(0.0lf, 0.0lf, 0.0lf);
+    if ((SUMS_NOISE & 1u) != 0u && (f.noise.x > 0.0lf || f.noise.y > 0.0lf)) {
+        n.temporal = normal(f.key, pixel, ch, STREAM_TEMPORAL);
+    }
+    if ((SUMS_NOISE & 2u) != 0u && f.noise.z > 0.0lf) {
+        n.dsnu = normal(f.fixed_key, pixel, ch, STREAM_DSNU);
+    }
+    if ((SUMS_NOISE & 4u) != 0u && f.noise.w > 0.0lf) {
+        n.prnu = normal(f.fixed_key, pixel, ch, STREAM_PRNU);
+    }
+    return n;
+}
 
 fn zeros7() -> array<f64, 7> {
     return array<f64, 7>(0.0lf, 0.0lf, 0.0lf, 0.0lf, 0.0lf, 0.0lf, 0.0lf);
@@ -59,7 +81,7 @@ fn tile_pixel_dn(f: ChainFrame, u: u32, v: u32, w: u32, h: u32, mosaic: vec4<u32
         return mosaic_pixel_dn(f, u, v, w, h, mosaic);
     }
     let ch = mosaic[2u * (v & 1u) + (u & 1u)];
-    return sensor_dn(f, mosaic_signal_at(f, u, v, mosaic), ch, sensor_noise(f, v * w + u, ch));
+    return sensor_dn(f, mosaic_signal_at(f, u, v, mosaic), ch, sample_noise(f, v * w + u, ch));
 }
 
 // Superpixel (i, j) of a DoFP frame: the tile's four DN as render_mosaic renders them
@@ -87,7 +109,7 @@ fn colocated_sample(f: ChainFrame, rp: ReconParams, u: u32, v: u32) -> Sample {
     var ok = true;
     let full_scale = wide(rp.valid).x;
     for (var ch = 0u; ch < 4u; ch++) {
-        let x = sensor_dn(f, pixel_signal_dn(f, s, ch), ch, sensor_noise(f, pixel, ch));
+        let x = sensor_dn(f, pixel_signal_dn(f, s, ch), ch, sample_noise(f, pixel, ch));
         ok = ok && (full_scale == 0.0lf || dn_is_valid(x, full_scale));
         d[ch] = x;
     }

@@ -384,7 +384,7 @@ impl Pipelines {
             render_colocated: pipeline(&render, "render_colocated"),
             chain_maps: pipeline(&render, "chain_maps"),
             sky_maps: pipeline(&render, "sky_maps"),
-            frame_sums: Default::default(),
+            frame_sums: std::array::from_fn(|_| OnceLock::new()),
             reduce_partials: pipeline(&reduce, "reduce_partials"),
             sums_module: sums,
         })

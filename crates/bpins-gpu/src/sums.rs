@@ -35,17 +35,23 @@ pub(crate) struct SumsVariant {
     layout: u32,
     /// Every context of every frame has the same assumed camera, distortion and grid.
     shared_rays: bool,
+    /// The sensor noise some frame draws: bit 0 temporal, 1 DSNU, 2 PRNU.
+    noise: u32,
 }
 
 impl SumsVariant {
-    pub(crate) const COUNT: usize = 6;
+    pub(crate) const COUNT: usize = 3 * 2 * 8;
 
     pub(crate) fn index(self) -> usize {
-        2 * self.layout as usize + usize::from(self.shared_rays)
+        (2 * self.layout as usize + usize::from(self.shared_rays)) * 8 + self.noise as usize
     }
 
-    pub(crate) fn constants(self) -> [(&'static str, f64); 2] {
-        [("SUMS_LAYOUT", self.layout as f64), ("SHARED_RAYS", if self.shared_rays { 1.0 } else { 0.0 })]
+    pub(crate) fn constants(self) -> [(&'static str, f64); 3] {
+        [
+            ("SUMS_LAYOUT", self.layout as f64),
+            ("SHARED_RAYS", if self.shared_rays { 1.0 } else { 0.0 }),
+            ("SUMS_NOISE", self.noise as f64),
+        ]
     }
 
     /// The variant for these frames and their contexts (`n_ctx` per frame).
@@ -59,7 +65,14 @@ impl SumsVariant {
         };
         let rays = |h: &HeadingParams| (h.camera, h.distortion, h.grid);
         let shared_rays = heading.chunks(n_ctx).all(|ctx| ctx.iter().all(|h| rays(h) == rays(&ctx[0])));
-        SumsVariant { layout, shared_rays }
+        // FrameParams::noise: read noise, system gain, DSNU, PRNU (sensor_noise's tests).
+        let on = |w: &crate::params::Wide4, k: usize| w.hi[k] as f64 + w.lo[k] as f64 > 0.0;
+        let noise = frames.iter().fold(0, |bits, f| {
+            bits | u32::from(on(&f.noise, 0) || on(&f.noise, 1))
+                | (u32::from(on(&f.noise, 2)) << 1)
+                | (u32::from(on(&f.noise, 3)) << 2)
+        });
+        SumsVariant { layout, shared_rays, noise }
     }
 }
 
