@@ -171,9 +171,16 @@ fn flush_block(a: ptr<function, Acc>) {
     (*a).block = zeros7();
 }
 
+// Sector of the sample at (x, y) px about context cx's assumed principal point.
+fn sector_at(cx: Context, x: f64, y: f64) -> u32 {
+    return sector_of(image_angle_rad(x - cx.intr.cx_px, y - cx.intr.cy_px));
+}
+
 // Adds the sample at (x, y) px, seen along the assumed ray g, to context cx's sums
-// (HeadingSums::add: scatter for every sample, band sums by sector in the band).
-fn accumulate(a: ptr<function, Acc>, cx: Context, g: RayGeometry, x: f64, y: f64, sample: Sample) {
+// (HeadingSums::add: scatter for every sample, band sums by sector k in the band).
+// llvmpipe computes k for every sample whatever the branch, so the caller computes it
+// once where the contexts share their rays.
+fn accumulate(a: ptr<function, Acc>, cx: Context, g: RayGeometry, x: f64, y: f64, k: u32, sample: Sample) {
     let con = contribution(cx.band.x, g, sample.s, sample.ok && cx.grid.w != 0.0lf);
     for (var t = 0u; t < 6u; t++) {
         (*a).block[t] += con.m[t];
@@ -183,7 +190,6 @@ fn accumulate(a: ptr<function, Acc>, cx: Context, g: RayGeometry, x: f64, y: f64
     let dx = x - cx.intr.cx_px;
     let dy = y - cx.intr.cy_px;
     if (in_band(cx.band, con, dx, dy)) {
-        let k = sector_of(image_angle_rad(dx, dy));
         if (k != (*a).run_sector || (*a).run_n == BLOCK) {
             flush_run(a);
             (*a).run_sector = k;
@@ -244,15 +250,18 @@ fn frame_sums(@builtin(global_invocation_id) gid: vec3<u32>) {
             let x0 = c0.grid.x + c0.grid.z * f64(i);
             let y0 = c0.grid.y + c0.grid.z * f64(j);
             let g0 = geometry(c0.intr, x0, y0);
-            accumulate(&a0, c0, g0, x0, y0, sample);
+            let k0 = sector_at(c0, x0, y0);
+            accumulate(&a0, c0, g0, x0, y0, k0, sample);
             if (two) {
                 let x1 = c1.grid.x + c1.grid.z * f64(i);
                 let y1 = c1.grid.y + c1.grid.z * f64(j);
                 var g1 = g0;
+                var k1 = k0;
                 if (SHARED_RAYS == 0u) {
                     g1 = geometry(c1.intr, x1, y1);
+                    k1 = sector_at(c1, x1, y1);
                 }
-                accumulate(&a1, c1, g1, x1, y1, sample);
+                accumulate(&a1, c1, g1, x1, y1, k1, sample);
             }
         }
         flush_block(&a0);
