@@ -9,12 +9,12 @@
 // No workgroup memory and no barrier: on a CPU rasterizer (llvmpipe) every barrier is
 // a coroutine switch of every SIMD group of the workgroup, and the former per-workgroup
 // tree sums (one per value set and touched sector) cost more than the samples. The
-// host picks the run length (`sums.rs`): whole rows on a CPU adapter (few partials,
-// two SIMD-wide rows of work per thread), shorter runs on a GPU (enough invocations).
+// host picks the run length (`sums.rs`): whole rows on a CPU adapter (long loops, few
+// partials), runs of about 128 samples on a GPU (enough invocations in flight).
 
 // Keep in sync with `SumsDims` in crates/bpins-gpu/src/params.rs.
 struct SumsDims {
-    samples: vec4<u32>, // samples across, samples down, contexts per frame, layout (0 DoFP, 1 colocated)
+    samples: vec4<u32>, // samples across, samples down, contexts per frame, layout (0 DoFP, 1 colocated; the kernel reads SUMS_LAYOUT)
     image: vec4<u32>,   // width_px, height_px, workgroups across (ROWS rows each), runs per row
 }
 
