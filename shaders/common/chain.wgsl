@@ -130,6 +130,11 @@ fn pixel_signal_dn(f: ChainFrame, s: Stokes, ch: u32) -> f64 {
     return analyzer_intensity(s, Analyzer(f.cos2t[ch], f.sin2t[ch], f.eps[ch])) * f.gain_dn[ch];
 }
 
+// Pipeline constant: 0 where no frame of the dispatch has an analyzer effect on (set by
+// frame_sums' pipelines, sums.rs `SumsVariant`), so that llvmpipe, which runs the untaken
+// side of a uniform branch under a lane mask, does not run the analyzer effects at all.
+override CHAIN_ANALYZER: u32 = 1u;
+
 // Where an analyzer sits: column u, row v, channel ch, position from the principal point (px).
 struct PixelSite {
     u: u32,
@@ -149,7 +154,7 @@ struct PixelAnalyzer {
 // the channel's, changed by the analyzer effects where the frame has any.
 fn pixel_analyzer(f: ChainFrame, g: RayGeometry, u: u32, v: u32, ch: u32) -> PixelAnalyzer {
     let a = PixelAnalyzer(Analyzer(f.cos2t[ch], f.sin2t[ch], f.eps[ch]), f.gain_dn[ch]);
-    if (!f.analyzer_on) {
+    if (CHAIN_ANALYZER == 0u || !f.analyzer_on) {
         return a;
     }
     let site = PixelSite(u, v, ch, f64(u) - f.intr.cx_px, f64(v) - f.intr.cy_px);

@@ -1,20 +1,21 @@
-// Adds the per-workgroup partial sums of frame_sums (sums.wgsl) per (frame, context):
+// Adds the per-invocation partial sums of frame_sums (sums.wgsl) per (frame, context):
 // one workgroup per (value, job), a strided sum then a tree (fixed order), in f64.
-// Only these SUMS_LEN values per job are read back to the host.
+// Only these SUMS_LEN values per job are read back to the host. 64 lanes, not 256: on
+// llvmpipe each barrier of the tree switches every SIMD group of the workgroup.
 
 // Keep in sync with `ReduceDims` in crates/bpins-gpu/src/params.rs.
 struct ReduceDims {
-    size: vec4<u32>, // partials per job (workgroups of frame_sums), jobs, 0, 0
+    size: vec4<u32>, // partials per job (invocations of frame_sums), jobs, 0, 0
 }
 
 @group(0) @binding(0) var<uniform> dims: ReduceDims;
 @group(0) @binding(1) var<storage, read> partials: array<f64>;
 @group(0) @binding(2) var<storage, read_write> sums: array<f64>;
 
-const WG_SIZE: u32 = 256u;
+const WG_SIZE: u32 = 64u;
 var<workgroup> red1: array<f64, WG_SIZE>;
 
-@compute @workgroup_size(256, 1, 1)
+@compute @workgroup_size(64, 1, 1)
 fn reduce_partials(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: vec3<u32>) {
     let k = wid.x;
     let job = wid.y;

@@ -1,14 +1,21 @@
 // Heading sums of whole frames, reduced on the device: render → reconstruct →
-// contribution → per-workgroup tree sums. CPU twins: crates/bpins-core/src/simulate.rs
+// contribution → per-invocation sums. CPU twins: crates/bpins-core/src/simulate.rs
 // `mosaic_heading_sums` (DoFP superpixels) and montecarlo.rs `run_trial` (colocated).
-// One invocation per K samples of a row (a sample is a 2 × 2 tile or a colocated
-// pixel); global id z is the frame. Each workgroup writes SUMS_LEN partial sums per heading context; the
-// `reduce_partials` kernel (reduce.wgsl) adds them per frame: no frame leaves the GPU.
+// One invocation per run of samples along one row (a sample is a 2 × 2 tile or a
+// colocated pixel): global id x is the row, y the run along it, z the frame. Each
+// invocation writes its own SUMS_LEN sums per heading context; the `reduce_partials`
+// kernel (reduce.wgsl) adds them per frame in a fixed order: no frame leaves the GPU.
+//
+// No workgroup memory and no barrier: on a CPU rasterizer (llvmpipe) every barrier is
+// a coroutine switch of every SIMD group of the workgroup, and the former per-workgroup
+// tree sums (one per value set and touched sector) cost more than the samples. The
+// host picks the run length (`sums.rs`): whole rows on a CPU adapter (long loops, few
+// partials), runs of about 128 samples on a GPU (enough invocations in flight).
 
 // Keep in sync with `SumsDims` in crates/bpins-gpu/src/params.rs.
 struct SumsDims {
-    samples: vec4<u32>, // samples across, samples down, contexts per frame, layout (0 DoFP, 1 colocated)
-    image: vec4<u32>,   // width_px, height_px, workgroups across, workgroups down
+    samples: vec4<u32>, // samples across, samples down, contexts per frame, layout (0 DoFP, 1 colocated; the kernel reads SUMS_LAYOUT)
+    image: vec4<u32>,   // width_px, height_px, workgroups across (ROWS rows each), runs per row
 }
 
 @group(0) @binding(0) var<uniform> dims: SumsDims;
@@ -17,35 +24,64 @@ struct SumsDims {
 @group(0) @binding(3) var<storage, read> heading: array<HeadingParams>;
 @group(0) @binding(4) var<storage, read_write> partials: array<f64>;
 
-const WG_SIZE: u32 = 256u;
-var<workgroup> red: array<array<f64, 7>, WG_SIZE>;
-var<workgroup> band_bits: atomic<u32>;
-var<workgroup> band_mask: u32;
+// Rows per workgroup, one invocation each (`SUMS_ROWS` in sums.rs).
+const ROWS: u32 = 64u;
+// Samples summed in a block before the block joins the invocation's running sums, so
+// that no f32 sum runs over more than BLOCK + (samples / BLOCK) terms in series.
+const BLOCK: u32 = 32u;
+// Heading contexts per frame (lens ρ unknown and known); the host checks.
+const MAX_CTX: u32 = 2u;
+
+// Pipeline constants, one pipeline per combination (`SumsVariant` in sums.rs). They
+// are the uniform choices of the whole dispatch: llvmpipe runs both sides of every
+// `if` under a lane mask, so a branch on a uniform value still costs its untaken side;
+// a constant removes it at compile time.
+// The samples: 0 DoFP superpixels without crosstalk, 1 DoFP with crosstalk, 2 colocated.
+override SUMS_LAYOUT: u32 = 0u;
+// 1: every context puts every sample on the same assumed ray (the host checked the
+// cameras, distortions and grids), so the geometry is computed once for all.
+override SHARED_RAYS: u32 = 0u;
+// The sensor noise any frame of the dispatch draws: bit 0 temporal, 1 DSNU, 2 PRNU.
+override SUMS_NOISE: u32 = 7u;
+
+// sensor_noise (chain.wgsl) without the draws no frame of the dispatch makes (left out
+// at compile time; the host sets SUMS_NOISE from the frames' noise parameters). The
+// draws it keeps are sensor_noise's, under the same per-frame conditions.
+fn sample_noise(f: ChainFrame, pixel: u32, ch: u32) -> SensorNoise {
+    if (SUMS_NOISE == 7u) {
+        return sensor_noise(f, pixel, ch);
+    }
+    var n = SensorNoise(0.0lf, 0.0lf, 0.0lf);
+    if ((SUMS_NOISE & 1u) != 0u && (f.noise.x > 0.0lf || f.noise.y > 0.0lf)) {
+        n.temporal = normal(f.key, pixel, ch, STREAM_TEMPORAL);
+    }
+    if ((SUMS_NOISE & 2u) != 0u && f.noise.z > 0.0lf) {
+        n.dsnu = normal(f.fixed_key, pixel, ch, STREAM_DSNU);
+    }
+    if ((SUMS_NOISE & 4u) != 0u && f.noise.w > 0.0lf) {
+        n.prnu = normal(f.fixed_key, pixel, ch, STREAM_PRNU);
+    }
+    return n;
+}
 
 fn zeros7() -> array<f64, 7> {
     return array<f64, 7>(0.0lf, 0.0lf, 0.0lf, 0.0lf, 0.0lf, 0.0lf, 0.0lf);
 }
 
-// Tree sum of seven values over the workgroup (fixed order: deterministic).
-fn reduce7(li: u32, v: array<f64, 7>) -> array<f64, 7> {
-    red[li] = v;
-    workgroupBarrier();
-    for (var s = WG_SIZE / 2u; s > 0u; s = s >> 1u) {
-        if (li < s) {
-            for (var k = 0u; k < 7u; k++) {
-                red[li][k] += red[li + s][k];
-            }
-        }
-        workgroupBarrier();
-    }
-    let total = red[0];
-    workgroupBarrier();
-    return total;
-}
-
 struct Sample {
     s: Stokes,
     ok: bool,
+}
+
+// DN of DoFP pixel (u, v): mosaic_pixel_dn (chain.wgsl). Without crosstalk (the frame's
+// c = 0, SUMS_LAYOUT 0) that is its own pixel's signal through the sensor, the same
+// calls without the neighbours' branch (which llvmpipe would run, masked).
+fn tile_pixel_dn(f: ChainFrame, u: u32, v: u32, w: u32, h: u32, mosaic: vec4<u32>) -> f64 {
+    if (SUMS_LAYOUT == 1u) {
+        return mosaic_pixel_dn(f, u, v, w, h, mosaic);
+    }
+    let ch = mosaic[2u * (v & 1u) + (u & 1u)];
+    return sensor_dn(f, mosaic_signal_at(f, u, v, mosaic), ch, sample_noise(f, v * w + u, ch));
 }
 
 // Superpixel (i, j) of a DoFP frame: the tile's four DN as render_mosaic renders them
@@ -58,7 +94,7 @@ fn mosaic_sample(f: ChainFrame, rp: ReconParams, i: u32, j: u32) -> Sample {
     for (var p = 0u; p < 4u; p++) {
         let u = 2u * i + (p & 1u);
         let v = 2u * j + (p >> 1u);
-        let x = f64(f32(mosaic_pixel_dn(f, u, v, w, dims.image.y, rp.mosaic)));
+        let x = f64(f32(tile_pixel_dn(f, u, v, w, dims.image.y, rp.mosaic)));
         ok = ok && (full_scale == 0.0lf || dn_is_valid(x, full_scale));
         d[rp.mosaic[p]] = x;
     }
@@ -74,101 +110,169 @@ fn colocated_sample(f: ChainFrame, rp: ReconParams, u: u32, v: u32) -> Sample {
     var ok = true;
     let full_scale = wide(rp.valid).x;
     for (var ch = 0u; ch < 4u; ch++) {
-        let x = sensor_dn(f, site_signal_dn(f, s, g, u, v, ch), ch, sensor_noise(f, pixel, ch));
+        let x = sensor_dn(f, site_signal_dn(f, s, g, u, v, ch), ch, sample_noise(f, pixel, ch));
         ok = ok && (full_scale == 0.0lf || dn_is_valid(x, full_scale));
         d[ch] = x;
     }
     return Sample(reconstruct(rp, d), ok);
 }
 
-// Samples per invocation, along a row: each invocation sums K samples in registers,
-// so the workgroup's tree sums (and their barriers) are paid once per 16·K × 16 samples.
-const K: u32 = 32u;
-// Heading contexts per frame (lens ρ unknown and known); the host checks.
-const MAX_CTX: u32 = 2u;
+// One heading context as the kernel uses it: the assumed camera, the sample grid
+// (x0, y0, step, enabled) and the band parameters (lens rho2, cos 2·band, r_min², r_max²).
+struct Context {
+    intr: Intrinsics,
+    grid: vec4<f64>,
+    band: vec4<f64>,
+}
 
-@compute @workgroup_size(16, 16, 1)
-fn frame_sums(
-    @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(local_invocation_index) li: u32,
-    @builtin(workgroup_id) wid: vec3<u32>,
-) {
-    let frame = gid.z;
-    let j = gid.y;
-    let f = chain_frame(frames[frame]);
-    let rp = recon[frame];
-    let n_ctx = min(dims.samples.z, MAX_CTX);
-    // This invocation's sums per context: scatter + n, band sums per sector, and
-    // which sectors it touched (function-scope variables start at zero).
-    var scatter: array<array<f64, 7>, MAX_CTX>;
-    var band: array<array<array<f64, 7>, SECTORS>, MAX_CTX>;
-    var touched: array<u32, MAX_CTX>;
-    for (var s = 0u; s < K; s++) {
-        let i = gid.x * K + s;
-        if (i >= dims.samples.x || j >= dims.samples.y) {
-            break;
+fn context_from(hp: HeadingParams) -> Context {
+    return Context(intrinsics_from(hp.camera, hp.distortion), wide(hp.grid), wide(hp.band));
+}
+
+// One context's running sums in an invocation: the current block's scatter + n, the
+// finished blocks' scatter + n, the band sums per sector, and the band samples of the
+// current run of one sector (added to `band` when the sector changes or the run is
+// BLOCK long, so the per-sector array is indexed by a varying sector only then).
+struct Acc {
+    block: array<f64, 7>,
+    total: array<f64, 7>,
+    band: array<array<f64, 7>, SECTORS>,
+    run: array<f64, 7>,
+    run_sector: u32,
+    run_n: u32,
+}
+
+fn acc_new() -> Acc {
+    var a: Acc;
+    a.block = zeros7();
+    a.total = zeros7();
+    a.run = zeros7();
+    a.run_sector = 0u;
+    a.run_n = 0u;
+    return a;
+}
+
+// Moves the current band run into its sector's sums.
+fn flush_run(a: ptr<function, Acc>) {
+    if ((*a).run_n != 0u) {
+        let k = (*a).run_sector;
+        for (var t = 0u; t < 7u; t++) {
+            (*a).band[k][t] += (*a).run[t];
         }
-        // The sample's Stokes vector: render its DN, reconstruct.
-        var sample: Sample;
-        if (dims.samples.w == 0u) {
-            sample = mosaic_sample(f, rp, i, j);
-        } else {
-            sample = colocated_sample(f, rp, i, j);
+        (*a).run = zeros7();
+        (*a).run_n = 0u;
+    }
+}
+
+// Moves the current block into the running totals.
+fn flush_block(a: ptr<function, Acc>) {
+    for (var t = 0u; t < 7u; t++) {
+        (*a).total[t] += (*a).block[t];
+    }
+    (*a).block = zeros7();
+}
+
+// Sector of the sample at (x, y) px about context cx's assumed principal point.
+fn sector_at(cx: Context, x: f64, y: f64) -> u32 {
+    return sector_of(image_angle_rad(x - cx.intr.cx_px, y - cx.intr.cy_px));
+}
+
+// Adds the sample at (x, y) px, seen along the assumed ray g, to context cx's sums
+// (HeadingSums::add: scatter for every sample, band sums by sector k in the band).
+// llvmpipe computes k for every sample whatever the branch, so the caller computes it
+// once where the contexts share their rays.
+fn accumulate(a: ptr<function, Acc>, cx: Context, g: RayGeometry, x: f64, y: f64, k: u32, sample: Sample) {
+    let con = contribution(cx.band.x, g, sample.s, sample.ok && cx.grid.w != 0.0lf);
+    for (var t = 0u; t < 6u; t++) {
+        (*a).block[t] += con.m[t];
+    }
+    (*a).block[6] += con.n;
+    // Meridian band, by sector of the sample's image angle.
+    let dx = x - cx.intr.cx_px;
+    let dy = y - cx.intr.cy_px;
+    if (in_band(cx.band, con, dx, dy)) {
+        if (k != (*a).run_sector || (*a).run_n == BLOCK) {
+            flush_run(a);
+            (*a).run_sector = k;
         }
-        for (var c = 0u; c < n_ctx; c++) {
-            let hp = heading[frame * dims.samples.z + c];
-            let grid = wide(hp.grid);
-            let hb = wide(hp.band);
-            let intr = intrinsics_from(hp.camera, hp.distortion);
-            // Heading sums along the assumed ray at the sample's pixel position.
-            let x = grid.x + grid.z * f64(i);
-            let y = grid.y + grid.z * f64(j);
-            let con = contribution(hb.x, geometry(intr, x, y), sample.s, sample.ok && grid.w != 0.0lf);
-            for (var t = 0u; t < 6u; t++) {
-                scatter[c][t] += con.m[t];
-            }
-            scatter[c][6] += con.n;
-            // Meridian band, by sector of the sample's image angle.
-            let dx = x - intr.cx_px;
-            let dy = y - intr.cy_px;
-            if (in_band(hb, con, dx, dy)) {
-                let k = sector_of(image_angle_rad(dx, dy));
-                let terms = band_terms(con);
-                for (var t = 0u; t < 7u; t++) {
-                    band[c][k][t] += terms[t];
-                }
-                touched[c] |= 1u << k;
-            }
+        let terms = band_terms(con);
+        for (var t = 0u; t < 7u; t++) {
+            (*a).run[t] += terms[t];
+        }
+        (*a).run_n += 1u;
+    }
+}
+
+// Writes one context's sums as this invocation's partial of job `job`.
+fn write_partial(a: ptr<function, Acc>, base: u32) {
+    flush_block(a);
+    flush_run(a);
+    for (var t = 0u; t < 7u; t++) {
+        partials[base + t] = (*a).total[t];
+    }
+    for (var k = 0u; k < SECTORS; k++) {
+        for (var t = 0u; t < 7u; t++) {
+            partials[base + 7u + 7u * k + t] = (*a).band[k][t];
         }
     }
-    // Workgroup sums, written as this workgroup's partials.
-    let n_wg = dims.image.z * dims.image.w;
-    let wg = wid.y * dims.image.z + wid.x;
-    for (var c = 0u; c < n_ctx; c++) {
-        let total = reduce7(li, scatter[c]);
-        atomicOr(&band_bits, touched[c]);
-        workgroupBarrier();
-        if (li == 0u) {
-            band_mask = atomicLoad(&band_bits);
-            atomicStore(&band_bits, 0u);
-        }
-        let mask = workgroupUniformLoad(&band_mask);
-        let base = ((frame * dims.samples.z + c) * n_wg + wg) * SUMS_LEN;
-        if (li == 0u) {
-            for (var t = 0u; t < 7u; t++) {
-                partials[base + t] = total[t];
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn frame_sums(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let frame = gid.z;
+    let j = gid.x;
+    let n_ctx = min(dims.samples.z, MAX_CTX);
+    // This invocation's run of samples along row j.
+    let runs = dims.image.w;
+    let per_run = (dims.samples.x + runs - 1u) / runs;
+    let i0 = min(gid.y * per_run, dims.samples.x);
+    let i1 = select(min(i0 + per_run, dims.samples.x), i0, j >= dims.samples.y);
+    let f = chain_frame(frames[frame]);
+    let rp = recon[frame];
+    // The contexts, read once per invocation (a second one only where there is one).
+    let h0 = heading[frame * dims.samples.z];
+    let h1 = heading[frame * dims.samples.z + n_ctx - 1u];
+    let c0 = context_from(h0);
+    let c1 = context_from(h1);
+    let two = n_ctx > 1u;
+    var a0 = acc_new();
+    var a1 = acc_new();
+    for (var b = i0; b < i1; b += BLOCK) {
+        let e = min(b + BLOCK, i1);
+        for (var i = b; i < e; i++) {
+            // The sample's Stokes vector: render its DN, reconstruct.
+            var sample: Sample;
+            if (SUMS_LAYOUT == 2u) {
+                sample = colocated_sample(f, rp, i, j);
+            } else {
+                sample = mosaic_sample(f, rp, i, j);
             }
-        }
-        for (var k = 0u; k < SECTORS; k++) {
-            var sums = zeros7();
-            if (((mask >> k) & 1u) != 0u) {
-                sums = reduce7(li, band[c][k]);
-            }
-            if (li == 0u) {
-                for (var t = 0u; t < 7u; t++) {
-                    partials[base + 7u + 7u * k + t] = sums[t];
+            // Heading sums along the assumed ray at the sample's pixel position.
+            let x0 = c0.grid.x + c0.grid.z * f64(i);
+            let y0 = c0.grid.y + c0.grid.z * f64(j);
+            let g0 = geometry(c0.intr, x0, y0);
+            let k0 = sector_at(c0, x0, y0);
+            accumulate(&a0, c0, g0, x0, y0, k0, sample);
+            if (two) {
+                let x1 = c1.grid.x + c1.grid.z * f64(i);
+                let y1 = c1.grid.y + c1.grid.z * f64(j);
+                var g1 = g0;
+                var k1 = k0;
+                if (SHARED_RAYS == 0u) {
+                    g1 = geometry(c1.intr, x1, y1);
+                    k1 = sector_at(c1, x1, y1);
                 }
+                accumulate(&a1, c1, g1, x1, y1, k1, sample);
             }
         }
+        flush_block(&a0);
+        flush_block(&a1);
+    }
+    // This invocation's partials: slot p of n per (frame, context).
+    let n = dims.image.z * ROWS * runs;
+    let p = gid.y * dims.image.z * ROWS + j;
+    write_partial(&a0, ((frame * dims.samples.z) * n + p) * SUMS_LEN);
+    if (two) {
+        write_partial(&a1, ((frame * dims.samples.z + 1u) * n + p) * SUMS_LEN);
     }
 }

@@ -3,10 +3,11 @@
 
 use crate::precision::Precision;
 use crate::shaders::module_source_at;
+use crate::sums::SumsVariant;
 use crate::timing::{KernelTime, Timer};
 use crate::{GpuError, Result};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
 
 /// A GPU ready to run the bpins kernels.
@@ -38,7 +39,10 @@ pub(crate) struct Pipelines {
     pub render_colocated: wgpu::ComputePipeline,
     pub chain_maps: wgpu::ComputePipeline,
     pub sky_maps: wgpu::ComputePipeline,
-    pub frame_sums: wgpu::ComputePipeline,
+    /// `frame_sums`, one pipeline per [`SumsVariant`], each made on first use (its
+    /// pipeline constants; llvmpipe compiles each for a while).
+    sums_module: wgpu::ShaderModule,
+    frame_sums: [OnceLock<wgpu::ComputePipeline>; SumsVariant::COUNT],
     pub reduce_partials: wgpu::ComputePipeline,
 }
 
@@ -332,12 +336,27 @@ impl Pipelines {
             (&self.render_colocated, "render_colocated"),
             (&self.chain_maps, "chain_maps"),
             (&self.sky_maps, "sky_maps"),
-            (&self.frame_sums, "frame_sums"),
             (&self.reduce_partials, "reduce_partials"),
         ]
         .into_iter()
+        .chain(self.frame_sums.iter().filter_map(|v| v.get()).map(|q| (q, "frame_sums")))
         .find(|(q, _)| std::ptr::eq(*q, p))
         .map_or("other", |(_, n)| n)
+    }
+
+    /// The `frame_sums` pipeline of `v`, made now if it is the first use.
+    pub(crate) fn frame_sums(&self, device: &wgpu::Device, v: SumsVariant) -> &wgpu::ComputePipeline {
+        self.frame_sums[v.index()].get_or_init(|| {
+            let constants = v.constants();
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("frame_sums"),
+                layout: None,
+                module: &self.sums_module,
+                entry_point: Some("frame_sums"),
+                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+                cache: None,
+            })
+        })
     }
 
     fn new(device: &wgpu::Device, precision: Precision) -> Result<Pipelines> {
@@ -365,8 +384,9 @@ impl Pipelines {
             render_colocated: pipeline(&render, "render_colocated"),
             chain_maps: pipeline(&render, "chain_maps"),
             sky_maps: pipeline(&render, "sky_maps"),
-            frame_sums: pipeline(&sums, "frame_sums"),
+            frame_sums: std::array::from_fn(|_| OnceLock::new()),
             reduce_partials: pipeline(&reduce, "reduce_partials"),
+            sums_module: sums,
         })
     }
 }

@@ -12,8 +12,8 @@
 //!   noise's transcendentals in f32 exactly as the CPU evaluates them; where the
 //!   adapter lacks f64, or by choice, the same source runs in f32 ([`precision`]),
 //!   with statistical tolerances.
-//! * Heading: reduced on the device (workgroup tree sums, then a per-frame reduce);
-//!   119 numbers per frame come back, never the frame.
+//! * Heading: reduced on the device (each invocation sums a run of a row, then a
+//!   per-frame reduce); 119 numbers per frame come back, never the frame.
 //! * Batches: many frames (trials) per dispatch, split where the device's buffer
 //!   limits require it.
 //!

@@ -6,7 +6,6 @@
 use crate::device::Gpu;
 use crate::params::{FrameParams, HeadingParams, ReconParams, ReduceDims, SampleGrid, SumsDims};
 use crate::precision::Precision;
-use crate::render::WG_EDGE;
 use crate::{GpuError, Result};
 use bpins_core::chain::ChainFrame;
 use bpins_core::heading::{HeadingContext, HeadingSums, SECTORS};
@@ -17,11 +16,71 @@ use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
 /// (`SUMS_LEN` in `common/heading.wgsl`).
 pub const SUMS_LEN: usize = 7 + 7 * SECTORS;
 
-/// Samples one invocation sums, along a row (`K` in `kernels/sums.wgsl`).
-const SAMPLES_PER_INVOCATION: u32 = 32;
+/// Rows of samples per workgroup of `frame_sums`, one invocation each (`ROWS` in
+/// `kernels/sums.wgsl`).
+const SUMS_ROWS: u32 = 64;
+
+/// Samples one invocation sums along its row on a GPU (on a CPU adapter: the whole row).
+const GPU_RUN_SAMPLES: u32 = 128;
 
 /// Heading contexts a frame may carry (`MAX_CTX` in `kernels/sums.wgsl`).
 pub const MAX_CONTEXTS: usize = 2;
+
+/// The specialisation of `frame_sums` a dispatch runs (its pipeline constants
+/// `SUMS_LAYOUT`, `SHARED_RAYS`, `SUMS_NOISE` and chain.wgsl's `CHAIN_ANALYZER`): what is uniform over the whole dispatch is decided at
+/// compile time, since llvmpipe runs the untaken side of a uniform branch too.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct SumsVariant {
+    /// 0 DoFP superpixels without crosstalk, 1 DoFP with crosstalk, 2 colocated.
+    layout: u32,
+    /// Every context of every frame has the same assumed camera, distortion and grid.
+    shared_rays: bool,
+    /// The sensor noise some frame draws: bit 0 temporal, 1 DSNU, 2 PRNU.
+    noise: u32,
+    /// Some frame has an analyzer effect on (`ChainFrame::has_analyzer_effects`).
+    analyzer: bool,
+}
+
+impl SumsVariant {
+    pub(crate) const COUNT: usize = 3 * 2 * 8 * 2;
+
+    pub(crate) fn index(self) -> usize {
+        ((2 * self.layout as usize + usize::from(self.shared_rays)) * 8 + self.noise as usize) * 2
+            + usize::from(self.analyzer)
+    }
+
+    pub(crate) fn constants(self) -> [(&'static str, f64); 4] {
+        [
+            ("SUMS_LAYOUT", self.layout as f64),
+            ("SHARED_RAYS", if self.shared_rays { 1.0 } else { 0.0 }),
+            ("SUMS_NOISE", self.noise as f64),
+            ("CHAIN_ANALYZER", if self.analyzer { 1.0 } else { 0.0 }),
+        ]
+    }
+
+    /// The variant for these frames and their contexts (`n_ctx` per frame).
+    fn of(layout: SampleLayout, frames: &[FrameParams], heading: &[HeadingParams], n_ctx: usize) -> SumsVariant {
+        let layout = match layout {
+            // Crosstalk c (FrameParams::mosaic.x) anywhere in the dispatch.
+            SampleLayout::Superpixels { .. } => {
+                u32::from(frames.iter().any(|f| f.mosaic.hi[0] != 0.0 || f.mosaic.lo[0] != 0.0))
+            }
+            SampleLayout::Colocated => 2,
+        };
+        let rays = |h: &HeadingParams| (h.camera, h.distortion, h.grid);
+        let shared_rays = heading.chunks(n_ctx).all(|ctx| ctx.iter().all(|h| rays(h) == rays(&ctx[0])));
+        // FrameParams::noise: read noise, system gain, DSNU, PRNU (sensor_noise's tests).
+        let on = |w: &crate::params::Wide4, k: usize| w.hi[k] as f64 + w.lo[k] as f64 > 0.0;
+        let noise = frames.iter().fold(0, |bits, f| {
+            bits | u32::from(on(&f.noise, 0) || on(&f.noise, 1))
+                | (u32::from(on(&f.noise, 2)) << 1)
+                | (u32::from(on(&f.noise, 3)) << 2)
+        });
+        // FrameParams::mosaic.y: the frame's analyzer effects are on.
+        let analyzer = frames.iter().any(|f| on(&f.mosaic, 1));
+        SumsVariant { layout, shared_rays, noise, analyzer }
+    }
+}
 
 /// How a frame's samples come from its pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,11 +123,13 @@ impl Gpu {
                 "{n_ctx} heading contexts for one frame; the sums kernel takes at most {MAX_CONTEXTS}"
             )));
         }
-        let wg_x = (sw as u32).div_ceil(WG_EDGE * SAMPLES_PER_INVOCATION);
-        let wg_y = (sh as u32).div_ceil(WG_EDGE);
-        let n_wg = (wg_x * wg_y) as u64;
+        // One invocation per run of samples along a row, ROWS rows per workgroup.
+        let runs = self.sums_runs_per_row(sw as u32);
+        let wg_rows = (sh as u32).div_ceil(SUMS_ROWS);
+        // Partials per (frame, context): one per invocation.
+        let n_part = (wg_rows * SUMS_ROWS * runs) as u64;
         let float = self.precision.float_bytes();
-        let per_job = n_ctx as u64 * n_wg * SUMS_LEN as u64 * float;
+        let per_job = n_ctx as u64 * n_part * SUMS_LEN as u64 * float;
         let batch = self.batch_size(jobs.len(), per_job, &format!("partial sums of a {w} × {h} px frame"))?;
         let mut out = Vec::with_capacity(jobs.len());
         for chunk in jobs.chunks(batch) {
@@ -86,10 +147,10 @@ impl Gpu {
                 .collect();
             let dims = SumsDims {
                 samples: [sw as u32, sh as u32, n_ctx as u32, layout_id],
-                image: [w as u32, h as u32, wg_x, wg_y],
+                image: [w as u32, h as u32, wg_rows, runs],
             };
             let n_jobs = (chunk.len() * n_ctx) as u32;
-            let rdims = ReduceDims { size: [n_wg as u32, n_jobs, 0, 0] };
+            let rdims = ReduceDims { size: [n_part as u32, n_jobs, 0, 0] };
             let (u, f, r, hb) = (
                 self.uniform("sums dims", &dims),
                 self.storage("frames", &frames),
@@ -100,10 +161,11 @@ impl Gpu {
             let sums = self.output("sums", n_jobs as u64 * SUMS_LEN as u64 * float);
             let ru = self.uniform("reduce dims", &rdims);
             let p = &self.pipelines;
-            let g1 = self.bind(&p.frame_sums, &[&u, &f, &r, &hb, &partials]);
+            let frame_sums = p.frame_sums(&self.device, SumsVariant::of(layout, &frames, &heading, n_ctx));
+            let g1 = self.bind(frame_sums, &[&u, &f, &r, &hb, &partials]);
             let g2 = self.bind(&p.reduce_partials, &[&ru, &partials, &sums]);
             let passes = [
-                (&p.frame_sums, &g1, [wg_x, wg_y, chunk.len() as u32]),
+                (frame_sums, &g1, [wg_rows, runs, chunk.len() as u32]),
                 (&p.reduce_partials, &g2, [SUMS_LEN as u32, n_jobs, 1]),
             ];
             // The sums come back in the kernels' precision.
@@ -117,6 +179,19 @@ impl Gpu {
             }
         }
         Ok(out)
+    }
+}
+
+impl Gpu {
+    /// Runs per row of `sw` samples, one invocation each. A CPU adapter (llvmpipe) runs
+    /// a workgroup's SIMD groups on one thread: whole rows give it long loops and few
+    /// partials. A GPU needs many invocations in flight: runs of about GPU_RUN_SAMPLES.
+    fn sums_runs_per_row(&self, sw: u32) -> u32 {
+        if self.is_cpu() {
+            1
+        } else {
+            sw.div_ceil(GPU_RUN_SAMPLES).max(1)
+        }
     }
 }
 
