@@ -72,12 +72,20 @@ fn ray_geometry(ca: f64, sa: f64, st: f64, ct: f64, r2: f64) -> RayGeometry {
     return RayGeometry(vec3<f64>(st * ca, st * sa, ct), basis, r2);
 }
 
+// Pipeline constants of the kernels that set them (frame_sums, sums.rs `SumsVariant`):
+// the projection id every camera of the dispatch has (4: they differ, each camera's
+// own), and 0 where no camera of the dispatch has a radial distortion. llvmpipe runs
+// the untaken side of a uniform branch under a lane mask (every projection and the
+// twelve Newton steps of undistort for every ray); a constant removes it at compile time.
+override CAMERA_PROJECTION: u32 = 4u;
+override CAMERA_DISTORTION: u32 = 1u;
+
 // Ray, meridional basis and squared normalised radius of pixel (u, v).
 fn geometry(intr: Intrinsics, u_px: f64, v_px: f64) -> RayGeometry {
     var xn = (u_px - intr.cx_px) / intr.f_px;
     var yn = (v_px - intr.cy_px) / intr.f_px;
     // The lens's radial distortion removed (radial_distortion).
-    if (any(intr.distortion != vec2<f64>(0.0lf))) {
+    if (CAMERA_DISTORTION != 0u && any(intr.distortion != vec2<f64>(0.0lf))) {
         let n = undistort(intr.distortion, xn, yn);
         xn = n.x;
         yn = n.y;
@@ -91,7 +99,9 @@ fn geometry(intr: Intrinsics, u_px: f64, v_px: f64) -> RayGeometry {
     let r = r2 * inv_r;
     var st: f64;
     var ct: f64;
-    switch intr.projection {
+    // The projection (the dispatch's constant where it has one).
+    let projection = select(intr.projection, CAMERA_PROJECTION, CAMERA_PROJECTION < 4u);
+    switch projection {
         case 0u: {
             // tan θ = r: cos θ = 1/√(1 + r²), sin θ = r cos θ.
             ct = 1.0lf / sqrt(1.0lf + r2);

@@ -27,7 +27,8 @@ const GPU_RUN_SAMPLES: u32 = 128;
 pub const MAX_CONTEXTS: usize = 2;
 
 /// The specialisation of `frame_sums` a dispatch runs (its pipeline constants
-/// `SUMS_LAYOUT`, `SHARED_RAYS`, `SUMS_NOISE` and chain.wgsl's `CHAIN_ANALYZER`): what is uniform over the whole dispatch is decided at
+/// `SUMS_LAYOUT`, `SHARED_RAYS`, `SUMS_NOISE`, chain.wgsl's `CHAIN_ANALYZER` and
+/// camera.wgsl's `CAMERA_PROJECTION`, `CAMERA_DISTORTION`): what is uniform over the whole dispatch is decided at
 /// compile time, since llvmpipe runs the untaken side of a uniform branch too.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct SumsVariant {
@@ -39,22 +40,29 @@ pub(crate) struct SumsVariant {
     noise: u32,
     /// Some frame has an analyzer effect on (`ChainFrame::has_analyzer_effects`).
     analyzer: bool,
+    /// The projection id every camera (true and assumed) has; 4 where they differ.
+    projection: u32,
+    /// Some camera (true or assumed) has a radial distortion.
+    distortion: bool,
 }
 
 impl SumsVariant {
-    pub(crate) const COUNT: usize = 3 * 2 * 8 * 2;
+    pub(crate) const COUNT: usize = 3 * 2 * 8 * 2 * 5 * 2;
 
     pub(crate) fn index(self) -> usize {
-        ((2 * self.layout as usize + usize::from(self.shared_rays)) * 8 + self.noise as usize) * 2
-            + usize::from(self.analyzer)
+        let i = ((2 * self.layout as usize + usize::from(self.shared_rays)) * 8 + self.noise as usize) * 2
+            + usize::from(self.analyzer);
+        (i * 5 + self.projection as usize) * 2 + usize::from(self.distortion)
     }
 
-    pub(crate) fn constants(self) -> [(&'static str, f64); 4] {
+    pub(crate) fn constants(self) -> [(&'static str, f64); 6] {
         [
             ("SUMS_LAYOUT", self.layout as f64),
             ("SHARED_RAYS", if self.shared_rays { 1.0 } else { 0.0 }),
             ("SUMS_NOISE", self.noise as f64),
             ("CHAIN_ANALYZER", if self.analyzer { 1.0 } else { 0.0 }),
+            ("CAMERA_PROJECTION", self.projection as f64),
+            ("CAMERA_DISTORTION", if self.distortion { 1.0 } else { 0.0 }),
         ]
     }
 
@@ -78,7 +86,19 @@ impl SumsVariant {
         });
         // FrameParams::mosaic.y: the frame's analyzer effects are on.
         let analyzer = frames.iter().any(|f| on(&f.mosaic, 1));
-        SumsVariant { layout, shared_rays, noise, analyzer }
+        // Every camera, true (FrameParams) and assumed (HeadingParams): the projection id
+        // (camera.w, an exact small integer) and the distortion (k1, k2).
+        let cameras = || {
+            let true_cams = frames.iter().map(|f| (&f.camera, &f.distortion));
+            true_cams.chain(heading.iter().map(|h| (&h.camera, &h.distortion)))
+        };
+        let ids: Vec<f32> = cameras().map(|(c, _)| c.hi[3]).collect();
+        let projection = match ids.first() {
+            Some(&id) if ids.iter().all(|&x| x == id) && (0.0..4.0).contains(&id) => id as u32,
+            _ => 4,
+        };
+        let distortion = cameras().any(|(_, k)| (0..2).any(|i| k.hi[i] != 0.0 || k.lo[i] != 0.0));
+        SumsVariant { layout, shared_rays, noise, analyzer, projection, distortion }
     }
 }
 

@@ -55,7 +55,8 @@ pub const KAPPA: f64 = 0.112;
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "window",
-    summary: "tilted window: Fresnel diattenuation k((n.p)^2 - (n.s)^2 - p_z^2, -2(n.p)(n.s)), k = 0.112, meridional frame",
+    summary:
+        "tilted window: Fresnel diattenuation k((n.p)^2 - (n.s)^2 - p_z^2, -2(n.p)(n.s)), k = 0.112, meridional frame",
     source: "Fresnel plate transmission (Born & Wolf §1.5.3), diattenuator Mueller matrix (Lu & Chipman 1996 eq. 7)",
     stage: Stage::Lens,
     params: &[
@@ -118,7 +119,12 @@ pub fn window(p: &RayParams, g: &RayGeometry, s: Stokes) -> Stokes {
     // c = √(1 − |D|²); D Dᵀ/(1 + c) is the (1 − c) D̂ D̂ᵀ term, exactly 0 at D = 0.
     let c = (1.0 - (dq * dq + du * du)).sqrt();
     let dot = (dq * s.q + du * s.u) / (1.0 + c);
-    Stokes { i: s.i + dq * s.q + du * s.u, q: dq * s.i + c * s.q + dq * dot, u: du * s.i + c * s.u + du * dot, v: c * s.v }
+    Stokes {
+        i: s.i + dq * s.q + du * s.u,
+        q: dq * s.i + c * s.q + dq * dot,
+        u: du * s.i + c * s.u + du * dot,
+        v: c * s.v,
+    }
 }
 
 #[cfg(test)]
