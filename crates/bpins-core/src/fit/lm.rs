@@ -3,6 +3,7 @@
 //! influence, or a degenerate combination, is not moved). Iterations first run on
 //! every third row and column (all channels), then on every pixel until converged.
 
+use super::accumulate::Accum;
 use super::linalg::PseudoInverse;
 use super::problem::Problem;
 use super::slots::SlotId;
@@ -13,10 +14,17 @@ use crate::error::Result;
 /// Gauss–Newton decrement below 1); every pixel then converges to 0.01.
 const STAGES: [(&str, usize, usize, f64); 2] = [("subsampled", 3, 30, 1.0), ("every pixel", 1, 20, 0.01)];
 
-/// Minimises χ² from `theta`; returns the parameters and the iterations taken,
+/// Minimises χ² from `theta`; returns the parameters, the iterations taken and, where
+/// the last iteration left the parameters where it accumulated them on every pixel,
+/// those sums (the final covariance's, not accumulated again);
 /// `progress(stage, iteration)` after each.
-pub(super) fn minimise(pb: &Problem, mut theta: Vec<f64>, progress: &dyn Fn(&str, usize)) -> Result<(Vec<f64>, usize)> {
+pub(super) fn minimise(
+    pb: &Problem,
+    mut theta: Vec<f64>,
+    progress: &dyn Fn(&str, usize),
+) -> Result<(Vec<f64>, usize, Option<Accum>)> {
     let mut iterations = 0;
+    let mut last = None;
     for (stage, stride, max_iter, tol) in STAGES {
         let mut lambda = 1e-3;
         for _ in 0..max_iter {
@@ -24,14 +32,21 @@ pub(super) fn minimise(pb: &Problem, mut theta: Vec<f64>, progress: &dyn Fn(&str
             let acc = pb.accumulate(&theta, stride, true)?;
             let step = step(pb, &theta, &acc, &mut lambda, stride, tol)?;
             progress(stage, iterations);
-            let Some((t, converged)) = step else { break };
+            // The sums stay valid while θ stays: no step lowered χ², or converged by
+            // the decrement (θ returned unchanged).
+            let Some((t, converged)) = step else {
+                last = (stride == 1).then_some(acc);
+                break;
+            };
+            let stays = t == theta;
             theta = t;
+            last = (stride == 1 && stays).then_some(acc);
             if converged {
                 break;
             }
         }
     }
-    Ok((theta, iterations))
+    Ok((theta, iterations, last))
 }
 
 /// One damped Gauss–Newton step: the new parameters and whether the fit converged,
@@ -39,7 +54,7 @@ pub(super) fn minimise(pb: &Problem, mut theta: Vec<f64>, progress: &dyn Fn(&str
 fn step(
     pb: &Problem,
     theta: &[f64],
-    acc: &super::accumulate::Accum,
+    acc: &Accum,
     lambda: &mut f64,
     stride: usize,
     tol: f64,
