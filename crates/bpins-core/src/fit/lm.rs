@@ -59,20 +59,41 @@ fn step(
     stride: usize,
     tol: f64,
 ) -> Result<Option<(Vec<f64>, bool)>> {
-    let free = pb.slots.free();
+    let all_free = pb.slots.free();
+    let x = PseudoInverse::new(&acc.a, all_free.len()).solve(&acc.b);
+    // A parameter at a bound that both the Gauss–Newton step and the gradient (b, the
+    // descent direction) push out of its range is held there for this step (an active
+    // bound: d_max at 1 under a sky more polarized than the model's): the clamp would
+    // undo its part of every step, and its share of the predicted decrement would never
+    // be realised, so the fit would not stop.
+    let keep: Vec<usize> = (0..all_free.len())
+        .filter(|&j| {
+            let (i, s) = (all_free[j], &pb.slots.all[all_free[j]]);
+            let out = |d: f64| (theta[i] <= s.min && d < 0.0) || (theta[i] >= s.max && d > 0.0);
+            !(out(x[j]) && (out(acc.b[j]) || acc.b[j] == 0.0))
+        })
+        .collect();
+    let (free, a0, b0, x) = if keep.len() == all_free.len() {
+        (all_free, acc.a.clone(), acc.b.clone(), x)
+    } else {
+        let n = all_free.len();
+        let a0: Vec<f64> = keep.iter().flat_map(|&i| keep.iter().map(move |&j| acc.a[i * n + j])).collect();
+        let b0: Vec<f64> = keep.iter().map(|&i| acc.b[i]).collect();
+        let x = PseudoInverse::new(&a0, keep.len()).solve(&b0);
+        (keep.iter().map(|&j| all_free[j]).collect(), a0, b0, x)
+    };
     let nf = free.len();
     // Converged when the undamped Gauss–Newton step predicts less than `tol` in χ²
     // (minimum-norm where parameters are degenerate).
-    let x = PseudoInverse::new(&acc.a, nf).solve(&acc.b);
-    if x.iter().zip(&acc.b).map(|(a, b)| a * b).sum::<f64>() < tol {
+    if x.iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>() < tol {
         return Ok(Some((theta.to_vec(), true)));
     }
     for _ in 0..12 {
-        let mut a = acc.a.clone();
+        let mut a = a0.clone();
         for i in 0..nf {
             a[i * nf + i] *= 1.0 + *lambda;
         }
-        let delta = PseudoInverse::new(&a, nf).solve(&acc.b);
+        let delta = PseudoInverse::new(&a, nf).solve(&b0);
         let mut t = theta.to_vec();
         for (j, &i) in free.iter().enumerate() {
             let s = &pb.slots.all[i];
