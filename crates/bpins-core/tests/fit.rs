@@ -73,3 +73,26 @@ fn every_candidate_scored_in_one_pass_scores_as_alone() {
     let top = cands.iter().zip(&all).max_by(|a, b| a.1.delta_chi2.total_cmp(&b.1.delta_chi2)).unwrap();
     assert_eq!(top.0.name, "sky_dolp_shape", "the hidden effect scores highest");
 }
+
+#[test]
+fn channel_response_is_recovered_through_its_secant_and_analytic_columns() {
+    // The fit forms channel_response's columns without central differences (gains: a
+    // one-sided secant, the model being affine in them; offsets: 1 on their channel,
+    // 0 elsewhere). Were either wrong, Levenberg–Marquardt would stop off the optimum
+    // and the covariance would not be the parameters' spread: the hidden values must
+    // come back within 3σ, at the noise floor.
+    use bpins_core::effects::EffectSet;
+    let c = common::small_capture();
+    let mut set = EffectSet::new();
+    common::typical(&mut set, "channel_response");
+    let frames = common::simulate(&c, &set, 11);
+    let opts = FitOptions { effects: vec![find("channel_response").unwrap()], ..Default::default() };
+    let r = fit(&c, &frames, &opts, &|_, _| {}).unwrap();
+    assert!((r.chi2_per_dof - 1.0).abs() < 0.03, "χ²/dof {}", r.chi2_per_dof);
+    for spec in find("channel_response").unwrap().params {
+        let p = r.params.iter().find(|p| p.name == format!("channel_response.{}", spec.name)).unwrap();
+        assert!(p.sigma > 0.0 && p.sigma.is_finite(), "{}: σ {}", spec.name, p.sigma);
+        let e = (p.value - spec.typical) / p.sigma;
+        assert!(e.abs() < 3.0, "{}: {} ± {} (truth {})", spec.name, p.value, p.sigma, spec.typical);
+    }
+}

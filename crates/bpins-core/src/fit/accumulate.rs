@@ -40,16 +40,27 @@ impl Accum {
 
 /// How one parameter's column of the Jacobian is formed.
 enum Column {
-    /// (model at plus − model at minus)/dh; `None` is the base chain.
-    Difference { plus: Option<Box<FitFrame>>, minus: Option<Box<FitFrame>>, dh: f64 },
+    /// (model at plus − model at minus)/dh; `None` is the base chain. `keeps_factor`:
+    /// both sides have the base's camera, sun and radiance weights, hence its radiance
+    /// factor at every pixel (an effect parameter that moves neither the camera nor
+    /// the sun), which is then not formed again.
+    Difference { plus: Option<Box<FitFrame>>, minus: Option<Box<FitFrame>>, dh: f64, keeps_factor: bool },
     /// (model − offset)/value.
     Proportional { value: f64 },
     /// (model − offset)·ψ_index/R.
     Radiance { index: usize },
+    /// 1 on channel `channel`'s samples, 0 elsewhere.
+    Offset { channel: usize },
 }
 
 /// A pixel's samples: (measured, model) DN.
 type Samples = Vec<(f64, f64)>;
+
+/// Whether `f`'s radiance factor is `base`'s at every pixel: the same camera, sun and
+/// weights (`Problem::factor_at` reads nothing else of a frame).
+fn same_factor(f: &FitFrame, base: &FitFrame) -> bool {
+    f.intr == base.intr && f.sun_cam == base.sun_cam && f.radiance_weights == base.radiance_weights
+}
 
 /// One frame's model and its local columns: what each of its samples needs.
 struct FrameModel<'f> {
@@ -72,7 +83,7 @@ impl Problem<'_> {
             let local: Vec<usize> =
                 free.iter().copied().filter(|&i| i < self.slots.n_global || own.contains(&i)).collect();
             let base = self.chain(theta, k)?;
-            let columns = if normal { self.columns(theta, k, &local)? } else { Vec::new() };
+            let columns = if normal { self.columns(theta, k, &local, &base)? } else { Vec::new() };
             let fm = FrameModel { k, base: &base, columns: &columns, normal };
             let fr = self
                 .frames
@@ -108,7 +119,7 @@ impl Problem<'_> {
     /// The Jacobian columns of frame `k`'s `local` slots at `theta`: analytic where the
     /// slot says so, else the chains at its two sides (a side at θ itself is the base
     /// chain, not evaluated again).
-    fn columns(&self, theta: &[f64], k: usize, local: &[usize]) -> Result<Vec<Column>> {
+    fn columns(&self, theta: &[f64], k: usize, local: &[usize], base: &FitFrame) -> Result<Vec<Column>> {
         let mut out = Vec::with_capacity(local.len());
         for &i in local {
             let sl = &self.slots.all[i];
@@ -119,6 +130,10 @@ impl Problem<'_> {
                 }
                 Derivative::Radiance(index) => {
                     out.push(Column::Radiance { index });
+                    continue;
+                }
+                Derivative::Offset(channel) => {
+                    out.push(Column::Offset { channel });
                     continue;
                 }
                 // Central differences, one-sided at a bound of the parameter.
@@ -135,7 +150,9 @@ impl Problem<'_> {
                 t[i] = x;
                 self.chain(&t, k).map(|f| Some(Box::new(f)))
             };
-            out.push(Column::Difference { plus: side(hi)?, minus: side(lo)?, dh: hi - lo });
+            let (plus, minus) = (side(hi)?, side(lo)?);
+            let keeps_factor = [&plus, &minus].iter().all(|f| f.as_ref().is_none_or(|f| same_factor(f, base)));
+            out.push(Column::Difference { plus, minus, dh: hi - lo, keeps_factor });
         }
         Ok(out)
     }
@@ -147,10 +164,15 @@ impl Problem<'_> {
         let mut acc = Accum::new(nl, 0);
         let mut bufs = (Vec::new(), Vec::new(), Vec::new());
         let mut d = vec![0.0; nl];
+        let no_radiance = fm.base.radiance == [0.0; super::radiance::N];
         for (u, v) in r.points(stride) {
-            self.pixel(fm.base, fm.k, u, v, &mut bufs.0);
+            // The raw radiance functions once per pixel: the base's factor, its basis ψ
+            // for the radiance columns and the factor the columns that keep it reuse.
+            let phi = (fm.normal || !no_radiance).then(|| self.raw_radiance(fm.base, u, v));
+            let rf = phi.as_ref().map_or(1.0, |phi| Problem::factor_of(fm.base, phi));
+            self.pixel_scaled(fm.base, fm.k, u, v, rf, &mut bufs.0);
             let samples = std::mem::take(&mut bufs.0);
-            let psi = (fm.normal && !samples.is_empty()).then(|| self.radiance(fm.base, fm.k, u, v).1);
+            let psi = (fm.normal && !samples.is_empty()).then(|| self.basis[fm.k].psi(phi.as_ref().expect("normal")));
             for (q, &(y, m)) in samples.iter().enumerate().filter(|(_, s)| self.usable(fm.k, u, v, s.0)) {
                 let wgt = 1.0 / self.noise.variance_dn2(m - self.capture.sensor.black_level_dn);
                 let r = y - m;
@@ -160,7 +182,7 @@ impl Problem<'_> {
                     continue;
                 }
                 for (dj, col) in d.iter_mut().zip(fm.columns) {
-                    *dj = self.derivative(fm, col, (u, v, q), m, psi.as_ref(), &mut bufs);
+                    *dj = self.derivative(fm, col, (u, v, q), (m, rf), psi.as_ref(), &mut bufs);
                 }
                 for a in 0..nl {
                     acc.b[a] += wgt * d[a] * r;
@@ -175,13 +197,14 @@ impl Problem<'_> {
     }
 
     /// One Jacobian entry: ∂(model DN of sample `q` of pixel (u, v))/∂(the column's
-    /// slot), `m` the model there at θ and `psi` its radiance basis.
+    /// slot), `m` the model there at θ, `rf` the base's radiance factor there and
+    /// `psi` its radiance basis.
     fn derivative(
         &self,
         fm: &FrameModel,
         col: &Column,
         (u, v, q): (usize, usize, usize),
-        m: f64,
+        (m, rf): (f64, f64),
         psi: Option<&[f64; super::radiance::N]>,
         bufs: &mut (Samples, Samples, Samples),
     ) -> f64 {
@@ -190,10 +213,12 @@ impl Problem<'_> {
             Column::Radiance { index } => {
                 (m - self.offset_dn(fm.base, u, v, q)) * psi.expect("evaluated where normal")[*index]
             }
-            Column::Difference { plus, minus, dh } => {
+            Column::Offset { channel } => f64::from(u8::from(self.channel_of(u, v, q) == *channel)),
+            Column::Difference { plus, minus, dh, keeps_factor } => {
                 let at = |f: &Option<Box<FitFrame>>, buf: &mut Samples| {
                     f.as_ref().map_or(m, |f| {
-                        self.pixel(f, fm.k, u, v, buf);
+                        let r = if *keeps_factor { rf } else { self.factor_at(f, u, v) };
+                        self.pixel_scaled(f, fm.k, u, v, r, buf);
                         buf[q].1
                     })
                 };

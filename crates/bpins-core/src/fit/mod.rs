@@ -116,10 +116,14 @@ pub fn fit_from(
 ) -> Result<FitResult> {
     let noise = frames.noise(c)?;
     let (pb, theta) = problem(c, frames, opts, start, noise)?;
-    let (theta, iterations) = lm::minimise(&pb, theta, progress)?;
+    let (theta, iterations, last) = lm::minimise(&pb, theta, progress)?;
     // Final: every pixel, covariance from JᵀWJ (its pseudo-inverse: a combination the
-    // data do not constrain is reported, and its parameters get an infinite 1σ).
-    let acc = pb.accumulate(&theta, 1, true)?;
+    // data do not constrain is reported, and its parameters get an infinite 1σ) — the
+    // last iteration's sums where they were taken at these parameters.
+    let acc = match last {
+        Some(acc) => acc,
+        None => pb.accumulate(&theta, 1, true)?,
+    };
     let free = pb.slots.free();
     let nf = free.len();
     let cov = linalg::PseudoInverse::new(&acc.a, nf);

@@ -120,12 +120,33 @@ impl Problem<'_> {
         Ok(FitFrame { chain, radiance, radiance_weights })
     }
 
-    /// The radiance nuisance of frame `k` at pixel (u, v): (R, ψ).
+    /// The raw radiance functions φ of pixel (u, v) under frame `f`'s camera and sun
+    /// (`radiance::raw_at`): what its radiance factor and basis are formed from.
     #[inline]
-    pub fn radiance(&self, f: &FitFrame, k: usize, u: usize, v: usize) -> (f64, [f64; radiance::N]) {
-        let phi = radiance::raw_at(&f.intr, f.sun_cam, u, v, self.w(), self.h());
-        let psi = self.basis[k].psi(&phi);
-        (radiance::factor(&f.radiance, &psi), psi)
+    pub fn raw_radiance(&self, f: &FitFrame, u: usize, v: usize) -> [f64; radiance::N + 1] {
+        radiance::raw_at(&f.intr, f.sun_cam, u, v, self.w(), self.h())
+    }
+
+    /// The radiance factor R of frame `f` from the raw functions `phi` of a pixel: 1
+    /// without a radiance nuisance, else exp(w·φ) with the frame's weights, not ψ (the
+    /// fit's hottest line).
+    #[inline]
+    pub fn factor_of(f: &FitFrame, phi: &[f64; radiance::N + 1]) -> f64 {
+        if f.radiance == [0.0; radiance::N] {
+            1.0
+        } else {
+            radiance::factor_raw(&f.radiance_weights, phi)
+        }
+    }
+
+    /// The radiance factor R of frame `f` at pixel (u, v) (φ formed only where needed).
+    #[inline]
+    pub fn factor_at(&self, f: &FitFrame, u: usize, v: usize) -> f64 {
+        if f.radiance == [0.0; radiance::N] {
+            1.0
+        } else {
+            Self::factor_of(f, &self.raw_radiance(f, u, v))
+        }
     }
 
     /// Model DN of the samples of pixel (u, v) of frame `k` into `out` (1 for DoFP, one
@@ -133,25 +154,34 @@ impl Problem<'_> {
     /// fit's frames hold).
     #[inline]
     pub fn pixel(&self, f: &FitFrame, k: usize, u: usize, v: usize, out: &mut Vec<(f64, f64)>) {
-        self.pixel_with(f, u, v, |q| self.frames.value(k, u, v, q), out)
+        self.pixel_scaled(f, k, u, v, self.factor_at(f, u, v), out)
+    }
+
+    /// [`Problem::pixel`] with the radiance factor `r` given: the same numbers where `r`
+    /// is [`Problem::factor_at`] of `f` or of a frame with the same camera, sun and
+    /// radiance weights (a difference column of a parameter that moves none of them).
+    #[inline]
+    pub fn pixel_scaled(&self, f: &FitFrame, k: usize, u: usize, v: usize, r: f64, out: &mut Vec<(f64, f64)>) {
+        self.pixel_with(f, u, v, r, |q| self.frames.value(k, u, v, q), out)
     }
 
     /// [`Problem::pixel`] measured on `data`, a frame whole.
     pub fn pixel_of(&self, f: &FitFrame, u: usize, v: usize, data: &Whole, out: &mut Vec<(f64, f64)>) {
-        self.pixel_with(f, u, v, |q| value_of(data, self.w(), u, v, q), out)
+        self.pixel_with(f, u, v, self.factor_at(f, u, v), |q| value_of(data, self.w(), u, v, q), out)
     }
 
     #[inline(always)]
-    fn pixel_with(&self, f: &FitFrame, u: usize, v: usize, measured: impl Fn(usize) -> f32, out: &mut Vec<(f64, f64)>) {
+    fn pixel_with(
+        &self,
+        f: &FitFrame,
+        u: usize,
+        v: usize,
+        r: f64,
+        measured: impl Fn(usize) -> f32,
+        out: &mut Vec<(f64, f64)>,
+    ) {
         out.clear();
         let (w, h) = (self.w(), self.h());
-        let r = if f.radiance == [0.0; radiance::N] {
-            1.0
-        } else {
-            // R = exp(w·φ): the frame's weights, not ψ (the fit's hottest line).
-            let phi = radiance::raw_at(&f.intr, f.sun_cam, u, v, w, h);
-            radiance::factor_raw(&f.radiance_weights, &phi)
-        };
         match &self.capture.sensor.layout {
             Layout::Dofp { mosaic } => {
                 let ch = Layout::dofp_channel(mosaic, u, v).index();
@@ -172,9 +202,15 @@ impl Problem<'_> {
 
     /// The offset (black level + channel offset) of sample `q` of pixel (u, v), DN.
     pub fn offset_dn(&self, f: &ChainFrame, u: usize, v: usize, q: usize) -> f64 {
+        f.offset_dn[self.channel_of(u, v, q)]
+    }
+
+    /// The channel index (0°, 45°, 90°, 135°: 0…3) sample `q` of pixel (u, v) reads.
+    #[inline]
+    pub fn channel_of(&self, u: usize, v: usize, q: usize) -> usize {
         match &self.capture.sensor.layout {
-            Layout::Dofp { mosaic } => f.offset_dn[Layout::dofp_channel(mosaic, u, v).index()],
-            Layout::Colocated { channels } => f.offset_dn[channels[q].index()],
+            Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
+            Layout::Colocated { channels } => channels[q].index(),
         }
     }
 

@@ -56,6 +56,9 @@ pub(crate) enum Derivative {
     /// Coefficient `i` of the frame's radiance basis: (model − offset)·ψ_i/R, no
     /// evaluation needed.
     Radiance(usize),
+    /// An offset added to channel `c`'s DN after everything else: 1 on that channel's
+    /// samples, 0 on the others, no evaluation needed.
+    Offset(usize),
 }
 
 /// A row of the nuisance registry.
@@ -250,7 +253,27 @@ impl Slots {
     }
 }
 
-/// The slots of one effect's parameters, free, central differences of 10⁻⁶ × range.
+/// How an effect parameter's column is formed: central differences, except where the
+/// model is known to be affine in it. `channel_response` (`effects/channel_response.rs`:
+/// DN_k = g·(1 + gain_k)·I_θk + b + offset_k, channel 0 the reference): its gains scale
+/// a channel's signal (crosstalk then mixes neighbours' signals linearly, the fit's
+/// radiance factor multiplies the signal, nothing clips the model), so a one-sided
+/// secant is their exact column at half the evaluations; its offsets are added to
+/// their channel's DN after everything else (`ChainFrame::offset_dn`), so their
+/// column is 1 on that channel and 0 elsewhere, with no evaluation at all.
+pub(crate) fn effect_derivative(effect: &str, param: &str) -> Derivative {
+    match (effect, param) {
+        ("channel_response", "offset0_dn") => Derivative::Offset(0),
+        ("channel_response", "offset45_dn") => Derivative::Offset(1),
+        ("channel_response", "offset90_dn") => Derivative::Offset(2),
+        ("channel_response", "offset135_dn") => Derivative::Offset(3),
+        ("channel_response", _) => Derivative::Secant,
+        _ => Derivative::Central,
+    }
+}
+
+/// The slots of one effect's parameters, free, central differences of 10⁻⁶ × range
+/// (a secant of it, or an analytic column, per [`effect_derivative`]).
 fn effect_slots(e: &'static EffectDef) -> impl Iterator<Item = Slot> {
     e.params.iter().map(move |p| Slot {
         id: SlotId::Effect(EffectParam { effect: e.name, param: p.name }),
@@ -259,7 +282,7 @@ fn effect_slots(e: &'static EffectDef) -> impl Iterator<Item = Slot> {
         max: p.max,
         step: 1e-6 * (p.max - p.min),
         free: true,
-        derivative: Derivative::Central,
+        derivative: effect_derivative(e.name, p.name),
     })
 }
 
