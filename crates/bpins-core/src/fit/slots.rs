@@ -258,7 +258,9 @@ impl Slots {
 /// DN_k = g·(1 + gain_k)·I_θk + b + offset_k, channel 0 the reference): its gains scale
 /// a channel's signal (crosstalk then mixes neighbours' signals linearly, the fit's
 /// radiance factor multiplies the signal, nothing clips the model), so a one-sided
-/// secant is their exact column at half the evaluations; its offsets are added to
+/// secant is their exact column at half the evaluations — exact while
+/// `sensor_nonlinearity` is off; with its β ≠ 0 the response bends the signal and the
+/// secant's error is O(β·step) of the column, far below its noise; its offsets are added to
 /// their channel's DN after everything else (`ChainFrame::offset_dn`), so their
 /// column is 1 on that channel and 0 elsewhere, with no evaluation at all.
 pub(crate) fn effect_derivative(effect: &str, param: &str) -> Derivative {
