@@ -16,7 +16,7 @@ use bpins_core::capture::{Capture, FrameData};
 use bpins_core::effects::{EffectSet, REGISTRY};
 use bpins_core::fit::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
 use bpins_core::fit::FitOptions;
-use common::{simulate, small_capture, small_colocated_capture, typical, DMAX};
+use common::{seed_of, simulate, small_capture, small_colocated_capture, typical, DMAX};
 
 fn run(c: &Capture, frames: &[FrameData], max_added: usize, base: FitOptions) -> Diagnosis {
     diagnose(c, frames, &DiagnoseOptions { base, max_added, ..Default::default() }, &|_| {}).unwrap()
@@ -37,17 +37,6 @@ fn separating(c: &Capture, effect: &str) -> Option<FitOptions> {
     None
 }
 
-/// The noise seed of the capture hiding `effect`: from its name (FNV-1a), so that
-/// registering an effect does not re-deal every later effect's noise (it did when the
-/// seed was the registry index: five effects added before `crosstalk` moved it to a
-/// draw (seed 119) at which its alone fit read 3.6σ low, where seeds 115–118 read
-/// +0.2σ to +1.7σ: a spread of about 2σ, so that fit's 1σ looks optimistic, an open
-/// point of the diagnosis-on-real-skies issue).
-fn seed_of(effect: &str) -> u64 {
-    let h = effect.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3));
-    100 + h % 10_000
-}
-
 /// What is wrong with the diagnosis of a capture hiding `set` (empty when right),
 /// the effects selected in order.
 fn problems(d: &Diagnosis, set: &EffectSet, names: &[&str]) -> Vec<String> {
@@ -61,7 +50,7 @@ fn every_catalog_effect_hidden_at_its_typical_strength_is_named_recovered_and_ex
     for e in REGISTRY.iter() {
         let mut set = EffectSet::new();
         typical(&mut set, e.name);
-        let frames = simulate(&c, &set, seed_of(e.name));
+        let frames = simulate(&c, &set, 100 + seed_of(e.name));
         let t0 = std::time::Instant::now();
         let mut d = run(&c, &frames, 1, FitOptions::default());
         let absorbed = d.inseparable.iter().any(|k| k.0 == e.name);
