@@ -123,7 +123,7 @@ fn every_separable_effect_hidden_under_a_cie_sky_is_named_first_and_recovered() 
 /// every frame (a lens or sensor effect) the variance of its estimate is that of the
 /// fit times the design effect 1 + (F − 1)·ρ, ρ the pattern's share of the per-sample
 /// variance, (p·s)² / ((p·s)² + K·s + σ_r²) at the frames' mean signal s (the noise of
-/// `common::simulate_in`: K = 0.1 DN/e⁻, σ_r = 1 DN). An upper bound (a signature that
+/// `common::simulate_in`, `common::sim_sensor`). An upper bound (a signature that
 /// moves with the sky from frame to frame averages part of the pattern away). The fit
 /// does not yet count a noise correlated between frames: an open point of the
 /// diagnosis-on-real-skies issue (item 2), which this test states rather than hides.
@@ -136,7 +136,8 @@ fn fixed_pattern_scale(c: &bpins_core::capture::Capture, frames: &[bpins_core::c
         }
     }
     let s = sum / n as f64 - c.sensor.black_level_dn;
-    let (pattern, shot, read) = ((PRNU * s).powi(2), 0.1 * s, 1.0);
+    let sim = common::sim_sensor(0, PRNU);
+    let (pattern, shot, read) = ((sim.prnu * s).powi(2), sim.system_gain_dn_per_e * s, sim.read_noise_dn.powi(2));
     let rho = pattern / (pattern + shot + read);
     (1.0 + (frames.len() as f64 - 1.0) * rho).sqrt()
 }

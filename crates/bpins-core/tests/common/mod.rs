@@ -61,17 +61,24 @@ pub fn small_colocated_capture() -> Capture {
     c
 }
 
-/// The frames of `c` under the effects `set` (the truth), with noise from `seed`.
-pub fn simulate(c: &Capture, set: &EffectSet, seed: u64) -> Vec<FrameData> {
-    let sim = SimSensor {
+/// The simulated sensor of these tests: peak 70 % of full scale, read noise 1 DN,
+/// K = 0.1 DN/e⁻, no DSNU, PRNU `prnu` (a fraction of the signal), the sky's d_max
+/// [`DMAX`], noise from `seed`.
+pub fn sim_sensor(seed: u64, prnu: f64) -> SimSensor {
+    SimSensor {
         peak_fraction: 0.7,
         read_noise_dn: 1.0,
         system_gain_dn_per_e: 0.1,
         dsnu_dn: 0.0,
-        prnu: 0.0,
+        prnu,
         dmax: DMAX,
         seed,
-    };
+    }
+}
+
+/// The frames of `c` under the effects `set` (the truth), with noise from `seed`.
+pub fn simulate(c: &Capture, set: &EffectSet, seed: u64) -> Vec<FrameData> {
+    let sim = sim_sensor(seed, 0.0);
     let resp = sim_response(c, &sim, None).expect("a valid simulated sensor");
     let model = set.model();
     (0..c.frames.len()).map(|i| simulate_frame(c, i, &model, &resp, &sim, None)).collect()
@@ -108,15 +115,7 @@ pub fn simulate_in(
     field: &bpins_core::scene::FieldScene,
     prnu: f64,
 ) -> Vec<FrameData> {
-    let sim = SimSensor {
-        peak_fraction: 0.7,
-        read_noise_dn: 1.0,
-        system_gain_dn_per_e: 0.1,
-        dsnu_dn: 0.0,
-        prnu,
-        dmax: DMAX,
-        seed,
-    };
+    let sim = sim_sensor(seed, prnu);
     let resp = sim_response(c, &sim, Some(field)).expect("a valid simulated sensor");
     let model = set.model();
     (0..c.frames.len()).map(|i| simulate_frame(c, i, &model, &resp, &sim, Some(field))).collect()
