@@ -8,6 +8,7 @@
 
 use super::frames::Rect;
 use super::problem::{FitFrame, Problem};
+use super::robust::Clusters;
 use super::slots::Derivative;
 use crate::error::Result;
 use rayon::prelude::*;
@@ -22,11 +23,21 @@ pub(crate) struct Accum {
     pub n: usize,
     /// Per frame: (χ², samples).
     pub frame_chi2: Vec<(f64, usize)>,
+    /// On every pixel with the normal equations: each cluster's score over the free
+    /// globals, for their sandwich 1σ (`super::robust`).
+    pub clusters: Option<Clusters>,
 }
 
 impl Accum {
     fn new(n: usize, frames: usize) -> Self {
-        Accum { a: vec![0.0; n * n], b: vec![0.0; n], chi2: 0.0, n: 0, frame_chi2: vec![(0.0, 0); frames] }
+        Accum {
+            a: vec![0.0; n * n],
+            b: vec![0.0; n],
+            chi2: 0.0,
+            n: 0,
+            frame_chi2: vec![(0.0, 0); frames],
+            clusters: None,
+        }
     }
 
     fn add(mut self, o: Accum) -> Accum {
@@ -77,6 +88,10 @@ impl Problem<'_> {
         let free = self.slots.free();
         let nf = free.len();
         let mut total = Accum::new(nf, self.frames.len());
+        let n_g = free.iter().filter(|&&i| i < self.slots.n_global).count();
+        if normal && stride == 1 && n_g > 0 {
+            total.clusters = Some(Clusters::new(self.frames.n_clusters(), n_g));
+        }
         for k in 0..self.frames.len() {
             // The local slots of this frame: global ones and its own, free only.
             let own = self.slots.frame(k);
@@ -85,15 +100,18 @@ impl Problem<'_> {
             let base = self.chain(theta, k)?;
             let columns = if normal { self.columns(theta, k, &local, &base)? } else { Vec::new() };
             let fm = FrameModel { k, base: &base, columns: &columns, normal };
-            let fr = self
-                .frames
-                .parts(k, stride)
-                .into_par_iter()
-                .map(|r| self.accumulate_part(&fm, r, stride))
-                .collect::<Vec<_>>()
-                .into_iter()
-                // In row (block) order: the same sums whatever the threads.
-                .fold(Accum::new(columns.len(), 0), Accum::add);
+            let rects = self.frames.parts(k, stride);
+            let parts: Vec<Accum> = rects.par_iter().map(|&r| self.accumulate_part(&fm, r, stride)).collect();
+            // Each part's score, by cluster, before the parts are summed.
+            let scores: Vec<(usize, Vec<f64>)> = match total.clusters {
+                Some(_) => rects.iter().zip(&parts).map(|(r, p)| (self.frames.cluster_of(r), p.b.clone())).collect(),
+                None => Vec::new(),
+            };
+            // In row (block) order: the same sums whatever the threads.
+            let fr = parts.into_iter().fold(Accum::new(columns.len(), 0), Accum::add);
+            if let Some(cl) = total.clusters.as_mut() {
+                cl.add_frame(&fr.a, columns.len(), &scores);
+            }
             // Scatter the frame's local sums into the free-slot system (none without
             // `normal`: no columns).
             let pos: Vec<usize> = local.iter().map(|i| free.binary_search(i).expect("a free slot")).collect();

@@ -362,6 +362,28 @@ impl<'a> FitFrames<'a> {
         }
     }
 
+    /// How many clusters of pixels the frames' parts fall in (`super::robust`): the
+    /// rows (every pixel read), or the sample's strata (one block each per frame).
+    pub(crate) fn n_clusters(&self) -> usize {
+        match &self.pixels {
+            Pixels::All(_) => self.h,
+            Pixels::Sampled { grid, .. } => grid.rows * grid.cols,
+        }
+    }
+
+    /// The cluster of a part of [`FitFrames::parts`] on every pixel: its row, or its
+    /// block's stratum — the same pixels, or the same stretch of the sensor, in every
+    /// frame.
+    pub(crate) fn cluster_of(&self, r: &Rect) -> usize {
+        match &self.pixels {
+            Pixels::All(_) => r.v0,
+            Pixels::Sampled { grid, .. } => {
+                let sp = grid.stratum_px();
+                (r.v0 / sp) * grid.cols + r.u0 / sp
+            }
+        }
+    }
+
     /// Frame `k` whole: from memory, or read again (through the calibration's maps).
     pub fn full_frame(&self, c: &Capture, k: usize) -> Result<Cow<'_, FrameData>> {
         match &self.pixels {

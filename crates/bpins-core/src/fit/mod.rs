@@ -42,6 +42,7 @@ pub mod remains;
 mod request;
 mod residuals;
 mod result;
+mod robust;
 mod score;
 pub mod slots;
 mod start;
@@ -131,7 +132,17 @@ pub fn fit_from(
     // Neighbour-correlated residuals carry less information than their count.
     let n_eff = correlation::effective_samples(&pb, &theta, acc.n)?;
     let widen = (acc.n as f64 / n_eff.max(1.0)).sqrt().max(1.0);
-    let sigma = |i: usize| free.binary_search(&i).map_or(0.0, |p| widen * cov.sigma(p));
+    // The free globals come first among the free slots: their sandwich 1σ, from the
+    // residuals' own variance by cluster (a fixed pattern the same in every frame).
+    let n_g = free.iter().filter(|&&i| i < pb.slots.n_global).count();
+    let robust = acc.clusters.as_ref().map_or_else(Vec::new, |cl| cl.sigmas(&cov.inv.view((0, 0), (n_g, n_g)).into()));
+    let sigma_white = |i: usize| free.binary_search(&i).map_or(0.0, |p| cov.sigma(p));
+    let sigma = |i: usize| {
+        free.binary_search(&i).map_or(0.0, |p| {
+            let s = widen * cov.sigma(p);
+            robust.get(p).map_or(s, |r| if s.is_finite() { s.max(*r) } else { s })
+        })
+    };
     let n_global = pb.slots.n_global;
     let effect_values: Vec<(slots::EffectParam, f64)> = pb.slots.all[..n_global]
         .iter()
@@ -144,7 +155,10 @@ pub fn fit_from(
     let params = effect_values
         .iter()
         .enumerate()
-        .map(|(i, &(id, value))| Param::new(id, pb.slots.all[i].unit, value, sigma(i)))
+        .map(|(i, &(id, value))| Param {
+            sigma_white: sigma_white(i),
+            ..Param::new(id, pb.slots.all[i].unit, value, sigma(i))
+        })
         .collect();
     let dof = (acc.n as f64 - nf as f64).max(1.0);
     let frames_out: Vec<FrameFit> = (0..frames.len())

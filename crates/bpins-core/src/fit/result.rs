@@ -17,13 +17,20 @@ pub struct Param {
     pub unit: &'static str,
     pub value: f64,
     /// 1σ; 0 for a parameter held fixed; infinite (`null` in JSON) for one the data
-    /// cannot tell from others (see [`FitResult::degenerate`]).
+    /// cannot tell from others (see [`FitResult::degenerate`]). The larger of the
+    /// white-noise 1σ widened for neighbour-correlated residuals
+    /// ([`FitResult::n_eff`]) and the sandwich 1σ from the residuals by cluster
+    /// (`fit::robust`: a noise pattern the same in every frame, such as PRNU).
     pub sigma: f64,
+    /// 1σ were the residuals the independent noise the fit weighs them by (the
+    /// inverse of JᵀWJ alone): `sigma / sigma_white` is how much the data's
+    /// correlations cost.
+    pub sigma_white: f64,
 }
 
 impl Param {
     pub fn new(id: EffectParam, unit: &'static str, value: f64, sigma: f64) -> Param {
-        Param { id, name: id.to_string(), unit, value, sigma }
+        Param { id, name: id.to_string(), unit, value, sigma, sigma_white: sigma }
     }
 }
 

@@ -138,18 +138,6 @@ pub fn diagnosis_problems(
     names: &[&str],
     ordered: bool,
 ) -> Vec<String> {
-    diagnosis_problems_within(d, set, names, ordered, 1.0)
-}
-
-/// [`diagnosis_problems`] with each parameter's 1σ scaled by `sigma_scale` before the
-/// 3σ check (a noise the fit's 1σ does not count, stated by the caller).
-pub fn diagnosis_problems_within(
-    d: &bpins_core::fit::diagnose::Diagnosis,
-    set: &EffectSet,
-    names: &[&str],
-    ordered: bool,
-    sigma_scale: f64,
-) -> Vec<String> {
     let mut out = Vec::new();
     let top = d.rankings[0].first().map(|c| c.effect);
     if top != Some(names[0]) {
@@ -171,7 +159,7 @@ pub fn diagnosis_problems_within(
         for (p, truth) in e.params.iter().zip(values) {
             let name = format!("{}.{}", e.name, p.name);
             let Some(f) = last.params.iter().find(|q| q.name == name) else { continue };
-            if !((f.value - truth).abs() <= 3.0 * sigma_scale * f.sigma) {
+            if !((f.value - truth).abs() <= 3.0 * f.sigma) {
                 out.push(format!("{name} = {:.5} ± {:.5}, truth {truth}", f.value, f.sigma));
             }
         }

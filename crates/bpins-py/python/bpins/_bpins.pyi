@@ -131,7 +131,7 @@ def fit(
     """Fits the named catalog effects (and each frame's heading, scale, radiance shape
     and d_max) to a capture folder's raw DN. Returns the data of the CLI's fit.json:
     "capture", "effects", "params" (each: name with unit suffix, value, sigma = 1σ,
-    unit), "chi2_per_dof", "noise", "aop_rms_deg", "dolp_rms", "frames" (per frame:
+    sigma_white = the white-noise 1σ, unit), "chi2_per_dof", "noise", "aop_rms_deg", "dolp_rms", "frames" (per frame:
     heading_deg, heading_sigma_deg, reference_deg, heading_error_deg, scale_dn, dmax,
     radiance, chi2_per_dof), ... `fixed_dmax` in [0, 1]; `calibration` a
     calibration.toml; `sample_budget_px` the most pixels read per frame (None: every
