@@ -28,6 +28,7 @@
 //! effective sample count of neighbour-correlated residuals (`correlation`).
 
 mod accumulate;
+pub mod block;
 pub mod correlation;
 pub mod diagnose;
 pub mod frames;
@@ -42,6 +43,7 @@ pub mod remains;
 mod request;
 mod residuals;
 mod result;
+pub mod schur;
 mod score;
 pub mod slots;
 mod start;
@@ -126,7 +128,7 @@ pub fn fit_from(
     };
     let free = pb.slots.free();
     let nf = free.len();
-    let cov = linalg::PseudoInverse::new(&acc.a, nf);
+    let cov = schur::BlockInverse::new(&acc.sys);
     let degenerate = cov.null.iter().map(|d| lm::describe_null(&pb, &free, d)).collect();
     // Neighbour-correlated residuals carry less information than their count.
     let n_eff = correlation::effective_samples(&pb, &theta, acc.n)?;
