@@ -219,8 +219,8 @@ impl BlockInverse {
     fn pinv_diagonal(&self, sys: &BlockSystem) -> Vec<f64> {
         let n_g = self.n_g;
         let mut diag = vec![0.0; self.n];
-        for g in 0..n_g {
-            diag[g] = self.s_pinv[(g, g)];
+        for (g, dg) in diag.iter_mut().enumerate().take(n_g) {
+            *dg = self.s_pinv[(g, g)];
         }
         for (k, f) in sys.frames.iter().enumerate() {
             let ps = &self.p[k] * &self.s_pinv;
