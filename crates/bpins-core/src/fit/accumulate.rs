@@ -4,8 +4,11 @@
 //! Per frame: the chain at θ and, for each of the frame's free slots (the global ones
 //! and its own), how its Jacobian column is formed ([`Column`]); then the rows of the
 //! frame (or its sampled blocks, `super::frames`) in parallel, each usable sample adding w·r², w·d·r and w·d·dᵀ over those
-//! local slots; then the frame's local sums scattered into the free-slot system.
+//! local slots; then the frame's local sums kept in its blocks of the block-arrow
+//! system (`super::block`: a frame's nuisances couple only to themselves and to the
+//! global parameters, so nothing between two frames is stored).
 
+use super::block::BlockSystem;
 use super::frames::Rect;
 use super::problem::{FitFrame, Problem};
 use super::robust::Clusters;
@@ -13,12 +16,11 @@ use super::slots::Derivative;
 use crate::error::Result;
 use rayon::prelude::*;
 
-/// Sums of the normal equations over some samples.
+/// The normal equations of a fit over some samples: JᵀWJ and JᵀWr by blocks
+/// ([`BlockSystem`]: the globals' block, each frame's own and its coupling to the
+/// globals; empty without `normal`), and χ².
 pub(crate) struct Accum {
-    /// JᵀWJ (n × n, row-major; lower triangle until symmetrised).
-    pub a: Vec<f64>,
-    /// JᵀWr.
-    pub b: Vec<f64>,
+    pub sys: BlockSystem,
     pub chi2: f64,
     pub n: usize,
     /// Per frame: (χ², samples).
@@ -28,19 +30,21 @@ pub(crate) struct Accum {
     pub clusters: Option<Clusters>,
 }
 
-impl Accum {
-    fn new(n: usize, frames: usize) -> Self {
-        Accum {
-            a: vec![0.0; n * n],
-            b: vec![0.0; n],
-            chi2: 0.0,
-            n: 0,
-            frame_chi2: vec![(0.0, 0); frames],
-            clusters: None,
-        }
+/// One frame's (or one part's) sums over its local slots (the free globals, then its
+/// own free nuisances): JᵀWJ (lower triangle, row-major), JᵀWr, χ², samples.
+struct Sums {
+    a: Vec<f64>,
+    b: Vec<f64>,
+    chi2: f64,
+    n: usize,
+}
+
+impl Sums {
+    fn new(n: usize) -> Self {
+        Sums { a: vec![0.0; n * n], b: vec![0.0; n], chi2: 0.0, n: 0 }
     }
 
-    fn add(mut self, o: Accum) -> Accum {
+    fn add(mut self, o: Sums) -> Sums {
         self.a.iter_mut().zip(&o.a).for_each(|(x, y)| *x += y);
         self.b.iter_mut().zip(&o.b).for_each(|(x, y)| *x += y);
         self.chi2 += o.chi2;
@@ -86,50 +90,74 @@ impl Problem<'_> {
     /// row and column of the pixels the frames hold, in free-slot order.
     pub(crate) fn accumulate(&self, theta: &[f64], stride: usize, normal: bool) -> Result<Accum> {
         let free = self.slots.free();
-        let nf = free.len();
-        let mut total = Accum::new(nf, self.frames.len());
-        let n_g = free.iter().filter(|&&i| i < self.slots.n_global).count();
-        if normal && stride == 1 && n_g > 0 {
-            total.clusters = Some(Clusters::new(self.frames.n_clusters(), n_g));
-        }
-        for k in 0..self.frames.len() {
-            // The local slots of this frame: global ones and its own, free only.
-            let own = self.slots.frame(k);
-            let local: Vec<usize> =
-                free.iter().copied().filter(|&i| i < self.slots.n_global || own.contains(&i)).collect();
+        let n_global = self.slots.n_global;
+        let n_g = free.iter().take_while(|&&i| i < n_global).count();
+        // Each frame's own free slots (contiguous in the free order, frame by frame).
+        let own: Vec<Vec<usize>> = (0..self.frames.len())
+            .map(|k| self.slots.frame(k).into_iter().filter(|&i| self.slots.all[i].free).collect())
+            .collect();
+        let sizes: Vec<usize> = if normal { own.iter().map(Vec::len).collect() } else { Vec::new() };
+        let mut total = Accum {
+            sys: BlockSystem::zeros(if normal { n_g } else { 0 }, &sizes),
+            chi2: 0.0,
+            n: 0,
+            frame_chi2: vec![(0.0, 0); self.frames.len()],
+            clusters: (normal && stride == 1 && n_g > 0).then(|| Clusters::new(self.frames.n_clusters(), n_g)),
+        };
+        for (k, own) in own.iter().enumerate() {
+            // The local slots of this frame: the free globals, then its own.
+            let local: Vec<usize> = free[..n_g].iter().chain(own).copied().collect();
             let base = self.chain(theta, k)?;
             let columns = if normal { self.columns(theta, k, &local, &base)? } else { Vec::new() };
             let fm = FrameModel { k, base: &base, columns: &columns, normal };
             let rects = self.frames.parts(k, stride);
-            let parts: Vec<Accum> = rects.par_iter().map(|&r| self.accumulate_part(&fm, r, stride)).collect();
+            let parts: Vec<Sums> = rects.par_iter().map(|&r| self.accumulate_part(&fm, r, stride)).collect();
             // Each part's score, by cluster, before the parts are summed.
             let scores: Vec<(usize, Vec<f64>)> = match total.clusters {
                 Some(_) => rects.iter().zip(&parts).map(|(r, p)| (self.frames.cluster_of(r), p.b.clone())).collect(),
                 None => Vec::new(),
             };
             // In row (block) order: the same sums whatever the threads.
-            let fr = parts.into_iter().fold(Accum::new(columns.len(), 0), Accum::add);
+            let fr = parts.into_iter().fold(Sums::new(columns.len()), Sums::add);
             if let Some(cl) = total.clusters.as_mut() {
                 cl.add_frame(&fr.a, columns.len(), &scores);
             }
-            // Scatter the frame's local sums into the free-slot system (none without
-            // `normal`: no columns).
-            let pos: Vec<usize> = local.iter().map(|i| free.binary_search(i).expect("a free slot")).collect();
-            for (a, &pa) in pos.iter().enumerate().take(columns.len()) {
-                total.b[pa] += fr.b[a];
-                for (c, &pc) in pos.iter().enumerate().take(a + 1) {
-                    total.a[pa.max(pc) * nf + pa.min(pc)] += fr.a[a * columns.len() + c];
+            // The frame's local sums into its blocks (none without `normal`: no
+            // columns): globals × globals into A_gg, own × globals into A_gk, own ×
+            // own into A_kk (both triangles).
+            if normal {
+                let (nl, sys) = (own.len(), &mut total.sys);
+                let blk = &mut sys.frames[k];
+                for a in 0..columns.len() {
+                    if a < n_g {
+                        sys.b_g[a] += fr.b[a];
+                    } else {
+                        blk.b_k[a - n_g] += fr.b[a];
+                    }
+                    for c in 0..=a {
+                        let v = fr.a[a * columns.len() + c];
+                        match (a < n_g, c < n_g) {
+                            (true, _) => {
+                                sys.a_gg[a * n_g + c] += v;
+                                if a != c {
+                                    sys.a_gg[c * n_g + a] += v;
+                                }
+                            }
+                            (false, true) => blk.a_gk[c * nl + a - n_g] += v,
+                            (false, false) => {
+                                let (l, m) = (a - n_g, c - n_g);
+                                blk.a_kk[l * nl + m] += v;
+                                if l != m {
+                                    blk.a_kk[m * nl + l] += v;
+                                }
+                            }
+                        }
+                    }
                 }
             }
             total.chi2 += fr.chi2;
             total.n += fr.n;
             total.frame_chi2[k] = (fr.chi2, fr.n);
-        }
-        // Symmetrise.
-        for i in 0..nf {
-            for j in 0..i {
-                total.a[j * nf + i] = total.a[i * nf + j];
-            }
         }
         Ok(total)
     }
@@ -177,9 +205,9 @@ impl Problem<'_> {
 
     /// The sums of part `r` of one frame (a row, a block), every `stride`-th row and
     /// column.
-    fn accumulate_part(&self, fm: &FrameModel, r: Rect, stride: usize) -> Accum {
+    fn accumulate_part(&self, fm: &FrameModel, r: Rect, stride: usize) -> Sums {
         let nl = fm.columns.len();
-        let mut acc = Accum::new(nl, 0);
+        let mut acc = Sums::new(nl);
         let mut bufs = (Vec::new(), Vec::new(), Vec::new());
         let mut d = vec![0.0; nl];
         let no_radiance = fm.base.radiance == [0.0; super::radiance::N];

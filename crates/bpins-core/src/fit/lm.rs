@@ -1,11 +1,14 @@
 //! Levenberg–Marquardt on the accumulated normal equations:
 //! (JᵀWJ + λ·diag JᵀWJ) δ = JᵀW r, solved by pseudo-inverse (a parameter without
-//! influence, or a degenerate combination, is not moved). Iterations first run on
+//! influence, or a degenerate combination, is not moved) block by block: each frame's
+//! nuisances eliminated, the globals solved on the Schur complement, the frames'
+//! steps back-substituted (`super::schur`, the dense pseudo-inverse's numbers in
+//! time and memory linear in the frames). Iterations first run on
 //! every third row and column (all channels), then on every pixel until converged.
 
 use super::accumulate::Accum;
-use super::linalg::PseudoInverse;
 use super::problem::Problem;
+use super::schur::BlockInverse;
 use super::slots::SlotId;
 use crate::error::Result;
 
@@ -60,7 +63,8 @@ fn step(
     tol: f64,
 ) -> Result<Option<(Vec<f64>, bool)>> {
     let all_free = pb.slots.free();
-    let x = PseudoInverse::new(&acc.a, all_free.len()).solve(&acc.b);
+    let b_all = acc.sys.b();
+    let x = BlockInverse::new(&acc.sys).solve(&b_all);
     // A parameter at a bound that both the Gauss–Newton step and the gradient (b, the
     // descent direction) push out of its range is held there for this step (an active
     // bound: d_max at 1 under a sky more polarized than the model's): the clamp would
@@ -70,19 +74,17 @@ fn step(
         .filter(|&j| {
             let (i, s) = (all_free[j], &pb.slots.all[all_free[j]]);
             let out = |d: f64| (theta[i] <= s.min && d < 0.0) || (theta[i] >= s.max && d > 0.0);
-            !(out(x[j]) && (out(acc.b[j]) || acc.b[j] == 0.0))
+            !(out(x[j]) && (out(b_all[j]) || b_all[j] == 0.0))
         })
         .collect();
-    let (free, a0, b0, x) = if keep.len() == all_free.len() {
-        (all_free, acc.a.clone(), acc.b.clone(), x)
+    let (free, sys0, x) = if keep.len() == all_free.len() {
+        (all_free, acc.sys.clone(), x)
     } else {
-        let n = all_free.len();
-        let a0: Vec<f64> = keep.iter().flat_map(|&i| keep.iter().map(move |&j| acc.a[i * n + j])).collect();
-        let b0: Vec<f64> = keep.iter().map(|&i| acc.b[i]).collect();
-        let x = PseudoInverse::new(&a0, keep.len()).solve(&b0);
-        (keep.iter().map(|&j| all_free[j]).collect(), a0, b0, x)
+        let sys0 = acc.sys.restrict(&keep);
+        let x = BlockInverse::new(&sys0).solve(&sys0.b());
+        (keep.iter().map(|&j| all_free[j]).collect(), sys0, x)
     };
-    let nf = free.len();
+    let b0 = sys0.b();
     // Converged when the undamped Gauss–Newton step predicts less than `tol` in χ²
     // (minimum-norm where parameters are degenerate).
     let decrement = x.iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>();
@@ -90,11 +92,7 @@ fn step(
         return Ok(Some((theta.to_vec(), true)));
     }
     for _ in 0..12 {
-        let mut a = a0.clone();
-        for i in 0..nf {
-            a[i * nf + i] *= 1.0 + *lambda;
-        }
-        let delta = PseudoInverse::new(&a, nf).solve(&b0);
+        let delta = BlockInverse::new(&sys0.damped(*lambda)).solve(&b0);
         let mut t = theta.to_vec();
         for (j, &i) in free.iter().enumerate() {
             let s = &pb.slots.all[i];

@@ -28,6 +28,7 @@
 //! effective sample count of neighbour-correlated residuals (`correlation`).
 
 mod accumulate;
+pub mod block;
 pub mod correlation;
 pub mod diagnose;
 pub mod frames;
@@ -43,6 +44,7 @@ mod request;
 mod residuals;
 mod result;
 mod robust;
+pub mod schur;
 mod score;
 pub mod slots;
 mod start;
@@ -127,15 +129,14 @@ pub fn fit_from(
     };
     let free = pb.slots.free();
     let nf = free.len();
-    let cov = linalg::PseudoInverse::new(&acc.a, nf);
+    let cov = schur::BlockInverse::new(&acc.sys);
     let degenerate = cov.null.iter().map(|d| lm::describe_null(&pb, &free, d)).collect();
     // Neighbour-correlated residuals carry less information than their count.
     let n_eff = correlation::effective_samples(&pb, &theta, acc.n)?;
     let widen = (acc.n as f64 / n_eff.max(1.0)).sqrt().max(1.0);
     // The free globals come first among the free slots: their sandwich 1σ, from the
     // residuals' own variance by cluster (a fixed pattern the same in every frame).
-    let n_g = free.iter().filter(|&&i| i < pb.slots.n_global).count();
-    let robust = acc.clusters.as_ref().map_or_else(Vec::new, |cl| cl.sigmas(&cov.inv.view((0, 0), (n_g, n_g)).into()));
+    let robust = acc.clusters.as_ref().map_or_else(Vec::new, |cl| cl.sigmas(&cov.global_cov()));
     let sigma_white = |i: usize| free.binary_search(&i).map_or(0.0, |p| cov.sigma(p));
     let sigma = |i: usize| {
         free.binary_search(&i).map_or(0.0, |p| {

@@ -3,8 +3,9 @@
 
 use super::frames::FitFrames;
 use super::problem::problem;
+use super::schur::BlockInverse;
 use super::slots::{Derivative, SlotId};
-use super::{linalg, FitOptions, FitResult, Param};
+use super::{FitOptions, FitResult, Param};
 use crate::capture::Capture;
 use crate::effects::EffectDef;
 use crate::error::Result;
@@ -56,20 +57,20 @@ pub fn score_candidates(
     }
     // An odd stride samples every channel of a DoFP mosaic.
     let acc = pb.accumulate(&theta, stride | 1, true)?;
-    let nf = acc.b.len();
+    let nf = acc.sys.n();
     // The candidates' slots come right after the base effects' (free, in order).
     let first = base_opts.effects.iter().map(|e| e.params.len()).sum::<usize>();
     let all = candidates.iter().map(|e| e.params.len()).sum::<usize>();
     // The base model's own predicted Δχ² on these samples (its optimum on them is not
     // exactly the one on every pixel), on the system without any candidate.
-    let (acc_a, acc_b) = (&acc.a, &acc.b);
-    let block = |keep: &[usize]| -> (Vec<f64>, Vec<f64>) {
-        let a = keep.iter().flat_map(|&i| keep.iter().map(move |&j| acc_a[i * nf + j])).collect();
-        (a, keep.iter().map(|&i| acc_b[i]).collect())
+    let block = |keep: &[usize]| {
+        let sys = acc.sys.restrict(keep);
+        let b = sys.b();
+        (sys, b)
     };
     let base_keep: Vec<usize> = (0..nf).filter(|&i| i < first || i >= first + all).collect();
     let (a0, b0) = block(&base_keep);
-    let own_cov = linalg::PseudoInverse::new(&a0, base_keep.len());
+    let own_cov = BlockInverse::new(&a0);
     let own = own_cov.solve(&b0).iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>();
     let mut out = Vec::with_capacity(candidates.len());
     let mut at = first;
@@ -81,7 +82,7 @@ pub fn score_candidates(
         let (a, b) = block(&keep);
         // Pseudo-inverses: a candidate (or part of one) that trades exactly against
         // the model's other parameters adds no constrained direction and no Δχ².
-        let cov = linalg::PseudoInverse::new(&a, keep.len());
+        let cov = BlockInverse::new(&a);
         let x = cov.solve(&b);
         // Score test: the joint model's predicted Δχ² minus the base model's own.
         let joint = x.iter().zip(&b).map(|(a, b)| a * b).sum::<f64>();
