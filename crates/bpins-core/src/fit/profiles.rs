@@ -167,6 +167,21 @@ impl Profiler {
         Some((((x - lo) / (hi - lo) * n as f64) as usize).min(n - 1))
     }
 
+    /// Adds another profiler's sums (the same bins: made with the same radius).
+    pub fn merge(&mut self, o: &Profiler) {
+        for (a, b) in self.sums.iter_mut().zip(&o.sums) {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.z2 += y.z2;
+                x.z += y.z;
+                x.n += y.n;
+                x.aop += y.aop;
+                x.n_aop += y.n_aop;
+                x.dolp += y.dolp;
+                x.n_pol += y.n_pol;
+            }
+        }
+    }
+
     /// A raw-DN sample with normalised residual `z` at `p`.
     pub fn add_dn(&mut self, p: &Position, z: f64) {
         for (i, a) in Axis::ALL.iter().enumerate() {

@@ -11,6 +11,7 @@ use crate::conventions::wrap_deg_90;
 use crate::error::Result;
 use crate::recon::Reconstructor;
 use crate::sensor::Layout;
+use rayon::prelude::*;
 
 /// Model DoLP below which an AoP residual is not counted (the angle is undefined).
 const AOP_MIN_MODEL_DOLP: f64 = 0.01;
@@ -165,76 +166,39 @@ pub fn residual_maps_of(
     let mut z2 = vec![0.0f64; w * h];
     let mut aop = vec![(0.0f64, 0u32); pw * ph];
     let mut dolp = vec![(0.0f64, 0u32); pw * ph];
-    let mut buf = Vec::new();
     // Pixel rows per polarization row (a superpixel is two rows of a DoFP mosaic).
     let rows_per = if dofp { 2 } else { 1 };
+    let band_px = rows_per * w;
+    let ctx =
+        Bands { pb: &pb, rec: &rec, w, h, pw, ph, dofp, rows_per, corner: corner_radius(&pb), position: &position };
     for k in 0..frames.len() {
         let f = pb.chain(&theta, k)?;
         let data = frames.full_frame(c, k)?;
         let mut fm =
             FrameMaps { dn_z: vec![f32::NAN; w * h], aop_deg: vec![f32::NAN; pw * ph], dolp: vec![f32::NAN; pw * ph] };
-        // Per pixel: DN residuals; gather the channels of each polarization sample of
-        // the current polarization row, then its residuals.
-        let mut meas = vec![[1.0f64; 4]; pw];
-        let mut model = vec![[1.0f64; 4]; pw];
-        let mut ok = vec![true; pw];
-        for v in 0..h {
-            for u in 0..w {
-                pb.pixel_of(&f, u, v, &data, &mut buf);
-                let (pu, pv) = if dofp { (u / 2, v / 2) } else { (u, v) };
-                let inside = pu < pw && pv < ph;
-                // The pixel's ray through the fitted camera, once for all it is used for.
-                let g = f.intr.geometry(u as f64, v as f64);
-                let at = Position {
-                    mosaic: if dofp { ((u % 2) + 2 * (v % 2)) as f64 } else { f64::NAN },
-                    model_dolp: crate::chain::ray_stokes(&f, &g).dolp(),
-                    ..position(&f, g.d, u as f64, v as f64)
-                };
-                for (q, &(y, m)) in buf.iter().enumerate() {
-                    let usable = pb.usable(k, u, v, y);
-                    let ch = match &c.sensor.layout {
-                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
-                        Layout::Colocated { channels } => channels[q].index(),
-                    };
-                    if usable {
-                        let r = (y - m) / pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
-                        z[v * w + u].0 += r;
-                        z[v * w + u].1 += 1;
-                        z2[v * w + u] += r * r;
-                        fm.dn_z[v * w + u] = r as f32;
-                        profiler.add_dn(&Position { channel: ch as f64, ..at }, r);
-                    }
-                    if !inside {
-                        continue;
-                    }
-                    meas[pu][ch] = y;
-                    model[pu][ch] = m;
-                    ok[pu] &= usable;
-                }
-            }
-            let pv = v / rows_per;
-            if v % rows_per != rows_per - 1 || pv >= ph {
-                continue;
-            }
-            for pu in 0..pw {
+        // The bands of `rows_per` rows (one polarization row each) in parallel, each
+        // writing its own rows of the DN maps; then, in band order (the same sums
+        // whatever the threads), their polarization rows and profiles.
+        let bands: Vec<Band> = fm
+            .dn_z
+            .par_chunks_mut(band_px)
+            .zip(z.par_chunks_mut(band_px).zip(z2.par_chunks_mut(band_px)))
+            .enumerate()
+            .map(|(b, (dn_z, (zb, z2b)))| ctx.band(&f, k, &data, b, dn_z, zb, z2b))
+            .collect();
+        for (pv, band) in bands.into_iter().enumerate() {
+            profiler.merge(&band.profiler);
+            for (pu, pol) in band.pol.into_iter().enumerate() {
+                let Some((da, dd)) = pol else { continue };
                 let i = pv * pw + pu;
-                if ok[pu] {
-                    let (da, dd, model_dolp) = pol_residual(&rec, &meas[pu], &model[pu]);
-                    if let Some(x) = da {
-                        aop[i].0 += x;
-                        aop[i].1 += 1;
-                        fm.aop_deg[i] = x as f32;
-                    }
-                    dolp[i].0 += dd;
-                    dolp[i].1 += 1;
-                    fm.dolp[i] = dd as f32;
-                    // A superpixel sits at the centre of its four pixels.
-                    let (u, v) =
-                        if dofp { (2.0 * pu as f64 + 0.5, 2.0 * pv as f64 + 0.5) } else { (pu as f64, pv as f64) };
-                    let d = f.intr.geometry(u, v).d;
-                    profiler.add_pol(&Position { model_dolp, ..position(&f, d, u, v) }, da, dd);
+                if let Some(x) = da {
+                    aop[i].0 += x;
+                    aop[i].1 += 1;
+                    fm.aop_deg[i] = x as f32;
                 }
-                (meas[pu], model[pu], ok[pu]) = ([1.0; 4], [1.0; 4], true);
+                dolp[i].0 += dd;
+                dolp[i].1 += 1;
+                fm.dolp[i] = dd as f32;
             }
         }
         each_frame(k, fm);
@@ -258,6 +222,109 @@ pub fn residual_maps_of(
         frames: Vec::new(),
         profiles: profiler.finish(),
     })
+}
+
+/// What one band of rows of a frame needs that does not change between bands.
+struct Bands<'a, P: Fn(&crate::chain::ChainFrame, glam::DVec3, f64, f64) -> Position + Sync> {
+    pb: &'a Problem<'a>,
+    rec: &'a Reconstructor,
+    w: usize,
+    h: usize,
+    pw: usize,
+    ph: usize,
+    dofp: bool,
+    rows_per: usize,
+    corner: f64,
+    position: &'a P,
+}
+
+/// One band's results beside the DN rows it wrote: its polarization row (per sample:
+/// AoP residual where defined and DoLP residual, `None` where not usable) and its
+/// profile sums.
+struct Band {
+    pol: Vec<Option<(Option<f64>, f64)>>,
+    profiler: Profiler,
+}
+
+impl<P: Fn(&crate::chain::ChainFrame, glam::DVec3, f64, f64) -> Position + Sync> Bands<'_, P> {
+    /// Band `b` of frame `k` (rows b·rows_per …): its DN residuals into `dn_z` (the
+    /// frame's map) and `z`, `z2` (the stacked sums), its rows only.
+    #[allow(clippy::too_many_arguments)]
+    fn band(
+        &self,
+        f: &super::problem::FitFrame,
+        k: usize,
+        data: &FrameData,
+        b: usize,
+        dn_z: &mut [f32],
+        z: &mut [(f64, u32)],
+        z2: &mut [f64],
+    ) -> Band {
+        let (pb, c, w, pw) = (self.pb, self.pb.capture, self.w, self.pw);
+        let mut profiler = Profiler::new(self.corner);
+        let mut buf = Vec::new();
+        // Per pixel: DN residuals; gather the channels of each polarization sample of
+        // the band's polarization row, then its residuals.
+        let mut meas = vec![[1.0f64; 4]; pw];
+        let mut model = vec![[1.0f64; 4]; pw];
+        let mut ok = vec![true; pw];
+        let (v0, v1) = (b * self.rows_per, ((b + 1) * self.rows_per).min(self.h));
+        let pv = b;
+        for v in v0..v1 {
+            for u in 0..w {
+                pb.pixel_of(f, u, v, data, &mut buf);
+                let pu = if self.dofp { u / 2 } else { u };
+                let inside = pu < pw && pv < self.ph;
+                // The pixel's ray through the fitted camera, once for all it is used for.
+                let g = f.intr.geometry(u as f64, v as f64);
+                let at = Position {
+                    mosaic: if self.dofp { ((u % 2) + 2 * (v % 2)) as f64 } else { f64::NAN },
+                    model_dolp: crate::chain::ray_stokes(f, &g).dolp(),
+                    ..(self.position)(f, g.d, u as f64, v as f64)
+                };
+                let i = (v - v0) * w + u;
+                for (q, &(y, m)) in buf.iter().enumerate() {
+                    let usable = pb.usable(k, u, v, y);
+                    let ch = match &c.sensor.layout {
+                        Layout::Dofp { mosaic } => Layout::dofp_channel(mosaic, u, v).index(),
+                        Layout::Colocated { channels } => channels[q].index(),
+                    };
+                    if usable {
+                        let r = (y - m) / pb.noise.variance_dn2(m - c.sensor.black_level_dn).sqrt();
+                        z[i].0 += r;
+                        z[i].1 += 1;
+                        z2[i] += r * r;
+                        dn_z[i] = r as f32;
+                        profiler.add_dn(&Position { channel: ch as f64, ..at }, r);
+                    }
+                    if !inside {
+                        continue;
+                    }
+                    meas[pu][ch] = y;
+                    model[pu][ch] = m;
+                    ok[pu] &= usable;
+                }
+            }
+        }
+        let mut pol = Vec::new();
+        if v1 - v0 == self.rows_per && pv < self.ph {
+            pol = (0..pw)
+                .map(|pu| {
+                    if !ok[pu] {
+                        return None;
+                    }
+                    let (da, dd, model_dolp) = pol_residual(self.rec, &meas[pu], &model[pu]);
+                    // A superpixel sits at the centre of its four pixels.
+                    let (u, v) =
+                        if self.dofp { (2.0 * pu as f64 + 0.5, 2.0 * pv as f64 + 0.5) } else { (pu as f64, pv as f64) };
+                    let d = f.intr.geometry(u, v).d;
+                    profiler.add_pol(&Position { model_dolp, ..(self.position)(f, d, u, v) }, da, dd);
+                    Some((da, dd))
+                })
+                .collect();
+        }
+        Band { pol, profiler }
+    }
 }
 
 /// Largest distance of an image corner from the nominal principal point, focal lengths.
