@@ -4,6 +4,7 @@
 
 use crate::write_json;
 use anyhow::Context;
+use bpins_core::fit::resolution::TOLD_SIGMA as TOLD;
 use bpins_core::fit::{fit_from, FitJson};
 
 #[derive(clap::Args)]
@@ -14,17 +15,29 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let a = a.input;
-    let bpins_core::fit::Loaded { options: opts, capture: c, frames } = a.load()?;
-    let names: Vec<&str> = opts.effects.iter().map(|e| e.name).collect();
+    let (request, loaded) = a.load_request()?;
+    let names: Vec<&str> = loaded.options.effects.iter().map(|e| e.name).collect();
     eprintln!(
         "bpins fit: {} frames of {}, effects: {}",
-        frames.len(),
+        loaded.frames.len(),
         a.capture.display(),
         if names.is_empty() { "none".to_string() } else { names.join(", ") }
     );
     let spinner = indicatif::ProgressBar::new_spinner();
-    let r = fit_from(&c, &frames, &opts, None, &|stage, it| spinner.set_message(format!("iteration {it} ({stage})")))
-        .context("fitting")?;
+    let progress = |stage: &str, it: usize| spinner.set_message(format!("iteration {it} ({stage})"));
+    let first = fit_from(&loaded.capture, &loaded.frames, &loaded.options, None, &progress).context("fitting")?;
+    // A parameter the sample cannot tell from neutral but every pixel could: read
+    // more of each frame and fit again (`fit::resolution`).
+    if let Some((budget, params)) = bpins_core::fit::resolution::needed_budget(&first) {
+        eprintln!(
+            "{} not told from neutral at {} px per frame (< {TOLD}σ), but every pixel would tell it: fitting again on {}",
+            params.join(", "),
+            first.sample.pixels_per_frame,
+            budget.map_or("every pixel".to_string(), |b| format!("a budget of {b} px per frame"))
+        );
+    }
+    let (bpins_core::fit::Loaded { options: opts, capture: c, frames }, r) =
+        request.raise_where_needed(loaded, first, &progress).context("fitting on more pixels")?;
     spinner.finish_and_clear();
     println!(
         "χ²/dof {:.4} ({:.0} / {:.0}), {} samples ({:.0} effective), {} iterations; noise σ_read {:.3} DN, K {:.4} DN/e⁻, PRNU {:.4} %",

@@ -192,6 +192,11 @@ impl FitInput {
     /// sampled within the budget; a progress bar while reading). `out` must lie
     /// outside the capture.
     pub fn load(&self) -> anyhow::Result<bpins_core::fit::Loaded> {
+        self.load_request().map(|(_, loaded)| loaded)
+    }
+
+    /// [`FitInput::load`], with the request it read (to read the capture again).
+    pub fn load_request(&self) -> anyhow::Result<(bpins_core::fit::FitRequest, bpins_core::fit::Loaded)> {
         use anyhow::Context;
         if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
             anyhow::bail!("--fixed-dmax {d} must lie in [0, 1]");
@@ -224,6 +229,6 @@ impl FitInput {
                 None => format!("reading {}", self.capture.display()),
             })?;
         pb.finish_and_clear();
-        Ok(loaded)
+        Ok((request, loaded))
     }
 }

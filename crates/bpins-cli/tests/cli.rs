@@ -986,3 +986,32 @@ fn a_frame_too_large_to_allocate_is_refused_with_its_size() {
     r.stderr_has("100000");
     assert!(!out.join("capture.toml").exists());
 }
+
+#[test]
+fn fit_reads_more_pixels_only_where_a_parameters_sigma_needs_it() {
+    // 8 frames of 256 × 256, a 0.04° analyzer offset: about 4σ on every pixel, under
+    // 3σ on a sixteenth of them (the budget): the fit raises its sample.
+    let tmp = tempfile::tempdir().unwrap();
+    let cap = tmp.path().join("cap");
+    let size = ["--width-px", "256", "--height-px", "256", "--seed", "5"];
+    bpins(&[&["simulate", "--out", &s(&cap), "--effect", "analyzer_angles.d45_deg=0.04"][..], &size[..]].concat()).ok();
+    let fit = |out: &str, budget: &str| {
+        let dir = tmp.path().join(out);
+        let r = bpins(&["fit", &s(&cap), "--effects", "analyzer_angles", "--sample-budget", budget, "--out", &s(&dir)])
+            .ok();
+        (r, read_json(&dir.join("fit.json")))
+    };
+    let (r, v) = fit("raised", "4096");
+    r.stderr_has("not told from neutral at 4096 px per frame");
+    assert_eq!(v["raised"]["from_budget_px"], 4096, "{}", v["raised"]);
+    assert!(v["raised"]["to_budget_px"].is_null(), "every pixel: {}", v["raised"]);
+    let raised: Vec<&str> = v["raised"]["params"].as_array().unwrap().iter().map(|p| p.as_str().unwrap()).collect();
+    assert!(raised.contains(&"analyzer_angles.d45_deg"), "{raised:?}");
+    assert_eq!(v["sample"]["pixels_per_frame"], 256 * 256);
+    let d45 = v["params"].as_array().unwrap().iter().find(|p| p["name"] == "analyzer_angles.d45_deg").unwrap();
+    let (x, sigma) = (d45["value"].as_f64().unwrap(), d45["sigma"].as_f64().unwrap());
+    assert!(x / sigma >= 3.0 && (x - 0.04).abs() < 3.0 * sigma, "d45 {x} ± {sigma}");
+    // Within the budget (every pixel read), nothing to raise.
+    let (_, v) = fit("whole", "65536");
+    assert!(v["raised"].is_null(), "{}", v["raised"]);
+}

@@ -100,7 +100,9 @@ pub fn fit<'py>(
     let text = py
         .detach(|| {
             let l = req.load(&|_, _| {})?;
-            let r = fit_from(&l.capture, &l.frames, &l.options, None, &|_, _| {})?;
+            let first = fit_from(&l.capture, &l.frames, &l.options, None, &|_, _| {})?;
+            // Where the sample cannot decide a parameter every pixel could: more pixels.
+            let (l, r) = req.raise_where_needed(l, first, &|_, _| {})?;
             Ok::<_, bpins_core::Error>(serde_json::to_string(&FitJson::new(&req.capture, &l.options, &r)))
         })
         .map_err(py_err)?;

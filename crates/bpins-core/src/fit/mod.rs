@@ -42,6 +42,7 @@ pub mod radiance;
 pub mod remains;
 mod request;
 mod residuals;
+pub mod resolution;
 mod result;
 mod robust;
 pub mod schur;
@@ -192,6 +193,7 @@ pub fn fit_from(
         chi2_per_dof: acc.chi2 / dof,
         samples: acc.n,
         sample: frames.sample(),
+        raised: None,
         noise,
         aop_rms_deg,
         dolp_rms,

@@ -51,7 +51,7 @@ pub struct FrameFit {
 }
 
 /// The result of a fit.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct FitResult {
     /// The enabled effects' parameters.
     pub params: Vec<Param>,
@@ -64,6 +64,10 @@ pub struct FitResult {
     /// What of each frame the fit read: every pixel, or a sample within a budget
     /// (`super::frames`), with the factor that scales each 1σ to full resolution.
     pub sample: super::frames::Sample,
+    /// Where the fit read more pixels than its first sample because a parameter's 1σ
+    /// needed it (`super::resolution`), from which budget to which and for which
+    /// parameters; `null` where the first sample decided.
+    pub raised: Option<super::resolution::Raised>,
     pub noise: NoiseModel,
     /// RMS of measured − model AoP (degrees, where the model DoLP > 0.01) and DoLP,
     /// over superpixels (DoFP) or pixels (colocated), with the nominal inversion.

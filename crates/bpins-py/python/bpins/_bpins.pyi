@@ -135,7 +135,8 @@ def fit(
     heading_deg, heading_sigma_deg, reference_deg, heading_error_deg, scale_dn, dmax,
     radiance, chi2_per_dof), ... `fixed_dmax` in [0, 1]; `calibration` a
     calibration.toml; `sample_budget_px` the most pixels read per frame (None: every
-    pixel; "sample" in the result says what was read). Raises ValueError (bad argument, unknown effect, bad capture)
+    pixel; "sample" in the result says what was read, "raised" where a parameter the
+    sample could not tell from neutral made the fit read more pixels). Raises ValueError (bad argument, unknown effect, bad capture)
     or OSError (unreadable file). Releases the GIL."""
 
 def diagnose(
