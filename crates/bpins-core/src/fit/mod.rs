@@ -38,6 +38,7 @@ pub mod noise;
 mod problem;
 pub mod profiles;
 pub mod radiance;
+mod refits;
 pub mod remains;
 mod request;
 mod residuals;
@@ -45,6 +46,7 @@ mod result;
 mod score;
 pub mod slots;
 mod start;
+mod subfit;
 
 pub use frames::{FitFrames, Sample, DEFAULT_BUDGET_PX};
 pub use masks::sky_masks;
