@@ -62,11 +62,11 @@ impl Scale {
         (delta_chi2 * fr - k as f64 * self.n_eff.ln(), spread)
     }
 
-    /// Whether two subsampled refits could come within reach of each other on every
-    /// pixel.
-    fn close(&self, a: &Refit, b: &Refit) -> bool {
-        let (pa, sa) = self.projected(a.sub_delta_chi2, a.sub_rank);
-        let (pb, sb) = self.projected(b.sub_delta_chi2, b.sub_rank);
+    /// Whether two subsampled refits, each (Δχ²_sub, k), could come within reach of
+    /// each other on every pixel.
+    fn close(&self, (da, ka): (f64, usize), (db, kb): (f64, usize)) -> bool {
+        let (pa, sa) = self.projected(da, ka);
+        let (pb, sb) = self.projected(db, kb);
         (pa - pb).abs() < CLOSE_MARGIN * BIC_THRESHOLD + sa + sb
     }
 }
@@ -161,6 +161,43 @@ pub(super) fn next_to_converge(refits: &[Refit], ranking: &[Candidate], scale: &
     })?;
     match best_full {
         None => Some(i),
-        Some(b) => scale.close(b, next).then_some(i),
+        Some(b) => scale.close((b.sub_delta_chi2, b.sub_rank), (next.sub_delta_chi2, next.sub_rank)).then_some(i),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A base of 2.5 M samples (every pixel) and 280 k on the subsample, with an
+    /// effective share `f`.
+    fn scale(f: f64) -> Scale {
+        let n = 2.5e6;
+        Scale { f, ratio: n / 2.8e5, n_sub: 2.8e5, n_eff: f * n }
+    }
+
+    #[test]
+    fn a_lead_of_thousands_is_not_close_but_two_near_noise_refits_are() {
+        // `berry`'s first step: a smooth residual (f ≈ 0.0023), the two refits 10 %
+        // apart in Δχ² on the subsample: thousands apart in projected ΔBIC.
+        let s = scale(0.0023);
+        assert!(!s.close((2.74e6, 1), (2.39e6, 7)));
+        // Its last step: white residual, both within noise on the subsample — the
+        // subsample cannot tell which (if either) passes ΔBIC 10 on every pixel.
+        let s = scale(1.0);
+        assert!(s.close((1.3, 1), (0.9, 3)));
+        // Symmetric.
+        assert_eq!(s.close((40.0, 1), (400.0, 1)), s.close((400.0, 1), (40.0, 1)));
+    }
+
+    #[test]
+    fn the_projection_scales_a_subsampled_delta_chi2_to_every_pixel() {
+        let s = scale(1.0);
+        let (p, spread) = s.projected(100.0, 1);
+        // Δχ²·r − ln n_eff, r = 2.5e6/2.8e5.
+        assert!((p - (100.0 * 2.5e6 / 2.8e5 - 2.5e6f64.ln())).abs() < 1e-9, "{p}");
+        assert!(spread > 0.0 && spread < p, "{spread} vs {p}");
+        // The subsample's own ΔBIC is on the score's scale.
+        assert!((s.sub_bic(100.0, 1) - (100.0 - 2.8e5f64.ln())).abs() < 1e-9);
     }
 }
