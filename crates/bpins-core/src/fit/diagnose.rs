@@ -3,15 +3,19 @@
 //! From a fitted model (default: no effect), every catalog effect not in it is scored
 //! (`score_candidates`: the Δχ² one Gauss–Newton step predicts, a score test, on every
 //! third row and column, every candidate from one pass over the samples); the strongest `refit_top` whose score is beyond noise (more
-//! than 3σ above its null distribution χ²_k: > k + 3√(2k)) are refitted on every pixel
-//! for their real Δχ², ranked by ΔBIC = Δχ²·n_eff/n − k·ln n_eff (k the combinations
+//! than 3σ above its null distribution χ²_k: > k + 3√(2k)) are refitted on that
+//! subsample and ranked by their real Δχ² there; the leader, and any whose every-pixel
+//! ΔBIC could come within reach of it ([`refits`](super::refits): within
+//! [`CLOSE_MARGIN`] thresholds beyond their 3σ spread), are converged on every pixel,
+//! ranked by ΔBIC = Δχ²·n_eff/n − k·ln n_eff (k the combinations
 //! of its parameters the data constrain beside the model's — fewer than its
 //! parameters where some trade exactly against the model's —, n the samples, n_eff
 //! their effective count under the model it adds to, `correlation`: residuals
 //! correlated between neighbours carry less evidence than their Δχ² says). The winner
-//! is added if ΔBIC > 10 ("very strong" evidence, Kass & Raftery 1995) and it removes
+//! is added if ΔBIC > 10 on every pixel ("very strong" evidence, Kass & Raftery 1995) and it removes
 //! at least half of the model's excess χ² (χ² − dof); where it alone does not, the
-//! two best refitted together are added if both pass ΔBIC and together they remove
+//! two best refitted together are added if both pass ΔBIC (the runner-up converged
+//! on every pixel for it) and together they remove
 //! half (two effects that each explain a part) — an effect that only nibbles at a
 //! misfit it does not describe is not named — and the search repeats. Effects a sky
 //! capture cannot tell from the fit's nuisances ([`inseparable`]: vignetting from the
@@ -24,6 +28,8 @@
 //! (`profiles::trends`) instead of naming the least-bad effect: as data
 //! ([`Remains`]), with the sentence rendered from it.
 
+pub use super::refits::CLOSE_MARGIN;
+use super::refits::{base_on_subsample, converge, next_to_converge, refit_on_subsample};
 use super::remains::Remains;
 use super::score::score_candidates;
 use super::{fit_from, residual_maps_of, FitFrames, FitOptions, FitResult, Param};
@@ -118,10 +124,16 @@ pub struct Candidate {
     /// Predicted (score test) Δχ².
     #[serde(rename = "score_delta_chi2")]
     pub score: f64,
-    /// Real Δχ² where refitted, else the prediction.
+    /// Real Δχ² where refitted (on every pixel, or on the scoring subsample where
+    /// `every_pixel` is false), else the prediction.
     pub delta_chi2: f64,
     pub delta_bic: f64,
     pub refitted: bool,
+    /// Whether its figures are from every pixel (converged there: the leader of its
+    /// step and any close to it) or from the scoring subsample (a score, or a refit
+    /// ranked there, clearly behind the leader; on the score's scale, 1/9 of the
+    /// pixels).
+    pub every_pixel: bool,
     /// False where the data cannot tell it from the model's other parameters.
     pub identifiable: bool,
     /// Independent combinations of its parameters the data constrain beside the
@@ -252,6 +264,7 @@ pub fn diagnose_frames(
                     s.delta_chi2 * f - s.added_rank as f64 * (f * s.samples as f64).max(2.0).ln()
                 },
                 refitted: false,
+                every_pixel: false,
                 identifiable: s.identifiable,
                 added_rank: s.added_rank,
                 params: s.params,
@@ -259,48 +272,76 @@ pub fn diagnose_frames(
         }
         // Unidentifiable candidates last; then by predicted ΔBIC.
         ranking.sort_by(|a, b| b.identifiable.cmp(&a.identifiable).then(b.delta_bic.total_cmp(&a.delta_bic)));
-        // Refit the strongest identifiable ones for their real Δχ².
-        let mut fits = Vec::new();
-        // The strongest by predicted ΔBIC (a candidate with more parameters than an
-        // equal rival pays for them) are refitted where the score is beyond noise:
-        // under the null it is χ²_k (mean k, σ √(2k)); a refit needs it 3σ above.
-        for cand in ranking
-            .iter_mut()
+        // Refit the strongest identifiable ones for their real Δχ²: on the subsample
+        // (against the base model's own optimum there) to rank them, then on every
+        // pixel the leader and any close to it.
+        let mut refits = Vec::new();
+        let worth: Vec<&'static str> = ranking
+            .iter()
             .filter(|c| {
+                // The strongest by predicted ΔBIC (a candidate with more parameters
+                // than an equal rival pays for them) where the score is beyond noise:
+                // under the null it is χ²_k (mean k, σ √(2k)); a refit needs it 3σ above.
                 let k = c.added_rank.max(1) as f64;
                 c.identifiable && c.score > k + 3.0 * (2.0 * k).sqrt()
             })
             .take(opts.refit_top)
-        {
-            progress(&format!("refitting with {}", cand.effect));
-            let mut m = model.clone();
-            m.effects.push(crate::effects::find(cand.effect)?);
-            // Start the candidate at its score step (an effect that enters at second
-            // order has no slope at neutral to start from).
-            let mut start = current.state.clone();
-            start.effect_values.extend(cand.params.iter().map(|p| (p.id, p.value)));
-            let r = fit_from(c, frames, &m, Some(&start), &|_, _| {})?;
-            // Its parameters pay only for the combinations the data constrain.
-            cand.added_rank = r.rank.saturating_sub(current.rank);
-            cand.identifiable = cand.added_rank > 0;
-            let k = cand.added_rank as f64;
-            cand.delta_chi2 = current.chi2 - r.chi2;
-            cand.delta_bic = delta_bic(cand.delta_chi2, k as usize, &current);
-            cand.refitted = true;
-            cand.params = r.params.iter().filter(|p| p.id.effect == cand.effect).cloned().collect();
-            fits.push((cand.effect, m, r));
+            .map(|c| c.effect)
+            .collect();
+        let base_sub = if worth.is_empty() {
+            None
+        } else {
+            progress("fitting the model on the subsample");
+            Some(base_on_subsample(c, frames, &model, &current)?)
+        };
+        if let Some((sub, scale)) = &base_sub {
+            for e in &worth {
+                progress(&format!("refitting with {e} on the subsample"));
+                let cand = ranking.iter_mut().find(|c| c.effect == *e).expect("ranked");
+                refits.push(refit_on_subsample(c, frames, &model, &current, (sub, scale), cand)?);
+            }
         }
-        // Refitted (real ΔBIC) first, then the rest by score.
-        ranking.sort_by(|a, b| {
-            b.refitted
-                .cmp(&a.refitted)
-                .then(b.identifiable.cmp(&a.identifiable))
-                .then(b.delta_bic.total_cmp(&a.delta_bic))
-        });
+        let by_evidence = |ranking: &mut Vec<Candidate>| {
+            // Every pixel first, then refitted on the subsample, then the rest by score.
+            ranking.sort_by(|a, b| {
+                (b.refitted && b.every_pixel)
+                    .cmp(&(a.refitted && a.every_pixel))
+                    .then(b.refitted.cmp(&a.refitted))
+                    .then(b.identifiable.cmp(&a.identifiable))
+                    .then(b.delta_bic.total_cmp(&a.delta_bic))
+            })
+        };
+        let full_bic = |dc: f64, k: usize| delta_bic(dc, k, &current);
+        if let Some((_, scale)) = &base_sub {
+            while let Some(i) = next_to_converge(&refits, &ranking, scale) {
+                progress(&format!("refitting with {} on every pixel", refits[i].effect));
+                let cand = ranking.iter_mut().find(|c| c.effect == refits[i].effect).expect("ranked");
+                converge(c, frames, &current, &mut refits[i], cand, full_bic)?;
+            }
+        }
+        by_evidence(&mut ranking);
+        let excess = (current.chi2 - current.dof).max(0.0);
+        let evident = |c: &Candidate| c.refitted && c.every_pixel && c.delta_bic > BIC_THRESHOLD;
+        let explains = |c: &Candidate| evident(c) && c.delta_chi2 >= EXCESS_FRACTION * excess;
+        // Where the leader is evident but does not explain half alone, the runner-up
+        // is converged on every pixel too (the two together are tried on every-pixel
+        // evidence).
+        loop {
+            let pending = match (ranking.first(), ranking.get(1)) {
+                (Some(b), Some(r)) if evident(b) && !explains(b) && r.refitted && !r.every_pixel && r.identifiable => {
+                    r.effect
+                }
+                _ => break,
+            };
+            progress(&format!("refitting with {pending} on every pixel"));
+            let i = refits.iter().position(|r| r.effect == pending).expect("refitted");
+            let cand = ranking.iter_mut().find(|c| c.effect == pending).expect("ranked");
+            converge(c, frames, &current, &mut refits[i], cand, full_bic)?;
+            by_evidence(&mut ranking);
+        }
         let best = ranking.first().cloned();
         let runner = ranking.get(1).cloned();
         d.rankings.push(ranking);
-        let excess = (current.chi2 - current.dof).max(0.0);
         for cand in d.rankings.last().expect("pushed").iter().filter(|c| !c.identifiable && !c.refitted) {
             if !d.inseparable.iter().any(|(n, _)| *n == cand.effect) {
                 let why =
@@ -308,8 +349,6 @@ pub fn diagnose_frames(
                 d.inseparable.push((cand.effect, why.to_string()));
             }
         }
-        let evident = |c: &Candidate| c.refitted && c.delta_bic > BIC_THRESHOLD;
-        let explains = |c: &Candidate| evident(c) && c.delta_chi2 >= EXCESS_FRACTION * excess;
         let Some(best) = best.filter(|b| evident(b)) else { break };
         if explains(&best) {
             if let Some(r) = runner.filter(|r| explains(r)) {
@@ -317,9 +356,9 @@ pub fn diagnose_frames(
                     d.confusable.push((best.effect, r.effect));
                 }
             }
-            let (_, m, r) = fits.into_iter().find(|(e, _, _)| *e == best.effect).expect("refitted");
-            model = m;
-            current = r;
+            let refit = refits.into_iter().find(|r| r.effect == best.effect).expect("refitted");
+            model = refit.model;
+            current = refit.full.expect("converged on every pixel");
             d.selected.push(best.effect);
         } else {
             // Neither explains half alone: the best two together, each evident alone.

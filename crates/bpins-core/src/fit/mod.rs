@@ -39,6 +39,7 @@ pub mod noise;
 mod problem;
 pub mod profiles;
 pub mod radiance;
+mod refits;
 pub mod remains;
 mod request;
 mod residuals;
@@ -49,6 +50,7 @@ pub mod schur;
 mod score;
 pub mod slots;
 mod start;
+mod subfit;
 
 pub use frames::{FitFrames, Sample, DEFAULT_BUDGET_PX};
 pub use masks::sky_masks;

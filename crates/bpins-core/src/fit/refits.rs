@@ -1,0 +1,203 @@
+//! A diagnosis step's refits: each candidate worth a refit is fitted on the scoring
+//! subsample (every [`super::lm::SUBSAMPLE_STRIDE`]-th row and column, 1/9 of the samples) and
+//! ranked there by its Δχ² against the base model's own subsampled optimum; only the
+//! leader, and any candidate whose every-pixel ΔBIC could come within reach of it,
+//! is then converged on every pixel (warm-started from its subsampled optimum), for
+//! the numbers that are reported and for the acceptance decision. A ranking between
+//! candidates that differ by thousands in Δχ² does not need every pixel; a close one
+//! is decided on every pixel.
+//!
+//! ```text
+//! Δχ²_sub = χ²_sub(base) − χ²_sub(candidate)            each at its subsampled optimum
+//! ΔBIC_sub = Δχ²_sub·f − k·ln(f·n_sub)                  f = n_eff/n of the base (every pixel)
+//! ΔBIC_proj = Δχ²_sub·f·r − k·ln n_eff                  r = n/n_sub: the every-pixel ΔBIC it projects
+//! spread    = 3·f·r·(2√Δχ²_sub + √(2k))                 3σ of that projection (signal × noise cross
+//!                                                       term 2√Δχ² and the χ²_k of noise, on the subsample)
+//! close: |ΔBIC_proj,a − ΔBIC_proj,b| < CLOSE_MARGIN·BIC_THRESHOLD + spread_a + spread_b
+//! ```
+//!
+//! Units: χ² and ΔBIC have none.
+
+use super::diagnose::{Candidate, BIC_THRESHOLD};
+use super::frames::FitFrames;
+use super::subfit::{fit_subsampled, SubFit};
+use super::{fit_from, FitOptions, FitResult};
+use crate::capture::Capture;
+use crate::error::Result;
+
+/// Candidates whose projected every-pixel ΔBIC lie within this many
+/// [`BIC_THRESHOLD`]s of the leader's (beyond their 3σ spread) are converged on every
+/// pixel too: the choice between them is made on every pixel.
+pub const CLOSE_MARGIN: f64 = 5.0;
+
+/// How subsample figures scale to every pixel, from the base model of a step: its
+/// every-pixel fit and its subsampled optimum.
+pub(super) struct Scale {
+    /// n_eff/n of the base model's every-pixel residual.
+    f: f64,
+    /// Samples of every pixel over samples of the subsample.
+    ratio: f64,
+    /// Samples of the subsample.
+    n_sub: f64,
+    /// Effective samples of every pixel.
+    n_eff: f64,
+}
+
+impl Scale {
+    pub fn of(base: &FitResult, sub: &SubFit) -> Scale {
+        let n = base.samples.max(2) as f64;
+        let n_eff = base.n_eff.clamp(2.0, n);
+        Scale { f: n_eff / n, ratio: n / sub.samples.max(1) as f64, n_sub: sub.samples.max(1) as f64, n_eff }
+    }
+
+    /// ΔBIC on the subsample (the score's scale, `diagnose`'s ranking of scores).
+    pub fn sub_bic(&self, delta_chi2: f64, k: usize) -> f64 {
+        delta_chi2 * self.f - k as f64 * (self.f * self.n_sub).max(2.0).ln()
+    }
+
+    /// The every-pixel ΔBIC a subsampled Δχ² projects, and its 3σ spread.
+    fn projected(&self, delta_chi2: f64, k: usize) -> (f64, f64) {
+        let fr = self.f * self.ratio;
+        let spread = 3.0 * fr * (2.0 * delta_chi2.max(0.0).sqrt() + (2.0 * k as f64).sqrt());
+        (delta_chi2 * fr - k as f64 * self.n_eff.ln(), spread)
+    }
+
+    /// Whether two subsampled refits, each (Δχ²_sub, k), could come within reach of
+    /// each other on every pixel.
+    fn close(&self, (da, ka): (f64, usize), (db, kb): (f64, usize)) -> bool {
+        let (pa, sa) = self.projected(da, ka);
+        let (pb, sb) = self.projected(db, kb);
+        (pa - pb).abs() < CLOSE_MARGIN * BIC_THRESHOLD + sa + sb
+    }
+}
+
+/// One candidate's refit: its model, its subsampled optimum and, where converged,
+/// its every-pixel fit.
+pub(super) struct Refit {
+    pub effect: &'static str,
+    pub model: FitOptions,
+    pub sub: SubFit,
+    /// Δχ² on the subsample against the base model's subsampled optimum.
+    pub sub_delta_chi2: f64,
+    /// Constrained combinations it adds on the subsample.
+    pub sub_rank: usize,
+    pub full: Option<FitResult>,
+}
+
+/// The base model of a step on the subsample, and how its figures scale.
+pub(super) fn base_on_subsample(
+    c: &Capture,
+    frames: &FitFrames,
+    model: &FitOptions,
+    current: &FitResult,
+) -> Result<(SubFit, Scale)> {
+    let sub = fit_subsampled(c, frames, model, &current.state, current.noise)?;
+    let scale = Scale::of(current, &sub);
+    Ok((sub, scale))
+}
+
+/// Refits `cand` (added to `model`, from its score step) on the subsample and fills
+/// its ranking figures (subsample scale, `every_pixel` false).
+pub(super) fn refit_on_subsample(
+    c: &Capture,
+    frames: &FitFrames,
+    model: &FitOptions,
+    current: &FitResult,
+    (base, scale): (&SubFit, &Scale),
+    cand: &mut Candidate,
+) -> Result<Refit> {
+    let mut m = model.clone();
+    m.effects.push(crate::effects::find(cand.effect)?);
+    // Start the candidate at its score step (an effect that enters at second order
+    // has no slope at neutral to start from).
+    let mut start = current.state.clone();
+    start.effect_values.extend(cand.params.iter().map(|p| (p.id, p.value)));
+    let sub = fit_subsampled(c, frames, &m, &start, current.noise)?;
+    // Its parameters pay only for the combinations the data constrain.
+    let sub_rank = sub.rank.saturating_sub(base.rank);
+    let sub_delta_chi2 = base.chi2 - sub.chi2;
+    cand.added_rank = sub_rank;
+    cand.identifiable = sub_rank > 0;
+    cand.delta_chi2 = sub_delta_chi2;
+    cand.delta_bic = scale.sub_bic(sub_delta_chi2, sub_rank);
+    cand.refitted = true;
+    cand.every_pixel = false;
+    cand.params = sub.params.iter().filter(|p| p.id.effect == cand.effect).cloned().collect();
+    Ok(Refit { effect: cand.effect, model: m, sub, sub_delta_chi2, sub_rank, full: None })
+}
+
+/// Converges `refit` on every pixel from its subsampled optimum and fills its
+/// candidate's figures from that fit (`delta_bic(Δχ², k)`: the every-pixel ΔBIC).
+pub(super) fn converge(
+    c: &Capture,
+    frames: &FitFrames,
+    current: &FitResult,
+    refit: &mut Refit,
+    cand: &mut Candidate,
+    delta_bic: impl Fn(f64, usize) -> f64,
+) -> Result<()> {
+    let r = fit_from(c, frames, &refit.model, Some(&refit.sub.state), &|_, _| {})?;
+    cand.added_rank = r.rank.saturating_sub(current.rank);
+    cand.identifiable = cand.added_rank > 0;
+    cand.delta_chi2 = current.chi2 - r.chi2;
+    cand.delta_bic = delta_bic(cand.delta_chi2, cand.added_rank);
+    cand.every_pixel = true;
+    cand.params = r.params.iter().filter(|p| p.id.effect == cand.effect).cloned().collect();
+    refit.full = Some(r);
+    Ok(())
+}
+
+/// The refit to converge next, if any: the subsample's leader while none converged
+/// is identifiable on every pixel, else the best of the rest where it could come
+/// within reach of the best converged one.
+pub(super) fn next_to_converge(refits: &[Refit], ranking: &[Candidate], scale: &Scale) -> Option<usize> {
+    let cand = |r: &Refit| ranking.iter().find(|c| c.effect == r.effect).expect("a ranked candidate");
+    let best_full = refits
+        .iter()
+        .filter(|r| r.full.is_some() && cand(r).identifiable)
+        .max_by(|a, b| cand(a).delta_bic.total_cmp(&cand(b).delta_bic));
+    let (i, next) = refits.iter().enumerate().filter(|(_, r)| r.full.is_none() && r.sub_rank > 0).max_by(|a, b| {
+        scale.sub_bic(a.1.sub_delta_chi2, a.1.sub_rank).total_cmp(&scale.sub_bic(b.1.sub_delta_chi2, b.1.sub_rank))
+    })?;
+    match best_full {
+        None => Some(i),
+        Some(b) => scale.close((b.sub_delta_chi2, b.sub_rank), (next.sub_delta_chi2, next.sub_rank)).then_some(i),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A base of 2.5 M samples (every pixel) and 280 k on the subsample, with an
+    /// effective share `f`.
+    fn scale(f: f64) -> Scale {
+        let n = 2.5e6;
+        Scale { f, ratio: n / 2.8e5, n_sub: 2.8e5, n_eff: f * n }
+    }
+
+    #[test]
+    fn a_lead_of_thousands_is_not_close_but_two_near_noise_refits_are() {
+        // `berry`'s first step: a smooth residual (f ≈ 0.0023), the two refits 10 %
+        // apart in Δχ² on the subsample: thousands apart in projected ΔBIC.
+        let s = scale(0.0023);
+        assert!(!s.close((2.74e6, 1), (2.39e6, 7)));
+        // Its last step: white residual, both within noise on the subsample — the
+        // subsample cannot tell which (if either) passes ΔBIC 10 on every pixel.
+        let s = scale(1.0);
+        assert!(s.close((1.3, 1), (0.9, 3)));
+        // Symmetric.
+        assert_eq!(s.close((40.0, 1), (400.0, 1)), s.close((400.0, 1), (40.0, 1)));
+    }
+
+    #[test]
+    fn the_projection_scales_a_subsampled_delta_chi2_to_every_pixel() {
+        let s = scale(1.0);
+        let (p, spread) = s.projected(100.0, 1);
+        // Δχ²·r − ln n_eff, r = 2.5e6/2.8e5.
+        assert!((p - (100.0 * 2.5e6 / 2.8e5 - 2.5e6f64.ln())).abs() < 1e-9, "{p}");
+        assert!(spread > 0.0 && spread < p, "{spread} vs {p}");
+        // The subsample's own ΔBIC is on the score's scale.
+        assert!((s.sub_bic(100.0, 1) - (100.0 - 2.8e5f64.ln())).abs() < 1e-9);
+    }
+}
