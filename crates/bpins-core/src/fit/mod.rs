@@ -67,7 +67,7 @@ use crate::error::{Error, Result};
 use crate::heading::field::SkyMask;
 use noise::NoiseModel;
 use problem::problem;
-use slots::{Nuisance, SlotId};
+use slots::Nuisance;
 
 /// What to fit.
 #[derive(Clone, Debug, Default)]
@@ -147,15 +147,7 @@ pub fn fit_from(
             robust.get(p).map_or(s, |r| if s.is_finite() { s.max(*r) } else { s })
         })
     };
-    let n_global = pb.slots.n_global;
-    let effect_values: Vec<(slots::EffectParam, f64)> = pb.slots.all[..n_global]
-        .iter()
-        .zip(&theta)
-        .filter_map(|(s, &v)| match s.id {
-            SlotId::Effect(p) => Some((p, v)),
-            SlotId::Frame { .. } => None,
-        })
-        .collect();
+    let effect_values = pb.effect_values(&theta);
     let params = effect_values
         .iter()
         .enumerate()

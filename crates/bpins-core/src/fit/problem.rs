@@ -90,6 +90,19 @@ pub(crate) fn problem<'a>(
 }
 
 impl Problem<'_> {
+    /// The effects' parameters of `theta`, by name (the global slots that are effect
+    /// parameters, in slot order).
+    pub fn effect_values(&self, theta: &[f64]) -> Vec<(super::slots::EffectParam, f64)> {
+        self.slots.all[..self.slots.n_global]
+            .iter()
+            .zip(theta)
+            .filter_map(|(s, &v)| match s.id {
+                SlotId::Effect(p) => Some((p, v)),
+                SlotId::Frame { .. } => None,
+            })
+            .collect()
+    }
+
     /// The chain of frame `k` under parameters `theta`.
     pub fn chain(&self, theta: &[f64], k: usize) -> Result<FitFrame> {
         let mut set = self.opts.known.clone();

@@ -8,7 +8,6 @@
 use super::frames::FitFrames;
 use super::noise::NoiseModel;
 use super::problem::problem;
-use super::slots::{self, SlotId};
 use super::{lm, FitOptions, FitState, Param};
 use crate::capture::Capture;
 use crate::error::Result;
@@ -47,14 +46,7 @@ pub(super) fn fit_subsampled(
     let free = pb.slots.free();
     let cov = super::schur::BlockInverse::new(&acc.sys);
     let sigma = |i: usize| free.binary_search(&i).map_or(0.0, |p| cov.sigma(p));
-    let effect_values: Vec<(slots::EffectParam, f64)> = pb.slots.all[..pb.slots.n_global]
-        .iter()
-        .zip(&theta)
-        .filter_map(|(s, &v)| match s.id {
-            SlotId::Effect(p) => Some((p, v)),
-            SlotId::Frame { .. } => None,
-        })
-        .collect();
+    let effect_values = pb.effect_values(&theta);
     let params = effect_values
         .iter()
         .enumerate()
