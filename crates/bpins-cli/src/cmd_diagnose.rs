@@ -22,12 +22,26 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     let max_added = a.max_added;
     let a = a.input;
-    let bpins_core::fit::Loaded { options: base, capture: c, frames } = a.load()?;
-    let opts = DiagnoseOptions { base, max_added, ..Default::default() };
+    let (request, loaded) = a.load_request()?;
+    let opts = DiagnoseOptions { base: loaded.options.clone(), max_added, ..Default::default() };
     let spinner = indicatif::ProgressBar::new_spinner();
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
     let t0 = std::time::Instant::now();
-    let d = diagnose_frames(&c, &frames, &opts, &|what| spinner.set_message(what.to_string())).context("diagnosing")?;
+    let d = diagnose_frames(&loaded.capture, &loaded.frames, &opts, &|what| spinner.set_message(what.to_string()))
+        .context("diagnosing")?;
+    // The final model's parameters on more pixels where the sample cannot decide them
+    // but every pixel could (`fit::resolution`).
+    if let Some((budget, params)) = d.steps.last().and_then(|s| bpins_core::fit::resolution::needed_budget(&s.fit)) {
+        eprintln!(
+            "{} not told from neutral at {} px per frame (< 3σ), but every pixel would tell it: fitting the final model again on {}",
+            params.join(", "),
+            d.steps.last().map_or(0, |s| s.fit.sample.pixels_per_frame),
+            budget.map_or("every pixel".to_string(), |b| format!("a budget of {b} px per frame"))
+        );
+    }
+    let (bpins_core::fit::Loaded { capture: c, frames, .. }, d) = request
+        .raise_diagnosis_where_needed(loaded, d, &|_, it| spinner.set_message(format!("final model, iteration {it}")))
+        .context("fitting the final model on more pixels")?;
     spinner.finish_and_clear();
     print_steps(&d);
     eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());

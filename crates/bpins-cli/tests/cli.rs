@@ -989,12 +989,14 @@ fn a_frame_too_large_to_allocate_is_refused_with_its_size() {
 
 #[test]
 fn fit_reads_more_pixels_only_where_a_parameters_sigma_needs_it() {
-    // 8 frames of 256 × 256, a 0.04° analyzer offset: about 4σ on every pixel, under
-    // 3σ on a sixteenth of them (the budget): the fit raises its sample.
+    // 8 frames of 256 × 256, a 0.04° analyzer offset (beside a −0.6° one, clear at
+    // any budget): about 4σ on every pixel, under 3σ on a sixteenth of them (the
+    // budget): the fit raises its sample, and so does the diagnosis's final model.
     let tmp = tempfile::tempdir().unwrap();
     let cap = tmp.path().join("cap");
     let size = ["--width-px", "256", "--height-px", "256", "--seed", "5"];
-    bpins(&[&["simulate", "--out", &s(&cap), "--effect", "analyzer_angles.d45_deg=0.04"][..], &size[..]].concat()).ok();
+    let effects = ["--effect", "analyzer_angles.d45_deg=0.04", "--effect", "analyzer_angles.d135_deg=-0.6"];
+    bpins(&[&["simulate", "--out", &s(&cap)][..], &effects[..], &size[..]].concat()).ok();
     let fit = |out: &str, budget: &str| {
         let dir = tmp.path().join(out);
         let r = bpins(&["fit", &s(&cap), "--effects", "analyzer_angles", "--sample-budget", budget, "--out", &s(&dir)])
@@ -1014,4 +1016,16 @@ fn fit_reads_more_pixels_only_where_a_parameters_sigma_needs_it() {
     // Within the budget (every pixel read), nothing to raise.
     let (_, v) = fit("whole", "65536");
     assert!(v["raised"].is_null(), "{}", v["raised"]);
+    // The diagnosis names the effect on the sample, then fits its final model on
+    // every pixel.
+    let dir = tmp.path().join("diag");
+    bpins(&["diagnose", &s(&cap), "--sample-budget", "4096", "--max-added", "1", "--out", &s(&dir)])
+        .ok()
+        .stderr_has("fitting the final model again on every pixel");
+    let v = read_json(&dir.join("diagnosis.json"));
+    assert_eq!(v["selected"][0], "analyzer_angles");
+    let last = v["steps"].as_array().unwrap().last().unwrap();
+    assert_eq!(last["raised"]["from_budget_px"], 4096, "{}", last["raised"]);
+    assert_eq!(last["sample"]["pixels_per_frame"], 256 * 256);
+    assert!(v["steps"][0]["raised"].is_null());
 }

@@ -153,8 +153,10 @@ pub fn diagnose<'py>(
     let text = py
         .detach(|| {
             let l = req.load(&|_, _| {})?;
-            let opts = DiagnoseOptions { base: l.options, max_added, ..Default::default() };
+            let opts = DiagnoseOptions { base: l.options.clone(), max_added, ..Default::default() };
             let d = diagnose_frames(&l.capture, &l.frames, &opts, &|_| {})?;
+            // The final model on more pixels where its 1σ needs them, as the CLI does.
+            let (_, d) = req.raise_diagnosis_where_needed(l, d, &|_, _| {})?;
             Ok::<_, bpins_core::Error>(serde_json::to_string(&DiagnosisJson::new(&req.capture, &d)))
         })
         .map_err(py_err)?;
