@@ -4,7 +4,7 @@
 //! σ_full ≈ σ_s · f,   f = √(pixels per frame / frame px)      (`Sample::full_sigma_factor`)
 //! needs more pixels:  |x − x₀| < 3σ_s  and  |x − x₀| ≥ 3σ_s·f   (x₀ the effect's neutral value)
 //! need   = 1.25 · pixels per frame · (3σ_s / |x − x₀|)²
-//! budget' = frame px / s²,  s = ⌊√(frame px / need)⌋ ≥ 2        (every pixel where s < 2)
+//! budget' = frame px / s²,  s = max(⌊√(frame px / need)⌋, ⌈√(frame px / cap)⌉)   (every pixel where s < 2)
 //! ```
 //!
 //! What: a fit over the sample budget (`super::frames`) reads a stratified sample of
@@ -25,6 +25,11 @@ use super::diagnose::Diagnosis;
 use super::request::{FitRequest, Loaded};
 use super::{fit_from, FitOptions, FitResult};
 use crate::error::Result;
+
+/// The most pixels a frame a raise reads (4 × [`super::DEFAULT_BUDGET_PX`]: 8 MB a
+/// frame held), so that a raise keeps the fit's memory bounded by the frame: a frame
+/// larger than this is raised to a sample of it at most, never read whole.
+pub const RAISE_CAP_PX: usize = 4 * super::DEFAULT_BUDGET_PX;
 
 /// Significance (in 1σ) at which a parameter counts as told from its neutral value.
 pub const TOLD_SIGMA: f64 = 3.0;
@@ -65,9 +70,12 @@ pub fn needed_budget(r: &FitResult) -> Option<(Option<usize>, Vec<String>)> {
         return None;
     }
     // The sampler reads one block in s × s per stratum (s ≥ 2: a quarter of the
-    // frame at most): the largest s whose sample holds what is needed, or every pixel.
-    let s_blocks = (s.frame_px as f64 / need).sqrt().floor();
-    let budget = (s_blocks >= 2.0).then(|| (s.frame_px as f64 / (s_blocks * s_blocks)).ceil() as usize);
+    // frame at most): the largest s whose sample holds what is needed, or every pixel;
+    // never more than RAISE_CAP_PX a frame (memory stays bounded by the frame).
+    let frame = s.frame_px as f64;
+    let s_cap = (frame / RAISE_CAP_PX as f64).sqrt().ceil();
+    let s_blocks = (frame / need).sqrt().floor().max(s_cap);
+    let budget = (s_blocks >= 2.0).then(|| (frame / (s_blocks * s_blocks)).ceil() as usize);
     Some((budget, names))
 }
 
@@ -149,6 +157,13 @@ mod tests {
         assert_eq!(needed_budget(&result(0.02, 0.01, 250_000)).unwrap().0, None);
         // Every pixel already read: nothing to raise.
         assert_eq!(needed_budget(&result(0.02, 0.01, 1_000_000)), None);
+        // A 20 Mpx frame (the test's frame is 1 Mpx) at a 25th: never past the cap,
+        // however much the parameter needs.
+        let mut big = result(0.002, 0.01, 40_000);
+        big.sample.frame_px = 20_000_000;
+        big.sample.full_sigma_factor = (40_000.0f64 / 20e6).sqrt();
+        let b = needed_budget(&big).unwrap().0.unwrap();
+        assert!(b <= RAISE_CAP_PX && b > RAISE_CAP_PX / 2, "{b}");
         // An unconstrained parameter raises nothing.
         assert_eq!(needed_budget(&result(0.02, f64::INFINITY, 250_000)), None);
     }
