@@ -22,6 +22,7 @@
 use super::problem::Problem;
 use crate::error::Result;
 use crate::sensor::Layout;
+use rayon::prelude::*;
 
 /// Lag products of one frame: (Σ z·z_next, Σ z², Σ z_next²) along x, then along y.
 #[derive(Clone, Copy, Default)]
@@ -42,46 +43,62 @@ pub(super) fn effective_samples(pb: &Problem, theta: &[f64], samples: usize) -> 
         Layout::Dofp { .. } => 1,
         Layout::Colocated { channels } => channels.len(),
     };
+    // Frame by frame in parallel, summed in frame order (the same sums whatever the
+    // threads).
+    let per_frame = (0..pb.frames.len())
+        .into_par_iter()
+        .map(|k| frame_lags(pb, theta, k, lag, nq))
+        .collect::<Result<Vec<Lags>>>()?;
+    let mut lags = Lags::default();
+    for l in per_frame {
+        for i in 0..3 {
+            lags.x[i] += l.x[i];
+            lags.y[i] += l.y[i];
+        }
+    }
+    Ok(samples as f64 * factor(&lags.x) * factor(&lags.y))
+}
+
+/// The lag products of frame `k`'s residuals under `theta`.
+fn frame_lags(pb: &Problem, theta: &[f64], k: usize, lag: usize, nq: usize) -> Result<Lags> {
     let mut lags = Lags::default();
     let mut buf = Vec::new();
-    for k in 0..pb.frames.len() {
-        let f = pb.chain(theta, k)?;
-        for r in pb.frames.rects(k) {
-            let (w, h) = (r.u1 - r.u0, r.v1 - r.v0);
-            // Residual map of the rectangle: per pixel, per sample (NaN where not usable).
-            let mut z = vec![f64::NAN; w * h * nq];
-            for (u, v) in r.points(1) {
-                pb.pixel(&f, k, u, v, &mut buf);
-                for (q, &(y, m)) in buf.iter().enumerate().take(nq) {
-                    if pb.usable(k, u, v, y) {
-                        let var = pb.noise.variance_dn2(m - pb.capture.sensor.black_level_dn);
-                        z[((v - r.v0) * w + u - r.u0) * nq + q] = (y - m) / var.sqrt();
-                    }
+    let f = pb.chain(theta, k)?;
+    for r in pb.frames.rects(k) {
+        let (w, h) = (r.u1 - r.u0, r.v1 - r.v0);
+        // Residual map of the rectangle: per pixel, per sample (NaN where not usable).
+        let mut z = vec![f64::NAN; w * h * nq];
+        for (u, v) in r.points(1) {
+            pb.pixel(&f, k, u, v, &mut buf);
+            for (q, &(y, m)) in buf.iter().enumerate().take(nq) {
+                if pb.usable(k, u, v, y) {
+                    let var = pb.noise.variance_dn2(m - pb.capture.sensor.black_level_dn);
+                    z[((v - r.v0) * w + u - r.u0) * nq + q] = (y - m) / var.sqrt();
                 }
             }
-            let add = |acc: &mut [f64; 3], a: &[f64], b: &[f64]| {
-                for (&p, &q) in a.iter().zip(b) {
-                    if p.is_finite() && q.is_finite() {
-                        acc[0] += p * q;
-                        acc[1] += p * p;
-                        acc[2] += q * q;
-                    }
+        }
+        let add = |acc: &mut [f64; 3], a: &[f64], b: &[f64]| {
+            for (&p, &q) in a.iter().zip(b) {
+                if p.is_finite() && q.is_finite() {
+                    acc[0] += p * q;
+                    acc[1] += p * p;
+                    acc[2] += q * q;
                 }
-            };
-            let at = |u: usize, v: usize| &z[(v * w + u) * nq..][..nq];
-            for v in 0..h {
-                for u in 0..w {
-                    if u + lag < w {
-                        add(&mut lags.x, at(u, v), at(u + lag, v));
-                    }
-                    if v + lag < h {
-                        add(&mut lags.y, at(u, v), at(u, v + lag));
-                    }
+            }
+        };
+        let at = |u: usize, v: usize| &z[(v * w + u) * nq..][..nq];
+        for v in 0..h {
+            for u in 0..w {
+                if u + lag < w {
+                    add(&mut lags.x, at(u, v), at(u + lag, v));
+                }
+                if v + lag < h {
+                    add(&mut lags.y, at(u, v), at(u, v + lag));
                 }
             }
         }
     }
-    Ok(samples as f64 * factor(&lags.x) * factor(&lags.y))
+    Ok(lags)
 }
 
 /// g(ρ) of one direction's lag sums.

@@ -30,55 +30,67 @@ fn pol_residual(rec: &Reconstructor, meas: &[f64; 4], model: &[f64; 4]) -> (Opti
 pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64, f64)> {
     let c = pb.capture;
     let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &c.sensor.channels())?;
+    // Frame by frame in parallel, summed in frame order.
+    let per_frame =
+        (0..pb.frames.len()).into_par_iter().map(|k| frame_pol_sums(pb, &rec, theta, k)).collect::<Result<Vec<_>>>()?;
     let (mut sa, mut na, mut sd, mut nd) = (0.0, 0usize, 0.0, 0usize);
-    for k in 0..pb.frames.len() {
-        let f = pb.chain(theta, k)?;
-        let mut buf = Vec::new();
-        // (u, v): the sample's pixel (a superpixel's top-left one), for the sky mask.
-        let mut add = |u: usize, v: usize, meas: [f64; 4], model: [f64; 4]| {
-            if meas.iter().any(|&y| !pb.usable(k, u, v, y)) {
-                return;
-            }
-            let (da, dd, _) = pol_residual(&rec, &meas, &model);
-            if let Some(d) = da {
-                sa += d * d;
-                na += 1;
-            }
-            sd += dd * dd;
-            nd += 1;
-        };
-        for r in pb.frames.rects(k) {
-            match &c.sensor.layout {
-                Layout::Dofp { mosaic } => {
-                    // Whole 2 × 2 tiles (a sampled block starts at even coordinates).
-                    for j in r.v0.div_ceil(2)..r.v1 / 2 {
-                        for i in r.u0.div_ceil(2)..r.u1 / 2 {
-                            let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
-                            for (dv, row) in mosaic.iter().enumerate() {
-                                for (du, ch) in row.iter().enumerate() {
-                                    pb.pixel(&f, k, 2 * i + du, 2 * j + dv, &mut buf);
-                                    (meas[ch.index()], model[ch.index()]) = buf[0];
-                                }
+    for (a, b, c, d) in per_frame {
+        (sa, na, sd, nd) = (sa + a, na + b, sd + c, nd + d);
+    }
+    let rms = |s: f64, n: usize| if n > 0 { (s / n as f64).sqrt() } else { f64::NAN };
+    Ok((rms(sa, na), rms(sd, nd)))
+}
+
+/// Frame `k`'s sums of squared AoP residuals (with their count) and DoLP residuals
+/// (with theirs).
+fn frame_pol_sums(pb: &Problem, rec: &Reconstructor, theta: &[f64], k: usize) -> Result<(f64, usize, f64, usize)> {
+    let c = pb.capture;
+    let (mut sa, mut na, mut sd, mut nd) = (0.0, 0usize, 0.0, 0usize);
+    let f = pb.chain(theta, k)?;
+    let mut buf = Vec::new();
+    // (u, v): the sample's pixel (a superpixel's top-left one), for the sky mask.
+    let mut add = |u: usize, v: usize, meas: [f64; 4], model: [f64; 4]| {
+        if meas.iter().any(|&y| !pb.usable(k, u, v, y)) {
+            return;
+        }
+        let (da, dd, _) = pol_residual(rec, &meas, &model);
+        if let Some(d) = da {
+            sa += d * d;
+            na += 1;
+        }
+        sd += dd * dd;
+        nd += 1;
+    };
+    for r in pb.frames.rects(k) {
+        match &c.sensor.layout {
+            Layout::Dofp { mosaic } => {
+                // Whole 2 × 2 tiles (a sampled block starts at even coordinates).
+                for j in r.v0.div_ceil(2)..r.v1 / 2 {
+                    for i in r.u0.div_ceil(2)..r.u1 / 2 {
+                        let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
+                        for (dv, row) in mosaic.iter().enumerate() {
+                            for (du, ch) in row.iter().enumerate() {
+                                pb.pixel(&f, k, 2 * i + du, 2 * j + dv, &mut buf);
+                                (meas[ch.index()], model[ch.index()]) = buf[0];
                             }
-                            add(2 * i, 2 * j, meas, model);
                         }
+                        add(2 * i, 2 * j, meas, model);
                     }
                 }
-                Layout::Colocated { channels } => {
-                    for (u, v) in r.points(1) {
-                        pb.pixel(&f, k, u, v, &mut buf);
-                        let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
-                        for (c, &(y, m)) in channels.iter().zip(&buf) {
-                            (meas[c.index()], model[c.index()]) = (y, m);
-                        }
-                        add(u, v, meas, model);
+            }
+            Layout::Colocated { channels } => {
+                for (u, v) in r.points(1) {
+                    pb.pixel(&f, k, u, v, &mut buf);
+                    let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
+                    for (c, &(y, m)) in channels.iter().zip(&buf) {
+                        (meas[c.index()], model[c.index()]) = (y, m);
                     }
+                    add(u, v, meas, model);
                 }
             }
         }
     }
-    let rms = |s: f64, n: usize| if n > 0 { (s / n as f64).sqrt() } else { f64::NAN };
-    Ok((rms(sa, na), rms(sd, nd)))
+    Ok((sa, na, sd, nd))
 }
 
 /// Residual maps of a fitted model, stacked over frames (the mean of measured −
