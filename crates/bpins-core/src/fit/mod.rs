@@ -25,7 +25,12 @@
 //! it at Rayleigh's. Pixels within [`BORDER_PX`] of the sensor's edge are left out (a
 //! misfit confined to them — crosstalk's neighbour outside the sensor — must not bias
 //! a global parameter). Each parameter's 1σ is widened by √(n/n_eff), n_eff the
-//! effective sample count of neighbour-correlated residuals (`correlation`).
+//! effective sample count of neighbour-correlated residuals (`correlation`), and an
+//! effect parameter's is at least its sandwich 1σ over clusters of pixels across the
+//! frames (`robust`: a sensor's fixed pattern, the same in every frame). The normal
+//! equations are kept by blocks and solved by the Schur complement over the frames
+//! (`block`, `schur`); a parameter the sample cannot decide but every pixel could
+//! raises the sample (`resolution`).
 
 mod accumulate;
 pub mod block;
