@@ -5,7 +5,7 @@
 //! third row and column, every candidate from one pass over the samples); the strongest `refit_top` whose score is beyond noise (more
 //! than 3σ above its null distribution χ²_k: > k + 3√(2k)) are refitted on that
 //! subsample and ranked by their real Δχ² there; the leader, and any whose every-pixel
-//! ΔBIC could come within reach of it ([`refits`](super::refits): within
+//! ΔBIC could come within reach of it (`fit::refits`: within
 //! [`CLOSE_MARGIN`] thresholds beyond their 3σ spread), are converged on every pixel,
 //! ranked by ΔBIC = Δχ²·n_eff/n − k·ln n_eff (k the combinations
 //! of its parameters the data constrain beside the model's — fewer than its
