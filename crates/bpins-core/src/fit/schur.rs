@@ -292,23 +292,6 @@ impl BlockInverse {
         }
         out
     }
-
-    /// P_k = A_kk⁺ A_kg of frame `k` (n_l × n_g, in the parameters' own units): how
-    /// frame k's nuisances follow a move of the globals when re-optimised.
-    pub fn projection(&self, k: usize) -> DMatrix<f64> {
-        let (s, p) = (self.starts[k], &self.p[k]);
-        DMatrix::from_fn(
-            p.nrows(),
-            self.n_g,
-            |l, g| {
-                if self.d[g] > 0.0 {
-                    p[(l, g)] * self.d[s + l] / self.d[g]
-                } else {
-                    0.0
-                }
-            },
-        )
-    }
 }
 
 #[cfg(test)]
