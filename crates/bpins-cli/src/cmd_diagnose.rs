@@ -31,18 +31,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .context("diagnosing")?;
     // The final model's parameters on more pixels where the sample cannot decide them
     // but every pixel could (`fit::resolution`).
-    if let Some((budget, params)) = d.steps.last().and_then(|s| bpins_core::fit::resolution::needed_budget(&s.fit)) {
-        eprintln!(
-            "{} not told from neutral at {} px per frame (< 3σ), but every pixel would tell it: fitting the final model again on {}",
-            params.join(", "),
-            d.steps.last().map_or(0, |s| s.fit.sample.pixels_per_frame),
-            budget.map_or("every pixel".to_string(), |b| format!("a budget of {b} px per frame"))
-        );
-    }
     let (bpins_core::fit::Loaded { capture: c, frames, .. }, d) = request
         .raise_diagnosis_where_needed(loaded, d, &|_, it| spinner.set_message(format!("final model, iteration {it}")))
         .context("fitting the final model on more pixels")?;
     spinner.finish_and_clear();
+    if let Some(x) = d.steps.last().and_then(|s| s.fit.raised.as_ref()) {
+        eprintln!("{}", crate::raised_line(x, "the final model fitted again"));
+    }
     print_steps(&d);
     eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;

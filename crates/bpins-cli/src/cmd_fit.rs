@@ -4,7 +4,6 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::fit::resolution::TOLD_SIGMA as TOLD;
 use bpins_core::fit::{fit_from, FitJson};
 
 #[derive(clap::Args)]
@@ -28,17 +27,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let first = fit_from(&loaded.capture, &loaded.frames, &loaded.options, None, &progress).context("fitting")?;
     // A parameter the sample cannot tell from neutral but every pixel could: read
     // more of each frame and fit again (`fit::resolution`).
-    if let Some((budget, params)) = bpins_core::fit::resolution::needed_budget(&first) {
-        eprintln!(
-            "{} not told from neutral at {} px per frame (< {TOLD}σ), but every pixel would tell it: fitting again on {}",
-            params.join(", "),
-            first.sample.pixels_per_frame,
-            budget.map_or("every pixel".to_string(), |b| format!("a budget of {b} px per frame"))
-        );
-    }
     let (bpins_core::fit::Loaded { options: opts, capture: c, frames }, r) =
         request.raise_where_needed(loaded, first, &progress).context("fitting on more pixels")?;
     spinner.finish_and_clear();
+    if let Some(x) = &r.raised {
+        eprintln!("{}", crate::raised_line(x, "fitted again"));
+    }
     println!(
         "χ²/dof {:.4} ({:.0} / {:.0}), {} samples ({:.0} effective), {} iterations; noise σ_read {:.3} DN, K {:.4} DN/e⁻, PRNU {:.4} %",
         r.chi2_per_dof,

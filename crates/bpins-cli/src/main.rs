@@ -168,6 +168,18 @@ pub struct FitInput {
     pub out: std::path::PathBuf,
 }
 
+/// Why a fit read more pixels than its first sample, in words (`FitResult::raised`):
+/// `what` was done on them.
+pub fn raised_line(x: &bpins_core::fit::resolution::Raised, what: &str) -> String {
+    format!(
+        "{} not told from neutral at {} px per frame (< {}σ), but every pixel would tell them: {what} on {}",
+        x.params.join(", "),
+        x.from_budget_px,
+        bpins_core::fit::resolution::TOLD_SIGMA,
+        x.to_budget_px.map_or("every pixel".to_string(), |b| format!("a budget of {b} px per frame"))
+    )
+}
+
 /// What of each frame a fit read, in words (`FitResult::sample`).
 pub fn sample_line(s: &bpins_core::fit::Sample) -> String {
     let budget = s.budget_px.map_or("none (--full)".to_string(), |b| format!("{b} px per frame"));

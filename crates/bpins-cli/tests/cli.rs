@@ -1021,7 +1021,7 @@ fn fit_reads_more_pixels_only_where_a_parameters_sigma_needs_it() {
     let dir = tmp.path().join("diag");
     bpins(&["diagnose", &s(&cap), "--sample-budget", "4096", "--max-added", "1", "--out", &s(&dir)])
         .ok()
-        .stderr_has("fitting the final model again on every pixel");
+        .stderr_has("the final model fitted again on every pixel");
     let v = read_json(&dir.join("diagnosis.json"));
     assert_eq!(v["selected"][0], "analyzer_angles");
     let last = v["steps"].as_array().unwrap().last().unwrap();
