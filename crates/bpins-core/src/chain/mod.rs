@@ -94,6 +94,10 @@ pub struct ChainFrame {
     pub ray: [RayParams; RAY_COUNT],
     /// Each analyzer effect's vector, in registry order (`Model::analyzer`).
     pub analyzer: [AnalyzerParams; ANALYZER_COUNT],
+    /// Which of `ray` and `analyzer` are off their effect's neutral vector: the
+    /// per-pixel path skips the others (set by [`ChainFrame::new`]; after changing
+    /// `ray` or `analyzer` by hand, set it again with [`ActiveEffects::of`]).
+    pub active: ActiveEffects,
     /// The quartic sky's frame constants where `sky_neutral_points` is on.
     pub neutral: Option<NeutralPoints>,
     /// The sky's unpolarized diffuse share t (`sky_dolp_shape`; 0: Rayleigh's DoLP shape).
@@ -136,6 +140,7 @@ impl ChainFrame {
             // effect asks for it.
             ray: frame_ray_params(&model.ray, &FrameContext { sun_cam }),
             analyzer: model.analyzer,
+            active: ActiveEffects::of(&model.ray, &model.analyzer),
             neutral: (model.neutral_separation_deg != 0.0)
                 .then(|| NeutralPoints::new(&world_from_cam, sun_cam, model.neutral_separation_deg.to_radians())),
             diffuse: model.sky_diffuse,
@@ -196,6 +201,32 @@ fn true_world_from_camera(model: &Model, scene: &Scene) -> DMat3 {
         * level_from_camera(model.mount_tilt_deg[0], model.mount_tilt_deg[1])
 }
 
+/// Which per-pixel and analyzer effects of the registry are on in a frame: off their
+/// neutral vector. Each effect is the identity, bitwise, at its neutral vector
+/// (`every_registered_effect_at_neutral_gives_bitwise_the_ideal_chain`), so the
+/// per-pixel path ([`ray_stokes`], [`pixel_analyzer`]) skips the ones that are off —
+/// the same numbers, without a neutral effect's work (a die's seeded draws, a
+/// window's Fresnel terms) at every pixel of every fit's every evaluation. The row
+/// kernels skip them together instead (`rows.rs`); the GPU applies them all.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ActiveEffects {
+    pub ray: [bool; RAY_COUNT],
+    pub analyzer: [bool; ANALYZER_COUNT],
+}
+
+impl ActiveEffects {
+    /// The effects of `ray` and `analyzer` (registry order) off their neutral vector.
+    /// `ray` as the model gives it: a frame's context (the sun) completes a vector
+    /// only where its effect is on.
+    pub fn of(ray: &[RayParams; RAY_COUNT], analyzer: &[AnalyzerParams; ANALYZER_COUNT]) -> Self {
+        let (nr, na) = (neutral_ray_params(), neutral_analyzer_params());
+        ActiveEffects {
+            ray: std::array::from_fn(|k| ray[k] != nr[k]),
+            analyzer: std::array::from_fn(|k| analyzer[k] != na[k]),
+        }
+    }
+}
+
 /// Stokes vector (image frame) reaching the analyzer of pixel `(u, v)`, noise-free.
 #[inline(always)]
 pub fn pixel_stokes(f: &ChainFrame, u: f64, v: f64) -> Stokes {
@@ -203,10 +234,20 @@ pub fn pixel_stokes(f: &ChainFrame, u: f64, v: f64) -> Stokes {
     ray_stokes(f, &f.intr.geometry(u, v))
 }
 
-/// Stokes vector (image frame) arriving along the true ray `g`, noise-free.
+/// Stokes vector (image frame) arriving along the true ray `g`, noise-free: the
+/// per-pixel path, the frame's neutral effects skipped ([`ActiveEffects`]).
 #[inline(always)]
 pub fn ray_stokes(f: &ChainFrame, g: &RayGeometry) -> Stokes {
-    ray_stokes_field::<true>(f, g)
+    let s = sky_along::<true>(f, g);
+    // Per-pixel effects that are on, meridional frame, in registry order.
+    let mut s = s;
+    for k in 0..RAY_COUNT {
+        if f.active.ray[k] {
+            s = RAY_FNS[k](&f.ray[k], g, s);
+        }
+    }
+    // Rotate from the meridional frame to the image x frame.
+    meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
 }
 
 /// [`ray_stokes`] with the scene elements' step compiled out at `FIELD = false`:
@@ -215,6 +256,17 @@ pub fn ray_stokes(f: &ChainFrame, g: &RayGeometry) -> Stokes {
 /// about a tenth of its speed.
 #[inline(always)]
 pub(crate) fn ray_stokes_field<const FIELD: bool>(f: &ChainFrame, g: &RayGeometry) -> Stokes {
+    let s = sky_along::<FIELD>(f, g);
+    // Per-pixel effects (lens Mueller matrices, falloff), meridional frame, in registry order.
+    let s = ray_effects(&f.ray, g, s);
+    // Rotate from the meridional frame to the image x frame.
+    meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
+}
+
+/// The sky's Stokes vector along the true ray `g`, in its meridional frame: Rayleigh
+/// or the quartic sky, its DoLP shape, and (`FIELD`) the frame's scene elements.
+#[inline(always)]
+pub(crate) fn sky_along<const FIELD: bool>(f: &ChainFrame, g: &RayGeometry) -> Stokes {
     // Skylight along the ray, in its meridional frame (Rayleigh, or the quartic sky).
     let s = match &f.neutral {
         None => sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis),
@@ -223,14 +275,10 @@ pub(crate) fn ray_stokes_field<const FIELD: bool>(f: &ChainFrame, g: &RayGeometr
     // The sky's DoLP shape (a diffuse share), where it is on.
     let s = if f.diffuse != 0.0 { sky_dolp_shape(f.diffuse, f.dmax, s) } else { s };
     // Field conditions: the scene's radiance, clouds, sun and skyline (world-fixed).
-    let s = match &f.field {
+    match &f.field {
         Some(field) if FIELD => field_stokes(field, g.d, &g.basis, s),
         _ => s,
-    };
-    // Per-pixel effects (lens Mueller matrices, falloff), meridional frame, in registry order.
-    let s = ray_effects(&f.ray, g, s);
-    // Rotate from the meridional frame to the image x frame.
-    meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
+    }
 }
 
 /// Every per-pixel effect of the registry on the ray `g`'s meridional-frame Stokes
@@ -275,9 +323,15 @@ pub fn analyzer_effects(
 /// behind it: the channel's, changed by the analyzer effects.
 #[inline(always)]
 pub fn pixel_analyzer(f: &ChainFrame, g: &RayGeometry, u: u32, v: u32, ch: usize) -> PixelAnalyzer {
-    let a = PixelAnalyzer { analyzer: f.analyzers[ch], gain: f.gain_dn[ch] };
+    let mut a = PixelAnalyzer { analyzer: f.analyzers[ch], gain: f.gain_dn[ch] };
     let site = PixelSite { u, v, ch: ch as u32, x_px: u as f64 - f.intr.cx_px, y_px: v as f64 - f.intr.cy_px };
-    analyzer_effects(&f.analyzer, &site, g, a)
+    // `analyzer_effects`, the frame's neutral ones skipped ([`ActiveEffects`]).
+    for k in 0..ANALYZER_COUNT {
+        if f.active.analyzer[k] {
+            a = ANALYZER_FNS[k](&f.analyzer[k], &site, g, a);
+        }
+    }
+    a
 }
 
 /// Photo-signal in DN of channel `ch` at pixel (u, v), whose ray is `g`, for Stokes `s`:
@@ -436,11 +490,15 @@ pub(crate) mod tests {
         for e in crate::effects::REGISTRY {
             let mut set = EffectSet::new();
             set.enable(e.name).unwrap();
-            let f = ideal_frame(&set.model());
+            let mut f = ideal_frame(&set.model());
+            assert_eq!(f.active, ideal.active, "{} at neutral is off", e.name);
+            // Applied all the same (as the row kernels and the GPU do): the identity.
+            f.active = ActiveEffects { ray: [true; RAY_COUNT], analyzer: [true; ANALYZER_COUNT] };
             for (u, v) in [(0.0, 0.0), (305.5, 255.5), (611.0, 511.0), (17.0, 400.0)] {
                 let (a, b) = (pixel_stokes(&f, u, v), pixel_stokes(&ideal, u, v));
                 assert_eq!(a, b, "{}", e.name);
                 let g = f.intr.geometry(u, v);
+                assert_eq!(ray_stokes_field::<true>(&f, &g), a, "{}", e.name);
                 for ch in 0..4 {
                     assert_eq!(pixel_signal_dn(&f, a, ch), pixel_signal_dn(&ideal, b, ch), "{}", e.name);
                     let (uu, vv) = (u as u32, v as u32);
