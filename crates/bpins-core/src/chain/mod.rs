@@ -238,7 +238,14 @@ pub fn pixel_stokes(f: &ChainFrame, u: f64, v: f64) -> Stokes {
 /// per-pixel path, the frame's neutral effects skipped ([`ActiveEffects`]).
 #[inline(always)]
 pub fn ray_stokes(f: &ChainFrame, g: &RayGeometry) -> Stokes {
-    let s = sky_along::<true>(f, g);
+    lens_to_image(f, g, sky_along::<true>(f, g))
+}
+
+/// The lens on the sky's meridional-frame Stokes vector `s` along the ray `g`: the
+/// per-pixel effects that are on ([`ActiveEffects`]), then the rotation to the image
+/// x frame — [`ray_stokes`] after the sky ([`sky_along`]).
+#[inline(always)]
+pub(crate) fn lens_to_image(f: &ChainFrame, g: &RayGeometry, s: Stokes) -> Stokes {
     // Per-pixel effects that are on, meridional frame, in registry order.
     let mut s = s;
     for k in 0..RAY_COUNT {

@@ -13,6 +13,7 @@ use super::frames::Rect;
 use super::problem::{FitFrame, Problem};
 use super::robust::Clusters;
 use super::slots::Derivative;
+use super::stages::{Reuse, Stages};
 use crate::error::Result;
 use rayon::prelude::*;
 
@@ -58,8 +59,15 @@ enum Column {
     /// (model at plus − model at minus)/dh; `None` is the base chain. `keeps_factor`:
     /// both sides have the base's camera, sun and radiance weights, hence its radiance
     /// factor at every pixel (an effect parameter that moves neither the camera nor
-    /// the sun), which is then not formed again.
-    Difference { plus: Option<Box<FitFrame>>, minus: Option<Box<FitFrame>>, dh: f64, keeps_factor: bool },
+    /// the sun), which is then not formed again. `reuse`: what each side's chain takes
+    /// of the base's stages at the pixel (`super::stages`).
+    Difference {
+        plus: Option<Box<FitFrame>>,
+        minus: Option<Box<FitFrame>>,
+        dh: f64,
+        keeps_factor: bool,
+        reuse: [Reuse; 2],
+    },
     /// (model − offset)/value.
     Proportional { value: f64 },
     /// (model − offset)·ψ_index/R.
@@ -198,7 +206,8 @@ impl Problem<'_> {
             };
             let (plus, minus) = (side(hi)?, side(lo)?);
             let keeps_factor = [&plus, &minus].iter().all(|f| f.as_ref().is_none_or(|f| same_factor(f, base)));
-            out.push(Column::Difference { plus, minus, dh: hi - lo, keeps_factor });
+            let reuse = [&plus, &minus].map(|f| f.as_ref().map_or(Reuse::Image, |f| Reuse::between(f, base)));
+            out.push(Column::Difference { plus, minus, dh: hi - lo, keeps_factor, reuse });
         }
         Ok(out)
     }
@@ -216,7 +225,8 @@ impl Problem<'_> {
             // for the radiance columns and the factor the columns that keep it reuse.
             let phi = (fm.normal || !no_radiance).then(|| self.raw_radiance(fm.base, u, v));
             let rf = phi.as_ref().map_or(1.0, |phi| Problem::factor_of(fm.base, phi));
-            self.pixel_scaled(fm.base, fm.k, u, v, rf, &mut bufs.0);
+            // The base chain's stages, for the difference columns that reuse them.
+            let st = self.pixel_staged(fm.base, (fm.k, u, v), rf, None, &mut bufs.0);
             let samples = std::mem::take(&mut bufs.0);
             let psi = (fm.normal && !samples.is_empty()).then(|| self.basis[fm.k].psi(phi.as_ref().expect("normal")));
             for (q, &(y, m)) in samples.iter().enumerate().filter(|(_, s)| self.usable(fm.k, u, v, s.0)) {
@@ -228,7 +238,7 @@ impl Problem<'_> {
                     continue;
                 }
                 for (dj, col) in d.iter_mut().zip(fm.columns) {
-                    *dj = self.derivative(fm, col, (u, v, q), (m, rf), psi.as_ref(), &mut bufs);
+                    *dj = self.derivative(fm, col, (u, v, q), (m, rf, st), psi.as_ref(), &mut bufs);
                 }
                 for a in 0..nl {
                     acc.b[a] += wgt * d[a] * r;
@@ -243,14 +253,14 @@ impl Problem<'_> {
     }
 
     /// One Jacobian entry: ∂(model DN of sample `q` of pixel (u, v))/∂(the column's
-    /// slot), `m` the model there at θ, `rf` the base's radiance factor there and
-    /// `psi` its radiance basis.
+    /// slot), `m` the model there at θ, `rf` the base's radiance factor there, `st`
+    /// the base's chain stages there and `psi` its radiance basis.
     fn derivative(
         &self,
         fm: &FrameModel,
         col: &Column,
         (u, v, q): (usize, usize, usize),
-        (m, rf): (f64, f64),
+        (m, rf, st): (f64, f64, Option<Stages>),
         psi: Option<&[f64; super::radiance::N]>,
         bufs: &mut (Samples, Samples, Samples),
     ) -> f64 {
@@ -260,15 +270,15 @@ impl Problem<'_> {
                 (m - self.offset_dn(fm.base, u, v, q)) * psi.expect("evaluated where normal")[*index]
             }
             Column::Offset { channel } => f64::from(u8::from(self.channel_of(u, v, q) == *channel)),
-            Column::Difference { plus, minus, dh, keeps_factor } => {
-                let at = |f: &Option<Box<FitFrame>>, buf: &mut Samples| {
+            Column::Difference { plus, minus, dh, keeps_factor, reuse } => {
+                let at = |f: &Option<Box<FitFrame>>, reuse: Reuse, buf: &mut Samples| {
                     f.as_ref().map_or(m, |f| {
                         let r = if *keeps_factor { rf } else { self.factor_at(f, u, v) };
-                        self.pixel_scaled(f, fm.k, u, v, r, buf);
+                        self.pixel_staged(f, (fm.k, u, v), r, st.map(|s| (s, reuse)), buf);
                         buf[q].1
                     })
                 };
-                (at(plus, &mut bufs.1) - at(minus, &mut bufs.2)) / dh
+                (at(plus, reuse[0], &mut bufs.1) - at(minus, reuse[1], &mut bufs.2)) / dh
             }
         }
     }

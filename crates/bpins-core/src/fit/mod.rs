@@ -54,6 +54,7 @@ mod robust;
 pub mod schur;
 mod score;
 pub mod slots;
+mod stages;
 mod start;
 mod subfit;
 

@@ -5,11 +5,12 @@
 use super::frames::{value_of, FitFrames};
 use super::noise::NoiseModel;
 use super::slots::{Nuisance, SlotId, Slots};
+use super::stages::{Reuse, Stages};
 use super::{radiance, start, FitOptions, FitState, BORDER_PX};
 use crate::camera::Intrinsics;
 use crate::capture::Capture;
 use crate::capture::FrameData as Whole;
-use crate::chain::{mosaic_pixel_signal_dn, ray_stokes, site_signal_dn, ChainFrame, NoiseIndex, Scene};
+use crate::chain::{mosaic_pixel_signal_dn, ChainFrame, NoiseIndex, Scene};
 use crate::error::Result;
 use crate::heading::field::SkyMask;
 use crate::sensor::{Layout, Response};
@@ -175,12 +176,29 @@ impl Problem<'_> {
     /// radiance weights (a difference column of a parameter that moves none of them).
     #[inline]
     pub fn pixel_scaled(&self, f: &FitFrame, k: usize, u: usize, v: usize, r: f64, out: &mut Vec<(f64, f64)>) {
-        self.pixel_with(f, u, v, r, |q| self.frames.value(k, u, v, q), out)
+        self.pixel_with(f, u, v, r, |q| self.frames.value(k, u, v, q), None, out);
+    }
+
+    /// [`Problem::pixel_scaled`] from a base chain's stages of this pixel, `from`
+    /// (`None`: all evaluated): the stages it reuses are the base's, where `Reuse` is
+    /// [`Reuse::between`] `f` and that base (the same numbers). Returns `f`'s stages
+    /// (`None` under crosstalk, whose pixels are evaluated whole).
+    #[inline]
+    pub fn pixel_staged(
+        &self,
+        f: &FitFrame,
+        (k, u, v): (usize, usize, usize),
+        r: f64,
+        from: Option<(Stages, Reuse)>,
+        out: &mut Vec<(f64, f64)>,
+    ) -> Option<Stages> {
+        self.pixel_with(f, u, v, r, |q| self.frames.value(k, u, v, q), from, out)
     }
 
     /// [`Problem::pixel`] measured on `data`, a frame whole.
     pub fn pixel_of(&self, f: &FitFrame, u: usize, v: usize, data: &Whole, out: &mut Vec<(f64, f64)>) {
-        self.pixel_with(f, u, v, self.factor_at(f, u, v), |q| value_of(data, self.w(), u, v, q), out)
+        let r = self.factor_at(f, u, v);
+        self.pixel_with(f, u, v, r, |q| value_of(data, self.w(), u, v, q), None, out);
     }
 
     #[inline(always)]
@@ -191,24 +209,34 @@ impl Problem<'_> {
         v: usize,
         r: f64,
         measured: impl Fn(usize) -> f32,
+        from: Option<(Stages, Reuse)>,
         out: &mut Vec<(f64, f64)>,
-    ) {
+    ) -> Option<Stages> {
         out.clear();
         let (w, h) = (self.w(), self.h());
         match &self.capture.sensor.layout {
-            Layout::Dofp { mosaic } => {
+            // Crosstalk: the pixel's own chain and its four neighbours'.
+            Layout::Dofp { mosaic } if f.crosstalk != 0.0 => {
                 let ch = Layout::dofp_channel(mosaic, u, v).index();
                 let m = nonlinear(f, r * mosaic_pixel_signal_dn(f, u, v, w, h, mosaic)) + f.offset_dn[ch];
                 out.push((measured(0) as f64, m));
+                None
+            }
+            Layout::Dofp { mosaic } => {
+                // mosaic_pixel_signal_dn without crosstalk: the pixel's own chain.
+                let st = stages_of(f, (u, v), from);
+                let ch = Layout::dofp_channel(mosaic, u, v).index();
+                let m = nonlinear(f, r * st.signal_dn(f, (u, v), ch)) + f.offset_dn[ch];
+                out.push((measured(0) as f64, m));
+                Some(st)
             }
             Layout::Colocated { channels } => {
-                let g = f.intr.geometry(u as f64, v as f64);
-                let s = ray_stokes(f, &g);
+                let st = stages_of(f, (u, v), from);
                 for (q, c) in channels.iter().enumerate() {
-                    let signal = site_signal_dn(f, s, &g, u as u32, v as u32, c.index());
-                    let m = nonlinear(f, r * signal) + f.offset_dn[c.index()];
+                    let m = nonlinear(f, r * st.signal_dn(f, (u, v), c.index())) + f.offset_dn[c.index()];
                     out.push((measured(q) as f64, m));
                 }
+                Some(st)
             }
         }
     }
@@ -247,6 +275,15 @@ impl Problem<'_> {
             && u + b < self.w()
             && v + b < self.h()
             && self.sky[k].as_ref().is_none_or(|m| m.is_sky(u, v))
+    }
+}
+
+/// Pixel (u, v)'s chain stages under `f`: from a base's where given, else all evaluated.
+#[inline(always)]
+fn stages_of(f: &ChainFrame, uv: (usize, usize), from: Option<(Stages, Reuse)>) -> Stages {
+    match from {
+        Some((base, reuse)) => base.from(f, uv, reuse),
+        None => Stages::of(f, uv),
     }
 }
 
