@@ -93,6 +93,8 @@ fn print_steps(d: &Diagnosis) {
                 c.delta_bic,
                 if !c.identifiable {
                     "(cannot be told from the nuisances)"
+                } else if c.bounded {
+                    "(refitted on 1/9 of the pixels; its score test on every pixel stays below the threshold)"
                 } else if c.refitted && c.every_pixel {
                     "(refitted)"
                 } else if c.refitted {

@@ -318,6 +318,8 @@ fn ranking(step: usize, r: &[bpins_core::fit::diagnose::Candidate], threshold: f
             class: if c.delta_bic > threshold { "yes" } else { "no" },
             how: if !c.identifiable {
                 "cannot be told from the nuisances"
+            } else if c.bounded {
+                "refitted on every third row and column; scored on every pixel, below the threshold even at twice that Δχ² (not converged)"
             } else if c.refitted && c.every_pixel {
                 "refitted on every pixel"
             } else if c.refitted {

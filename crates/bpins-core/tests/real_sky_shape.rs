@@ -61,6 +61,50 @@ fn a_berry_shaped_sky_names_its_shape_and_nothing_else() {
     for f in &d.steps.last().unwrap().fit.frames {
         assert!(f.heading_error_deg.unwrap().abs() < 0.05, "heading error {:?}", f.heading_error_deg);
     }
+    bounds_hold(&c, &frames, &d);
+}
+
+/// What lets a diagnosis bound a near-noise refit by its every-pixel score test instead
+/// of converging it (`fit::refits`): the converged Δχ² stays within twice the one-step
+/// Δχ² (+ 1, a χ² of noise at this level). Checked for every candidate of the last,
+/// near-noise step, each scored on every pixel and then converged there; and for each
+/// the diagnosis bounded, its converged ΔBIC is below the threshold.
+fn bounds_hold(c: &Capture, frames: &[FrameData], d: &Diagnosis) {
+    use bpins_core::fit::diagnose::{BIC_THRESHOLD, SCORE_PROBE};
+    use bpins_core::fit::{fit_from, score_candidates, FitFrames, FitOptions};
+    let step = d.steps.last().unwrap();
+    let all = FitFrames::all(c, frames).unwrap();
+    let mut model = FitOptions::default();
+    for e in &step.model {
+        model.effects.push(bpins_core::effects::find(e).unwrap());
+    }
+    let ranking = d.rankings.last().unwrap();
+    let cands: Vec<_> = ranking.iter().filter(|c| c.identifiable).collect();
+    let effects: Vec<_> = cands.iter().map(|c| bpins_core::effects::find(c.effect).unwrap()).collect();
+    let scores = score_candidates(c, &all, &model, &step.fit, &effects, 1, SCORE_PROBE).unwrap();
+    assert!(cands.len() >= 10, "{} candidates", cands.len());
+    // The model itself fitted again from where the step ended: the reference each
+    // candidate's converged Δχ² is taken against (a step's fit stops within a few χ²
+    // of its optimum — what every candidate then gains beside its own share).
+    let base = fit_from(c, &all, &model, Some(&step.fit.state), &|_, _| {}).unwrap();
+    eprintln!("the model again: Δχ² {:.3}", step.fit.chi2 - base.chi2);
+    for ((cand, e), s) in cands.iter().zip(&effects).zip(&scores) {
+        let mut opts = model.clone();
+        opts.effects.push(e);
+        let mut start = step.fit.state.clone();
+        start.effect_values.extend(s.params.iter().map(|p| (p.id, p.value)));
+        let r = fit_from(c, &all, &opts, Some(&start), &|_, _| {}).unwrap();
+        let dc = base.chi2 - r.chi2;
+        let (n, n_eff) = (step.fit.samples as f64, step.fit.n_eff);
+        let k = r.rank.saturating_sub(step.fit.rank) as f64;
+        // As the diagnosis would have had it, against the step's own fit.
+        let bic = (step.fit.chi2 - r.chi2) * n_eff / n - k * n_eff.ln();
+        eprintln!("{}: one step Δχ² {:.2}, converged {dc:.2} (ΔBIC {bic:.1})", cand.effect, s.delta_chi2);
+        assert!(dc <= 2.0 * s.delta_chi2 + 1.0, "{}: converged Δχ² {dc} vs one step {}", cand.effect, s.delta_chi2);
+        if cand.bounded {
+            assert!(bic < BIC_THRESHOLD, "{}: bounded, yet its converged ΔBIC is {bic}", cand.effect);
+        }
+    }
 }
 
 #[test]

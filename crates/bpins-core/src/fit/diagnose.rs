@@ -6,7 +6,10 @@
 //! than 3σ above its null distribution χ²_k: > k + 3√(2k)) are refitted on that
 //! subsample and ranked by their real Δχ² there; the leader, and any whose every-pixel
 //! ΔBIC could come within reach of it (`fit::refits`: within
-//! [`CLOSE_MARGIN`] thresholds beyond their 3σ spread), are converged on every pixel,
+//! [`CLOSE_MARGIN`] thresholds beyond their 3σ spread), are converged on every pixel
+//! (where the subsample cannot tell whether the leader passes there, the refits are
+//! first scored on every pixel, and one below the threshold even at twice that Δχ² is
+//! not: `fit::refits`),
 //! ranked by ΔBIC = Δχ²·n_eff/n − k·ln n_eff (k the combinations
 //! of its parameters the data constrain beside the model's — fewer than its
 //! parameters where some trade exactly against the model's —, n the samples, n_eff
@@ -29,7 +32,7 @@
 //! ([`Remains`]), with the sentence rendered from it.
 
 pub use super::refits::CLOSE_MARGIN;
-use super::refits::{base_on_subsample, converge, next_to_converge, refit_on_subsample};
+use super::refits::{base_on_subsample, bound_on_every_pixel, converge, next_to_converge, refit_on_subsample};
 use super::remains::Remains;
 use super::score::score_candidates;
 use super::{fit_from, residual_maps_of, FitFrames, FitOptions, FitResult, Param};
@@ -67,6 +70,10 @@ impl Default for DiagnoseOptions {
 
 /// ΔBIC an effect must bring to be added.
 pub const BIC_THRESHOLD: f64 = 10.0;
+
+/// The score test's secant step, a fraction of each parameter's range
+/// (`score::score_candidate`'s `probe`).
+pub const SCORE_PROBE: f64 = 1e-3;
 
 /// Fraction of the model's excess χ² (χ² − dof) an effect — or the best two together
 /// — must remove to be added: an effect that only nibbles at a misfit it does not
@@ -134,6 +141,13 @@ pub struct Candidate {
     /// ranked there, clearly behind the leader; on the score's scale, 1/9 of the
     /// pixels).
     pub every_pixel: bool,
+    /// Its every-pixel figures are its score test's there (one Gauss–Newton step from
+    /// the model, not a converged refit): refitted on the subsample, where that could
+    /// not tell whether it passes on every pixel, it was scored on every pixel and stays
+    /// below the threshold even at twice that Δχ² (`fit::refits`), so it was not
+    /// converged.
+    #[serde(rename = "bounded_by_every_pixel_score")]
+    pub bounded: bool,
     /// False where the data cannot tell it from the model's other parameters.
     pub identifiable: bool,
     /// Independent combinations of its parameters the data constrain beside the
@@ -251,7 +265,7 @@ pub fn diagnose_frames(
         // columns once): under the null the score is χ²_k whatever the sample size,
         // so it is compared with k·ln n of that subsample.
         progress(&format!("scoring {} candidates", candidates.len()));
-        let scores = score_candidates(c, frames, &model, &current, &candidates, opts.score_stride, 1e-3)?;
+        let scores = score_candidates(c, frames, &model, &current, &candidates, opts.score_stride, SCORE_PROBE)?;
         let mut ranking = Vec::new();
         for (e, s) in candidates.iter().zip(scores) {
             ranking.push(Candidate {
@@ -265,6 +279,7 @@ pub fn diagnose_frames(
                 },
                 refitted: false,
                 every_pixel: false,
+                bounded: false,
                 identifiable: s.identifiable,
                 added_rank: s.added_rank,
                 params: s.params,
@@ -313,6 +328,14 @@ pub fn diagnose_frames(
         };
         let full_bic = |dc: f64, k: usize| delta_bic(dc, k, &current);
         if let Some((_, scale)) = &base_sub {
+            // Where the subsample cannot tell whether its leader passes on every pixel,
+            // the refits' score tests there bound them first (one pass for all).
+            let unsettled = next_to_converge(&refits, &ranking, scale)
+                .filter(|&i| !scale.clearly_passes(refits[i].sub_delta_chi2, refits[i].sub_rank));
+            if unsettled.is_some() {
+                progress("scoring the refits on every pixel");
+                bound_on_every_pixel(c, frames, &model, &current, &mut refits, &mut ranking, full_bic)?;
+            }
             while let Some(i) = next_to_converge(&refits, &ranking, scale) {
                 progress(&format!("refitting with {} on every pixel", refits[i].effect));
                 let cand = ranking.iter_mut().find(|c| c.effect == refits[i].effect).expect("ranked");

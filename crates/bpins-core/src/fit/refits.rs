@@ -16,10 +16,28 @@
 //! close: |ΔBIC_proj,a − ΔBIC_proj,b| < CLOSE_MARGIN·BIC_THRESHOLD + spread_a + spread_b
 //! ```
 //!
+//! Where the subsample cannot say whether the leader passes on every pixel (a
+//! near-noise step: 1/9 of the pixels cannot rule out a ΔBIC of 10 on all of them), the
+//! refits are first scored on every pixel, all from one pass (the score test at the
+//! model's every-pixel optimum, `score::score_candidates`): a refit whose ΔBIC would
+//! stay below the threshold even at twice that one-step Δχ² is bounded there and not
+//! converged. Twice, because the score test is the Δχ² of one Gauss–Newton step: exact
+//! where the model is linear in the candidate's parameters over the step (a near-noise
+//! step is ≈ 1σ), and unchanged by the column's scale where the effect enters at second
+//! order with a fixed shape (a retardance's r⁴, neutral points splitting); the factor
+//! 2 is a margin on that linearity, not a fitted figure. Under noise alone the score on
+//! every pixel is χ²_k, so a bounded refit would need a one-step Δχ² above
+//! (BIC_THRESHOLD + k·ln n_eff)/2 ≈ 20 for k = 2 to be converged (P ≈ 5·10⁻⁵).
+//!
+//! ```text
+//! bounded: ΔBIC(2·Δχ²_score, k) = 2·Δχ²_score·f − k·ln n_eff < BIC_THRESHOLD
+//! ```
+//!
 //! Units: χ² and ΔBIC have none.
 
-use super::diagnose::{Candidate, BIC_THRESHOLD};
+use super::diagnose::{Candidate, BIC_THRESHOLD, SCORE_PROBE};
 use super::frames::FitFrames;
+use super::score::score_candidates;
 use super::subfit::{fit_subsampled, SubFit};
 use super::{fit_from, FitOptions, FitResult};
 use crate::capture::Capture;
@@ -62,6 +80,13 @@ impl Scale {
         (delta_chi2 * fr - k as f64 * self.n_eff.ln(), spread)
     }
 
+    /// Whether a subsampled refit (Δχ²_sub, k) passes [`BIC_THRESHOLD`] on every pixel
+    /// beyond its projection's 3σ spread (no every-pixel bound is needed first).
+    pub fn clearly_passes(&self, delta_chi2: f64, k: usize) -> bool {
+        let (p, spread) = self.projected(delta_chi2, k);
+        p - spread > BIC_THRESHOLD
+    }
+
     /// Whether two subsampled refits, each (Δχ²_sub, k), could come within reach of
     /// each other on every pixel.
     fn close(&self, (da, ka): (f64, usize), (db, kb): (f64, usize)) -> bool {
@@ -82,6 +107,8 @@ pub(super) struct Refit {
     /// Constrained combinations it adds on the subsample.
     pub sub_rank: usize,
     pub full: Option<FitResult>,
+    /// Bounded below the threshold by its every-pixel score test (not converged).
+    pub bounded: bool,
 }
 
 /// The base model of a step on the subsample, and how its figures scale.
@@ -123,7 +150,7 @@ pub(super) fn refit_on_subsample(
     cand.refitted = true;
     cand.every_pixel = false;
     cand.params = sub.params.iter().filter(|p| p.id.effect == cand.effect).cloned().collect();
-    Ok(Refit { effect: cand.effect, model: m, sub, sub_delta_chi2, sub_rank, full: None })
+    Ok(Refit { effect: cand.effect, model: m, sub, sub_delta_chi2, sub_rank, full: None, bounded: false })
 }
 
 /// Converges `refit` on every pixel from its subsampled optimum and fills its
@@ -147,6 +174,42 @@ pub(super) fn converge(
     Ok(())
 }
 
+/// Scores the refits not yet converged or bounded on every pixel (one pass, at the
+/// model's every-pixel optimum `current`) and bounds each whose ΔBIC (`delta_bic(Δχ²,
+/// k)`, every pixel) stays below [`BIC_THRESHOLD`] at twice its one-step Δχ²: its
+/// candidate then carries the score's every-pixel figures and `bounded`.
+pub(super) fn bound_on_every_pixel(
+    c: &Capture,
+    frames: &FitFrames,
+    model: &FitOptions,
+    current: &FitResult,
+    refits: &mut [Refit],
+    ranking: &mut [Candidate],
+    delta_bic: impl Fn(f64, usize) -> f64,
+) -> Result<()> {
+    let open: Vec<usize> = (0..refits.len()).filter(|&i| refits[i].full.is_none() && !refits[i].bounded).collect();
+    let effects = open.iter().map(|&i| crate::effects::find(refits[i].effect)).collect::<Result<Vec<_>>>()?;
+    if effects.is_empty() {
+        return Ok(());
+    }
+    let scores = score_candidates(c, frames, model, current, &effects, 1, SCORE_PROBE)?;
+    for (&i, s) in open.iter().zip(scores) {
+        if s.added_rank == 0 || delta_bic(2.0 * s.delta_chi2, s.added_rank) >= BIC_THRESHOLD {
+            continue;
+        }
+        let r = &mut refits[i];
+        r.bounded = true;
+        let cand = ranking.iter_mut().find(|c| c.effect == r.effect).expect("a ranked candidate");
+        cand.delta_chi2 = s.delta_chi2;
+        cand.added_rank = s.added_rank;
+        cand.delta_bic = delta_bic(s.delta_chi2, s.added_rank);
+        cand.every_pixel = true;
+        cand.bounded = true;
+        cand.params = s.params;
+    }
+    Ok(())
+}
+
 /// The refit to converge next, if any: the subsample's leader while none converged
 /// is identifiable on every pixel, else the best of the rest where it could come
 /// within reach of the best converged one.
@@ -156,9 +219,13 @@ pub(super) fn next_to_converge(refits: &[Refit], ranking: &[Candidate], scale: &
         .iter()
         .filter(|r| r.full.is_some() && cand(r).identifiable)
         .max_by(|a, b| cand(a).delta_bic.total_cmp(&cand(b).delta_bic));
-    let (i, next) = refits.iter().enumerate().filter(|(_, r)| r.full.is_none() && r.sub_rank > 0).max_by(|a, b| {
-        scale.sub_bic(a.1.sub_delta_chi2, a.1.sub_rank).total_cmp(&scale.sub_bic(b.1.sub_delta_chi2, b.1.sub_rank))
-    })?;
+    let (i, next) = refits
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.full.is_none() && !r.bounded && r.sub_rank > 0)
+        .max_by(|a, b| {
+            scale.sub_bic(a.1.sub_delta_chi2, a.1.sub_rank).total_cmp(&scale.sub_bic(b.1.sub_delta_chi2, b.1.sub_rank))
+        })?;
     match best_full {
         None => Some(i),
         Some(b) => scale.close((b.sub_delta_chi2, b.sub_rank), (next.sub_delta_chi2, next.sub_rank)).then_some(i),
