@@ -15,6 +15,10 @@ use crate::error::Result;
 /// Row and column stride of the subsampled stage (odd: every channel of a DoFP mosaic).
 pub(super) const SUBSAMPLE_STRIDE: usize = 3;
 
+/// An accepted step that gains less than this fraction of the excess χ² (χ² − dof),
+/// and under a tenth of its prediction, ends the stage (`step`).
+const STALL_FRACTION: f64 = 1e-3;
+
 /// The stages: (name, stride, most iterations, convergence tolerance in χ²). The
 /// subsampled stage only brings the parameters near the optimum (within 1σ: a
 /// Gauss–Newton decrement below 1); every pixel then converges to 0.01.
@@ -128,7 +132,19 @@ fn step(
             // remaining decrement cannot be realised (the `split` capture's shape-only
             // refit sat at a decrement of 0.018 while λ climbed to 10¹² and every
             // step gained nothing, until the stage's iterations ran out).
-            let converged = acc.chi2 - chi2 < 1e-3 && (*lambda <= 1e-2 || decrement < 10.0 * tol);
+            let gain = acc.chi2 - chi2;
+            let converged = gain < 1e-3 && (*lambda <= 1e-2 || decrement < 10.0 * tol);
+            // Stalled: a nearly undamped step that realises under a tenth of what it
+            // predicts and gains under STALL_FRACTION of the misfit's excess over the
+            // noise (χ² − dof). The misfit is then the model's, not the optimizer's (a
+            // cloudy sky the model cannot follow: the field sample's every-pixel stage
+            // gained 0.03–0.3 % of its excess per iteration, a tenth of each prediction,
+            // until its 20 iterations ran out), and further steps would not change
+            // what its residual says. A fit that follows its data (excess near 0) is
+            // never stopped by this.
+            let excess = acc.chi2 - acc.n.saturating_sub(free.len()) as f64;
+            let stalled = *lambda <= 1e-3 && gain < 0.1 * decrement && gain < STALL_FRACTION * excess;
+            let converged = converged || stalled;
             *lambda = (*lambda * 0.1).max(1e-9);
             return Ok(Some((t, converged)));
         }
