@@ -67,18 +67,31 @@ impl PseudoInverse {
         self.n - self.null.len()
     }
 
-    /// Whether parameter `i` alone is estimable (no null direction moves it), to 1e-6.
+    /// Whether parameter `i` alone is estimable ([`estimable`]).
     pub fn estimable(&self, i: usize) -> bool {
-        self.null.iter().all(|d| d[i].abs() < 1e-6)
+        estimable(&self.null, i)
     }
 
-    /// 1σ of parameter `i`: √A⁺_ii where estimable, else infinity.
+    /// 1σ of parameter `i`: √A⁺_ii where estimable, else infinity ([`sigma`]).
     pub fn sigma(&self, i: usize) -> f64 {
-        if self.estimable(i) {
-            self.inv[(i, i)].max(0.0).sqrt()
-        } else {
-            f64::INFINITY
-        }
+        sigma(&self.null, i, self.inv[(i, i)])
+    }
+}
+
+/// Whether parameter `i` alone is estimable: no direction of `null` (unit, scaled
+/// parameters) moves it, to 1e-6 — the rule of both pseudo-inverses (this dense one
+/// and `schur::BlockInverse`).
+pub fn estimable(null: &[Vec<f64>], i: usize) -> bool {
+    null.iter().all(|d| d[i].abs() < 1e-6)
+}
+
+/// 1σ of parameter `i` from its variance `var` (A⁺_ii): √var where [`estimable`], else
+/// infinity.
+pub fn sigma(null: &[Vec<f64>], i: usize, var: f64) -> f64 {
+    if estimable(null, i) {
+        var.max(0.0).sqrt()
+    } else {
+        f64::INFINITY
     }
 }
 

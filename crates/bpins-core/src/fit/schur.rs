@@ -259,18 +259,14 @@ impl BlockInverse {
         self.n - self.null.len()
     }
 
-    /// Whether parameter `i` alone is estimable (no null direction moves it), to 1e-6.
+    /// Whether parameter `i` alone is estimable (`linalg::estimable`).
     pub fn estimable(&self, i: usize) -> bool {
-        self.null.iter().all(|d| d[i].abs() < 1e-6)
+        super::linalg::estimable(&self.null, i)
     }
 
-    /// 1σ of parameter `i`: √A⁺_ii where estimable, else infinity.
+    /// 1σ of parameter `i`: √A⁺_ii where estimable, else infinity (`linalg::sigma`).
     pub fn sigma(&self, i: usize) -> f64 {
-        if self.estimable(i) {
-            (self.d[i] * self.d[i] * self.diag[i]).max(0.0).sqrt()
-        } else {
-            f64::INFINITY
-        }
+        super::linalg::sigma(&self.null, i, self.d[i] * self.d[i] * self.diag[i])
     }
 
     /// The globals' block of A⁺ (n_g × n_g, in the parameters' own units): the
