@@ -247,12 +247,7 @@ pub fn ray_stokes(f: &ChainFrame, g: &RayGeometry) -> Stokes {
 #[inline(always)]
 pub(crate) fn lens_to_image(f: &ChainFrame, g: &RayGeometry, s: Stokes) -> Stokes {
     // Per-pixel effects that are on, meridional frame, in registry order.
-    let mut s = s;
-    for k in 0..RAY_COUNT {
-        if f.active.ray[k] {
-            s = RAY_FNS[k](&f.ray[k], g, s);
-        }
-    }
+    let s = ray_effects_where(&f.ray, &f.active.ray, g, s);
     // Rotate from the meridional frame to the image x frame.
     meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
 }
@@ -293,11 +288,20 @@ pub(crate) fn sky_along<const FIELD: bool>(f: &ChainFrame, g: &RayGeometry) -> S
 /// `ray_effects`, generated from the registry (`bpins-gpu`, `shaders.rs`).
 #[inline(always)]
 pub fn ray_effects(ray: &[RayParams; RAY_COUNT], g: &RayGeometry, s: Stokes) -> Stokes {
+    ray_effects_where(ray, &[true; RAY_COUNT], g, s)
+}
+
+/// [`ray_effects`], effect `k` applied where `on[k]` ([`ActiveEffects::ray`]; every
+/// effect for `ray_effects` itself, where the constant mask folds away).
+#[inline(always)]
+fn ray_effects_where(ray: &[RayParams; RAY_COUNT], on: &[bool; RAY_COUNT], g: &RayGeometry, s: Stokes) -> Stokes {
     // A constant table of functions: the loop unrolls and each call inlines, so the
     // row kernels still vectorize.
     let mut s = s;
     for k in 0..RAY_COUNT {
-        s = RAY_FNS[k](&ray[k], g, s);
+        if on[k] {
+            s = RAY_FNS[k](&ray[k], g, s);
+        }
     }
     s
 }
@@ -319,9 +323,24 @@ pub fn analyzer_effects(
     g: &RayGeometry,
     a: PixelAnalyzer,
 ) -> PixelAnalyzer {
+    analyzer_effects_where(p, &[true; ANALYZER_COUNT], site, g, a)
+}
+
+/// [`analyzer_effects`], effect `k` applied where `on[k]` ([`ActiveEffects::analyzer`];
+/// every effect for `analyzer_effects` itself).
+#[inline(always)]
+fn analyzer_effects_where(
+    p: &[AnalyzerParams; ANALYZER_COUNT],
+    on: &[bool; ANALYZER_COUNT],
+    site: &PixelSite,
+    g: &RayGeometry,
+    a: PixelAnalyzer,
+) -> PixelAnalyzer {
     let mut a = a;
     for k in 0..ANALYZER_COUNT {
-        a = ANALYZER_FNS[k](&p[k], site, g, a);
+        if on[k] {
+            a = ANALYZER_FNS[k](&p[k], site, g, a);
+        }
     }
     a
 }
@@ -330,15 +349,10 @@ pub fn analyzer_effects(
 /// behind it: the channel's, changed by the analyzer effects.
 #[inline(always)]
 pub fn pixel_analyzer(f: &ChainFrame, g: &RayGeometry, u: u32, v: u32, ch: usize) -> PixelAnalyzer {
-    let mut a = PixelAnalyzer { analyzer: f.analyzers[ch], gain: f.gain_dn[ch] };
+    let a = PixelAnalyzer { analyzer: f.analyzers[ch], gain: f.gain_dn[ch] };
     let site = PixelSite { u, v, ch: ch as u32, x_px: u as f64 - f.intr.cx_px, y_px: v as f64 - f.intr.cy_px };
-    // `analyzer_effects`, the frame's neutral ones skipped ([`ActiveEffects`]).
-    for k in 0..ANALYZER_COUNT {
-        if f.active.analyzer[k] {
-            a = ANALYZER_FNS[k](&f.analyzer[k], &site, g, a);
-        }
-    }
-    a
+    // The analyzer effects that are on ([`ActiveEffects`]).
+    analyzer_effects_where(&f.analyzer, &f.active.analyzer, &site, g, a)
 }
 
 /// Photo-signal in DN of channel `ch` at pixel (u, v), whose ray is `g`, for Stokes `s`:
