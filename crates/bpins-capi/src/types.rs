@@ -142,6 +142,9 @@ pub enum BpinsNoHeading {
     BPINS_NO_HEADING_POOR_FIT = 5,
     /// The solver failed (see the message).
     BPINS_NO_HEADING_SOLVER = 6,
+    /// The sky contradicts the given sun, attitude or mosaic layout beyond their 1σ
+    /// (a wrong clock or place, a wrong tilt, a flipped mosaic).
+    BPINS_NO_HEADING_CONTRADICTS = 7,
 }
 
 /// One frame's result. Without a heading (`has_heading` false) the heading and its
@@ -154,19 +157,23 @@ pub struct BpinsHeading {
     pub has_heading: bool,
     /// Heading: azimuth of the image top, degrees from North toward East, [0, 360).
     pub heading_deg: f64,
-    /// The heading's 1σ, degrees: max(fit, jackknife) in quadrature with the tilt's,
-    /// the sun's and the floor's parts below.
+    /// The heading's 1σ, degrees: max(fit, jackknife, coherent) in quadrature with the
+    /// tilt's, the sun's and the floor's parts below.
     pub sigma_deg: f64,
     /// Parts of the 1σ, degrees: the extractor's residuals (χ²-scaled), the
-    /// delete-one-block jackknife, the attitude's 1σ propagated, the sun's 1σ
-    /// propagated, the floor.
+    /// delete-one-block jackknife, the spatial sandwich over the cell grid (misfit
+    /// shared by neighbouring cells: cloud rims, an unmodelled sky), the attitude's 1σ
+    /// propagated, the sun's 1σ propagated, the floor.
     pub sigma_fit_deg: f64,
     pub sigma_jackknife_deg: f64,
+    pub sigma_coherent_deg: f64,
     pub sigma_tilt_deg: f64,
     pub sigma_sun_deg: f64,
     pub sigma_floor_deg: f64,
     /// Fraction (0…1) of the image's cells the heading rests on.
     pub used_fraction: f64,
+    /// Fraction (0…1) of the observed cells taken for cloud.
+    pub cloud_fraction: f64,
     /// Weighted RMS angle residual of the used cells, degrees.
     pub residual_rms_deg: f64,
     /// Cells of the image grid, cells past the masks, cells the final fit used.
@@ -282,6 +289,7 @@ impl BpinsCompassConfig {
             max_residual_deg: o.max_residual_deg,
             sigma_floor_deg: o.sigma_floor_deg,
             band_deg: o.band_deg,
+            ..FieldOptions::default()
         };
         Ok(cfg)
     }
@@ -324,10 +332,12 @@ impl From<&FieldHeading> for BpinsHeading {
             sigma_deg: f64::NAN,
             sigma_fit_deg: f64::NAN,
             sigma_jackknife_deg: f64::NAN,
+            sigma_coherent_deg: f64::NAN,
             sigma_tilt_deg: f64::NAN,
             sigma_sun_deg: f64::NAN,
             sigma_floor_deg: f64::NAN,
             used_fraction: q.used_fraction,
+            cloud_fraction: q.cloud_fraction,
             residual_rms_deg: q.residual_rms_deg,
             cells_total: q.cells_total as u32,
             cells_valid: q.cells_valid as u32,
@@ -342,6 +352,7 @@ impl From<&FieldHeading> for BpinsHeading {
                 out.sigma_deg = s.total_deg();
                 out.sigma_fit_deg = s.fit_deg;
                 out.sigma_jackknife_deg = s.jackknife_deg;
+                out.sigma_coherent_deg = s.coherent_deg;
                 out.sigma_tilt_deg = s.tilt_deg;
                 out.sigma_sun_deg = s.sun_deg;
                 out.sigma_floor_deg = s.floor_deg;
@@ -355,6 +366,7 @@ impl From<&FieldHeading> for BpinsHeading {
                     NoHeading::Ambiguous { .. } => BPINS_NO_HEADING_AMBIGUOUS,
                     NoHeading::PoorFit { .. } => BPINS_NO_HEADING_POOR_FIT,
                     NoHeading::Solver(_) => BPINS_NO_HEADING_SOLVER,
+                    NoHeading::Contradicts { .. } => BPINS_NO_HEADING_CONTRADICTS,
                 };
                 write_message(&mut out.message, &why.to_string());
             }

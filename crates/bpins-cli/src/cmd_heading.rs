@@ -91,8 +91,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let field = a.estimator == Estimator::Field;
     println!(
-        "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>10}  sun az/el (°), source; or why no heading",
-        "frame", "extractor", "heading (°)", "1σ (°)", "reference (°)", "error (°)", "err/1σ", "used (%)", "resid (°)"
+        "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10}  sun az/el (°), source; or why no heading",
+        "frame", "extractor", "heading (°)", "1σ (°)", "reference (°)", "error (°)", "err/1σ", "used (%)", "cloud (%)", "resid (°)"
     );
     let pb = crate::progress::bar(capture.frames.len() as u64, "frames");
     let mut rows: Vec<Row> = Vec::new();
@@ -122,11 +122,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     extra: json!({
                         "sigma_parts_deg": parts,
                         "cells_total": q.cells_total, "cells_valid": q.cells_valid, "cells_used": q.cells_used,
-                        "used_fraction": q.used_fraction, "residual_rms_deg": finite(q.residual_rms_deg),
+                        "used_fraction": q.used_fraction, "cloud_fraction": q.cloud_fraction,
+                        "residual_rms_deg": finite(q.residual_rms_deg),
                         "misfit_deg": finite(q.misfit_deg), "iterations": q.iterations,
                         "sun_elevation_offset_deg": finite(q.sun_elevation_offset_deg),
                     }),
                     used_fraction: Some(q.used_fraction),
+                    cloud_fraction: Some(q.cloud_fraction),
                     residual_deg: Some(q.residual_rms_deg),
                     sun: sun.clone(),
                 });
@@ -146,6 +148,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     why,
                     extra: json!({ "samples": samples }),
                     used_fraction: None,
+                    cloud_fraction: None,
                     residual_deg: None,
                     sun: sun.clone(),
                 });
@@ -219,6 +222,8 @@ struct Row {
     why: Option<String>,
     extra: serde_json::Value,
     used_fraction: Option<f64>,
+    /// Fraction of the observed sky taken for cloud (field estimator).
+    cloud_fraction: Option<f64>,
     residual_deg: Option<f64>,
     sun: String,
 }
@@ -232,7 +237,7 @@ impl Row {
         let opt = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map(f).unwrap_or_else(|| "—".into());
         let err = self.error_deg();
         println!(
-            "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>10}  {}",
+            "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10}  {}",
             self.file,
             self.extractor.name(),
             opt(self.heading_deg, &|x| format!("{x:.4}")),
@@ -241,6 +246,7 @@ impl Row {
             opt(err, &|x| format!("{x:+.4}")),
             opt(err.zip(self.sigma_deg).map(|(e, s)| e / s), &|x| format!("{x:+.1}")),
             opt(self.used_fraction, &|x| format!("{:.1}", 100.0 * x)),
+            opt(self.cloud_fraction, &|x| format!("{:.1}", 100.0 * x)),
             opt(self.residual_deg.filter(|x| x.is_finite()), &|x| format!("{x:.3}")),
             match &self.why {
                 Some(w) => format!("no heading: {w}"),

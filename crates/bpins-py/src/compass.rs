@@ -24,10 +24,12 @@ pub struct Heading {
     heading_deg: Option<f64>,
     /// 1σ of the heading, degrees; None without a heading.
     sigma_deg: Option<f64>,
-    /// The parts of the 1σ (fit, jackknife, tilt, sun, floor), degrees.
+    /// The parts of the 1σ (fit, jackknife, coherent, tilt, sun, floor), degrees.
     sigma_parts_deg: Option<std::collections::BTreeMap<String, f64>>,
     /// Fraction of the image the heading rests on (cells used / cells in the grid).
     used_fraction: f64,
+    /// Fraction of the observed sky taken for cloud.
+    cloud_fraction: f64,
     /// Weighted RMS angle residual of the used sky, degrees.
     residual_rms_deg: f64,
     /// Why there is no heading (None where there is one).
@@ -60,6 +62,7 @@ fn heading_of(fix: &FieldHeading, zero_copy: bool) -> Heading {
             let parts = [
                 ("fit_deg", s.fit_deg),
                 ("jackknife_deg", s.jackknife_deg),
+                ("coherent_deg", s.coherent_deg),
                 ("tilt_deg", s.tilt_deg),
                 ("sun_deg", s.sun_deg),
                 ("floor_deg", s.floor_deg),
@@ -74,6 +77,7 @@ fn heading_of(fix: &FieldHeading, zero_copy: bool) -> Heading {
         sigma_deg,
         sigma_parts_deg,
         used_fraction: q.used_fraction,
+        cloud_fraction: q.cloud_fraction,
         residual_rms_deg: q.residual_rms_deg,
         reason,
         extractor: fix.extractor.name().to_string(),

@@ -3,13 +3,17 @@
 //! ```text
 //! cloud k: centre at azimuth U(0, 360°), sin(elevation) U(sin h_min, 1) (uniform on
 //!          the sky above h_min), angular radius r_k ~ U(r_min, r_max), core
-//!          brightness b_k = 1 + (brightness − 1)·U(½, 1); per frame a turn θ_k ~ N(0, σ)
+//!          brightness b_k = 1 + (brightness − 1)·U(½, 1); per frame a turn
+//!          θ_k = σ·(√c·n₀ + √(1 − c)·n_k), n₀, n_k ~ N(0, 1), c = coherence
+//!          (n₀ is the frame's, shared by every cloud: the turns of a frame's clouds
+//!          are correlated with coefficient c, each still of spread σ)
 //! ρ²  = (1 − d·c_k)/(1 − cos r_k)          (≈ (angle from the centre / r_k)²)
 //! ρ²  ← ρ²·(1 − ½·texture·n(d))            ragged edge, n ∈ [−1, 1] seeded value noise
 //! τ   = (1 − ρ²)² inside (ρ² < 1), else 0   soft profile: 1 at the core, 0 at the edge
-//! I   ← I·(1 + (b_k − 1)·τ)
-//! DoLP ← DoLP·(1 − (1 − dolp_factor)·τ)
-//! AoE ← AoE + τ·θ_k                         (Q, U) rotated by 2τθ_k
+//! ω   = rim·4ρ²(1 − ρ²) inside, else 0      the rim: 0 at the core and the edge, `rim` at ρ² = ½
+//! I   ← I·(1 + (b_k − 1)·max(τ, ω))         rims lit like the core
+//! DoLP ← DoLP·(1 − (1 − dolp_factor)·τ)     rims stay polarized (only the core depolarizes)
+//! AoE ← AoE + max(τ, ω)·θ_k                 (Q, U) rotated by 2·max(τ, ω)·θ_k
 //! ```
 //!
 //! Each cloud in turn (overlaps compound). What this stands for: a cloud adds
@@ -21,7 +25,11 @@
 //! (Pomozi, Horváth & Wehner, "How the clear-sky angle of polarization pattern
 //! continues underneath clouds", J. Exp. Biol. 204, 2933 (2001); Hegedüs, Åkesson &
 //! Horváth, J. Opt. Soc. Am. A 24, 2347 (2007)); the defaults follow the samples'
-//! field sky (DoLP to 15 %, brighter by up to 2.5×). The profile and the turn are a
+//! field sky (DoLP to 15 %, brighter by up to 2.5×). A real cloud's sunlit rim is
+//! bright and still partly polarized with its E-vectors turned, and the turns of
+//! neighbouring clouds share the light field beneath them: `rim` and `coherence`
+//! make those (both 0 by default: the soft depolarized discs of earlier versions,
+//! bit for bit). The profile and the turn are a
 //! phenomenological model, not radiative transfer. Source: as cited. Units: angles in degrees, brightness and dolp_factor
 //! dimensionless. Frame: centres in world ENU (fixed over a capture); the Stokes
 //! vector in the ray's meridional frame (the turn is about the ray, so any frame).
@@ -36,6 +44,8 @@
 //! | `dolp_factor`        | 1    | 0.15    | [0, 1]      |
 //! | `rotation_sigma_deg` | deg  | 17      | [0, 90]     |
 //! | `texture`            | 1    | 0.3     | [0, 1]      |
+//! | `coherence`          | 1    | 0       | [0, 1]      |
+//! | `rim`                | 1    | 0       | [0, 1]      |
 //!
 //! Cannot: cloud shadows or the sun dimmed behind a cloud (the sun's disc is added
 //! after the clouds), motion during a capture, layered or overcast skies, the
@@ -69,6 +79,22 @@ pub const ELEMENT: ElementDef = ElementDef {
             "1σ of each cloud's E-vector turn, drawn per frame",
         ),
         ElementParam::real("texture", "1", 0.3, 0.0, 1.0, "raggedness of the edges (0: smooth discs)"),
+        ElementParam::real(
+            "coherence",
+            "1",
+            0.0,
+            0.0,
+            1.0,
+            "share of the turn's variance common to every cloud of a frame (correlation of two clouds' turns)",
+        ),
+        ElementParam::real(
+            "rim",
+            "1",
+            0.0,
+            0.0,
+            1.0,
+            "strength of the bright, polarized, turned rim (its turn's share of the core's at ρ² = ½)",
+        ),
     ],
 };
 
@@ -95,6 +121,8 @@ pub struct Clouds {
     pub clouds: Vec<Cloud>,
     pub dolp_factor: f64,
     pub texture: f64,
+    /// Strength of the rim, `rim`.
+    pub rim: f64,
 }
 
 impl Clouds {
@@ -105,8 +133,13 @@ impl Clouds {
         let (r_lo, r_hi) = (v[1].min(v[2]).to_radians(), v[1].max(v[2]).to_radians());
         let sin_min = v[3].to_radians().sin();
         let (brightness, dolp_factor, sigma_rad, texture) = (v[4], v[5], v[6].to_radians(), v[7]);
+        let (coherence, rim) = (v.get(8).copied().unwrap_or(0.0), v.get(9).copied().unwrap_or(0.0));
         let world = Draws::world(seed, ElementId::Clouds);
         let this_frame = Draws::frame(seed, ElementId::Clouds, frame);
+        // The frame's common turn (draw 64: past the largest count's own draws); at
+        // coherence 0 each turn is σ·n_k exactly, as before the parameter existed.
+        let common = if coherence > 0.0 { coherence.sqrt() * this_frame.normal(64) } else { 0.0 };
+        let own = (1.0 - coherence).sqrt();
         let clouds = (0..count)
             .map(|k| {
                 let u = |j: u32| world.uniform(4 * k + j);
@@ -117,22 +150,32 @@ impl Clouds {
                     centre_world: enu_from_az_el_deg(360.0 * u(0), el_deg),
                     radius_rad,
                     brightness: 1.0 + (brightness - 1.0) * (0.5 + 0.5 * u(3)),
-                    turn_rad: sigma_rad * this_frame.normal(k),
+                    turn_rad: if coherence > 0.0 {
+                        sigma_rad * (common + own * this_frame.normal(k))
+                    } else {
+                        sigma_rad * this_frame.normal(k)
+                    },
                     one_minus_cos_r,
                     reach: one_minus_cos_r / (1.0 - 0.5 * texture),
                     texture: Texture::new(seed, element_index(ElementId::Clouds), k),
                 }
             })
             .collect();
-        Clouds { clouds, dolp_factor, texture }
+        Clouds { clouds, dolp_factor, texture, rim }
     }
 
     /// The cloud profile τ ∈ [0, 1] of cloud `c` along the unit ENU ray `d`.
     #[inline]
     pub fn profile(&self, c: &Cloud, d: DVec3) -> f64 {
+        self.profiles(c, d).0
+    }
+
+    /// The core profile τ and the rim profile ω of cloud `c` along the unit ENU ray `d`.
+    #[inline]
+    pub fn profiles(&self, c: &Cloud, d: DVec3) -> (f64, f64) {
         let x = 1.0 - d.dot(c.centre_world);
         if x >= c.reach {
-            return 0.0;
+            return (0.0, 0.0);
         }
         let mut rho2 = x / c.one_minus_cos_r;
         if self.texture > 0.0 {
@@ -140,9 +183,9 @@ impl Clouds {
             rho2 *= 1.0 - 0.5 * self.texture * c.texture.fbm(d * (3.0 / c.radius_rad), 3);
         }
         if rho2 >= 1.0 {
-            return 0.0;
+            return (0.0, 0.0);
         }
-        (1.0 - rho2) * (1.0 - rho2)
+        ((1.0 - rho2) * (1.0 - rho2), self.rim * 4.0 * rho2 * (1.0 - rho2))
     }
 
     /// The sky's Stokes vector `s` (meridional frame of `ray`) seen through the clouds.
@@ -150,14 +193,16 @@ impl Clouds {
     pub fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
         let mut s = s;
         for c in &self.clouds {
-            let tau = self.profile(c, ray.d_world);
-            if tau == 0.0 {
+            let (tau, omega) = self.profiles(c, ray.d_world);
+            if tau == 0.0 && omega == 0.0 {
                 continue;
             }
-            // Brighter, less polarized, E-vector turned by τθ (Q, U rotated by 2τθ).
-            let ki = 1.0 + (c.brightness - 1.0) * tau;
+            // Brighter, less polarized at the core, E-vector turned by τθ (Q, U rotated
+            // by 2τθ); a rim (ω) lit and turned like the core but still polarized.
+            let lit = tau.max(omega);
+            let ki = 1.0 + (c.brightness - 1.0) * lit;
             let kp = ki * (1.0 - (1.0 - self.dolp_factor) * tau);
-            let (s2, c2) = (2.0 * tau * c.turn_rad).sin_cos();
+            let (s2, c2) = (2.0 * lit * c.turn_rad).sin_cos();
             s = Stokes::new(ki * s.i, kp * (c2 * s.q - s2 * s.u), kp * (s2 * s.q + c2 * s.u), kp * s.v);
         }
         s
@@ -171,7 +216,7 @@ mod tests {
     use glam::DMat3;
 
     fn values(count: f64, texture: f64) -> Vec<f64> {
-        vec![count, 5.0, 12.0, 10.0, 2.5, 0.15, 17.0, texture]
+        vec![count, 5.0, 12.0, 10.0, 2.5, 0.15, 17.0, texture, 0.0, 0.0]
     }
 
     fn through(c: &Clouds, d: DVec3, s: Stokes) -> Stokes {
@@ -227,6 +272,53 @@ mod tests {
             assert!(k.centre_world.z >= 10f64.to_radians().sin() - 1e-12);
             assert!((5.0..=12.0).contains(&k.radius_rad.to_degrees()));
         }
+    }
+
+    #[test]
+    fn coherent_turns_are_correlated_with_the_asked_coefficient_and_keep_their_spread() {
+        let mut v = values(64.0, 0.0);
+        v[8] = 0.7;
+        let frames: Vec<Clouds> = (0..60).map(|f| Clouds::new(&v, 3, f)).collect();
+        // Correlation of cloud 0's and cloud 1's turns over frames, and the pooled spread.
+        let (a, b): (Vec<f64>, Vec<f64>) = frames.iter().map(|c| (c.clouds[0].turn_rad, c.clouds[1].turn_rad)).unzip();
+        let n = a.len() as f64;
+        let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+        let cov = a.iter().zip(&b).map(|(x, y)| (x - ma) * (y - mb)).sum::<f64>() / n;
+        let (va, vb) = (a.iter().map(|x| (x - ma).powi(2)).sum::<f64>() / n, b.iter().map(|y| (y - mb).powi(2)).sum::<f64>() / n);
+        let rho = cov / (va * vb).sqrt();
+        assert!((rho - 0.7).abs() < 0.2, "correlation {rho}");
+        let all: Vec<f64> = frames.iter().flat_map(|c| c.clouds.iter().map(|k| k.turn_rad.to_degrees())).collect();
+        let sd = (all.iter().map(|t| t * t).sum::<f64>() / all.len() as f64).sqrt();
+        assert!((sd - 17.0).abs() < 2.5, "σ {sd}°");
+        // Coherence 0 is the independent draw, bit for bit.
+        let mut w = v.clone();
+        w[8] = 0.0;
+        let (x, y) = (Clouds::new(&w, 3, 5), Clouds::new(&values(64.0, 0.0), 3, 5));
+        assert_eq!(x, y);
+    }
+
+    #[test]
+    fn a_rim_is_lit_turned_and_still_polarized_and_rim_zero_is_the_old_cloud() {
+        let mut v = values(1.0, 0.0);
+        v[9] = 1.0;
+        let c = Clouds::new(&v, 11, 2);
+        let k = &c.clouds[0];
+        let side = k.centre_world.cross(DVec3::Z).normalize();
+        // ρ² = ½: the rim's peak, τ = ¼.
+        let a = (1.0 - 0.5 * k.one_minus_cos_r).acos();
+        let d = k.centre_world * a.cos() + side * a.sin();
+        let (tau, omega) = c.profiles(k, d);
+        assert!((tau - 0.25).abs() < 1e-9 && (omega - 1.0).abs() < 1e-9, "{tau} {omega}");
+        let s = through(&c, d, SKY);
+        let turn = crate::conventions::wrap_deg_90((s.aop_rad() - SKY.aop_rad()).to_degrees());
+        assert!((turn - k.turn_rad.to_degrees()).abs() < 1e-6, "rim turned by the whole θ: {turn}");
+        assert!((s.i / SKY.i - k.brightness).abs() < 1e-9, "rim lit like the core");
+        assert!((s.dolp() / SKY.dolp() - (1.0 - 0.85 * 0.25)).abs() < 1e-9, "rim keeps most of its DoLP");
+        let mut w = v.clone();
+        w[9] = 0.0;
+        let plain = Clouds::new(&w, 11, 2);
+        let old = through(&plain, d, SKY);
+        assert!((old.i / SKY.i - (1.0 + (k.brightness - 1.0) * 0.25)).abs() < 1e-9);
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! d_w = world_from_cam · d                       the ray in the world (ENU)
 //! S   ← sky_radiance(d_w, S)                    CIE radiance distribution (a scalar)
 //! S   ← clouds(d_w, S)                          each cloud in turn
+//! S   ← overcast(d_w, S)                        the deck, where it covers the ray
 //! S   ← sun_disc(d_w, S)                        disc and aureole added (unpolarized)
 //! S   ← skyline(d_w, S)                         trees, buildings, ground in front
 //! ```
@@ -14,7 +15,7 @@
 //! sun), elements' strengths relative to the Rayleigh sky's zenith radiance
 //! `½(1 + sin²h_sun)` of the frame.
 
-use super::{clouds::Clouds, sky_radiance::SkyRadiance, skyline::Skyline, sun_disc::SunDisc};
+use super::{clouds::Clouds, overcast::Overcast, sky_radiance::SkyRadiance, skyline::Skyline, sun_disc::SunDisc};
 use super::{ElementId, FieldScene, ELEMENTS};
 use crate::camera::MeridionalBasis;
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
@@ -34,6 +35,7 @@ pub struct FieldFrame {
     pub zenith_radiance: f64,
     pub sky_radiance: Option<SkyRadiance>,
     pub clouds: Option<Clouds>,
+    pub overcast: Option<Overcast>,
     pub sun_disc: Option<SunDisc>,
     pub skyline: Option<Skyline>,
 }
@@ -51,6 +53,7 @@ impl FieldFrame {
             zenith_radiance,
             sky_radiance: scene.values(ElementId::SkyRadiance).map(|v| SkyRadiance::new(v, sun_world)),
             clouds: scene.values(ElementId::Clouds).map(|v| Clouds::new(v, seed, frame)),
+            overcast: scene.values(ElementId::Overcast).map(|v| Overcast::new(v, seed, frame)),
             sun_disc: scene.values(ElementId::SunDisc).map(|v| SunDisc::new(v, sun_world, zenith_radiance)),
             skyline: scene.values(ElementId::Skyline).map(|v| Skyline::new(v, seed, zenith_radiance)),
         }
@@ -82,6 +85,10 @@ pub fn field_stokes(f: &FieldFrame, d_cam: DVec3, basis: &MeridionalBasis, sky: 
     }
     // Clouds fixed in the world: brighter, less polarized, their E-vectors turned.
     if let Some(e) = &f.clouds {
+        s = e.apply(&ray, s);
+    }
+    // A cloud deck fixed in the world, with holes of clear sky.
+    if let Some(e) = &f.overcast {
         s = e.apply(&ray, s);
     }
     // The sun's disc and aureole: unpolarized radiance added.

@@ -20,6 +20,7 @@
 pub mod attitude;
 pub mod clouds;
 mod frame;
+pub mod overcast;
 pub mod sky_radiance;
 pub mod skyline;
 pub mod sun_disc;
@@ -38,6 +39,7 @@ pub enum ElementId {
     Clouds,
     SunDisc,
     Skyline,
+    Overcast,
 }
 
 /// One parameter of a scene element.
@@ -93,9 +95,11 @@ impl ElementDef {
     }
 }
 
-/// Every scene element, in the order [`field_stokes`] applies them (back to front).
+/// Every scene element. [`field_stokes`] applies them back to front: the sky's
+/// radiance, clouds, the overcast deck, the sun's disc, the skyline. (The registry's
+/// order keys each element's seeded draws, so a new element goes last here.)
 pub static ELEMENTS: &[&ElementDef] =
-    &[&sky_radiance::ELEMENT, &clouds::ELEMENT, &sun_disc::ELEMENT, &skyline::ELEMENT];
+    &[&sky_radiance::ELEMENT, &clouds::ELEMENT, &sun_disc::ELEMENT, &skyline::ELEMENT, &overcast::ELEMENT];
 
 /// Looks an element up by name.
 pub fn find_element(name: &str) -> Result<&'static ElementDef> {

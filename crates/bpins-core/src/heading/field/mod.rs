@@ -80,7 +80,9 @@
 //! in the calibration biases it like any extractor.
 
 pub mod cells;
+mod clouds;
 mod robust;
+mod spatial;
 mod stats;
 
 pub use cells::{Cell, CellScratch, Cells, RawDn, RawImage};
@@ -149,13 +151,18 @@ pub struct FieldOptions {
     /// Fewest cells, and least fraction of the image's cells, a heading may rest on.
     pub min_cells: usize,
     pub min_used_fraction: f64,
-    /// Used cells whose RMS angle residual exceeds this: the sky does not follow the
-    /// model (no heading), degrees.
+    /// Used cells whose RMS angle residual beyond their noise exceeds this: the sky
+    /// does not follow the model (no heading), degrees.
     pub max_residual_deg: f64,
     /// Floor of the 1σ for what no model here describes, degrees.
     pub sigma_floor_deg: f64,
     /// Half-width of the AoE band of the meridian line, degrees.
     pub band_deg: f64,
+    /// The sun's elevation the sky shows may differ from the given one by this much
+    /// (in quadrature with 4σ of the given sun and tilt) before the frame is refused as
+    /// contradicting its inputs (a wrong clock or place, a wrong tilt, a flipped
+    /// mosaic), degrees.
+    pub max_sun_offset_deg: f64,
 }
 
 impl Default for FieldOptions {
@@ -165,10 +172,11 @@ impl Default for FieldOptions {
             horizon_margin_deg: 3.0,
             sun_exclusion_deg: 15.0,
             min_cells: 40,
-            min_used_fraction: 0.03,
-            max_residual_deg: 8.0,
+            min_used_fraction: 0.005,
+            max_residual_deg: 4.0,
             sigma_floor_deg: 0.01,
             band_deg: 5.0,
+            max_sun_offset_deg: 5.0,
         }
     }
 }
@@ -190,8 +198,17 @@ pub enum NoHeading {
          the horizon, or too little sky)"
     )]
     Ambiguous { best_deg: f64, other_deg: f64 },
-    #[error("the used sky misfits the model by {residual_deg:.2}° RMS (more than {limit_deg:.1}°)")]
+    #[error(
+        "the used sky misfits the model by {residual_deg:.2}° RMS beyond its noise (more than {limit_deg:.1}°: \
+         an overcast, turned cloud rims everywhere, or a mosaic layout that is not the sensor's)"
+    )]
     PoorFit { residual_deg: f64, limit_deg: f64 },
+    #[error(
+        "the sky contradicts the given sun or attitude: its sun stands {offset_deg:+.1}° from the given \
+         elevation, more than the {limit_deg:.1}° their 1σ allow (a wrong clock or place, a wrong tilt, or a \
+         mosaic layout that is not the sensor's)"
+    )]
+    Contradicts { offset_deg: f64, limit_deg: f64 },
     #[error("{0}")]
     Solver(String),
 }
@@ -203,6 +220,13 @@ pub struct SigmaParts {
     pub fit_deg: f64,
     /// Delete-one-block jackknife over the image (correlated misfit).
     pub jackknife_deg: f64,
+    /// Spatial HAC sandwich over the cell grid (a misfit shared by neighbouring cells:
+    /// cloud rims, an unmodelled sky), `spatial.rs`.
+    pub coherent_deg: f64,
+    /// The used sky's misfit beyond what a clear sky leaves: a third of
+    /// √(residual² − 1°²) (step 5): what no sandwich sees, a turn shared by the whole
+    /// used sky (the rims of clouds that turn together).
+    pub misfit_deg: f64,
     /// The reference tilt's 1σ, propagated.
     pub tilt_deg: f64,
     /// The sun position's 1σ, propagated.
@@ -212,10 +236,15 @@ pub struct SigmaParts {
 }
 
 impl SigmaParts {
-    /// The total: max(fit, jackknife) in quadrature with the rest.
+    /// The total: max(fit, jackknife, coherent) in quadrature with the rest.
     pub fn total_deg(&self) -> f64 {
-        let data = self.fit_deg.max(self.jackknife_deg);
-        (data * data + self.tilt_deg.powi(2) + self.sun_deg.powi(2) + self.floor_deg.powi(2)).sqrt()
+        let data = self.fit_deg.max(self.jackknife_deg).max(self.coherent_deg);
+        (data * data
+            + self.misfit_deg.powi(2)
+            + self.tilt_deg.powi(2)
+            + self.sun_deg.powi(2)
+            + self.floor_deg.powi(2))
+        .sqrt()
     }
 }
 
@@ -235,6 +264,10 @@ pub struct FieldQuality {
     pub misfit_deg: f64,
     /// Robust iterations run.
     pub iterations: usize,
+    /// Fraction of the observed cells (`cells_valid`) taken for cloud: depolarized
+    /// against the clear sky's DoLP, or brighter than the smooth sky, where such cells
+    /// cluster (grown by their soft edges).
+    pub cloud_fraction: f64,
     /// Elevation of the sun the sky's pattern shows (unconstrained sun vector, level
     /// frame by the reference tilt) minus the known elevation, degrees: a check on the
     /// reference tilt and the sun (a tilt error about the horizontal axis across the
@@ -258,11 +291,11 @@ pub struct FieldQuality {
 ///         Err(_) => None,
 ///     }
 /// }
-/// let sigma = SigmaParts { fit_deg: 0.02, jackknife_deg: 0.03, tilt_deg: 0.04, sun_deg: 0.0, floor_deg: 0.0 };
+/// let sigma = SigmaParts { fit_deg: 0.02, jackknife_deg: 0.03, tilt_deg: 0.04, ..Default::default() };
 /// let h = FieldHeading { extractor: Extractor::SunVector, result: Ok((123.4, sigma)), quality: FieldQuality::default() };
 /// let (deg, one_sigma) = to_filter(&h).unwrap();
 /// assert_eq!(deg, 123.4);
-/// assert!((one_sigma - 0.05).abs() < 1e-12); // max(fit, jackknife) ⊕ tilt
+/// assert!((one_sigma - 0.05).abs() < 1e-12); // max(fit, jackknife, coherent) ⊕ tilt
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct FieldHeading {

@@ -2,7 +2,9 @@
 //! (About 540 lines: the loop reads as one sequence of its steps; its masks and order
 //! statistics are in `stats.rs`.)
 
-use super::stats::{clustered, dilate, median, quantile, tukey};
+use super::clouds::{brighter, clear_dmax, depolarized, propagate, CellSky};
+use super::spatial::coherent_sigma_deg;
+use super::stats::{clustered, dilate, quantile, tukey};
 use super::{Cells, FieldContext, FieldHeading, FieldOptions, FieldQuality, NoHeading, SigmaParts};
 use crate::camera::meridional_basis;
 use crate::conventions::{heading_deg_from_level_sun, image_angle_rad, level_from_camera, wrap_deg_180};
@@ -16,17 +18,15 @@ use std::f64::consts::{FRAC_PI_2, PI};
 /// Jackknife blocks per side of the image (BLOCKS² in all).
 const BLOCKS: usize = 4;
 /// Cost cap of the start search: a cell off by more than this is an outlier, radians.
-const SEARCH_CAP_RAD: f64 = 10.0 * PI / 180.0;
+const SEARCH_CAP_RAD: f64 = 2.0 * PI / 180.0;
 /// Per-cell model error assumed by the start search, radians (so no cell dominates).
-const SEARCH_SIGMA_RAD: f64 = 1.0 * PI / 180.0;
+const SEARCH_SIGMA_RAD: f64 = 0.3 * PI / 180.0;
 /// Cells the start search reads at most (evenly strided).
 const SEARCH_CELLS: usize = 400;
 /// A second minimum of the start cost within this of the first is ambiguous (χ² units
 /// of the 1° per-cell error the search assumes).
 const AMBIGUITY_CHI2: f64 = 9.0;
 const MAX_ITERATIONS: usize = 8;
-/// Cells whose DoLP is below this fraction of the sky's Rayleigh DoLP are not sky.
-const DOLP_FRACTION: f64 = 0.6;
 /// Clustered rejections grow by this many cells (soft edges of clouds and crowns).
 const DILATE_CELLS: isize = 2;
 
@@ -37,6 +37,8 @@ struct Obs {
     d: DVec3,
     e: DVec3,
     dolp: f64,
+    /// ln of the cell's mean radiance, DN above black.
+    ln_i: f64,
     /// Noise variance of the cell's AoP, rad².
     var_aop: f64,
     block: usize,
@@ -93,6 +95,7 @@ fn observe(
                 d,
                 e,
                 dolp: pol / sm.i,
+                ln_i: c.stokes.i.max(1e-9).ln(),
                 var_aop,
                 block: block_of(c.col, cells.cols) + BLOCKS * block_of(c.row, cells.rows),
                 grid: c.row as usize * cells.cols + c.col as usize,
@@ -159,7 +162,9 @@ fn search(obs: &[Obs], ctx: &FieldContext, sub: &mut Vec<(Obs, f64)>) -> Result<
             })
             .sum::<f64>()
     };
-    let grid: [(f64, f64); 90] = std::array::from_fn(|k| (4.0 * k as f64, cost(4.0 * k as f64)));
+    // 1° steps: the cap is tight (a basin about 2° wide), so a coarser grid could
+    // step over the sky's own minimum.
+    let grid: [(f64, f64); 360] = std::array::from_fn(|k| (k as f64, cost(k as f64)));
     let refine = |centre: f64| {
         let fine = |c: f64, step: f64| {
             (-6..=6).map(|k| c + step * k as f64).map(|p| (p, cost(p))).fold((c, f64::INFINITY), min_by_cost)
@@ -196,15 +201,13 @@ fn min_by_cost(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
 }
 
 /// Step 4's weights for the sun at `s` into `b.w`: (robust weight, σ² = σ_α² + τ²,
-/// sin²γ, δ) per cell; returns τ.
+/// sin²γ, δ) per cell; `b.cloud` marks the cells taken for cloud (`clouds.rs`).
+/// Returns τ.
 fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: usize, b: &mut Bufs) -> f64 {
     let cos_excl = opts.sun_exclusion_deg.to_radians().cos();
     b.res.clear();
     b.res.extend(obs.iter().map(|o| residual(o, s)));
-    // τ: the lower quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015), so that up to three
-    // quarters of the cells may be clouds or trees: δ²/(v + τ²) ≤ c ⟺ (δ² − c·v)/c ≤ τ²,
-    // so τ² is the lower quartile of (δ² − c·v)/c (0 where the noise explains it); the
-    // cells near the sun and the anti-sun are left out of it.
+    // Which cells fit the sun, by the misfit scale of every cell (clouds included).
     b.t.clear();
     b.t.extend(
         obs.iter()
@@ -212,13 +215,45 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
             .filter(|(_, r)| r.2.abs() < cos_excl)
             .map(|(o, r)| (r.0.powi(2) - CHI2_1_Q25 * o.var_aop) / CHI2_1_Q25),
     );
-    let tau2 = quantile(&mut b.t, 0.25).max(0.0);
+    let tau2_all = quantile(&mut b.t, 0.25).max(0.0);
+    let tau2_all = if tau2_all.is_finite() { tau2_all } else { 0.0 };
+    // Clouds: depolarized against the clear sky's expectation, or brighter than the
+    // smooth sky (clouds.rs).
+    clouds(obs, tau2_all, opts.min_cells, cols, grid_len / cols.max(1), b);
+    // Cloud cells that cluster, grown by their soft edges: a cloud's rim is turned
+    // like its core but may keep its DoLP and its brightness.
+    b.mask.clear();
+    b.mask.resize(grid_len, false);
+    for (o, &c) in obs.iter().zip(&b.cloud) {
+        b.mask[o.grid] = c;
+    }
+    let rows = grid_len / cols.max(1);
+    clustered(&b.mask, cols, &mut b.clustered);
+    dilate(&b.clustered, cols, rows, DILATE_CELLS as usize, &mut b.tmp, &mut b.grown);
+    // τ: the lower quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015) over the clear cells
+    // away from clouds, so that up to three quarters of them may still be misfit by
+    // what the cloud tests miss: δ²/(v + τ²) ≤ c ⟺ (δ² − c·v)/c ≤ τ², so τ² is the
+    // lower quartile of (δ² − c·v)/c (0 where the noise explains it); the cells near
+    // the sun and the anti-sun are left out of it. Where too few cells lie away from
+    // clouds, every cell that is not cloud counts.
+    let away = obs.iter().zip(&b.res).filter(|(o, r)| r.2.abs() < cos_excl && !b.grown[o.grid]).count();
+    let min_away = opts.min_cells.min(obs.len());
+    b.t.clear();
+    b.t.extend(
+        obs.iter()
+            .zip(&b.res)
+            .zip(&b.cloud)
+            .filter(|((o, r), &cloud)| {
+                r.2.abs() < cos_excl && !cloud && (away < min_away || !b.grown[o.grid])
+            })
+            .map(|((o, r), _)| (r.0.powi(2) - TAU_CHI2 * o.var_aop) / TAU_CHI2),
+    );
+    let tau2 = quantile(&mut b.t, TAU_Q).max(0.0);
     let tau2 = if tau2.is_finite() { tau2 } else { 0.0 };
-    depolarized(obs, &b.res, tau2, &mut b.t, &mut b.depol);
     b.w.clear();
-    b.w.extend(obs.iter().zip(&b.res).zip(&b.depol).map(|((o, &(delta, sg2, cg)), &depol)| {
+    b.w.extend(obs.iter().zip(&b.res).zip(&b.cloud).map(|((o, &(delta, sg2, cg)), &cloud)| {
         let var = o.var_aop + tau2;
-        let w = if cg.abs() < cos_excl && !depol { tukey(delta / var.sqrt()) } else { 0.0 };
+        let w = if cg.abs() < cos_excl && !cloud { tukey(delta / var.sqrt()) } else { 0.0 };
         (w, var, sg2, delta)
     }));
     // A rejected cell's neighbours are suspect: clouds and crowns have soft edges whose
@@ -231,7 +266,6 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
             b.mask[o.grid] = true;
         }
     }
-    let rows = grid_len / cols.max(1);
     clustered(&b.mask, cols, &mut b.clustered);
     dilate(&b.clustered, cols, rows, DILATE_CELLS as usize, &mut b.tmp, &mut b.grown);
     for (o, x) in obs.iter().zip(b.w.iter_mut()) {
@@ -242,6 +276,28 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
     tau2.sqrt()
 }
 
+/// Into `b.cloud`: the cells the cloud tests take for cloud (`clouds.rs`) against the
+/// sun of the residuals in `b.res` (δ, sin²γ, cos γ); `tau2` says which cells fit.
+fn clouds(obs: &[Obs], tau2: f64, min_cells: usize, cols: usize, rows: usize, b: &mut Bufs) {
+    b.sky.clear();
+    b.sky.extend(obs.iter().zip(&b.res).map(|(o, r)| CellSky {
+        dolp: o.dolp,
+        ln_i: o.ln_i,
+        cg: r.2,
+        z: o.d.z,
+        fits: r.0.powi(2) < 9.0 * (o.var_aop + tau2),
+        grid: o.grid,
+    }));
+    let dmax = clear_dmax(&b.sky, min_cells, &mut b.t);
+    depolarized(&b.sky, dmax, &mut b.depol);
+    b.clear.clear();
+    b.clear.extend(b.sky.iter().zip(&b.depol).map(|(c, &d)| c.fits && c.verifiable() && !d));
+    brighter(&b.sky, &b.clear, &mut b.t, &mut b.bright);
+    b.cloud.clear();
+    b.cloud.extend(b.depol.iter().zip(&b.bright).map(|(&d, &br)| d || br));
+    propagate(&b.sky, cols, rows, &mut b.cloud, &mut b.votes);
+}
+
 /// |cos γ| back from sin²γ.
 fn cg_of(sg2: f64) -> f64 {
     (1.0 - sg2).max(0.0).sqrt()
@@ -249,27 +305,8 @@ fn cg_of(sg2: f64) -> f64 {
 
 /// The lower quartile of χ² with one degree of freedom.
 const CHI2_1_Q25: f64 = 0.1015;
-
-/// Whether each cell is depolarized: its DoLP under DOLP_FRACTION of the Rayleigh
-/// prediction `d_max·sin²γ/(1 + cos²γ)` where that is > 0.2 (clouds, foliage, the
-/// aureole), d_max the median ratio over the cells that fit (`res`: δ, sin²γ, cos γ).
-/// Into `out`; `ratios` is a buffer.
-fn depolarized(obs: &[Obs], res: &[(f64, f64, f64)], tau2: f64, ratios: &mut Vec<f64>, out: &mut Vec<bool>) {
-    let dpred = |cg: f64| (1.0 - cg * cg) / (1.0 + cg * cg);
-    ratios.clear();
-    ratios.extend(
-        (0..obs.len())
-            .filter(|&i| dpred(res[i].2) > 0.3 && res[i].0.powi(2) < 9.0 * (obs[i].var_aop + tau2))
-            .map(|i| obs[i].dolp / dpred(res[i].2)),
-    );
-    let dmax = median(ratios);
-    out.clear();
-    out.extend(
-        obs.iter()
-            .zip(res)
-            .map(|(o, r)| dmax.is_finite() && dpred(r.2) > 0.2 && o.dolp < DOLP_FRACTION * dmax * dpred(r.2)),
-    );
-}
+const TAU_Q: f64 = 0.25;
+const TAU_CHI2: f64 = CHI2_1_Q25;
 
 /// Per-block weighted sums of one extractor: the sun vector's scatter, or the
 /// meridian band (cells with |ψ| < band inside the zenith disc).
@@ -339,7 +376,12 @@ pub struct Scratch {
 struct Bufs {
     res: Vec<(f64, f64, f64)>,
     t: Vec<f64>,
+    sky: Vec<CellSky>,
     depol: Vec<bool>,
+    bright: Vec<bool>,
+    clear: Vec<bool>,
+    cloud: Vec<bool>,
+    votes: Vec<[u32; 2]>,
     w: Vec<(f64, f64, f64, f64)>,
     mask: Vec<bool>,
     clustered: Vec<bool>,
@@ -351,6 +393,10 @@ struct Bufs {
 pub(super) struct Robust {
     /// The sun vector's heading the weights settled on, degrees.
     pub(super) heading_deg: f64,
+    /// The heading's 1σ under the spatially correlated misfit (`spatial.rs`), degrees.
+    pub(super) coherent_deg: f64,
+    /// The used cells' RMS angle residual beyond their noise, degrees.
+    pub(super) misfit_rms_deg: f64,
     pub(super) quality: FieldQuality,
 }
 
@@ -398,6 +444,9 @@ pub(super) fn robust(
     quality.used_fraction = quality.cells_used as f64 / quality.cells_total.max(1) as f64;
     let (sw, swd2) = w.iter().filter(|x| x.0 >= 0.5).fold((0.0, 0.0), |(a, b), x| (a + x.0, b + x.0 * x.3 * x.3));
     quality.residual_rms_deg = if sw > 0.0 { (swd2 / sw).sqrt().to_degrees() } else { f64::NAN };
+    // The same beyond the cells' noise: what of it the sky's pattern does not explain.
+    let noise = obs.iter().zip(w.iter()).filter(|(_, x)| x.0 >= 0.5).map(|(o, x)| x.0 * o.var_aop).sum::<f64>();
+    let misfit_rms_deg = if sw > 0.0 { ((swd2 - noise).max(0.0) / sw).sqrt().to_degrees() } else { f64::NAN };
     // The sky's own sun (the unconstrained sun vector), as a check on the attitude: its
     // elevation in the level frame minus the known one.
     let hint = cone_sun(ctx, psi);
@@ -406,19 +455,34 @@ pub(super) fn robust(
         let s = if vecs[0].dot(hint) < 0.0 { -vecs[0] } else { vecs[0] };
         quality.sun_elevation_offset_deg = s.z.clamp(-1.0, 1.0).asin().to_degrees() - ctx.sun_el_deg;
     }
-    // The sky mask's non-sky: clusters of depolarized cells, grown (w is final, so
-    // step 4's other buffers are free).
+    // The 1σ the residual's spatial coherence allows (spatial.rs): each used cell's
+    // score on the sun's cone, a_i = ∂δ_i/∂ψ by a difference of 0.01°.
+    let ahead = cone_sun(ctx, psi + 0.01);
+    let coherent_deg = coherent_sigma_deg(
+        obs.iter().zip(w.iter()).filter(|(_, x)| x.0 > 0.0).map(|(o, x)| {
+            let wi = x.0 / x.1;
+            let a = (residual(o, ahead).0 - x.3) / 0.01;
+            (o.grid, wi * x.3 * a, wi * a * a)
+        }),
+        cells.cols,
+        cells.rows,
+        &mut b.t,
+    );
+    // The sky mask's non-sky: clusters of cloud cells (clouds.rs), grown (w is final,
+    // so step 4's other buffers are free).
     b.res.clear();
     b.res.extend(obs.iter().map(|o| residual(o, hint)));
-    depolarized(obs, &b.res, tau * tau, &mut b.t, &mut b.depol);
+    clouds(obs, tau * tau, opts.min_cells, cells.cols, cells.rows, b);
     b.mask.clear();
     b.mask.resize(cells.grid_len(), false);
-    for (o, &d) in obs.iter().zip(&b.depol) {
+    for (o, &d) in obs.iter().zip(&b.cloud) {
         b.mask[o.grid] = d;
     }
     clustered(&b.mask, cells.cols, &mut b.clustered);
     dilate(&b.clustered, cells.cols, cells.rows, DILATE_CELLS as usize, &mut b.tmp, &mut sc.sky_grown);
-    Ok(Robust { heading_deg: psi, quality })
+    let clouded = obs.iter().filter(|o| sc.sky_grown[o.grid]).count();
+    quality.cloud_fraction = clouded as f64 / obs.len().max(1) as f64;
+    Ok(Robust { heading_deg: psi, coherent_deg, misfit_rms_deg, quality })
 }
 
 impl Scratch {
@@ -450,11 +514,15 @@ pub(super) fn fitted(
     if quality.cells_used < min_used {
         return Err((quality, NoHeading::TooLittleSky { used: quality.cells_used, total: quality.cells_total }));
     }
-    if quality.residual_rms_deg > opts.max_residual_deg {
-        return Err((
-            quality,
-            NoHeading::PoorFit { residual_deg: quality.residual_rms_deg, limit_deg: opts.max_residual_deg },
-        ));
+    // The sky's own sun against the given one: a clock or place that is wrong, a tilt
+    // that is wrong about the axis across the sun, or a mosaic read with the wrong
+    // layout all move it by more than the inputs' 1σ can.
+    let limit_deg = opts.max_sun_offset_deg.hypot(4.0 * ctx.sun_sigma_deg.hypot(ctx.tilt_sigma_deg));
+    if quality.sun_elevation_offset_deg.abs() > limit_deg {
+        return Err((quality, NoHeading::Contradicts { offset_deg: quality.sun_elevation_offset_deg, limit_deg }));
+    }
+    if r.misfit_rms_deg > opts.max_residual_deg {
+        return Err((quality, NoHeading::PoorFit { residual_deg: r.misfit_rms_deg, limit_deg: opts.max_residual_deg }));
     }
     Ok(r)
 }
@@ -472,8 +540,32 @@ pub(super) fn heading(
     let band = meridian_band(ctx, opts, level, cells);
     let hint = cone_sun(ctx, r.heading_deg);
     let blocks = block_sums(&sc.obs, &sc.b.w, e, band);
-    let result = finish(&blocks, e, ctx, opts, hint, level).map_err(NoHeading::Solver);
+    let result = finish(&blocks, e, ctx, opts, hint, level)
+        .map(|(h, parts)| {
+            let coherent_deg = if r.coherent_deg.is_finite() { r.coherent_deg } else { 0.0 };
+            (h, SigmaParts { coherent_deg, misfit_deg: misfit_sigma_deg(r.misfit_rms_deg), ..parts })
+        })
+        .map_err(NoHeading::Solver);
     FieldHeading { extractor: e, result, quality: r.quality }
+}
+
+/// What a clear sky's unmodelled structure leaves in the used cells' residual (a Berry
+/// sky, the aureole, a tilted fisheye's skyline: ≤ 1.2° RMS in the field table),
+/// degrees.
+const CLEAR_RESIDUAL_DEG: f64 = 1.5;
+/// The share of the used sky's excess misfit taken as a heading bias: ~1/√(the ~10
+/// independent misfit regions of a cloudy frame), calibrated on the cloud table
+/// (`field_conditions::cloudy`), where the error of the frames whose rims turn
+/// together runs at a third of their residual.
+const MISFIT_SHARE: f64 = 1.0 / 3.0;
+
+/// Step 5's misfit part from the used cells' RMS residual beyond their noise
+/// (degrees): a third of it beyond a clear sky's, 0 on a sky the model follows.
+fn misfit_sigma_deg(misfit_rms_deg: f64) -> f64 {
+    if !misfit_rms_deg.is_finite() {
+        return 0.0;
+    }
+    MISFIT_SHARE * (misfit_rms_deg.powi(2) - CLEAR_RESIDUAL_DEG.powi(2)).max(0.0).sqrt()
 }
 
 fn sum_blocks(blocks: &[HeadingSums]) -> HeadingSums {
@@ -540,6 +632,14 @@ fn finish(
     let tilt_deg = ctx.tilt_sigma_deg * dpsi(eps, 0.0).hypot(dpsi(0.0, eps));
     Ok((
         heading_deg,
-        SigmaParts { fit_deg, jackknife_deg, tilt_deg, sun_deg: ctx.sun_sigma_deg, floor_deg: opts.sigma_floor_deg },
+        SigmaParts {
+            fit_deg,
+            jackknife_deg,
+            coherent_deg: 0.0,
+            misfit_deg: 0.0,
+            tilt_deg,
+            sun_deg: ctx.sun_sigma_deg,
+            floor_deg: opts.sigma_floor_deg,
+        },
     ))
 }

@@ -1,0 +1,300 @@
+//! Clouds found from what the camera sees (step 4 of `mod.rs`), per cell:
+//!
+//! ```text
+//! depolarized:  DoLP < DOLP_FRACTION · d_ref · D(γ),   D(γ) = sin²γ/(1 + cos²γ)  (Rayleigh, seed eq. 1)
+//!               d_ref = max(median r, UPPER_SHARE · upper r, CLEAR_DMAX_MIN)
+//!               r = DoLP/D(γ) over the cells that fit the sun; `upper`: the ratio that
+//!               the most polarized max(min_cells, 3 %) of them reach
+//! brighter:     ln I − m(γ, z) > max(ln BRIGHT_FACTOR, 5 · 1.4826 · MAD)
+//!               m a smooth radiance (ln I on 1, γ, z, γ², z², γz, centred and scaled)
+//!               fitted by least squares to the clear cells that fit the sun
+//! ```
+//!
+//! Why: a cloud adds multiply-scattered, nearly unpolarized light, so its DoLP falls
+//! and its radiance rises above the sky's smooth distribution (Pomozi, Horváth &
+//! Wehner, J. Exp. Biol. 204, 2933 (2001)). The DoLP test needs a clear-sky
+//! expectation that an overcast cannot drag down: relative to the frame's median
+//! alone, an overcast that covers most of the sky *is* the median and its holes look
+//! like outliers; the upper share and an absolute floor (no clear sky at a
+//! scattering angle of 90° gives less than 20 % DoLP outside dust storms and smoke;
+//! Horváth & Varjú, *Polarized Light in Animal Vision* (2004), ch. 11) keep the
+//! clear patches as the reference. A bright rim that stays polarized fails the DoLP
+//! test and passes the brightness test.
+//!
+//! Frame: the level camera frame (γ from the sun on its cone, z the ray's elevation
+//! sine). Cannot: tell a cloud from haze that depolarizes the whole sky evenly (that
+//! is d_max, which the extractors do not need), or a dark cloud (its radiance below
+//! the sky's: it still fails the DoLP test if it depolarizes).
+
+use super::stats::{median, quantile};
+use nalgebra::{SMatrix, SVector};
+
+/// Cells whose DoLP is below this fraction of the clear sky's expectation are cloud.
+pub(super) const DOLP_FRACTION: f64 = 0.6;
+/// The upper ratio counts at this share (a clear patch's own d_max, less its spread).
+const UPPER_SHARE: f64 = 0.8;
+/// No clear sky has a d_max below this (an absolute expectation).
+const CLEAR_DMAX_MIN: f64 = 0.2;
+/// Cells brighter than the smooth sky by this factor (and by 5 robust σ) are cloud.
+const BRIGHT_FACTOR: f64 = 1.25;
+
+/// Rayleigh's DoLP at scattering angle γ over d_max, from cos γ.
+#[inline]
+pub(super) fn rayleigh_dolp(cg: f64) -> f64 {
+    (1.0 - cg * cg) / (1.0 + cg * cg)
+}
+
+/// What a cell offers the cloud tests.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CellSky {
+    pub dolp: f64,
+    /// ln of the cell's mean radiance (DN above black).
+    pub ln_i: f64,
+    /// cos γ from the current sun, and the ray's elevation sine (level frame).
+    pub cg: f64,
+    pub z: f64,
+    /// Whether the cell fits the current sun (its angle residual within 3σ).
+    pub fits: bool,
+    /// Index in the cell grid (row-major).
+    pub grid: usize,
+}
+
+impl CellSky {
+    /// Whether the cell's DoLP can tell cloud from sky (Rayleigh's DoLP there above
+    /// VERIFIABLE of d_max).
+    #[inline]
+    pub fn verifiable(&self) -> bool {
+        rayleigh_dolp(self.cg) > VERIFIABLE
+    }
+}
+
+/// The clear sky's d_max as the cells show it (see the module's equation); NaN when
+/// no cell fits. `ratios` is a buffer.
+pub(super) fn clear_dmax(cells: &[CellSky], min_cells: usize, ratios: &mut Vec<f64>) -> f64 {
+    ratios.clear();
+    ratios.extend(cells.iter().filter(|c| c.fits && rayleigh_dolp(c.cg) > 0.3).map(|c| c.dolp / rayleigh_dolp(c.cg)));
+    if ratios.is_empty() {
+        return f64::NAN;
+    }
+    let n = ratios.len();
+    let top = min_cells.max((0.03 * n as f64).ceil() as usize).min(n);
+    let upper = quantile(ratios, 1.0 - top as f64 / n as f64);
+    let mid = median(ratios);
+    mid.max(UPPER_SHARE * upper).max(CLEAR_DMAX_MIN)
+}
+
+/// Into `out`: whether each cell is depolarized against the clear sky's `dmax`, where
+/// Rayleigh's DoLP there is > VERIFIABLE of d_max (γ > 23° from the sun and the
+/// anti-sun; closer, a cell's DoLP says nothing).
+pub(super) fn depolarized(cells: &[CellSky], dmax: f64, out: &mut Vec<bool>) {
+    out.clear();
+    out.extend(cells.iter().map(|c| {
+        let d = rayleigh_dolp(c.cg);
+        dmax.is_finite() && d > VERIFIABLE && c.dolp < DOLP_FRACTION * dmax * d
+    }));
+}
+
+/// Rayleigh's DoLP over d_max above which a cell's DoLP can tell cloud from sky.
+const VERIFIABLE: f64 = 0.08;
+
+/// Into `out`: whether each cell is brighter than the smooth sky fitted to the clear
+/// cells (`clear`: fits, verifiable and not depolarized); only verifiable cells are
+/// marked (closer to the sun the smooth sky is an extrapolation). Nothing is marked
+/// when fewer than 20 cells are clear. `r` is a buffer.
+pub(super) fn brighter(cells: &[CellSky], clear: &[bool], r: &mut Vec<f64>, out: &mut Vec<bool>) {
+    out.clear();
+    out.resize(cells.len(), false);
+    let n = clear.iter().filter(|&&c| c).count();
+    if n < 20 {
+        return;
+    }
+    // Features centred and scaled on the clear cells, so the normal equations are
+    // well conditioned whatever the field of view.
+    let (mut mg, mut mz) = (0.0, 0.0);
+    for (c, _) in cells.iter().zip(clear).filter(|x| *x.1) {
+        mg += c.cg.clamp(-1.0, 1.0).acos();
+        mz += c.z;
+    }
+    let (mg, mz) = (mg / n as f64, mz / n as f64);
+    let (mut sg, mut sz) = (0.0, 0.0);
+    for (c, _) in cells.iter().zip(clear).filter(|x| *x.1) {
+        sg += (c.cg.clamp(-1.0, 1.0).acos() - mg).powi(2);
+        sz += (c.z - mz).powi(2);
+    }
+    let (sg, sz) = ((sg / n as f64).sqrt().max(1e-3), (sz / n as f64).sqrt().max(1e-3));
+    let basis = |c: &CellSky| {
+        let g = (c.cg.clamp(-1.0, 1.0).acos() - mg) / sg;
+        let z = (c.z - mz) / sz;
+        SVector::<f64, 6>::from([1.0, g, z, g * g, z * z, g * z])
+    };
+    let mut a = SMatrix::<f64, 6, 6>::zeros();
+    let mut b = SVector::<f64, 6>::zeros();
+    for (c, _) in cells.iter().zip(clear).filter(|x| *x.1) {
+        let x = basis(c);
+        a += x * x.transpose();
+        b += x * c.ln_i;
+    }
+    // A little ridge: a narrow field of view leaves the quadratic terms weak.
+    let ridge = 1e-6 * a.trace().max(1e-12);
+    for k in 0..6 {
+        a[(k, k)] += ridge;
+    }
+    let Some(ch) = a.cholesky() else { return };
+    let coef = ch.solve(&b);
+    r.clear();
+    r.extend(cells.iter().zip(clear).filter(|x| *x.1).map(|(c, _)| c.ln_i - basis(c).dot(&coef)));
+    let med = median(r);
+    for x in r.iter_mut() {
+        *x = (*x - med).abs();
+    }
+    let mad = 1.4826 * median(r);
+    let cut = BRIGHT_FACTOR.ln().max(5.0 * mad);
+    for (o, c) in out.iter_mut().zip(cells) {
+        *o = c.verifiable() && c.ln_i - basis(c).dot(&coef) - med > cut;
+    }
+}
+
+/// Cells within this many cells of an unverifiable one vote on its label.
+const VOTE_RADIUS: usize = 6;
+
+/// Unverifiable cells (near the sun and the anti-sun, where a cell's DoLP says
+/// nothing) take the label of the verifiable cells within VOTE_RADIUS of them (or
+/// the nearest, the window doubling until it holds some): cloud
+/// where more of those are cloud than clear (an overcast reaches into the sun's
+/// region; a clear sky does too). `cloud` is read for the verifiable cells and
+/// written for the others; `votes` is a buffer of the grid's summed-area tables.
+pub(super) fn propagate(cells: &[CellSky], cols: usize, rows: usize, cloud: &mut [bool], votes: &mut Vec<[u32; 2]>) {
+    let (w, h) = (cols + 1, rows + 1);
+    votes.clear();
+    votes.resize(w * h, [0, 0]);
+    for (c, &cl) in cells.iter().zip(cloud.iter()) {
+        if c.verifiable() {
+            let (r, k) = (c.grid / cols, c.grid % cols);
+            votes[(r + 1) * w + k + 1][cl as usize] += 1;
+        }
+    }
+    // Summed-area table: votes[r][k] = counts over rows < r, columns < k.
+    for r in 1..h {
+        for k in 1..w {
+            for j in 0..2 {
+                votes[r * w + k][j] = votes[r * w + k][j] + votes[(r - 1) * w + k][j] + votes[r * w + k - 1][j]
+                    - votes[(r - 1) * w + k - 1][j];
+            }
+        }
+    }
+    for (c, cl) in cells.iter().zip(cloud.iter_mut()) {
+        if c.verifiable() {
+            continue;
+        }
+        let (r, k) = (c.grid / cols, c.grid % cols);
+        // The nearest verifiable cells: the window doubles until it holds some.
+        let mut radius = VOTE_RADIUS;
+        let (clear, clouded) = loop {
+            let (r0, r1) = (r.saturating_sub(radius), (r + radius + 1).min(rows));
+            let (k0, k1) = (k.saturating_sub(radius), (k + radius + 1).min(cols));
+            let count =
+                |j: usize| votes[r1 * w + k1][j] + votes[r0 * w + k0][j] - votes[r0 * w + k1][j] - votes[r1 * w + k0][j];
+            let (clear, clouded) = (count(0), count(1));
+            if clear + clouded > 0 || radius >= rows.max(cols) {
+                break (clear, clouded);
+            }
+            radius *= 2;
+        };
+        *cl = clouded > clear;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A clear sky of d_max `dmax` on a ring of scattering angles, radiance smooth.
+    fn sky(dmax: f64, n: usize) -> Vec<CellSky> {
+        (0..n)
+            .map(|i| {
+                let g = (40.0 + 100.0 * i as f64 / n as f64).to_radians();
+                let z = 0.4 + 0.5 * ((i * 7) % n) as f64 / n as f64;
+                let cg = g.cos();
+                CellSky { dolp: dmax * rayleigh_dolp(cg), ln_i: (1.0 + cg * cg).ln() + 0.3 * z, cg, z, fits: true, grid: i }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_clear_sky_is_neither_depolarized_nor_bright() {
+        let cells = sky(0.6, 500);
+        let mut buf = Vec::new();
+        let d = clear_dmax(&cells, 40, &mut buf);
+        assert!((d - 0.6).abs() < 1e-9, "{d}");
+        let (mut dep, mut br) = (Vec::new(), Vec::new());
+        depolarized(&cells, d, &mut dep);
+        brighter(&cells, &vec![true; cells.len()], &mut buf, &mut br);
+        assert!(!dep.iter().any(|&x| x) && !br.iter().any(|&x| x));
+    }
+
+    #[test]
+    fn an_overcast_majority_does_not_hide_its_holes() {
+        // 92 % of the cells an overcast at 8 % of the sky's DoLP, 8 % clear holes.
+        let mut cells = sky(0.6, 1000);
+        for (i, c) in cells.iter_mut().enumerate() {
+            if i % 100 >= 8 {
+                c.dolp *= 0.08;
+            }
+        }
+        let mut buf = Vec::new();
+        let d = clear_dmax(&cells, 40, &mut buf);
+        assert!(d > 0.4, "the holes' d_max, not the overcast's: {d}");
+        let mut dep = Vec::new();
+        depolarized(&cells, d, &mut dep);
+        for (i, x) in dep.iter().enumerate() {
+            assert_eq!(*x, i % 100 >= 8, "cell {i}");
+        }
+        // All overcast: the absolute floor still calls it cloud.
+        for c in &mut cells {
+            c.dolp = 0.6 * 0.08 * rayleigh_dolp(c.cg);
+        }
+        let d = clear_dmax(&cells, 40, &mut buf);
+        depolarized(&cells, d, &mut dep);
+        assert!(dep.iter().filter(|&&x| x).count() > 900, "an all-overcast sky is cloud");
+    }
+
+    #[test]
+    fn unverifiable_cells_take_their_neighbours_label() {
+        // A 20 × 20 grid; the left half overcast, the right half clear; a 4 × 4 patch
+        // near the sun (γ = 10°: unverifiable) on each side.
+        let (cols, rows) = (20, 20);
+        let sun_cg = 10f64.to_radians().cos();
+        let cells: Vec<CellSky> = (0..cols * rows)
+            .map(|g| {
+                let (r, k) = (g / cols, g % cols);
+                let near_sun = (8..12).contains(&r) && ((2..6).contains(&k) || (14..18).contains(&k));
+                let cg = if near_sun { sun_cg } else { 0.0 };
+                CellSky { dolp: 0.5, ln_i: 0.0, cg, z: 0.5, fits: true, grid: g }
+            })
+            .collect();
+        let mut cloud: Vec<bool> = cells.iter().map(|c| c.verifiable() && c.grid % cols < 10).collect();
+        let mut votes = Vec::new();
+        propagate(&cells, cols, rows, &mut cloud, &mut votes);
+        for c in &cells {
+            let k = c.grid % cols;
+            assert_eq!(cloud[c.grid], k < 10, "cell {} (verifiable {})", c.grid, c.verifiable());
+        }
+    }
+
+    #[test]
+    fn bright_patches_are_found_and_a_smooth_gradient_is_not() {
+        let mut cells = sky(0.6, 800);
+        for (i, c) in cells.iter_mut().enumerate() {
+            c.ln_i += 0.8 * c.z * c.z; // a smooth brightening toward the zenith: no cloud
+            if (300..340).contains(&i) {
+                c.ln_i += 1.6f64.ln(); // a cloud 1.6× brighter
+            }
+        }
+        let clear: Vec<bool> = (0..cells.len()).map(|i| !(300..340).contains(&i)).collect();
+        let (mut buf, mut br) = (Vec::new(), Vec::new());
+        brighter(&cells, &clear, &mut buf, &mut br);
+        for (i, x) in br.iter().enumerate() {
+            assert_eq!(*x, (300..340).contains(&i), "cell {i}");
+        }
+    }
+}
