@@ -31,3 +31,48 @@ fn the_field_estimator_is_accurate_and_honest_in_every_condition() {
     // Every pixel as an independent sample: a 1σ that covers its error almost nowhere.
     assert!(plain_overconfident >= 5, "plain sun vector overconfident in only {plain_overconfident} conditions");
 }
+
+/// The cloudy conditions (`field_conditions::cloudy`: rims that turn together, broken
+/// skies, an overcast with holes, a veil) at half resolution under three scene seeds,
+/// six frames each: per condition and extractor, ≥ 90 % of the answered frames
+/// within 2σ and none beyond 4σ (the honesty target); a frame may be refused
+/// (too little clear sky, a sky that misfits), but the veil and the broken skies,
+/// which keep plenty of clear sky, are answered, and the overcast's holes carry a
+/// heading in at least a quarter of the frames.
+#[test]
+fn under_clouds_the_field_estimator_is_honest_and_holes_carry_a_heading() {
+    use bpins_core::field_conditions::{cloudy, score_field_all};
+    let names: Vec<&str> = cloudy(1, 2, 0).unwrap().iter().map(|c| c.name).collect();
+    for (k, name) in names.iter().enumerate() {
+        let sims: Vec<_> =
+            (40..43).map(|seed| cloudy(6, 2, seed).unwrap().swap_remove(k).simulate(seed).unwrap()).collect();
+        for e in Extractor::ALL {
+            let f = score_field_all(&sims, e, &FieldOptions::default()).unwrap();
+            eprintln!("{name} / {}: {f:?}", e.name());
+            if f.with_heading == 0 {
+                // The meridian line needs the solar meridian's band in the clear sky.
+                assert!(*name == "fisheye_overcast_holes" && e == Extractor::MeridianLine, "{name}: {f:?}");
+                continue;
+            }
+            assert!(f.within_2sigma >= 0.9, "{name} / {}: {f:?}", e.name());
+            assert!(f.max_error_over_sigma <= 4.0, "{name} / {}: {f:?}", e.name());
+        }
+        let sv = score_field_all(&sims, Extractor::SunVector, &FieldOptions::default()).unwrap();
+        match *name {
+            "veil" | "broken_tilted" | "fisheye_broken_tilted" => {
+                assert_eq!(sv.with_heading, sv.frames, "{name}: {sv:?}");
+                assert!(sv.rms_error_deg <= 0.3, "{name}: {sv:?}");
+            }
+            "fisheye_overcast_holes" => {
+                // At half resolution the holes' cells are noisier; at full resolution 28 of
+                // the README table's 40 frames are answered.
+                assert!(sv.with_heading * 4 >= sv.frames, "{name}: the holes carry a heading: {sv:?}");
+                assert!(sv.median_cloud_fraction > 0.8, "{name}: {sv:?}");
+            }
+            _ => {}
+        }
+        if *name == "veil" {
+            assert!(sv.median_cloud_fraction < 0.05, "a veil is not cloud: {sv:?}");
+        }
+    }
+}

@@ -223,10 +223,13 @@ pub struct SigmaParts {
     /// Spatial HAC sandwich over the cell grid (a misfit shared by neighbouring cells:
     /// cloud rims, an unmodelled sky), `spatial.rs`.
     pub coherent_deg: f64,
-    /// The used sky's misfit beyond what a clear sky leaves: a third of
-    /// √(residual² − 1°²) (step 5): what no sandwich sees, a turn shared by the whole
-    /// used sky (the rims of clouds that turn together).
+    /// The used sky's misfit beyond its noise and beyond what a clear sky leaves,
+    /// √(m² − 1°²) (step 5): what no sandwich sees, a turn shared by the whole used
+    /// sky (the rims of clouds that turn together).
     pub misfit_deg: f64,
+    /// The two extractors' disagreement on the same cells, where it exceeds twice the
+    /// 1σ of their difference (0 otherwise).
+    pub cross_deg: f64,
     /// The reference tilt's 1σ, propagated.
     pub tilt_deg: f64,
     /// The sun position's 1σ, propagated.
@@ -241,6 +244,7 @@ impl SigmaParts {
         let data = self.fit_deg.max(self.jackknife_deg).max(self.coherent_deg);
         (data * data
             + self.misfit_deg.powi(2)
+            + self.cross_deg.powi(2)
             + self.tilt_deg.powi(2)
             + self.sun_deg.powi(2)
             + self.floor_deg.powi(2))

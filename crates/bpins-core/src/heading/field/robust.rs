@@ -397,6 +397,8 @@ pub(super) struct Robust {
     pub(super) coherent_deg: f64,
     /// The used cells' RMS angle residual beyond their noise, degrees.
     pub(super) misfit_rms_deg: f64,
+    /// Step 5's misfit part: the bias the used cells beside clouds may carry, degrees.
+    pub(super) misfit_deg: f64,
     pub(super) quality: FieldQuality,
 }
 
@@ -482,7 +484,16 @@ pub(super) fn robust(
     dilate(&b.clustered, cells.cols, cells.rows, DILATE_CELLS as usize, &mut b.tmp, &mut sc.sky_grown);
     let clouded = obs.iter().filter(|o| sc.sky_grown[o.grid]).count();
     quality.cloud_fraction = clouded as f64 / obs.len().max(1) as f64;
-    Ok(Robust { heading_deg: psi, coherent_deg, misfit_rms_deg, quality })
+    // The misfit part: what the used sky misfits beyond its noise and beyond what a
+    // clear sky leaves. A turn shared by the used cells (rims of clouds that turn
+    // together, rims of clouds whose cores lie outside the view) biases the heading by
+    // up to that much, and no sandwich over the residuals can see it.
+    let misfit_deg = if misfit_rms_deg.is_finite() {
+        (misfit_rms_deg.powi(2) - CLEAR_RESIDUAL_DEG.powi(2)).max(0.0).sqrt()
+    } else {
+        0.0
+    };
+    Ok(Robust { heading_deg: psi, coherent_deg, misfit_rms_deg, misfit_deg, quality })
 }
 
 impl Scratch {
@@ -539,35 +550,40 @@ pub(super) fn heading(
     let level = ctx.level_from_camera();
     let band = meridian_band(ctx, opts, level, cells);
     let hint = cone_sun(ctx, r.heading_deg);
-    let blocks = block_sums(&sc.obs, &sc.b.w, e, band);
-    let result = finish(&blocks, e, ctx, opts, hint, level)
-        .map(|(h, parts)| {
-            let coherent_deg = if r.coherent_deg.is_finite() { r.coherent_deg } else { 0.0 };
-            (h, SigmaParts { coherent_deg, misfit_deg: misfit_sigma_deg(r.misfit_rms_deg), ..parts })
-        })
-        .map_err(NoHeading::Solver);
+    let coherent_deg = if r.coherent_deg.is_finite() { r.coherent_deg } else { 0.0 };
+    let read = |e: Extractor| {
+        finish(&block_sums(&sc.obs, &sc.b.w, e, band), e, ctx, opts, hint, level)
+            .map(|(h, parts)| (h, SigmaParts { coherent_deg, misfit_deg: r.misfit_deg, ..parts }))
+    };
+    let result = read(e).map_err(NoHeading::Solver).map(|(h, parts)| {
+        // The other extractor reads the same cells another way (the E-vectors' common
+        // normal, or the solar meridian's line): where the two disagree beyond twice
+        // the 1σ of their difference, the sky holds something neither models (a turned
+        // region that one weighs more than the other), and the disagreement joins the 1σ.
+        let other = match e {
+            Extractor::SunVector => Extractor::MeridianLine,
+            Extractor::MeridianLine => Extractor::SunVector,
+        };
+        let cross_deg = match read(other) {
+            Ok((h2, p2)) => {
+                let d = wrap_deg_180(h - h2).abs();
+                if d > 2.0 * parts.total_deg().hypot(p2.total_deg()) {
+                    d
+                } else {
+                    0.0
+                }
+            }
+            Err(_) => 0.0,
+        };
+        (h, SigmaParts { cross_deg, ..parts })
+    });
     FieldHeading { extractor: e, result, quality: r.quality }
 }
 
-/// What a clear sky's unmodelled structure leaves in the used cells' residual (a Berry
-/// sky, the aureole, a tilted fisheye's skyline: ≤ 1.2° RMS in the field table),
-/// degrees.
-const CLEAR_RESIDUAL_DEG: f64 = 1.5;
-/// The share of the used sky's excess misfit taken as a heading bias: ~1/√(the ~10
-/// independent misfit regions of a cloudy frame), calibrated on the cloud table
-/// (`field_conditions::cloudy`), where the error of the frames whose rims turn
-/// together runs at a third of their residual.
-const MISFIT_SHARE: f64 = 1.0 / 3.0;
-
-/// Step 5's misfit part from the used cells' RMS residual beyond their noise
-/// (degrees): a third of it beyond a clear sky's, 0 on a sky the model follows.
-fn misfit_sigma_deg(misfit_rms_deg: f64) -> f64 {
-    if !misfit_rms_deg.is_finite() {
-        return 0.0;
-    }
-    MISFIT_SHARE * (misfit_rms_deg.powi(2) - CLEAR_RESIDUAL_DEG.powi(2)).max(0.0).sqrt()
-}
-
+/// What a clear sky's unmodelled structure leaves in the used cells' residual beyond
+/// their noise (a Berry sky, the aureole, a tilted fisheye's skyline: ≤ 1.2° RMS in
+/// the field table), degrees.
+const CLEAR_RESIDUAL_DEG: f64 = 0.5;
 fn sum_blocks(blocks: &[HeadingSums]) -> HeadingSums {
     let mut t = HeadingSums::default();
     for b in blocks {
@@ -637,6 +653,7 @@ fn finish(
             jackknife_deg,
             coherent_deg: 0.0,
             misfit_deg: 0.0,
+            cross_deg: 0.0,
             tilt_deg,
             sun_deg: ctx.sun_sigma_deg,
             floor_deg: opts.sigma_floor_deg,

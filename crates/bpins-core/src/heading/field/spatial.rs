@@ -28,7 +28,7 @@
 /// Super-blocks per side of the grid's longer side.
 const SUPER_BLOCKS: usize = 16;
 /// Bartlett bandwidth, super-blocks.
-const BANDWIDTH: usize = 3;
+const BANDWIDTH: usize = 2;
 
 /// σ_coherent in degrees from the used cells' `(grid index, g_i, w_i a_i²)` on a
 /// `cols × rows` grid; `sums` is a buffer. NaN when H is 0.
