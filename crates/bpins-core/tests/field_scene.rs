@@ -50,8 +50,10 @@ fn sensor() -> SimSensor {
     SimSensor::samples(3)
 }
 
+/// Every element but the overcast deck (which would hide the clear sky the checks
+/// below compare with), 16 clouds.
 fn field(seed: u64) -> FieldScene {
-    let mut f = FieldScene::all(seed);
+    let mut f = FieldScene::all(seed).without(ElementId::Overcast);
     f.set("clouds", "count", 16.0).unwrap();
     f
 }

@@ -99,7 +99,9 @@ fn channel_response_is_recovered_through_its_secant_and_analytic_columns() {
 
 #[test]
 fn a_sky_the_model_cannot_follow_stops_when_steps_stall_and_little_is_left() {
-    // The tilted fisheye under clouds: clouds are not in the model (χ²/dof ≫ 1), and
+    // The tilted fisheye under clouds: clouds are not in the model (χ²/dof ≫ 1 even
+    // on the field estimator's sky mask, which leaves out most of the clouds: ~8
+    // since the mask reads brightness and the clear sky's DoLP; ~134 before), and
     // each step realises a tenth of its prediction. The fit stops where a step gains
     // under 0.1 % of the excess χ² instead of running out its 30 + 20 iterations…
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples/field-fisheye-tilted-clouds");
@@ -107,7 +109,7 @@ fn a_sky_the_model_cannot_follow_stops_when_steps_stall_and_little_is_left() {
     let frames: Vec<FrameData> = (0..c.frames.len()).map(|i| c.read_frame(i).unwrap()).collect();
     let opts = FitOptions::default();
     let r = fit(&c, &frames, &opts, &|_, _| {}).unwrap();
-    assert!(r.chi2_per_dof > 50.0, "χ²/dof {}", r.chi2_per_dof);
+    assert!(r.chi2_per_dof > 3.0, "χ²/dof {}", r.chi2_per_dof);
     assert!(r.iterations < 50, "{} iterations", r.iterations);
     // …and what another fit from there still gains is a small part of the misfit.
     let all = bpins_core::fit::FitFrames::all(&c, &frames).unwrap();
