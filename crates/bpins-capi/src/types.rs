@@ -158,7 +158,7 @@ pub struct BpinsHeading {
     /// Heading: azimuth of the image top, degrees from North toward East, [0, 360).
     pub heading_deg: f64,
     /// The heading's 1σ, degrees: max(fit, jackknife, coherent) in quadrature with the
-    /// tilt's, the sun's and the floor's parts below.
+    /// misfit's, the cross-check's, the tilt's, the sun's and the floor's parts below.
     pub sigma_deg: f64,
     /// Parts of the 1σ, degrees: the extractor's residuals (χ²-scaled), the
     /// delete-one-block jackknife, the spatial sandwich over the cell grid (misfit
@@ -167,6 +167,10 @@ pub struct BpinsHeading {
     pub sigma_fit_deg: f64,
     pub sigma_jackknife_deg: f64,
     pub sigma_coherent_deg: f64,
+    /// The used sky's misfit beyond its noise (a turn it shares), and the two
+    /// extractors' disagreement beyond their 1σ, degrees.
+    pub sigma_misfit_deg: f64,
+    pub sigma_cross_deg: f64,
     pub sigma_tilt_deg: f64,
     pub sigma_sun_deg: f64,
     pub sigma_floor_deg: f64,
@@ -333,6 +337,8 @@ impl From<&FieldHeading> for BpinsHeading {
             sigma_fit_deg: f64::NAN,
             sigma_jackknife_deg: f64::NAN,
             sigma_coherent_deg: f64::NAN,
+            sigma_misfit_deg: f64::NAN,
+            sigma_cross_deg: f64::NAN,
             sigma_tilt_deg: f64::NAN,
             sigma_sun_deg: f64::NAN,
             sigma_floor_deg: f64::NAN,
@@ -353,6 +359,8 @@ impl From<&FieldHeading> for BpinsHeading {
                 out.sigma_fit_deg = s.fit_deg;
                 out.sigma_jackknife_deg = s.jackknife_deg;
                 out.sigma_coherent_deg = s.coherent_deg;
+                out.sigma_misfit_deg = s.misfit_deg;
+                out.sigma_cross_deg = s.cross_deg;
                 out.sigma_tilt_deg = s.tilt_deg;
                 out.sigma_sun_deg = s.sun_deg;
                 out.sigma_floor_deg = s.floor_deg;

@@ -24,7 +24,7 @@ pub struct Heading {
     heading_deg: Option<f64>,
     /// 1σ of the heading, degrees; None without a heading.
     sigma_deg: Option<f64>,
-    /// The parts of the 1σ (fit, jackknife, coherent, tilt, sun, floor), degrees.
+    /// The parts of the 1σ (fit, jackknife, coherent, misfit, cross, tilt, sun, floor), degrees.
     sigma_parts_deg: Option<std::collections::BTreeMap<String, f64>>,
     /// Fraction of the image the heading rests on (cells used / cells in the grid).
     used_fraction: f64,
@@ -63,6 +63,8 @@ fn heading_of(fix: &FieldHeading, zero_copy: bool) -> Heading {
                 ("fit_deg", s.fit_deg),
                 ("jackknife_deg", s.jackknife_deg),
                 ("coherent_deg", s.coherent_deg),
+                ("misfit_deg", s.misfit_deg),
+                ("cross_deg", s.cross_deg),
                 ("tilt_deg", s.tilt_deg),
                 ("sun_deg", s.sun_deg),
                 ("floor_deg", s.floor_deg),

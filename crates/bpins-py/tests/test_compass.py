@@ -75,7 +75,7 @@ def test_simulate_then_heading_round_trip_with_tilt():
     h = c.heading(sim["mosaic"], sun_azimuth_deg=40.0, sun_elevation_deg=35.0, tilt_x_deg=4.0, tilt_y_deg=-3.0)
     assert h.extractor == "meridian_line"
     assert abs((h.heading_deg - 250.0 + 180) % 360 - 180) < 3 * h.sigma_deg
-    assert set(h.sigma_parts_deg) == {"fit_deg", "jackknife_deg", "coherent_deg", "tilt_deg", "sun_deg", "floor_deg"}
+    assert set(h.sigma_parts_deg) == {"fit_deg", "jackknife_deg", "coherent_deg", "misfit_deg", "cross_deg", "tilt_deg", "sun_deg", "floor_deg"}
 
 
 def test_sun_from_a_datetime_equals_the_sun_from_its_angles(samples):

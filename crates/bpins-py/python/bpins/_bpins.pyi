@@ -21,7 +21,7 @@ class Heading:
     sigma_deg: Optional[float]
     """1σ of the heading, degrees."""
     sigma_parts_deg: Optional[Dict[str, float]]
-    """The parts of the 1σ: fit_deg, jackknife_deg, coherent_deg, tilt_deg, sun_deg, floor_deg."""
+    """The parts of the 1σ: fit_deg, jackknife_deg, coherent_deg, misfit_deg, cross_deg, tilt_deg, sun_deg, floor_deg."""
     used_fraction: float
     """Fraction of the image the heading rests on (0…1)."""
     cloud_fraction: float

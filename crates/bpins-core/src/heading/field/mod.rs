@@ -16,30 +16,38 @@
 //!    (CONVENTIONS.md, Tilt); σ_α² = (U² var Q + Q² var U)/(4P⁴) from the cell's noise
 //! 2. masks: cells with saturated pixels (cells.rs); rays below horizon_margin + 3σ_tilt
 //! 3. start: the sun's elevation h is known, so the sun lies on a cone and the heading
-//!    is one unknown: a grid search of ψ ∈ [0°, 360°) on the bounded cost
-//!    Σ min(δ², c²)/(σ_α² + 1°²), δ = the angle of each E-vector off ⊥(sun, ray);
-//!    a second minimum as good as the first is an ambiguous frame (no heading)
-//! 4. iterate: δ_i against the current sun; a model-misfit scale τ with the lower
-//!    quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015: up to ¾ of the cells may be
-//!    clouds or trees); Tukey's biweight on δ/σ (σ² = σ_α² + τ²); cells whose DoLP is
-//!    under 0.6 × the Rayleigh prediction (clouds, foliage) and cells within
-//!    `sun_exclusion_deg` of the sun or anti-sun get weight 0, and so does every cell
-//!    within 2 cells of a cluster of rejected ones (soft cloud edges); the extractor solves from
-//!    the weighted sums (weights 1/(σ² sin²γ) for the sun vector, 1/σ² for the line;
-//!    the meridian line is fitted on its whole length through the zenith, both halves,
-//!    and its sun's half taken from the sun's cone)
-//! 5. 1σ² = max(σ_fit², σ_jack²) + σ_tilt² + σ_sun² + σ_floor²:
-//!    σ_fit from the extractor's own residuals (χ²-scaled); σ_jack a delete-one-block
-//!    jackknife over 4 × 4 blocks of the image (correlated misfit: clouds, an
-//!    unmodelled sky); σ_tilt = |∂ψ/∂tilt|·tilt_sigma (∂ψ/∂τ ≈ tan h, per axis);
-//!    σ_sun = sun_sigma (the sun's azimuth enters the heading 1:1); σ_floor for what
-//!    no model here describes
+//!    is one unknown: a search of ψ ∈ [0°, 360°) in 1° steps on the bounded cost
+//!    Σ min(δ², c²)/(σ_α² + 0.3°²), c = 2°, δ = the angle of each E-vector off
+//!    ⊥(sun, ray): the heading the most cells agree on tightly; a second minimum as
+//!    good as the first is an ambiguous frame (no heading)
+//! 4. iterate: δ_i against the current sun; clouds per cell (clouds.rs: DoLP under
+//!    0.6 × an absolute, upper-share clear-sky expectation; brighter than the smooth
+//!    sky; near the sun the nearest verifiable cells' label), weight 0, grown by 2
+//!    cells where they cluster; a model-misfit scale τ with the lower quartile of
+//!    δ²/(σ_α² + τ²) at χ²₁'s (0.1015) over the clear cells away from clouds;
+//!    Tukey's biweight on δ/σ (σ² = σ_α² + τ²); cells within `sun_exclusion_deg` of
+//!    the sun or anti-sun get weight 0, and so does every cell within 2 cells of a
+//!    cluster of rejected ones (soft cloud edges); the extractor solves from the
+//!    weighted sums (weights 1/(σ² sin²γ) for the sun vector, 1/σ² for the line;
+//!    the meridian line is fitted on its whole length through the zenith, both
+//!    halves, and its sun's half taken from the sun's cone)
+//! 5. 1σ² = max(σ_fit, σ_jack, σ_coherent)² + σ_misfit² + σ_cross² + σ_tilt² + σ_sun²
+//!    + σ_floor²: σ_fit from the extractor's own residuals (χ²-scaled); σ_jack a
+//!    delete-one-block jackknife over 4 × 4 blocks of the image; σ_coherent a spatial
+//!    HAC sandwich over super-blocks of the cell grid (spatial.rs); σ_misfit =
+//!    √(m² − 0.5°²), m the used cells' RMS residual beyond their noise (a turn the
+//!    whole used sky shares); σ_cross the two extractors' disagreement beyond twice
+//!    the 1σ of their difference; σ_tilt = |∂ψ/∂tilt|·tilt_sigma (∂ψ/∂τ ≈ tan h, per
+//!    axis); σ_sun = sun_sigma (the sun's azimuth enters the heading 1:1); σ_floor
+//!    for what no model here describes
 //! ```
 //!
 //! A frame gets no heading, with a typed [`NoHeading`] reason, when too little of the
-//! image fits the sky, when two headings fit as well, when the used cells still
-//! misfit by degrees, or when the sun is out of the range where the pattern holds
-//! (below −10°, the end of nautical twilight, or within 1° of the zenith).
+//! image fits the sky, when two headings fit as well, when the sky's own sun
+//! contradicts the given one (a wrong clock, place or tilt, a flipped mosaic), when
+//! the used cells still misfit by degrees, or when the sun is out of the range where
+//! the pattern holds (below −10°, the end of nautical twilight, or within 1° of the
+//! zenith).
 //!
 //! # Example: a tilted frame, its IMU's attitude, a heading with its 1σ
 //!
@@ -74,10 +82,12 @@
 //! # Ok::<(), bpins_core::Error>(())
 //! ```
 //!
-//! What it cannot do: it trusts the sun's elevation and the reference tilt to within
-//! their σ (the cone search needs h); it models the sky as Rayleigh's pattern, so a
-//! sky far from it (thick overcast) is refused, not fitted; a lens effect that is not
-//! in the calibration biases it like any extractor.
+//! What it cannot do: it needs the sun's elevation and the reference tilt to within
+//! their σ (the cone search needs h; a sky that contradicts them is refused); it
+//! models the clear sky as Rayleigh's pattern, so under a thick overcast only the
+//! holes are read, and a turn shared by the whole used sky is carried in the 1σ
+//! (σ_misfit), not removed; a lens effect that is not in the calibration biases it
+//! like any extractor.
 
 pub mod cells;
 mod clouds;

@@ -139,26 +139,30 @@ fn residual(o: &Obs, s: DVec3) -> (f64, f64, f64) {
 }
 
 /// Step 3: the start heading from a grid search on the sun's cone.
-fn search(obs: &[Obs], ctx: &FieldContext, sub: &mut Vec<(Obs, f64)>) -> Result<f64, NoHeading> {
+fn search(obs: &[Obs], ctx: &FieldContext, sub: &mut Vec<[f64; 7]>) -> Result<f64, NoHeading> {
     // The polarized cells (all of them if fewer than three are), thinned to SEARCH_CELLS.
     let strong = obs.iter().filter(|o| o.dolp > 0.02).count();
     let min_dolp = if strong >= 3 { 0.02 } else { f64::NEG_INFINITY };
     let stride = (if strong >= 3 { strong } else { obs.len() }).div_ceil(SEARCH_CELLS).max(1);
+    // On the cone s(ψ) = cos ψ·a + sin ψ·b + c (cone_sun expanded), so each cell's e·s
+    // and d·s are two trigonometric polynomials in ψ: their coefficients once, then
+    // each heading costs a few multiplications per cell.
+    let (sh, ch) = ctx.sun_el_deg.to_radians().sin_cos();
+    let (sa, ca) = ctx.sun_az_deg.to_radians().sin_cos();
+    let coef = |v: DVec3| [-ch * (sa * v.x + ca * v.y), ch * (ca * v.x - sa * v.y), sh * v.z];
     sub.clear();
-    sub.extend(
-        obs.iter()
-            .filter(|o| o.dolp > min_dolp)
-            .step_by(stride)
-            .map(|o| (*o, 1.0 / (o.var_aop + SEARCH_SIGMA_RAD * SEARCH_SIGMA_RAD))),
-    );
+    sub.extend(obs.iter().filter(|o| o.dolp > min_dolp).step_by(stride).map(|o| {
+        let (e, d) = (coef(o.e), coef(o.d));
+        [e[0], e[1], e[2], d[0], d[1], d[2], 1.0 / (o.var_aop + SEARCH_SIGMA_RAD * SEARCH_SIGMA_RAD)]
+    }));
     // sin²δ = (e·s)²/sin²γ, capped (no arcsine: the cost is bounded anyway).
     let cap = SEARCH_CAP_RAD.sin().powi(2);
     let cost = |psi_deg: f64| {
-        let s = cone_sun(ctx, psi_deg);
+        let (sp, cp) = psi_deg.to_radians().sin_cos();
         sub.iter()
-            .map(|(o, w)| {
-                let (es, ds) = (o.e.dot(s), o.d.dot(s));
-                w * (es * es / (1.0 - ds * ds).max(1e-12)).min(cap)
+            .map(|k| {
+                let (es, ds) = (k[0] * cp + k[1] * sp + k[2], k[3] * cp + k[4] * sp + k[5]);
+                k[6] * (es * es / (1.0 - ds * ds).max(1e-12)).min(cap)
             })
             .sum::<f64>()
     };
@@ -363,7 +367,8 @@ pub struct Scratch {
     slots: Vec<Option<Obs>>,
     /// The cells that passed the masks (steps 1–2), level frame.
     obs: Vec<Obs>,
-    sub: Vec<(Obs, f64)>,
+    /// The start search's cells: e·s and d·s as cos ψ, sin ψ, 1 coefficients, weight.
+    sub: Vec<[f64; 7]>,
     b: Bufs,
     /// Per cell of the grid: whether it was seen as non-sky (a cluster of depolarized
     /// cells, grown), for the sky mask.
