@@ -6,7 +6,8 @@
 //!               r = DoLP/D(γ) over the cells that fit the sun; `upper`: the ratio that
 //!               the most polarized max(min_cells, 3 %) of them reach
 //! brighter:     ln I − m(γ, z) > max(ln BRIGHT_FACTOR, 5 · 1.4826 · MAD)
-//!               m a smooth radiance (ln I on 1, γ, z, γ², z², γz, centred and scaled)
+//!               m a smooth radiance (ln I on 1, cos γ, z and their squares and product,
+//!               centred and scaled)
 //!               fitted by least squares to the clear cells that fit the sun
 //! ```
 //!
@@ -112,18 +113,18 @@ pub(super) fn brighter(cells: &[CellSky], clear: &[bool], r: &mut Vec<f64>, out:
     // well conditioned whatever the field of view.
     let (mut mg, mut mz) = (0.0, 0.0);
     for (c, _) in cells.iter().zip(clear).filter(|x| *x.1) {
-        mg += c.cg.clamp(-1.0, 1.0).acos();
+        mg += c.cg;
         mz += c.z;
     }
     let (mg, mz) = (mg / n as f64, mz / n as f64);
     let (mut sg, mut sz) = (0.0, 0.0);
     for (c, _) in cells.iter().zip(clear).filter(|x| *x.1) {
-        sg += (c.cg.clamp(-1.0, 1.0).acos() - mg).powi(2);
+        sg += (c.cg - mg).powi(2);
         sz += (c.z - mz).powi(2);
     }
     let (sg, sz) = ((sg / n as f64).sqrt().max(1e-3), (sz / n as f64).sqrt().max(1e-3));
     let basis = |c: &CellSky| {
-        let g = (c.cg.clamp(-1.0, 1.0).acos() - mg) / sg;
+        let g = (c.cg - mg) / sg;
         let z = (c.z - mz) / sz;
         SVector::<f64, 6>::from([1.0, g, z, g * g, z * z, g * z])
     };

@@ -27,6 +27,8 @@ const SEARCH_CELLS: usize = 400;
 /// of the 1° per-cell error the search assumes).
 const AMBIGUITY_CHI2: f64 = 9.0;
 const MAX_ITERATIONS: usize = 8;
+/// The clouds found at one sun stand while the sun moves by less than this, degrees.
+const CLOUDS_SETTLED_DEG: f64 = 0.05;
 /// Clustered rejections grow by this many cells (soft edges of clouds and crowns).
 const DILATE_CELLS: isize = 2;
 
@@ -222,25 +224,29 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
     let tau2_all = quantile(&mut b.t, 0.25).max(0.0);
     let tau2_all = if tau2_all.is_finite() { tau2_all } else { 0.0 };
     // Clouds: depolarized against the clear sky's expectation, or brighter than the
-    // smooth sky (clouds.rs).
-    clouds(obs, tau2_all, opts.min_cells, cols, grid_len / cols.max(1), b);
-    // Cloud cells that cluster, grown by their soft edges: a cloud's rim is turned
-    // like its core but may keep its DoLP and its brightness.
-    b.mask.clear();
-    b.mask.resize(grid_len, false);
-    for (o, &c) in obs.iter().zip(&b.cloud) {
-        b.mask[o.grid] = c;
+    // smooth sky (clouds.rs); cloud cells that cluster, grown by their soft edges (a
+    // cloud's rim is turned like its core but may keep its DoLP and its brightness).
+    // Once the sun moves by less than CLOUDS_SETTLED_DEG between rounds, the clouds
+    // found at the last sun stand.
+    let settled = b.clouds_at.is_some_and(|at| at.dot(s) > CLOUDS_SETTLED_DEG.to_radians().cos());
+    if !settled {
+        clouds(obs, tau2_all, opts.min_cells, cols, grid_len / cols.max(1), b);
+        b.mask.clear();
+        b.mask.resize(grid_len, false);
+        for (o, &c) in obs.iter().zip(&b.cloud) {
+            b.mask[o.grid] = c;
+        }
+        clustered(&b.mask, cols, &mut b.clustered);
+        dilate(&b.clustered, cols, grid_len / cols.max(1), DILATE_CELLS as usize, &mut b.tmp, &mut b.cloud_grown);
+        b.clouds_at = Some(s);
     }
-    let rows = grid_len / cols.max(1);
-    clustered(&b.mask, cols, &mut b.clustered);
-    dilate(&b.clustered, cols, rows, DILATE_CELLS as usize, &mut b.tmp, &mut b.grown);
     // τ: the lower quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015) over the clear cells
     // away from clouds, so that up to three quarters of them may still be misfit by
     // what the cloud tests miss: δ²/(v + τ²) ≤ c ⟺ (δ² − c·v)/c ≤ τ², so τ² is the
     // lower quartile of (δ² − c·v)/c (0 where the noise explains it); the cells near
     // the sun and the anti-sun are left out of it. Where too few cells lie away from
     // clouds, every cell that is not cloud counts.
-    let away = obs.iter().zip(&b.res).filter(|(o, r)| r.2.abs() < cos_excl && !b.grown[o.grid]).count();
+    let away = obs.iter().zip(&b.res).filter(|(o, r)| r.2.abs() < cos_excl && !b.cloud_grown[o.grid]).count();
     let min_away = opts.min_cells.min(obs.len());
     b.t.clear();
     b.t.extend(
@@ -248,7 +254,7 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
             .zip(&b.res)
             .zip(&b.cloud)
             .filter(|((o, r), &cloud)| {
-                r.2.abs() < cos_excl && !cloud && (away < min_away || !b.grown[o.grid])
+                r.2.abs() < cos_excl && !cloud && (away < min_away || !b.cloud_grown[o.grid])
             })
             .map(|((o, r), _)| (r.0.powi(2) - TAU_CHI2 * o.var_aop) / TAU_CHI2),
     );
@@ -271,7 +277,7 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
         }
     }
     clustered(&b.mask, cols, &mut b.clustered);
-    dilate(&b.clustered, cols, rows, DILATE_CELLS as usize, &mut b.tmp, &mut b.grown);
+    dilate(&b.clustered, cols, grid_len / cols.max(1), DILATE_CELLS as usize, &mut b.tmp, &mut b.grown);
     for (o, x) in obs.iter().zip(b.w.iter_mut()) {
         if b.grown[o.grid] {
             x.0 = 0.0;
@@ -387,6 +393,10 @@ struct Bufs {
     clear: Vec<bool>,
     cloud: Vec<bool>,
     votes: Vec<[u32; 2]>,
+    /// The cloud cells grown by their soft edges, and the sun they were found at
+    /// (`None`: not yet for this frame).
+    cloud_grown: Vec<bool>,
+    clouds_at: Option<DVec3>,
     w: Vec<(f64, f64, f64, f64)>,
     mask: Vec<bool>,
     clustered: Vec<bool>,
@@ -433,6 +443,7 @@ pub(super) fn robust(
     // Step 4: reweight around the sun vector's heading until it settles.
     let band = meridian_band(ctx, opts, level, cells);
     let b = &mut sc.b;
+    b.clouds_at = None;
     let mut tau = weights(obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len(), b);
     for it in 1..=MAX_ITERATIONS {
         quality.iterations = it;
