@@ -82,7 +82,7 @@ fn svg(curves: &[(String, Vec<(f64, Score)>)]) -> String {
             s,
             "<rect x=\"{x0}\" y=\"{m}\" width=\"{pw}\" height=\"{ph}\" fill=\"none\" stroke=\"#888\"/>\n\
              <text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{title}</text>\n\
-             <text x=\"{}\" y=\"{}\" text-anchor=\"middle\">cloud cover (% of the dome)</text>",
+             <text x=\"{}\" y=\"{}\" text-anchor=\"middle\">cloud cover (% of the sky in view)</text>",
             x0 + pw / 2.0,
             m - 12.0,
             x0 + pw / 2.0,

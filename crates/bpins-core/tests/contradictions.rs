@@ -71,6 +71,8 @@ fn a_mosaic_read_upside_down_is_caught() {
     let flipped: Vec<u16> = (0..H).flat_map(|v| raw[(H - 1 - v) * W..(H - v) * W].to_vec()).collect();
     let h = read(&flipped, 25.0, Attitude::default());
     assert!(caught(&h), "flipped mosaic believed: {:?} {:?}", h.result, h.quality);
+    // Here it is refused: the used sky misfits by ~5.7° beyond its noise.
+    assert!(matches!(h.result, Err(NoHeading::PoorFit { .. } | NoHeading::Contradicts { .. })), "{:?}", h.result);
 }
 
 #[test]
@@ -78,4 +80,7 @@ fn a_tilt_the_imu_misses_is_caught() {
     // Tilted 8° about x (toward the sun's side), the IMU says level to 0.1°.
     let h = read(&frame(8.0, 0.0, 4), 25.0, Attitude { tilt_x_deg: 0.0, tilt_y_deg: 0.0, sigma_deg: 0.1 });
     assert!(caught(&h), "a missed tilt believed: {:?} {:?}", h.result, h.quality);
+    // Here it is refused: the sky's sun stands ~8° above the given one.
+    assert!(matches!(h.result, Err(NoHeading::Contradicts { .. })), "{:?}", h.result);
 }
+
