@@ -66,6 +66,9 @@ typedef enum BpinsNoHeading {
   BPINS_NO_HEADING_POOR_FIT = 5,
   // The solver failed (see the message).
   BPINS_NO_HEADING_SOLVER = 6,
+  // The sky contradicts the given sun, attitude or mosaic layout beyond their 1σ
+  // (a wrong clock or place, a wrong tilt, a flipped mosaic).
+  BPINS_NO_HEADING_CONTRADICTS = 7,
 } BpinsNoHeading;
 
 // A compass: the camera, the sensor and its calibration, with the estimator's
@@ -166,19 +169,27 @@ typedef struct BpinsHeading {
   bool has_heading;
   // Heading: azimuth of the image top, degrees from North toward East, [0, 360).
   double heading_deg;
-  // The heading's 1σ, degrees: max(fit, jackknife) in quadrature with the tilt's,
-  // the sun's and the floor's parts below.
+  // The heading's 1σ, degrees: max(fit, jackknife, coherent) in quadrature with the
+  // misfit's, the cross-check's, the tilt's, the sun's and the floor's parts below.
   double sigma_deg;
   // Parts of the 1σ, degrees: the extractor's residuals (χ²-scaled), the
-  // delete-one-block jackknife, the attitude's 1σ propagated, the sun's 1σ
-  // propagated, the floor.
+  // delete-one-block jackknife, the spatial sandwich over the cell grid (misfit
+  // shared by neighbouring cells: cloud rims, an unmodelled sky), the attitude's 1σ
+  // propagated, the sun's 1σ propagated, the floor.
   double sigma_fit_deg;
   double sigma_jackknife_deg;
+  double sigma_coherent_deg;
+  // The used sky's misfit beyond its noise (a turn it shares), and the two
+  // extractors' disagreement beyond their 1σ, degrees.
+  double sigma_misfit_deg;
+  double sigma_cross_deg;
   double sigma_tilt_deg;
   double sigma_sun_deg;
   double sigma_floor_deg;
   // Fraction (0…1) of the image's cells the heading rests on.
   double used_fraction;
+  // Fraction (0…1) of the observed cells taken for cloud.
+  double cloud_fraction;
   // Weighted RMS angle residual of the used cells, degrees.
   double residual_rms_deg;
   // Cells of the image grid, cells past the masks, cells the final fit used.
