@@ -35,18 +35,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let cond = cover_condition(fisheye, sun, cover, frames, scale, seed)?;
                 let sim = cond.simulate(seed)?;
                 let s = score_field(&sim, Extractor::SunVector, &FieldOptions::default())?;
-                println!(
-                    "| {} | {sun:.0} | {:.0} | {:.3} | {:.0} % | {:.1} | {:.3} | {} of {} | {:.0} % |",
-                    if fisheye { "fisheye" } else { "pinhole" },
-                    100.0 * cover,
-                    s.rms_error_deg,
-                    100.0 * s.within_2sigma,
-                    s.max_error_over_sigma,
-                    s.median_sigma_deg,
-                    s.frames - s.with_heading,
-                    s.frames,
-                    100.0 * s.median_cloud_fraction
-                );
+                let camera = if fisheye { "fisheye" } else { "pinhole" };
+                if s.with_heading == 0 {
+                    println!(
+                        "| {camera} | {sun:.0} | {:.0} | — | — | — | — | {} of {} | {:.0} % |",
+                        100.0 * cover,
+                        s.frames,
+                        s.frames,
+                        100.0 * s.median_cloud_fraction
+                    );
+                } else {
+                    println!(
+                        "| {camera} | {sun:.0} | {:.0} | {:.3} | {:.0} % | {:.1} | {:.3} | {} of {} | {:.0} % |",
+                        100.0 * cover,
+                        s.rms_error_deg,
+                        100.0 * s.within_2sigma,
+                        s.max_error_over_sigma,
+                        s.median_sigma_deg,
+                        s.frames - s.with_heading,
+                        s.frames,
+                        100.0 * s.median_cloud_fraction
+                    );
+                }
                 points.push((cover, s));
             }
             curves.push((format!("{} sun {sun:.0}°", if fisheye { "fisheye" } else { "pinhole" }), points));

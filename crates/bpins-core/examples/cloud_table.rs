@@ -33,6 +33,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         for e in Extractor::ALL {
             let f = score_field_all(&sims, e, &FieldOptions::default())?;
+            if f.with_heading == 0 {
+                println!(
+                    "| `{name}` | `{}` | — | — | — | — | {} of {} | {:.0} % | {:.0} % |",
+                    e.name(),
+                    f.frames,
+                    f.frames,
+                    100.0 * f.median_used_fraction,
+                    100.0 * f.median_cloud_fraction,
+                );
+                continue;
+            }
             println!(
                 "| `{name}` | `{}` | {:.3} | {:.0} % | {:.1} | {:.3} | {} of {} | {:.0} % | {:.0} % |",
                 e.name(),
