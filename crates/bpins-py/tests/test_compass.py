@@ -118,3 +118,22 @@ def test_the_gil_is_released_while_a_compass_works():
     assert len(results) == 10 and len(set(results)) == 1
     # The ticker ran while the compasses worked: the GIL was not held throughout.
     assert len(ticks) > 10
+
+
+def test_a_sky_that_contradicts_the_claimed_sun_or_layout_is_refused_with_the_reason():
+    # The sky's sun stands at 25°; a wrong clock claims −5° (it used to read 210.001° ± 0.016°
+    # for a truth of 30°), and a mosaic read upside down (it used to read 183.5° ± 1.7°).
+    sim = bpins.simulate(heading_deg=30.0, seed=5)
+    m = sim["mosaic"]
+    c = bpins.Compass(612, 512, sim["focal_length_px"], bit_depth=12, black_level_dn=64.0)
+    good = c.heading(m, sun_azimuth_deg=40.0, sun_elevation_deg=25.0)
+    assert good.reason is None and abs((good.heading_deg - 30.0 + 180.0) % 360.0 - 180.0) < 2 * good.sigma_deg
+    assert 0.0 <= good.cloud_fraction < 0.05
+    wrong_sun = c.heading(m, sun_azimuth_deg=40.0, sun_elevation_deg=-5.0)
+    assert wrong_sun.heading_deg is None and "contradicts" in wrong_sun.reason, wrong_sun
+    flipped = c.heading(np.ascontiguousarray(m[::-1]), sun_azimuth_deg=40.0, sun_elevation_deg=25.0)
+    if flipped.heading_deg is not None:
+        err = (flipped.heading_deg - 30.0 + 180.0) % 360.0 - 180.0
+        assert abs(err) <= 2 * flipped.sigma_deg, flipped
+    else:
+        assert flipped.reason, flipped
