@@ -257,3 +257,22 @@ fn configs_and_calibrations_are_checked_and_used() {
     assert!(shift.abs() > 0.2, "the calibration's 0.5° array rotation moves the heading ({shift}°)");
     unsafe { bpins_compass_free(handle) };
 }
+
+#[test]
+fn a_sun_the_sky_contradicts_is_a_reason_code_with_its_message() {
+    // The sky's sun as the sample gives it; the claim 30° lower (a wrong clock): no
+    // heading, BPINS_NO_HEADING_CONTRADICTS, and the message says what to check. It used
+    // to read 210.001° ± 0.016° for a truth of 30°.
+    let s = common::clean_frame(2);
+    let (w, h) = (s.config.width_px, s.config.height_px);
+    let handle = new(&c_config(&s.config), None).unwrap();
+    let mut sun = c_sun(s.sun);
+    sun.elevation_deg -= 30.0;
+    let got = heading_u16(handle, &s.raw, (w, h, w), &sun, &c_att(&s)).unwrap();
+    assert!(!got.has_heading && got.heading_deg.is_nan());
+    assert_eq!(got.reason, BpinsNoHeading::BPINS_NO_HEADING_CONTRADICTS);
+    let message = unsafe { CStr::from_ptr(got.message.as_ptr()) }.to_str().unwrap().to_string();
+    assert!(message.contains("contradicts") && message.contains("clock"), "{message}");
+    assert!(got.sun_elevation_offset_deg.abs() > 10.0, "{}", got.sun_elevation_offset_deg);
+    unsafe { bpins_compass_free(handle) };
+}
