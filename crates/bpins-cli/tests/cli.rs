@@ -1029,3 +1029,105 @@ fn fit_reads_more_pixels_only_where_a_parameters_sigma_needs_it() {
     assert_eq!(last["sample"]["pixels_per_frame"], 256 * 256);
     assert!(v["steps"][0]["raised"].is_null());
 }
+
+// ---------------------------------------------------------------- a newcomer's first hour
+
+/// Every command that prints to stdout, its reader gone before it writes (`bpins
+/// effects | head`): a quiet exit with status 0, as Unix tools do, not a panic
+/// ("failed printing to stdout: Broken pipe", exit 101). Then with stderr closed too
+/// (`2>&1 | head`).
+#[test]
+fn a_closed_pipe_ends_every_command_quietly() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep_out = s(&tmp.path().join("sweep"));
+    let tiny = format!("{REPO}/examples/sweeps/tiny.toml");
+    let bench_json = s(&tmp.path().join("bench.json"));
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["--help"],
+        vec!["effects"],
+        vec!["effects", "--json"],
+        vec!["heading", CLEAN],
+        vec!["heading", CLEAN, "--extractor", "all"],
+        vec!["run", "--trials-per-azimuth", "1"],
+        vec!["sweep", &tiny, "--trials", "2", "--out", &sweep_out],
+        vec!["bench", "--backend", "cpu", "--repeats", "1", "--frames", "1", "--no-sweep", "--json", &bench_json],
+    ];
+    for args in &commands {
+        for close_stderr in [false, true] {
+            let (reader, writer) = std::io::pipe().unwrap();
+            drop(reader); // closed before bpins writes a byte
+            let mut cmd = Command::new(env!("CARGO_BIN_EXE_bpins"));
+            cmd.current_dir(REPO).args(args).stdout(writer);
+            if close_stderr {
+                let (r2, w2) = std::io::pipe().unwrap();
+                drop(r2);
+                cmd.stderr(w2);
+            } else {
+                cmd.stderr(std::process::Stdio::piped());
+            }
+            let out = cmd.output().unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(
+                out.status.code(),
+                Some(0),
+                "`bpins {}` (stderr closed: {close_stderr}) under a closed pipe:\n{stderr}",
+                args.join(" ")
+            );
+            assert!(!stderr.contains("panicked") && !stderr.contains("Broken pipe"), "{}: {stderr}", args.join(" "));
+        }
+        let _ = fs::remove_dir_all(&sweep_out);
+    }
+}
+
+/// Outputs get the mode the umask gives (0644 under 022, 0600 under 077), not the
+/// temporary file's 0600 whatever the umask: a result folder shared with a colleague
+/// or a web server is readable. Checked on a capture, a JSON and the sweep's report.
+#[cfg(unix)]
+#[test]
+fn outputs_honour_the_umask() {
+    use std::os::unix::fs::PermissionsExt;
+    let tmp = tempfile::tempdir().unwrap();
+    for (umask, file_mode) in [("022", 0o644), ("077", 0o600), ("002", 0o664)] {
+        let dir = tmp.path().join(format!("u{umask}"));
+        let cap = s(&dir.join("cap"));
+        let json = s(&dir.join("heading.json"));
+        let sweep_out = s(&dir.join("sweep"));
+        let tiny = format!("{REPO}/examples/sweeps/tiny.toml");
+        let bin = env!("CARGO_BIN_EXE_bpins");
+        let script = format!(
+            "umask {umask} && \"$0\" simulate --out {cap} --width-px 100 --height-px 80 --headings-deg 0 && \
+             \"$0\" heading {cap} --json {json} && \"$0\" sweep {tiny} --trials 2 --out {sweep_out}"
+        );
+        let out = Command::new("sh").arg("-c").arg(&script).arg(bin).current_dir(REPO).output().unwrap();
+        assert!(out.status.success(), "{script}:\n{}", String::from_utf8_lossy(&out.stderr));
+        let mut files = 0;
+        let mut stack = vec![dir.clone()];
+        while let Some(d) = stack.pop() {
+            for e in fs::read_dir(&d).unwrap() {
+                let p = e.unwrap().path();
+                let meta = fs::metadata(&p).unwrap();
+                if meta.is_dir() {
+                    stack.push(p);
+                    continue;
+                }
+                files += 1;
+                let mode = meta.permissions().mode() & 0o777;
+                assert_eq!(mode, file_mode, "umask {umask}: {} has mode {mode:o}", p.display());
+            }
+        }
+        assert!(files >= 5, "umask {umask}: only {files} files written");
+    }
+}
+
+/// The diagnose table's header: two spaces between columns, so that "DoLP RMS" and
+/// "heading RMS °" never run together, and each row has as many columns.
+#[test]
+fn the_diagnose_table_keeps_its_columns_apart() {
+    let tmp = tempfile::tempdir().unwrap();
+    let r = bpins(&["diagnose", CLEAN, "--max-added", "1", "--out", &s(&tmp.path().join("d"))]).ok();
+    let header = r.stdout.lines().next().unwrap();
+    let cols: Vec<&str> = header.split("  ").map(str::trim).filter(|c| !c.is_empty()).collect();
+    assert_eq!(cols, ["model", "χ²/dof", "AoP RMS °", "DoLP RMS", "heading RMS °"], "{header}");
+    let row = r.stdout.lines().nth(1).unwrap();
+    assert_eq!(row.split("  ").map(str::trim).filter(|c| !c.is_empty()).count(), 5, "{row}");
+}
