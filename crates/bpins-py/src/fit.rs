@@ -74,7 +74,7 @@ fn to_dict<'py>(py: Python<'py>, json: serde_json::Result<String>) -> PyResult<B
 /// error, scale_dn, dmax, radiance, chi2_per_dof), ... The GIL is released while it fits.
 #[pyfunction]
 #[pyo3(signature = (capture, effects=None, *, calibration=None, fixed_dmax=None, trust_reference=false,
-    rayleigh_radiance=false, all_pixels=false, sample_budget_px=Some(bpins_core::fit::DEFAULT_BUDGET_PX)))]
+    rayleigh_radiance=false, all_pixels=false, sample_budget_px=Some(bpins_core::fit::DEFAULT_BUDGET_PX as i64)))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit<'py>(
     py: Python<'py>,
@@ -127,7 +127,7 @@ pub fn fit<'py>(
 #[pyfunction]
 #[pyo3(signature = (capture, effects=None, *, max_added=3, calibration=None, fixed_dmax=None,
     trust_reference=false, rayleigh_radiance=false, all_pixels=false,
-    sample_budget_px=Some(bpins_core::fit::DEFAULT_BUDGET_PX)))]
+    sample_budget_px=Some(bpins_core::fit::DEFAULT_BUDGET_PX as i64)))]
 #[allow(clippy::too_many_arguments)]
 pub fn diagnose<'py>(
     py: Python<'py>,

@@ -38,9 +38,11 @@ pub(crate) fn py_err_in(prefix: &str, e: bpins_core::Error) -> PyErr {
             PyFileNotFoundError::new_err(text)
         }
         bpins_core::Error::Io { .. } => PyOSError::new_err(text),
-        // A capture folder or capture.toml that is not there (bpins-core says so in
-        // words, as a capture error): a file error to Python too.
-        bpins_core::Error::Capture { path, .. } if !path.exists() => PyFileNotFoundError::new_err(text),
+        // A capture folder without capture.toml (bpins-core says so in words, as a
+        // capture error): a file error to Python too.
+        bpins_core::Error::Capture { message, .. } if message == bpins_core::capture::NOT_FOUND => {
+            PyFileNotFoundError::new_err(text)
+        }
         _ => PyValueError::new_err(text),
     }
 }
