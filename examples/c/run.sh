@@ -30,8 +30,10 @@ if [ ! -f "$lib" ]; then
 fi
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
-# -Wl,-S: the program without the library's debug information (the release
-# library keeps line tables for perf, and the Rust standard library's): tens of MB less.
-"$cc" -std=c99 -O2 -Icrates/bpins-capi/include examples/c/heading.c "$lib" -lpthread -ldl -lm -Wl,-S -o "$out/heading"
+# -Wl,--gc-sections drops the library's code the program never calls, -Wl,-S its
+# debug information (the release library keeps line tables for perf, and the Rust
+# standard library's): 56 MB -> 2 MB for this example.
+"$cc" -std=c99 -O2 -Icrates/bpins-capi/include examples/c/heading.c "$lib" -lpthread -ldl -lm \
+    -Wl,--gc-sections -Wl,-S -o "$out/heading"
 echo "compiled $out/heading ($(du -h "$out/heading" | cut -f1)) against $lib ($(du -h "$lib" | cut -f1))" >&2
 "$out/heading" examples/c/f000.u16 612 512 12 64 579.7101449275362 305.5 255.5 40 25 0 0 0

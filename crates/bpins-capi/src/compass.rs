@@ -117,11 +117,10 @@ pub unsafe extern "C" fn bpins_compass_new_with_calibration(
         } else {
             // SAFETY: a NUL-terminated string by the caller's contract.
             let bytes = unsafe { CStr::from_ptr(calibration_path) }.to_bytes();
-            Calibration::load(&path_from_bytes(bytes)?)
-                .map_err(|e| {
-                    let e = bpins_core::error::full_message(&e);
-                    Failure::new(BpinsStatus::BPINS_ERR_CALIBRATION, format!("calibration: {e}"))
-                })?
+            Calibration::load(&path_from_bytes(bytes)?).map_err(|e| {
+                let e = bpins_core::error::full_message(&e);
+                Failure::new(BpinsStatus::BPINS_ERR_CALIBRATION, format!("calibration: {e}"))
+            })?
         };
         let handle = build(config, calibration)?;
         // SAFETY: as above.

@@ -16,7 +16,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn main() -> std::process::ExitCode {
-    let missing = c_compiler().err().map(|why| format!("{why}; install one (Debian: `apt-get install -y gcc libc6-dev`)"));
+    let missing =
+        c_compiler().err().map(|why| format!("{why}; install one (Debian: `apt-get install -y gcc libc6-dev`)"));
     needs::run(vec![(
         needs::Need::new("a C compiler", missing),
         vec![(

@@ -132,12 +132,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     match &kernels {
         Some(ks) => {
             for k in ks {
-                out!(
-                    "kernel {:<11} {:.3} ms per frame ({} dispatches)",
-                    k.kernel,
-                    k.total_ms / n as f64,
-                    k.dispatches
-                );
+                out!("kernel {:<11} {:.3} ms per frame ({} dispatches)", k.kernel, k.total_ms / n as f64, k.dispatches);
             }
         }
         None if gpu.is_some() => out!("kernel times       not available (the adapter has no timestamp queries)"),

@@ -27,13 +27,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let lab = LabCapture::load(&a.lab)?;
     let g = &lab.sensor.geometry;
-    say!(
-        "bpins calibrate: {} frames of {} ({} × {} px)",
-        lab.frames.len(),
-        a.lab.display(),
-        g.width_px,
-        g.height_px
-    );
+    say!("bpins calibrate: {} frames of {} ({} × {} px)", lab.frames.len(), a.lab.display(), g.width_px, g.height_px);
     let pb = crate::progress::bar(lab.frames.len() as u64, "frames");
     let cal = calibrate(&lab, &|done, _| pb.set_position(done as u64)).context("calibrating")?;
     pb.finish_and_clear();
@@ -42,7 +36,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     out!("offsets: {}", cal.offset_source);
     out!(
         "{:<24} {:>8} {:>22} {:>11} {:>22} {:>22} {:>12}  unit",
-        "quantity", "channel", "mean ± 1σ", "spread", "gradient x ± 1σ", "gradient y ± 1σ", "pixel 1σ"
+        "quantity",
+        "channel",
+        "mean ± 1σ",
+        "spread",
+        "gradient x ± 1σ",
+        "gradient y ± 1σ",
+        "pixel 1σ"
     );
     for s in &cal.summary {
         out!(
@@ -71,15 +71,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(d) = &cal.dark {
-        out!(
-            "dark: mean offset {:.3} DN, DSNU {:.3} DN over {} dark frame(s)",
-            d.mean_offset_dn, d.dsnu_dn, d.frames
-        );
+        out!("dark: mean offset {:.3} DN, DSNU {:.3} DN over {} dark frame(s)", d.mean_offset_dn, d.dsnu_dn, d.frames);
     }
     if let Some(f) = &cal.flat {
         out!(
             "flat field: vignetting v2 {:.5} ± {:.5}, v4 {:.5} ± {:.5} (r in focal lengths), PRNU {:.3} %",
-            f.v2, f.v2_sigma, f.v4, f.v4_sigma, f.prnu_pct
+            f.v2,
+            f.v2_sigma,
+            f.v4,
+            f.v4_sigma,
+            f.prnu_pct
         );
     }
     for l in &cal.left_out {

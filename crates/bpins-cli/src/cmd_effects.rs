@@ -31,7 +31,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         for p in e.params {
             out!(
                 "    {:<14} {:>4}  neutral {:<6} typical {:<6} range [{}, {}]  {}",
-                p.name, p.unit, p.neutral, p.typical, p.min, p.max, p.doc
+                p.name,
+                p.unit,
+                p.neutral,
+                p.typical,
+                p.min,
+                p.max,
+                p.doc
             );
         }
     }
@@ -40,10 +46,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for e in ELEMENTS {
         out!("{:<20} {}  ({})", e.name, e.summary, e.source);
         for p in e.params {
-            out!(
-                "    {:<18} {:>4}  default {:<8} range [{}, {}]  {}",
-                p.name, p.unit, p.default, p.min, p.max, p.doc
-            );
+            out!("    {:<18} {:>4}  default {:<8} range [{}, {}]  {}", p.name, p.unit, p.default, p.min, p.max, p.doc);
         }
     }
     Ok(())

@@ -92,7 +92,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let field = a.estimator == Estimator::Field;
     out!(
         "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>10}  sun az/el (°), source; or why no heading",
-        "frame", "extractor", "heading (°)", "1σ (°)", "reference (°)", "error (°)", "err/1σ", "used (%)", "resid (°)"
+        "frame",
+        "extractor",
+        "heading (°)",
+        "1σ (°)",
+        "reference (°)",
+        "error (°)",
+        "err/1σ",
+        "used (%)",
+        "resid (°)"
     );
     let pb = crate::progress::bar(capture.frames.len() as u64, "frames");
     let mut rows: Vec<Row> = Vec::new();

@@ -125,7 +125,14 @@ fn print_table(rows: &[Row]) -> anyhow::Result<()> {
     out!("Azimuth error over the trials, degrees (seed paper Table 3 beside; — where it gives none)");
     out!(
         "{:<19} {:<14} {:<8} {:>10} {:>9} {:>7} {:>12} {:>11}",
-        "source", "extractor", "lens ρ", "mean (°)", "σ (°)", "trials", "paper μ (°)", "paper σ (°)"
+        "source",
+        "extractor",
+        "lens ρ",
+        "mean (°)",
+        "σ (°)",
+        "trials",
+        "paper μ (°)",
+        "paper σ (°)"
     );
     for r in rows {
         let known = match r.lens_rho_known {

@@ -97,7 +97,15 @@ fn print_rows(s: &Summary) -> anyhow::Result<()> {
     out!("Heading error, degrees ({} trials per source and sun elevation)", s.trials_per_source);
     out!(
         "{:<20} {:<14} {:>8} {:<8} {:>10} {:>9} {:>9} {:>9} {:>7}",
-        "source", "extractor", "sun (°)", "known", "mean (°)", "σ (°)", "RMS (°)", "p95 (°)", "trials"
+        "source",
+        "extractor",
+        "sun (°)",
+        "known",
+        "mean (°)",
+        "σ (°)",
+        "RMS (°)",
+        "p95 (°)",
+        "trials"
     );
     for r in &s.rows {
         out!(

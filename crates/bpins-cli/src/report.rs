@@ -409,10 +409,7 @@ mod tests {
     #[test]
     fn backticked_names_become_code_and_the_rest_stays_escaped() {
         let html = code_spans("a lab flat field (then `--calibration FILE` holds it) <b> `odd".into());
-        assert_eq!(
-            html.to_string(),
-            "a lab flat field (then <code>--calibration FILE</code> holds it) &lt;b&gt; `odd"
-        );
+        assert_eq!(html.to_string(), "a lab flat field (then <code>--calibration FILE</code> holds it) &lt;b&gt; `odd");
         assert!(html.is_safe());
     }
 

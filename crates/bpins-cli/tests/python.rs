@@ -25,9 +25,11 @@ fn python() -> Option<PathBuf> {
 
 fn main() -> std::process::ExitCode {
     let missing = match python() {
-        None => Some("no Python environment at .venv; make it with `python3 -m venv .venv && \
+        None => Some(
+            "no Python environment at .venv; make it with `python3 -m venv .venv && \
              .venv/bin/pip install -r crates/bpins-py/requirements-test.txt` (about 1 min; `.ci/run` does)"
-            .to_string()),
+                .to_string(),
+        ),
         Some(py) => {
             let ok = Command::new(&py).args(["-c", "import maturin, pytest, numpy, polanalyser"]).output();
             match ok {

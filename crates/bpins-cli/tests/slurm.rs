@@ -80,7 +80,10 @@ fn submit_finds_the_binary_or_says_how_to_build_it() {
     let o = submit(Some("/nonexistent/bpins"));
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("BPINS=/nonexistent/bpins is not an executable") && err.contains("cargo build --release"), "{err}");
+    assert!(
+        err.contains("BPINS=/nonexistent/bpins is not an executable") && err.contains("cargo build --release"),
+        "{err}"
+    );
     assert!(!log.exists(), "sbatch ran");
 }
 
@@ -117,7 +120,10 @@ fn unavailable() -> Option<String> {
         .filter(|b| find(b).is_none())
         .collect();
     if !missing.is_empty() {
-        return Some(format!("not installed: {} (`apt-get install -y slurm-wlm munge`; `.ci/run` does)", missing.join(", ")));
+        return Some(format!(
+            "not installed: {} (`apt-get install -y slurm-wlm munge`; `.ci/run` does)",
+            missing.join(", ")
+        ));
     }
     let uid = Command::new("id").arg("-u").output().ok()?;
     if String::from_utf8_lossy(&uid.stdout).trim() != "0" {

@@ -279,7 +279,10 @@ impl Compass {
             ));
         }
         if !(c.cx_px.is_finite() && c.cy_px.is_finite()) {
-            return bad(format!("principal point ({}, {}) px must be finite (usually near the image centre)", c.cx_px, c.cy_px));
+            return bad(format!(
+                "principal point ({}, {}) px must be finite (usually near the image centre)",
+                c.cx_px, c.cy_px
+            ));
         }
         let known = cfg.calibration.model();
         let intr = known.camera(c);

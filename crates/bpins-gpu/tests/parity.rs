@@ -13,16 +13,20 @@ use bpins_gpu::{Gpu, Precision};
 use needs::Need;
 use std::sync::OnceLock;
 
-const VULKAN: &str = "Debian: `apt-get install -y mesa-vulkan-drivers libvulkan1` (lavapipe, Vulkan on the CPU; `.ci/run` does)";
+const VULKAN: &str =
+    "Debian: `apt-get install -y mesa-vulkan-drivers libvulkan1` (lavapipe, Vulkan on the CPU; `.ci/run` does)";
 
 fn main() -> std::process::ExitCode {
     let why = |p: Precision| gpu_at(p).err().map(|e| format!("{e}; {VULKAN}"));
     // Where only one precision opens, the tests over both run on it (and say so).
     let any = why(Precision::F32).and(why(Precision::F64));
     let gl = Gpu::open(Some(Precision::F32), Some(bpins_gpu::wgpu::Backends::GL)).err().map(|e| {
-        format!("{e}; Debian: `apt-get install -y libegl1 libgles2 libgl1-mesa-dri` (llvmpipe through EGL; `.ci/run` does)")
+        format!(
+            "{e}; Debian: `apt-get install -y libegl1 libgles2 libgl1-mesa-dri` (llvmpipe through EGL; `.ci/run` does)"
+        )
     });
-    let gl_test: needs::Test = ("gl_backend_runs_the_f32_chain_within_its_tolerances", gl_backend_runs_the_f32_chain_within_its_tolerances);
+    let gl_test: needs::Test =
+        ("gl_backend_runs_the_f32_chain_within_its_tolerances", gl_backend_runs_the_f32_chain_within_its_tolerances);
     needs::run(vec![
         (
             Need::new("a GPU adapter", any),
@@ -64,7 +68,9 @@ fn gpus() -> Vec<&'static Gpu> {
     for p in [Precision::F64, Precision::F32] {
         match gpu_at(p) {
             Ok(g) => v.push(g),
-            Err(e) if std::env::var_os("CI").is_some() => panic!("CI is set and the GPU twin cannot run at {}: {e}", p.name()),
+            Err(e) if std::env::var_os("CI").is_some() => {
+                panic!("CI is set and the GPU twin cannot run at {}: {e}", p.name())
+            }
             Err(e) => eprintln!("note: only one precision runs here; {} does not open: {e}", p.name()),
         }
     }

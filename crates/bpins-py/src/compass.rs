@@ -268,15 +268,15 @@ impl Compass {
             // the compass's state is rebuilt per frame.
             let mut compass = self.inner.lock().unwrap_or_else(|p| p.into_inner());
             match &m {
-            Mosaic::U8(d, s) => {
-                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
-            }
-            Mosaic::U16(d, s) => {
-                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
-            }
-            Mosaic::F32(d, s) => {
-                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
-            }
+                Mosaic::U8(d, s) => {
+                    compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+                }
+                Mosaic::U16(d, s) => {
+                    compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+                }
+                Mosaic::F32(d, s) => {
+                    compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+                }
             }
         });
         Ok(heading_of(&fix.map_err(compass_err)?, zero_copy))
