@@ -2,8 +2,9 @@
  * heading.c: one raw DoFP frame through the bpins compass, from C.
  *
  * The frame is a file of raw little-endian uint16 samples, row after row (what a
- * camera SDK's buffer holds; `tests/c_example.rs` in crates/bpins-capi writes the
- * clean sample's frame 0 so). The camera, the sun and the attitude come as arguments:
+ * camera SDK's buffer holds). `f000.u16` beside this file is the clean sample's frame
+ * 0 so (samples/clean; `tests/c_example.rs` in crates/bpins-capi checks it is). The
+ * camera, the sun and the attitude come as arguments:
  *
  *   heading FRAME.u16 WIDTH_PX HEIGHT_PX BIT_DEPTH BLACK_LEVEL_DN FOCAL_PX CX_PX CY_PX
  *           SUN_AZIMUTH_DEG SUN_ELEVATION_DEG [TILT_X_DEG TILT_Y_DEG TILT_SIGMA_DEG
@@ -13,6 +14,10 @@
  *
  *   cc -std=c99 -O2 -Icrates/bpins-capi/include examples/c/heading.c \
  *      target/release/libbpins.a -lpthread -ldl -lm -o heading
+ *
+ * and run it on the shipped frame (examples/c/run.sh does all three steps):
+ *
+ *   ./heading examples/c/f000.u16 612 512 12 64 579.7101449275362 305.5 255.5 40 25 0 0 0
  *
  * It prints the heading with its 1σ, or why the frame has none; on an error it prints
  * bpins's message and exits with status 1.

@@ -8,7 +8,8 @@
 #   examples/slurm/local-cluster.sh start STATE_DIR [PORT]   # prints `export SLURM_CONF=...`
 #   examples/slurm/local-cluster.sh stop STATE_DIR
 #
-# slurmctld + slurmd on 127.0.0.1 (ports PORT and PORT+1, default 6817/6818),
+# slurmctld + slurmd on 127.0.0.1 (ports PORT and PORT+1, default 6817/6818; a port
+# already taken is named before anything starts, with a free PORT to use instead),
 # ProctrackType=proctrack/linuxproc and TaskPlugin=task/none (no cgroups needed),
 # one partition `bpins` with this machine's CPUs. Starts in a few seconds.
 set -euo pipefail
@@ -51,6 +52,33 @@ start) ;;
 esac
 
 port="${3:-6817}"
+case "$port" in
+'' | *[!0-9]*)
+    echo "error: PORT must be a number (1024-65534; the cluster uses PORT and PORT+1), not \`$port\`" >&2
+    exit 2
+    ;;
+esac
+if [ "$port" -lt 1024 ] || [ "$port" -gt 65534 ]; then
+    echo "error: PORT $port is outside 1024-65534 (the cluster uses PORT and PORT+1)" >&2
+    exit 2
+fi
+# Both ports free before anything starts: a daemon that cannot bind would only say so
+# in its log, after a 20 s wait for a node that never comes up.
+for p in "$port" "$((port + 1))"; do
+    if [ "$p" = "$port" ]; then who=slurmctld; else who=slurmd; fi
+    if (exec 3<>"/dev/tcp/127.0.0.1/$p") 2>/dev/null; then
+        free=""
+        for try in $(seq $((port + 2)) 2 $((port + 200))); do
+            if ! (exec 3<>"/dev/tcp/127.0.0.1/$try") 2>/dev/null && ! (exec 3<>"/dev/tcp/127.0.0.1/$((try + 1))") 2>/dev/null; then
+                free="$try"
+                break
+            fi
+        done
+        echo "error: port $p (for $who) is already taken on this machine (another Slurm, or an earlier cluster still running; \`ss -ltnp 'sport = :$p'\` shows which process)." >&2
+        echo "  choose other ports with the third argument (the cluster uses PORT and PORT+1)${free:+, e.g. $free: $0 start $state $free}" >&2
+        exit 1
+    fi
+done
 for b in munged slurmctld slurmd sbatch sinfo; do
     if ! command -v "$b" >/dev/null 2>&1 && [ ! -x "/usr/sbin/$b" ]; then
         echo "error: $b not found; install Debian's slurm-wlm and munge (apt-get install -y slurm-wlm munge)" >&2

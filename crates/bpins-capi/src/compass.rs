@@ -39,7 +39,7 @@ fn status_of(e: &CompassError) -> BpinsStatus {
 }
 
 fn failure(e: CompassError) -> Failure {
-    Failure::new(status_of(&e), e.to_string())
+    Failure::new(status_of(&e), bpins_core::error::full_message(&e))
 }
 
 /// Fills `*out` with the defaults: pinhole lens, the IMX250MZR mosaic
@@ -117,8 +117,10 @@ pub unsafe extern "C" fn bpins_compass_new_with_calibration(
         } else {
             // SAFETY: a NUL-terminated string by the caller's contract.
             let bytes = unsafe { CStr::from_ptr(calibration_path) }.to_bytes();
-            Calibration::load(&path_from_bytes(bytes)?)
-                .map_err(|e| Failure::new(BpinsStatus::BPINS_ERR_CALIBRATION, format!("calibration: {e}")))?
+            Calibration::load(&path_from_bytes(bytes)?).map_err(|e| {
+                let e = bpins_core::error::full_message(&e);
+                Failure::new(BpinsStatus::BPINS_ERR_CALIBRATION, format!("calibration: {e}"))
+            })?
         };
         let handle = build(config, calibration)?;
         // SAFETY: as above.
@@ -188,15 +190,27 @@ unsafe fn heading<T: RawDn>(
         let fits = width_px == c.width_px && height_px == c.height_px && stride >= width_px;
         let len = match len {
             Some(n) if fits && n.checked_mul(std::mem::size_of::<T>()).is_some_and(|b| b <= isize::MAX as usize) => n,
-            _ => {
+            Some(n) => {
                 return Err(failure(CompassError::FrameSize {
                     got_w: width_px,
                     got_h: height_px,
                     stride,
-                    len: len.unwrap_or(usize::MAX),
+                    len: n,
                     want_w: c.width_px,
                     want_h: c.height_px,
                 }))
+            }
+            // No extent to state (a height of 0, or sizes whose product overflows).
+            None => {
+                let why = if height_px == 0 { "a height of 0 has no rows" } else { "its extent overflows" };
+                return Err(Failure::new(
+                    BpinsStatus::BPINS_ERR_FRAME_SIZE,
+                    format!(
+                        "frame of {width_px} × {height_px} px (stride {stride}): {why}; the sensor's frame is {} × {} px \
+                         (give its width and height, a stride ≥ the width)",
+                        c.width_px, c.height_px
+                    ),
+                ));
             }
         };
         if !(data as usize).is_multiple_of(std::mem::align_of::<T>()) {

@@ -141,6 +141,10 @@ fn a_wrong_buffer_a_null_pointer_and_a_bad_sun_are_statuses_with_messages() {
     let (st, msg) = heading_u16(handle, &s.raw[..(h - 1) * w], (w, h - 1, w), &sun, &att).unwrap_err();
     assert_eq!(st, BpinsStatus::BPINS_ERR_FRAME_SIZE);
     assert!(msg.contains("612 × 511 px") && msg.contains("612 × 512 px"), "{msg}");
+    // A height of 0: no overflowed count of samples (issue 35 saw 18446744073709551615).
+    let (st, msg) = heading_u16(handle, &s.raw[..0], (w, 0, w), &sun, &att).unwrap_err();
+    assert_eq!(st, BpinsStatus::BPINS_ERR_FRAME_SIZE, "{msg}");
+    assert!(msg.contains("height of 0") && msg.contains("612 × 512 px") && !msg.contains("18446744"), "{msg}");
     let (st, msg) = heading_u16(handle, &s.raw, (w, h, w - 2), &sun, &att).unwrap_err();
     assert_eq!(st, BpinsStatus::BPINS_ERR_FRAME_SIZE, "{msg}");
     assert!(msg.contains("stride 610"), "{msg}");
@@ -238,6 +242,8 @@ fn configs_and_calibrations_are_checked_and_used() {
     let missing = tmp.path().join("missing.toml");
     let (st, msg) = new(&cfg, Some(missing.to_str().unwrap())).unwrap_err();
     assert!(st == BpinsStatus::BPINS_ERR_CALIBRATION && msg.contains("missing.toml"), "{msg}");
+    // …and says what is wrong with it, not only its name.
+    assert!(msg.contains("No such file or directory"), "{msg}");
     let broken = tmp.path().join("broken.toml");
     std::fs::write(&broken, "format = \"bpins-calibration/1\"\n[effects.no_such_effect]\nx = 1.0\n").unwrap();
     let (st, msg) = new(&cfg, Some(broken.to_str().unwrap())).unwrap_err();

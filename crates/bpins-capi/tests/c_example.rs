@@ -1,10 +1,13 @@
 //! examples/c/heading.c, compiled with the system's C compiler against `libbpins.a`
-//! and run on the clean sample's frame 0 (written as raw little-endian u16, as a
-//! camera SDK's buffer): its heading equals the Rust front door's to 1e-9° and the
-//! sample's truth within 2σ. Without a C compiler the test is skipped, saying why,
-//! except under CI (env `CI` set), where it fails.
+//! and run on the clean sample's frame 0 as raw little-endian u16, as a camera SDK's
+//! buffer (shipped as `examples/c/f000.u16`, checked here to be that frame): its heading equals the Rust front door's to 1e-9° and the
+//! sample's truth within 2σ. Without a C compiler the test is counted as ignored,
+//! with the reason and the install command below the run's summary, except under CI
+//! (env `CI` set), where it fails (the harness is `tests/needs.rs`, `harness = false`).
 
 mod common;
+#[path = "../../../tests/needs.rs"]
+mod needs;
 
 use bpins_core::compass::{Compass, Sun};
 use bpins_core::conventions::wrap_deg_180;
@@ -12,7 +15,19 @@ use bpins_core::heading::field::RawImage;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The C compiler: `$CC`, else `cc`; None (with why) if it does not run.
+fn main() -> std::process::ExitCode {
+    let missing =
+        c_compiler().err().map(|why| format!("{why}; install one (Debian: `apt-get install -y gcc libc6-dev`)"));
+    needs::run(vec![(
+        needs::Need::new("a C compiler", missing),
+        vec![(
+            "the_c_example_reads_the_clean_sample_as_the_rust_front_door_does",
+            the_c_example_reads_the_clean_sample_as_the_rust_front_door_does,
+        )],
+    )])
+}
+
+/// The C compiler: `$CC`, else `cc`; Err (with why) if it does not run.
 fn c_compiler() -> Result<String, String> {
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     match Command::new(&cc).arg("--version").output() {
@@ -45,26 +60,24 @@ fn value(stdout: &str, key: &str) -> f64 {
     line.unwrap_or_else(|| panic!("no `{key}` in the output:\n{stdout}")).trim().parse().expect(key)
 }
 
-#[test]
 fn the_c_example_reads_the_clean_sample_as_the_rust_front_door_does() {
-    let cc = match c_compiler() {
-        Ok(cc) => cc,
-        Err(why) if std::env::var_os("CI").is_some() => panic!("CI is set and {why}: install a C compiler"),
-        Err(why) => {
-            eprintln!("skipped: {why}");
-            return;
-        }
-    };
+    let cc = c_compiler().expect("main checked for a C compiler");
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let lib = lib_dir().join("libbpins.a");
     assert!(lib.is_file(), "{} missing: cargo builds it with the crate", lib.display());
-    eprintln!("linking {}", lib.display());
+    if needs::verbose() {
+        eprintln!("linking {}", lib.display());
+    }
 
     let s = common::clean_frame(0);
     let (w, h) = (s.config.width_px, s.config.height_px);
     let tmp = tempfile::tempdir().unwrap();
-    let raw_path = tmp.path().join("f000.u16");
-    std::fs::write(&raw_path, s.raw.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
+    // The frame shipped beside the example (so a newcomer can run it as the README
+    // says) is the clean sample's frame 0, byte for byte.
+    let raw_path = root.join("examples/c/f000.u16");
+    let want: Vec<u8> = s.raw.iter().flat_map(|x| x.to_le_bytes()).collect();
+    let shipped = std::fs::read(&raw_path).unwrap_or_else(|e| panic!("{}: {e}", raw_path.display()));
+    assert!(shipped == want, "{} is not samples/clean's frame 0 as raw little-endian u16", raw_path.display());
 
     let exe = tmp.path().join("heading");
     let out = Command::new(&cc)
@@ -89,7 +102,9 @@ fn the_c_example_reads_the_clean_sample_as_the_rust_front_door_does() {
     let run = Command::new(&exe).arg(&raw_path).args(&args).output().expect("running the example");
     let stdout = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "the example failed: {}{stdout}", String::from_utf8_lossy(&run.stderr));
-    eprintln!("$ heading f000.u16 {}\n{stdout}", args.join(" "));
+    if needs::verbose() {
+        eprintln!("$ heading f000.u16 {}\n{stdout}", args.join(" "));
+    }
     let (c_deg, c_sigma) = (value(&stdout, "heading_deg"), value(&stdout, "sigma_deg"));
 
     let mut rust = Compass::new(s.config.clone()).unwrap();

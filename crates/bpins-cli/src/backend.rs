@@ -45,7 +45,7 @@ pub fn open_gpu_quiet() -> anyhow::Result<bpins_gpu::Gpu> {
 /// Opens the GPU twin and names its adapter and precision on stderr.
 pub fn open_gpu() -> anyhow::Result<bpins_gpu::Gpu> {
     let g = open_gpu_quiet()?;
-    eprintln!(
+    say!(
         "GPU adapter: {}{}, {} kernels",
         g.adapter_name(),
         if g.is_cpu() { " — a CPU rasterizer" } else { "" },

@@ -25,7 +25,7 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     let gpu = crate::backend::open_gpu_quiet()?;
     let n_cases = cases().len();
-    eprintln!(
+    say!(
         "bpins agree: {} cases × {} trials, 612 × 512 px, CPU (rayon) vs GPU {}, {} kernels",
         n_cases,
         a.trials,
@@ -36,9 +36,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let stages =
         agree(&gpu, a.trials, a.seed, &|done, _| pb.set_position(done as u64)).context("comparing backends")?;
     pb.finish_and_clear();
-    println!("{:<16} {:>14} {:>11}  {:<19} {:<4} worst case", "stage", "max |Δ|", "tolerance", "unit", "ok");
+    out!("{:<16} {:>14} {:>11}  {:<19} {:<4} worst case", "stage", "max |Δ|", "tolerance", "unit", "ok");
     for s in &stages {
-        println!(
+        out!(
             "{:<16} {:>14.3e} {:>11.1e}  {:<19} {:<4} {}",
             s.stage,
             s.max_abs_diff,
@@ -69,11 +69,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "ok": ok,
         });
         write_json(path, &v)?;
-        eprintln!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     if !ok {
         anyhow::bail!("the backends disagree beyond tolerance (stages marked NO above)");
     }
-    eprintln!("both backends agree within every tolerance");
+    say!("both backends agree within every tolerance");
     Ok(())
 }

@@ -101,8 +101,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         Some(g) => (g.adapter_name(), g.precision().name()),
         None => (format!("CPU: rayon on {} threads", rayon::current_num_threads()), "f64"),
     };
-    println!("adapter            {adapter}");
-    println!("precision          {precision}");
+    out!("adapter            {adapter}");
+    out!("precision          {precision}");
     // One frame, sky to heading: a warm-up, then the median of the repeats.
     let one = frames_spec(a.repeats + 1)?;
     time_units(&one, 0..1, engine)?;
@@ -120,34 +120,29 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let n = a.repeats as u64;
     let traffic = gpu.map(|g| g.take_traffic());
     let kernels = gpu.and_then(|g| g.take_kernel_times());
-    println!(
+    out!(
         "one frame          {frame_ms:.2} ms (2448 × 2048 DoFP, sky to heading; median of {}, {:.2}–{:.2} ms)",
         a.repeats,
         times_ms[0],
         times_ms[times_ms.len() - 1]
     );
     if let Some(t) = traffic {
-        println!("per frame          {} B uploaded, {} B downloaded", t.uploaded_bytes / n, t.downloaded_bytes / n);
+        out!("per frame          {} B uploaded, {} B downloaded", t.uploaded_bytes / n, t.downloaded_bytes / n);
     }
     match &kernels {
         Some(ks) => {
             for k in ks {
-                println!(
-                    "kernel {:<11} {:.3} ms per frame ({} dispatches)",
-                    k.kernel,
-                    k.total_ms / n as f64,
-                    k.dispatches
-                );
+                out!("kernel {:<11} {:.3} ms per frame ({} dispatches)", k.kernel, k.total_ms / n as f64, k.dispatches);
             }
         }
-        None if gpu.is_some() => println!("kernel times       not available (the adapter has no timestamp queries)"),
+        None if gpu.is_some() => out!("kernel times       not available (the adapter has no timestamp queries)"),
         None => {}
     }
     // Batched frames.
     let batch = frames_spec(a.frames)?;
     let secs = time_units(&batch, 0..a.frames as usize, engine)?;
     let fps = a.frames as f64 / secs;
-    println!("batched            {fps:.1} frames/s ({} frames in {secs:.2} s)", a.frames);
+    out!("batched            {fps:.1} frames/s ({} frames in {secs:.2} s)", a.frames);
     // The paper sweep.
     let sweep_s = if a.no_sweep {
         None
@@ -159,7 +154,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         run_units(&spec, 0..total, engine, &|done, _| pb.set_position(done as u64)).context("the paper sweep")?;
         pb.finish_and_clear();
         let s = t0.elapsed().as_secs_f64();
-        println!("paper sweep        {s:.2} s ({total} trials, 1224 × 1024 px colocated)");
+        out!("paper sweep        {s:.2} s ({total} trials, 1224 × 1024 px colocated)");
         Some(s)
     };
     if let Some(path) = &a.json {
@@ -181,7 +176,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             })).collect::<Vec<_>>()),
         });
         write_json(path, &v)?;
-        eprintln!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }

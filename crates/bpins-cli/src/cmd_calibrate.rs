@@ -27,25 +27,25 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let lab = LabCapture::load(&a.lab)?;
     let g = &lab.sensor.geometry;
-    eprintln!(
-        "bpins calibrate: {} frames of {} ({} × {} px)",
-        lab.frames.len(),
-        a.lab.display(),
-        g.width_px,
-        g.height_px
-    );
+    say!("bpins calibrate: {} frames of {} ({} × {} px)", lab.frames.len(), a.lab.display(), g.width_px, g.height_px);
     let pb = crate::progress::bar(lab.frames.len() as u64, "frames");
     let cal = calibrate(&lab, &|done, _| pb.set_position(done as u64)).context("calibrating")?;
     pb.finish_and_clear();
     let t_fit = t0.elapsed().as_secs_f64();
 
-    println!("offsets: {}", cal.offset_source);
-    println!(
+    out!("offsets: {}", cal.offset_source);
+    out!(
         "{:<24} {:>8} {:>22} {:>11} {:>22} {:>22} {:>12}  unit",
-        "quantity", "channel", "mean ± 1σ", "spread", "gradient x ± 1σ", "gradient y ± 1σ", "pixel 1σ"
+        "quantity",
+        "channel",
+        "mean ± 1σ",
+        "spread",
+        "gradient x ± 1σ",
+        "gradient y ± 1σ",
+        "pixel 1σ"
     );
     for s in &cal.summary {
-        println!(
+        out!(
             "{:<24} {:>7}° {:>11.5} ± {:<8.5} {:>11.5} {:>+11.5} ± {:<8.5} {:>+11.5} ± {:<8.5} {:>12}  {}",
             s.quantity,
             s.channel_deg,
@@ -61,7 +61,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(p) = &cal.photon_transfer {
-        println!(
+        out!(
             "photon transfer: K {:.5} ± {:.5} DN/e⁻, read noise {:.3} ± {:.3} DN, linearity error {}",
             p.conversion_gain_dn_per_e,
             p.conversion_gain_sigma,
@@ -71,19 +71,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(d) = &cal.dark {
-        println!(
-            "dark: mean offset {:.3} DN, DSNU {:.3} DN over {} dark frame(s)",
-            d.mean_offset_dn, d.dsnu_dn, d.frames
-        );
+        out!("dark: mean offset {:.3} DN, DSNU {:.3} DN over {} dark frame(s)", d.mean_offset_dn, d.dsnu_dn, d.frames);
     }
     if let Some(f) = &cal.flat {
-        println!(
+        out!(
             "flat field: vignetting v2 {:.5} ± {:.5}, v4 {:.5} ± {:.5} (r in focal lengths), PRNU {:.3} %",
-            f.v2, f.v2_sigma, f.v4, f.v4_sigma, f.prnu_pct
+            f.v2,
+            f.v2_sigma,
+            f.v4,
+            f.v4_sigma,
+            f.prnu_pct
         );
     }
     for l in &cal.left_out {
-        println!("not determined: {}: {}", l.quantity, l.reason);
+        out!("not determined: {}: {}", l.quantity, l.reason);
     }
 
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
@@ -114,7 +115,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report::report_html(&cal, &a.lab.display().to_string(), &maps).as_bytes(),
     )?;
     let t_all = t0.elapsed().as_secs_f64();
-    eprintln!(
+    say!(
         "wrote {} (+ pixels.exr), maps.exr, png/, summary.json, report.html to {} in {t_all:.1} s \
          (reading and fitting {t_fit:.1} s, writing {:.1} s)",
         cal_path.display(),

@@ -36,10 +36,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .context("fitting the final model on more pixels")?;
     spinner.finish_and_clear();
     if let Some(x) = d.steps.last().and_then(|s| s.fit.raised.as_ref()) {
-        eprintln!("{}", crate::raised_line(x, "the final model fitted again"));
+        say!("{}", crate::raised_line(x, "the final model fitted again"));
     }
-    print_steps(&d);
-    eprintln!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
+    print_steps(&d)?;
+    say!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let json = DiagnosisJson::new(&a.capture, &d);
     write_json(&a.out.join("diagnosis.json"), &json)?;
@@ -62,7 +62,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let html = crate::report::diagnosis(&d, &a.capture.display().to_string(), &maps, &pair)?;
     let page = a.out.join("report.html");
     crate::write_output(&page, html.as_bytes())?;
-    eprintln!("wrote {} and {}", a.out.join("diagnosis.json").display(), page.display());
+    say!("wrote {} and {}", a.out.join("diagnosis.json").display(), page.display());
     Ok(())
 }
 
@@ -70,12 +70,13 @@ fn opt(x: Option<f64>) -> String {
     x.map_or("—".into(), |v| format!("{v:.4}"))
 }
 
-fn print_steps(d: &Diagnosis) {
-    println!("{:<40} {:>9} {:>10} {:>9} {:>12}", "model", "χ²/dof", "AoP RMS °", "DoLP RMS", "heading RMS °");
+fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
+    // Two spaces between columns, each as wide as its header: the columns never run together.
+    out!("{:<40}  {:>9}  {:>10}  {:>9}  {:>14}", "model", "χ²/dof", "AoP RMS °", "DoLP RMS", "heading RMS °");
     for s in &d.steps {
         let m = if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") };
-        println!(
-            "{:<40} {:>9.4} {:>10.4} {:>9.5} {:>12}",
+        out!(
+            "{:<40}  {:>9.4}  {:>10.4}  {:>9.5}  {:>14}",
             m,
             s.fit.chi2_per_dof,
             s.fit.aop_rms_deg,
@@ -84,9 +85,9 @@ fn print_steps(d: &Diagnosis) {
         );
     }
     if let Some(first) = d.rankings.first() {
-        println!("first step, candidates by ΔBIC:");
+        out!("first step, candidates by ΔBIC:");
         for c in first {
-            println!(
+            out!(
                 "  {:<22} Δχ² {:>12.1}  ΔBIC {:>12.1}  {}",
                 c.effect,
                 c.delta_chi2,
@@ -106,14 +107,15 @@ fn print_steps(d: &Diagnosis) {
         }
     }
     if let Some(s) = d.steps.first() {
-        println!("{}", crate::sample_line(&s.fit.sample));
+        out!("{}", crate::sample_line(&s.fit.sample));
     }
-    println!("selected: {}", if d.selected.is_empty() { "nothing".into() } else { d.selected.join(", ") });
+    out!("selected: {}", if d.selected.is_empty() { "nothing".into() } else { d.selected.join(", ") });
     for (e, why) in &d.inseparable {
-        println!("inseparable on this capture (not fitted): {e}: {why}");
+        out!("inseparable on this capture (not fitted): {e}: {why}");
     }
     for (a, b) in &d.confusable {
-        println!("confusable: {a} and {b} explain the data about equally well");
+        out!("confusable: {a} and {b} explain the data about equally well");
     }
-    println!("{}", d.summary());
+    out!("{}", d.summary());
+    Ok(())
 }

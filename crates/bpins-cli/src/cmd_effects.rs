@@ -23,27 +23,30 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 })
             })
             .collect();
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        out!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
     for e in REGISTRY {
-        println!("{:<20} [{}] {}  ({})", e.name, e.stage.name(), e.summary, e.source);
+        out!("{:<20} [{}] {}  ({})", e.name, e.stage.name(), e.summary, e.source);
         for p in e.params {
-            println!(
+            out!(
                 "    {:<14} {:>4}  neutral {:<6} typical {:<6} range [{}, {}]  {}",
-                p.name, p.unit, p.neutral, p.typical, p.min, p.max, p.doc
+                p.name,
+                p.unit,
+                p.neutral,
+                p.typical,
+                p.min,
+                p.max,
+                p.doc
             );
         }
     }
-    println!();
-    println!("scene elements (field conditions; bpins simulate --scene NAME or NAME.PARAM=VALUE; CPU backend only)");
+    out!();
+    out!("scene elements (field conditions; bpins simulate --scene NAME or NAME.PARAM=VALUE; CPU backend only)");
     for e in ELEMENTS {
-        println!("{:<20} {}  ({})", e.name, e.summary, e.source);
+        out!("{:<20} {}  ({})", e.name, e.summary, e.source);
         for p in e.params {
-            println!(
-                "    {:<18} {:>4}  default {:<8} range [{}, {}]  {}",
-                p.name, p.unit, p.default, p.min, p.max, p.doc
-            );
+            out!("    {:<18} {:>4}  default {:<8} range [{}, {}]  {}", p.name, p.unit, p.default, p.min, p.max, p.doc);
         }
     }
     Ok(())

@@ -16,7 +16,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let a = a.input;
     let (request, loaded) = a.load_request()?;
     let names: Vec<&str> = loaded.options.effects.iter().map(|e| e.name).collect();
-    eprintln!(
+    say!(
         "bpins fit: {} frames of {}, effects: {}",
         loaded.frames.len(),
         a.capture.display(),
@@ -31,9 +31,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         request.raise_where_needed(loaded, first, &progress).context("fitting on more pixels")?;
     spinner.finish_and_clear();
     if let Some(x) = &r.raised {
-        eprintln!("{}", crate::raised_line(x, "fitted again"));
+        say!("{}", crate::raised_line(x, "fitted again"));
     }
-    println!(
+    out!(
         "χ²/dof {:.4} ({:.0} / {:.0}), {} samples ({:.0} effective), {} iterations; noise σ_read {:.3} DN, K {:.4} DN/e⁻, PRNU {:.4} %",
         r.chi2_per_dof,
         r.chi2,
@@ -45,14 +45,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         r.noise.k_dn_per_e,
         100.0 * r.noise.prnu
     );
-    println!("AoP residual RMS {:.4}°, DoLP residual RMS {:.5}", r.aop_rms_deg, r.dolp_rms);
-    println!("{}", crate::sample_line(&r.sample));
+    out!("AoP residual RMS {:.4}°, DoLP residual RMS {:.5}", r.aop_rms_deg, r.dolp_rms);
+    out!("{}", crate::sample_line(&r.sample));
     for p in &r.params {
-        println!("  {:<34} {:>+12.5} ± {:<10.5} {}", p.name, p.value, p.sigma, p.unit);
+        out!("  {:<34} {:>+12.5} ± {:<10.5} {}", p.name, p.value, p.sigma, p.unit);
     }
-    println!("frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max  radiance ±range   χ²/dof");
+    out!("frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max  radiance ±range   χ²/dof");
     for (k, f) in r.frames.iter().enumerate() {
-        println!(
+        out!(
             "{:>5}  {:>11.4} {:>10.4} {:>15} {:>10} {:>11.2} {:>7.4} {:>14.4} {:>8.4}",
             k,
             f.heading_deg,
@@ -66,10 +66,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(h) = r.heading_rms_deg {
-        println!("heading RMS against the references: {h:.4}°");
+        out!("heading RMS against the references: {h:.4}°");
     }
     for d in &r.degenerate {
-        println!("degenerate (1σ shown as inf): {d}");
+        out!("degenerate (1σ shown as inf): {d}");
     }
     let v = FitJson::new(&a.capture, &opts, &r);
     let path = a.out.join("fit.json");
@@ -98,9 +98,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let cal_path = a.out.join("calibration.toml");
     crate::write_output(&cal_path, cal.to_toml().as_bytes())?;
-    eprintln!("wrote {} (bpins heading --calibration, fit/diagnose --calibration)", cal_path.display());
+    say!("wrote {} (bpins heading --calibration, fit/diagnose --calibration)", cal_path.display());
     crate::residuals::compute_and_write(&a.out, &c, &frames, &opts, &r)?;
-    eprintln!("wrote residual maps (EXR and PNG) and sky-space profiles (CSV and SVG) to {}", a.out.display());
-    eprintln!("wrote {}", path.display());
+    say!("wrote residual maps (EXR and PNG) and sky-space profiles (CSV and SVG) to {}", a.out.display());
+    say!("wrote {}", path.display());
     Ok(())
 }

@@ -90,9 +90,18 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ensure_not_in_capture(p)?;
     }
     let field = a.estimator == Estimator::Field;
-    println!(
+    out!(
         "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10}  sun az/el (°), source; or why no heading",
-        "frame", "extractor", "heading (°)", "1σ (°)", "reference (°)", "error (°)", "err/1σ", "used (%)", "cloud (%)", "resid (°)"
+        "frame",
+        "extractor",
+        "heading (°)",
+        "1σ (°)",
+        "reference (°)",
+        "error (°)",
+        "err/1σ",
+        "used (%)",
+        "cloud (%)",
+        "resid (°)"
     );
     let pb = crate::progress::bar(capture.frames.len() as u64, "frames");
     let mut rows: Vec<Row> = Vec::new();
@@ -155,7 +164,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             }
         }
         pb.inc(1);
-        pb.suspend(|| frame_rows.iter().for_each(Row::print));
+        pb.suspend(|| frame_rows.iter().try_for_each(Row::print))?;
         rows.extend(frame_rows);
     }
     pb.finish_and_clear();
@@ -188,7 +197,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if none > 0 {
             line += &format!("; {none} frame(s) without a heading");
         }
-        println!("{line}");
+        out!("{line}");
         summary.push(s);
     }
     if let Some(p) = &a.json {
@@ -202,7 +211,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "summary": summary,
         });
         write_json(p, &v)?;
-        eprintln!("wrote {}", p.display());
+        say!("wrote {}", p.display());
     }
     let failed = rows.iter().filter(|r| r.heading_deg.is_none()).count();
     if !field && failed > 0 {
@@ -233,10 +242,10 @@ impl Row {
         Some(wrap_deg_180(self.heading_deg? - self.reference_deg?))
     }
 
-    fn print(&self) {
+    fn print(&self) -> anyhow::Result<()> {
         let opt = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map(f).unwrap_or_else(|| "—".into());
         let err = self.error_deg();
-        println!(
+        out!(
             "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10}  {}",
             self.file,
             self.extractor.name(),
@@ -253,6 +262,7 @@ impl Row {
                 None => self.sun.clone(),
             }
         );
+        Ok(())
     }
 
     fn to_json(&self) -> serde_json::Value {

@@ -52,7 +52,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let channels = spec.channels();
     let total = unit_count(&spec) as u64;
     let (w, h) = spec.size_px();
-    eprintln!(
+    say!(
         "bpins run: {} trials on the {} backend ({} per source), {}×{} px colocated, {} channels, seed {}",
         total,
         a.backend.name(),
@@ -70,8 +70,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .context("Monte Carlo sweep")?;
     pb.finish_and_clear();
     let rows = table3(&spec, &records);
-    print_table(&rows);
-    eprintln!("{} trials in {:.1} s", total, t0.elapsed().as_secs_f64());
+    print_table(&rows)?;
+    say!("{} trials in {:.1} s", total, t0.elapsed().as_secs_f64());
     if let Some(path) = &a.json {
         let v = json!({
             "backend": a.backend.name(),
@@ -83,7 +83,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "rows": rows,
         });
         write_json(path, &v)?;
-        eprintln!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }
@@ -121,11 +121,18 @@ fn opt(x: Option<f64>) -> String {
     x.map(|v| format!("{v:+.4}")).unwrap_or_else(|| "—".into())
 }
 
-fn print_table(rows: &[Row]) {
-    println!("Azimuth error over the trials, degrees (seed paper Table 3 beside; — where it gives none)");
-    println!(
+fn print_table(rows: &[Row]) -> anyhow::Result<()> {
+    out!("Azimuth error over the trials, degrees (seed paper Table 3 beside; — where it gives none)");
+    out!(
         "{:<19} {:<14} {:<8} {:>10} {:>9} {:>7} {:>12} {:>11}",
-        "source", "extractor", "lens ρ", "mean (°)", "σ (°)", "trials", "paper μ (°)", "paper σ (°)"
+        "source",
+        "extractor",
+        "lens ρ",
+        "mean (°)",
+        "σ (°)",
+        "trials",
+        "paper μ (°)",
+        "paper σ (°)"
     );
     for r in rows {
         let known = match r.lens_rho_known {
@@ -133,7 +140,7 @@ fn print_table(rows: &[Row]) {
             Some(false) => "unknown",
             None => "—",
         };
-        println!(
+        out!(
             "{:<19} {:<14} {:<8} {:>+10.4} {:>9.4} {:>7} {:>12} {:>11}",
             r.source,
             r.extractor,
@@ -145,4 +152,5 @@ fn print_table(rows: &[Row]) {
             opt(r.paper_std_deg).trim_start_matches('+')
         );
     }
+    Ok(())
 }

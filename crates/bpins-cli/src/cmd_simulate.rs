@@ -234,17 +234,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .flat_map(|f| f.iter())
         .flat_map(|(d, v)| d.params.iter().zip(v).map(move |(p, x)| format!("{}.{}={} {}", d.name, p.name, x, p.unit)))
         .collect();
-    eprintln!(
+    say!(
         "bpins simulate ({} backend): gain {:.2} DN per unit radiance, effects: {}",
         a.backend.name(),
         resp.gain_dn,
         if effects_text.is_empty() { "none".to_string() } else { effects_text.join(", ") }
     );
     if !scene_text.is_empty() {
-        eprintln!("scene (seed {scene_seed}): {}", scene_text.join(", "));
+        say!("scene (seed {scene_seed}): {}", scene_text.join(", "));
     }
     if !attitude.is_none() {
-        eprintln!(
+        say!(
             "attitude (seed {scene_seed}): true tilt ±{} deg per axis; IMU σ {} deg; sun σ {} deg",
             a.tilt_random_deg,
             a.imu_sigma_deg.map_or("none".into(), |s| s.to_string()),
@@ -297,7 +297,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     pb.finish_and_clear();
     let n = writer.written();
     writer.finish()?;
-    eprintln!("wrote {n} frames to {}", out.display());
+    say!("wrote {n} frames to {}", out.display());
     Ok(())
 }
 
@@ -354,7 +354,7 @@ fn run_lab(a: &Args, model: &bpins_core::effects::Model) -> anyhow::Result<()> {
         seed: a.seed,
     };
     let lab = LabCapture { dir: out.clone(), sensor: c.sensor.clone(), lens: c.lens.clone(), frames: plan.frames() };
-    eprintln!(
+    say!(
         "bpins simulate --lab: {} polarized, {} unpolarized, {} dark frames of {w} × {h} px",
         plan.angles_deg.len(),
         plan.exposures.len(),
@@ -364,9 +364,9 @@ fn run_lab(a: &Args, model: &bpins_core::effects::Model) -> anyhow::Result<()> {
     lab.write(out, &frames)?;
     if let Some(t) = &a.lab_truth {
         write_exr_layers(t, g.width_px, g.height_px, &truth.present())?;
-        eprintln!("wrote the per-pixel truth to {}", t.display());
+        say!("wrote the per-pixel truth to {}", t.display());
     }
-    eprintln!("wrote the lab capture {}", out.display());
+    say!("wrote the lab capture {}", out.display());
     Ok(())
 }
 
@@ -452,7 +452,7 @@ fn write_dump(
         Channel::ALL.iter().zip(&planes).map(|(ch, p)| (ch.exr_name(), p.as_slice())).collect();
     layers.extend([("AoP", aop.as_slice()), ("DoLP", dolp.as_slice()), ("AoE", aoe.as_slice())]);
     write_exr_layers(path, g.width_px, g.height_px, &layers)?;
-    eprintln!("wrote {} ({}×{} px; I0…I135 in DN, AoP and AoE in degrees, DoLP in 1)", path.display(), w, h);
+    say!("wrote {} ({}×{} px; I0…I135 in DN, AoP and AoE in degrees, DoLP in 1)", path.display(), w, h);
     Ok(())
 }
 

@@ -51,7 +51,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let shard = a.shard.unwrap_or(Shard::WHOLE);
     let units = shard.range(unit_count(&spec)).len();
     let (w, h) = spec.size_px();
-    eprintln!(
+    say!(
         "bpins sweep {}: slice {shard} = {units} of {} trials ({} per source and sun elevation; {} sources × {} sun elevations) on the {} backend, {w}×{h} px, seed {}",
         a.spec.display(),
         unit_count(&spec),
@@ -70,12 +70,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     pb.finish_and_clear();
     match outcome {
         Outcome::AlreadyComplete => {
-            eprintln!("{}: slice {shard} is already complete (shard.toml); nothing recomputed", a.out.display())
+            say!("{}: slice {shard} is already complete (shard.toml); nothing recomputed", a.out.display())
         }
         Outcome::Computed(s) => {
             let secs = t0.elapsed().as_secs_f64();
-            print_rows(&s);
-            eprintln!(
+            print_rows(&s)?;
+            say!(
                 "{units} trials in {secs:.1} s ({:.1} trials/s); wrote {}",
                 units as f64 / secs.max(1e-9),
                 a.out.join("summary.json").display()
@@ -88,19 +88,27 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 pub fn run_merge(a: MergeArgs) -> anyhow::Result<()> {
     crate::ensure_not_in_capture(&a.out)?;
     let s = merge(&a.shards, &a.out).with_context(|| format!("merging into {}", a.out.display()))?;
-    print_rows(&s);
-    eprintln!("merged {} slices; wrote {}", a.shards.len(), a.out.join("summary.json").display());
+    print_rows(&s)?;
+    say!("merged {} slices; wrote {}", a.shards.len(), a.out.join("summary.json").display());
     Ok(())
 }
 
-fn print_rows(s: &Summary) {
-    println!("Heading error, degrees ({} trials per source and sun elevation)", s.trials_per_source);
-    println!(
+fn print_rows(s: &Summary) -> anyhow::Result<()> {
+    out!("Heading error, degrees ({} trials per source and sun elevation)", s.trials_per_source);
+    out!(
         "{:<20} {:<14} {:>8} {:<8} {:>10} {:>9} {:>9} {:>9} {:>7}",
-        "source", "extractor", "sun (°)", "known", "mean (°)", "σ (°)", "RMS (°)", "p95 (°)", "trials"
+        "source",
+        "extractor",
+        "sun (°)",
+        "known",
+        "mean (°)",
+        "σ (°)",
+        "RMS (°)",
+        "p95 (°)",
+        "trials"
     );
     for r in &s.rows {
-        println!(
+        out!(
             "{:<20} {:<14} {:>8} {:<8} {:>+10.4} {:>9.4} {:>9.4} {:>9.4} {:>7}",
             r.source,
             r.extractor,
@@ -116,7 +124,7 @@ fn print_rows(s: &Summary) {
     for b in &s.budget {
         let shares: Vec<String> =
             b.shares.iter().map(|x| format!("{} {:.0} %", x.source, 100.0 * x.share_of_combined)).collect();
-        println!(
+        out!(
             "budget {} at sun {}°{}: {}; σ combined {:.4}°, √Σσ² {:.4}° ({})",
             b.extractor,
             b.sun_elevation_deg,
@@ -127,4 +135,5 @@ fn print_rows(s: &Summary) {
             if b.adds_in_quadrature { "adds in quadrature" } else { "does not add in quadrature" }
         );
     }
+    Ok(())
 }

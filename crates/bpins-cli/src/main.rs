@@ -1,5 +1,27 @@
 //! `bpins`: the command-line interface. One file per subcommand; errors are
 //! `anyhow` with context here, typed in the library; `main` returns an exit code.
+//!
+//! Output goes through [`out!`] (stdout) and [`say!`] (stderr), never `println!`:
+//! a reader that closes the pipe early (`bpins effects | head`) ends the command
+//! quietly with status 0, as Unix tools do, instead of a panic.
+
+/// `println!` to stdout, returning early from the enclosing `anyhow::Result` function
+/// when the write fails: a closed pipe as [`StdoutClosed`] (a quiet exit in `main`),
+/// any other failure as an error naming standard output.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*).map_err($crate::stdout_error)?
+    }};
+}
+
+/// `eprintln!` that never panics: a message to stderr, dropped if stderr is closed.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr().lock(), $($arg)*);
+    }};
+}
 
 mod backend;
 mod cmd_agree;
@@ -90,10 +112,33 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader has gone (`| head`): nothing more to say, and nothing failed.
+        Err(e) if e.chain().any(|c| c.is::<StdoutClosed>()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            say!("error: {e:#}");
             ExitCode::from(2)
         }
+    }
+}
+
+/// Standard output was closed by its reader (a broken pipe): the command stops there.
+#[derive(Debug)]
+pub struct StdoutClosed;
+
+impl std::fmt::Display for StdoutClosed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("standard output was closed")
+    }
+}
+
+impl std::error::Error for StdoutClosed {}
+
+/// A failed write to stdout as [`out!`] returns it.
+pub fn stdout_error(e: std::io::Error) -> anyhow::Error {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        anyhow::Error::new(StdoutClosed)
+    } else {
+        anyhow::Error::new(e).context("writing to standard output")
     }
 }
 

@@ -153,6 +153,7 @@ fn render(page: &impl Serialize) -> anyhow::Result<String> {
     let mut env = Environment::new();
     env.set_auto_escape_callback(|_| AutoEscape::Html);
     env.set_formatter(escape_html);
+    env.add_filter("code", code_spans);
     env.add_template("diagnosis.html", TEMPLATE).context("the report template")?;
     let t = env.get_template("diagnosis.html").context("the report template")?;
     let mut html = t.render(minijinja::value::Serde(page)).context("rendering the report")?;
@@ -173,6 +174,36 @@ fn escape_html(
     }
     out.write_str(&bpins_core::output::escape_html(&value.to_string()))
         .map_err(|_| minijinja::Error::new(minijinja::ErrorKind::WriteFailure, "writing the report"))
+}
+
+/// The `code` filter: text from the library, whose `--flag`s and names stand in
+/// backticks as in the terminal, as HTML with those spans in `<code>` (everything
+/// escaped first; an unpaired backtick stays as it is).
+fn code_spans(text: String) -> minijinja::Value {
+    let escaped = bpins_core::output::escape_html(&text);
+    let parts: Vec<&str> = escaped.split('`').collect();
+    let mut html = String::with_capacity(escaped.len() + 16);
+    for (i, part) in parts.iter().enumerate() {
+        let closed = i % 2 == 1 && i + 1 < parts.len();
+        match (i % 2 == 1, closed) {
+            (true, true) => html.push_str(&format!("<code>{part}</code>")),
+            (true, false) => html.push_str(&format!("`{part}")),
+            _ => html.push_str(part),
+        }
+    }
+    minijinja::Value::from_safe_string(html)
+}
+
+/// A radiance coefficient: 3 decimals, a small one in scientific notation rather
+/// than a `+0.000` or `-0.000` that says nothing, an exact zero as `0`.
+fn coefficient(c: f64) -> String {
+    if c == 0.0 {
+        "0".into()
+    } else if c.abs() < 5e-4 {
+        format!("{c:+.1e}")
+    } else {
+        format!("{c:+.3}")
+    }
 }
 
 fn model_name(model: &[&str]) -> String {
@@ -349,7 +380,7 @@ fn frame_rows(fit: &bpins_core::fit::FitResult) -> Vec<FrameRow> {
             reference_deg: opt(f.reference_deg),
             error_deg: opt(f.heading_error_deg),
             dmax: format!("{:.4}", f.dmax),
-            radiance: f.radiance.iter().map(|c| format!("{c:+.3}")).collect::<Vec<_>>().join(" "),
+            radiance: f.radiance.iter().map(|&c| coefficient(c)).collect::<Vec<_>>().join(" "),
             chi2_per_dof: format!("{:.4}", f.chi2_per_dof),
         })
         .collect()
@@ -373,5 +404,24 @@ mod tests {
             e.get_template("t.html").unwrap().render(minijinja::value::Serde(P { capture })).unwrap()
         };
         assert_eq!(env("a\"<b>&'c/d"), "<p title=\"a&quot;&lt;b&gt;&amp;&#39;c/d\">a&quot;&lt;b&gt;&amp;&#39;c/d</p>");
+    }
+
+    #[test]
+    fn backticked_names_become_code_and_the_rest_stays_escaped() {
+        let html = code_spans("a lab flat field (then `--calibration FILE` holds it) <b> `odd".into());
+        assert_eq!(html.to_string(), "a lab flat field (then <code>--calibration FILE</code> holds it) &lt;b&gt; `odd");
+        assert!(html.is_safe());
+    }
+
+    #[test]
+    fn radiance_coefficients_never_read_plus_or_minus_zero() {
+        assert_eq!(coefficient(0.0), "0");
+        assert_eq!(coefficient(-0.0), "0");
+        assert_eq!(coefficient(2.3e-5), "+2.3e-5");
+        assert_eq!(coefficient(-0.25), "-0.250");
+        for c in [1e-4, -1e-4, 4e-4, -4.9e-4] {
+            let t = coefficient(c);
+            assert!(!t.contains("0.000"), "{c}: {t}");
+        }
     }
 }

@@ -4,13 +4,14 @@
 //! No invocation may panic: every run checks stderr for "panicked".
 //!
 //! (Over 500 lines on purpose: one test binary for every subcommand, since each file
-//! in tests/ links its own binary and the suite's time on 2 cores is mostly linking.)
+//! in tests/ links its own binary and the suite's time on 2 cores is mostly linking.
+//! The GPU backend's tests are gpu.rs's, whose harness counts them as ignored where
+//! there is no adapter.)
 
 mod common;
 
-use common::gpu_available;
+use common::{bpins, bpins_env, f64_of, read_json, s, Run, REPO};
 use std::collections::BTreeMap;
-use std::ffi::OsStr;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -19,85 +20,12 @@ use std::time::SystemTime;
 
 use serde_json::Value;
 
-const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
 const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
 
 const SOURCES: [&str; 5] = ["principal_point", "array_rotation", "channel_response", "lens_diattenuation", "combined"];
 const EXTRACTORS: [&str; 2] = ["sun_vector", "meridian_line"];
 const EFFECTS: [&str; 5] =
     ["principal_point", "array_rotation", "channel_response", "lens_diattenuation", "mount_tilt"];
-
-/// What one invocation did.
-#[derive(Debug)]
-struct Run {
-    args: String,
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-}
-
-impl Run {
-    fn ok(self) -> Run {
-        assert_eq!(self.code, Some(0), "`bpins {}` failed:\n{}", self.args, self.stderr);
-        self
-    }
-
-    /// A clean failure: a non-zero exit code (not a signal) and an `error:` line.
-    fn fails(self) -> Run {
-        assert!(
-            matches!(self.code, Some(c) if c != 0),
-            "`bpins {}` should fail, exit {:?}\nstdout:\n{}\nstderr:\n{}",
-            self.args,
-            self.code,
-            self.stdout,
-            self.stderr
-        );
-        assert!(self.stderr.contains("error"), "`bpins {}`: no error message:\n{}", self.args, self.stderr);
-        self
-    }
-
-    fn stderr_has(&self, what: &str) -> &Self {
-        assert!(
-            self.stderr.contains(what),
-            "`bpins {}`: stderr does not mention `{what}`:\n{}",
-            self.args,
-            self.stderr
-        );
-        self
-    }
-}
-
-/// Runs `bpins args…` in the repository root with extra environment `envs`.
-fn bpins_env<S: AsRef<OsStr>>(args: &[S], envs: &[(&str, &str)]) -> Run {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_bpins"));
-    cmd.current_dir(REPO).args(args);
-    for (k, v) in envs {
-        cmd.env(k, v);
-    }
-    let out = cmd.output().expect("running bpins");
-    let run = Run {
-        args: args.iter().map(|a| a.as_ref().to_string_lossy().into_owned()).collect::<Vec<_>>().join(" "),
-        code: out.status.code(),
-        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-    };
-    assert!(!run.stderr.contains("panicked"), "`bpins {}` panicked:\n{}", run.args, run.stderr);
-    assert!(run.code.is_some(), "`bpins {}` was killed by a signal:\n{}", run.args, run.stderr);
-    run
-}
-
-fn bpins<S: AsRef<OsStr>>(args: &[S]) -> Run {
-    bpins_env(args, &[])
-}
-
-fn s(p: &Path) -> String {
-    p.to_str().expect("temporary paths are UTF-8").to_string()
-}
-
-fn read_json(p: &Path) -> Value {
-    let text = fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: not JSON: {e}", p.display()))
-}
 
 /// Every entry under `dir` (folders too): relative path → (size, modification time).
 fn snapshot(dir: &Path) -> BTreeMap<PathBuf, (bool, u64, SystemTime)> {
@@ -157,10 +85,6 @@ fn heading_refuses(dir: &Path, what: &[&str]) -> Run {
     assert_eq!(snapshot(dir), before, "`bpins {}` changed the capture folder", r.args);
     assert!(!json.exists(), "`bpins {}` wrote {} although it failed", r.args, json.display());
     r
-}
-
-fn f64_of(v: &Value, key: &str) -> f64 {
-    v[key].as_f64().unwrap_or_else(|| panic!("`{key}` is not a number in {v}"))
 }
 
 // ---------------------------------------------------------------- bpins run
@@ -710,78 +634,6 @@ fn effects_lists_the_scene_elements_after_the_effects() {
 // ---------------------------------------------------------------- the GPU backend
 
 #[test]
-fn gpu_run_gives_the_cpu_table_within_a_thousandth_of_a_degree() {
-    if !gpu_available() {
-        return;
-    }
-    let tmp = tempfile::tempdir().unwrap();
-    let json = tmp.path().join("gpu.json");
-    let args = ["run", "--backend", "gpu", "--trials-per-azimuth", "1", "--seed", "7", "--json", &s(&json)];
-    bpins(&args).ok();
-    let gpu = read_json(&json);
-    let cpu: Value = serde_json::from_slice(&sweep("2").1).unwrap();
-    assert_eq!(gpu["backend"], "gpu");
-    let (g, c) = (gpu["rows"].as_array().unwrap(), cpu["rows"].as_array().unwrap());
-    assert_eq!(g.len(), c.len());
-    for (g, c) in g.iter().zip(c) {
-        assert_eq!(
-            (&g["source"], &g["extractor"], &g["lens_rho_known"]),
-            (&c["source"], &c["extractor"], &c["lens_rho_known"])
-        );
-        for key in ["mean_deg", "std_deg"] {
-            let d = (f64_of(g, key) - f64_of(c, key)).abs();
-            assert!(d <= 1e-3, "{} {} {key}: GPU and CPU differ by {d}°", g["source"], g["extractor"]);
-        }
-    }
-}
-
-#[test]
-fn agree_passes_and_writes_its_stages() {
-    if !gpu_available() {
-        return;
-    }
-    let tmp = tempfile::tempdir().unwrap();
-    let json = tmp.path().join("agree.json");
-    let r = bpins(&["agree", "--trials", "1", "--json", &s(&json)]).ok();
-    assert!(r.stdout.contains("heading_deg"), "{}", r.stdout);
-    let v = read_json(&json);
-    assert_eq!(v["ok"], true);
-    let stages = v["stages"].as_array().unwrap();
-    let names: Vec<&str> = stages.iter().map(|s| s["stage"].as_str().unwrap()).collect();
-    for want in ["intensity", "aop_deg", "dolp", "dn", "heading_deg"] {
-        assert!(names.contains(&want), "stage {want} missing from {names:?}");
-    }
-    for st in stages {
-        let (d, tol) = (f64_of(st, "max_abs_diff"), f64_of(st, "tolerance"));
-        assert!(d <= tol && st["ok"] == true && st["unit"].is_string(), "{st}");
-    }
-}
-
-#[test]
-fn gpu_simulate_writes_the_cpu_exr_dump() {
-    if !gpu_available() {
-        return;
-    }
-    let tmp = tempfile::tempdir().unwrap();
-    let dump = |backend: &str| {
-        let exr = tmp.path().join(format!("{backend}.exr"));
-        bpins(&["simulate", "--backend", backend, "--exr", &s(&exr), "--width-px", "96", "--height-px", "64"]).ok();
-        bpins_core::capture::read_exr_layers(&exr).unwrap()
-    };
-    let (cpu, gpu) = (dump("cpu"), dump("gpu"));
-    assert_eq!((cpu.0, cpu.1), (gpu.0, gpu.1));
-    for ((name, c), (gname, g)) in cpu.2.iter().zip(&gpu.2) {
-        assert_eq!(name, gname);
-        let n_off = c.iter().zip(g).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
-        if name.starts_with('I') {
-            // DN: equal but for rare off-by-one roundings (≤ 0.01 % of 6144 is 0 pixels).
-            let max = c.iter().zip(g).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
-            assert!(max <= 1.0 && n_off <= 1, "{name}: {n_off} pixels differ, by up to {max} DN");
-        }
-    }
-}
-
-#[test]
 fn no_vulkan_adapter_is_a_clear_error_not_a_panic() {
     // No Vulkan driver visible to the loader, and Vulkan the only backend allowed
     // (otherwise GL would stand in): `--backend gpu` must fail cleanly.
@@ -811,22 +663,7 @@ fn bench_times_a_frame_and_counts_the_traffic() {
     let v = read_json(&json);
     assert!(f64_of(&v, "frame_ms_median") > 0.0 && f64_of(&v, "batched_frames_per_s") > 0.0, "{v}");
     assert!(v["downloaded_bytes_per_frame"].is_null() && v["paper_sweep_s"].is_null(), "{v}");
-    if !gpu_available() {
-        return;
-    }
-    // The GPU at f32: only parameters go up and only the 119 sums come down per frame.
-    let json = tmp.path().join("gpu.json");
-    let mut a = args("gpu", &json);
-    a.extend(["--gpu-precision".to_string(), "f32".to_string()]);
-    bpins(&a).ok();
-    let v = read_json(&json);
-    assert_eq!(v["precision"], "f32", "{v}");
-    assert_eq!(v["downloaded_bytes_per_frame"], 119 * 4, "{v}");
-    let up = v["uploaded_bytes_per_frame"].as_u64().unwrap();
-    assert!(up > 0 && up < 4096, "{up} B uploaded per frame: parameters only, never a frame");
-    assert!(v["adapter"].as_str().is_some_and(|a| !a.is_empty()), "{v}");
-    // A precision the adapter cannot have, or a bad name, is a clear refusal.
-    bpins(&["bench", "--gpu-precision", "f16", "--no-sweep"]).fails().stderr_has("f16");
+    // The GPU half: tests/gpu.rs (bench_on_the_gpu_uploads_parameters_and_downloads_sums).
 }
 
 // ---------------------------------------------------------------- bpins fit
@@ -1028,4 +865,106 @@ fn fit_reads_more_pixels_only_where_a_parameters_sigma_needs_it() {
     assert_eq!(last["raised"]["from_budget_px"], 4096, "{}", last["raised"]);
     assert_eq!(last["sample"]["pixels_per_frame"], 256 * 256);
     assert!(v["steps"][0]["raised"].is_null());
+}
+
+// ---------------------------------------------------------------- a newcomer's first hour
+
+/// Every command that prints to stdout, its reader gone before it writes (`bpins
+/// effects | head`): a quiet exit with status 0, as Unix tools do, not a panic
+/// ("failed printing to stdout: Broken pipe", exit 101). Then with stderr closed too
+/// (`2>&1 | head`).
+#[test]
+fn a_closed_pipe_ends_every_command_quietly() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep_out = s(&tmp.path().join("sweep"));
+    let tiny = format!("{REPO}/examples/sweeps/tiny.toml");
+    let bench_json = s(&tmp.path().join("bench.json"));
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["--help"],
+        vec!["effects"],
+        vec!["effects", "--json"],
+        vec!["heading", CLEAN],
+        vec!["heading", CLEAN, "--extractor", "all"],
+        vec!["run", "--trials-per-azimuth", "1"],
+        vec!["sweep", &tiny, "--trials", "2", "--out", &sweep_out],
+        vec!["bench", "--backend", "cpu", "--repeats", "1", "--frames", "1", "--no-sweep", "--json", &bench_json],
+    ];
+    for args in &commands {
+        for close_stderr in [false, true] {
+            let (reader, writer) = std::io::pipe().unwrap();
+            drop(reader); // closed before bpins writes a byte
+            let mut cmd = Command::new(env!("CARGO_BIN_EXE_bpins"));
+            cmd.current_dir(REPO).args(args).stdout(writer);
+            if close_stderr {
+                let (r2, w2) = std::io::pipe().unwrap();
+                drop(r2);
+                cmd.stderr(w2);
+            } else {
+                cmd.stderr(std::process::Stdio::piped());
+            }
+            let out = cmd.output().unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(
+                out.status.code(),
+                Some(0),
+                "`bpins {}` (stderr closed: {close_stderr}) under a closed pipe:\n{stderr}",
+                args.join(" ")
+            );
+            assert!(!stderr.contains("panicked") && !stderr.contains("Broken pipe"), "{}: {stderr}", args.join(" "));
+        }
+        let _ = fs::remove_dir_all(&sweep_out);
+    }
+}
+
+/// Outputs get the mode the umask gives (0644 under 022, 0600 under 077), not the
+/// temporary file's 0600 whatever the umask: a result folder shared with a colleague
+/// or a web server is readable. Checked on a capture, a JSON and the sweep's report.
+#[cfg(unix)]
+#[test]
+fn outputs_honour_the_umask() {
+    use std::os::unix::fs::PermissionsExt;
+    let tmp = tempfile::tempdir().unwrap();
+    for (umask, file_mode) in [("022", 0o644), ("077", 0o600), ("002", 0o664)] {
+        let dir = tmp.path().join(format!("u{umask}"));
+        let cap = s(&dir.join("cap"));
+        let json = s(&dir.join("heading.json"));
+        let sweep_out = s(&dir.join("sweep"));
+        let tiny = format!("{REPO}/examples/sweeps/tiny.toml");
+        let bin = env!("CARGO_BIN_EXE_bpins");
+        let script = format!(
+            "umask {umask} && \"$0\" simulate --out {cap} --width-px 100 --height-px 80 --headings-deg 0 && \
+             \"$0\" heading {cap} --json {json} && \"$0\" sweep {tiny} --trials 2 --out {sweep_out}"
+        );
+        let out = Command::new("sh").arg("-c").arg(&script).arg(bin).current_dir(REPO).output().unwrap();
+        assert!(out.status.success(), "{script}:\n{}", String::from_utf8_lossy(&out.stderr));
+        let mut files = 0;
+        let mut stack = vec![dir.clone()];
+        while let Some(d) = stack.pop() {
+            for e in fs::read_dir(&d).unwrap() {
+                let p = e.unwrap().path();
+                let meta = fs::metadata(&p).unwrap();
+                if meta.is_dir() {
+                    stack.push(p);
+                    continue;
+                }
+                files += 1;
+                let mode = meta.permissions().mode() & 0o777;
+                assert_eq!(mode, file_mode, "umask {umask}: {} has mode {mode:o}", p.display());
+            }
+        }
+        assert!(files >= 5, "umask {umask}: only {files} files written");
+    }
+}
+
+/// The diagnose table's header: two spaces between columns, so that "DoLP RMS" and
+/// "heading RMS °" never run together, and each row has as many columns.
+#[test]
+fn the_diagnose_table_keeps_its_columns_apart() {
+    let tmp = tempfile::tempdir().unwrap();
+    let r = bpins(&["diagnose", CLEAN, "--max-added", "1", "--out", &s(&tmp.path().join("d"))]).ok();
+    let header = r.stdout.lines().next().unwrap();
+    let cols: Vec<&str> = header.split("  ").map(str::trim).filter(|c| !c.is_empty()).collect();
+    assert_eq!(cols, ["model", "χ²/dof", "AoP RMS °", "DoLP RMS", "heading RMS °"], "{header}");
+    let row = r.stdout.lines().nth(1).unwrap();
+    assert_eq!(row.split("  ").map(str::trim).filter(|c| !c.is_empty()).count(), 5, "{row}");
 }

@@ -4,8 +4,13 @@
 //! compares Python's headings with this CLI's, round-trips captures, checks every
 //! bad-input error, runs `examples/python/quickstart.py` and checks agreement with
 //! polanalyser. `.ci/run` makes the environment (maturin, pytest, numpy,
-//! polanalyser); without it the test says it skipped, and fails where `CI` is set.
-//! `BPINS_PYTHON` names another interpreter (one whose environment has those).
+//! polanalyser); without it the test is counted as ignored, with the command that
+//! makes the environment below the run's summary, and fails where `CI` is set (the
+//! harness is `tests/needs.rs`, `harness = false`). `BPINS_PYTHON` names another
+//! interpreter (one whose environment has those).
+
+#[path = "../../../tests/needs.rs"]
+mod needs;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -18,16 +23,34 @@ fn python() -> Option<PathBuf> {
     p.is_file().then_some(p)
 }
 
-#[test]
-fn the_python_package_builds_and_its_tests_pass() {
-    let Some(py) = python() else {
-        let msg = "no Python environment at .venv (run .ci/run, or see the README's Python section)";
-        if std::env::var_os("CI").is_some() {
-            panic!("{msg}");
+fn main() -> std::process::ExitCode {
+    let missing = match python() {
+        None => Some(
+            "no Python environment at .venv; make it with `python3 -m venv .venv && \
+             .venv/bin/pip install -r crates/bpins-py/requirements-test.txt` (about 1 min; `.ci/run` does)"
+                .to_string(),
+        ),
+        Some(py) => {
+            let ok = Command::new(&py).args(["-c", "import maturin, pytest, numpy, polanalyser"]).output();
+            match ok {
+                Ok(o) if o.status.success() => None,
+                _ => Some(format!(
+                    "{} lacks maturin, pytest, numpy or polanalyser; install them with `{} -m pip install -r \
+                     crates/bpins-py/requirements-test.txt`",
+                    py.display(),
+                    py.display()
+                )),
+            }
         }
-        println!("skipped: {msg}");
-        return;
     };
+    needs::run(vec![(
+        needs::Need::new("a Python environment", missing),
+        vec![("the_python_package_builds_and_its_tests_pass", the_python_package_builds_and_its_tests_pass)],
+    )])
+}
+
+fn the_python_package_builds_and_its_tests_pass() {
+    let py = python().expect("main checked for Python");
     let venv = py.parent().and_then(Path::parent).expect("python in <venv>/bin").to_path_buf();
     let repo = Path::new(REPO);
     // A target folder of its own: the outer `cargo test` may still hold the
@@ -55,7 +78,9 @@ fn the_python_package_builds_and_its_tests_pass() {
         .output()
         .expect("pytest runs");
     let out = String::from_utf8_lossy(&test.stdout);
-    println!("{out}");
+    if needs::verbose() {
+        println!("{out}");
+    }
     assert!(test.status.success(), "pytest failed:\n{out}\n{}", String::from_utf8_lossy(&test.stderr));
     assert!(out.contains("passed") && !out.contains("skipped"), "pytest skipped tests:\n{out}");
 }

@@ -1,9 +1,12 @@
 //! The report of `bpins diagnose` opens in headless Chromium without errors: no console
 //! message, every residual map found and decoded, the tables there. Without Chromium on
-//! PATH the test reports itself skipped, with the reason — except with `CI` set, where
-//! it fails (`.ci/run` installs it).
+//! PATH these tests are counted as ignored, with the reason and the install command
+//! below the run's summary — except with `CI` set, where they fail (`.ci/run` installs
+//! it). The harness is `tests/needs.rs` (`harness = false`).
 
-use std::env;
+#[path = "../../../tests/needs.rs"]
+mod needs;
+
 use std::fs::{self, File};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -13,24 +16,31 @@ use std::time::{Duration, Instant};
 const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
 const BROWSERS: [&str; 3] = ["chromium", "chromium-browser", "google-chrome"];
 
-/// The first of `BROWSERS` found on PATH.
-/// The browser, or `None` after reporting the test skipped; with `CI` set a missing
-/// browser fails the test instead.
-fn browser_or_skip() -> Option<PathBuf> {
-    let browser = chromium();
-    if browser.is_none() {
-        let why = format!("none of {} on PATH", BROWSERS.join(", "));
-        if env::var_os("CI").is_some() {
-            panic!("CI is set and the report cannot be rendered: {why}");
-        }
-        eprintln!("SKIPPED (no chromium: {why})");
-    }
-    browser
+fn main() -> std::process::ExitCode {
+    let missing = chromium().is_none().then(|| {
+        format!(
+            "none of {} on PATH; install it (Debian: `apt-get install -y chromium`; `.ci/run` does)",
+            BROWSERS.join(", ")
+        )
+    });
+    needs::run(vec![(
+        needs::Need::new("chromium", missing),
+        vec![
+            ("diagnose_report_opens_in_headless_chromium", diagnose_report_opens_in_headless_chromium),
+            ("calibrate_report_opens_in_headless_chromium", calibrate_report_opens_in_headless_chromium),
+            ("sweep_report_opens_in_headless_chromium", sweep_report_opens_in_headless_chromium),
+        ],
+    )])
 }
 
+/// The first of `BROWSERS` found on PATH.
 fn chromium() -> Option<PathBuf> {
-    let path = env::var_os("PATH")?;
-    BROWSERS.iter().flat_map(|b| env::split_paths(&path).map(move |d| d.join(b))).find(|p| p.is_file())
+    needs::find_on_path(&BROWSERS, &[])
+}
+
+/// The browser; `main` runs the tests only where there is one.
+fn browser() -> PathBuf {
+    chromium().expect("main checked for a browser")
 }
 
 /// Opens `page` in headless Chromium and returns its DOM once loaded, or every problem
@@ -94,9 +104,8 @@ fn render_with(browser: &Path, page: &Path, images: bool) -> Result<String, Vec<
     }
 }
 
-#[test]
 fn diagnose_report_opens_in_headless_chromium() {
-    let Some(browser) = browser_or_skip() else { return };
+    let browser = browser();
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("diag");
     let run = Command::new(env!("CARGO_BIN_EXE_bpins"))
@@ -129,9 +138,8 @@ fn diagnose_report_opens_in_headless_chromium() {
     assert!(problems.iter().any(|p| p.contains(&format!("{}/{imgs}", imgs - 1))), "missing image missed: {problems:?}");
 }
 
-#[test]
 fn calibrate_report_opens_in_headless_chromium() {
-    let Some(browser) = browser_or_skip() else { return };
+    let browser = browser();
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("cal");
     let lab = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/lab-flawed-sensor/lab");
@@ -149,9 +157,8 @@ fn calibrate_report_opens_in_headless_chromium() {
     }
 }
 
-#[test]
 fn sweep_report_opens_in_headless_chromium() {
-    let Some(browser) = browser_or_skip() else { return };
+    let browser = browser();
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("sweep");
     let tiny = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sweeps/tiny.toml");

@@ -7,10 +7,13 @@
 //! the same bits. The daemons it started are stopped (by their pid files) at the end,
 //! also when the test fails.
 //!
-//! Without slurm-wlm and munge installed, or not as root, it reports itself skipped,
-//! with the reason — except with `CI` set, where it fails (`.ci/run` installs them).
+//! Without slurm-wlm and munge installed, or not as root, it is counted as ignored,
+//! with the reason and the install command below the run's summary — except with
+//! `CI` set, where it fails (`.ci/run` installs them; the harness is `tests/needs.rs`).
 
-use std::env;
+#[path = "../../../tests/needs.rs"]
+mod needs;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -19,12 +22,95 @@ use std::time::{Duration, Instant};
 
 const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
 
+fn main() -> std::process::ExitCode {
+    needs::run(vec![
+        (
+            needs::Need::new("a local Slurm", unavailable()),
+            vec![(
+                "the_slurm_example_runs_on_a_real_cluster_and_reruns_one_slice",
+                the_slurm_example_runs_on_a_real_cluster_and_reruns_one_slice,
+            )],
+        ),
+        // The scripts' own checks, which run before any Slurm command: bash only.
+        (
+            needs::Need::none(),
+            vec![
+                ("submit_finds_the_binary_or_says_how_to_build_it", submit_finds_the_binary_or_says_how_to_build_it),
+                ("local_cluster_names_a_taken_port_and_a_free_one", local_cluster_names_a_taken_port_and_a_free_one),
+            ],
+        ),
+    ])
+}
+
+/// `submit.sh` hands every job the absolute path of the binary it found ($BPINS, or
+/// `bpins` on PATH), and refuses a BPINS that is not there before queueing anything.
+/// A stand-in `sbatch` records what each job would get.
+fn submit_finds_the_binary_or_says_how_to_build_it() {
+    let t = tempfile::tempdir().unwrap();
+    let bin = t.path().join("bin");
+    fs::create_dir(&bin).unwrap();
+    let log = t.path().join("sbatch.log");
+    let fake = format!("#!/bin/sh\necho \"BPINS=$BPINS\" >> {}\necho 4242\n", log.display());
+    fs::write(bin.join("sbatch"), fake).unwrap();
+    std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_bpins"), bin.join("bpins")).unwrap();
+    let path = format!("{}:/usr/bin:/bin", bin.display());
+    Command::new("chmod").arg("+x").arg(bin.join("sbatch")).status().unwrap();
+    let submit = |bpins: Option<&str>| {
+        let mut c = Command::new("bash");
+        c.arg(format!("{REPO}/examples/slurm/submit.sh"))
+            .arg(format!("{REPO}/examples/sweeps/tiny.toml"))
+            .arg(t.path().join("out"))
+            .arg("3")
+            .env("PATH", &path)
+            .env_remove("BPINS");
+        if let Some(b) = bpins {
+            c.env("BPINS", b);
+        }
+        c.output().unwrap()
+    };
+    // Found on PATH: its absolute path goes to both jobs.
+    let o = submit(None);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(String::from_utf8_lossy(&o.stdout).trim(), "array 4242 merge 4242");
+    let want = format!("BPINS={}/bpins", bin.display());
+    let got = fs::read_to_string(&log).unwrap();
+    assert_eq!(got.lines().collect::<Vec<_>>(), [want.as_str(), want.as_str()], "{got}");
+    // A BPINS that is not there: refused, saying how to build one, nothing queued.
+    fs::remove_file(&log).unwrap();
+    let o = submit(Some("/nonexistent/bpins"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("BPINS=/nonexistent/bpins is not an executable") && err.contains("cargo build --release"),
+        "{err}"
+    );
+    assert!(!log.exists(), "sbatch ran");
+}
+
+/// `local-cluster.sh start` with a port in use names it and a free one, at once,
+/// before it starts anything (it used to wait 20 s for a node that never came up).
+fn local_cluster_names_a_taken_port_and_a_free_one() {
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().port();
+    let t = tempfile::tempdir().unwrap();
+    for (arg, who) in [(port, "slurmctld"), (port - 1, "slurmd")] {
+        let o = Command::new("bash")
+            .arg(format!("{REPO}/examples/slurm/local-cluster.sh"))
+            .arg("start")
+            .arg(t.path())
+            .arg(arg.to_string())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains(&format!("port {port} (for {who}) is already taken")), "{err}");
+        assert!(err.contains("choose other ports") && err.contains(" start "), "{err}");
+        assert!(!t.path().join("slurm.conf").exists(), "it went on after the check");
+    }
+}
+
 fn find(bin: &str) -> Option<PathBuf> {
-    let path = env::var_os("PATH").unwrap_or_default();
-    env::split_paths(&path)
-        .chain([PathBuf::from("/usr/sbin"), PathBuf::from("/usr/bin")])
-        .map(|d| d.join(bin))
-        .find(|p| p.is_file())
+    needs::find_on_path(&[bin], &["/usr/sbin", "/usr/bin"])
 }
 
 /// Why this machine cannot run the test, if it cannot.
@@ -34,11 +120,14 @@ fn unavailable() -> Option<String> {
         .filter(|b| find(b).is_none())
         .collect();
     if !missing.is_empty() {
-        return Some(format!("not installed: {} (apt-get install -y slurm-wlm munge)", missing.join(", ")));
+        return Some(format!(
+            "not installed: {} (`apt-get install -y slurm-wlm munge`; `.ci/run` does)",
+            missing.join(", ")
+        ));
     }
     let uid = Command::new("id").arg("-u").output().ok()?;
     if String::from_utf8_lossy(&uid.stdout).trim() != "0" {
-        return Some("the local cluster's daemons run as root; this test is not root".into());
+        return Some("the local cluster's daemons run as root; run the tests as root".into());
     }
     None
 }
@@ -129,15 +218,7 @@ fn same_outputs(a: &Path, b: &Path) {
     }
 }
 
-#[test]
 fn the_slurm_example_runs_on_a_real_cluster_and_reruns_one_slice() {
-    if let Some(why) = unavailable() {
-        if env::var_os("CI").is_some() {
-            panic!("CI is set and the Slurm test cannot run: {why}");
-        }
-        eprintln!("SKIPPED (no local Slurm: {why})");
-        return;
-    }
     let t = tempfile::tempdir().unwrap();
     let sweep = format!("{REPO}/examples/sweeps/tiny.toml");
     // The unsharded reference, run directly.

@@ -3,9 +3,6 @@
 //! what was expected; slices merge into the unsharded result bit for bit; a finished
 //! slice is not recomputed, a half-written one is.
 
-mod common;
-
-use common::gpu_available;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -101,38 +98,4 @@ fn merged_slices_equal_the_unsharded_sweep_and_slices_restart() {
     ok(&["sweep", TINY, "--trials", "5", "--shard", "3/4"], &shards[3]);
     let o = bpins(&args, Some(&merged));
     assert!(String::from_utf8_lossy(&o.stderr).contains("trials_per_source"));
-}
-
-#[test]
-fn the_gpu_sweep_gives_the_cpu_trials_within_the_heading_tolerance() {
-    if !gpu_available() {
-        return;
-    }
-    let t = tempfile::tempdir().unwrap();
-    let (cpu, gpu) = (t.path().join("cpu"), t.path().join("gpu"));
-    ok(&["sweep", TINY, "--trials", "3"], &cpu);
-    ok(&["sweep", TINY, "--trials", "3", "--backend", "gpu"], &gpu);
-    let read = |d: &Path| fs::read_to_string(d.join("trials.csv")).unwrap();
-    let (c, g) = (read(&cpu), read(&gpu));
-    assert_eq!(c.lines().count(), g.lines().count());
-    let mut worst: f64 = 0.0;
-    for (a, b) in c.lines().zip(g.lines()).skip(1) {
-        let (ka, ea) = a.rsplit_once(',').unwrap();
-        let (kb, eb) = b.rsplit_once(',').unwrap();
-        assert_eq!(ka, kb, "the same trial on both lines");
-        let (x, y): (f64, f64) = (ea.parse().unwrap(), eb.parse().unwrap());
-        worst = worst.max(bpins_gpu::tolerance::heading_diff_deg(x, y));
-    }
-    assert!(worst <= bpins_gpu::tolerance::HEADING_DEG, "CPU and GPU trials differ by {worst}°");
-    // Field conditions are the CPU's only: the GPU refuses them, saying so.
-    let cloudy = t.path().join("cloudy.toml");
-    fs::write(&cloudy, fs::read_to_string(TINY).unwrap().replacen("dmax = 0.6", "dmax = 0.6\nscene = [\"clouds\"]", 1))
-        .unwrap();
-    let o = bpins(&["sweep", cloudy.to_str().unwrap(), "--trials", "1", "--backend", "gpu"], Some(&t.path().join("c")));
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && e.contains("CPU backend only"), "{e}");
-    ok(&["sweep", cloudy.to_str().unwrap(), "--trials", "1"], &t.path().join("c-cpu"));
-    // Slices of different backends are not merged.
-    let o = bpins(&["merge", cpu.to_str().unwrap(), gpu.to_str().unwrap()], Some(&t.path().join("m")));
-    assert!(!o.status.success());
 }

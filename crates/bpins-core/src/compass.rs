@@ -78,7 +78,10 @@ use crate::sky::sun::sun_from_unix_time;
 pub enum CompassError {
     #[error("the compass's configuration: {0}")]
     Config(String),
-    #[error("frame of {got_w} × {got_h} px (stride {stride}, {len} samples) does not match the sensor's {want_w} × {want_h} px")]
+    #[error(
+        "frame of {got_w} × {got_h} px (stride {stride}, {len} samples) does not match the sensor's {want_w} × {want_h} px: \
+         give the sensor's width and height, a stride ≥ the width, and at least (height − 1)·stride + width samples"
+    )]
     FrameSize { got_w: usize, got_h: usize, stride: usize, len: usize, want_w: usize, want_h: usize },
     #[error("sun: {0}")]
     Sun(String),
@@ -86,6 +89,34 @@ pub enum CompassError {
     Attitude(String),
     #[error(transparent)]
     Core(#[from] crate::Error),
+}
+
+/// The sun's angles, each against its range: the error names the first one outside.
+fn check_sun(az: f64, el: f64, sigma: f64) -> Result<(), CompassError> {
+    let why = if !az.is_finite() {
+        format!("azimuth {az}° is not a number (degrees from North toward East; any finite value)")
+    } else if !(-90.0..=90.0).contains(&el) {
+        format!("elevation {el}° is outside [−90, 90]° (degrees above the horizon)")
+    } else if !(sigma >= 0.0 && sigma.is_finite()) {
+        format!("1σ {sigma}° must be a finite number ≥ 0 (0 for an exactly known sun)")
+    } else {
+        return Ok(());
+    };
+    Err(CompassError::Sun(why))
+}
+
+/// The attitude's angles, each against its range: the error names the first one outside.
+fn check_attitude(a: &Attitude) -> Result<(), CompassError> {
+    let why = if !(a.tilt_x_deg.abs() < 90.0) {
+        format!("tilt about x {}° is outside (−90, 90)° (a camera tilted past the horizon sees no sky)", a.tilt_x_deg)
+    } else if !(a.tilt_y_deg.abs() < 90.0) {
+        format!("tilt about y {}° is outside (−90, 90)° (a camera tilted past the horizon sees no sky)", a.tilt_y_deg)
+    } else if !(a.sigma_deg >= 0.0 && a.sigma_deg.is_finite()) {
+        format!("1σ {}° must be a finite number ≥ 0 (0 for an exactly known attitude)", a.sigma_deg)
+    } else {
+        return Ok(());
+    };
+    Err(CompassError::Attitude(why))
 }
 
 /// The sun of one frame.
@@ -241,8 +272,17 @@ impl Compass {
             return bad(format!("black level {} DN outside [0, {full_scale_dn})", cfg.black_level_dn));
         }
         let c = &cfg.camera;
-        if !(c.f_px > 0.0 && c.f_px.is_finite() && c.cx_px.is_finite() && c.cy_px.is_finite()) {
-            return bad(format!("focal length {} px and principal point ({}, {}) px", c.f_px, c.cx_px, c.cy_px));
+        if !(c.f_px > 0.0 && c.f_px.is_finite()) {
+            return bad(format!(
+                "focal length {} px must be a finite number > 0 (the lens's focal length over the pixel pitch)",
+                c.f_px
+            ));
+        }
+        if !(c.cx_px.is_finite() && c.cy_px.is_finite()) {
+            return bad(format!(
+                "principal point ({}, {}) px must be finite (usually near the image centre)",
+                c.cx_px, c.cy_px
+            ));
         }
         let known = cfg.calibration.model();
         let intr = known.camera(c);
@@ -299,13 +339,9 @@ impl Compass {
                 (s.azimuth_deg, s.elevation_deg, sigma_deg)
             }
         };
-        if !(az.is_finite() && (-90.0..=90.0).contains(&el) && sun_sigma >= 0.0 && sun_sigma.is_finite()) {
-            return Err(CompassError::Sun(format!("azimuth {az}°, elevation {el}°, 1σ {sun_sigma}°")));
-        }
+        check_sun(az, el, sun_sigma)?;
+        check_attitude(&attitude)?;
         let Attitude { tilt_x_deg, tilt_y_deg, sigma_deg } = attitude;
-        if !(tilt_x_deg.abs() < 90.0 && tilt_y_deg.abs() < 90.0 && sigma_deg >= 0.0 && sigma_deg.is_finite()) {
-            return Err(CompassError::Attitude(format!("tilt {tilt_x_deg}°, {tilt_y_deg}°, 1σ {sigma_deg}°")));
-        }
         match &self.cell_analyzers {
             Some(cal) => self.cells.fill_from_mosaic_calibrated(
                 &frame,
@@ -481,5 +517,42 @@ mod tests {
         ] {
             assert!(matches!(Compass::new(cfg), Err(CompassError::Config(_))));
         }
+    }
+
+    /// Each refusal names the value that is wrong and the range it must lie in, not
+    /// only the values given (issue 35: "sun: azimuth 40°, elevation 95°, 1σ 0°").
+    #[test]
+    fn refusals_name_the_wrong_value_and_its_range() {
+        let (raw, lens) = frame(&Model::default(), [0.0, 0.0]);
+        let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+        let sun = |az, el, s| Sun::Angles { azimuth_deg: az, elevation_deg: el, sigma_deg: s };
+        let msg = |c: &mut Compass, s: Sun, a: Attitude| {
+            c.heading(RawImage::packed(&raw, 306, 256), s, a).unwrap_err().to_string()
+        };
+        let ok = sun(40.0, 25.0, 0.0);
+        let level = Attitude::default();
+        for (s, want) in [
+            (sun(40.0, 95.0, 0.0), "elevation 95° is outside [−90, 90]°"),
+            (sun(f64::NAN, 25.0, 0.0), "azimuth NaN° is not a number"),
+            (sun(40.0, 25.0, -1.0), "1σ -1° must be a finite number ≥ 0"),
+        ] {
+            let m = msg(&mut c, s, level);
+            assert!(m.starts_with("sun: ") && m.contains(want), "{m}");
+        }
+        for (a, want) in [
+            (Attitude { tilt_x_deg: 95.0, ..level }, "tilt about x 95° is outside (−90, 90)°"),
+            (Attitude { tilt_y_deg: -90.0, ..level }, "tilt about y -90° is outside (−90, 90)°"),
+            (Attitude { sigma_deg: f64::INFINITY, ..level }, "1σ inf° must be a finite number ≥ 0"),
+        ] {
+            let m = msg(&mut c, ok, a);
+            assert!(m.starts_with("attitude: ") && m.contains(want), "{m}");
+        }
+        let refusal = |cfg| Compass::new(cfg).err().expect("refused").to_string();
+        let m = refusal(CompassConfig::dofp(Intrinsics { f_px: -5.0, ..lens }, 306, 256, 12, 64.0));
+        assert!(m.contains("focal length -5 px must be a finite number > 0") && !m.contains("principal"), "{m}");
+        let m = refusal(CompassConfig::dofp(Intrinsics { cx_px: f64::NAN, ..lens }, 306, 256, 12, 64.0));
+        assert!(m.contains("principal point (NaN, 127.5) px must be finite"), "{m}");
+        let m = c.heading(RawImage::packed(&raw[..300 * 200], 300, 200), ok, level).unwrap_err().to_string();
+        assert!(m.contains("give the sensor's width and height"), "{m}");
     }
 }

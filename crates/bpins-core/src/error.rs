@@ -47,3 +47,37 @@ pub enum Error {
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// `e` and each of its sources, `: `-joined, as the CLI prints an error (`{:#}`): an
+/// I/O error's path and what the OS said of it (`calibration.toml: No such file or
+/// directory`), not the path alone. A source whose text already ends the message is
+/// not repeated. The C ABI and the Python bindings report errors through this.
+pub fn full_message(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let s_text = s.to_string();
+        if !text.ends_with(&s_text) {
+            text = format!("{text}: {s_text}");
+        }
+        source = s.source();
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_full_message_says_what_the_os_said_once() {
+        let e = Error::Io {
+            path: "/nonexistent/calibration.toml".into(),
+            source: std::io::Error::from(std::io::ErrorKind::NotFound),
+        };
+        assert_eq!(e.to_string(), "/nonexistent/calibration.toml");
+        assert_eq!(full_message(&e), "/nonexistent/calibration.toml: entity not found");
+        let plain = Error::Model("no".into());
+        assert_eq!(full_message(&plain), "invalid model: no");
+    }
+}

@@ -12,6 +12,10 @@
 //!
 //! Errors name the path: a read-only folder, a full disk or a missing parent is an
 //! [`Error::Io`] on the file or folder concerned, never a panic.
+//!
+//! The result has the mode any new file gets (0666 less the umask: `rw-r--r--` under
+//! the usual 022), not the temporary file's private 0600, so a result folder shared
+//! with a colleague or a web server is readable as its umask says.
 
 use crate::error::{Error, Result};
 use std::fs::File;
@@ -43,8 +47,13 @@ pub fn write_with(
         return Err(exists(path));
     }
     let io = |p: &Path, e: std::io::Error| Error::Io { path: p.to_path_buf(), source: e };
-    let mut tmp =
-        tempfile::Builder::new().prefix(".bpins-").suffix(".part").tempfile_in(dir).map_err(|e| io(dir, e))?;
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".bpins-").suffix(".part");
+    // Created as `File::create` creates (0666 less the umask), still with a fresh
+    // random name opened exclusively; the rename keeps the mode.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let mut tmp = builder.tempfile_in(dir).map_err(|e| io(dir, e))?;
     {
         let mut w = BufWriter::new(tmp.as_file_mut());
         write(&mut w)?;
@@ -123,6 +132,27 @@ mod tests {
         assert!(e.is_err());
         assert_eq!(std::fs::read(&p).unwrap(), b"second");
         assert_eq!(std::fs::read_dir(t.path()).unwrap().count(), 1);
+    }
+
+    /// The result's mode is that of a file made with `File::create` in the same folder
+    /// (0666 less the umask), whatever the umask, both for a new name and a replaced one.
+    #[cfg(unix)]
+    #[test]
+    fn outputs_get_the_mode_the_umask_gives_not_0600() {
+        use std::os::unix::fs::PermissionsExt;
+        let t = tempfile::tempdir().unwrap();
+        let probe = t.path().join("probe");
+        std::fs::File::create(&probe).unwrap();
+        let want = std::fs::metadata(&probe).unwrap().permissions().mode() & 0o777;
+        for (name, replace) in [("a.json", Replace::Allowed), ("a.json", Replace::Allowed), ("f.png", Replace::Never)] {
+            let p = t.path().join(name);
+            write_bytes(&p, replace, b"x").unwrap();
+            let mode = std::fs::metadata(&p).unwrap().permissions().mode() & 0o777;
+            assert_eq!(mode, want, "{name}: mode {mode:o}, a new file here gets {want:o}");
+        }
+        // The test runs under whatever umask its caller has; the CLI's test sets 022
+        // and 077 and checks 0644 and 0600.
+        assert_ne!(want, 0, "the probe file has no permission bits at all");
     }
 
     #[test]

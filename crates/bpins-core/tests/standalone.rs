@@ -2,8 +2,12 @@
 //! of `../shared/samples` and `../shared/spec` (relative to the repository root), the
 //! folder that sits beside the checkout on the project's machines and in CI. Where
 //! `../shared` is there, every file of it must have an identical copy here and the
-//! copy no file the source lacks; a fresh clone has no `../shared`, and the test says
-//! it skipped and passes. Both sides are only read.
+//! copy no file the source lacks; a fresh clone has no `../shared`, and there the test
+//! is counted as ignored, saying so (with `CI` set it fails: CI has `../shared`). Both
+//! sides are only read. The harness is `tests/needs.rs` (`harness = false`).
+
+#[path = "../../../tests/needs.rs"]
+mod needs;
 
 use std::collections::BTreeSet;
 use std::fs;
@@ -44,17 +48,24 @@ fn difference(source: &Path, copy: &Path) -> Option<String> {
     Some(format!("{} bytes there, {} here, first difference at byte {at}", a.len(), b.len()))
 }
 
-#[test]
+fn main() -> std::process::ExitCode {
+    let beside = Path::new(REPO).join("../shared");
+    let missing = beside.canonicalize().is_err().then(|| {
+        format!(
+            "{} is absent (a fresh clone): nothing to compare samples/ and docs/spec/ with; the project's \
+             machines and CI have it beside the checkout",
+            beside.display()
+        )
+    });
+    needs::run(vec![(
+        needs::Need::new("../shared", missing),
+        vec![("in_repo_copies_match_shared", in_repo_copies_match_shared)],
+    )])
+}
+
 fn in_repo_copies_match_shared() {
     let repo = Path::new(REPO);
-    let beside = repo.join("../shared");
-    let Ok(shared) = beside.canonicalize() else {
-        println!(
-            "skipped: {} is absent (a fresh clone); nothing to compare samples/ and docs/spec/ with",
-            beside.display()
-        );
-        return;
-    };
+    let shared = repo.join("../shared").canonicalize().expect("main checked for ../shared");
     let mut problems = Vec::new();
     let mut compared = 0;
     for (from, to) in PAIRS {
@@ -84,5 +95,7 @@ fn in_repo_copies_match_shared() {
         "the in-repo copies differ from ../shared (copy it again with `cp -r`):\n  {}",
         problems.join("\n  ")
     );
-    println!("{compared} files of ../shared/samples and ../shared/spec identical to samples/ and docs/spec/");
+    if needs::verbose() {
+        println!("{compared} files of ../shared/samples and ../shared/spec identical to samples/ and docs/spec/");
+    }
 }

@@ -5,7 +5,7 @@
 //! depth) is checked by the same reader, with errors naming the key and the frame.
 
 use crate::array::Borrowed;
-use crate::py_err;
+use crate::{py_err, whole};
 use bpins_core::capture::{Capture, FrameData};
 use bpins_core::effects::REGISTRY;
 use numpy::{PyArray1, PyArrayMethods};
@@ -89,9 +89,13 @@ fn py_to_toml(v: &Bound<'_, PyAny>, at: &str) -> PyResult<toml::Value> {
 pub fn read_capture<'py>(
     py: Python<'py>,
     path: PathBuf,
-    frames: Option<Vec<usize>>,
+    frames: Option<Vec<i64>>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyList>)> {
     let c = Capture::load(&path).map_err(py_err)?;
+    let frames = match frames {
+        None => None,
+        Some(f) => Some(f.into_iter().map(|i| whole::<usize>("frames[…]", i)).collect::<PyResult<Vec<_>>>()?),
+    };
     let text = c.to_toml_string();
     let table: toml::Table = text.parse().map_err(|e| PyValueError::new_err(format!("{e}")))?;
     let meta = toml_to_py(py, &toml::Value::Table(table))?;

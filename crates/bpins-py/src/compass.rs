@@ -4,7 +4,7 @@
 //! and the GIL is released while the compass works, so other Python threads run.
 
 use crate::array::{Borrowed, Mosaic};
-use crate::{finite, py_err};
+use crate::{finite, py_err, whole};
 use bpins_core::calibration::Calibration;
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::capture::Capture;
@@ -12,9 +12,10 @@ use bpins_core::compass::{self as core, Attitude, CompassConfig, CompassError, S
 use bpins_core::heading::field::{FieldHeading, RawImage};
 use bpins_core::heading::Extractor;
 use bpins_core::sensor::{Channel, Layout};
-use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
+use std::sync::Mutex;
 
 /// The heading of one frame: `heading_deg` and `sigma_deg` (1σ), both degrees, or
 /// `None` with `reason` saying why the sky gave none.
@@ -128,10 +129,7 @@ pub(crate) fn mosaic_of(m: [[f64; 2]; 2]) -> PyResult<[[Channel; 2]; 2]> {
 fn calibration(path: Option<PathBuf>) -> PyResult<Calibration> {
     match path {
         None => Ok(Calibration::default()),
-        Some(p) => Calibration::load(&p).map_err(|e| match e {
-            bpins_core::Error::Io { .. } => PyOSError::new_err(format!("calibration: {e}")),
-            e => PyValueError::new_err(format!("calibration: {e}")),
-        }),
+        Some(p) => Calibration::load(&p).map_err(|e| crate::py_err_in("calibration: ", e)),
     }
 }
 
@@ -144,10 +142,12 @@ fn calibration(path: Option<PathBuf>) -> PyResult<Calibration> {
 ///
 /// Angles are degrees; the frame is the camera's (image +x right, +y down, analyzer
 /// and polarization angles counter-clockwise as displayed; CONVENTIONS.md). One
-/// compass per camera and thread.
-#[pyclass(module = "bpins")]
+/// compass per camera. Threads may share one: it reads one frame at a time (a lock,
+/// waited on without the GIL); for frames read in parallel, make one per thread.
+#[pyclass(module = "bpins", frozen)]
 pub struct Compass {
-    inner: core::Compass,
+    /// Locked for the length of one `heading`: the compass keeps per-frame scratch.
+    inner: Mutex<core::Compass>,
     width_px: usize,
     height_px: usize,
 }
@@ -160,18 +160,20 @@ impl Compass {
         extractor="sun_vector", horizon_margin_deg=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
-        width_px: usize,
-        height_px: usize,
+        width_px: i64,
+        height_px: i64,
         focal_length_px: f64,
         principal_point_px: Option<(f64, f64)>,
         projection: &str,
-        bit_depth: u32,
+        bit_depth: i64,
         black_level_dn: f64,
         mosaic: [[f64; 2]; 2],
         calibration: Option<PathBuf>,
         extractor: &str,
         horizon_margin_deg: Option<f64>,
     ) -> PyResult<Self> {
+        let (width_px, height_px): (usize, usize) = (whole("width_px", width_px)?, whole("height_px", height_px)?);
+        let bit_depth: u32 = whole("bit_depth", bit_depth)?;
         let f = finite("focal_length_px", focal_length_px)?;
         let (cx, cy) = principal_point_px.unwrap_or(((width_px as f64 - 1.0) / 2.0, (height_px as f64 - 1.0) / 2.0));
         let camera = Intrinsics::new(
@@ -188,7 +190,7 @@ impl Compass {
         if let Some(m) = horizon_margin_deg {
             cfg.options.horizon_margin_deg = finite("horizon_margin_deg", m)?;
         }
-        let inner = core::Compass::new(cfg).map_err(compass_err)?;
+        let inner = Mutex::new(core::Compass::new(cfg).map_err(compass_err)?);
         Ok(Compass { inner, width_px, height_px })
     }
 
@@ -209,7 +211,7 @@ impl Compass {
         cfg.mosaic = mosaic;
         cfg.calibration = self::calibration(calibration)?;
         cfg.extractor = self::extractor(extractor)?;
-        let inner = core::Compass::new(cfg).map_err(compass_err)?;
+        let inner = Mutex::new(core::Compass::new(cfg).map_err(compass_err)?);
         Ok(Compass { inner, width_px: w, height_px: h })
     }
 
@@ -234,7 +236,7 @@ impl Compass {
         tilt_sigma_deg=0.0))]
     #[allow(clippy::too_many_arguments)]
     fn heading(
-        &mut self,
+        &self,
         py: Python<'_>,
         mosaic: &Bound<'_, PyAny>,
         sun_azimuth_deg: Option<f64>,
@@ -266,16 +268,21 @@ impl Compass {
         }
         let m = borrowed.mosaic();
         let zero_copy = m.borrowed();
-        let compass = &mut self.inner;
-        let fix = py.detach(|| match &m {
-            Mosaic::U8(d, s) => {
-                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
-            }
-            Mosaic::U16(d, s) => {
-                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
-            }
-            Mosaic::F32(d, s) => {
-                compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+        let fix = py.detach(|| {
+            // Another thread's frame first, if it holds the compass (no GIL held here,
+            // so that thread can finish). A poisoned lock only means a panic elsewhere;
+            // the compass's state is rebuilt per frame.
+            let mut compass = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+            match &m {
+                Mosaic::U8(d, s) => {
+                    compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+                }
+                Mosaic::U16(d, s) => {
+                    compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+                }
+                Mosaic::F32(d, s) => {
+                    compass.heading(RawImage { data: d, width_px: w, height_px: h, stride: *s }, sun, attitude)
+                }
             }
         });
         Ok(heading_of(&fix.map_err(compass_err)?, zero_copy))

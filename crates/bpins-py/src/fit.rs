@@ -4,7 +4,7 @@
 //! `diagnosis.json`, as a dict: one schema, serialised by the same structs
 //! ([`FitJson`], [`DiagnosisJson`]; README, "fit.json and diagnosis.json").
 
-use crate::{finite, py_err};
+use crate::{finite, py_err, whole};
 use bpins_core::fit::diagnose::{diagnose_frames, DiagnoseOptions};
 use bpins_core::fit::{fit_from, DiagnosisJson, FitJson, FitRequest};
 use pyo3::exceptions::PyValueError;
@@ -74,7 +74,7 @@ fn to_dict<'py>(py: Python<'py>, json: serde_json::Result<String>) -> PyResult<B
 /// error, scale_dn, dmax, radiance, chi2_per_dof), ... The GIL is released while it fits.
 #[pyfunction]
 #[pyo3(signature = (capture, effects=None, *, calibration=None, fixed_dmax=None, trust_reference=false,
-    rayleigh_radiance=false, all_pixels=false, sample_budget_px=Some(bpins_core::fit::DEFAULT_BUDGET_PX)))]
+    rayleigh_radiance=false, all_pixels=false, sample_budget_px=Some(bpins_core::fit::DEFAULT_BUDGET_PX as i64)))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit<'py>(
     py: Python<'py>,
@@ -85,8 +85,9 @@ pub fn fit<'py>(
     trust_reference: bool,
     rayleigh_radiance: bool,
     all_pixels: bool,
-    sample_budget_px: Option<usize>,
+    sample_budget_px: Option<i64>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let sample_budget_px = sample_budget_px.map(|b| whole("sample_budget_px", b)).transpose()?;
     let req = request(
         capture,
         effects,
@@ -126,20 +127,22 @@ pub fn fit<'py>(
 #[pyfunction]
 #[pyo3(signature = (capture, effects=None, *, max_added=3, calibration=None, fixed_dmax=None,
     trust_reference=false, rayleigh_radiance=false, all_pixels=false,
-    sample_budget_px=Some(bpins_core::fit::DEFAULT_BUDGET_PX)))]
+    sample_budget_px=Some(bpins_core::fit::DEFAULT_BUDGET_PX as i64)))]
 #[allow(clippy::too_many_arguments)]
 pub fn diagnose<'py>(
     py: Python<'py>,
     capture: PathBuf,
     effects: Option<Vec<String>>,
-    max_added: usize,
+    max_added: i64,
     calibration: Option<PathBuf>,
     fixed_dmax: Option<f64>,
     trust_reference: bool,
     rayleigh_radiance: bool,
     all_pixels: bool,
-    sample_budget_px: Option<usize>,
+    sample_budget_px: Option<i64>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let max_added_n: usize = whole("max_added", max_added)?;
+    let sample_budget_px = sample_budget_px.map(|b| whole("sample_budget_px", b)).transpose()?;
     let req = request(
         capture,
         effects,
@@ -153,7 +156,7 @@ pub fn diagnose<'py>(
     let text = py
         .detach(|| {
             let l = req.load(&|_, _| {})?;
-            let opts = DiagnoseOptions { base: l.options.clone(), max_added, ..Default::default() };
+            let opts = DiagnoseOptions { base: l.options.clone(), max_added: max_added_n, ..Default::default() };
             let d = diagnose_frames(&l.capture, &l.frames, &opts, &|_| {})?;
             // The final model on more pixels where its 1σ needs them, as the CLI does.
             let (_, d) = req.raise_diagnosis_where_needed(l, d, &|_, _| {})?;

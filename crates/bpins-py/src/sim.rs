@@ -3,7 +3,7 @@
 
 use crate::array::Borrowed;
 use crate::compass::{mosaic_of, projection};
-use crate::{finite, py_err};
+use crate::{finite, py_err, whole};
 use bpins_core::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use bpins_core::effects::EffectSet;
 use bpins_core::pipeline::{sim_chain_frame, sim_response, simulate_frame, SimSensor};
@@ -59,19 +59,19 @@ pub(crate) fn effect_set(effects: Option<BTreeMap<String, BTreeMap<String, f64>>
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
-    width_px: u32,
-    height_px: u32,
+    width_px: i64,
+    height_px: i64,
     heading_deg: f64,
     sun_azimuth_deg: f64,
     sun_elevation_deg: f64,
     tilt_x_deg: f64,
     tilt_y_deg: f64,
     effects: Option<BTreeMap<String, BTreeMap<String, f64>>>,
-    seed: u64,
+    seed: i64,
     focal_length_mm: f64,
     pixel_pitch_um: f64,
     projection: &str,
-    bit_depth: u32,
+    bit_depth: i64,
     black_level_dn: f64,
     mosaic: [[f64; 2]; 2],
     peak_fraction: f64,
@@ -79,6 +79,8 @@ pub fn simulate<'py>(
     system_gain_dn_per_e: f64,
     dmax: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let (width_px, height_px): (u32, u32) = (whole("width_px", width_px)?, whole("height_px", height_px)?);
+    let (seed, bit_depth): (u64, u32) = (whole("seed", seed)?, whole("bit_depth", bit_depth)?);
     let capture = Capture {
         dir: ".".into(),
         sensor: SensorSpec {

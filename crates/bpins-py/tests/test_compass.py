@@ -137,3 +137,31 @@ def test_a_sky_that_contradicts_the_claimed_sun_or_layout_is_refused_with_the_re
         assert abs(err) <= 2 * flipped.sigma_deg, flipped
     else:
         assert flipped.reason, flipped
+
+
+def test_threads_sharing_one_compass_read_what_one_thread_reads():
+    # One compass, four threads, frames of two headings interleaved: each result is
+    # the one a lone call gives (the compass reads one frame at a time), no
+    # "Already borrowed".
+    sims = [bpins.simulate(width_px=306, height_px=256, heading_deg=h, seed=3) for h in (30.0, 200.0)]
+    c = bpins.Compass(306, 256, sims[0]["focal_length_px"], black_level_dn=64.0)
+    alone = [c.heading(s["mosaic"], sun_azimuth_deg=40.0, sun_elevation_deg=25.0).heading_deg for s in sims]
+    results, errors = [], []
+
+    def work(k):
+        try:
+            for i in range(6):
+                s = (k + i) % 2
+                h = c.heading(sims[s]["mosaic"], sun_azimuth_deg=40.0, sun_elevation_deg=25.0)
+                results.append((s, h.heading_deg))
+        except Exception as e:  # noqa: BLE001 - the test reports any exception
+            errors.append(repr(e))
+
+    workers = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    assert errors == []
+    assert len(results) == 24
+    assert all(h == alone[s] for s, h in results), (alone, results)

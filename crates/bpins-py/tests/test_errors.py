@@ -61,3 +61,37 @@ def test_a_frame_without_a_heading_is_a_result_not_an_exception(compass):
     h = compass.heading(np.zeros((48, 64), np.uint16), **sun())
     assert h.heading_deg is None and h.sigma_deg is None and h.reason
     assert "Heading(None" in repr(h)
+
+
+def test_whole_number_arguments_are_named_when_negative():
+    # Not PyO3's nameless "OverflowError: can't convert negative int to unsigned".
+    with pytest.raises(ValueError, match="width_px = -5: expected a whole number ≥ 0"):
+        bpins.Compass(-5, 48, 300.0)
+    with pytest.raises(ValueError, match="bit_depth = -1: expected a whole number ≥ 0"):
+        bpins.Compass(64, 48, 300.0, bit_depth=-1)
+    with pytest.raises(ValueError, match="height_px = -2: expected a whole number ≥ 0"):
+        bpins.simulate(64, -2)
+    with pytest.raises(ValueError, match="seed = -1"):
+        bpins.simulate(64, 48, seed=-1)
+
+
+def test_missing_files_are_os_errors_saying_so(tmp_path, samples):
+    # The README promises OSError for a file that cannot be read.
+    with pytest.raises(FileNotFoundError, match="capture.toml: not found"):
+        bpins.read_capture(tmp_path / "no-capture-here")
+    with pytest.raises(OSError, match="not found"):
+        bpins.Compass.from_capture(tmp_path / "no-capture-here")
+    with pytest.raises(FileNotFoundError, match="calibration: .*no_such.toml: No such file or directory"):
+        bpins.Compass(64, 48, 300.0, calibration=str(tmp_path / "no_such.toml"))
+    with pytest.raises(ValueError, match=r"frames\[…\] = -1"):
+        bpins.read_capture(samples / "clean", frames=[-1])
+
+
+def test_bad_sun_and_attitude_name_the_range(compass):
+    m = np.full((48, 64), 100, np.uint16)
+    with pytest.raises(ValueError, match=r"sun: elevation 95° is outside \[−90, 90\]°"):
+        compass.heading(m, sun_azimuth_deg=40.0, sun_elevation_deg=95.0)
+    with pytest.raises(ValueError, match=r"attitude: tilt about x 95° is outside \(−90, 90\)°"):
+        compass.heading(m, tilt_x_deg=95.0, **sun())
+    with pytest.raises(ValueError, match="focal length -5 px must be a finite number > 0"):
+        bpins.Compass(64, 48, -5.0)

@@ -73,5 +73,5 @@ def test_bad_fit_arguments_name_themselves(samples, tmp_path):
         bpins.diagnose(cap, fixed_dmax=1.5)
     with pytest.raises(ValueError, match="sample_budget_px = 10"):
         bpins.fit(cap, sample_budget_px=10)
-    with pytest.raises(ValueError, match="no-capture-here/capture.toml: not found"):
+    with pytest.raises(FileNotFoundError, match="no-capture-here/capture.toml: not found"):
         bpins.fit(tmp_path / "no-capture-here")

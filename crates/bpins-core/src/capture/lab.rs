@@ -73,9 +73,7 @@ impl LabCapture {
     pub fn load(dir: &Path) -> Result<LabCapture> {
         let toml_path = dir.join("capture.toml");
         let text = fs::read_to_string(&toml_path).map_err(|e| match e.kind() {
-            std::io::ErrorKind::NotFound => {
-                err(&toml_path, "not found: a capture is a folder holding capture.toml (docs/spec/CAPTURE.md)")
-            }
+            std::io::ErrorKind::NotFound => err(&toml_path, super::NOT_FOUND),
             _ => Error::Io { path: toml_path.clone(), source: e },
         })?;
         let c = parse(dir, &toml_path, &text)?;

@@ -36,6 +36,11 @@ use std::path::{Component, Path, PathBuf};
 
 pub use exr::{read_exr_layers, write_exr_layers, write_exr_layers_fast, ExrLayers};
 pub use lab::{LabCapture, LabFrame};
+
+/// The message of the [`Error::Capture`] for a folder without `capture.toml` (a
+/// missing folder, a mistyped path): the bindings turn it into their language's
+/// file-not-found error (Python's `FileNotFoundError`).
+pub const NOT_FOUND: &str = "not found: a capture is a folder holding capture.toml (docs/spec/CAPTURE.md)";
 pub(crate) use spec::parse_sensor_lens;
 pub use spec::FORMAT;
 pub(crate) use validate::validate_sensor_lens;
@@ -145,9 +150,7 @@ impl Capture {
         };
         let toml_path = dir.join("capture.toml");
         let bytes = fs::read(&toml_path).map_err(|e| match e.kind() {
-            std::io::ErrorKind::NotFound => {
-                err(&toml_path, "not found: a capture is a folder holding capture.toml (docs/spec/CAPTURE.md)")
-            }
+            std::io::ErrorKind::NotFound => err(&toml_path, NOT_FOUND),
             _ => Error::Io { path: toml_path.clone(), source: e },
         })?;
         let text = String::from_utf8(bytes).map_err(|_| err(&toml_path, "not UTF-8 text"))?;

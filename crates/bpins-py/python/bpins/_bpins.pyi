@@ -37,7 +37,9 @@ class Heading:
     """Whether the mosaic was read in place (False: columns not adjacent, copied)."""
 
 class Compass:
-    """The front door: live mosaics in, headings with an honest 1σ out. One per camera and thread."""
+    """The front door: live mosaics in, headings with an honest 1σ out. One per camera;
+    threads may share one (it reads one frame at a time), or each have its own to read
+    frames in parallel."""
 
     def __init__(
         self,
