@@ -80,11 +80,11 @@ pub struct BpinsCompassConfig {
     /// (default 15).
     pub sun_exclusion_deg: f64,
     /// Fewest cells, and least fraction (0…1) of the image's cells, a heading may rest
-    /// on (defaults 40 and 0.03).
+    /// on (defaults 40 and 0.005: an overcast's holes may carry a heading).
     pub min_cells: u32,
     pub min_used_fraction: f64,
-    /// Used cells misfitting by more than this RMS give no heading, degrees
-    /// (default 8).
+    /// Used cells misfitting by more than this RMS beyond their noise give no heading,
+    /// degrees (default 4).
     pub max_residual_deg: f64,
     /// Floor of the heading's 1σ, degrees (default 0.01).
     pub sigma_floor_deg: f64,
@@ -138,7 +138,7 @@ pub enum BpinsNoHeading {
     BPINS_NO_HEADING_TOO_LITTLE_SKY = 3,
     /// Two headings fit the pattern almost equally.
     BPINS_NO_HEADING_AMBIGUOUS = 4,
-    /// The used sky misfits the model by more than `max_residual_deg`.
+    /// The used sky misfits the model by more than `max_residual_deg` beyond its noise.
     BPINS_NO_HEADING_POOR_FIT = 5,
     /// The solver failed (see the message).
     BPINS_NO_HEADING_SOLVER = 6,
