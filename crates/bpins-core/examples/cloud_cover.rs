@@ -100,7 +100,8 @@ fn svg(curves: &[(String, Vec<(f64, Score)>)]) -> String {
         );
         for c in [0.0, 0.3, 0.6, 0.9] {
             let x = x0 + pw * c / 0.9;
-            let _ = writeln!(s, "<text x=\"{x}\" y=\"{}\" text-anchor=\"middle\">{:.0}</text>", m + ph + 14.0, 100.0 * c);
+            let _ =
+                writeln!(s, "<text x=\"{x}\" y=\"{}\" text-anchor=\"middle\">{:.0}</text>", m + ph + 14.0, 100.0 * c);
         }
         let ticks: Vec<(f64, String)> = if panel == 0.0 {
             [0.001, 0.01, 0.1, 1.0, 10.0].iter().map(|&v| (rms_y(v), format!("{v}"))).collect()

@@ -185,7 +185,8 @@ pub fn cloudy(frames: usize, scale: u32, seed: u64) -> Result<Vec<Condition>> {
         },
         Condition {
             name: "broken_tilted",
-            describe: "pinhole tilted up to 5° (IMU 0.1°), a broken sky of 26 dim clouds with rims, each turning its own way \
+            describe:
+                "pinhole tilted up to 5° (IMU 0.1°), a broken sky of 26 dim clouds with rims, each turning its own way \
                        (σ 25°)",
             capture: pinhole(30.0),
             model: Model::default(),
@@ -203,7 +204,8 @@ pub fn cloudy(frames: usize, scale: u32, seed: u64) -> Result<Vec<Condition>> {
         },
         Condition {
             name: "fisheye_broken_tilted",
-            describe: "fisheye tilted up to 8° (IMU 0.1°), 20 large dim clouds with rims, turns 70 % shared (σ 25°), a \
+            describe:
+                "fisheye tilted up to 8° (IMU 0.1°), 20 large dim clouds with rims, turns 70 % shared (σ 25°), a \
                        skyline",
             capture: fisheye(40.0),
             model: Model::default(),
@@ -250,7 +252,14 @@ pub fn cloudy(frames: usize, scale: u32, seed: u64) -> Result<Vec<Condition>> {
 /// turned by ~17° like the `clouds` element's, over `cover` of the sky in view (above
 /// 65° for the pinhole, 40° for the fisheye); the camera a pinhole or the fisheye at
 /// sun elevation `sun_el_deg`.
-pub fn cover_condition(fisheye: bool, sun_el_deg: f64, cover: f64, frames: usize, scale: u32, seed: u64) -> Result<Condition> {
+pub fn cover_condition(
+    fisheye: bool,
+    sun_el_deg: f64,
+    cover: f64,
+    frames: usize,
+    scale: u32,
+    seed: u64,
+) -> Result<Condition> {
     let scale = scale.max(1);
     let capture = if fisheye {
         camera(Projection::Equidistant, 512 / scale, 512 / scale, 6.9 * scale as f64, 2.2, sun_el_deg, frames)

@@ -24,8 +24,13 @@ fn camera() -> Intrinsics {
 /// A noisy frame of the samples' sky (sun 40°/25°) at heading 30°, tilted as given.
 fn frame(tilt_x_deg: f64, tilt_y_deg: f64, seed: u64) -> Vec<u16> {
     let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg, tilt_y_deg, dmax: 0.6 };
-    let truth =
-        ChainFrame::new(&Model::default(), &camera(), &scene, &Response::samples(2400.0), NoiseIndex { seed, trial: 0, frame: 0 });
+    let truth = ChainFrame::new(
+        &Model::default(),
+        &camera(),
+        &scene,
+        &Response::samples(2400.0),
+        NoiseIndex { seed, trial: 0, frame: 0 },
+    );
     render_mosaic(&truth, W, H, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect()
 }
 
@@ -83,4 +88,3 @@ fn a_tilt_the_imu_misses_is_caught() {
     // Here it is refused: the sky's sun stands ~8° above the given one.
     assert!(matches!(h.result, Err(NoHeading::Contradicts { .. })), "{:?}", h.result);
 }
-

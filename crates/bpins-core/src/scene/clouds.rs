@@ -284,7 +284,8 @@ mod tests {
         let n = a.len() as f64;
         let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
         let cov = a.iter().zip(&b).map(|(x, y)| (x - ma) * (y - mb)).sum::<f64>() / n;
-        let (va, vb) = (a.iter().map(|x| (x - ma).powi(2)).sum::<f64>() / n, b.iter().map(|y| (y - mb).powi(2)).sum::<f64>() / n);
+        let (va, vb) =
+            (a.iter().map(|x| (x - ma).powi(2)).sum::<f64>() / n, b.iter().map(|y| (y - mb).powi(2)).sum::<f64>() / n);
         let rho = cov / (va * vb).sqrt();
         assert!((rho - 0.7).abs() < 0.2, "correlation {rho}");
         let all: Vec<f64> = frames.iter().flat_map(|c| c.clouds.iter().map(|k| k.turn_rad.to_degrees())).collect();

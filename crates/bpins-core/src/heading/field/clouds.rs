@@ -193,8 +193,9 @@ pub(super) fn propagate(cells: &[CellSky], cols: usize, rows: usize, cloud: &mut
         let (clear, clouded) = loop {
             let (r0, r1) = (r.saturating_sub(radius), (r + radius + 1).min(rows));
             let (k0, k1) = (k.saturating_sub(radius), (k + radius + 1).min(cols));
-            let count =
-                |j: usize| votes[r1 * w + k1][j] + votes[r0 * w + k0][j] - votes[r0 * w + k1][j] - votes[r1 * w + k0][j];
+            let count = |j: usize| {
+                votes[r1 * w + k1][j] + votes[r0 * w + k0][j] - votes[r0 * w + k1][j] - votes[r1 * w + k0][j]
+            };
             let (clear, clouded) = (count(0), count(1));
             if clear + clouded > 0 || radius >= rows.max(cols) {
                 break (clear, clouded);
@@ -216,7 +217,14 @@ mod tests {
                 let g = (40.0 + 100.0 * i as f64 / n as f64).to_radians();
                 let z = 0.4 + 0.5 * ((i * 7) % n) as f64 / n as f64;
                 let cg = g.cos();
-                CellSky { dolp: dmax * rayleigh_dolp(cg), ln_i: (1.0 + cg * cg).ln() + 0.3 * z, cg, z, fits: true, grid: i }
+                CellSky {
+                    dolp: dmax * rayleigh_dolp(cg),
+                    ln_i: (1.0 + cg * cg).ln() + 0.3 * z,
+                    cg,
+                    z,
+                    fits: true,
+                    grid: i,
+                }
             })
             .collect()
     }

@@ -253,9 +253,7 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
         obs.iter()
             .zip(&b.res)
             .zip(&b.cloud)
-            .filter(|((o, r), &cloud)| {
-                r.2.abs() < cos_excl && !cloud && (away < min_away || !b.cloud_grown[o.grid])
-            })
+            .filter(|((o, r), &cloud)| r.2.abs() < cos_excl && !cloud && (away < min_away || !b.cloud_grown[o.grid]))
             .map(|((o, r), _)| (r.0.powi(2) - TAU_CHI2 * o.var_aop) / TAU_CHI2),
     );
     let tau2 = quantile(&mut b.t, TAU_Q).max(0.0);
