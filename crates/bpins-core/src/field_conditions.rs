@@ -60,22 +60,10 @@ impl Condition {
 /// The conditions of the README's field table, `frames` frames each, at 1/`scale` of
 /// the full pixel count each way, scenes and attitudes seeded by `seed`.
 pub fn standard(frames: usize, scale: u32, seed: u64) -> Result<Vec<Condition>> {
-    let scale = scale.max(1);
-    let pinhole = |sun_el_deg: f64| {
-        camera(Projection::Pinhole, 612 / scale, 512 / scale, 13.8 * scale as f64, 8.0, sun_el_deg, frames)
-    };
-    let fisheye = |sun_el_deg: f64| {
-        camera(Projection::Equidistant, 512 / scale, 512 / scale, 6.9 * scale as f64, 2.2, sun_el_deg, frames)
-    };
-    let scene = |specs: &[&str]| -> Result<Option<FieldScene>> {
-        let mut f = FieldScene::new(seed);
-        for s in specs {
-            f.parse(s)?;
-        }
-        Ok(Some(f))
-    };
-    let imu =
-        |tilt_random_deg: f64| FieldAttitude { tilt_random_deg, imu_sigma_deg: Some(0.1), sun_sigma_deg: None, seed };
+    let pinhole = |sun_el_deg: f64| pinhole(scale, sun_el_deg, frames);
+    let fisheye = |sun_el_deg: f64| fisheye(scale, sun_el_deg, frames);
+    let scene = |specs: &[&str]| scene(seed, specs).map(Some);
+    let imu = |tilt_random_deg: f64| imu(seed, tilt_random_deg);
     let berry = |sep: f64| -> Result<Model> {
         let mut e = EffectSet::new();
         e.set("sky_neutral_points", "separation_deg", sep)?;
@@ -148,22 +136,10 @@ pub fn standard(frames: usize, scale: u32, seed: u64) -> Result<Vec<Condition>> 
 /// count, seeded by `seed`. A frame may rightly get no heading here (too little
 /// clear sky): the score counts those apart.
 pub fn cloudy(frames: usize, scale: u32, seed: u64) -> Result<Vec<Condition>> {
-    let scale = scale.max(1);
-    let pinhole = |sun_el_deg: f64| {
-        camera(Projection::Pinhole, 612 / scale, 512 / scale, 13.8 * scale as f64, 8.0, sun_el_deg, frames)
-    };
-    let fisheye = |sun_el_deg: f64| {
-        camera(Projection::Equidistant, 512 / scale, 512 / scale, 6.9 * scale as f64, 2.2, sun_el_deg, frames)
-    };
-    let scene = |specs: &[&str]| -> Result<Option<FieldScene>> {
-        let mut f = FieldScene::new(seed);
-        for s in specs {
-            f.parse(s)?;
-        }
-        Ok(Some(f))
-    };
-    let imu =
-        |tilt_random_deg: f64| FieldAttitude { tilt_random_deg, imu_sigma_deg: Some(0.1), sun_sigma_deg: None, seed };
+    let pinhole = |sun_el_deg: f64| pinhole(scale, sun_el_deg, frames);
+    let fisheye = |sun_el_deg: f64| fisheye(scale, sun_el_deg, frames);
+    let scene = |specs: &[&str]| scene(seed, specs).map(Some);
+    let imu = |tilt_random_deg: f64| imu(seed, tilt_random_deg);
     Ok(vec![
         Condition {
             name: "clouds_coherent",
@@ -260,12 +236,7 @@ pub fn cover_condition(
     scale: u32,
     seed: u64,
 ) -> Result<Condition> {
-    let scale = scale.max(1);
-    let capture = if fisheye {
-        camera(Projection::Equidistant, 512 / scale, 512 / scale, 6.9 * scale as f64, 2.2, sun_el_deg, frames)
-    } else {
-        camera(Projection::Pinhole, 612 / scale, 512 / scale, 13.8 * scale as f64, 8.0, sun_el_deg, frames)
-    };
+    let capture = if fisheye { self::fisheye(scale, sun_el_deg, frames) } else { pinhole(scale, sun_el_deg, frames) };
     let mut f = FieldScene::new(seed);
     f.parse("sky_radiance")?;
     f.set("overcast", "cover", cover)?;
@@ -282,6 +253,32 @@ pub fn cover_condition(
         field: Some(f),
         attitude: FieldAttitude::default(),
     })
+}
+
+/// The samples' 8 mm pinhole on 612 × 512 at 13.8 µm, at 1/`scale` of the pixels each way.
+fn pinhole(scale: u32, sun_el_deg: f64, frames: usize) -> Capture {
+    let scale = scale.max(1);
+    camera(Projection::Pinhole, 612 / scale, 512 / scale, 13.8 * scale as f64, 8.0, sun_el_deg, frames)
+}
+
+/// The 2.2 mm equidistant fisheye on 512 × 512 at 6.9 µm, at 1/`scale` of the pixels.
+fn fisheye(scale: u32, sun_el_deg: f64, frames: usize) -> Capture {
+    let scale = scale.max(1);
+    camera(Projection::Equidistant, 512 / scale, 512 / scale, 6.9 * scale as f64, 2.2, sun_el_deg, frames)
+}
+
+/// A scene of `specs` (as `--scene` takes them) under `seed`.
+fn scene(seed: u64, specs: &[&str]) -> Result<FieldScene> {
+    let mut f = FieldScene::new(seed);
+    for s in specs {
+        f.parse(s)?;
+    }
+    Ok(f)
+}
+
+/// Frames tilted up to ±`tilt_random_deg`, the reference tilt read by a 0.1° IMU.
+fn imu(seed: u64, tilt_random_deg: f64) -> FieldAttitude {
+    FieldAttitude { tilt_random_deg, imu_sigma_deg: Some(0.1), sun_sigma_deg: None, seed }
 }
 
 fn camera(p: Projection, w: u32, h: u32, pitch_um: f64, f_mm: f64, sun_el_deg: f64, frames: usize) -> Capture {
