@@ -4,7 +4,7 @@
 
 use super::clouds::{brighter, clear_dmax, depolarized, propagate, CellSky};
 use super::spatial::coherent_sigma_deg;
-use super::stats::{clustered, dilate, quantile, tukey};
+use super::stats::{grown_clusters, quantile, tukey};
 use super::{Cells, FieldContext, FieldHeading, FieldOptions, FieldQuality, NoHeading, SigmaParts};
 use crate::camera::meridional_basis;
 use crate::conventions::{heading_deg_from_level_sun, image_angle_rad, level_from_camera, wrap_deg_180};
@@ -231,13 +231,9 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
     let settled = b.clouds_at.is_some_and(|at| at.dot(s) > CLOUDS_SETTLED_DEG.to_radians().cos());
     if !settled {
         clouds(obs, tau2_all, opts.min_cells, cols, grid_len / cols.max(1), b);
-        b.mask.clear();
-        b.mask.resize(grid_len, false);
-        for (o, &c) in obs.iter().zip(&b.cloud) {
-            b.mask[o.grid] = c;
-        }
-        clustered(&b.mask, cols, &mut b.clustered);
-        dilate(&b.clustered, cols, grid_len / cols.max(1), DILATE_CELLS as usize, &mut b.tmp, &mut b.cloud_grown);
+        let cloud = obs.iter().zip(&b.cloud).map(|(o, &c)| (o.grid, c));
+        let (mask, kept, tmp) = (&mut b.mask, &mut b.clustered, &mut b.tmp);
+        grown_clusters(cloud, grid_len, cols, DILATE_CELLS as usize, mask, kept, tmp, &mut b.cloud_grown);
         b.clouds_at = Some(s);
     }
     // τ: the lower quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015) over the clear cells
@@ -267,15 +263,9 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
     // A rejected cell's neighbours are suspect: clouds and crowns have soft edges whose
     // misfit is below the cut. Rejections that come in clusters (not a lone noisy cell,
     // not the sun's disc) grow by DILATE_CELLS.
-    b.mask.clear();
-    b.mask.resize(grid_len, false);
-    for (o, x) in obs.iter().zip(&b.w) {
-        if x.0 < 0.5 && cg_of(x.2) < cos_excl {
-            b.mask[o.grid] = true;
-        }
-    }
-    clustered(&b.mask, cols, &mut b.clustered);
-    dilate(&b.clustered, cols, grid_len / cols.max(1), DILATE_CELLS as usize, &mut b.tmp, &mut b.grown);
+    let rejected = obs.iter().zip(&b.w).map(|(o, x)| (o.grid, x.0 < 0.5 && cg_of(x.2) < cos_excl));
+    let (mask, kept, tmp) = (&mut b.mask, &mut b.clustered, &mut b.tmp);
+    grown_clusters(rejected, grid_len, cols, DILATE_CELLS as usize, mask, kept, tmp, &mut b.grown);
     for (o, x) in obs.iter().zip(b.w.iter_mut()) {
         if b.grown[o.grid] {
             x.0 = 0.0;
@@ -489,13 +479,9 @@ pub(super) fn robust(
     b.res.clear();
     b.res.extend(obs.iter().map(|o| residual(o, hint)));
     clouds(obs, tau * tau, opts.min_cells, cells.cols, cells.rows, b);
-    b.mask.clear();
-    b.mask.resize(cells.grid_len(), false);
-    for (o, &d) in obs.iter().zip(&b.cloud) {
-        b.mask[o.grid] = d;
-    }
-    clustered(&b.mask, cells.cols, &mut b.clustered);
-    dilate(&b.clustered, cells.cols, cells.rows, DILATE_CELLS as usize, &mut b.tmp, &mut sc.sky_grown);
+    let cloud = obs.iter().zip(&b.cloud).map(|(o, &c)| (o.grid, c));
+    let (mask, kept, tmp) = (&mut b.mask, &mut b.clustered, &mut b.tmp);
+    grown_clusters(cloud, cells.grid_len(), cells.cols, DILATE_CELLS as usize, mask, kept, tmp, &mut sc.sky_grown);
     let clouded = obs.iter().filter(|o| sc.sky_grown[o.grid]).count();
     quality.cloud_fraction = clouded as f64 / obs.len().max(1) as f64;
     // The misfit part: what the used sky misfits beyond its noise and beyond what a

@@ -44,6 +44,29 @@ pub(super) fn dilate(mask: &[bool], cols: usize, rows: usize, r: usize, h: &mut 
     }
 }
 
+/// Into `out`: the cells marked by `marked` (grid index, mark) on a `cols`-wide grid
+/// of `grid_len` cells, kept where they cluster ([`clustered`]) and grown by `r`
+/// ([`dilate`]); `mask`, `kept` and `tmp` are buffers.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn grown_clusters(
+    marked: impl Iterator<Item = (usize, bool)>,
+    grid_len: usize,
+    cols: usize,
+    r: usize,
+    mask: &mut Vec<bool>,
+    kept: &mut Vec<bool>,
+    tmp: &mut Vec<bool>,
+    out: &mut Vec<bool>,
+) {
+    mask.clear();
+    mask.resize(grid_len, false);
+    for (g, m) in marked {
+        mask[g] |= m;
+    }
+    clustered(mask, cols, kept);
+    dilate(kept, cols, grid_len / cols.max(1), r, tmp, out);
+}
+
 pub(super) fn tukey(r: f64) -> f64 {
     let u = r / TUKEY_C;
     if u.abs() < 1.0 {
