@@ -8,11 +8,18 @@ use serde_json::json;
 #[derive(clap::Args)]
 pub struct Args {
     /// Print the effects as JSON instead of a table (the JSON lists effects only).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "markdown")]
     json: bool,
+    /// Print the README's catalog tables (effects and scene elements) as Markdown.
+    #[arg(long)]
+    markdown: bool,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    if a.markdown {
+        out!("{}", bpins_core::catalog::markdown().trim_end());
+        return Ok(());
+    }
     if a.json {
         let v: Vec<_> = REGISTRY
             .iter()

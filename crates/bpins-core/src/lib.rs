@@ -65,6 +65,7 @@ pub mod calibration;
 pub mod camera;
 #[cfg(feature = "io")]
 pub mod capture;
+pub mod catalog;
 pub mod chain;
 pub mod compass;
 pub mod conventions;
