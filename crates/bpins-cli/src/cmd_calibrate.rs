@@ -112,7 +112,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     write_json(&a.out.join("summary.json"), &summary)?;
     write_output(
         &a.out.join("report.html"),
-        report::report_html(&cal, &a.lab.display().to_string(), &maps).as_bytes(),
+        report::report_html(&cal, &a.lab.display().to_string(), &maps)?.as_bytes(),
     )?;
     let t_all = t0.elapsed().as_secs_f64();
     say!(

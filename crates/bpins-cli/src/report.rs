@@ -6,10 +6,8 @@
 //! and candidates.
 
 use crate::residuals::{Figures, Written};
-use anyhow::Context;
 use bpins_core::fit::diagnose::Diagnosis;
 use bpins_core::fit::Param;
-use minijinja::{AutoEscape, Environment};
 use serde::Serialize;
 
 const TEMPLATE: &str = include_str!("templates/diagnosis.html");
@@ -145,53 +143,7 @@ pub fn diagnosis(
         frames: d.steps.last().map_or(Vec::new(), |s| frame_rows(&s.fit)),
         sample: d.steps.first().map_or(String::new(), |s| crate::sample_line(&s.fit.sample)),
     };
-    render(&page)
-}
-
-/// Renders `page` through the template, escaping every value for HTML.
-fn render(page: &impl Serialize) -> anyhow::Result<String> {
-    let mut env = Environment::new();
-    env.set_auto_escape_callback(|_| AutoEscape::Html);
-    env.set_formatter(escape_html);
-    env.add_filter("code", code_spans);
-    env.add_template("diagnosis.html", TEMPLATE).context("the report template")?;
-    let t = env.get_template("diagnosis.html").context("the report template")?;
-    let mut html = t.render(minijinja::value::Serde(page)).context("rendering the report")?;
-    // The template's last newline (minijinja drops it): a page ends with one.
-    html.push('\n');
-    Ok(html)
-}
-
-/// The HTML escaping of text and attribute values: `& < > " '` (a `/` in a file name
-/// stays as it is).
-fn escape_html(
-    out: &mut minijinja::Output,
-    state: &mut minijinja::State,
-    value: &minijinja::Value,
-) -> Result<(), minijinja::Error> {
-    if value.is_safe() || !matches!(state.auto_escape(), AutoEscape::Html) {
-        return minijinja::escape_formatter(out, state, value);
-    }
-    out.write_str(&bpins_core::output::escape_html(&value.to_string()))
-        .map_err(|_| minijinja::Error::new(minijinja::ErrorKind::WriteFailure, "writing the report"))
-}
-
-/// The `code` filter: text from the library, whose `--flag`s and names stand in
-/// backticks as in the terminal, as HTML with those spans in `<code>` (everything
-/// escaped first; an unpaired backtick stays as it is).
-fn code_spans(text: String) -> minijinja::Value {
-    let escaped = bpins_core::output::escape_html(&text);
-    let parts: Vec<&str> = escaped.split('`').collect();
-    let mut html = String::with_capacity(escaped.len() + 16);
-    for (i, part) in parts.iter().enumerate() {
-        let closed = i % 2 == 1 && i + 1 < parts.len();
-        match (i % 2 == 1, closed) {
-            (true, true) => html.push_str(&format!("<code>{part}</code>")),
-            (true, false) => html.push_str(&format!("`{part}")),
-            _ => html.push_str(part),
-        }
-    }
-    minijinja::Value::from_safe_string(html)
+    Ok(bpins_core::output::render_html("diagnosis.html", TEMPLATE, &page)?)
 }
 
 /// A radiance coefficient: 3 decimals, a small one in scientific notation rather
@@ -396,21 +348,28 @@ mod tests {
         struct P {
             capture: &'static str,
         }
-        let env = |capture| {
-            let mut e = Environment::new();
-            e.set_auto_escape_callback(|_| AutoEscape::Html);
-            e.set_formatter(escape_html);
-            e.add_template("t.html", "<p title=\"{{ capture }}\">{{ capture }}</p>").unwrap();
-            e.get_template("t.html").unwrap().render(minijinja::value::Serde(P { capture })).unwrap()
-        };
-        assert_eq!(env("a\"<b>&'c/d"), "<p title=\"a&quot;&lt;b&gt;&amp;&#39;c/d\">a&quot;&lt;b&gt;&amp;&#39;c/d</p>");
+        let html = bpins_core::output::render_html(
+            "t.html",
+            "<p title=\"{{ capture }}\">{{ capture }}</p>",
+            &P { capture: "a\"<b>&'c/d" },
+        )
+        .unwrap();
+        assert_eq!(html, "<p title=\"a&quot;&lt;b&gt;&amp;&#39;c/d\">a&quot;&lt;b&gt;&amp;&#39;c/d</p>\n");
     }
 
     #[test]
     fn backticked_names_become_code_and_the_rest_stays_escaped() {
-        let html = code_spans("a lab flat field (then `--calibration FILE` holds it) <b> `odd".into());
-        assert_eq!(html.to_string(), "a lab flat field (then <code>--calibration FILE</code> holds it) &lt;b&gt; `odd");
-        assert!(html.is_safe());
+        #[derive(Serialize)]
+        struct P {
+            why: &'static str,
+        }
+        let html = bpins_core::output::render_html(
+            "t.html",
+            "{{ why | code }}",
+            &P { why: "a lab flat field (then `--calibration FILE` holds it) <b> `odd" },
+        )
+        .unwrap();
+        assert_eq!(html, "a lab flat field (then <code>--calibration FILE</code> holds it) &lt;b&gt; `odd\n");
     }
 
     #[test]

@@ -63,7 +63,7 @@ fn lab(c: &mut Criterion) {
             let maps = output::write_maps(&cal, &out).expect("writable");
             let file = Calibration { pixels: Some(std::sync::Arc::new(cal.maps.clone())), ..Default::default() };
             file.write_pixels(&out).expect("writable");
-            std::fs::write(out.join("report.html"), report::report_html(&cal, "bench", &maps)).unwrap();
+            std::fs::write(out.join("report.html"), report::report_html(&cal, "bench", &maps).unwrap()).unwrap();
         })
     });
     g.finish();

@@ -41,6 +41,9 @@ pub enum Error {
     Heading(String),
     #[error("sun position: {0}")]
     Sun(String),
+    /// A report template that does not render (a bug of bpins, not of the input).
+    #[error("report template {name}: {message}")]
+    Template { name: String, message: String },
     /// A compute backend could not do what was asked (no device, a buffer too large).
     #[error("{backend} backend: {message}")]
     Backend { backend: String, message: String },

@@ -104,6 +104,56 @@ pub fn escape_html(s: &str) -> String {
     out
 }
 
+/// Renders one of bpins' HTML report templates (minijinja; `name` for its errors) with
+/// `page`'s values, every one escaped for HTML through [`escape_html`] unless marked
+/// safe. Templates may use the `code` filter: text whose backticked spans (`--flag`,
+/// a name) become `<code>`. The diagnosis, the lab calibration and the sweep reports
+/// all render through this. A page ends with one newline.
+pub fn render_html(name: &str, template: &str, page: &impl serde::Serialize) -> Result<String> {
+    use minijinja::{AutoEscape, Environment};
+    let fail = |e: minijinja::Error| Error::Template { name: name.to_string(), message: format!("{e:#}") };
+    let mut env = Environment::new();
+    env.set_auto_escape_callback(|_| AutoEscape::Html);
+    env.set_formatter(html_formatter);
+    env.add_filter("code", code_spans);
+    env.add_template(name, template).map_err(fail)?;
+    let mut html = env.get_template(name).map_err(fail)?.render(minijinja::value::Serde(page)).map_err(fail)?;
+    // The template's last newline (minijinja drops it).
+    html.push('\n');
+    Ok(html)
+}
+
+/// The formatter of [`render_html`]: values through [`escape_html`], safe ones as they are.
+fn html_formatter(
+    out: &mut minijinja::Output,
+    state: &mut minijinja::State,
+    value: &minijinja::Value,
+) -> std::result::Result<(), minijinja::Error> {
+    if value.is_safe() || !matches!(state.auto_escape(), minijinja::AutoEscape::Html) {
+        return minijinja::escape_formatter(out, state, value);
+    }
+    out.write_str(&escape_html(&value.to_string()))
+        .map_err(|_| minijinja::Error::new(minijinja::ErrorKind::WriteFailure, "writing the report"))
+}
+
+/// The `code` filter: text from the library, whose `--flag`s and names stand in
+/// backticks as in the terminal, as HTML with those spans in `<code>` (everything
+/// escaped first; an unpaired backtick stays as it is).
+fn code_spans(text: String) -> minijinja::Value {
+    let escaped = escape_html(&text);
+    let parts: Vec<&str> = escaped.split('`').collect();
+    let mut html = String::with_capacity(escaped.len() + 16);
+    for (i, part) in parts.iter().enumerate() {
+        let closed = i % 2 == 1 && i + 1 < parts.len();
+        match (i % 2 == 1, closed) {
+            (true, true) => html.push_str(&format!("<code>{part}</code>")),
+            (true, false) => html.push_str(&format!("`{part}")),
+            _ => html.push_str(part),
+        }
+    }
+    minijinja::Value::from_safe_string(html)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
