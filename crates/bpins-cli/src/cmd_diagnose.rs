@@ -6,8 +6,9 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::fit::diagnose::{diagnose_frames, DiagnoseOptions, Diagnosis};
-use bpins_core::fit::{DiagnosisJson, FitOptions};
+use bpins_core::diagnose::DiagnosisJson;
+use bpins_core::diagnose::{diagnose_frames, DiagnoseOptions, Diagnosis};
+use bpins_core::fit::FitOptions;
 
 #[derive(clap::Args)]
 pub struct Args {

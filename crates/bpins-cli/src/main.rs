@@ -215,12 +215,12 @@ pub struct FitInput {
 
 /// Why a fit read more pixels than its first sample, in words (`FitResult::raised`):
 /// `what` was done on them.
-pub fn raised_line(x: &bpins_core::fit::resolution::Raised, what: &str) -> String {
+pub fn raised_line(x: &bpins_core::fit::input::resolution::Raised, what: &str) -> String {
     format!(
         "{} not told from neutral at {} px per frame (< {}σ), but every pixel would tell them: {what} on {}",
         x.params.join(", "),
         x.from_budget_px,
-        bpins_core::fit::resolution::TOLD_SIGMA,
+        bpins_core::fit::input::resolution::TOLD_SIGMA,
         x.to_budget_px.map_or("every pixel".to_string(), |b| format!("a budget of {b} px per frame"))
     )
 }
@@ -258,7 +258,7 @@ impl FitInput {
         if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
             anyhow::bail!("--fixed-dmax {d} must lie in [0, 1]");
         }
-        let min = bpins_core::fit::frames::MIN_BUDGET_PX;
+        let min = bpins_core::fit::input::frames::MIN_BUDGET_PX;
         if let Some(b) = self.sample_budget.filter(|&b| b < min) {
             anyhow::bail!("--sample-budget {b} is below the smallest budget, {min} pixels (16 blocks of 8 × 8)");
         }

@@ -6,7 +6,7 @@
 //! and candidates.
 
 use crate::residuals::{Figures, Written};
-use bpins_core::fit::diagnose::Diagnosis;
+use bpins_core::diagnose::Diagnosis;
 use bpins_core::fit::Param;
 use serde::Serialize;
 
@@ -256,7 +256,7 @@ fn figure(k: usize, w: &Written, alt: String, caption: String) -> Figure {
     Figure { src: format!("step{k}/{}", w.png), alt, caption }
 }
 
-fn step(k: usize, s: &bpins_core::fit::diagnose::Step, f: &Figures) -> StepView {
+fn step(k: usize, s: &bpins_core::diagnose::Step, f: &Figures) -> StepView {
     let maps = f
         .maps
         .iter()
@@ -291,7 +291,7 @@ fn step(k: usize, s: &bpins_core::fit::diagnose::Step, f: &Figures) -> StepView 
     }
 }
 
-fn ranking(step: usize, r: &[bpins_core::fit::diagnose::Candidate], threshold: f64) -> RankingView {
+fn ranking(step: usize, r: &[bpins_core::diagnose::Candidate], threshold: f64) -> RankingView {
     let rows = r
         .iter()
         .map(|c| CandidateRow {

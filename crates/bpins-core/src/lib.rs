@@ -69,6 +69,8 @@ pub mod catalog;
 pub mod chain;
 pub mod compass;
 pub mod conventions;
+#[cfg(feature = "io")]
+pub mod diagnose;
 pub mod effects;
 pub mod error;
 #[cfg(feature = "io")]

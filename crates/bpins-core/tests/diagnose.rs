@@ -3,8 +3,8 @@
 //! angles are named first, recovered, and the error falls to the noise.
 
 use bpins_core::capture::{Capture, FrameData};
-use bpins_core::fit::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use bpins_core::fit::profiles::{Axis, Quantity};
+use bpins_core::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+use bpins_core::fit::output::profiles::{Axis, Quantity};
 use std::path::Path;
 
 fn run(sample: &str, max_added: usize) -> Diagnosis {

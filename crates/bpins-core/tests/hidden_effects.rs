@@ -13,8 +13,8 @@
 mod common;
 
 use bpins_core::capture::{Capture, FrameData};
+use bpins_core::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
 use bpins_core::effects::{EffectSet, REGISTRY};
-use bpins_core::fit::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
 use bpins_core::fit::FitOptions;
 use common::{seed_of, simulate, small_capture, small_colocated_capture, typical, DMAX};
 

@@ -9,8 +9,8 @@
 mod common;
 
 use bpins_core::capture::{Capture, FrameData};
+use bpins_core::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
 use bpins_core::effects::{EffectSet, REGISTRY};
-use bpins_core::fit::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
 use bpins_core::fit::FitOptions;
 use common::{cie_sky, seed_of, simulate_in, small_capture, typical, DMAX};
 

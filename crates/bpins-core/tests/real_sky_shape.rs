@@ -9,8 +9,8 @@
 mod common;
 
 use bpins_core::capture::{Capture, FrameData};
+use bpins_core::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use bpins_core::effects::EffectSet;
-use bpins_core::fit::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use common::{cie_sky, diagnosis_problems, simulate_in, small_capture, typical};
 
 const PRNU: f64 = 0.01;
@@ -65,12 +65,12 @@ fn a_berry_shaped_sky_names_its_shape_and_nothing_else() {
 }
 
 /// What lets a diagnosis bound a near-noise refit by its every-pixel score test instead
-/// of converging it (`fit::refits`): the converged Δχ² stays within twice the one-step
+/// of converging it (`diagnose::refits`): the converged Δχ² stays within twice the one-step
 /// Δχ² (+ 1, a χ² of noise at this level). Checked for every candidate of the last,
 /// near-noise step, each scored on every pixel and then converged there; and for each
 /// the diagnosis bounded, its converged ΔBIC is below the threshold.
 fn bounds_hold(c: &Capture, frames: &[FrameData], d: &Diagnosis) {
-    use bpins_core::fit::diagnose::{BIC_THRESHOLD, SCORE_PROBE};
+    use bpins_core::diagnose::{BIC_THRESHOLD, SCORE_PROBE};
     use bpins_core::fit::{fit_from, score_candidates, FitFrames, FitOptions};
     let step = d.steps.last().unwrap();
     let all = FitFrames::all(c, frames).unwrap();

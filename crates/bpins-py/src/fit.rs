@@ -5,8 +5,9 @@
 //! ([`FitJson`], [`DiagnosisJson`]; README, "fit.json and diagnosis.json").
 
 use crate::{finite, py_err, whole};
-use bpins_core::fit::diagnose::{diagnose_frames, DiagnoseOptions};
-use bpins_core::fit::{fit_from, DiagnosisJson, FitJson, FitRequest};
+use bpins_core::diagnose::DiagnosisJson;
+use bpins_core::diagnose::{diagnose_frames, DiagnoseOptions};
+use bpins_core::fit::{fit_from, FitJson, FitRequest};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -22,7 +23,7 @@ fn request(
     all_pixels: bool,
     sample_budget_px: Option<usize>,
 ) -> PyResult<FitRequest> {
-    let min = bpins_core::fit::frames::MIN_BUDGET_PX;
+    let min = bpins_core::fit::input::frames::MIN_BUDGET_PX;
     if let Some(b) = sample_budget_px.filter(|&b| b < min) {
         return Err(PyValueError::new_err(format!(
             "sample_budget_px = {b}: expected at least {min} (or None: every pixel)"

@@ -25,7 +25,7 @@
 //! radiance a free nuisance the fit weighs the glare against the fitted radiance
 //! toward the sun (under the CIE clear sky, type 12, `a` = 0.05 is read 0.030 ± 0.002,
 //! measured), so the diagnosis lists it as inseparable there
-//! (`fit::diagnose::inseparable`) and measures it with the radiance held at
+//! (`diagnose::inseparable`) and measures it with the radiance held at
 //! Rayleigh's.
 //!
 //! Cannot: ghost images (discrete reflections between surfaces, off the sun's

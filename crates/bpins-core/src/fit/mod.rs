@@ -32,48 +32,28 @@
 //! (`block`, `schur`); a parameter the sample cannot decide but every pixel could
 //! raises the sample (`resolution`).
 
-mod accumulate;
-pub mod block;
-pub mod correlation;
-pub mod diagnose;
-pub mod frames;
-pub mod linalg;
-mod lm;
-mod masks;
-pub mod noise;
-mod problem;
-pub mod profiles;
-pub mod radiance;
-mod refits;
-pub mod remains;
-mod request;
-mod residuals;
-pub mod resolution;
-mod result;
-mod robust;
-pub mod schur;
-mod score;
-pub mod slots;
-mod stages;
-mod start;
-mod subfit;
+pub mod input;
+pub mod model;
+pub mod output;
+pub mod solver;
+pub mod uncertainty;
 
-pub use frames::{FitFrames, Sample, DEFAULT_BUDGET_PX};
-pub use masks::sky_masks;
-pub use request::{DiagnosisJson, FitJson, FitRequest, Loaded};
-pub use residuals::{residual_maps, residual_maps_of, FrameMaps, ResidualMaps};
-pub use result::{FitResult, FitState, FrameFit, Param};
-pub use score::{score_candidate, score_candidates, Score};
-pub use slots::PER_FRAME;
+pub use input::frames::{FitFrames, Sample, DEFAULT_BUDGET_PX};
+pub use input::masks::sky_masks;
+pub use input::request::{FitJson, FitRequest, Loaded};
+pub use model::slots::PER_FRAME;
+pub use output::residuals::{residual_maps, residual_maps_of, FrameMaps, ResidualMaps};
+pub use output::result::{FitResult, FitState, FrameFit, Param};
+pub use uncertainty::score::{score_candidate, score_candidates, Score};
 
 use crate::capture::{Capture, FrameData};
 use crate::conventions::wrap_deg_180;
 use crate::effects::{EffectDef, EffectSet};
 use crate::error::{Error, Result};
 use crate::heading::field::SkyMask;
-use noise::NoiseModel;
-use problem::problem;
-use slots::Nuisance;
+use input::noise::NoiseModel;
+use model::problem::problem;
+use model::slots::Nuisance;
 
 /// What to fit.
 #[derive(Clone, Debug, Default)]
@@ -113,7 +93,7 @@ pub fn fit(c: &Capture, frames: &[FrameData], opts: &FitOptions, progress: &dyn 
 
 /// The sensor noise of a capture (photon transfer over its frames).
 pub fn capture_noise(c: &Capture, frames: &[FrameData]) -> Result<NoiseModel> {
-    noise::estimate(frames, c.sensor.black_level_dn, c.sensor.full_scale_dn())
+    input::noise::estimate(frames, c.sensor.black_level_dn, c.sensor.full_scale_dn())
         .ok_or_else(|| Error::Model("too few usable pixels to estimate the sensor noise".into()))
 }
 
@@ -128,7 +108,7 @@ pub fn fit_from(
 ) -> Result<FitResult> {
     let noise = frames.noise(c)?;
     let (pb, theta) = problem(c, frames, opts, start, noise)?;
-    let (theta, iterations, last) = lm::minimise(&pb, theta, progress)?;
+    let (theta, iterations, last) = solver::lm::minimise(&pb, theta, progress)?;
     // Final: every pixel, covariance from JᵀWJ (its pseudo-inverse: a combination the
     // data do not constrain is reported, and its parameters get an infinite 1σ) — the
     // last iteration's sums where they were taken at these parameters.
@@ -138,10 +118,10 @@ pub fn fit_from(
     };
     let free = pb.slots.free();
     let nf = free.len();
-    let cov = schur::BlockInverse::new(&acc.sys);
-    let degenerate = cov.null.iter().map(|d| lm::describe_null(&pb, &free, d)).collect();
+    let cov = solver::schur::BlockInverse::new(&acc.sys);
+    let degenerate = cov.null.iter().map(|d| solver::lm::describe_null(&pb, &free, d)).collect();
     // Neighbour-correlated residuals carry less information than their count.
-    let n_eff = correlation::effective_samples(&pb, &theta, acc.n)?;
+    let n_eff = uncertainty::correlation::effective_samples(&pb, &theta, acc.n)?;
     let widen = (acc.n as f64 / n_eff.max(1.0)).sqrt().max(1.0);
     // The free globals come first among the free slots: their sandwich 1σ, from the
     // residuals' own variance by cluster (a fixed pattern the same in every frame).
@@ -184,7 +164,7 @@ pub fn fit_from(
     let errs: Vec<f64> = frames_out.iter().filter_map(|f| f.heading_error_deg).collect();
     let heading_rms_deg =
         (!errs.is_empty()).then(|| (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt());
-    let (aop_rms_deg, dolp_rms) = residuals::polarization_residuals(&pb, &theta)?;
+    let (aop_rms_deg, dolp_rms) = output::residuals::polarization_residuals(&pb, &theta)?;
     Ok(FitResult {
         params,
         frames: frames_out,

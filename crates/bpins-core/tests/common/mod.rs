@@ -133,7 +133,7 @@ pub fn cie_sky() -> bpins_core::scene::FieldScene {
 /// `ordered`, as a set otherwise), χ²/dof ≤ 1.1, and every hidden parameter the last
 /// fit holds recovered within 3σ of its truth.
 pub fn diagnosis_problems(
-    d: &bpins_core::fit::diagnose::Diagnosis,
+    d: &bpins_core::diagnose::Diagnosis,
     set: &EffectSet,
     names: &[&str],
     ordered: bool,

@@ -1,5 +1,5 @@
 //! A diagnosis step's refits: each candidate worth a refit is fitted on the scoring
-//! subsample (every [`super::lm::SUBSAMPLE_STRIDE`]-th row and column, 1/9 of the samples) and
+//! subsample (every [`crate::fit::solver::lm::SUBSAMPLE_STRIDE`]-th row and column, 1/9 of the samples) and
 //! ranked there by its Δχ² against the base model's own subsampled optimum; only the
 //! leader, and any candidate whose every-pixel ΔBIC could come within reach of it,
 //! is then converged on every pixel (warm-started from its subsampled optimum), for
@@ -35,13 +35,13 @@
 //!
 //! Units: χ² and ΔBIC have none.
 
-use super::diagnose::{Candidate, BIC_THRESHOLD, SCORE_PROBE};
-use super::frames::FitFrames;
-use super::score::score_candidates;
-use super::subfit::{fit_subsampled, SubFit};
-use super::{fit_from, FitOptions, FitResult};
 use crate::capture::Capture;
+use crate::diagnose::{Candidate, BIC_THRESHOLD, SCORE_PROBE};
 use crate::error::Result;
+use crate::fit::input::frames::FitFrames;
+use crate::fit::solver::subfit::{fit_subsampled, SubFit};
+use crate::fit::uncertainty::score::score_candidates;
+use crate::fit::{fit_from, FitOptions, FitResult};
 
 /// Candidates whose projected every-pixel ΔBIC lie within this many
 /// [`BIC_THRESHOLD`]s of the leader's (beyond their 3σ spread) are converged on every
@@ -50,7 +50,7 @@ pub const CLOSE_MARGIN: f64 = 5.0;
 
 /// How subsample figures scale to every pixel, from the base model of a step: its
 /// every-pixel fit and its subsampled optimum.
-pub(super) struct Scale {
+pub(crate) struct Scale {
     /// n_eff/n of the base model's every-pixel residual.
     f: f64,
     /// Samples of every pixel over samples of the subsample.
@@ -98,7 +98,7 @@ impl Scale {
 
 /// One candidate's refit: its model, its subsampled optimum and, where converged,
 /// its every-pixel fit.
-pub(super) struct Refit {
+pub(crate) struct Refit {
     pub effect: &'static str,
     pub model: FitOptions,
     pub sub: SubFit,
@@ -112,7 +112,7 @@ pub(super) struct Refit {
 }
 
 /// The base model of a step on the subsample, and how its figures scale.
-pub(super) fn base_on_subsample(
+pub(crate) fn base_on_subsample(
     c: &Capture,
     frames: &FitFrames,
     model: &FitOptions,
@@ -125,7 +125,7 @@ pub(super) fn base_on_subsample(
 
 /// Refits `cand` (added to `model`, from its score step) on the subsample and fills
 /// its ranking figures (subsample scale, `every_pixel` false).
-pub(super) fn refit_on_subsample(
+pub(crate) fn refit_on_subsample(
     c: &Capture,
     frames: &FitFrames,
     model: &FitOptions,
@@ -155,7 +155,7 @@ pub(super) fn refit_on_subsample(
 
 /// Converges `refit` on every pixel from its subsampled optimum and fills its
 /// candidate's figures from that fit (`delta_bic(Δχ², k)`: the every-pixel ΔBIC).
-pub(super) fn converge(
+pub(crate) fn converge(
     c: &Capture,
     frames: &FitFrames,
     current: &FitResult,
@@ -178,7 +178,7 @@ pub(super) fn converge(
 /// model's every-pixel optimum `current`) and bounds each whose ΔBIC (`delta_bic(Δχ²,
 /// k)`, every pixel) stays below [`BIC_THRESHOLD`] at twice its one-step Δχ²: its
 /// candidate then carries the score's every-pixel figures and `bounded`.
-pub(super) fn bound_on_every_pixel(
+pub(crate) fn bound_on_every_pixel(
     c: &Capture,
     frames: &FitFrames,
     model: &FitOptions,
@@ -213,7 +213,7 @@ pub(super) fn bound_on_every_pixel(
 /// The refit to converge next, if any: the subsample's leader while none converged
 /// is identifiable on every pixel, else the best of the rest where it could come
 /// within reach of the best converged one.
-pub(super) fn next_to_converge(refits: &[Refit], ranking: &[Candidate], scale: &Scale) -> Option<usize> {
+pub(crate) fn next_to_converge(refits: &[Refit], ranking: &[Candidate], scale: &Scale) -> Option<usize> {
     let cand = |r: &Refit| ranking.iter().find(|c| c.effect == r.effect).expect("a ranked candidate");
     let best_full = refits
         .iter()

@@ -1,14 +1,14 @@
 //! What a fitted model leaves: AoP and DoLP residual RMS, residual profiles and
 //! residual maps (measured − model).
 
-use super::frames::FitFrames;
-use super::noise::NoiseModel;
-use super::problem::{problem, Problem};
-use super::profiles::{Position, Profile, Profiler};
-use super::{FitOptions, FitState};
 use crate::capture::{Capture, FrameData};
 use crate::conventions::wrap_deg_90;
 use crate::error::Result;
+use crate::fit::input::frames::FitFrames;
+use crate::fit::input::noise::NoiseModel;
+use crate::fit::model::problem::{problem, Problem};
+use crate::fit::output::profiles::{Position, Profile, Profiler};
+use crate::fit::{FitOptions, FitState};
 use crate::recon::Reconstructor;
 use crate::sensor::Layout;
 use rayon::prelude::*;
@@ -27,7 +27,7 @@ fn pol_residual(rec: &Reconstructor, meas: &[f64; 4], model: &[f64; 4]) -> (Opti
 
 /// RMS of measured − model AoP (degrees, model DoLP > 0.01) and DoLP over the
 /// superpixels (DoFP) or pixels (colocated) of every frame, nominal inversion.
-pub(super) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64, f64)> {
+pub(crate) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64, f64)> {
     let c = pb.capture;
     let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &c.sensor.channels())?;
     // Frame by frame in parallel, summed in frame order.
@@ -264,7 +264,7 @@ impl<P: Fn(&crate::chain::ChainFrame, glam::DVec3, f64, f64) -> Position + Sync>
     #[allow(clippy::too_many_arguments)]
     fn band(
         &self,
-        f: &super::problem::FitFrame,
+        f: &crate::fit::model::problem::FitFrame,
         k: usize,
         data: &FrameData,
         b: usize,

@@ -1,14 +1,14 @@
 //! The score test of a candidate effect: how much of what a fitted model leaves
 //! unexplained one Gauss–Newton step with the candidate freed would remove.
 
-use super::frames::FitFrames;
-use super::problem::problem;
-use super::schur::BlockInverse;
-use super::slots::{Derivative, SlotId};
-use super::{FitOptions, FitResult, Param};
 use crate::capture::Capture;
 use crate::effects::EffectDef;
 use crate::error::Result;
+use crate::fit::input::frames::FitFrames;
+use crate::fit::model::problem::problem;
+use crate::fit::model::slots::{Derivative, SlotId};
+use crate::fit::solver::schur::BlockInverse;
+use crate::fit::{FitOptions, FitResult, Param};
 
 /// The score of adding `candidate` to a fitted model: the Δχ² one Gauss–Newton step
 /// from `base` (where the base model's own gradient vanishes) predicts, bᵀA⁺b over

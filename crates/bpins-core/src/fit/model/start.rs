@@ -3,15 +3,16 @@
 //! the sky mask), else the sun-vector extractor's on the whole frame; d_max 0.5
 //! (or the given one); no radiance shape; the radiance scale that fits best (linear).
 
-use super::problem::Problem;
-use super::slots::{EffectParam, Nuisance, PER_FRAME};
-use super::{radiance, FitState};
 use crate::error::{Error, Result};
+use crate::fit::model::problem::Problem;
+use crate::fit::model::radiance;
+use crate::fit::model::slots::{EffectParam, Nuisance, PER_FRAME};
+use crate::fit::FitState;
 use crate::heading::field::SkyMask;
 
 /// The parameter vector to start from: `warm`'s values where it has them (effects by
 /// parameter, frames by index), else the guesses above (the scale at 1: see [`scale`]).
-pub(super) fn theta(pb: &Problem, warm: Option<&FitState>, field: &[Option<SkyMask>]) -> Result<Vec<f64>> {
+pub(crate) fn theta(pb: &Problem, warm: Option<&FitState>, field: &[Option<SkyMask>]) -> Result<Vec<f64>> {
     let opts = pb.opts;
     let mut theta = Vec::with_capacity(pb.slots.all.len());
     for e in &opts.effects {
@@ -52,7 +53,7 @@ fn heading(pb: &Problem, k: usize) -> Result<f64> {
 
 /// Each frame's radiance basis, orthonormal over its sky at the start (every 4th
 /// pixel).
-pub(super) fn radiance_bases(pb: &Problem, theta: &[f64]) -> Result<Vec<radiance::Basis>> {
+pub(crate) fn radiance_bases(pb: &Problem, theta: &[f64]) -> Result<Vec<radiance::Basis>> {
     (0..pb.frames.len())
         .map(|k| {
             let f = pb.chain(theta, k)?;
@@ -67,7 +68,7 @@ pub(super) fn radiance_bases(pb: &Problem, theta: &[f64]) -> Result<Vec<radiance
 /// The radiance scale that fits frame `k` best with the rest of `theta` (linear: the
 /// model at unit scale, the black level taken as the offset, every 7th row and column
 /// of the pixels the frames hold).
-pub(super) fn scale(pb: &Problem, theta: &[f64], k: usize) -> Result<f64> {
+pub(crate) fn scale(pb: &Problem, theta: &[f64], k: usize) -> Result<f64> {
     let mut t = theta.to_vec();
     t[pb.slots.at(k, Nuisance::Scale)] = 1.0;
     let f = pb.chain(&t, k)?;

@@ -16,7 +16,7 @@
 //! Resources* 50 (2015) §II–IV) measures the variance of the estimating equations
 //! from the residuals themselves instead of from the weights: samples in one cluster
 //! may be correlated in any way, clusters are independent. A cluster is one row of the
-//! sensor (a frame read whole) or one sampled block (`super::frames`), taken across
+//! sensor (a frame read whole) or one sampled block (`crate::fit::input::frames`), taken across
 //! every frame: a pixel's fixed pattern, and a misfit along a row, fall in one cluster.
 //!
 //! Each frame's nuisances (heading, scale, d_max, radiance) are profiled out: a
@@ -28,11 +28,11 @@
 //! Limits: it is the variance at the fitted optimum, to first order; with G clusters
 //! it is itself uncertain by ≈ √(2/G) in variance (a 612 × 512 capture: 512 rows, 6 %);
 //! correlation across rows (a misfit smooth in v) is not in it — the fit's
-//! neighbour-correlation factor (`super::correlation`) is, and the reported 1σ is the
+//! neighbour-correlation factor (`crate::fit::uncertainty::correlation`) is, and the reported 1σ is the
 //! larger of the two. It does not make a misspecified model right: a misfit makes
 //! the 1σ honest about the scatter, not the value unbiased.
 
-use super::linalg::PseudoInverse;
+use crate::fit::solver::linalg::PseudoInverse;
 use nalgebra::DMatrix;
 
 /// The clusters' projected scores, accumulated frame by frame.

@@ -7,7 +7,7 @@
 //! budget' = frame px / s²,  s = max(⌊√(frame px / need)⌋, ⌈√(frame px / cap)⌉)   (every pixel where s < 2)
 //! ```
 //!
-//! What: a fit over the sample budget (`super::frames`) reads a stratified sample of
+//! What: a fit over the sample budget (`crate::fit::input::frames`) reads a stratified sample of
 //! each frame; a parameter the sample measures to better than a third of its distance
 //! from neutral needs nothing more, and one that every pixel could not tell from
 //! neutral either is left at the sample (more pixels would not change the answer: it
@@ -21,15 +21,15 @@
 //! and raises only its final model's fit (which effects are named is decided on the
 //! sample: the evidence of a weak effect grows with the budget, `--sample-budget`).
 
-use super::diagnose::Diagnosis;
-use super::request::{FitRequest, Loaded};
-use super::{fit_from, FitOptions, FitResult};
+use crate::diagnose::Diagnosis;
 use crate::error::Result;
+use crate::fit::input::request::{FitRequest, Loaded};
+use crate::fit::{fit_from, FitOptions, FitResult};
 
-/// The most pixels a frame a raise reads (4 × [`super::DEFAULT_BUDGET_PX`]: 8 MB a
+/// The most pixels a frame a raise reads (4 × [`crate::fit::DEFAULT_BUDGET_PX`]: 8 MB a
 /// frame held), so that a raise keeps the fit's memory bounded by the frame: a frame
 /// larger than this is raised to a sample of it at most, never read whole.
-pub const RAISE_CAP_PX: usize = 4 * super::DEFAULT_BUDGET_PX;
+pub const RAISE_CAP_PX: usize = 4 * crate::fit::DEFAULT_BUDGET_PX;
 
 /// Significance (in 1σ) at which a parameter counts as told from its neutral value.
 pub const TOLD_SIGMA: f64 = 3.0;
@@ -127,8 +127,8 @@ impl FitRequest {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::frames::Sample;
-    use crate::fit::slots::EffectParam;
+    use crate::fit::input::frames::Sample;
+    use crate::fit::model::slots::EffectParam;
     use crate::fit::Param;
 
     fn result(value: f64, sigma: f64, ppf: usize) -> FitResult {

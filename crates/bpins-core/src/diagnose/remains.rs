@@ -2,8 +2,8 @@
 //! gives and, where it is above, where the misfit lies (by channel, by radius, the
 //! strongest trends in sky space) — with the English sentence rendered from it.
 
-use super::diagnose::{BIC_THRESHOLD, EXCESS_FRACTION};
-use super::profiles::{trends, Axis, Profile, ProfileBin, Trend};
+use crate::diagnose::{BIC_THRESHOLD, EXCESS_FRACTION};
+use crate::fit::output::profiles::{trends, Axis, Profile, ProfileBin, Trend};
 
 /// The residual the final model leaves.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -62,7 +62,7 @@ impl Remains {
     }
 
     /// The strongest trend of `quantity`, if any.
-    pub fn trend(&self, quantity: super::profiles::Quantity) -> Option<&Trend> {
+    pub fn trend(&self, quantity: crate::fit::output::profiles::Quantity) -> Option<&Trend> {
         self.unexplained.as_ref()?.trends.iter().find(|t| t.quantity == quantity)
     }
 }
@@ -145,7 +145,7 @@ impl std::fmt::Display for Remains {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::profiles::{Quantity, TrendPoint};
+    use crate::fit::output::profiles::{Quantity, TrendPoint};
 
     #[test]
     fn the_sentence_is_rendered_from_the_data() {

@@ -14,7 +14,7 @@
 //! (n_g × n_l) and b_k — memory O(F·(n_g·n_l + n_l²) + n_g²) where the dense matrix
 //! was O((n_g + F·n_l)²) (5 MB at 48 frames, 2 GB at 1 000). The pseudo-inverse of the
 //! system is formed by eliminating each frame's block (the Schur complement,
-//! [`super::schur`]).
+//! [`crate::fit::solver::schur`]).
 
 /// One frame's blocks of the normal equations, in the frame's free nuisances.
 #[derive(Clone, Debug, PartialEq)]

@@ -2,18 +2,18 @@
 //! (JᵀWJ + λ·diag JᵀWJ) δ = JᵀW r, solved by pseudo-inverse (a parameter without
 //! influence, or a degenerate combination, is not moved) block by block: each frame's
 //! nuisances eliminated, the globals solved on the Schur complement, the frames'
-//! steps back-substituted (`super::schur`, the dense pseudo-inverse's numbers in
+//! steps back-substituted (`crate::fit::solver::schur`, the dense pseudo-inverse's numbers in
 //! time and memory linear in the frames). Iterations first run on
 //! every third row and column (all channels), then on every pixel until converged.
 
-use super::accumulate::Accum;
-use super::problem::Problem;
-use super::schur::BlockInverse;
-use super::slots::SlotId;
 use crate::error::Result;
+use crate::fit::model::accumulate::Accum;
+use crate::fit::model::problem::Problem;
+use crate::fit::model::slots::SlotId;
+use crate::fit::solver::schur::BlockInverse;
 
 /// Row and column stride of the subsampled stage (odd: every channel of a DoFP mosaic).
-pub(super) const SUBSAMPLE_STRIDE: usize = 3;
+pub(crate) const SUBSAMPLE_STRIDE: usize = 3;
 
 /// An accepted step that gains less than this fraction of the excess χ² (χ² − dof),
 /// and under a tenth of its prediction, ends the stage (`step`).
@@ -29,7 +29,7 @@ const STAGES: [(&str, usize, usize, f64); 2] =
 /// the last iteration left the parameters where it accumulated them on every pixel,
 /// those sums (the final covariance's, not accumulated again);
 /// `progress(stage, iteration)` after each.
-pub(super) fn minimise(
+pub(crate) fn minimise(
     pb: &Problem,
     theta: Vec<f64>,
     progress: &dyn Fn(&str, usize),
@@ -40,7 +40,7 @@ pub(super) fn minimise(
 /// [`minimise`] through the subsampled stage only (the optimum on every
 /// [`SUBSAMPLE_STRIDE`]-th row and column, within 1σ there: how a diagnosis ranks
 /// its candidates); the sums returned, where given, are on that subsample.
-pub(super) fn minimise_subsampled(pb: &Problem, theta: Vec<f64>) -> Result<(Vec<f64>, usize, Option<Accum>)> {
+pub(crate) fn minimise_subsampled(pb: &Problem, theta: Vec<f64>) -> Result<(Vec<f64>, usize, Option<Accum>)> {
     minimise_stages(pb, theta, &STAGES[..1], &|_, _| {})
 }
 
@@ -164,7 +164,7 @@ fn step(
 
 /// A degenerate direction `d` (over the free slots, scaled) in words: the global
 /// parameters it moves, and the per-frame ones by kind with the number of frames.
-pub(super) fn describe_null(pb: &Problem, free: &[usize], d: &[f64]) -> String {
+pub(crate) fn describe_null(pb: &Problem, free: &[usize], d: &[f64]) -> String {
     let big = 0.3 * d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let mut global = Vec::new();
     let mut per_frame: Vec<(String, usize)> = Vec::new();

@@ -2,15 +2,14 @@
 //! for every front end (the CLI, the Python package): a [`FitRequest`] names the
 //! capture, the model's effects, the options and a calibration, and [`FitRequest::load`]
 //! checks it and reads the capture into [`FitOptions`] and frames; [`FitJson`] and
-//! [`DiagnosisJson`] are `fit.json` and `diagnosis.json` (README, "fit.json and
+//! [`crate::diagnose::DiagnosisJson`] are `fit.json` and `diagnosis.json` (docs/diagnose.md, "fit.json and
 //! diagnosis.json"), so every front end writes the same schema.
 
-use super::diagnose::Diagnosis;
-use super::frames::{FitFrames, MIN_BUDGET_PX};
-use super::{FitOptions, FitResult};
 use crate::calibration::Calibration;
 use crate::capture::Capture;
 use crate::error::{Error, Result};
+use crate::fit::input::frames::{FitFrames, MIN_BUDGET_PX};
+use crate::fit::{FitOptions, FitResult};
 use std::path::PathBuf;
 
 /// A fit or a diagnosis to run on a capture.
@@ -34,7 +33,7 @@ pub struct FitRequest {
     pub all_pixels: bool,
     /// Most pixels of each frame the fit reads (`fit::frames`: a larger frame is read
     /// through a seeded sample of whole 2 × 2 tiles); `None` reads every pixel.
-    /// [`super::DEFAULT_BUDGET_PX`] is the CLI's default.
+    /// [`crate::fit::DEFAULT_BUDGET_PX`] is the CLI's default.
     pub sample_budget_px: Option<usize>,
 }
 
@@ -98,28 +97,5 @@ impl<'a> FitJson<'a> {
     pub fn new(capture: &std::path::Path, options: &FitOptions, fit: &'a FitResult) -> Self {
         let effects = options.effects.iter().map(|e| e.name).collect();
         FitJson { capture: capture.display().to_string(), effects, fit }
-    }
-}
-
-/// `diagnosis.json`: the capture, the diagnosis's own fields ([`Diagnosis`]: each step
-/// carries the same fields as `fit.json`) and, for readers that want only the verdict,
-/// whether a residual remains unexplained and what remains in words.
-#[derive(serde::Serialize)]
-pub struct DiagnosisJson<'a> {
-    pub capture: String,
-    #[serde(flatten)]
-    pub diagnosis: &'a Diagnosis,
-    pub unexplained: bool,
-    pub unexplained_summary: String,
-}
-
-impl<'a> DiagnosisJson<'a> {
-    pub fn new(capture: &std::path::Path, diagnosis: &'a Diagnosis) -> Self {
-        DiagnosisJson {
-            capture: capture.display().to_string(),
-            diagnosis,
-            unexplained: diagnosis.unexplained(),
-            unexplained_summary: diagnosis.summary(),
-        }
     }
 }

@@ -10,14 +10,14 @@
 //! the budget is read whole, exactly as before the budget existed (the samples' 612 ×
 //! 512 under [`DEFAULT_BUDGET_PX`]). A larger frame is read once, in full, for what
 //! needs every pixel — its sky mask (the field estimator's cells), its share of the
-//! photon-transfer noise estimate ([`super::noise::NoiseSums`]) and, for a frame
+//! photon-transfer noise estimate ([`crate::fit::input::noise::NoiseSums`]) and, for a frame
 //! without a reference heading or sky, the sun-vector extractor's first heading — and
 //! then only a stratified sample of it is kept: one block of B × B pixels in each
 //! stratum of s × s blocks, at a seeded offset that differs from frame to frame (so
 //! the frames together cover the sensor). A block holds whole 2 × 2 tiles at even
 //! coordinates, so each sampled pixel has its mosaic neighbours beside it: a
 //! superpixel's four channels, the lag-2 neighbours the residual correlation needs
-//! ([`super::correlation`]), and crosstalk's four neighbours (the model evaluates
+//! ([`crate::fit::uncertainty::correlation`]), and crosstalk's four neighbours (the model evaluates
 //! them from the chain, the data of the pixel itself are what is compared). Memory per
 //! frame is the sample (B²·nq·4 bytes per stratum), the sky mask and the offsets; the
 //! full frame is read again only for the residual maps, one frame at a time
@@ -28,10 +28,10 @@
 //! `--full`) where a parameter's 1σ must shrink; every stratum has the same weight, so a
 //! misfit confined to a few pixels (a hot column) may fall between the blocks.
 
-use super::noise::{NoiseModel, NoiseSums};
-use super::FitOptions;
 use crate::capture::{Capture, FrameData};
 use crate::error::{Error, Result};
+use crate::fit::input::noise::{NoiseModel, NoiseSums};
+use crate::fit::FitOptions;
 use crate::heading::field::SkyMask;
 use crate::pixel_analyzers::PixelMaps;
 use crate::sensor::Layout;
@@ -262,7 +262,7 @@ impl<'a> FitFrames<'a> {
                 .map(|k| -> Result<_> {
                     let data = read(k)?;
                     check(c, k, &data)?;
-                    let mask = super::masks::sky_mask_of(c, k, &data, &known_model)?;
+                    let mask = crate::fit::input::masks::sky_mask_of(c, k, &data, &known_model)?;
                     let first = (c.frames[k].heading_deg.is_none() && mask.is_none())
                         .then(|| first_heading(c, k, &data).map_err(|e| e.to_string()));
                     let off = offsets_of(&grid, k, w, h);
@@ -362,7 +362,7 @@ impl<'a> FitFrames<'a> {
         }
     }
 
-    /// How many clusters of pixels the frames' parts fall in (`super::robust`): the
+    /// How many clusters of pixels the frames' parts fall in (`crate::fit::uncertainty::robust`): the
     /// rows (every pixel read), or the sample's strata (one block each per frame).
     pub(crate) fn n_clusters(&self) -> usize {
         match &self.pixels {
@@ -396,7 +396,9 @@ impl<'a> FitFrames<'a> {
     pub fn noise(&self, c: &Capture) -> Result<NoiseModel> {
         let model = match (&self.pixels, &self.known) {
             (_, Some(k)) => k.noise,
-            (Pixels::All(f), None) => super::noise::estimate(f, c.sensor.black_level_dn, c.sensor.full_scale_dn()),
+            (Pixels::All(f), None) => {
+                crate::fit::input::noise::estimate(f, c.sensor.black_level_dn, c.sensor.full_scale_dn())
+            }
             (Pixels::Sampled { .. }, None) => None,
         };
         model.ok_or_else(|| Error::Model("too few usable pixels to estimate the sensor noise".into()))
@@ -407,7 +409,7 @@ impl<'a> FitFrames<'a> {
     pub fn sky_masks(&self, c: &Capture, opts: &FitOptions) -> Result<Arc<Vec<Option<SkyMask>>>> {
         match (&self.pixels, &self.known) {
             (_, Some(k)) => Ok(k.sky.clone()),
-            (Pixels::All(f), None) => Ok(Arc::new(super::sky_masks(c, f, opts)?)),
+            (Pixels::All(f), None) => Ok(Arc::new(crate::fit::sky_masks(c, f, opts)?)),
             (Pixels::Sampled { .. }, None) => unreachable!("a sample knows its masks"),
         }
     }

@@ -1,9 +1,9 @@
 //! Each frame's sky mask, once per capture: what the fit reads (`FitOptions::sky_masks`).
 
-use super::FitOptions;
 use crate::capture::{Capture, FrameData};
 use crate::effects::Model;
 use crate::error::Result;
+use crate::fit::FitOptions;
 use crate::heading::field::{self, FieldOptions, SkyMask};
 use rayon::prelude::*;
 

@@ -2,9 +2,9 @@
 //! the goodness of fit — one typed schema, serialised as is into `fit.json` and into
 //! each step of `diagnosis.json` (README, "fit.json and diagnosis.json").
 
-use super::noise::NoiseModel;
-use super::radiance;
-use super::slots::{EffectParam, PER_FRAME};
+use crate::fit::input::noise::NoiseModel;
+use crate::fit::model::radiance;
+use crate::fit::model::slots::{EffectParam, PER_FRAME};
 
 /// One fitted effect parameter.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -62,12 +62,12 @@ pub struct FitResult {
     /// Samples used (unmasked).
     pub samples: usize,
     /// What of each frame the fit read: every pixel, or a sample within a budget
-    /// (`super::frames`), with the factor that scales each 1σ to full resolution.
-    pub sample: super::frames::Sample,
+    /// (`crate::fit::input::frames`), with the factor that scales each 1σ to full resolution.
+    pub sample: crate::fit::input::frames::Sample,
     /// Where the fit read more pixels than its first sample because a parameter's 1σ
-    /// needed it (`super::resolution`), from which budget to which and for which
+    /// needed it (`crate::fit::input::resolution`), from which budget to which and for which
     /// parameters; `null` where the first sample decided.
-    pub raised: Option<super::resolution::Raised>,
+    pub raised: Option<crate::fit::input::resolution::Raised>,
     pub noise: NoiseModel,
     /// RMS of measured − model AoP (degrees, where the model DoLP > 0.01) and DoLP,
     /// over superpixels (DoFP) or pixels (colocated), with the nominal inversion.
@@ -76,7 +76,7 @@ pub struct FitResult {
     /// RMS over frames of fitted − reference heading, degrees (None without references).
     pub heading_rms_deg: Option<f64>,
     pub iterations: usize,
-    /// Effective number of independent samples of the residual ([`super::correlation`]):
+    /// Effective number of independent samples of the residual ([`crate::fit::uncertainty::correlation`]):
     /// `samples` when it is white, fewer when neighbours are correlated.
     #[serde(rename = "effective_samples")]
     pub n_eff: f64,

@@ -27,7 +27,7 @@
 //! additive 8-term basis 1.086, log 12-term 1.028, this one 1.002). The basis is orthonormalized over each frame's sky pixels at the
 //! fit's start (ψ orthogonal to the constant, which is the radiance scale's), so the
 //! damped Gauss–Newton steps are well conditioned; the transform is kept in
-//! [`super::FitState`] so a warm start means the same coefficients.
+//! [`crate::fit::FitState`] so a warm start means the same coefficients.
 //!
 //! Frame: image coordinates; γ between the pixel's true ray and the sun (camera
 //! frame). Units: dimensionless. R is applied to the photo-signal after the lens and

@@ -4,7 +4,7 @@
 //! without influence).
 
 use super::*;
-use crate::fit::linalg::PseudoInverse;
+use crate::fit::solver::linalg::PseudoInverse;
 
 /// splitmix64: a seeded uniform in [−1, 1).
 struct Rng(u64);

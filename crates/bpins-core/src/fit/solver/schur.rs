@@ -1,6 +1,6 @@
 //! The pseudo-inverse of a block-arrow normal matrix ([`BlockSystem`]) by the Schur
 //! complement over the frames' blocks (the reduced camera system of bundle
-//! adjustment), giving what [`super::linalg::PseudoInverse`] gives for the dense matrix
+//! adjustment), giving what [`crate::fit::solver::linalg::PseudoInverse`] gives for the dense matrix
 //! — the minimum-norm solution, each parameter's 1σ, the degenerate directions, the
 //! rank — in time O(F·n_l³ + F·n_l·n_g² + n_g³) and memory linear in the frames.
 //!
@@ -30,8 +30,8 @@
 //! heading) is a μ = 0 of S and is reported with its frames' part; a frame's own
 //! (its scale and a radiance coefficient telling nothing apart) with its frame alone.
 
-use super::block::BlockSystem;
-use super::linalg::DEGENERATE_EIGENVALUE;
+use crate::fit::solver::block::BlockSystem;
+use crate::fit::solver::linalg::DEGENERATE_EIGENVALUE;
 use nalgebra::{DMatrix, DVector};
 
 /// The pseudo-inverse of a [`BlockSystem`], held by blocks.
@@ -50,7 +50,7 @@ pub struct BlockInverse {
     /// The null directions through the globals (z above) and G z for each.
     lifted: Vec<(Vec<f64>, Vec<f64>)>,
     /// Unit directions the data do not constrain, in the scaled parameters, as
-    /// [`super::linalg::PseudoInverse::null`]: the lifted ones, each frame's own,
+    /// [`crate::fit::solver::linalg::PseudoInverse::null`]: the lifted ones, each frame's own,
     /// then one per parameter without influence.
     pub null: Vec<Vec<f64>>,
     /// The diagonal of Â⁺ (scaled).
@@ -261,12 +261,12 @@ impl BlockInverse {
 
     /// Whether parameter `i` alone is estimable (`linalg::estimable`).
     pub fn estimable(&self, i: usize) -> bool {
-        super::linalg::estimable(&self.null, i)
+        crate::fit::solver::linalg::estimable(&self.null, i)
     }
 
     /// 1σ of parameter `i`: √A⁺_ii where estimable, else infinity (`linalg::sigma`).
     pub fn sigma(&self, i: usize) -> f64 {
-        super::linalg::sigma(&self.null, i, self.d[i] * self.d[i] * self.diag[i])
+        crate::fit::solver::linalg::sigma(&self.null, i, self.d[i] * self.d[i] * self.diag[i])
     }
 
     /// The globals' block of A⁺ (n_g × n_g, in the parameters' own units): the

@@ -19,8 +19,8 @@
 //! ρ is clamped to ≤ 0.999 (n_eff ≥ n/4·10⁻⁶); a residual that is white (noise only)
 //! has ρ ≈ 0 ± 1/√n, so n_eff ≈ n.
 
-use super::problem::Problem;
 use crate::error::Result;
+use crate::fit::model::problem::Problem;
 use crate::sensor::Layout;
 use rayon::prelude::*;
 
@@ -34,7 +34,7 @@ struct Lags {
 /// n_eff of the residuals of `theta` over every usable sample. The lag pairs lie
 /// within each rectangle the frames hold (the whole frame, or each sampled block of
 /// whole 2 × 2 tiles: neighbours stay adjacent).
-pub(super) fn effective_samples(pb: &Problem, theta: &[f64], samples: usize) -> Result<f64> {
+pub(crate) fn effective_samples(pb: &Problem, theta: &[f64], samples: usize) -> Result<f64> {
     let lag = match pb.capture.sensor.layout {
         Layout::Dofp { .. } => 2,
         Layout::Colocated { .. } => 1,

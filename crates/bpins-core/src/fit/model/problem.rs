@@ -2,16 +2,18 @@
 //! slots, the noise and each frame's sky mask and radiance basis; and the model it
 //! evaluates — one frame's chain under a parameter vector, one pixel's model DN.
 
-use super::frames::{value_of, FitFrames};
-use super::noise::NoiseModel;
-use super::slots::{Nuisance, SlotId, Slots};
-use super::stages::{Reuse, Stages};
-use super::{radiance, start, FitOptions, FitState, BORDER_PX};
 use crate::camera::Intrinsics;
 use crate::capture::Capture;
 use crate::capture::FrameData as Whole;
 use crate::chain::{mosaic_pixel_signal_dn, ChainFrame, NoiseIndex, Scene};
 use crate::error::Result;
+use crate::fit::input::frames::{value_of, FitFrames};
+use crate::fit::input::noise::NoiseModel;
+use crate::fit::model::radiance;
+use crate::fit::model::slots::{Nuisance, SlotId, Slots};
+use crate::fit::model::stages::{Reuse, Stages};
+use crate::fit::model::start;
+use crate::fit::{FitOptions, FitState, BORDER_PX};
 use crate::heading::field::SkyMask;
 use crate::sensor::{Layout, Response};
 use std::sync::Arc;
@@ -93,7 +95,7 @@ pub(crate) fn problem<'a>(
 impl Problem<'_> {
     /// The effects' parameters of `theta`, by name (the global slots that are effect
     /// parameters, in slot order).
-    pub fn effect_values(&self, theta: &[f64]) -> Vec<(super::slots::EffectParam, f64)> {
+    pub fn effect_values(&self, theta: &[f64]) -> Vec<(crate::fit::model::slots::EffectParam, f64)> {
         self.slots.all[..self.slots.n_global]
             .iter()
             .zip(theta)

@@ -5,16 +5,17 @@
 //! the ones whose ranking, acceptance or reported numbers need it
 //! (`diagnose::converge`), warm-started from here.
 
-use super::frames::FitFrames;
-use super::noise::NoiseModel;
-use super::problem::problem;
-use super::{lm, FitOptions, FitState, Param};
 use crate::capture::Capture;
 use crate::error::Result;
+use crate::fit::input::frames::FitFrames;
+use crate::fit::input::noise::NoiseModel;
+use crate::fit::model::problem::problem;
+use crate::fit::solver::lm;
+use crate::fit::{FitOptions, FitState, Param};
 
 /// The subsampled optimum of a model.
 #[derive(Clone, Debug)]
-pub(super) struct SubFit {
+pub(crate) struct SubFit {
     /// Where it ended (a warm start for every pixel).
     pub state: FitState,
     /// χ² on the subsample there (no unit).
@@ -30,7 +31,7 @@ pub(super) struct SubFit {
 
 /// Fits `opts` on the subsample from `start` under the sensor noise `noise` (the
 /// base model's: every fit of a diagnosis weighs the samples alike).
-pub(super) fn fit_subsampled(
+pub(crate) fn fit_subsampled(
     c: &Capture,
     frames: &FitFrames,
     opts: &FitOptions,
@@ -44,7 +45,7 @@ pub(super) fn fit_subsampled(
         None => pb.accumulate(&theta, lm::SUBSAMPLE_STRIDE, true)?,
     };
     let free = pb.slots.free();
-    let cov = super::schur::BlockInverse::new(&acc.sys);
+    let cov = crate::fit::solver::schur::BlockInverse::new(&acc.sys);
     let sigma = |i: usize| free.binary_search(&i).map_or(0.0, |p| cov.sigma(p));
     let effect_values = pb.effect_values(&theta);
     let params = effect_values

@@ -4,8 +4,9 @@
 //! formed and when they are free — one row each, read by the fit, its starting
 //! guesses and its result.
 
-use super::{radiance, FitOptions};
 use crate::effects::EffectDef;
+use crate::fit::model::radiance;
+use crate::fit::FitOptions;
 
 /// One parameter of one effect, by the registry's names (`effect.param` in files).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]

@@ -1,15 +1,18 @@
-//! Diagnosis: which catalog effect the model lacks.
+//! Diagnosis: which catalog effect the model lacks. A sibling of [`crate::fit`] that
+//! uses it through a narrow interface: `fit_from` (a fit from a starting state),
+//! `fit::solver::subfit` (the same on a subsample), `fit::uncertainty::score` (the
+//! score test of a candidate), the frames and the residual's maps and profiles.
 //!
 //! From a fitted model (default: no effect), every catalog effect not in it is scored
 //! (`score_candidates`: the Δχ² one Gauss–Newton step predicts, a score test, on every
 //! third row and column, every candidate from one pass over the samples); the strongest `refit_top` whose score is beyond noise (more
 //! than 3σ above its null distribution χ²_k: > k + 3√(2k)) are refitted on that
 //! subsample and ranked by their real Δχ² there; the leader, and any whose every-pixel
-//! ΔBIC could come within reach of it (`fit::refits`: within
+//! ΔBIC could come within reach of it (`diagnose::refits`: within
 //! [`CLOSE_MARGIN`] thresholds beyond their 3σ spread), are converged on every pixel
 //! (where the subsample cannot tell whether the leader passes there, the refits are
 //! first scored on every pixel, and one below the threshold even at twice that Δχ² is
-//! not: `fit::refits`),
+//! not: `diagnose::refits`),
 //! ranked by ΔBIC = Δχ²·n_eff/n − k·ln n_eff (k the combinations
 //! of its parameters the data constrain beside the model's — fewer than its
 //! parameters where some trade exactly against the model's —, n the samples, n_eff
@@ -31,15 +34,20 @@
 //! (`profiles::trends`) instead of naming the least-bad effect: as data
 //! ([`Remains`]), with the sentence rendered from it.
 
-pub use super::refits::CLOSE_MARGIN;
-use super::refits::{base_on_subsample, bound_on_every_pixel, converge, next_to_converge, refit_on_subsample};
-use super::remains::Remains;
-use super::score::score_candidates;
-use super::{fit_from, residual_maps_of, FitFrames, FitOptions, FitResult, Param};
+mod json;
+mod refits;
+pub mod remains;
+
 use crate::capture::{Capture, FrameData};
 use crate::effects::{EffectDef, REGISTRY};
 use crate::error::Result;
+use crate::fit::uncertainty::score::score_candidates;
+use crate::fit::{fit_from, residual_maps_of, FitFrames, FitOptions, FitResult, Param};
 use crate::sensor::Layout;
+pub use json::DiagnosisJson;
+pub use refits::CLOSE_MARGIN;
+use refits::{base_on_subsample, bound_on_every_pixel, converge, next_to_converge, refit_on_subsample};
+use remains::Remains;
 
 /// How the search runs.
 #[derive(Clone, Debug)]
@@ -144,7 +152,7 @@ pub struct Candidate {
     /// Its every-pixel figures are its score test's there (one Gauss–Newton step from
     /// the model, not a converged refit): refitted on the subsample, where that could
     /// not tell whether it passes on every pixel, it was scored on every pixel and stays
-    /// below the threshold even at twice that Δχ² (`fit::refits`), so it was not
+    /// below the threshold even at twice that Δχ² (`diagnose::refits`), so it was not
     /// converged.
     #[serde(rename = "bounded_by_every_pixel_score")]
     pub bounded: bool,

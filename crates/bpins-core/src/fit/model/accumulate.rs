@@ -3,18 +3,18 @@
 //!
 //! Per frame: the chain at θ and, for each of the frame's free slots (the global ones
 //! and its own), how its Jacobian column is formed ([`Column`]); then the rows of the
-//! frame (or its sampled blocks, `super::frames`) in parallel, each usable sample adding w·r², w·d·r and w·d·dᵀ over those
+//! frame (or its sampled blocks, `crate::fit::input::frames`) in parallel, each usable sample adding w·r², w·d·r and w·d·dᵀ over those
 //! local slots; then the frame's local sums kept in its blocks of the block-arrow
-//! system (`super::block`: a frame's nuisances couple only to themselves and to the
+//! system (`crate::fit::solver::block`: a frame's nuisances couple only to themselves and to the
 //! global parameters, so nothing between two frames is stored).
 
-use super::block::BlockSystem;
-use super::frames::Rect;
-use super::problem::{FitFrame, Problem};
-use super::robust::Clusters;
-use super::slots::Derivative;
-use super::stages::{Reuse, Stages};
 use crate::error::Result;
+use crate::fit::input::frames::Rect;
+use crate::fit::model::problem::{FitFrame, Problem};
+use crate::fit::model::slots::Derivative;
+use crate::fit::model::stages::{Reuse, Stages};
+use crate::fit::solver::block::BlockSystem;
+use crate::fit::uncertainty::robust::Clusters;
 use rayon::prelude::*;
 
 /// The normal equations of a fit over some samples: JᵀWJ and JᵀWr by blocks
@@ -27,7 +27,7 @@ pub(crate) struct Accum {
     /// Per frame: (χ², samples).
     pub frame_chi2: Vec<(f64, usize)>,
     /// On every pixel with the normal equations: each cluster's score over the free
-    /// globals, for their sandwich 1σ (`super::robust`).
+    /// globals, for their sandwich 1σ (`crate::fit::uncertainty::robust`).
     pub clusters: Option<Clusters>,
 }
 
@@ -60,7 +60,7 @@ enum Column {
     /// both sides have the base's camera, sun and radiance weights, hence its radiance
     /// factor at every pixel (an effect parameter that moves neither the camera nor
     /// the sun), which is then not formed again. `reuse`: what each side's chain takes
-    /// of the base's stages at the pixel (`super::stages`).
+    /// of the base's stages at the pixel (`crate::fit::model::stages`).
     Difference {
         plus: Option<Box<FitFrame>>,
         minus: Option<Box<FitFrame>>,
@@ -219,7 +219,7 @@ impl Problem<'_> {
         let mut acc = Sums::new(nl);
         let mut bufs = (Vec::new(), Vec::new(), Vec::new());
         let mut d = vec![0.0; nl];
-        let no_radiance = fm.base.radiance == [0.0; super::radiance::N];
+        let no_radiance = fm.base.radiance == [0.0; crate::fit::model::radiance::N];
         for (u, v) in r.points(stride) {
             // The raw radiance functions once per pixel: the base's factor, its basis ψ
             // for the radiance columns and the factor the columns that keep it reuse.
@@ -261,7 +261,7 @@ impl Problem<'_> {
         col: &Column,
         (u, v, q): (usize, usize, usize),
         (m, rf, st): (f64, f64, Option<Stages>),
-        psi: Option<&[f64; super::radiance::N]>,
+        psi: Option<&[f64; crate::fit::model::radiance::N]>,
         bufs: &mut (Samples, Samples, Samples),
     ) -> f64 {
         match col {

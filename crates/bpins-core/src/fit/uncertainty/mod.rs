@@ -1,0 +1,8 @@
+//! The uncertainty: each 1σ widened by the residual's effective sample count
+//! (`correlation`), the cluster-robust sandwich 1σ (`robust`), and the score test of a
+//! parameter the model does not have yet (`score`: the Δχ² one step would gain, which
+//! the diagnosis ranks candidates by).
+
+pub mod correlation;
+pub(crate) mod robust;
+pub mod score;
