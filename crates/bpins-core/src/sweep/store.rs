@@ -184,7 +184,7 @@ pub fn write_outputs(spec: &SweepSpec, records: &[TrialRecord], dir: &Path) -> R
     crate::output::write_bytes(
         &dir.join("report.html"),
         Replace::Allowed,
-        super::report::html(spec, &summary).as_bytes(),
+        super::report::html(spec, &summary)?.as_bytes(),
     )?;
     Ok(summary)
 }
