@@ -19,6 +19,15 @@
 #include <stddef.h>
 #include <stdint.h>
 
+// Each channel interpolated bilinearly on its own lattice (the default).
+#define BPINS_MAPS_BILINEAR 0
+
+// Each 2 × 2 tile one value: maps of (width / 2) × (height / 2).
+#define BPINS_MAPS_SUPERPIXEL 1
+
+// polanalyser's demosaic (OpenCV's Bayer bilinear, rounded to whole DN), exactly.
+#define BPINS_MAPS_OPENCV 2
+
 // Bytes of `BpinsHeading::message`, its terminating NUL included.
 #define BPINS_MESSAGE_LEN 256
 
@@ -205,6 +214,22 @@ typedef struct BpinsHeading {
   char message[BPINS_MESSAGE_LEN];
 } BpinsHeading;
 
+// How the maps are made. `bpins_maps_config_default` fills the defaults.
+typedef struct BpinsMapsConfig {
+  // One of `BPINS_MAPS_*`.
+  uint32_t interpolation;
+  // The analyzer angles of the 2 × 2 tile, degrees, mosaic_deg[row][column] from the
+  // image's top-left pixel (each of 0, 45, 90, 135 once).
+  uint32_t mosaic_deg[2][2];
+  // Black level, DN: subtracted before the Stokes vector.
+  double black_level_dn;
+  // Samples at or above this are saturated and their pixels NaN; 0: no check.
+  double full_scale_dn;
+  // The centre about which the AoE map's β is measured, px (the principal point).
+  double aoe_centre_x_px;
+  double aoe_centre_y_px;
+} BpinsMapsConfig;
+
 // r = f·tan θ: an ordinary (rectilinear) lens.
 #define BPINS_PROJECTION_PINHOLE 0
 
@@ -325,6 +350,61 @@ enum BpinsStatus bpins_compass_heading_f32(struct BpinsCompass *compass,
                                            const struct BpinsSun *sun,
                                            const struct BpinsAttitude *attitude,
                                            struct BpinsHeading *out);
+
+// Fills `*out` with the defaults: bilinear, the IMX250MZR mosaic {{90, 45}, {135, 0}},
+// black level 0 DN, no saturation check, AoE about (0, 0): set the centre.
+//
+// # Safety
+// `out` is NULL or points to writable memory for one `BpinsMapsConfig`.
+enum BpinsStatus bpins_maps_config_default(struct BpinsMapsConfig *out);
+
+// AoP (degrees, image frame, (−90°, 90°]), DoLP, intensity (DN above the black level)
+// and, where `aoe_deg` is not NULL, AoE of one raw DoFP frame of 16-bit samples, into
+// the caller's buffers of (width × height) floats each, or (width / 2) × (height / 2)
+// for `BPINS_MAPS_SUPERPIXEL`; row-major, packed. `stride` is in samples (≥ width).
+// The frame is read in place; NaN marks a pixel without a valid value.
+//
+// # Safety
+// `data` is NULL or holds (height − 1)·stride + width readable samples; `config` is
+// NULL or points to a config; each map is NULL or holds the maps' size of writable
+// floats, and no two overlap.
+enum BpinsStatus bpins_stokes_maps_u16(const uint16_t *data,
+                                       size_t width_px,
+                                       size_t height_px,
+                                       size_t stride,
+                                       const struct BpinsMapsConfig *config,
+                                       float *aop_deg,
+                                       float *dolp,
+                                       float *intensity_dn,
+                                       float *aoe_deg);
+
+// As `bpins_stokes_maps_u16`, for 8-bit samples.
+//
+// # Safety
+// As `bpins_stokes_maps_u16`.
+enum BpinsStatus bpins_stokes_maps_u8(const uint8_t *data,
+                                      size_t width_px,
+                                      size_t height_px,
+                                      size_t stride,
+                                      const struct BpinsMapsConfig *config,
+                                      float *aop_deg,
+                                      float *dolp,
+                                      float *intensity_dn,
+                                      float *aoe_deg);
+
+// As `bpins_stokes_maps_u16`, for `float` samples in DN.
+//
+// # Safety
+// As `bpins_stokes_maps_u16`.
+enum BpinsStatus bpins_stokes_maps_f32(const float *data,
+                                       size_t width_px,
+                                       size_t height_px,
+                                       size_t stride,
+                                       const struct BpinsMapsConfig *config,
+                                       float *aop_deg,
+                                       float *dolp,
+                                       float *intensity_dn,
+                                       float *aoe_deg);
 
 #ifdef __cplusplus
 }  // extern "C"

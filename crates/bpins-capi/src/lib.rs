@@ -22,9 +22,11 @@
 //!   a heading's only on success, a new handle's set to NULL on failure.
 
 mod compass;
+mod maps;
 mod types;
 
 pub use compass::*;
+pub use maps::*;
 pub use types::*;
 
 use std::cell::RefCell;

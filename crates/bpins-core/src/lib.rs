@@ -80,6 +80,7 @@ pub mod fit;
 pub mod heading;
 #[cfg(feature = "io")]
 pub mod lab;
+pub mod maps;
 pub(crate) mod math;
 pub mod montecarlo;
 pub mod noise;

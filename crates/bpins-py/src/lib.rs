@@ -19,6 +19,7 @@ mod array;
 mod capture;
 mod compass;
 mod fit;
+mod maps;
 mod sim;
 
 /// A bpins-core error as the Python exception a user expects: files that cannot be
@@ -70,7 +71,7 @@ fn _bpins(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<compass::Compass>()?;
     m.add_class::<compass::Heading>()?;
     m.add_function(wrap_pyfunction!(sim::simulate, m)?)?;
-    m.add_function(wrap_pyfunction!(sim::stokes_maps, m)?)?;
+    m.add_function(wrap_pyfunction!(maps::stokes_maps, m)?)?;
     m.add_function(wrap_pyfunction!(capture::read_capture, m)?)?;
     m.add_function(wrap_pyfunction!(capture::write_capture, m)?)?;
     m.add_function(wrap_pyfunction!(capture::effects, m)?)?;

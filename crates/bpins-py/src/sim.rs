@@ -1,13 +1,11 @@
-//! `bpins.simulate` (a frame of the model with its truth) and `bpins.stokes_maps`
-//! (AoP, DoLP and intensity of a raw mosaic, for comparison with other tools).
+//! `bpins.simulate`: a frame of the model with its truth.
 
-use crate::array::Borrowed;
 use crate::compass::{mosaic_of, projection};
 use crate::{finite, py_err, whole};
 use bpins_core::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use bpins_core::effects::EffectSet;
 use bpins_core::pipeline::{sim_chain_frame, sim_response, simulate_frame, SimSensor};
-use bpins_core::recon::{angle_maps, colocated, demosaic, Reconstructor};
+use bpins_core::recon::{angle_maps, colocated, Reconstructor};
 use bpins_core::sensor::{Channel, Geometry, Layout, Response};
 use bpins_core::simulate::render_colocated;
 use bpins_core::sky::sun::SunPosition;
@@ -149,43 +147,5 @@ pub fn simulate<'py>(
     out.set_item("intensity_dn", array2(py, intensity, h, w)?)?;
     out.set_item("focal_length_px", capture.focal_length_px())?;
     out.set_item("principal_point_px", capture.lens.principal_point_px)?;
-    Ok(out)
-}
-
-/// AoP, DoLP and intensity of a raw DoFP mosaic, demosaiced bilinearly per channel
-/// through nominal analyzers (the reconstruction bpins' plain estimator uses).
-///
-/// stokes_maps(mosaic, *, black_level_dn=0.0, mosaic_layout=((90, 45), (135, 0))) -> dict
-///
-/// Returns "aop_deg" (image frame, counter-clockwise as displayed, (−90°, 90°]),
-/// "dolp" and "intensity_dn" (float32, the mosaic's shape; NaN at the border
-/// pixels that lack a neighbour of every channel).
-#[pyfunction]
-#[pyo3(signature = (mosaic, *, black_level_dn=0.0, mosaic_layout=[[90.0, 45.0], [135.0, 0.0]]))]
-pub fn stokes_maps<'py>(
-    py: Python<'py>,
-    mosaic: &Bound<'py, PyAny>,
-    black_level_dn: f64,
-    mosaic_layout: [[f64; 2]; 2],
-) -> PyResult<Bound<'py, PyDict>> {
-    let layout = mosaic_of(mosaic_layout)?;
-    let (h, w) = crate::array::shape2("mosaic", mosaic)?;
-    if h < 2 || w < 2 {
-        return Err(PyValueError::new_err(format!("mosaic: shape ({h}, {w}); expected at least 2 × 2")));
-    }
-    let dn = Borrowed::new("mosaic", mosaic)?.mosaic().to_f32(w, h);
-    let rec = Reconstructor::new(&Default::default(), finite("black_level_dn", black_level_dn)?, &Channel::ALL)
-        .map_err(py_err)?;
-    let (aop, dolp, intensity) = py.detach(|| {
-        let img = demosaic(&dn, w, h, &layout, &rec, f64::MAX);
-        let centre = bpins_core::camera::Intrinsics::new(bpins_core::camera::Projection::Pinhole, 1.0, 0.0, 0.0);
-        let [aop, dolp, _] = angle_maps(&img, &centre);
-        let intensity: Vec<f32> = img.iqu.iter().map(|s| s[0] as f32).collect();
-        (aop, dolp, intensity)
-    });
-    let out = PyDict::new(py);
-    out.set_item("aop_deg", array2(py, aop, h, w)?)?;
-    out.set_item("dolp", array2(py, dolp, h, w)?)?;
-    out.set_item("intensity_dn", array2(py, intensity, h, w)?)?;
     Ok(out)
 }

@@ -108,9 +108,20 @@ def simulate(
     and "principal_point_px"."""
 
 def stokes_maps(
-    mosaic: _Mosaic, *, black_level_dn: float = 0.0, mosaic_layout: _Layout = ((90, 45), (135, 0))
+    mosaic: _Mosaic,
+    *,
+    black_level_dn: float = 0.0,
+    mosaic_layout: _Layout = ((90, 45), (135, 0)),
+    interpolation: str = "bilinear",
+    full_scale_dn: Optional[float] = None,
+    aoe: bool = False,
+    aoe_centre_px: Optional[Tuple[float, float]] = None,
+    out: Optional[Dict[str, npt.NDArray[np.float32]]] = None,
 ) -> Dict[str, npt.NDArray[np.float32]]:
-    """AoP (degrees, image frame), DoLP and intensity (DN) of a raw mosaic, demosaiced bilinearly."""
+    """AoP (degrees, image frame), DoLP, intensity (DN) and, with `aoe`, AoE of a raw
+    mosaic read in place. `interpolation`: "bilinear", "superpixel" (half size) or
+    "opencv" (polanalyser's demosaicing, exactly). `out`: preallocated float32 arrays,
+    filled in place and returned."""
 
 def read_capture(path: _Path, frames: Optional[Sequence[int]] = None) -> Tuple[Dict[str, Any], List[npt.NDArray[np.float32]]]:
     """capture.toml as a dict and the frames' DN as float32 arrays."""

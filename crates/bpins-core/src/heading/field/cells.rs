@@ -41,6 +41,9 @@ pub const MAX_INVALID_FRACTION: f64 = 0.05;
 
 /// One DN sample type of a raw frame: `u8`, `u16` or `f32`.
 pub trait RawDn: Copy + Send + Sync {
+    /// Whether the samples are whole numbers (an integer type): what an integer
+    /// demosaic rounds to (`maps::Interpolation::OpenCv`).
+    const INTEGER: bool = true;
     fn dn(self) -> f64;
 }
 impl RawDn for u8 {
@@ -56,6 +59,7 @@ impl RawDn for u16 {
     }
 }
 impl RawDn for f32 {
+    const INTEGER: bool = false;
     #[inline(always)]
     fn dn(self) -> f64 {
         self as f64

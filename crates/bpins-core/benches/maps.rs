@@ -1,0 +1,110 @@
+//! Criterion benchmarks of the polarization maps (`cargo bench -p bpins-core --bench
+//! maps`): a raw 16-bit DoFP mosaic in memory → AoP, DoLP, intensity (and AoE) in
+//! buffers the caller keeps, as a loop over recorded frames runs it. Figures and the
+//! machine go to BENCHMARKS.md (issue 36: ≤ 40 ms for a full frame on 2 cores, 4× the
+//! memory-traffic limit of reading 10 MB and writing three float32 maps).
+//!
+//! * `maps/2448x2048_{bilinear,superpixel,opencv}`: `maps::stokes_maps_into`, no AoE;
+//! * `maps/2448x2048_bilinear_aoe`: with the AoE map too;
+//! * `maps/2448x2048_demosaic_angle_maps`: the route the maps replaced
+//!   (`recon::demosaic` to f64 Stokes, then `recon::angle_maps`), for comparison;
+//! * `maps/2448x2048_copy`: reading the mosaic and writing three float32 maps, the
+//!   memory-traffic floor on this machine.
+
+use bpins_core::camera::{Intrinsics, Projection};
+use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::effects::Model;
+use bpins_core::heading::field::RawImage;
+use bpins_core::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
+use bpins_core::recon::{angle_maps, demosaic, Reconstructor};
+use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
+use bpins_core::simulate::render_mosaic;
+use criterion::{criterion_group, criterion_main, Criterion};
+use rayon::prelude::*;
+use std::hint::black_box;
+
+const W: usize = 2448;
+const H: usize = 2048;
+
+fn mosaic() -> Vec<u16> {
+    let intr = Intrinsics::new(Projection::Pinhole, 8000.0 / 3.45, (W as f64 - 1.0) / 2.0, (H as f64 - 1.0) / 2.0);
+    let scene =
+        Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 4.0, tilt_y_deg: -3.0, dmax: 0.6 };
+    let f = ChainFrame::new(
+        &Model::default(),
+        &intr,
+        &scene,
+        &Response::samples(3000.0),
+        NoiseIndex { seed: 1, trial: 0, frame: 0 },
+    );
+    render_mosaic(&f, W, H, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect()
+}
+
+fn maps(c: &mut Criterion) {
+    let dn = mosaic();
+    let raw = RawImage::packed(&dn, W, H);
+    let rec = Reconstructor::new(&Model::default(), 64.0, &Channel::ALL).unwrap();
+    let (mut aop, mut dolp, mut int, mut aoe) =
+        (vec![0f32; W * H], vec![0f32; W * H], vec![0f32; W * H], vec![0f32; W * H]);
+    let mut g = c.benchmark_group("maps");
+    g.sample_size(20);
+    for interp in Interpolation::ALL {
+        let cfg = MapsConfig {
+            interpolation: interp,
+            mosaic: DEFAULT_MOSAIC,
+            full_scale_dn: 4095.0,
+            aoe_centre_px: [(W as f64 - 1.0) / 2.0, (H as f64 - 1.0) / 2.0],
+        };
+        let n = {
+            let (mw, mh) = interp.maps_size(W, H);
+            mw * mh
+        };
+        g.bench_function(format!("2448x2048_{}", interp.name()), |b| {
+            b.iter(|| {
+                let out = MapsOut {
+                    aop_deg: &mut aop[..n],
+                    dolp: &mut dolp[..n],
+                    intensity_dn: &mut int[..n],
+                    aoe_deg: None,
+                };
+                stokes_maps_into(black_box(&raw), &rec, &cfg, out).unwrap();
+            })
+        });
+        if interp == Interpolation::Bilinear {
+            g.bench_function("2448x2048_bilinear_aoe", |b| {
+                b.iter(|| {
+                    let out =
+                        MapsOut { aop_deg: &mut aop, dolp: &mut dolp, intensity_dn: &mut int, aoe_deg: Some(&mut aoe) };
+                    stokes_maps_into(black_box(&raw), &rec, &cfg, out).unwrap();
+                })
+            });
+        }
+    }
+    let centre = Intrinsics::new(Projection::Pinhole, 1.0, 0.0, 0.0);
+    g.bench_function("2448x2048_demosaic_angle_maps", |b| {
+        b.iter(|| {
+            let f: Vec<f32> = dn.iter().map(|&x| x as f32).collect();
+            let img = demosaic(&f, W, H, &DEFAULT_MOSAIC, &rec, f64::MAX);
+            black_box(angle_maps(&img, &centre))
+        })
+    });
+    g.bench_function("2448x2048_copy", |b| {
+        b.iter(|| {
+            aop.par_chunks_mut(W).zip(dolp.par_chunks_mut(W)).zip(int.par_chunks_mut(W)).enumerate().for_each(
+                |(v, ((a, d), i))| {
+                    for (u, &x) in dn[v * W..][..W].iter().enumerate() {
+                        let x = x as f32;
+                        a[u] = x;
+                        d[u] = x;
+                        i[u] = x;
+                    }
+                },
+            );
+            black_box(&aop);
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, maps);
+criterion_main!(benches);

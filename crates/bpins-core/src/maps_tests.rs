@@ -1,0 +1,199 @@
+//! The maps against the reconstruction they stand for, Malus's law, OpenCV's
+//! integer demosaic worked by hand, and refusals.
+
+use super::*;
+use crate::camera::{Intrinsics, Projection};
+use crate::chain::{ChainFrame, NoiseIndex, Scene};
+use crate::effects::Model;
+use crate::recon::{angle_maps, demosaic};
+use crate::sensor::{Response, DEFAULT_MOSAIC};
+use crate::simulate::render_mosaic;
+
+const FS: f64 = 4095.0;
+
+fn config(interpolation: Interpolation, w: usize, h: usize) -> MapsConfig {
+    MapsConfig {
+        interpolation,
+        mosaic: DEFAULT_MOSAIC,
+        full_scale_dn: FS,
+        aoe_centre_px: [(w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0],
+    }
+}
+
+/// A 12-bit sky frame with noise (seeded), as u16 DN.
+fn sky(w: usize, h: usize) -> (Vec<u16>, Intrinsics) {
+    let camera = Intrinsics::new(Projection::Pinhole, 300.0, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+    let scene =
+        Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 3.0, tilt_y_deg: 0.0, dmax: 0.6 };
+    let sensor = Response {
+        gain_dn: 3000.0,
+        black_level_dn: 64.0,
+        read_noise_dn: 2.0,
+        bit_depth: 12,
+        quantize: true,
+        ..Response::ideal(1.0)
+    };
+    let frame =
+        ChainFrame::new(&Model::default(), &camera, &scene, &sensor, NoiseIndex { seed: 7, trial: 0, frame: 0 });
+    let dn = render_mosaic(&frame, w, h, &DEFAULT_MOSAIC);
+    (dn.iter().map(|&x| x as u16).collect(), camera)
+}
+
+fn rec() -> Reconstructor {
+    Reconstructor::new(&Model::default(), 64.0, &Channel::ALL).unwrap()
+}
+
+#[test]
+fn bilinear_maps_are_the_reconstruction_that_heading_uses() {
+    let (w, h) = (61, 47); // odd sizes: both edges of both lattices clamp
+    let (dn, camera) = sky(w, h);
+    let m = stokes_maps(&RawImage::packed(&dn, w, h), &rec(), &config(Interpolation::Bilinear, w, h)).unwrap();
+    let f: Vec<f32> = dn.iter().map(|&x| x as f32).collect();
+    let img = demosaic(&f, w, h, &DEFAULT_MOSAIC, &rec(), FS);
+    let [aop, dolp, aoe] = angle_maps(&img, &camera);
+    let mut compared = 0;
+    for k in 0..w * h {
+        if aop[k].is_nan() {
+            continue;
+        }
+        compared += 1;
+        assert!((m.aop_deg[k] - aop[k]).abs() < 2e-4, "pixel {k}: AoP {} vs {}", m.aop_deg[k], aop[k]);
+        assert!((m.dolp[k] - dolp[k]).abs() < 1e-6, "pixel {k}: DoLP");
+        let d_aoe = (m.aoe_deg[k] - aoe[k] + 90.0).rem_euclid(180.0) - 90.0;
+        assert!(d_aoe.abs() < 2e-4, "pixel {k}: AoE {} vs {}", m.aoe_deg[k], aoe[k]);
+        let i = img.iqu[k][0] as f32;
+        assert!((m.intensity_dn[k] - i).abs() <= 1e-6 * i.abs().max(1.0), "pixel {k}: I");
+    }
+    assert!(compared > w * h * 9 / 10, "only {compared} pixels valid");
+}
+
+#[test]
+fn malus_a_uniform_field_gives_its_angle_and_degree_everywhere() {
+    // I_θ = ½ I (1 + d cos 2(θ − α)) above a black level, for each interpolation.
+    let (w, h, alpha_deg, d, i0) = (16, 12, -33.0f64, 0.4, 2000.0);
+    let mut dn = vec![0u16; w * h];
+    for v in 0..h {
+        for u in 0..w {
+            let theta = DEFAULT_MOSAIC[v % 2][u % 2].angle_deg();
+            let x = 64.0 + 0.5 * i0 * (1.0 + d * (2.0 * (theta - alpha_deg)).to_radians().cos());
+            dn[v * w + u] = x.round() as u16;
+        }
+    }
+    for interp in Interpolation::ALL {
+        let m = stokes_maps(&RawImage::packed(&dn, w, h), &rec(), &config(interp, w, h)).unwrap();
+        for k in 0..m.aop_deg.len() {
+            assert!((m.aop_deg[k] as f64 - alpha_deg).abs() < 0.05, "{}: AoP {}", interp.name(), m.aop_deg[k]);
+            assert!((m.dolp[k] as f64 - d).abs() < 1e-3, "{}: DoLP {}", interp.name(), m.dolp[k]);
+            assert!((m.intensity_dn[k] as f64 - i0).abs() < 1.0, "{}: I {}", interp.name(), m.intensity_dn[k]);
+        }
+    }
+}
+
+#[test]
+fn superpixels_read_each_tile_once_at_its_centre() {
+    let (w, h) = (9, 7); // the odd last column and row are not read
+    let (dn, _) = sky(w, h);
+    let cfg = config(Interpolation::Superpixel, w, h);
+    let m = stokes_maps(&RawImage::packed(&dn, w, h), &rec(), &cfg).unwrap();
+    assert_eq!((m.width_px, m.height_px), (4, 3));
+    let r = rec();
+    for n in 0..3 {
+        for mm in 0..4 {
+            let mut d = [0.0; 4];
+            for dv in 0..2 {
+                for du in 0..2 {
+                    d[DEFAULT_MOSAIC[dv][du].index()] = dn[(2 * n + dv) * w + 2 * mm + du] as f64;
+                }
+            }
+            let s = r.stokes(&d);
+            let k = n * 4 + mm;
+            assert!((m.aop_deg[k] as f64 - s.aop_rad().to_degrees()).abs() < 1e-4);
+            // β at the tile centre (2m + ½, 2n + ½).
+            let beta = crate::conventions::image_angle_rad(
+                2.0 * mm as f64 + 0.5 - cfg.aoe_centre_px[0],
+                2.0 * n as f64 + 0.5 - cfg.aoe_centre_px[1],
+            );
+            let want = crate::conventions::wrap_deg_90(s.aop_rad().to_degrees() - beta.to_degrees());
+            assert!((m.aoe_deg[k] as f64 - want).abs() < 1e-4, "tile ({mm}, {n})");
+        }
+    }
+}
+
+#[test]
+fn opencv_rounds_each_average_half_up_and_copies_the_border() {
+    // 0° sits at (1, 1) of each tile (DEFAULT_MOSAIC); a 5 × 4 mosaic of odd sums.
+    let (w, h) = (5, 4);
+    let dn: Vec<u16> = (0..w * h).map(|k| (100 + 7 * k + (k * k) % 5) as u16).collect();
+    let at = |u: usize, v: usize| dn[v * w + u] as f64;
+    let mut got = [[0.0; 5]; 4];
+    let lat = lattices(&DEFAULT_MOSAIC);
+    let mut s = Scratch::new(w);
+    for (v, row) in got.iter_mut().enumerate() {
+        s.opencv_row(&RawImage::packed(&dn, w, h), v, &lat);
+        row.copy_from_slice(&s.ch[Channel::C0.index()][..w]);
+    }
+    // Interior: own site, horizontal pair, vertical pair, four diagonals, each rounded.
+    assert_eq!(got[1][1], at(1, 1));
+    assert_eq!(got[1][2], ((at(1, 1) + at(3, 1) + 1.0) / 2.0).floor());
+    assert_eq!(got[2][1], ((at(1, 1) + at(1, 3) + 1.0) / 2.0).floor());
+    assert_eq!(got[2][2], ((at(1, 1) + at(3, 1) + at(1, 3) + at(3, 3) + 2.0) / 4.0).floor());
+    // Border: a copy of the next row or column inwards, corners diagonally.
+    assert_eq!(got[0][2], got[1][2]);
+    assert_eq!(got[3][2], got[2][2]);
+    assert_eq!(got[2][0], got[2][1]);
+    assert_eq!(got[2][4], got[2][3]);
+    assert_eq!(got[0][0], got[1][1]);
+    // Float samples are averaged without rounding.
+    let f: Vec<f32> = dn.iter().map(|&x| x as f32).collect();
+    s.opencv_row(&RawImage::packed(&f, w, h), 2, &lat);
+    assert_eq!(s.ch[Channel::C0.index()][2], (at(1, 1) + at(3, 1) + at(1, 3) + at(3, 3)) / 4.0);
+}
+
+#[test]
+fn strided_and_typed_buffers_give_the_same_maps() {
+    let (w, h) = (20, 14);
+    let (dn, _) = sky(w, h);
+    let cfg = config(Interpolation::Bilinear, w, h);
+    let packed = stokes_maps(&RawImage::packed(&dn, w, h), &rec(), &cfg).unwrap();
+    let stride = w + 6;
+    let mut wide = vec![9u16; stride * h];
+    for v in 0..h {
+        wide[v * stride..][..w].copy_from_slice(&dn[v * w..][..w]);
+    }
+    let strided = stokes_maps(&RawImage { data: &wide, width_px: w, height_px: h, stride }, &rec(), &cfg).unwrap();
+    assert_eq!(packed, strided);
+    let f: Vec<f32> = dn.iter().map(|&x| x as f32).collect();
+    assert_eq!(packed, stokes_maps(&RawImage::packed(&f, w, h), &rec(), &cfg).unwrap());
+}
+
+#[test]
+fn an_invalid_sample_spoils_only_the_pixels_that_weigh_it() {
+    let (w, h) = (12, 10);
+    let (mut dn, _) = sky(w, h);
+    dn[4 * w + 5] = 4095; // saturated, channel at (1, 0) of its tile: 45°
+    let m = stokes_maps(&RawImage::packed(&dn, w, h), &rec(), &config(Interpolation::Bilinear, w, h)).unwrap();
+    let nan: Vec<(usize, usize)> = (0..w * h).filter(|&k| m.aop_deg[k].is_nan()).map(|k| (k % w, k / w)).collect();
+    // The sample itself and its 3 × 3 neighbourhood, where its weight is non-zero.
+    let want: Vec<(usize, usize)> = (3..6).flat_map(|v| (4..7).map(move |u| (u, v))).collect();
+    let mut nan_sorted = nan.clone();
+    nan_sorted.sort_by_key(|&(u, v)| (v, u));
+    assert_eq!(nan_sorted, want);
+}
+
+#[test]
+fn wrong_buffers_are_refused_with_their_sizes() {
+    let dn = vec![100u16; 40];
+    let mut a = vec![0.0; 40];
+    let (mut d, mut i) = (vec![0.0; 40], vec![0.0; 39]);
+    let out = MapsOut { aop_deg: &mut a, dolp: &mut d, intensity_dn: &mut i, aoe_deg: None };
+    let e = stokes_maps_into(&RawImage::packed(&dn, 8, 5), &rec(), &config(Interpolation::Bilinear, 8, 5), out);
+    assert_eq!(e, Err(MapsError::Output { name: "intensity_dn", got: 39, want: 40, width_px: 8, height_px: 5 }));
+    let e = stokes_maps(
+        &RawImage { data: &dn, width_px: 8, height_px: 6, stride: 8 },
+        &rec(),
+        &config(Interpolation::Bilinear, 8, 6),
+    );
+    assert!(matches!(e, Err(MapsError::Buffer { .. })), "{e:?}");
+    let e = stokes_maps(&RawImage::packed(&dn[..4], 2, 2), &rec(), &config(Interpolation::OpenCv, 2, 2));
+    assert!(e.unwrap_err().to_string().contains("at least 3 × 3"));
+}
