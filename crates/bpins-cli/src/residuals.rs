@@ -6,6 +6,7 @@
 use anyhow::Context;
 use bpins_core::capture::write_exr_layers;
 use bpins_core::fit::{FrameMaps, ResidualMaps};
+use rayon::prelude::*;
 use std::path::Path;
 
 /// One written map: its PNG file name (relative to the step folder) and its scale.
@@ -31,29 +32,42 @@ pub struct Figures {
 /// written now.
 pub fn write(dir: &Path, maps: &ResidualMaps, mut frames: Vec<Vec<Written>>) -> anyhow::Result<Figures> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    write_exr_layers(
-        &dir.join("residual_dn.exr"),
-        maps.width_px,
-        maps.height_px,
-        &[("dn_z", &maps.dn_z), ("dn_chi2", &maps.dn_chi2)],
-    )?;
+    // The two EXR files (each compressed block by block in parallel) beside the four
+    // PNGs (encoded in parallel): every map of the folder on every core.
     let excess: Vec<f32> = maps.dn_chi2.iter().map(|x| x - 1.0).collect();
-    write_exr_layers(
-        &dir.join("residual_pol.exr"),
-        maps.pol_width,
-        maps.pol_height,
-        &[("AoP_deg", &maps.aop_deg), ("DoLP", &maps.dolp)],
-    )?;
-    let mut out = Vec::new();
-    for (name, what, data, w, h, unit, floor, bin) in [
-        ("residual_chi2.png", "χ² per sample − 1", &excess, maps.width_px, maps.height_px, "", 0.1, 8),
-        ("residual_dn.png", "DN residual / σ", &maps.dn_z, maps.width_px, maps.height_px, "σ", 0.1, 8),
-        ("residual_aop.png", "AoP residual", &maps.aop_deg, maps.pol_width, maps.pol_height, "°", 0.01, 4),
-        ("residual_dolp.png", "DoLP residual", &maps.dolp, maps.pol_width, maps.pol_height, "", 0.0005, 4),
-    ] {
-        let scale = binned_png(&dir.join(name), data, w, h, bin, floor)?;
-        out.push(Written { png: name.to_string(), what, scale, unit });
-    }
+    let (exr, pngs) = rayon::join(
+        || -> anyhow::Result<()> {
+            write_exr_layers(
+                &dir.join("residual_dn.exr"),
+                maps.width_px,
+                maps.height_px,
+                &[("dn_z", &maps.dn_z), ("dn_chi2", &maps.dn_chi2)],
+            )?;
+            write_exr_layers(
+                &dir.join("residual_pol.exr"),
+                maps.pol_width,
+                maps.pol_height,
+                &[("AoP_deg", &maps.aop_deg), ("DoLP", &maps.dolp)],
+            )?;
+            Ok(())
+        },
+        || {
+            [
+                ("residual_chi2.png", "χ² per sample − 1", &excess, maps.width_px, maps.height_px, "", 0.1, 8),
+                ("residual_dn.png", "DN residual / σ", &maps.dn_z, maps.width_px, maps.height_px, "σ", 0.1, 8),
+                ("residual_aop.png", "AoP residual", &maps.aop_deg, maps.pol_width, maps.pol_height, "°", 0.01, 4),
+                ("residual_dolp.png", "DoLP residual", &maps.dolp, maps.pol_width, maps.pol_height, "", 0.0005, 4),
+            ]
+            .into_par_iter()
+            .map(|(name, what, data, w, h, unit, floor, bin)| {
+                let scale = binned_png(&dir.join(name), data, w, h, bin, floor)?;
+                Ok(Written { png: name.to_string(), what, scale, unit })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()
+        },
+    );
+    exr?;
+    let out = pngs?;
     for f in &maps.frames {
         let k = frames.len();
         frames.push(write_frame(dir, k, maps, f)?);
@@ -69,22 +83,34 @@ pub fn write_frame(dir: &Path, k: usize, size: &ResidualMaps, f: &FrameMaps) -> 
     let fd = dir.join("frames");
     std::fs::create_dir_all(&fd).with_context(|| format!("creating {}", fd.display()))?;
     let (w, h, pw, ph) = (size.width_px, size.height_px, size.pol_width, size.pol_height);
-    write_exr_layers(&fd.join(format!("f{k}_residual_dn.exr")), w, h, &[("dn_z", &f.dn_z)])?;
-    write_exr_layers(
-        &fd.join(format!("f{k}_residual_pol.exr")),
-        pw,
-        ph,
-        &[("AoP_deg", &f.aop_deg), ("DoLP", &f.dolp)],
-    )?;
-    let mut row = Vec::new();
-    for (name, what, data, w, h, unit, floor, bin) in [
-        (format!("frames/f{k}_dn.png"), "DN residual / σ", &f.dn_z, w, h, "σ", 0.3, 8),
-        (format!("frames/f{k}_aop.png"), "AoP residual", &f.aop_deg, pw, ph, "°", 0.02, 4),
-        (format!("frames/f{k}_dolp.png"), "DoLP residual", &f.dolp, pw, ph, "", 0.001, 4),
-    ] {
-        let scale = binned_png(&dir.join(&name), data, w, h, bin, floor)?;
-        row.push(Written { png: name, what, scale, unit });
-    }
+    // The EXR files beside the PNGs, each set in parallel (as in [`write`]).
+    let (exr, row) = rayon::join(
+        || -> anyhow::Result<()> {
+            write_exr_layers(&fd.join(format!("f{k}_residual_dn.exr")), w, h, &[("dn_z", &f.dn_z)])?;
+            write_exr_layers(
+                &fd.join(format!("f{k}_residual_pol.exr")),
+                pw,
+                ph,
+                &[("AoP_deg", &f.aop_deg), ("DoLP", &f.dolp)],
+            )
+            .map_err(Into::into)
+        },
+        || {
+            [
+                (format!("frames/f{k}_dn.png"), "DN residual / σ", &f.dn_z, w, h, "σ", 0.3, 8),
+                (format!("frames/f{k}_aop.png"), "AoP residual", &f.aop_deg, pw, ph, "°", 0.02, 4),
+                (format!("frames/f{k}_dolp.png"), "DoLP residual", &f.dolp, pw, ph, "", 0.001, 4),
+            ]
+            .into_par_iter()
+            .map(|(name, what, data, w, h, unit, floor, bin)| {
+                let scale = binned_png(&dir.join(&name), data, w, h, bin, floor)?;
+                Ok(Written { png: name, what, scale, unit })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()
+        },
+    );
+    exr?;
+    let row = row?;
     Ok(row)
 }
 

@@ -968,3 +968,42 @@ fn the_diagnose_table_keeps_its_columns_apart() {
     let row = r.stdout.lines().nth(1).unwrap();
     assert_eq!(row.split("  ").map(str::trim).filter(|c| !c.is_empty()).count(), 5, "{row}");
 }
+
+/// `bpins maps`: one EXR per asked frame with the kernel's four maps (the same
+/// numbers as `bpins_core::maps` on the frame's mosaic), never inside the capture,
+/// a frame that does not exist named.
+#[test]
+fn maps_writes_each_frames_kernel_maps() {
+    use bpins_core::capture::{read_exr_layers, Capture, FrameData};
+    use bpins_core::heading::field::RawImage;
+    use bpins_core::maps::{stokes_maps, Interpolation, MapsConfig};
+    use bpins_core::recon::Reconstructor;
+    use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("maps");
+    let cap = Path::new(REPO).join("samples/clean");
+    bpins(&["maps", &s(&cap), "--out", &s(&out), "--frames", "0,3", "--interpolation", "superpixel"])
+        .ok()
+        .stderr_has("wrote 2 frames' maps (306 × 256 px");
+    assert!(!out.join("f1_maps.exr").exists());
+    let c = Capture::load(&cap).unwrap();
+    let FrameData::Mosaic { dn, width_px, height_px } = c.read_frame(3).unwrap() else { panic!("a DoFP sample") };
+    let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &Channel::ALL).unwrap();
+    let cfg = MapsConfig {
+        interpolation: Interpolation::Superpixel,
+        mosaic: DEFAULT_MOSAIC,
+        full_scale_dn: c.sensor.full_scale_dn(),
+        aoe_centre_px: [c.lens.principal_point_px.0, c.lens.principal_point_px.1],
+    };
+    let want = stokes_maps(&RawImage::packed(&dn, width_px as usize, height_px as usize), &rec, &cfg).unwrap();
+    let (gw, gh, got) = read_exr_layers(&out.join("f3_maps.exr")).unwrap();
+    assert_eq!((gw, gh), (306, 256));
+    let layer = |name: &str| &got.iter().find(|(n, _)| n == name).unwrap_or_else(|| panic!("{name}")).1;
+    let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| x == y || (x.is_nan() && y.is_nan()));
+    assert!(same(layer("AoP_deg"), &want.aop_deg));
+    assert!(same(layer("DoLP"), &want.dolp));
+    assert!(same(layer("I_dn"), &want.intensity_dn));
+    assert!(same(layer("AoE_deg"), &want.aoe_deg));
+    bpins(&["maps", &s(&cap), "--out", &s(&cap.join("maps"))]).fails().stderr_has("never writes into a capture");
+    bpins(&["maps", &s(&cap), "--out", &s(&out), "--frames", "99"]).fails().stderr_has("frame 99 does not exist");
+}

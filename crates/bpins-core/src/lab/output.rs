@@ -65,29 +65,32 @@ pub fn write_maps(cal: &LabCalibration, dir: &Path) -> Result<Vec<MapFile>> {
     crate::capture::write_exr_layers_fast(&dir.join("maps.exr"), w, h, &layers)?;
     let png_dir = dir.join("png");
     std::fs::create_dir_all(&png_dir).map_err(|e| Error::Io { path: png_dir.clone(), source: e })?;
-    let mut files = Vec::new();
-    for (name, unit, m) in &maps {
-        let mut finite: Vec<f32> = m.iter().copied().filter(|x| x.is_finite()).collect();
-        let mut at = |q: f64| {
-            if finite.is_empty() {
-                return 0.0;
-            }
-            let k = ((finite.len() - 1) as f64 * q) as usize;
-            *finite.select_nth_unstable_by(k, f32::total_cmp).1 as f64
-        };
-        let (low, high) = (at(0.005), at(0.995));
-        let span = if high > low { high - low } else { 1.0 };
-        let px: Vec<u8> =
-            m.iter().map(|&x| (((x as f64 - low) / span).clamp(0.0, 1.0) * 255.0).round() as u8).collect();
-        let img: ImageBuffer<Luma<u8>, Vec<u8>> = ImageBuffer::from_raw(w, h, px)
-            .ok_or_else(|| Error::Model(format!("map {name}: size does not match {w} × {h}")))?;
-        let rel = format!("png/{name}.png");
-        let path = dir.join(&rel);
-        write_with(&path, Replace::Allowed, |out| {
-            img.write_to(out, image::ImageFormat::Png)
-                .map_err(|e| Error::Capture { path: path.clone(), message: format!("cannot write the PNG: {e}") })
-        })?;
-        files.push(MapFile { name: name.clone(), unit: (*unit).into(), png: rel, low, high });
-    }
-    Ok(files)
+    // One PNG per map, encoded in parallel (the EXR above compresses its blocks in
+    // parallel too).
+    use rayon::prelude::*;
+    maps.par_iter()
+        .map(|(name, unit, m)| {
+            let mut finite: Vec<f32> = m.iter().copied().filter(|x| x.is_finite()).collect();
+            let mut at = |q: f64| {
+                if finite.is_empty() {
+                    return 0.0;
+                }
+                let k = ((finite.len() - 1) as f64 * q) as usize;
+                *finite.select_nth_unstable_by(k, f32::total_cmp).1 as f64
+            };
+            let (low, high) = (at(0.005), at(0.995));
+            let span = if high > low { high - low } else { 1.0 };
+            let px: Vec<u8> =
+                m.iter().map(|&x| (((x as f64 - low) / span).clamp(0.0, 1.0) * 255.0).round() as u8).collect();
+            let img: ImageBuffer<Luma<u8>, Vec<u8>> = ImageBuffer::from_raw(w, h, px)
+                .ok_or_else(|| Error::Model(format!("map {name}: size does not match {w} × {h}")))?;
+            let rel = format!("png/{name}.png");
+            let path = dir.join(&rel);
+            write_with(&path, Replace::Allowed, |out| {
+                img.write_to(out, image::ImageFormat::Png)
+                    .map_err(|e| Error::Capture { path: path.clone(), message: format!("cannot write the PNG: {e}") })
+            })?;
+            Ok(MapFile { name: name.clone(), unit: (*unit).into(), png: rel, low, high })
+        })
+        .collect()
 }

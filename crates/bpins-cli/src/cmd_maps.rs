@@ -1,0 +1,105 @@
+//! `bpins maps CAPTURE --out DIR`: each frame's AoP, DoLP, intensity and AoE maps
+//! (`bpins_core::maps`, the kernel of Python's `stokes_maps` and the C ABI), one
+//! OpenEXR per frame. Frames stream: each is read and decoded on a worker while
+//! others are mapped and written, so a capture of any length holds a few frames in
+//! memory (about one per core), and each worker keeps its map buffers from frame to
+//! frame.
+
+use crate::ensure_not_in_capture;
+use anyhow::{bail, Context};
+use bpins_core::capture::{write_exr_layers_fast, Capture, FrameData};
+use bpins_core::heading::field::RawImage;
+use bpins_core::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
+use bpins_core::recon::Reconstructor;
+use bpins_core::sensor::{Channel, Layout};
+use rayon::prelude::*;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Capture folder holding capture.toml (bpins-capture/1), a DoFP sensor.
+    capture: PathBuf,
+    /// Output folder (never inside the capture): f<k>_maps.exr per frame.
+    #[arg(long)]
+    out: PathBuf,
+    /// How each channel is found at a pixel: bilinear (each channel on its own
+    /// lattice), superpixel (2 × 2 tiles, half size) or opencv (polanalyser's
+    /// demosaic, exactly).
+    #[arg(long, value_parser = crate::names::by_name(&Interpolation::ALL, Interpolation::name), default_value = "bilinear")]
+    interpolation: Interpolation,
+    /// Only these frames (0-based, comma-separated); default every frame.
+    #[arg(long, value_delimiter = ',')]
+    frames: Vec<usize>,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let c = Capture::load(&a.capture).with_context(|| format!("reading {}", a.capture.display()))?;
+    let mosaic = match &c.sensor.layout {
+        Layout::Dofp { mosaic } => *mosaic,
+        Layout::Colocated { .. } => bail!(
+            "{}: a colocated sensor; `bpins maps` makes maps of DoFP mosaics (a colocated frame's channels \
+             are already one image each: `bpins simulate --exr` shows their maps)",
+            a.capture.display()
+        ),
+    };
+    let frames: Vec<usize> = if a.frames.is_empty() { (0..c.frames.len()).collect() } else { a.frames.clone() };
+    if let Some(&k) = frames.iter().find(|&&k| k >= c.frames.len()) {
+        bail!(
+            "--frames: frame {k} does not exist; the capture has {} frames (0…{})",
+            c.frames.len(),
+            c.frames.len().saturating_sub(1)
+        );
+    }
+    ensure_not_in_capture(&a.out)?;
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    let g = &c.sensor.geometry;
+    let (w, h) = (g.width_px as usize, g.height_px as usize);
+    let (pp_x, pp_y) = c.lens.principal_point_px;
+    let cfg = MapsConfig {
+        interpolation: a.interpolation,
+        mosaic,
+        full_scale_dn: c.sensor.full_scale_dn(),
+        aoe_centre_px: [pp_x, pp_y],
+    };
+    let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &Channel::ALL)?;
+    let (mw, mh) = a.interpolation.maps_size(w, h);
+    let pb = crate::progress::bar(frames.len() as u64, "maps");
+    let t0 = std::time::Instant::now();
+    let done = AtomicUsize::new(0);
+    // One frame per task, a task per core at a time: read and decode, map, write.
+    frames.par_iter().with_max_len(1).try_for_each_init(
+        || [vec![0f32; mw * mh], vec![0f32; mw * mh], vec![0f32; mw * mh], vec![0f32; mw * mh]],
+        |[aop, dolp, int, aoe], &k| -> anyhow::Result<()> {
+            let FrameData::Mosaic { dn, .. } = c.read_frame(k)? else {
+                bail!("frame {k}: not a mosaic");
+            };
+            let out = MapsOut { aop_deg: aop, dolp, intensity_dn: int, aoe_deg: Some(aoe) };
+            stokes_maps_into(&RawImage::packed(&dn, w, h), &rec, &cfg, out)
+                .with_context(|| format!("frame {k} ({})", c.frames[k].file.display()))?;
+            drop(dn);
+            let path = a.out.join(format!("f{k}_maps.exr"));
+            write_exr_layers_fast(
+                &path,
+                mw as u32,
+                mh as u32,
+                &[("AoP_deg", aop), ("DoLP", dolp), ("I_dn", int), ("AoE_deg", aoe)],
+            )
+            .with_context(|| format!("writing {}", path.display()))?;
+            done.fetch_add(1, Ordering::Relaxed);
+            pb.inc(1);
+            Ok(())
+        },
+    )?;
+    pb.finish_and_clear();
+    let s = t0.elapsed().as_secs_f64();
+    let n = done.into_inner();
+    say!(
+        "wrote {n} frames' maps ({mw} × {mh} px: AoP_deg, DoLP, I_dn, AoE_deg; {} interpolation) to {} in {s:.2} s \
+         ({:.1} ms per frame)",
+        a.interpolation.name(),
+        a.out.display(),
+        1e3 * s / n.max(1) as f64
+    );
+    Ok(())
+}
