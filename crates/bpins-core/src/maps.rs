@@ -34,11 +34,12 @@
 //! Rows run in parallel (rayon), each through a few row-long passes that the compiler
 //! vectorizes: the two vertical interpolations of the mosaic's row parities, the four
 //! channels' horizontal ones, then the per-pixel Stokes and angles (branch-free
-//! `atan2`, `math.rs`). Cannot do: colour-polarization mosaics (2 × 2 colour blocks of
+//! `atan2`, `math.rs`), in single precision (whole-DN sums and their halves are
+//! exact there; the angles carry float32 rounding, as their output does). Cannot do: colour-polarization mosaics (2 × 2 colour blocks of
 //! 2 × 2 analyzers), per-pixel calibration maps (see `pixel_analyzers`).
 
 use crate::heading::field::{RawDn, RawImage};
-use crate::math::{atan2, wrap_deg_90_near};
+use crate::math::atan2_f32;
 use crate::recon::Reconstructor;
 use crate::sensor::Channel;
 use rayon::prelude::*;
@@ -137,11 +138,11 @@ fn lattices(mosaic: &[[Channel; 2]; 2]) -> [Option<(usize, usize)>; 4] {
 
 /// A sample as the maps read it: NaN where it is invalid (bilinear, superpixel).
 #[inline(always)]
-fn checked(x: f64, full_scale_dn: f64) -> f64 {
+fn checked(x: f32, full_scale_dn: f32) -> f32 {
     if x > 0.0 && x < full_scale_dn {
         x
     } else {
-        f64::NAN
+        f32::NAN
     }
 }
 
@@ -176,14 +177,21 @@ pub fn stokes_maps_into<T: RawDn>(
         check("aoe_deg", a.len())?;
     }
     let (rows, inv_gain, offset_dn) = rec.parts();
-    let px = PixelMap { rows, inv_gain, offset_dn, centre: cfg.aoe_centre_px, superpixel: mw < w };
+    let px = PixelMap {
+        rows: rows.map(|r| r.map(|x| x as f32)),
+        inv_gain: inv_gain.map(|x| x as f32),
+        offset_dn: offset_dn.map(|x| x as f32),
+        centre: cfg.aoe_centre_px.map(|x| x as f32),
+        superpixel: mw < w,
+    };
+    let fs = cfg.full_scale_dn as f32;
     let lat = lattices(&cfg.mosaic);
     // Each row of the maps with its own scratch rows (one set per rayon job).
     let row =
         |s: &mut Scratch, v: usize, aop: &mut [f32], dolp: &mut [f32], int: &mut [f32], aoe: Option<&mut [f32]>| {
             match cfg.interpolation {
-                Interpolation::Bilinear => s.bilinear_row(raw, v, &lat, cfg.full_scale_dn),
-                Interpolation::Superpixel => s.superpixel_row(raw, v, &lat, cfg.full_scale_dn),
+                Interpolation::Bilinear => s.bilinear_row(raw, v, &lat, fs),
+                Interpolation::Superpixel => s.superpixel_row(raw, v, &lat, fs),
                 Interpolation::OpenCv => s.opencv_row(raw, v, &lat),
             }
             px.row(&s.ch, v, aop, dolp, int, aoe);
@@ -226,8 +234,8 @@ pub fn stokes_maps<T: RawDn>(raw: &RawImage<T>, rec: &Reconstructor, cfg: &MapsC
 /// One job's rows: the two row parities' vertical interpolations and the four
 /// channels' DN along the output row.
 struct Scratch {
-    vert: [Vec<f64>; 2],
-    ch: [Vec<f64>; 4],
+    vert: [Vec<f32>; 2],
+    ch: [Vec<f32>; 4],
 }
 
 impl Scratch {
@@ -237,7 +245,7 @@ impl Scratch {
 
     /// Step 1 (bilinear): rows of parity p interpolated to row v, the lattice clamped.
     /// Step 2: each channel along its columns, clamped likewise.
-    fn bilinear_row<T: RawDn>(&mut self, raw: &RawImage<T>, v: usize, lat: &[Option<(usize, usize)>; 4], fs: f64) {
+    fn bilinear_row<T: RawDn>(&mut self, raw: &RawImage<T>, v: usize, lat: &[Option<(usize, usize)>; 4], fs: f32) {
         let (w, h) = (raw.width_px, raw.height_px);
         let row = |r: usize| &raw.data[r * raw.stride..][..w];
         for p in 0..2 {
@@ -248,12 +256,12 @@ impl Scratch {
             let r0 = row(p + 2 * n0);
             if b == n0 as f64 {
                 for (o, &x) in out.iter_mut().zip(r0) {
-                    *o = checked(x.dn(), fs);
+                    *o = checked(x.dn_f32(), fs);
                 }
             } else {
                 let r1 = row(p + 2 * n0 + 2);
                 for ((o, &a), &c) in out.iter_mut().zip(r0).zip(r1) {
-                    *o = 0.5 * (checked(a.dn(), fs) + checked(c.dn(), fs));
+                    *o = 0.5 * (checked(a.dn_f32(), fs) + checked(c.dn_f32(), fs));
                 }
             }
         }
@@ -264,40 +272,51 @@ impl Scratch {
     }
 
     /// A tile's four samples, each channel from its own position in the tile.
-    fn superpixel_row<T: RawDn>(&mut self, raw: &RawImage<T>, v: usize, lat: &[Option<(usize, usize)>; 4], fs: f64) {
+    fn superpixel_row<T: RawDn>(&mut self, raw: &RawImage<T>, v: usize, lat: &[Option<(usize, usize)>; 4], fs: f32) {
         let mw = raw.width_px / 2;
         for (k, at) in lat.iter().enumerate() {
             let Some((ou, ov)) = *at else { continue };
             let r = &raw.data[(2 * v + ov) * raw.stride..][..raw.width_px];
             for (m, o) in self.ch[k][..mw].iter_mut().enumerate() {
-                *o = checked(r[2 * m + ou].dn(), fs);
+                *o = checked(r[2 * m + ou].dn_f32(), fs);
             }
         }
     }
 
     /// OpenCV's Bayer bilinear: interior averages rounded half up for integer samples,
-    /// the border row or column a copy of the next one inwards.
+    /// the border row or column a copy of the next one inwards. Step 1: for each row
+    /// parity, the mosaic's row itself (a channel's own row) or the sum of the rows
+    /// above and below; step 2: along the channel's columns, its own column or the
+    /// pair of neighbours, each sum divided (and rounded) once, as OpenCV does.
     fn opencv_row<T: RawDn>(&mut self, raw: &RawImage<T>, v: usize, lat: &[Option<(usize, usize)>; 4]) {
         let (w, h) = (raw.width_px, raw.height_px);
         let vs = v.clamp(1, h - 2);
         let row = |r: usize| &raw.data[r * raw.stride..][..w];
         let (up, mid, down) = (row(vs - 1), row(vs), row(vs + 1));
-        let half = |s: f64| if T::INTEGER { ((s + 1.0) * 0.5).floor() } else { s * 0.5 };
-        let quarter = |s: f64| if T::INTEGER { ((s + 2.0) * 0.25).floor() } else { s * 0.25 };
+        // Whole-DN sums below 2^24 are exact in f32, and so are their halves and quarters.
+        let round = |s: f32, n: f32| if T::INTEGER { ((s + 0.5 * n) / n).floor() } else { s / n };
+        let mut on_row = [false; 2];
+        for p in 0..2 {
+            on_row[p] = (vs + p) % 2 == 0;
+            let out = &mut self.vert[p];
+            if on_row[p] {
+                for (o, &x) in out.iter_mut().zip(mid) {
+                    *o = x.dn_f32();
+                }
+            } else {
+                for ((o, &a), &b) in out.iter_mut().zip(up).zip(down) {
+                    *o = a.dn_f32() + b.dn_f32();
+                }
+            }
+        }
         for (k, at) in lat.iter().enumerate() {
             let Some((ou, ov)) = *at else { continue };
-            let on_row = (vs + ov) % 2 == 0;
-            let out = &mut self.ch[k];
+            let (src, out) = (&self.vert[ov], &mut self.ch[k]);
+            // A row sum holds two samples: its own column halves it, a pair quarters it.
+            let (n_on, n_off) = if on_row[ov] { (1.0, 2.0) } else { (2.0, 4.0) };
             for us in 1..w - 1 {
-                let on_col = (us + ou) % 2 == 0;
-                out[us] = match (on_col, on_row) {
-                    (true, true) => mid[us].dn(),
-                    (false, true) => half(mid[us - 1].dn() + mid[us + 1].dn()),
-                    (true, false) => half(up[us].dn() + down[us].dn()),
-                    (false, false) => {
-                        quarter(up[us - 1].dn() + up[us + 1].dn() + down[us - 1].dn() + down[us + 1].dn())
-                    }
-                };
+                out[us] =
+                    if (us + ou) % 2 == 0 { round(src[us], n_on) } else { round(src[us - 1] + src[us + 1], n_off) };
             }
             out[0] = out[1];
             out[w - 1] = out[w - 2];
@@ -308,7 +327,7 @@ impl Scratch {
 /// Step 2 (bilinear): `src` (a row of one parity, every column) sampled on the channel's
 /// columns `ou, ou + 2, …` and interpolated between them; before the first and after
 /// the last the nearest is taken.
-fn horizontal(src: &[f64], ou: usize, out: &mut [f64]) {
+fn horizontal(src: &[f32], ou: usize, out: &mut [f32]) {
     let w = src.len();
     let last = ou + 2 * ((w - ou - 1) / 2);
     if ou == 1 {
@@ -328,10 +347,10 @@ fn horizontal(src: &[f64], ou: usize, out: &mut [f64]) {
 
 /// Step 3: the reconstruction's linear map and the angles, per pixel of a row.
 struct PixelMap {
-    rows: [[f64; 4]; 3],
-    inv_gain: [f64; 4],
-    offset_dn: [f64; 4],
-    centre: [f64; 2],
+    rows: [[f32; 4]; 3],
+    inv_gain: [f32; 4],
+    offset_dn: [f32; 4],
+    centre: [f32; 2],
     /// Superpixel maps: pixel (m, n) sits at the tile centre (2m + ½, 2n + ½).
     superpixel: bool,
 }
@@ -339,34 +358,58 @@ struct PixelMap {
 impl PixelMap {
     fn row(
         &self,
-        ch: &[Vec<f64>; 4],
+        ch: &[Vec<f32>; 4],
         v: usize,
         aop: &mut [f32],
         dolp: &mut [f32],
         int: &mut [f32],
         aoe: Option<&mut [f32]>,
     ) {
-        let used: [bool; 4] = std::array::from_fn(|k| (0..3).any(|i| self.rows[i][k] != 0.0));
-        let x = |k: usize, u: usize| if used[k] { (ch[k][u] - self.offset_dn[k]) * self.inv_gain[k] } else { 0.0 };
+        match aoe {
+            Some(e) => self.row_with::<true>(ch, v, aop, dolp, int, e),
+            None => self.row_with::<false>(ch, v, aop, dolp, int, &mut []),
+        }
+    }
+
+    /// The row's pixels, straight-line and bounds-check free so that the loop
+    /// vectorizes (a channel the mosaic lacks has zero weights and a zero row).
+    #[inline(always)]
+    fn row_with<const AOE: bool>(
+        &self,
+        ch: &[Vec<f32>; 4],
+        v: usize,
+        aop: &mut [f32],
+        dolp: &mut [f32],
+        int: &mut [f32],
+        aoe: &mut [f32],
+    ) {
+        let n = aop.len();
+        let (dolp, int) = (&mut dolp[..n], &mut int[..n]);
+        let aoe = if AOE { &mut aoe[..n] } else { aoe };
+        let (c0, c1, c2, c3) = (&ch[0][..n], &ch[1][..n], &ch[2][..n], &ch[3][..n]);
+        let [r0, r1, r2] = self.rows;
+        let (g, o) = (self.inv_gain, self.offset_dn);
         let (scale, shift) = if self.superpixel { (2.0, 0.5) } else { (1.0, 0.0) };
-        let dy = v as f64 * scale + shift - self.centre[1];
-        let mut aoe = aoe;
-        for u in 0..aop.len() {
-            let xs = [x(0, u), x(1, u), x(2, u), x(3, u)];
-            let dot = |r: &[f64; 4]| r[0] * xs[0] + r[1] * xs[1] + r[2] * xs[2] + r[3] * xs[3];
-            let (i, q, uu) = (dot(&self.rows[0]), dot(&self.rows[1]), dot(&self.rows[2]));
+        let dy = v as f32 * scale + shift - self.centre[1];
+        for u in 0..n {
+            let xs = [(c0[u] - o[0]) * g[0], (c1[u] - o[1]) * g[1], (c2[u] - o[2]) * g[2], (c3[u] - o[3]) * g[3]];
+            let dot = |r: [f32; 4]| r[0] * xs[0] + r[1] * xs[1] + r[2] * xs[2] + r[3] * xs[3];
+            let (i, q, uu) = (dot(r0), dot(r1), dot(r2));
             let ok = (i + q + uu).is_finite();
             // α = ½ atan2(U, Q) in (−90°, 90°] (atan2's −180° of a signed zero is +180°).
-            let a = 0.5 * atan2(uu, q).to_degrees();
+            let a = 0.5 * atan2_f32(uu, q).to_degrees();
             let a = if a <= -90.0 { a + 180.0 } else { a };
             let d = if i > 0.0 { (q * q + uu * uu).sqrt() / i } else { 0.0 };
-            aop[u] = if ok { a as f32 } else { f32::NAN };
-            dolp[u] = if ok { d as f32 } else { f32::NAN };
-            int[u] = if ok { i as f32 } else { f32::NAN };
-            if let Some(e) = aoe.as_deref_mut() {
-                let dx = u as f64 * scale + shift - self.centre[0];
-                let beta = atan2(-dy, dx).to_degrees();
-                e[u] = if ok { wrap_deg_90_near(a - beta) as f32 } else { f32::NAN };
+            aop[u] = if ok { a } else { f32::NAN };
+            dolp[u] = if ok { d } else { f32::NAN };
+            int[u] = if ok { i } else { f32::NAN };
+            if AOE {
+                let dx = u as f32 * scale + shift - self.centre[0];
+                // α − β ∈ (−270°, 270°) wrapped into (−90°, 90°] with selects.
+                let e = a - atan2_f32(-dy, dx).to_degrees();
+                let e = if e > 90.0 { e - 180.0 } else { e };
+                let e = if e <= -90.0 { e + 180.0 } else { e };
+                aoe[u] = if ok { e } else { f32::NAN };
             }
         }
     }

@@ -124,8 +124,8 @@ fn opencv_rounds_each_average_half_up_and_copies_the_border() {
     // 0° sits at (1, 1) of each tile (DEFAULT_MOSAIC); a 5 × 4 mosaic of odd sums.
     let (w, h) = (5, 4);
     let dn: Vec<u16> = (0..w * h).map(|k| (100 + 7 * k + (k * k) % 5) as u16).collect();
-    let at = |u: usize, v: usize| dn[v * w + u] as f64;
-    let mut got = [[0.0; 5]; 4];
+    let at = |u: usize, v: usize| dn[v * w + u] as f32;
+    let mut got = [[0.0f32; 5]; 4];
     let lat = lattices(&DEFAULT_MOSAIC);
     let mut s = Scratch::new(w);
     for (v, row) in got.iter_mut().enumerate() {

@@ -45,11 +45,20 @@ pub trait RawDn: Copy + Send + Sync {
     /// demosaic rounds to (`maps::Interpolation::OpenCv`).
     const INTEGER: bool = true;
     fn dn(self) -> f64;
+    /// The sample in single precision (exact for `u8`, `u16`).
+    #[inline(always)]
+    fn dn_f32(self) -> f32 {
+        self.dn() as f32
+    }
 }
 impl RawDn for u8 {
     #[inline(always)]
     fn dn(self) -> f64 {
         self as f64
+    }
+    #[inline(always)]
+    fn dn_f32(self) -> f32 {
+        self as f32
     }
 }
 impl RawDn for u16 {
@@ -57,12 +66,20 @@ impl RawDn for u16 {
     fn dn(self) -> f64 {
         self as f64
     }
+    #[inline(always)]
+    fn dn_f32(self) -> f32 {
+        self as f32
+    }
 }
 impl RawDn for f32 {
     const INTEGER: bool = false;
     #[inline(always)]
     fn dn(self) -> f64 {
         self as f64
+    }
+    #[inline(always)]
+    fn dn_f32(self) -> f32 {
+        self
     }
 }
 
