@@ -402,6 +402,8 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
             tilt_y_deg: tilt(a.tilt_y_deg),
             tilt_sigma_deg: None,
             sun_sigma_deg: None,
+            yaw_deg: None,
+            yaw_sigma_deg: None,
         })
         .collect();
     let pp = match &a.principal_point_px {
