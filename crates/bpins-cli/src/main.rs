@@ -31,6 +31,7 @@ mod cmd_diagnose;
 mod cmd_effects;
 mod cmd_fit;
 mod cmd_heading;
+mod cmd_locate;
 mod cmd_run;
 mod cmd_simulate;
 mod cmd_sweep;
@@ -72,6 +73,8 @@ enum Command {
     Simulate(Box<cmd_simulate::Args>),
     /// Heading of every frame of a capture, against its reference heading.
     Heading(cmd_heading::Args),
+    /// North, latitude and longitude from frames over time, without GNSS (writes a site file).
+    Locate(cmd_locate::Args),
     /// List the effects bpins models, with their parameters.
     Effects(cmd_effects::Args),
     /// Run seeded trials over every effect on the CPU and the GPU and compare them.
@@ -101,6 +104,7 @@ fn main() -> ExitCode {
         Command::Run(a) => cmd_run::run(a),
         Command::Simulate(a) => cmd_simulate::run(*a),
         Command::Heading(a) => cmd_heading::run(a),
+        Command::Locate(a) => cmd_locate::run(a),
         Command::Effects(a) => cmd_effects::run(a),
         Command::Agree(a) => cmd_agree::run(a),
         Command::Bench(a) => cmd_bench::run(a),

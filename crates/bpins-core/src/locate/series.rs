@@ -40,13 +40,29 @@ pub struct Series {
     pub seed: u64,
 }
 
-/// What a located series should find.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+/// What a located series should find (`truth.toml` beside a simulated series).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SeriesTruth {
     pub latitude_deg: f64,
     pub longitude_deg: f64,
     /// The camera's heading at the first frame.
     pub heading_deg: f64,
+}
+
+impl SeriesTruth {
+    /// The text of `truth.toml`.
+    pub fn to_toml_string(&self) -> String {
+        let body = toml::to_string(self).expect("a truth serialises");
+        format!("# the truth of a series simulated for `bpins locate` (capture readers ignore this file)\n{body}")
+    }
+
+    /// Reads a `truth.toml`; errors name the file and the key.
+    pub fn load(path: &std::path::Path) -> Result<SeriesTruth> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?;
+        toml::from_str(&text)
+            .map_err(|e| Error::Capture { path: path.to_path_buf(), message: crate::capture::clean_toml_error(e) })
+    }
 }
 
 impl Series {

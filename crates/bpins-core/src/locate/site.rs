@@ -117,4 +117,30 @@ impl Site {
             .hypot((dlon.elevation_deg - s.elevation_deg) / d * s_lon);
         Ok((s.azimuth_deg, s.elevation_deg, sig_az.max(sig_el)))
     }
+
+    /// The sun at `time_unix_s` for the [`Compass`](crate::compass::Compass), its 1σ
+    /// the place's ([`Site::sun_at`]).
+    pub fn compass_sun(&self, time_unix_s: f64) -> Result<crate::compass::Sun> {
+        let (azimuth_deg, elevation_deg, sigma_deg) = self.sun_at(time_unix_s)?;
+        Ok(crate::compass::Sun::Angles { azimuth_deg, elevation_deg, sigma_deg })
+    }
+
+    /// Gives every frame of `c` stamped without a place (read by
+    /// [`Capture::load_unplaced`](crate::capture::Capture::load_unplaced)) the sun at
+    /// this site, its 1σ the place's in quadrature with the frame's own
+    /// `sun_sigma_deg`. Returns how many frames it placed.
+    pub fn place(&self, c: &mut crate::capture::Capture) -> Result<usize> {
+        let mut n = 0;
+        for f in &mut c.frames {
+            let crate::sky::sun::SunSource::Unplaced { time_utc } = &f.sun.source else { continue };
+            let t = crate::sky::sun::parse_time_utc(time_utc)?;
+            let t_s = t.timestamp() as f64 + f64::from(t.timestamp_subsec_nanos()) * 1e-9;
+            let (_, _, sigma) = self.sun_at(t_s)?;
+            let lon = self.longitude_deg.unwrap_or(f64::NAN);
+            f.sun = crate::sky::sun::sun_from_time_place(time_utc, self.latitude_deg, lon)?;
+            f.sun_sigma_deg = Some(f.sun_sigma_deg.unwrap_or(0.0).hypot(sigma));
+            n += 1;
+        }
+        Ok(n)
+    }
 }
