@@ -124,3 +124,51 @@ fn too_few_frames_or_too_short_a_span_is_a_typed_refusal() {
     assert!(matches!(e, LocateError::TooUncertain { what: "longitude", .. }), "{e}");
     assert!(e.to_string().contains("longer span"), "{e}");
 }
+
+/// The pole route over seeds: three hours of frames every 15 minutes, stamps set
+/// aside; north and latitude within 2σ on at least 90 % of the seeds.
+#[test]
+fn the_pole_route_is_honest_over_seeds() {
+    let seeds = 16u64;
+    let mut within = [0usize; 2];
+    let mut answered = 0;
+    for seed in 0..seeds {
+        let (c, data, s) = series(100 + seed, 15.0, 180.0, 0.0, None);
+        let Ok(r) = located(&c, &data, &LocateOptions { pole_only: true, ..wide() }) else { continue };
+        answered += 1;
+        within[0] += usize::from(wrap_deg_180(r.heading_deg - s.heading_deg).abs() <= 2.0 * r.heading_sigma_deg);
+        within[1] += usize::from((r.latitude_deg - s.latitude_deg).abs() <= 2.0 * r.latitude_sigma_deg);
+    }
+    assert!(answered >= seeds as usize - 2, "{answered} of {seeds} answered");
+    for (k, what) in ["north", "latitude"].iter().enumerate() {
+        let frac = within[k] as f64 / answered as f64;
+        assert!(frac >= 0.9, "{what}: {:.0} % within 2σ", 100.0 * frac);
+    }
+}
+
+/// The site a robot located itself at serves the Compass in place of a GNSS fix: the
+/// sun at a later stamp from the site, its 1σ the place's, and the frame's heading
+/// within 2σ of the truth.
+#[test]
+fn the_compass_navigates_with_a_located_site() {
+    use bpins_core::compass::{Attitude, Compass, CompassConfig};
+    use bpins_core::heading::field::RawImage;
+    use bpins_core::locate::Site;
+    let (c, data, s) = series(7, 5.0, 60.0, 0.0, None);
+    let r = located(&c, &data, &LocateOptions::default()).unwrap();
+    let site = Site::from_located(&r, None);
+    let g = c.sensor.geometry;
+    let (w, h) = (g.width_px as usize, g.height_px as usize);
+    let mut compass = Compass::new(CompassConfig::dofp(c.intrinsics(), w, h, 12, 64.0)).unwrap();
+    let last = c.frames.len() - 1;
+    let t = bpins_core::sky::sun::parse_time_utc(c.frames[last].sun.source.time_utc().unwrap()).unwrap();
+    let sun = site.compass_sun(t.timestamp() as f64).unwrap();
+    let FrameData::Mosaic { dn, .. } = &data[last] else { panic!("dofp") };
+    let fix = compass.heading(RawImage::packed(dn, w, h), sun, Attitude::default()).unwrap();
+    let (hd, sigma) = (fix.heading_deg().unwrap(), fix.sigma_deg().unwrap());
+    let e = wrap_deg_180(hd - s.heading_deg);
+    assert!(e.abs() < 2.0 * sigma && e.abs() < 0.3, "{hd} ± {sigma} against {}", s.heading_deg);
+    // A site from the pole route has no longitude: no sun at a time, an error.
+    let pole = Site { longitude_deg: None, longitude_sigma_deg: None, ..site };
+    assert!(pole.compass_sun(t.timestamp() as f64).is_err());
+}

@@ -15,12 +15,31 @@
 //! order, which must be time order.
 
 use super::model::bearing_sigma;
-use super::{covariance, levenberg_marquardt, LocateError, Located, Route, SunObs};
+use super::{add_shared_bias, covariance, levenberg_marquardt, LocateError, Located, Route, SunObs};
 use crate::conventions::{enu_from_az_el_deg, wrap_deg_360};
 use glam::DVec3;
 
+/// The declination's largest drift per degree of hour angle, degrees per degree.
+const DECLINATION_DRIFT_PER_HOUR_ANGLE: f64 = 0.40 / 360.0;
+
+/// The true (geometric) elevation under an apparent one, degrees: SPA's standard
+/// refraction (Reda & Andreas 2003, eq. 42, 1010 hPa and 10 °C scaled to the
+/// standard 1013.25 hPa, 15 °C: Δe = 1.02/(60 tan(e + 10.3/(e + 5.11)))·(P/1010)·(283/(273 + T)))
+/// undone by fixed-point iteration. The diurnal circle is the true sun's; refraction
+/// lifts a low sun by up to 0.5° and would bend it.
+fn unrefracted_deg(apparent_deg: f64) -> f64 {
+    let scale = (1013.25 / 1010.0) * (283.0 / 288.0);
+    let mut e = apparent_deg;
+    for _ in 0..4 {
+        let r = scale * 1.02 / (60.0 * (e + 10.3 / (e + 5.11)).to_radians().tan());
+        e = apparent_deg - r;
+    }
+    e
+}
+
 pub(crate) fn solve_pole(obs: &[SunObs]) -> Result<Located, LocateError> {
-    let s: Vec<DVec3> = obs.iter().map(|o| enu_from_az_el_deg(o.bearing_deg + o.yaw_deg, o.elevation_deg)).collect();
+    let s: Vec<DVec3> =
+        obs.iter().map(|o| enu_from_az_el_deg(o.bearing_deg + o.yaw_deg, unrefracted_deg(o.elevation_deg))).collect();
     let n = s.len() as f64;
     let mean = s.iter().copied().sum::<DVec3>() / n;
     let mut m = nalgebra::Matrix3::<f64>::zeros();
@@ -60,8 +79,45 @@ pub(crate) fn solve_pole(obs: &[SunObs]) -> Result<Located, LocateError> {
     };
     let (q, chi2, j) = levenberg_marquardt([b0, e0, c0], [1e-3, 1e-3, 1e-6], &f)
         .ok_or_else(|| LocateError::Solver("the cone fit failed".into()))?;
-    let (cov, chi2_per_dof) =
+    let (mut cov, chi2_per_dof) =
         covariance(&j, chi2).ok_or_else(|| LocateError::Solver("the frames do not determine the pole".into()))?;
+    // Two errors every frame shares, which χ² cannot see: an elevation bias of about
+    // one frame's 1σ (the median), and the declination's drift over the span, up to
+    // 23.44°·2π/365.25 ≈ 0.40° a day, i.e. 0.40°/360° = 0.0011° per degree of hour
+    // angle (its worst, at the equinoxes): each enters the whitened residuals as v.
+    let p = enu_from_az_el_deg(q[0], q[1]);
+    let sigmas =
+        f(&q).map(|r| obs.iter().zip(&s).zip(&r).map(|((_, v), ri)| (v.dot(p) - q[2]) / ri).collect::<Vec<f64>>());
+    let sigma_i: Vec<f64> = match sigmas {
+        Some(x) => x.into_iter().map(|x| if x.is_finite() && x != 0.0 { x.abs() } else { f64::NAN }).collect(),
+        None => vec![f64::NAN; obs.len()],
+    };
+    if sigma_i.iter().all(|x| x.is_finite()) {
+        let mut el_sigma: Vec<f64> = obs.iter().map(|o| o.elevation_sigma_deg).collect();
+        el_sigma.sort_by(f64::total_cmp);
+        let v_el: Vec<f64> = obs
+            .iter()
+            .zip(&sigma_i)
+            .map(|(o, si)| {
+                let (sb, cb) = (o.bearing_deg + o.yaw_deg).to_radians().sin_cos();
+                let (sh, ch) = o.elevation_deg.to_radians().sin_cos();
+                DVec3::new(-sb * sh, -cb * sh, ch).dot(p) * 1f64.to_radians() / si
+            })
+            .collect();
+        add_shared_bias(&mut cov, &j, &v_el, el_sigma[el_sigma.len() / 2]);
+        let u0 = s[0] - p * s[0].dot(p);
+        let cos_dec = (1.0 - q[2] * q[2]).max(0.0).sqrt();
+        let v_drift: Vec<f64> = s
+            .iter()
+            .zip(&sigma_i)
+            .map(|(v, si)| {
+                let u = *v - p * v.dot(p);
+                let tau_deg = u0.cross(u).dot(p).atan2(u0.dot(u)).to_degrees();
+                cos_dec * tau_deg * 1f64.to_radians() / si
+            })
+            .collect();
+        add_shared_bias(&mut cov, &j, &v_drift, DECLINATION_DRIFT_PER_HOUR_ANGLE);
+    }
     Ok(Located {
         route: Route::Pole,
         heading_deg: wrap_deg_360(-q[0]),
