@@ -19,6 +19,7 @@ mod array;
 mod capture;
 mod compass;
 mod fit;
+mod locate;
 mod sim;
 
 /// A bpins-core error as the Python exception a user expects: files that cannot be
@@ -76,5 +77,6 @@ fn _bpins(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(capture::effects, m)?)?;
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(fit::diagnose, m)?)?;
+    m.add_function(wrap_pyfunction!(locate::locate, m)?)?;
     Ok(())
 }
