@@ -228,16 +228,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         attitude.draw(&nominal.frames).context("--tilt-random-deg / --imu-sigma-deg / --sun-sigma-deg")?;
     // A series writes its stamps and yaw; the attitude draws give the reference tilt.
     let reference_frames = match series_written {
-        Some(w) => w
-            .into_iter()
-            .zip(reference_frames)
-            .map(|(w, r)| FrameSpec {
-                tilt_x_deg: r.tilt_x_deg,
-                tilt_y_deg: r.tilt_y_deg,
-                tilt_sigma_deg: r.tilt_sigma_deg,
-                ..w
-            })
-            .collect(),
+        Some(w) => bpins_core::locate::with_reference_tilts(w, reference_frames),
         None => reference_frames,
     };
     let capture = Capture { frames: truth_frames, ..nominal.clone() };

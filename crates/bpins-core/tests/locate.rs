@@ -9,7 +9,6 @@ use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::Model;
 use bpins_core::heading::field::FieldOptions;
 use bpins_core::locate::{locate, measure_data, LocateError, LocateOptions, Located, Series, SunObs};
-use bpins_core::pipeline::simulate_capture;
 use bpins_core::scene::Draws;
 
 /// The series of seed `seed`: a site drawn over latitudes −50°…60° and every
@@ -43,11 +42,9 @@ pub fn series(
         yaw_sigma_deg,
         seed,
     };
-    let (truth, written) = s.frames("png").unwrap();
-    let base = common::small_capture();
-    let render = Capture { frames: truth, ..base.clone() };
-    let (_, data) = simulate_capture(&render, &Model::default(), &common::sim_sensor(seed, 0.0), None).unwrap();
-    (Capture { frames: written, ..base }, data, s)
+    let sim = common::sim_sensor(seed, 0.0);
+    let (c, data) = s.simulate(&common::small_capture(), &Model::default(), None, &Default::default(), &sim).unwrap();
+    (c, data, s)
 }
 
 fn located(c: &Capture, data: &[FrameData], opts: &LocateOptions) -> Result<Located, LocateError> {

@@ -44,7 +44,7 @@ mod solve;
 
 pub use capture::{measure, measure_data, relative_yaw, FrameSun};
 pub use model::SunModel;
-pub use series::{Series, SeriesTruth};
+pub use series::{with_reference_tilts, Series, SeriesTruth};
 pub use site::Site;
 
 /// How a [`locate`] answer was found.

@@ -12,9 +12,12 @@
 //! ψ₀ are the truth ([`SeriesTruth`]), written beside the capture. With
 //! `yaw_step_deg` = 0 and no `yaw_sigma_deg`, no yaw is written (a static camera).
 
-use crate::capture::FrameSpec;
+use crate::capture::{Capture, FrameData, FrameSpec};
+use crate::effects::Model;
 use crate::error::{Error, Result};
+use crate::pipeline::{simulate_capture, SimSensor};
 use crate::scene::Draws;
+use crate::scene::{FieldAttitude, FieldScene};
 use crate::sky::sun::{parse_time_utc, sun_from_unix_time, SunPosition};
 use chrono::SecondsFormat;
 use std::path::PathBuf;
@@ -128,4 +131,38 @@ impl Series {
         }
         Ok((truth, written))
     }
+
+    /// The series rendered in memory on `base`'s sensor and lens under `model`, the
+    /// scene `field` and the `attitude` draws (random tilt, IMU): the capture as a
+    /// user holds it (stamps, yaw, reference tilts) and its frames.
+    pub fn simulate(
+        &self,
+        base: &Capture,
+        model: &Model,
+        field: Option<&FieldScene>,
+        attitude: &FieldAttitude,
+        sim: &SimSensor,
+    ) -> Result<(Capture, Vec<FrameData>)> {
+        let ext = base.frames.first().and_then(|f| f.file.extension()).and_then(|e| e.to_str()).unwrap_or("png");
+        let (truth, written) = self.frames(ext)?;
+        let (truth, reference) = attitude.draw(&truth)?;
+        let render = Capture { frames: truth, ..base.clone() };
+        let (_, data) = simulate_capture(&render, model, sim, field)?;
+        Ok((Capture { frames: with_reference_tilts(written, reference), ..base.clone() }, data))
+    }
+}
+
+/// The written frames of a series with the reference tilts (and their 1σ) of the
+/// attitude draws' `reference` frames.
+pub fn with_reference_tilts(written: Vec<FrameSpec>, reference: Vec<FrameSpec>) -> Vec<FrameSpec> {
+    written
+        .into_iter()
+        .zip(reference)
+        .map(|(w, r)| FrameSpec {
+            tilt_x_deg: r.tilt_x_deg,
+            tilt_y_deg: r.tilt_y_deg,
+            tilt_sigma_deg: r.tilt_sigma_deg,
+            ..w
+        })
+        .collect()
 }
