@@ -12,19 +12,24 @@
 //! 3. bearing b = −ψ (with A = 0 the heading ψ is minus the sun's bearing); its 1σ the
 //!    field heading's (step 5 of mod.rs, no sun or tilt σ other than the frame's tilt)
 //! 4. elevation h = asin(s_z) of the final weighted sun vector s; its 1σ² =
-//!    max(σ_fit, σ_jack, σ_coherent·cos h)² + σ_misfit² + σ_tilt² + σ_floor²: σ_fit the
+//!    max(σ_fit, σ_jack, σ_coherent·cos h)² + σ_shared² + σ_tilt² + σ_floor²: σ_fit the
 //!    eigenvector's rotation toward the zenith (sun_vector.rs's formula with the
-//!    vertical tangent), σ_jack the delete-one-block jackknife of h over the 4 × 4
-//!    blocks, σ_coherent and σ_misfit those of the heading (a turn the used sky
-//!    shares moves the sun as much up as across), σ_tilt = the tilt's 1σ (a tilt about
-//!    the horizontal axis across the sun moves h 1:1)
+//!    vertical tangent u: σ₀²·Σ_k (u·v_k)²/(λ_k − λ₀)), σ_jack the delete-one-block
+//!    jackknife of h over the 4 × 4 blocks, σ_coherent the heading's (spatial.rs);
+//!    σ_shared = m·√(W·Σ_k (u·v_k)²/(λ_k − λ₀)) for the used cells' RMS residual m
+//!    beyond their noise taken as shared by every cell (W = Σw: n coherent terms do
+//!    not average out; a narrow view near the zenith amplifies them, since its
+//!    E-vectors are nearly level); σ_tilt = the tilt's 1σ (a tilt about the horizontal
+//!    axis across the sun moves h 1:1)
 //! ```
 //!
 //! Frame: the level camera (CONVENTIONS.md; the frame's reference tilt undone): the
 //! bearing is the sun's azimuth minus the azimuth of the image top, degrees from
 //! North toward East, in [0°, 360°); the elevation in degrees above the horizon.
 //!
-//! Cannot: tell the sun from the anti-sun when it stands below the horizon (the
+//! Cannot: read a Berry sky's elevation (its neutral points move the E-vectors'
+//! common normal by degrees in a narrow view, and its residual stays small: the 1σ
+//! does not cover it; docs/locate.md); tell the sun from the anti-sun when it stands below the horizon (the
 //! branch above is taken), read a sun within 1° of the zenith (no bearing) or below
 //! −10° (refused as by the heading); an elevation bias shared by every frame (a
 //! mount tilt not in the calibration) passes into the latitude.
@@ -92,7 +97,7 @@ pub fn sky_sun(
     let (psi, parts) = fh.result?;
     // Step 4.
     let (elevation_deg, elevation_sigma_deg) =
-        elevation(sc, r.coherent_deg, r.misfit_deg, ctx.tilt_sigma_deg, opts.sigma_floor_deg)
+        elevation(sc, r.coherent_deg, r.misfit_rms_deg, ctx.tilt_sigma_deg, opts.sigma_floor_deg)
             .ok_or_else(|| NoHeading::Solver("the sky's sun vector is degenerate".into()))?;
     Ok(SkySun {
         bearing_deg: wrap_deg_360(-psi),
@@ -107,8 +112,9 @@ fn too_little(q: FieldQuality) -> NoHeading {
     NoHeading::TooLittleSky { used: q.cells_valid, total: q.cells_total }
 }
 
-/// The sun above the horizon from level-frame sums: (elevation, fit 1σ), degrees.
-fn sun_elevation(sums: &HeadingSums) -> Option<(f64, f64)> {
+/// The sun above the horizon from level-frame sums: (elevation, fit 1σ, and the 1σ
+/// per radian of a misfit every cell shares), degrees.
+fn sun_elevation(sums: &HeadingSums, weight_sum: f64) -> Option<(f64, f64, f64)> {
     let (vals, vecs) = sun_vector::scatter_eigen(sums).ok()?;
     let s = if vecs[0].z < 0.0 { -vecs[0] } else { vecs[0] };
     // The vertical tangent at s (toward the zenith); the rotation of s toward the other
@@ -116,11 +122,14 @@ fn sun_elevation(sums: &HeadingSums) -> Option<(f64, f64)> {
     let up = DVec3::Z - s * s.z;
     let up = if up.length() > 1e-9 { up.normalize() } else { return None };
     let sigma0_sq = vals[0].max(0.0) / (sums.n - 2.0).max(1.0);
-    let var: f64 = (1..3).map(|k| up.dot(vecs[k]).powi(2) * sigma0_sq / (vals[k] - vals[0])).sum();
-    Some((s.z.clamp(-1.0, 1.0).asin().to_degrees(), var.sqrt().to_degrees()))
+    let gain: f64 = (1..3).map(|k| up.dot(vecs[k]).powi(2) / (vals[k] - vals[0])).sum();
+    // A misfit δ shared by every cell moves s by up to δ·√(W·gain), W = Σw: the
+    // coherent sum of n terms w·δ·(e·v_k) against λ_k − λ₀ ~ Σ w (e·v_k)².
+    Some((s.z.clamp(-1.0, 1.0).asin().to_degrees(), (sigma0_sq * gain).sqrt().to_degrees(), (weight_sum * gain).sqrt()))
 }
 
-/// Step 4 on the final weights left in `sc`: (elevation, 1σ), degrees.
+/// Step 4 on the final weights left in `sc`: (elevation, 1σ), degrees. `misfit_deg`
+/// is the used cells' RMS residual beyond their noise, taken as shared by all.
 fn elevation(
     sc: &Scratch,
     coherent_deg: f64,
@@ -130,11 +139,13 @@ fn elevation(
 ) -> Option<(f64, f64)> {
     let blocks = block_sums(&sc.obs, &sc.b.w, Extractor::SunVector, (0.0, 0.0, 0.0));
     let total = sum_blocks(&blocks);
-    let (h, fit) = sun_elevation(&total)?;
+    let weight_sum: f64 = sc.b.w.iter().filter(|x| x.0 > 0.0).map(|x| x.0 / (x.1 * x.2)).sum();
+    let (h, fit, per_rad) = sun_elevation(&total, weight_sum)?;
+    let misfit = if misfit_deg.is_finite() { misfit_deg * per_rad } else { 0.0 };
     let mut dev = Vec::with_capacity(BLOCKS * BLOCKS);
     let used: Vec<_> = blocks.iter().filter(|b| b.n > 0.0).collect();
     for b in &used {
-        if let Some((hb, _)) = sun_elevation(&total.minus(b)) {
+        if let Some((hb, ..)) = sun_elevation(&total.minus(b), weight_sum) {
             dev.push(wrap_deg_180(hb - h));
         }
     }
@@ -147,6 +158,6 @@ fn elevation(
     };
     let coherent = if coherent_deg.is_finite() { coherent_deg * h.to_radians().cos() } else { 0.0 };
     let data = fit.max(jack).max(coherent);
-    let sigma = (data * data + misfit_deg.powi(2) + tilt_sigma_deg.powi(2) + floor_deg.powi(2)).sqrt();
+    let sigma = (data * data + misfit.powi(2) + tilt_sigma_deg.powi(2) + floor_deg.powi(2)).sqrt();
     Some((h, sigma))
 }
