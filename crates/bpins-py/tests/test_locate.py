@@ -36,7 +36,7 @@ def test_locate_gives_the_cli_answer_and_a_site_the_compass_takes(series, cli, t
     assert abs(got["latitude_deg"] - 36.07) < 2 * got["latitude_sigma_deg"] + 1e-3
     assert len(got["frames"]) == 13 and "bearing_deg" in got["frames"][0]["sun"]
     # The last frame read with the site in place of a GNSS fix: the camera faces 30°.
-    frames, _ = bpins.read_capture(series)
+    _, frames = bpins.read_capture(series)
     c = bpins.Compass(306, 256, 8000.0 / 27.6, bit_depth=12, black_level_dn=64.0)
     t = datetime.datetime(2026, 6, 21, 2, 0, tzinfo=datetime.timezone.utc)
     h = c.heading(frames[-1], time_utc=t, site=site)
