@@ -157,6 +157,7 @@ pub fn locate(obs: &[SunObs], opts: &LocateOptions) -> Result<Located, LocateErr
     ];
     for (what, sigma, limit) in checks {
         if let Some(s) = sigma {
+            #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN 1σ must be refused too
             if !(s <= limit) {
                 return Err(LocateError::TooUncertain { what, sigma_deg: s, limit_deg: limit, frames: obs.len() });
             }

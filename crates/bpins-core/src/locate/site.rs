@@ -59,7 +59,7 @@ impl Site {
     }
 
     pub fn to_toml_string(&self) -> String {
-        let mut t = format!("# written by bpins locate: the place and the camera's north offset, 1σ in degrees\n");
+        let mut t = String::from("# written by bpins locate: the place and the camera's north offset, 1σ in degrees\n");
         t.push_str(&toml::to_string(self).expect("a site serialises"));
         t
     }
