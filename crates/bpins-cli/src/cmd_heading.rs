@@ -45,6 +45,11 @@ pub struct Args {
     /// Write the per-frame results as JSON to this file (never inside the capture).
     #[arg(long)]
     json: Option<PathBuf>,
+    /// A site located by `bpins locate` (bpins-site/1) in place of a GNSS position:
+    /// frames stamped with `time_utc` alone get the sun at this site, its 1σ the
+    /// site's propagated.
+    #[arg(long, value_name = "FILE")]
+    site: Option<PathBuf>,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq)]
@@ -85,7 +90,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     let opts = FieldOptions { cell_px: a.cell_px, ..FieldOptions::default() };
-    let capture = Capture::load(&a.capture)?;
+    let capture = match &a.site {
+        None => Capture::load(&a.capture)?,
+        Some(p) => {
+            let site = bpins_core::locate::Site::load(p)?;
+            let mut c = Capture::load_unplaced(&a.capture)?;
+            let n = site.place(&mut c).with_context(|| format!("--site {}", p.display()))?;
+            say!("--site {}: the sun of {n} frame(s) stamped without a place from the located site", p.display());
+            c
+        }
+    };
     if let Some(p) = &a.json {
         ensure_not_in_capture(p)?;
     }

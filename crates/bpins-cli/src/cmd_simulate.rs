@@ -102,6 +102,23 @@ pub struct Args {
     /// One frame per heading, degrees (a turntable).
     #[arg(long, value_delimiter = ',', default_value = "0,45,90,135,180,225,270,315", allow_hyphen_values = true)]
     headings_deg: Vec<f64>,
+    /// A time series for `bpins locate`: a frame every N minutes from --time-utc at
+    /// --latitude-deg/--longitude-deg (the sun by NREL SPA) over --span-min; the frames
+    /// are written with their `time_utc` alone (no place, no heading) and the truth
+    /// (place, heading of the first frame) to truth.toml beside capture.toml. The first
+    /// of --headings-deg is the camera's heading at the first frame.
+    #[arg(long, requires_all = ["time_utc", "span_min"], value_name = "N")]
+    every_min: Option<f64>,
+    /// The series' span, minutes (frames at 0, N, 2N, … ≤ span).
+    #[arg(long, requires = "every_min")]
+    span_min: Option<f64>,
+    /// Series: the camera turns by this much from frame to frame, degrees; its yaw is
+    /// written as `yaw_deg`.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, requires = "every_min")]
+    yaw_step_deg: f64,
+    /// Series: 1σ of the written yaw (a gyro), degrees; `yaw_sigma_deg` is written too.
+    #[arg(long, requires = "every_min")]
+    yaw_sigma_deg: Option<f64>,
     /// Frame tilt about camera x, degrees (recorded as the frames' reference tilt).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     tilt_x_deg: f64,
@@ -192,6 +209,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     // The frames as asked; with random tilts or IMU/sun errors, the truth to render
     // and the reference to write differ (scene::attitude).
     let nominal = build_capture(&a)?;
+    let series = series_of(&a)?;
+    let (nominal, series_written) = match &series {
+        Some(s) => {
+            let ext = nominal.frames[0].file.extension().and_then(|e| e.to_str()).unwrap_or("png").to_string();
+            let (truth, written) = s.frames(&ext).context("--every-min / --span-min / --time-utc")?;
+            (Capture { frames: truth, ..nominal }, Some(written))
+        }
+        None => (nominal, None),
+    };
     let attitude = FieldAttitude {
         tilt_random_deg: a.tilt_random_deg,
         imu_sigma_deg: a.imu_sigma_deg,
@@ -200,6 +226,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let (truth_frames, reference_frames) =
         attitude.draw(&nominal.frames).context("--tilt-random-deg / --imu-sigma-deg / --sun-sigma-deg")?;
+    // A series writes its stamps and yaw; the attitude draws give the reference tilt.
+    let reference_frames = match series_written {
+        Some(w) => bpins_core::locate::with_reference_tilts(w, reference_frames),
+        None => reference_frames,
+    };
     let capture = Capture { frames: truth_frames, ..nominal.clone() };
     let written = Capture { frames: reference_frames, ..nominal };
     let sim = SimSensor {
@@ -298,7 +329,34 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let n = writer.written();
     writer.finish()?;
     say!("wrote {n} frames to {}", out.display());
+    if let Some(s) = &series {
+        let path = out.join("truth.toml");
+        crate::write_output(&path, s.truth().to_toml_string().as_bytes())?;
+        say!("wrote the truth to {}", path.display());
+    }
     Ok(())
+}
+
+/// The time series of `--every-min`, if asked.
+fn series_of(a: &Args) -> anyhow::Result<Option<bpins_core::locate::Series>> {
+    let Some(every) = a.every_min else { return Ok(None) };
+    if a.sun_sigma_deg.is_some() {
+        bail!("--sun-sigma-deg: a series' sun comes from SPA at its stamps; leave the sun's 1σ out");
+    }
+    let (Some(t), Some(lat), Some(lon)) = (&a.time_utc, a.latitude_deg, a.longitude_deg) else {
+        bail!("--every-min needs --time-utc, --latitude-deg and --longitude-deg (the site and the first frame's time)");
+    };
+    Ok(Some(bpins_core::locate::Series {
+        latitude_deg: lat,
+        longitude_deg: lon,
+        start_utc: t.clone(),
+        every_s: every * 60.0,
+        span_s: a.span_min.unwrap_or(0.0) * 60.0,
+        heading_deg: a.headings_deg.first().copied().unwrap_or(0.0),
+        yaw_step_deg: a.yaw_step_deg,
+        yaw_sigma_deg: a.yaw_sigma_deg,
+        seed: a.scene_seed.unwrap_or(a.seed),
+    }))
 }
 
 /// `--lab`: a lab capture of the sensor (bpins_core::lab::simulate), written whole
@@ -402,6 +460,8 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
             tilt_y_deg: tilt(a.tilt_y_deg),
             tilt_sigma_deg: None,
             sun_sigma_deg: None,
+            yaw_deg: None,
+            yaw_sigma_deg: None,
         })
         .collect();
     let pp = match &a.principal_point_px {

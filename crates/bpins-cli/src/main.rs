@@ -32,6 +32,7 @@ mod cmd_effects;
 mod cmd_fit;
 mod cmd_heading;
 mod cmd_maps;
+mod cmd_locate;
 mod cmd_run;
 mod cmd_simulate;
 mod cmd_sweep;
@@ -75,6 +76,8 @@ enum Command {
     Heading(cmd_heading::Args),
     /// AoP, DoLP, intensity and AoE maps of every frame of a DoFP capture (EXR).
     Maps(cmd_maps::Args),
+    /// North, latitude and longitude from frames over time, without GNSS (writes a site file).
+    Locate(cmd_locate::Args),
     /// List the effects bpins models, with their parameters.
     Effects(cmd_effects::Args),
     /// Run seeded trials over every effect on the CPU and the GPU and compare them.
@@ -105,6 +108,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => cmd_simulate::run(*a),
         Command::Heading(a) => cmd_heading::run(a),
         Command::Maps(a) => cmd_maps::run(a),
+        Command::Locate(a) => cmd_locate::run(a),
         Command::Effects(a) => cmd_effects::run(a),
         Command::Agree(a) => cmd_agree::run(a),
         Command::Bench(a) => cmd_bench::run(a),

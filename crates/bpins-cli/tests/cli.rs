@@ -1006,4 +1006,81 @@ fn maps_writes_each_frames_kernel_maps() {
     assert!(same(layer("AoE_deg"), &want.aoe_deg));
     bpins(&["maps", &s(&cap), "--out", &s(&cap.join("maps"))]).fails().stderr_has("never writes into a capture");
     bpins(&["maps", &s(&cap), "--out", &s(&out), "--frames", "99"]).fails().stderr_has("frame 99 does not exist");
+// ------------------------------------------------------------- locate (issue 33)
+
+/// The navigation user's loop: `simulate --every-min` makes an hour of stamped frames
+/// of a turning camera without a place (the truth beside); `locate` finds north,
+/// latitude and longitude within 2σ and the clear-sky targets and writes the site;
+/// `heading --site` reads the frames with it as a GNSS position would serve. Too
+/// short a span is refused as "not yet"; the capture is never written into.
+#[test]
+fn locate_finds_the_site_and_heading_navigates_with_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cap = tmp.path().join("series");
+    let common = [
+        "--width-px",
+        "306",
+        "--height-px",
+        "256",
+        "--pixel-pitch-um",
+        "27.6",
+        "--time-utc",
+        "2026-06-21T01:00:00Z",
+        "--latitude-deg",
+        "36.07",
+        "--longitude-deg",
+        "120.38",
+        "--headings-deg",
+        "30",
+    ];
+    let mut args = vec!["simulate", "--out", cap.to_str().unwrap(), "--every-min", "5", "--span-min", "60"];
+    args.extend(["--yaw-step-deg", "7", "--yaw-sigma-deg", "0.05"]);
+    args.extend(common);
+    bpins(&args).ok();
+    let toml = fs::read_to_string(cap.join("capture.toml")).unwrap();
+    assert!(toml.contains("time_utc") && toml.contains("yaw_deg") && !toml.contains("latitude_deg"), "{toml}");
+    let before = snapshot(&cap);
+    let (site, json) = (tmp.path().join("site.toml"), tmp.path().join("locate.json"));
+    let truth = cap.join("truth.toml");
+    let r = bpins(&["locate", &s(&cap), "--truth", &s(&truth), "--site-out", &s(&site), "--json", &s(&json)]).ok();
+    assert!(r.stdout.contains("route stamped: 13 frames over 60 min"), "{}", r.stdout);
+    let v = read_json(&json);
+    let l = &v["located"];
+    for (key, sigma, target) in [
+        ("heading_deg", "heading_sigma_deg", 0.2),
+        ("latitude_deg", "latitude_sigma_deg", 0.5),
+        ("longitude_deg", "longitude_sigma_deg", 0.5),
+    ] {
+        let e = f64_of(&v["errors"], key);
+        assert!(e.abs() < target && e.abs() < 2.0 * f64_of(l, sigma), "{key}: error {e} ({l})");
+    }
+    let site_text = fs::read_to_string(&site).unwrap();
+    assert!(site_text.contains("format = \"bpins-site/1\"") && site_text.contains("heading_sigma_deg"), "{site_text}");
+    // Without the site the stamped frames have no sun; with it, headings within 2σ
+    // of the truth (30° turning 7° a frame).
+    bpins(&["heading", &s(&cap)]).fails().stderr_has("bpins locate");
+    let hj = tmp.path().join("heading.json");
+    bpins(&["heading", &s(&cap), "--site", &s(&site), "--json", &s(&hj)]).ok();
+    let h = read_json(&hj);
+    for (k, f) in h["frames"].as_array().unwrap().iter().enumerate() {
+        let e = bpins_core_wrap(f64_of(f, "heading_deg") - 30.0 - 7.0 * k as f64);
+        assert!(e.abs() < 0.5 && e.abs() < 3.0 * f64_of(f, "sigma_deg"), "frame {k}: error {e} ({f})");
+    }
+    // Four minutes of frames cannot give the longitude to 0.01°: "not yet", exit 2.
+    let short = tmp.path().join("short");
+    let mut args = vec!["simulate", "--out", short.to_str().unwrap(), "--every-min", "1", "--span-min", "4"];
+    args.extend(common);
+    bpins(&args).ok();
+    bpins(&["locate", &s(&short), "--max-longitude-sigma-deg", "0.01"]).fails().stderr_has("not yet");
+    assert_eq!(snapshot(&cap), before);
+}
+
+/// Wraps degrees to (−180°, 180°].
+fn bpins_core_wrap(d: f64) -> f64 {
+    let r = d.rem_euclid(360.0);
+    if r > 180.0 {
+        r - 360.0
+    } else {
+        r
+    }
 }

@@ -46,6 +46,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 tilt_y_deg: None,
                 tilt_sigma_deg: None,
                 sun_sigma_deg: None,
+                yaw_deg: None,
+                yaw_sigma_deg: None,
             })
             .collect(),
     };

@@ -300,6 +300,8 @@ fn camera(p: Projection, w: u32, h: u32, pitch_um: f64, f_mm: f64, sun_el_deg: f
                 tilt_y_deg: None,
                 tilt_sigma_deg: None,
                 sun_sigma_deg: None,
+                yaw_deg: None,
+                yaw_sigma_deg: None,
             })
             .collect(),
     }

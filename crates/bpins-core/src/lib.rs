@@ -14,6 +14,7 @@
 //! | the measurement chain, pixel by pixel | [`sky`], [`camera`], [`effects`] (the catalog and its registry), [`sensor`], [`noise`], [`chain`], [`stokes`], [`recon`], [`conventions`] |
 //! | simulation and the seed paper's error analysis | [`simulate`], [`scene`] (field conditions), [`montecarlo`] |
 //! | measured captures (feature `io`) | `capture`, `pipeline`, `fit` (fit and diagnosis), `field_conditions` |
+//! | north and place from the sky alone, no GNSS (feature `io`) | `locate` |
 //!
 //! The per-pixel kernels stay public where the GPU twin's parity tests and the
 //! registry-wide tests call them as the reference; row loops, scratch sums and the
@@ -81,6 +82,8 @@ pub mod heading;
 #[cfg(feature = "io")]
 pub mod lab;
 pub mod maps;
+#[cfg(feature = "io")]
+pub mod locate;
 pub(crate) mod math;
 pub mod montecarlo;
 pub mod noise;

@@ -94,6 +94,8 @@ fn skyline_and_clouds() -> (Capture, Vec<FrameData>) {
             tilt_y_deg: None,
             tilt_sigma_deg: None,
             sun_sigma_deg: None,
+            yaw_deg: None,
+            yaw_sigma_deg: None,
         })
         .collect();
     let c = Capture {

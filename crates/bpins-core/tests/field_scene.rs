@@ -28,6 +28,8 @@ fn capture(sun_el_deg: f64) -> Capture {
         tilt_y_deg: None,
         tilt_sigma_deg: None,
         sun_sigma_deg: None,
+        yaw_deg: None,
+        yaw_sigma_deg: None,
     };
     Capture {
         dir: PathBuf::new(),

@@ -32,6 +32,8 @@ fn capture(layout: Layout, width_px: u32, height_px: u32, projection: Projection
             tilt_y_deg: (i % 2 == 1).then_some(-0.3),
             tilt_sigma_deg: (i % 2 == 1).then_some(0.1),
             sun_sigma_deg: None,
+            yaw_deg: None,
+            yaw_sigma_deg: None,
         })
         .collect();
     let (cx, cy) = image_centre_px(width_px, height_px);

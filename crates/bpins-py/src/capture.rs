@@ -81,7 +81,8 @@ fn py_to_toml(v: &Bound<'_, PyAny>, at: &str) -> PyResult<toml::Value> {
 /// read_capture(path, frames=None) -> (meta, mosaics)
 ///
 /// `meta` is capture.toml as a dict (every default written out, the sun of
-/// time-and-place frames resolved); `mosaics` the frames' DN as float32 arrays:
+/// time-and-place frames resolved; frames stamped with `time_utc` alone, for
+/// `locate`, are read too); `mosaics` the frames' DN as float32 arrays:
 /// (height, width) for dofp, (channels, height, width) for colocated in the order of
 /// `meta["sensor"]["channels"]`. `frames` picks frame indices (default: all).
 #[pyfunction]
@@ -91,7 +92,7 @@ pub fn read_capture<'py>(
     path: PathBuf,
     frames: Option<Vec<i64>>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyList>)> {
-    let c = Capture::load(&path).map_err(py_err)?;
+    let c = Capture::load_unplaced(&path).map_err(py_err)?;
     let frames = match frames {
         None => None,
         Some(f) => Some(f.into_iter().map(|i| whole::<usize>("frames[…]", i)).collect::<PyResult<Vec<_>>>()?),

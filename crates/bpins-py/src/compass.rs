@@ -224,15 +224,17 @@ impl Compass {
     /// The heading of one raw mosaic.
     ///
     /// heading(mosaic, *, sun_azimuth_deg=None, sun_elevation_deg=None, time_utc=None,
-    ///         latitude_deg=None, longitude_deg=None, sun_sigma_deg=0.0,
+    ///         latitude_deg=None, longitude_deg=None, site=None, sun_sigma_deg=0.0,
     ///         tilt_x_deg=0.0, tilt_y_deg=0.0, tilt_sigma_deg=0.0) -> Heading
     ///
     /// The sun: its azimuth (from North toward East) and elevation in degrees, or a
-    /// timezone-aware `datetime` and a place (NREL SPA). The attitude: tilt about the
+    /// timezone-aware `datetime` and a place (NREL SPA), or a `datetime` and `site`, the
+    /// site file `bpins.locate` wrote (in place of a GNSS position; the sun's 1σ takes
+    /// in the site's). The attitude: tilt about the
     /// camera's x then y axis as the IMU reads it, degrees, each with 1σ
     /// `tilt_sigma_deg`.
     #[pyo3(signature = (mosaic, *, sun_azimuth_deg=None, sun_elevation_deg=None, time_utc=None,
-        latitude_deg=None, longitude_deg=None, sun_sigma_deg=0.0, tilt_x_deg=0.0, tilt_y_deg=0.0,
+        latitude_deg=None, longitude_deg=None, site=None, sun_sigma_deg=0.0, tilt_x_deg=0.0, tilt_y_deg=0.0,
         tilt_sigma_deg=0.0))]
     #[allow(clippy::too_many_arguments)]
     fn heading(
@@ -244,12 +246,18 @@ impl Compass {
         time_utc: Option<&Bound<'_, PyAny>>,
         latitude_deg: Option<f64>,
         longitude_deg: Option<f64>,
+        site: Option<std::path::PathBuf>,
         sun_sigma_deg: f64,
         tilt_x_deg: f64,
         tilt_y_deg: f64,
         tilt_sigma_deg: f64,
     ) -> PyResult<Heading> {
-        let sun = sun_of(sun_azimuth_deg, sun_elevation_deg, time_utc, latitude_deg, longitude_deg, sun_sigma_deg)?;
+        let sun = match &site {
+            None => sun_of(sun_azimuth_deg, sun_elevation_deg, time_utc, latitude_deg, longitude_deg, sun_sigma_deg)?,
+            Some(p) => {
+                site_sun(p, sun_azimuth_deg, sun_elevation_deg, time_utc, latitude_deg, longitude_deg, sun_sigma_deg)?
+            }
+        };
         let attitude = Attitude {
             tilt_x_deg: finite("tilt_x_deg", tilt_x_deg)?,
             tilt_y_deg: finite("tilt_y_deg", tilt_y_deg)?,
@@ -289,6 +297,43 @@ impl Compass {
     }
 }
 
+/// The sun at `time_utc` from a located site file, its 1σ the site's ⊕ `sigma`.
+fn site_sun(
+    path: &std::path::Path,
+    az: Option<f64>,
+    el: Option<f64>,
+    time_utc: Option<&Bound<'_, PyAny>>,
+    lat: Option<f64>,
+    lon: Option<f64>,
+    sigma: f64,
+) -> PyResult<Sun> {
+    let (Some(t), None, None, None, None) = (time_utc, az, el, lat, lon) else {
+        return Err(PyValueError::new_err(
+            "site: give it with time_utc alone (the site replaces the place; no sun angles)",
+        ));
+    };
+    let sigma_deg = finite("sun_sigma_deg", sigma)?;
+    if sigma_deg < 0.0 {
+        return Err(PyValueError::new_err(format!("sun_sigma_deg = {sigma}: expected a 1σ ≥ 0")));
+    }
+    let site = bpins_core::locate::Site::load(path).map_err(|e| crate::py_err_in("site: ", e))?;
+    let (azimuth_deg, elevation_deg, s) = site.sun_at(unix_time_of(t)?).map_err(|e| crate::py_err_in("site: ", e))?;
+    Ok(Sun::Angles { azimuth_deg, elevation_deg, sigma_deg: s.hypot(sigma_deg) })
+}
+
+/// Seconds since 1970 of a timezone-aware `datetime`.
+fn unix_time_of(t: &Bound<'_, PyAny>) -> PyResult<f64> {
+    let tz = t.getattr("tzinfo").map_err(|_| {
+        pyo3::exceptions::PyTypeError::new_err("time_utc: expected a datetime.datetime with a timezone")
+    })?;
+    if tz.is_none() {
+        return Err(PyValueError::new_err(
+            "time_utc: a naive datetime; expected a timezone-aware one (e.g. tzinfo=datetime.timezone.utc)",
+        ));
+    }
+    t.call_method0("timestamp")?.extract()
+}
+
 /// The sun from the keyword arguments: angles, or a time and a place; not both.
 fn sun_of(
     az: Option<f64>,
@@ -308,23 +353,12 @@ fn sun_of(
             elevation_deg: finite("sun_elevation_deg", el)?,
             sigma_deg,
         }),
-        (None, None, Some(t), Some(lat), Some(lon)) => {
-            let tz = t.getattr("tzinfo").map_err(|_| {
-                pyo3::exceptions::PyTypeError::new_err("time_utc: expected a datetime.datetime with a timezone")
-            })?;
-            if tz.is_none() {
-                return Err(PyValueError::new_err(
-                    "time_utc: a naive datetime; expected a timezone-aware one (e.g. tzinfo=datetime.timezone.utc)",
-                ));
-            }
-            let time_s: f64 = t.call_method0("timestamp")?.extract()?;
-            Ok(Sun::UnixTime {
-                time_s,
-                latitude_deg: finite("latitude_deg", lat)?,
-                longitude_deg: finite("longitude_deg", lon)?,
-                sigma_deg,
-            })
-        }
+        (None, None, Some(t), Some(lat), Some(lon)) => Ok(Sun::UnixTime {
+            time_s: unix_time_of(t)?,
+            latitude_deg: finite("latitude_deg", lat)?,
+            longitude_deg: finite("longitude_deg", lon)?,
+            sigma_deg,
+        }),
         _ => Err(PyValueError::new_err(
             "the sun: give sun_azimuth_deg and sun_elevation_deg, or time_utc, latitude_deg and longitude_deg",
         )),

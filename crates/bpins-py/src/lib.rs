@@ -20,6 +20,7 @@ mod capture;
 mod compass;
 mod fit;
 mod maps;
+mod locate;
 mod sim;
 
 /// A bpins-core error as the Python exception a user expects: files that cannot be
@@ -77,5 +78,6 @@ fn _bpins(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(capture::effects, m)?)?;
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(fit::diagnose, m)?)?;
+    m.add_function(wrap_pyfunction!(locate::locate, m)?)?;
     Ok(())
 }

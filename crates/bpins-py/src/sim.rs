@@ -103,6 +103,8 @@ pub fn simulate<'py>(
             tilt_y_deg: Some(finite("tilt_y_deg", tilt_y_deg)?),
             tilt_sigma_deg: None,
             sun_sigma_deg: None,
+            yaw_deg: None,
+            yaw_sigma_deg: None,
         }],
     };
     // The capture's own rules (ranges, sizes) before anything is rendered.

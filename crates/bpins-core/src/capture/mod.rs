@@ -41,6 +41,7 @@ pub use lab::{LabCapture, LabFrame};
 /// missing folder, a mistyped path): the bindings turn it into their language's
 /// file-not-found error (Python's `FileNotFoundError`).
 pub const NOT_FOUND: &str = "not found: a capture is a folder holding capture.toml (docs/spec/CAPTURE.md)";
+pub(crate) use spec::clean as clean_toml_error;
 pub(crate) use spec::parse_sensor_lens;
 pub use spec::FORMAT;
 pub(crate) use validate::validate_sensor_lens;
@@ -115,6 +116,12 @@ pub struct FrameSpec {
     pub tilt_sigma_deg: Option<f64>,
     /// 1σ of the sun's azimuth and elevation (clock or position error), degrees.
     pub sun_sigma_deg: Option<f64>,
+    /// The camera's yaw as a gyro integrates it (degrees, the sense of the heading:
+    /// from North toward East), where known; only its changes between frames count
+    /// (`bpins locate`).
+    pub yaw_deg: Option<f64>,
+    /// 1σ of `yaw_deg`'s change from the first frame, degrees.
+    pub yaw_sigma_deg: Option<f64>,
 }
 
 /// The pixels of one frame, in DN.
@@ -141,6 +148,17 @@ impl Capture {
     /// Reads and validates `dir/capture.toml` (`dir` may also be the `capture.toml`
     /// file itself) and checks that every frame file exists. Images are not decoded.
     pub fn load(dir: &Path) -> Result<Capture> {
+        Self::load_with(dir, false)
+    }
+
+    /// [`Capture::load`] that also reads frames stamped with `time_utc` and no place
+    /// (a robot without GNSS: `bpins locate`); their sun is
+    /// [`SunSource::Unplaced`](crate::sky::sun::SunSource), its angles NaN.
+    pub fn load_unplaced(dir: &Path) -> Result<Capture> {
+        Self::load_with(dir, true)
+    }
+
+    fn load_with(dir: &Path, unplaced: bool) -> Result<Capture> {
         let dir = match dir.file_name() {
             Some(n) if n == "capture.toml" && dir.is_file() => match dir.parent() {
                 Some(p) if !p.as_os_str().is_empty() => p,
@@ -154,7 +172,7 @@ impl Capture {
             _ => Error::Io { path: toml_path.clone(), source: e },
         })?;
         let text = String::from_utf8(bytes).map_err(|_| err(&toml_path, "not UTF-8 text"))?;
-        let capture = spec::parse(dir, &toml_path, &text)?;
+        let capture = spec::parse(dir, &toml_path, &text, unplaced)?;
         validate::validate(&capture, &toml_path)?;
         for (i, f) in capture.frames.iter().enumerate() {
             let p = dir.join(&f.file);
@@ -171,7 +189,7 @@ impl Capture {
     /// capture described in code or in another language before it is written.
     pub fn parse(dir: &Path, text: &str) -> Result<Capture> {
         let toml_path = dir.join("capture.toml");
-        let capture = spec::parse(dir, &toml_path, text)?;
+        let capture = spec::parse(dir, &toml_path, text, false)?;
         validate::validate(&capture, &toml_path)?;
         Ok(capture)
     }

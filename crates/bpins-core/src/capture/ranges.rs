@@ -90,9 +90,13 @@ pub const TILT_Y_DEG: Range = Range { key: "tilt_y_deg", ..TILT_X_DEG };
 pub const TILT_SIGMA_DEG: Range =
     Range::closed("tilt_sigma_deg", 0.0, 45.0, "a 1σ; beyond 45° the attitude is unknown");
 pub const SUN_SIGMA_DEG: Range = Range::closed("sun_sigma_deg", 0.0, 45.0, "a 1σ; beyond 45° the sun is unknown");
+pub const YAW_DEG: Range =
+    Range::closed("yaw_deg", -36000.0, 36000.0, "a gyro's integrated yaw: up to a hundred turns either way");
+pub const YAW_SIGMA_DEG: Range =
+    Range::closed("yaw_sigma_deg", 0.0, 45.0, "a 1σ; beyond 45° the turn between frames is unknown");
 
 /// Every fixed range, in the order `docs/ranges.md` lists them.
-pub const ALL: [Range; 14] = [
+pub const ALL: [Range; 16] = [
     WIDTH_PX,
     HEIGHT_PX,
     PIXEL_PITCH_UM,
@@ -107,6 +111,8 @@ pub const ALL: [Range; 14] = [
     TILT_Y_DEG,
     TILT_SIGMA_DEG,
     SUN_SIGMA_DEG,
+    YAW_DEG,
+    YAW_SIGMA_DEG,
 ];
 
 #[cfg(test)]

@@ -69,6 +69,8 @@ struct RawFrame {
     tilt_y_deg: Option<f64>,
     tilt_sigma_deg: Option<f64>,
     sun_sigma_deg: Option<f64>,
+    yaw_deg: Option<f64>,
+    yaw_sigma_deg: Option<f64>,
 }
 
 /// A serde message in this format's words, on one line.
@@ -211,8 +213,9 @@ pub(crate) fn parse_sensor_lens(
 }
 
 /// Parses `text` (the contents of `toml_path`) into a capture rooted at `dir`.
-/// Ranges are not checked here: see `validate.rs`.
-pub(crate) fn parse(dir: &Path, toml_path: &Path, text: &str) -> Result<Capture> {
+/// Ranges are not checked here: see `validate.rs`. With `unplaced`, a frame may give
+/// `time_utc` alone (its sun is then [`SunSource::Unplaced`](crate::sky::sun::SunSource)).
+pub(crate) fn parse(dir: &Path, toml_path: &Path, text: &str, unplaced: bool) -> Result<Capture> {
     let p = toml_path;
     let Header { kind, sensor, lens, frames: raw_frames } = parse_header(p, text)?;
     if kind == "lab" {
@@ -234,12 +237,12 @@ pub(crate) fn parse(dir: &Path, toml_path: &Path, text: &str) -> Result<Capture>
             bail!(p, "{label} must be a table: write each frame as [[frames]]");
         }
         let f: RawFrame = v.try_into().map_err(|e| err(p, format!("{label}: {}", clean(e))))?;
-        frames.push(parse_frame(p, &label, f)?);
+        frames.push(parse_frame(p, &label, f, unplaced)?);
     }
     Ok(Capture { dir: dir.to_path_buf(), sensor, lens, frames })
 }
 
-fn parse_frame(p: &Path, label: &str, f: RawFrame) -> Result<FrameSpec> {
+fn parse_frame(p: &Path, label: &str, f: RawFrame, unplaced: bool) -> Result<FrameSpec> {
     let given = f.sun_azimuth_deg.is_some() || f.sun_elevation_deg.is_some();
     let timed = f.time_utc.is_some() || f.latitude_deg.is_some() || f.longitude_deg.is_some();
     let sun = match (given, timed) {
@@ -279,26 +282,42 @@ fn parse_frame(p: &Path, label: &str, f: RawFrame) -> Result<FrameSpec> {
             .into_iter()
             .filter_map(|(k, m)| m.then_some(k))
             .collect();
+            let time_only = f.time_utc.is_some() && f.latitude_deg.is_none() && f.longitude_deg.is_none();
+            if unplaced && time_only {
+                let time = time_string(p, label, f.time_utc.clone())?;
+                let sun = SunPosition::unplaced(&time).map_err(|e| err(p, format!("{label}: {e}")))?;
+                return Ok(frame_spec(f, sun));
+            }
             if !missing.is_empty() {
                 bail!(
                     p,
                     "{label}: a sun from time and place needs time_utc, latitude_deg and \
-                     longitude_deg; missing {}",
-                    missing.join(", ")
+                     longitude_deg; missing {}{}",
+                    missing.join(", "),
+                    if time_only { " (`bpins locate` reads frames with time_utc alone)" } else { "" }
                 );
             }
-            let time = match f.time_utc {
-                Some(toml::Value::String(s)) => s,
-                Some(toml::Value::Datetime(d)) => d.to_string(),
-                _ => {
-                    bail!(p, "{label}: time_utc must be a timestamp like \"2026-06-21T18:30:00Z\"")
-                }
-            };
+            let time = time_string(p, label, f.time_utc.clone())?;
             let (lat, lon) = (f.latitude_deg.unwrap_or(f64::NAN), f.longitude_deg.unwrap_or(f64::NAN));
             sun_from_time_place(&time, lat, lon).map_err(|e| err(p, format!("{label}: {e}")))?
         }
     };
-    Ok(FrameSpec {
+    Ok(frame_spec(f, sun))
+}
+
+/// `time_utc` as a string: a TOML string or an unquoted offset date-time.
+fn time_string(p: &Path, label: &str, v: Option<toml::Value>) -> Result<String> {
+    match v {
+        Some(toml::Value::String(s)) => Ok(s),
+        Some(toml::Value::Datetime(d)) => Ok(d.to_string()),
+        _ => {
+            bail!(p, "{label}: time_utc must be a timestamp like \"2026-06-21T18:30:00Z\"")
+        }
+    }
+}
+
+fn frame_spec(f: RawFrame, sun: SunPosition) -> FrameSpec {
+    FrameSpec {
         file: PathBuf::from(f.file),
         sun,
         heading_deg: f.heading_deg,
@@ -306,7 +325,9 @@ fn parse_frame(p: &Path, label: &str, f: RawFrame) -> Result<FrameSpec> {
         tilt_y_deg: f.tilt_y_deg,
         tilt_sigma_deg: f.tilt_sigma_deg,
         sun_sigma_deg: f.sun_sigma_deg,
-    })
+        yaw_deg: f.yaw_deg,
+        yaw_sigma_deg: f.yaw_sigma_deg,
+    }
 }
 
 /// The lower-case extension of a frame file, if it is one this format reads.

@@ -31,7 +31,7 @@ fn toml_path() -> PathBuf {
 }
 
 fn load_str(text: &str) -> Result<Capture> {
-    let c = parse(Path::new("/cap"), &toml_path(), text)?;
+    let c = parse(Path::new("/cap"), &toml_path(), text, false)?;
     validate(&c, &toml_path())?;
     Ok(c)
 }
@@ -245,4 +245,31 @@ fn syntax_errors_name_the_file() {
     assert!(m.contains("frames[0] must be a table"), "{m}");
     let m = message(&format!("{MIN}\n[lens]\nprojection = \"pinhole\"\n"));
     assert!(m.contains("not valid TOML at line"), "{m}");
+}
+
+/// A frame with `time_utc` alone (a robot without GNSS): refused by the strict reader
+/// with a pointer to `bpins locate`, read by `load_unplaced`'s parser with NaN
+/// angles, its stamp normalised to UTC, and its gyro's yaw kept; written back the
+/// same way.
+#[test]
+fn a_stamp_without_a_place_is_for_locate_only() {
+    let stamped = edit(
+        "sun_azimuth_deg = 40\nsun_elevation_deg = 25.0\nheading_deg = 0",
+        "time_utc = \"2026-06-21T06:00:00+02:00\"\nyaw_deg = 12.5\nyaw_sigma_deg = 0.1",
+    );
+    let m = message(&stamped);
+    assert!(m.contains("missing latitude_deg, longitude_deg") && m.contains("bpins locate"), "{m}");
+    let c = parse(Path::new("/cap"), &toml_path(), &stamped, true).unwrap();
+    validate(&c, &toml_path()).unwrap();
+    let f = &c.frames[0];
+    assert!(!f.sun.is_known() && f.sun.azimuth_deg.is_nan());
+    assert_eq!(f.sun.source, SunSource::Unplaced { time_utc: "2026-06-21T04:00:00Z".into() });
+    assert_eq!((f.yaw_deg, f.yaw_sigma_deg), (Some(12.5), Some(0.1)));
+    let again = parse(Path::new("/cap"), &toml_path(), &c.to_toml_string(), true).unwrap();
+    let g = &again.frames[0];
+    assert_eq!((&g.sun.source, g.yaw_deg, g.yaw_sigma_deg), (&f.sun.source, f.yaw_deg, f.yaw_sigma_deg));
+    let bad =
+        parse(Path::new("/cap"), &toml_path(), &stamped.replace("yaw_sigma_deg = 0.1", "yaw_sigma_deg = 50"), true);
+    let m = validate(&bad.unwrap(), &toml_path()).unwrap_err().to_string();
+    assert!(m.contains("yaw_sigma_deg"), "{m}");
 }

@@ -83,6 +83,9 @@ pub(crate) fn to_toml(c: &Capture) -> String {
                 t.push_str(&format!("latitude_deg = {}\n", num(*latitude_deg)));
                 t.push_str(&format!("longitude_deg = {}\n", num(*longitude_deg)));
             }
+            SunSource::Unplaced { time_utc } => {
+                t.push_str(&format!("time_utc = {}\n", string(time_utc)));
+            }
         }
         for (key, v) in [
             // Azimuths in files are in [0°, 360°) (CONVENTIONS.md).
@@ -91,6 +94,8 @@ pub(crate) fn to_toml(c: &Capture) -> String {
             ("tilt_y_deg", f.tilt_y_deg),
             ("tilt_sigma_deg", f.tilt_sigma_deg),
             ("sun_sigma_deg", f.sun_sigma_deg),
+            ("yaw_deg", f.yaw_deg),
+            ("yaw_sigma_deg", f.yaw_sigma_deg),
         ] {
             if let Some(v) = v {
                 t.push_str(&format!("{key} = {}\n", num(v)));

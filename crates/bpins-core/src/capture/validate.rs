@@ -123,6 +123,7 @@ fn validate_sun(p: &Path, label: &str, f: &FrameSpec) -> Result<()> {
             ranges::LATITUDE_DEG.check(p, label, *latitude_deg)?;
             ranges::LONGITUDE_DEG.check(p, label, *longitude_deg)?;
         }
+        SunSource::Unplaced { .. } => {}
     }
     let optional = [
         (ranges::HEADING_DEG, f.heading_deg),
@@ -130,6 +131,8 @@ fn validate_sun(p: &Path, label: &str, f: &FrameSpec) -> Result<()> {
         (ranges::TILT_Y_DEG, f.tilt_y_deg),
         (ranges::TILT_SIGMA_DEG, f.tilt_sigma_deg),
         (ranges::SUN_SIGMA_DEG, f.sun_sigma_deg),
+        (ranges::YAW_DEG, f.yaw_deg),
+        (ranges::YAW_SIGMA_DEG, f.yaw_sigma_deg),
     ];
     for (range, v) in optional {
         if let Some(v) = v {

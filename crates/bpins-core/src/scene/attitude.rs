@@ -95,6 +95,8 @@ mod tests {
                 tilt_y_deg: Some(1.0),
                 tilt_sigma_deg: None,
                 sun_sigma_deg: None,
+                yaw_deg: None,
+                yaw_sigma_deg: None,
             })
             .collect()
     }

@@ -41,6 +41,14 @@ pub enum SunSource {
         latitude_deg: f64,
         longitude_deg: f64,
     },
+    /// A UTC stamp and no place (a robot without GNSS): the sun's angles are unknown
+    /// (NaN) until a place is found (`bpins locate`) or given. Only
+    /// [`crate::capture::Capture::load_unplaced`] reads such frames; every reader that
+    /// needs the sun refuses them.
+    Unplaced {
+        /// RFC 3339 timestamp in UTC (`Z`), normalised from what the file said.
+        time_utc: String,
+    },
 }
 
 impl SunSource {
@@ -58,6 +66,15 @@ impl SunSource {
                     longitude_deg.abs()
                 )
             }
+            SunSource::Unplaced { time_utc } => format!("unknown: {time_utc} without a place"),
+        }
+    }
+
+    /// The frame's UTC stamp, where it has one.
+    pub fn time_utc(&self) -> Option<&str> {
+        match self {
+            SunSource::Given => None,
+            SunSource::Spa { time_utc, .. } | SunSource::Unplaced { time_utc } => Some(time_utc),
         }
     }
 }
@@ -76,6 +93,19 @@ impl SunPosition {
     /// A position given directly (azimuth wrapped to [0°, 360°)).
     pub fn given(azimuth_deg: f64, elevation_deg: f64) -> Self {
         SunPosition { azimuth_deg: wrap_deg_360(azimuth_deg), elevation_deg, source: SunSource::Given }
+    }
+
+    /// A frame stamped `time_utc` (RFC 3339, converted to UTC) whose place is unknown:
+    /// NaN angles, [`SunSource::Unplaced`].
+    pub fn unplaced(time_utc: &str) -> Result<Self> {
+        let t = parse_time_utc(time_utc)?;
+        let time_utc = t.to_rfc3339_opts(SecondsFormat::AutoSi, true);
+        Ok(SunPosition { azimuth_deg: f64::NAN, elevation_deg: f64::NAN, source: SunSource::Unplaced { time_utc } })
+    }
+
+    /// Whether the sun's angles are known (given, or SPA from time and place).
+    pub fn is_known(&self) -> bool {
+        !matches!(self.source, SunSource::Unplaced { .. })
     }
 
     /// Unit vector toward the sun in ENU (CONVENTIONS.md).

@@ -42,6 +42,8 @@ pub fn small_capture() -> Capture {
                 tilt_y_deg: None,
                 tilt_sigma_deg: None,
                 sun_sigma_deg: None,
+                yaw_deg: None,
+                yaw_sigma_deg: None,
             })
             .collect(),
     }

@@ -7,7 +7,8 @@ calibration; per frame a raw numpy mosaic, the sun and the attitude in, a
 arrays, :func:`stokes_maps` gives AoP and DoLP of a raw mosaic, :func:`fit` and
 :func:`diagnose` fit the model to a capture folder and search the catalog for what
 it misses (returning the data of the CLI's fit.json and diagnosis.json),
-:func:`effects` the effect catalog.
+:func:`effects` the effect catalog, :func:`locate` north and the place from frames
+over time when GNSS is gone.
 
 Angles are degrees. In-image angles (analyzer orientation, angle of polarization)
 are measured from image +x toward image −y: counter-clockwise as displayed
@@ -22,6 +23,7 @@ from ._bpins import (
     diagnose,
     effects,
     fit,
+    locate,
     read_capture,
     simulate,
     stokes_maps,
@@ -35,6 +37,7 @@ __all__ = [
     "diagnose",
     "effects",
     "fit",
+    "locate",
     "read_capture",
     "simulate",
     "stokes_maps",

@@ -70,6 +70,7 @@ class Compass:
         time_utc: Optional[datetime.datetime] = None,
         latitude_deg: Optional[float] = None,
         longitude_deg: Optional[float] = None,
+        site: Optional[_Path] = None,
         sun_sigma_deg: float = 0.0,
         tilt_x_deg: float = 0.0,
         tilt_y_deg: float = 0.0,
@@ -122,6 +123,24 @@ def stokes_maps(
     mosaic read in place. `interpolation`: "bilinear", "superpixel" (half size) or
     "opencv" (polanalyser's demosaicing, exactly). `out`: preallocated float32 arrays,
     filled in place and returned."""
+
+def locate(
+    capture: _Path,
+    *,
+    calibration: Optional[_Path] = None,
+    pole: bool = False,
+    max_heading_sigma_deg: float = 2.0,
+    max_latitude_sigma_deg: float = 2.0,
+    max_longitude_sigma_deg: float = 3.0,
+    site_out: Optional[_Path] = None,
+) -> Dict[str, Any]:
+    """North, latitude and longitude (with 1σ, degrees) from a capture of frames over
+    time stamped with time_utc and no place (docs/locate.md): "route", "heading_deg"
+    (the camera's heading at the first frame), "latitude_deg", "longitude_deg" (None on
+    the pole route), their "*_sigma_deg", "frames_used", "span_s", "chi2_per_dof",
+    "frames" (per frame the sky's sun or why none). Raises ValueError ("not yet: …")
+    when the sequence is too short or too cloudy for the bounds. `site_out` writes the
+    site file that `Compass.heading(site=…)` and `bpins heading --site` take."""
 
 def read_capture(path: _Path, frames: Optional[Sequence[int]] = None) -> Tuple[Dict[str, Any], List[npt.NDArray[np.float32]]]:
     """capture.toml as a dict and the frames' DN as float32 arrays."""

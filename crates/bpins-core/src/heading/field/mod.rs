@@ -92,10 +92,12 @@
 pub mod cells;
 mod clouds;
 mod robust;
+mod sky_sun;
 mod spatial;
 mod stats;
 
 pub use cells::{Cell, CellScratch, Cells, RawDn, RawImage};
+pub use sky_sun::{sky_sun, SkySun};
 
 use super::Extractor;
 use crate::camera::Intrinsics;

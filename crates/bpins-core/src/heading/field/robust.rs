@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Jackknife blocks per side of the image (BLOCKS² in all).
-const BLOCKS: usize = 4;
+pub(super) const BLOCKS: usize = 4;
 /// Cost cap of the start search: a cell off by more than this is an outlier, radians.
 const SEARCH_CAP_RAD: f64 = 2.0 * PI / 180.0;
 /// Per-cell model error assumed by the start search, radians (so no cell dominates).
@@ -34,16 +34,16 @@ const DILATE_CELLS: isize = 2;
 
 /// One cell as the estimator sees it, level frame.
 #[derive(Clone, Copy, Debug)]
-struct Obs {
+pub(super) struct Obs {
     /// Unit ray and unit E-vector, level camera frame.
-    d: DVec3,
-    e: DVec3,
+    pub(super) d: DVec3,
+    pub(super) e: DVec3,
     dolp: f64,
     /// ln of the cell's mean radiance, DN above black.
     ln_i: f64,
     /// Noise variance of the cell's AoP, rad².
-    var_aop: f64,
-    block: usize,
+    pub(super) var_aop: f64,
+    pub(super) block: usize,
     /// Index in the cell grid (row-major).
     grid: usize,
     /// The E-vector on the level ray's meridional basis: e·p and −e·s (AoE =
@@ -55,7 +55,7 @@ struct Obs {
 }
 
 /// Step 1–2: the cells that pass the masks, in the level frame.
-fn observe(
+pub(super) fn observe(
     cells: &Cells,
     ctx: &FieldContext,
     opts: &FieldOptions,
@@ -308,7 +308,7 @@ const TAU_CHI2: f64 = CHI2_1_Q25;
 
 /// Per-block weighted sums of one extractor: the sun vector's scatter, or the
 /// meridian band (cells with |ψ| < band inside the zenith disc).
-fn block_sums(
+pub(super) fn block_sums(
     obs: &[Obs],
     w: &[(f64, f64, f64, f64)],
     extractor: Extractor,
@@ -358,12 +358,12 @@ fn solve(sums: &HeadingSums, extractor: Extractor, ctx: &FieldContext, hint: DVe
 /// nothing once they have grown to the frame's grid.
 #[derive(Clone, Debug, Default)]
 pub struct Scratch {
-    slots: Vec<Option<Obs>>,
+    pub(super) slots: Vec<Option<Obs>>,
     /// The cells that passed the masks (steps 1–2), level frame.
-    obs: Vec<Obs>,
+    pub(super) obs: Vec<Obs>,
     /// The start search's cells: e·s and d·s as cos ψ, sin ψ, 1 coefficients, weight.
     sub: Vec<[f64; 7]>,
-    b: Bufs,
+    pub(super) b: Bufs,
     /// Per cell of the grid: whether it was seen as non-sky (a cluster of depolarized
     /// cells, grown), for the sky mask.
     sky_grown: Vec<bool>,
@@ -372,7 +372,7 @@ pub struct Scratch {
 /// Step 4's buffers; `w` holds the final weights (robust weight, σ², sin²γ, δ) per
 /// observed cell.
 #[derive(Clone, Debug, Default)]
-struct Bufs {
+pub(super) struct Bufs {
     res: Vec<(f64, f64, f64)>,
     t: Vec<f64>,
     sky: Vec<CellSky>,
@@ -385,7 +385,7 @@ struct Bufs {
     /// (`None`: not yet for this frame).
     cloud_grown: Vec<bool>,
     clouds_at: Option<DVec3>,
-    w: Vec<(f64, f64, f64, f64)>,
+    pub(super) w: Vec<(f64, f64, f64, f64)>,
     mask: Vec<bool>,
     clustered: Vec<bool>,
     tmp: Vec<bool>,
@@ -584,7 +584,7 @@ pub(super) fn heading(
 /// their noise (a Berry sky, the aureole, a tilted fisheye's skyline: ≤ 1.2° RMS in
 /// the field table), degrees.
 const CLEAR_RESIDUAL_DEG: f64 = 0.5;
-fn sum_blocks(blocks: &[HeadingSums]) -> HeadingSums {
+pub(super) fn sum_blocks(blocks: &[HeadingSums]) -> HeadingSums {
     let mut t = HeadingSums::default();
     for b in blocks {
         t += *b;

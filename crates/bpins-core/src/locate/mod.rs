@@ -1,0 +1,283 @@
+//! North and position from the sky alone: for a robot whose GNSS receiver has gone
+//! dark (issue 33).
+//!
+//! The sky's pattern turns with the sun about the celestial pole. Frames of one
+//! camera over time give, per frame, the sun's bearing from the image top and its
+//! elevation, each with 1σ ([`crate::heading::field::sky_sun`]). From them:
+//!
+//! * **stamped route** (every usable frame has `time_utc`; `solve.rs`): unknowns the
+//!   camera's heading at the first frame ψ₀ (its true-north offset), the latitude φ
+//!   and the longitude λ; model (`model.rs`) the apparent sun (A, h)(φ, λ, tᵢ) by NREL
+//!   SPA, the bearing `bᵢ = A − ψ₀ − Δyawᵢ` and the elevation `hᵢ`; weighted least
+//!   squares by Levenberg–Marquardt from the best cells of a 5° × 10° grid of (φ, λ),
+//!   ψ₀ solved in closed form on the grid (the weighted circular mean); covariance
+//!   (JᵀJ)⁻¹ of the whitened residuals, times χ²/dof where it exceeds 1.
+//! * **pole route** (no usable stamps, three frames or more; `pole.rs`): the sun's unit
+//!   vectors in the first frame's level axes lie on a cone about the celestial pole
+//!   (the declination barely moves in a day): fit the cone's axis and half-angle; the
+//!   axis's elevation is the latitude, its bearing gives north; the sense in which the
+//!   sun turns (westward, clockwise about the north pole) tells the north pole from
+//!   the south. No longitude without a clock.
+//!
+//! The relative yaw Δyawᵢ between frames comes from the capture: `yaw_deg` (a gyro,
+//! with `yaw_sigma_deg`) where every frame has it, else `heading_deg` changes where
+//! every frame has one (only changes are used), else the camera is taken as static.
+//! Its 1σ joins the bearing's, frame by frame (a gyro's drift is correlated across
+//! frames; taking it as independent understates its effect when it dominates).
+//!
+//! Honest answers: a sequence with too few usable frames, or whose 1σ exceeds the
+//! asked bounds (too short a span, too cloudy), is a typed [`LocateError`], never an
+//! answer. Frame: ENU and CONVENTIONS.md's azimuths (from North toward East); the
+//! heading is the image top's azimuth at the first frame.
+//!
+//! Cannot: use frames whose sun is below the horizon or within 1° of the zenith;
+//! separate a mount tilt (an elevation bias shared by all frames) from the latitude;
+//! model the declination's change over a day on the pole route (≤ 0.4° per day, so
+//! spans of a few hours); locate from a single frame.
+
+mod capture;
+mod model;
+mod pole;
+mod series;
+mod site;
+mod solve;
+
+pub use capture::{measure, measure_data, relative_yaw, FrameSun};
+pub use model::SunModel;
+pub use series::{with_reference_tilts, Series, SeriesTruth};
+pub use site::Site;
+
+/// How a [`locate`] answer was found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Route {
+    /// UTC stamps: north, latitude and longitude.
+    Stamped,
+    /// No stamps: the pole alone (north and latitude).
+    Pole,
+}
+
+impl Route {
+    pub fn name(self) -> &'static str {
+        match self {
+            Route::Stamped => "stamped",
+            Route::Pole => "pole",
+        }
+    }
+}
+
+/// One frame's measurement for [`locate`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SunObs {
+    /// UTC stamp, seconds since 1970-01-01T00:00:00Z (None: no usable stamp).
+    pub time_unix_s: Option<f64>,
+    /// The camera's turn since the first frame, degrees (heading sense), and its 1σ.
+    pub yaw_deg: f64,
+    pub yaw_sigma_deg: f64,
+    /// The sun's bearing from the image top and its elevation, degrees, with 1σ.
+    pub bearing_deg: f64,
+    pub bearing_sigma_deg: f64,
+    pub elevation_deg: f64,
+    pub elevation_sigma_deg: f64,
+}
+
+/// Bounds on the answer's 1σ past which [`locate`] says "not yet" instead.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocateOptions {
+    pub max_heading_sigma_deg: f64,
+    pub max_latitude_sigma_deg: f64,
+    pub max_longitude_sigma_deg: f64,
+    /// Force the pole route even where the frames have stamps.
+    pub pole_only: bool,
+}
+
+impl Default for LocateOptions {
+    fn default() -> Self {
+        LocateOptions {
+            max_heading_sigma_deg: 2.0,
+            max_latitude_sigma_deg: 2.0,
+            max_longitude_sigma_deg: 3.0,
+            pole_only: false,
+        }
+    }
+}
+
+/// Where the camera is and where it points, with 1σ.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Located {
+    pub route: Route,
+    /// The camera's heading (image top's azimuth) at the first usable frame, [0°, 360°).
+    pub heading_deg: f64,
+    pub heading_sigma_deg: f64,
+    pub latitude_deg: f64,
+    pub latitude_sigma_deg: f64,
+    /// Only on the stamped route.
+    pub longitude_deg: Option<f64>,
+    pub longitude_sigma_deg: Option<f64>,
+    /// Frames the answer rests on, and the span they cover (stamped route), seconds.
+    pub frames_used: usize,
+    pub span_s: Option<f64>,
+    /// χ² per degree of freedom of the fit (the 1σ are inflated by it where > 1).
+    pub chi2_per_dof: f64,
+}
+
+/// Why there is no answer (yet).
+#[derive(Debug, thiserror::Error)]
+pub enum LocateError {
+    #[error(
+        "too few frames with a sun: {usable} of {total} usable, {needed} needed (too cloudy, the sun out of \
+         range, or too few frames){}", if reasons.is_empty() { String::new() } else { format!("; {reasons}") }
+    )]
+    TooFewFrames { usable: usize, total: usize, needed: usize, reasons: String },
+    #[error(
+        "not yet: the {what}'s 1σ is {sigma_deg:.2}°, more than the {limit_deg:.2}° asked, from {frames} frames \
+         (the sequence is too short or too cloudy: take frames over a longer span)"
+    )]
+    TooUncertain { what: &'static str, sigma_deg: f64, limit_deg: f64, frames: usize },
+    #[error("the fit did not converge: {0}")]
+    Solver(String),
+    #[error("relative yaw: {0}")]
+    Yaw(String),
+    #[error(transparent)]
+    Core(#[from] crate::Error),
+}
+
+/// North, latitude and (with stamps) longitude from `obs` (see the module doc).
+pub fn locate(obs: &[SunObs], opts: &LocateOptions) -> Result<Located, LocateError> {
+    let stamped = !opts.pole_only && obs.iter().all(|o| o.time_unix_s.is_some());
+    let needed = 3;
+    if obs.len() < needed {
+        return Err(LocateError::TooFewFrames { usable: obs.len(), total: obs.len(), needed, reasons: String::new() });
+    }
+    let r = if stamped { solve::solve_stamped(obs)? } else { pole::solve_pole(obs)? };
+    let checks = [
+        ("heading", Some(r.heading_sigma_deg), opts.max_heading_sigma_deg),
+        ("latitude", Some(r.latitude_sigma_deg), opts.max_latitude_sigma_deg),
+        ("longitude", r.longitude_sigma_deg, opts.max_longitude_sigma_deg),
+    ];
+    for (what, sigma, limit) in checks {
+        if let Some(s) = sigma {
+            #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN 1σ must be refused too
+            if !(s <= limit) {
+                return Err(LocateError::TooUncertain { what, sigma_deg: s, limit_deg: limit, frames: obs.len() });
+            }
+        }
+    }
+    Ok(r)
+}
+
+/// The 3 × 3 covariance of a least-squares fit from the Jacobian `j` (rows: whitened
+/// residuals), inflated by `max(1, χ²/dof)`; `None` where JᵀJ is singular.
+pub(crate) fn covariance(j: &[[f64; 3]], chi2: f64) -> Option<([[f64; 3]; 3], f64)> {
+    let mut jtj = nalgebra::Matrix3::<f64>::zeros();
+    for row in j {
+        for a in 0..3 {
+            for b in 0..3 {
+                jtj[(a, b)] += row[a] * row[b];
+            }
+        }
+    }
+    let inv = jtj.try_inverse()?;
+    let dof = j.len().saturating_sub(3);
+    let chi2_per_dof = if dof > 0 { chi2 / dof as f64 } else { 1.0 };
+    let k = chi2_per_dof.max(1.0);
+    let mut c = [[0.0; 3]; 3];
+    for a in 0..3 {
+        for b in 0..3 {
+            c[a][b] = inv[(a, b)] * k;
+        }
+    }
+    Some((c, chi2_per_dof))
+}
+
+/// Adds to `cov` the parameters' spread under a bias shared by every frame: `v` is the
+/// whitened residuals' change per unit of the bias, `sigma` the bias's 1σ. The
+/// estimate moves by Δp = −(JᵀJ)⁻¹Jᵀv per unit; Δp Δpᵀ σ² joins the covariance (a
+/// shared error is invisible to χ² and does not average out over frames).
+pub(crate) fn add_shared_bias(cov: &mut [[f64; 3]; 3], j: &[[f64; 3]], v: &[f64], sigma: f64) {
+    let mut jtj = nalgebra::Matrix3::<f64>::zeros();
+    let mut jtv = nalgebra::Vector3::<f64>::zeros();
+    for (row, vi) in j.iter().zip(v) {
+        for a in 0..3 {
+            jtv[a] += row[a] * vi;
+            for b in 0..3 {
+                jtj[(a, b)] += row[a] * row[b];
+            }
+        }
+    }
+    let Some(inv) = jtj.try_inverse() else { return };
+    let dp = inv * jtv;
+    for a in 0..3 {
+        for b in 0..3 {
+            cov[a][b] += dp[a] * dp[b] * sigma * sigma;
+        }
+    }
+}
+
+/// Levenberg–Marquardt on three parameters: `f(p)` returns the whitened residuals.
+/// Numeric Jacobian (central differences of `step`). Returns the parameters, the
+/// final residuals' χ² and the Jacobian there.
+pub(crate) fn levenberg_marquardt(
+    mut p: [f64; 3],
+    step: [f64; 3],
+    f: &dyn Fn(&[f64; 3]) -> Option<Vec<f64>>,
+) -> Option<([f64; 3], f64, Vec<[f64; 3]>)> {
+    let chi2 = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
+    let jac = |p: &[f64; 3]| -> Option<Vec<[f64; 3]>> {
+        let mut cols = Vec::with_capacity(3);
+        for k in 0..3 {
+            let (mut a, mut b) = (*p, *p);
+            a[k] += step[k];
+            b[k] -= step[k];
+            let (ra, rb) = (f(&a)?, f(&b)?);
+            cols.push(ra.iter().zip(&rb).map(|(x, y)| (x - y) / (2.0 * step[k])).collect::<Vec<_>>());
+        }
+        Some((0..cols[0].len()).map(|i| [cols[0][i], cols[1][i], cols[2][i]]).collect())
+    };
+    let mut r = f(&p)?;
+    let mut c = chi2(&r);
+    let mut lambda = 1e-3;
+    for _ in 0..100 {
+        let j = jac(&p)?;
+        let mut a = nalgebra::Matrix3::<f64>::zeros();
+        let mut g = nalgebra::Vector3::<f64>::zeros();
+        for (row, ri) in j.iter().zip(&r) {
+            for x in 0..3 {
+                g[x] += row[x] * ri;
+                for y in 0..3 {
+                    a[(x, y)] += row[x] * row[y];
+                }
+            }
+        }
+        let mut improved = false;
+        for _ in 0..12 {
+            let mut m = a;
+            for x in 0..3 {
+                m[(x, x)] *= 1.0 + lambda;
+                m[(x, x)] += 1e-12;
+            }
+            let Some(d) = m.lu().solve(&(-g)) else { break };
+            let q = [p[0] + d[0], p[1] + d[1], p[2] + d[2]];
+            if let Some(rq) = f(&q) {
+                let cq = chi2(&rq);
+                if cq < c {
+                    let small = c - cq < 1e-10 * c.max(1e-30);
+                    (p, r, c) = (q, rq, cq);
+                    lambda = (lambda * 0.3).max(1e-9);
+                    improved = true;
+                    if small {
+                        let j = jac(&p)?;
+                        return Some((p, c, j));
+                    }
+                    break;
+                }
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    let j = jac(&p)?;
+    Some((p, c, j))
+}
