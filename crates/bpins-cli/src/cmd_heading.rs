@@ -15,8 +15,23 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Capture folder holding capture.toml (bpins-capture/1).
-    capture: PathBuf,
+    /// Capture folder holding capture.toml (bpins-capture/1); or --bag.
+    #[arg(required_unless_present = "bag", conflicts_with = "bag")]
+    capture: Option<PathBuf>,
+    #[command(flatten)]
+    bag: crate::bag::BagArgs,
+    /// With --bag: write a new ROS 2 bag (MCAP) to this folder (which must not
+    /// exist): per frame a sensor_msgs/Imu with the heading (REP 103, REP 145), or a
+    /// diagnostic_msgs/DiagnosticArray saying why there is none.
+    #[arg(long, value_name = "DIR", requires = "bag")]
+    bag_out: Option<PathBuf>,
+    /// With --bag-out: the topic of the sensor_msgs/Imu headings.
+    #[arg(long, default_value = "/bpins/heading", value_name = "TOPIC")]
+    heading_topic: String,
+    /// With --bag-out: the topic of the diagnostic_msgs/DiagnosticArray of frames
+    /// without a heading.
+    #[arg(long, default_value = "/diagnostics", value_name = "TOPIC")]
+    diagnostics_topic: String,
     /// Heading extractor: sun_vector, meridian_line, or all.
     #[arg(long, default_value = "sun_vector")]
     extractor: String,
@@ -85,7 +100,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     let opts = FieldOptions { cell_px: a.cell_px, ..FieldOptions::default() };
-    let capture = Capture::load(&a.capture)?;
+    let Some(capture_dir) = &a.capture else {
+        return run_bag(&a, &extractors, opts);
+    };
+    let capture = Capture::load(capture_dir)?;
     if let Some(p) = &a.json {
         ensure_not_in_capture(p)?;
     }
@@ -218,6 +236,30 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         bail!("{failed} heading extraction(s) failed");
     }
     Ok(())
+}
+
+/// `--bag`: the front door over a ROS 2 bag (cmd_heading_bag.rs).
+fn run_bag(a: &Args, extractors: &[Extractor], opts: FieldOptions) -> anyhow::Result<()> {
+    let [extractor] = extractors else {
+        bail!("--bag reads one extractor per run: --extractor sun_vector or meridian_line, not all");
+    };
+    if a.estimator != Estimator::Field {
+        bail!("--bag reads through the field estimator (the compass): --estimator plain is for captures");
+    }
+    let mut calibration = match &a.calibration {
+        Some(p) => bpins_core::calibration::Calibration::load(p)?,
+        None => bpins_core::calibration::Calibration::default(),
+    };
+    for spec in &a.effects {
+        calibration.effects.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
+    }
+    let out = crate::cmd_heading_bag::BagOut {
+        json: a.json.as_deref(),
+        bag_out: a.bag_out.as_ref(),
+        heading_topic: &a.heading_topic,
+        diagnostics_topic: &a.diagnostics_topic,
+    };
+    crate::cmd_heading_bag::run(&a.bag, *extractor, calibration, opts, out)
 }
 
 /// One extractor's result on one frame.

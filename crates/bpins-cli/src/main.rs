@@ -24,6 +24,7 @@ macro_rules! say {
 }
 
 mod backend;
+mod bag;
 mod cmd_agree;
 mod cmd_bench;
 mod cmd_calibrate;
@@ -31,6 +32,7 @@ mod cmd_diagnose;
 mod cmd_effects;
 mod cmd_fit;
 mod cmd_heading;
+mod cmd_heading_bag;
 mod cmd_run;
 mod cmd_simulate;
 mod cmd_sweep;

@@ -23,6 +23,7 @@
 pub mod cdr;
 pub mod convert;
 mod error;
+pub mod matching;
 pub mod metadata;
 pub mod msgs;
 pub mod reader;
