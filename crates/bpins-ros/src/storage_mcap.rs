@@ -45,7 +45,19 @@ impl<'a> Cursor<'a> {
             }
             let path = &self.files[self.file].0;
             let stream = self.stream.as_mut().expect("opened above");
-            match stream.next() {
+            // mcap 0.26 can panic on a damaged file (an integer underflow when a
+            // record claims more bytes than its uncompressed chunk holds; found by
+            // tests/fuzz_bags.rs): that is a damaged bag, reported as an error, and the
+            // stream is not used again.
+            let next = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| stream.next())) {
+                Ok(n) => n,
+                Err(_) => {
+                    self.stream = None;
+                    self.file = self.files.len();
+                    return Err(format!("{}: a record overruns its chunk (the file is damaged)", path.display()));
+                }
+            };
+            match next {
                 None => {
                     self.stream = None;
                     self.file += 1;

@@ -54,6 +54,11 @@ impl Cursor {
             };
             match row {
                 Some((id, t, data)) => {
+                    if id <= self.last_id {
+                        // Only a damaged file answers `id > last` with a smaller id;
+                        // reading on would loop.
+                        return Err(format!("{}: message ids out of order (the file is damaged)", path.display()));
+                    }
                     self.last_id = id;
                     return Ok(Some((t, data)));
                 }
