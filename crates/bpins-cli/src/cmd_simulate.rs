@@ -26,6 +26,11 @@ pub struct Args {
     /// I0, I45, I90, I135 (DN, every channel at every pixel), AoP (°), DoLP, AoE (°).
     #[arg(long, conflicts_with = "out")]
     exr: Option<PathBuf>,
+    /// Also write the capture as a ROS 2 bag (MCAP) to this new folder: images,
+    /// CameraInfo, the IMU's tilt, GNSS fixes (time-and-place suns) and the true
+    /// heading (docs/ros2.md).
+    #[arg(long, value_name = "DIR", requires = "out", conflicts_with = "lab")]
+    bag_out: Option<PathBuf>,
     /// Compute backend.
     #[arg(long, value_enum, default_value_t = Backend::Cpu)]
     backend: Backend,
@@ -298,6 +303,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let n = writer.written();
     writer.finish()?;
     say!("wrote {n} frames to {}", out.display());
+    if let Some(b) = &a.bag_out {
+        crate::capture_bag::capture_to_bag(&Capture::load(out)?, b)?;
+    }
     Ok(())
 }
 

@@ -25,6 +25,7 @@ macro_rules! say {
 
 mod backend;
 mod bag;
+mod capture_bag;
 mod cmd_agree;
 mod cmd_bench;
 mod cmd_calibrate;
@@ -72,8 +73,12 @@ enum Command {
     Run(cmd_run::Args),
     /// Simulate a capture (bpins-capture/1) or one EXR frame, with any effect.
     Simulate(Box<cmd_simulate::Args>),
-    /// Heading of every frame of a capture, against its reference heading.
+    /// Heading of every frame of a capture, against its reference heading; or of a
+    /// ROS 2 bag's images (--bag), optionally into a new bag (--bag-out).
     Heading(cmd_heading::Args),
+    /// A ROS 2 bag's DoFP frames, with their sun and tilt, as a new capture
+    /// (bpins-capture/1), for fit, diagnose and calibrate.
+    BagToCapture(capture_bag::Args),
     /// List the effects bpins models, with their parameters.
     Effects(cmd_effects::Args),
     /// Run seeded trials over every effect on the CPU and the GPU and compare them.
@@ -103,6 +108,7 @@ fn main() -> ExitCode {
         Command::Run(a) => cmd_run::run(a),
         Command::Simulate(a) => cmd_simulate::run(*a),
         Command::Heading(a) => cmd_heading::run(a),
+        Command::BagToCapture(a) => capture_bag::bag_to_capture(a),
         Command::Effects(a) => cmd_effects::run(a),
         Command::Agree(a) => cmd_agree::run(a),
         Command::Bench(a) => cmd_bench::run(a),
