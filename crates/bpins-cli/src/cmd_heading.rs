@@ -32,6 +32,11 @@ pub struct Args {
     /// without a heading.
     #[arg(long, default_value = "/diagnostics", value_name = "TOPIC")]
     diagnostics_topic: String,
+    /// With --bag-out: the frame_id of the Imu headings (default: the image's). The
+    /// orientation is that of bpins' body frame (x the image top, z the optical
+    /// axis: docs/ros2.md); name a TF frame that is it.
+    #[arg(long, value_name = "FRAME")]
+    heading_frame_id: Option<String>,
     /// Heading extractor: sun_vector, meridian_line, or all.
     #[arg(long, default_value = "sun_vector")]
     extractor: String,
@@ -258,6 +263,7 @@ fn run_bag(a: &Args, extractors: &[Extractor], opts: FieldOptions) -> anyhow::Re
         bag_out: a.bag_out.as_ref(),
         heading_topic: &a.heading_topic,
         diagnostics_topic: &a.diagnostics_topic,
+        heading_frame_id: a.heading_frame_id.as_deref(),
     };
     crate::cmd_heading_bag::run(&a.bag, *extractor, calibration, opts, out)
 }

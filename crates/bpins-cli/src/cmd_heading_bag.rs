@@ -26,6 +26,8 @@ pub struct BagOut<'a> {
     pub bag_out: Option<&'a PathBuf>,
     pub heading_topic: &'a str,
     pub diagnostics_topic: &'a str,
+    /// The Imu headings' frame_id instead of the image's.
+    pub heading_frame_id: Option<&'a str>,
 }
 
 /// Runs the compass over the bag; `calibration` and `options` as `bpins heading`.
@@ -137,8 +139,12 @@ pub fn run(
         if let Some(w) = writer.as_mut() {
             match (heading, sigma, &f.tilt) {
                 (Some(h), Some(sg), Ok(t)) => {
+                    let mut header = header.clone();
+                    if let Some(id) = out.heading_frame_id {
+                        header.frame_id = id.to_string();
+                    }
                     let msg = rep103::heading_imu(
-                        header.clone(),
+                        header,
                         h,
                         sg,
                         t.tilt_x_deg,
