@@ -53,7 +53,7 @@ pub fn bag_to_capture(a: Args) -> anyhow::Result<()> {
         sensor.geometry.pixel_pitch_um = p;
     }
     let pitch = sensor.geometry.pixel_pitch_um;
-    if !(pitch > 0.0) {
+    if pitch.is_nan() || pitch <= 0.0 {
         bail!("no pixel pitch: give --pixel-pitch-um or a sensor file (--sensor)");
     }
     let lens = match &input.lens {

@@ -21,9 +21,15 @@ pub struct Stamped<T> {
     pub value: Result<T, String>,
 }
 
-/// Decodes one message into its stamp and value (or why the value is unusable);
-/// an `Err` is a message that does not decode at all (a damaged bag).
-pub type Decoder<T> = fn(&[u8]) -> Result<(i64, Result<T, String>), String>;
+/// One message decoded: its stamp and value (or why the value is unusable); an
+/// `Err` is a message that does not decode at all (a damaged bag).
+pub type Decoded<T> = Result<(i64, Result<T, String>), String>;
+
+/// Decodes one message for a [`Track`].
+pub type Decoder<T> = fn(&[u8]) -> Decoded<T>;
+
+/// The samples around a stamp: the last at or before it, the first after it.
+pub type Around<'t, T> = (Option<&'t Stamped<T>>, Option<&'t Stamped<T>>);
 
 /// A topic walked forward in step with the images.
 pub struct Track<'a, T> {
@@ -57,7 +63,7 @@ impl<'a, T> Track<'a, T> {
     }
 
     /// The last sample stamped at or before `t_ns` and the first after it.
-    pub fn around(&mut self, t_ns: i64) -> Result<(Option<&Stamped<T>>, Option<&Stamped<T>>), BagError> {
+    pub fn around(&mut self, t_ns: i64) -> Result<Around<'_, T>, BagError> {
         if !self.started {
             self.started = true;
             self.next = self.read()?;
@@ -89,13 +95,13 @@ pub enum ImuMatch {
 pub type ImuSample = ([f64; 4], f64, f64);
 
 /// Decodes a `sensor_msgs/Imu` for a [`Track`].
-pub fn decode_imu(bytes: &[u8]) -> Result<(i64, Result<ImuSample, String>), String> {
+pub fn decode_imu(bytes: &[u8]) -> Decoded<ImuSample> {
     let m: Imu = decode(bytes)?;
     Ok((m.header.stamp.ns(), imu_orientation(&m)))
 }
 
 /// Decodes a `sensor_msgs/NavSatFix` for a [`Track`]: (latitude, longitude), degrees.
-pub fn decode_fix(bytes: &[u8]) -> Result<(i64, Result<(f64, f64), String>), String> {
+pub fn decode_fix(bytes: &[u8]) -> Decoded<(f64, f64)> {
     let m: NavSatFix = decode(bytes)?;
     let v = if m.status.status < 0 {
         Err(format!("no fix (status {})", m.status.status))

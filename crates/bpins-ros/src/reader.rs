@@ -153,7 +153,7 @@ impl Bag {
     /// A cursor over the messages of `topic` in storage order.
     pub fn cursor(&self, topic: &str) -> Result<TopicCursor<'_>, BagError> {
         let inner = match &self.storage {
-            Storage::Mcap(files) => Inner::Mcap(storage_mcap::Cursor::new(files, topic)),
+            Storage::Mcap(files) => Inner::Mcap(Box::new(storage_mcap::Cursor::new(files, topic))),
             Storage::Sqlite(files) => Inner::Sqlite(storage_sqlite::Cursor::new(files, topic)),
         };
         Ok(TopicCursor { bag: self, topic: topic.to_string(), next_index: 0, inner, done: false })
@@ -165,7 +165,7 @@ impl Bag {
 }
 
 enum Inner<'a> {
-    Mcap(storage_mcap::Cursor<'a>),
+    Mcap(Box<storage_mcap::Cursor<'a>>),
     Sqlite(storage_sqlite::Cursor),
 }
 
