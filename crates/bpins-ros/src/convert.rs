@@ -9,8 +9,10 @@ use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::heading::field::RawImage;
 
 /// An image's pixels as the compass reads them: `u8` borrowed from the message
-/// (`mono8`, rows `step` bytes apart), or `u16` converted to host order into a
-/// buffer reused from frame to frame (`mono16`, either byte order, any `step`).
+/// (`mono8`, rows `step` bytes apart), `u16` borrowed where the message's byte
+/// order is the host's and the rows are 2-byte aligned, else converted to host
+/// order into a buffer reused from frame to frame (`mono16`, either byte order, any
+/// `step`).
 pub enum Mosaic<'a> {
     U8(RawImage<'a, u8>),
     U16(RawImage<'a, u16>),
@@ -52,6 +54,12 @@ pub fn mosaic<'a>(im: &'a Image<'_>, scratch: &'a mut Vec<u16>) -> Result<Mosaic
         1 => true,
         b => return Err(format!("is_bigendian = {b}: must be 0 or 1")),
     };
+    // Pixels in the host's byte order, rows 2-byte aligned: read in place.
+    if big == cfg!(target_endian = "big") && step % 2 == 0 {
+        if let Ok(px) = bytemuck::try_cast_slice::<u8, u16>(&im.data[..need]) {
+            return Ok(Mosaic::U16(RawImage { data: px, width_px: w, height_px: h, stride: step / 2 }));
+        }
+    }
     scratch.clear();
     scratch.reserve(w * h);
     for v in 0..h {
@@ -238,7 +246,10 @@ mod tests {
             }
             let im = image("mono16", big, 4, 3, step, data);
             match mosaic(&im, &mut scratch).unwrap() {
-                Mosaic::U16(r) => assert_eq!((r.data, r.stride), (&dn[..], 4)),
+                Mosaic::U16(r) => {
+                    let packed: Vec<u16> = (0..3).flat_map(|v| r.data[v * r.stride..][..4].to_vec()).collect();
+                    assert_eq!(packed, dn, "big-endian {big}, step {step}");
+                }
                 Mosaic::U8(_) => panic!("u8"),
             }
         }
