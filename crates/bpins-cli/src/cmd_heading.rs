@@ -15,8 +15,28 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Capture folder holding capture.toml (bpins-capture/1).
-    capture: PathBuf,
+    /// Capture folder holding capture.toml (bpins-capture/1); or --bag.
+    #[arg(required_unless_present = "bag", conflicts_with = "bag")]
+    capture: Option<PathBuf>,
+    #[command(flatten)]
+    bag: crate::bag::BagArgs,
+    /// With --bag: write a new ROS 2 bag (MCAP) to this folder (which must not
+    /// exist): per frame a sensor_msgs/Imu with the heading (REP 103, REP 145), or a
+    /// diagnostic_msgs/DiagnosticArray saying why there is none.
+    #[arg(long, value_name = "DIR", requires = "bag")]
+    bag_out: Option<PathBuf>,
+    /// With --bag-out: the topic of the sensor_msgs/Imu headings.
+    #[arg(long, default_value = "/bpins/heading", value_name = "TOPIC")]
+    heading_topic: String,
+    /// With --bag-out: the topic of the diagnostic_msgs/DiagnosticArray of frames
+    /// without a heading.
+    #[arg(long, default_value = "/diagnostics", value_name = "TOPIC")]
+    diagnostics_topic: String,
+    /// With --bag-out: the frame_id of the Imu headings (default: the image's). The
+    /// orientation is that of bpins' body frame (x the image top, z the optical
+    /// axis: docs/ros2.md); name a TF frame that is it.
+    #[arg(long, value_name = "FRAME")]
+    heading_frame_id: Option<String>,
     /// Heading extractor: sun_vector, meridian_line, or all.
     #[arg(long, default_value = "sun_vector")]
     extractor: String,
@@ -90,11 +110,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     let opts = FieldOptions { cell_px: a.cell_px, ..FieldOptions::default() };
+    let Some(capture_dir) = &a.capture else {
+        return run_bag(&a, &extractors, opts);
+    };
     let capture = match &a.site {
-        None => Capture::load(&a.capture)?,
+        None => Capture::load(capture_dir)?,
         Some(p) => {
             let site = bpins_core::locate::Site::load(p)?;
-            let mut c = Capture::load_unplaced(&a.capture)?;
+            let mut c = Capture::load_unplaced(capture_dir)?;
             let n = site.place(&mut c).with_context(|| format!("--site {}", p.display()))?;
             say!("--site {}: the sun of {n} frame(s) stamped without a place from the located site", p.display());
             c
@@ -232,6 +255,31 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         bail!("{failed} heading extraction(s) failed");
     }
     Ok(())
+}
+
+/// `--bag`: the front door over a ROS 2 bag (cmd_heading_bag.rs).
+fn run_bag(a: &Args, extractors: &[Extractor], opts: FieldOptions) -> anyhow::Result<()> {
+    let [extractor] = extractors else {
+        bail!("--bag reads one extractor per run: --extractor sun_vector or meridian_line, not all");
+    };
+    if a.estimator != Estimator::Field {
+        bail!("--bag reads through the field estimator (the compass): --estimator plain is for captures");
+    }
+    let mut calibration = match &a.calibration {
+        Some(p) => bpins_core::calibration::Calibration::load(p)?,
+        None => bpins_core::calibration::Calibration::default(),
+    };
+    for spec in &a.effects {
+        calibration.effects.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
+    }
+    let out = crate::cmd_heading_bag::BagOut {
+        json: a.json.as_deref(),
+        bag_out: a.bag_out.as_ref(),
+        heading_topic: &a.heading_topic,
+        diagnostics_topic: &a.diagnostics_topic,
+        heading_frame_id: a.heading_frame_id.as_deref(),
+    };
+    crate::cmd_heading_bag::run(&a.bag, *extractor, calibration, opts, out)
 }
 
 /// One extractor's result on one frame.

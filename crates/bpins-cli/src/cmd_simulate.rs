@@ -26,6 +26,11 @@ pub struct Args {
     /// I0, I45, I90, I135 (DN, every channel at every pixel), AoP (°), DoLP, AoE (°).
     #[arg(long, conflicts_with = "out")]
     exr: Option<PathBuf>,
+    /// Also write the capture as a ROS 2 bag (MCAP) to this new folder: images,
+    /// CameraInfo, the IMU's tilt, GNSS fixes (time-and-place suns) and the true
+    /// heading (docs/ros2.md).
+    #[arg(long, value_name = "DIR", requires = "out", conflicts_with = "lab")]
+    bag_out: Option<PathBuf>,
     /// Compute backend.
     #[arg(long, value_enum, default_value_t = Backend::Cpu)]
     backend: Backend,
@@ -210,6 +215,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     // and the reference to write differ (scene::attitude).
     let nominal = build_capture(&a)?;
     let series = series_of(&a)?;
+    if series.is_some() && a.bag_out.is_some() {
+        bail!(
+            "--bag-out with --every-min: a located series has frames without a place (no sun to write); \
+             simulate the series as a capture, or the bag without --every-min"
+        );
+    }
     let (nominal, series_written) = match &series {
         Some(s) => {
             let ext = nominal.frames[0].file.extension().and_then(|e| e.to_str()).unwrap_or("png").to_string();
@@ -333,6 +344,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let path = out.join("truth.toml");
         crate::write_output(&path, s.truth().to_toml_string().as_bytes())?;
         say!("wrote the truth to {}", path.display());
+    }
+    if let Some(b) = &a.bag_out {
+        crate::capture_bag::capture_to_bag(&Capture::load(out)?, b)?;
     }
     Ok(())
 }

@@ -24,6 +24,8 @@ macro_rules! say {
 }
 
 mod backend;
+mod bag;
+mod capture_bag;
 mod cmd_agree;
 mod cmd_bench;
 mod cmd_calibrate;
@@ -33,6 +35,7 @@ mod cmd_fit;
 mod cmd_heading;
 mod cmd_maps;
 mod cmd_locate;
+mod cmd_heading_bag;
 mod cmd_run;
 mod cmd_simulate;
 mod cmd_sweep;
@@ -72,12 +75,16 @@ enum Command {
     Run(cmd_run::Args),
     /// Simulate a capture (bpins-capture/1) or one EXR frame, with any effect.
     Simulate(Box<cmd_simulate::Args>),
-    /// Heading of every frame of a capture, against its reference heading.
+    /// Heading of every frame of a capture, against its reference heading; or of a
+    /// ROS 2 bag's images (--bag), optionally into a new bag (--bag-out).
     Heading(cmd_heading::Args),
     /// AoP, DoLP, intensity and AoE maps of every frame of a DoFP capture (EXR).
     Maps(cmd_maps::Args),
     /// North, latitude and longitude from frames over time, without GNSS (writes a site file).
     Locate(cmd_locate::Args),
+    /// A ROS 2 bag's DoFP frames, with their sun and tilt, as a new capture
+    /// (bpins-capture/1), for fit, diagnose and calibrate.
+    BagToCapture(capture_bag::Args),
     /// List the effects bpins models, with their parameters.
     Effects(cmd_effects::Args),
     /// Run seeded trials over every effect on the CPU and the GPU and compare them.
@@ -109,6 +116,7 @@ fn main() -> ExitCode {
         Command::Heading(a) => cmd_heading::run(a),
         Command::Maps(a) => cmd_maps::run(a),
         Command::Locate(a) => cmd_locate::run(a),
+        Command::BagToCapture(a) => capture_bag::bag_to_capture(a),
         Command::Effects(a) => cmd_effects::run(a),
         Command::Agree(a) => cmd_agree::run(a),
         Command::Bench(a) => cmd_bench::run(a),

@@ -273,6 +273,21 @@ impl Capture {
     }
 }
 
+/// A sensor file: the `[sensor]` and `[lens]` tables of `capture.toml` alone, with
+/// its defaults and ranges (CAPTURE.md), for frames that come from elsewhere (a ROS
+/// 2 bag: `bpins heading --bag`). Any other key is an error naming it.
+pub fn load_sensor_file(path: &Path) -> Result<(SensorSpec, LensSpec)> {
+    let text = fs::read_to_string(path).map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?;
+    let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| err(path, spec::clean(e)))?;
+    let (sensor, lens) = (table.remove("sensor"), table.remove("lens"));
+    if let Some(k) = table.keys().next() {
+        bail!(path, "unknown key `{k}`: a sensor file holds [sensor] and [lens] only (CAPTURE.md)");
+    }
+    let (s, l) = spec::parse_sensor_lens(path, sensor, lens)?;
+    validate::validate_sensor_lens(&s, &l, path)?;
+    Ok((s, l))
+}
+
 /// `p` made absolute, `..` resolved, and every existing prefix canonicalised.
 /// The capture folder (one holding `capture.toml`) that `path` lies in or is, if
 /// any: outputs must never go there. `..` and symbolic links are resolved first.

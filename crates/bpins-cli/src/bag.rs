@@ -1,0 +1,325 @@
+//! What every command that reads a ROS 2 bag shares (`bpins heading --bag`, `bpins
+//! bag-to-capture`): the flags naming topics and the sensor, the camera model they
+//! resolve to, and the per-image sun and tilt (crates/bpins-ros).
+
+use anyhow::{anyhow, bail, Context};
+use bpins_core::camera::Intrinsics;
+use bpins_core::capture::{load_sensor_file, LensSpec, SensorSpec};
+use bpins_core::sensor::{Channel, Layout, DEFAULT_MOSAIC};
+use bpins_core::sky::sun::{sun_from_unix_time, SunPosition};
+use bpins_ros::cdr::decode;
+use bpins_ros::convert::{camera_size_px, intrinsics, Tilt};
+use bpins_ros::matching::{decode_fix, decode_imu, place_at, tilt_at, ImuMatch, ImuSample, Track};
+use bpins_ros::msgs::{types, CameraInfo, Image};
+use bpins_ros::{Bag, BagMessage, TopicCursor};
+use std::path::PathBuf;
+
+/// The flags of a bag's inputs.
+#[derive(clap::Args, Clone, Debug)]
+pub struct BagArgs {
+    /// A ROS 2 bag (rosbag2 folder with metadata.yaml; MCAP or sqlite3 storage) to
+    /// read instead of a capture: DoFP frames from sensor_msgs/Image (docs/ros2.md).
+    #[arg(long, value_name = "DIR")]
+    pub bag: Option<PathBuf>,
+    /// The sensor_msgs/Image topic (default: the bag's only Image topic).
+    #[arg(long, value_name = "TOPIC")]
+    pub image_topic: Option<String>,
+    /// The sensor_msgs/CameraInfo topic for the intrinsics (default: the bag's only
+    /// one, if any; its first message is used).
+    #[arg(long, value_name = "TOPIC")]
+    pub camera_info_topic: Option<String>,
+    /// The sensor_msgs/Imu topic for each frame's reference tilt and its 1σ
+    /// (default: the bag's only Imu topic; without one the camera is taken as level).
+    #[arg(long, value_name = "TOPIC")]
+    pub imu_topic: Option<String>,
+    /// The sensor_msgs/NavSatFix topic: with each image's stamp, the sun through NREL
+    /// SPA (default: the bag's only NavSatFix topic, unless the sun is given).
+    #[arg(long, value_name = "TOPIC")]
+    pub fix_topic: Option<String>,
+    /// A sensor file: the [sensor] and [lens] tables of capture.toml (CAPTURE.md),
+    /// for the mosaic, bit depth, black level and, without CameraInfo, the lens.
+    #[arg(long, value_name = "FILE")]
+    pub sensor: Option<PathBuf>,
+    /// DoFP analyzer angles, degrees, by tile: row 0 col 0, row 0 col 1, row 1 col 0,
+    /// row 1 col 1 (default: the sensor file's, else 90,45,135,0).
+    #[arg(long, value_delimiter = ',', num_args = 4, value_name = "DEG")]
+    pub mosaic_deg: Option<Vec<f64>>,
+    /// ADC bits (default: the sensor file's, else 8 for mono8 and 16 for mono16).
+    #[arg(long)]
+    pub bit_depth: Option<u32>,
+    /// Black level, DN (default: the sensor file's, else 0).
+    #[arg(long)]
+    pub black_level_dn: Option<f64>,
+    /// The sun's azimuth (from North toward East), degrees, for every frame, instead
+    /// of NREL SPA from a NavSatFix topic; with --sun-elevation-deg.
+    #[arg(long, allow_negative_numbers = true, requires = "sun_elevation_deg")]
+    pub sun_azimuth_deg: Option<f64>,
+    /// The sun's elevation, degrees, with --sun-azimuth-deg.
+    #[arg(long, allow_negative_numbers = true, requires = "sun_azimuth_deg")]
+    pub sun_elevation_deg: Option<f64>,
+    /// 1σ of the sun's azimuth and elevation, degrees (clock or position error).
+    #[arg(long, default_value_t = 0.0)]
+    pub sun_sigma_deg: f64,
+    /// 1σ of each tilt angle, degrees, instead of the IMU's orientation covariance
+    /// (or, without an IMU, the level camera's).
+    #[arg(long)]
+    pub tilt_sigma_deg: Option<f64>,
+    /// How an IMU sample is matched to an image's stamp.
+    #[arg(long, value_enum, default_value_t = ImuMatchArg::Interpolate)]
+    pub imu_match: ImuMatchArg,
+    /// Largest time between an image and the IMU samples used for it, seconds.
+    #[arg(long, default_value_t = 0.05)]
+    pub imu_max_gap_s: f64,
+    /// Largest time between an image and the GNSS fix used for it, seconds.
+    #[arg(long, default_value_t = 10.0)]
+    pub fix_max_age_s: f64,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq)]
+pub enum ImuMatchArg {
+    /// The sample nearest the image's stamp.
+    Nearest,
+    /// The samples before and after, orientation slerped, variances linear.
+    Interpolate,
+}
+
+/// A bag opened with its camera resolved.
+pub struct BagInput {
+    pub bag: Bag,
+    pub image_topic: String,
+    pub imu_topic: Option<String>,
+    pub fix_topic: Option<String>,
+    /// Frames (the image topic's message count in metadata.yaml).
+    pub frames: u64,
+    pub sensor: SensorSpec,
+    /// The sensor file's lens, where one was given.
+    pub lens: Option<LensSpec>,
+    pub intrinsics: Intrinsics,
+    /// Where the intrinsics came from, for the output.
+    pub intrinsics_source: String,
+}
+
+fn pick(bag: &Bag, flag: &Option<String>, type_name: &str, what: &str) -> anyhow::Result<Option<String>> {
+    match flag {
+        Some(t) => Ok(Some(bag.topic(t, type_name).with_context(|| format!("--{what}-topic"))?.name.clone())),
+        None => Ok(bag
+            .only_topic_of_type(type_name)
+            .with_context(|| format!("choose one with --{what}-topic"))?
+            .map(|t| t.name.clone())),
+    }
+}
+
+impl BagArgs {
+    /// Opens the bag, chooses the topics and resolves the camera.
+    pub fn open(&self) -> anyhow::Result<BagInput> {
+        let dir = self.bag.as_ref().ok_or_else(|| anyhow!("--bag DIR is required"))?;
+        let bag = Bag::open(dir)?;
+        let Some(image_topic) = pick(&bag, &self.image_topic, types::IMAGE, "image")? else {
+            bail!("bag {}: no sensor_msgs/msg/Image topic; the bag has: {}", dir.display(), bag.topic_list());
+        };
+        let info_topic = pick(&bag, &self.camera_info_topic, types::CAMERA_INFO, "camera-info")?;
+        let imu_topic = pick(&bag, &self.imu_topic, types::IMU, "imu")?;
+        let given_sun = self.sun_azimuth_deg.is_some();
+        let fix_topic = match (&self.fix_topic, given_sun) {
+            (None, true) => None,
+            _ => pick(&bag, &self.fix_topic, types::NAV_SAT_FIX, "fix")?,
+        };
+        if !given_sun && fix_topic.is_none() {
+            bail!(
+                "bag {}: no sun: give --sun-azimuth-deg and --sun-elevation-deg, or record a sensor_msgs/NavSatFix \
+                 topic (the sun then follows from each image's stamp through NREL SPA)",
+                dir.display()
+            );
+        }
+        let frames = bag.topic(&image_topic, types::IMAGE)?.message_count;
+        // The first image: its size and encoding, where nothing else gives them.
+        let first = bag.cursor(&image_topic)?.next().transpose()?;
+        let first_image = match &first {
+            Some(m) => {
+                Some(decode::<Image>(&m.data).map_err(|e| anyhow!("{}: {e}", bag_at(&bag, &image_topic, m.index)))?)
+            }
+            None => None,
+        };
+        let file = match &self.sensor {
+            Some(p) => Some(load_sensor_file(p)?),
+            None => None,
+        };
+        if let Some((s, _)) = &file {
+            if !matches!(s.layout, Layout::Dofp { .. }) {
+                bail!(
+                    "--sensor {}: layout must be \"dofp\": a bag's images are raw mosaics",
+                    self.sensor.as_ref().unwrap().display()
+                );
+            }
+        }
+        let info = match &info_topic {
+            None => None,
+            Some(t) => match bag.cursor(t)?.next().transpose()? {
+                None => None,
+                Some(m) => {
+                    let ci: CameraInfo = decode(&m.data).map_err(|e| anyhow!("{}: {e}", bag_at(&bag, t, m.index)))?;
+                    let intr = intrinsics(&ci).map_err(|e| anyhow!("{}: {e}", bag_at(&bag, t, m.index)))?;
+                    Some((t.clone(), ci, intr))
+                }
+            },
+        };
+        let size = match (&file, &info, &first_image) {
+            (Some((s, _)), _, _) => (s.geometry.width_px, s.geometry.height_px),
+            (None, Some((_, ci, _)), _) => camera_size_px(ci),
+            (None, None, Some(im)) => (im.width, im.height),
+            (None, None, None) => bail!("bag {}: topic {image_topic} holds no image", dir.display()),
+        };
+        if let (Some((s, _)), Some((t, ci, _))) = (&file, &info) {
+            let c = camera_size_px(ci);
+            if c != (s.geometry.width_px, s.geometry.height_px) {
+                bail!(
+                    "{}: CameraInfo of {} × {} px does not match the sensor file's {} × {} px",
+                    bag_at(&bag, t, 0),
+                    c.0,
+                    c.1,
+                    s.geometry.width_px,
+                    s.geometry.height_px
+                );
+            }
+        }
+        let mut sensor = match &file {
+            Some((s, _)) => s.clone(),
+            None => SensorSpec {
+                layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
+                geometry: bpins_core::sensor::Geometry { width_px: size.0, height_px: size.1, pixel_pitch_um: 0.0 },
+                bit_depth: match first_image.as_ref().map(|i| i.encoding.as_str()) {
+                    Some("mono8" | "8UC1") => 8,
+                    _ => 16,
+                },
+                black_level_dn: 0.0,
+            },
+        };
+        if let Some(m) = &self.mosaic_deg {
+            let mut mosaic = DEFAULT_MOSAIC;
+            for (i, &deg) in m.iter().enumerate() {
+                mosaic[i / 2][i % 2] = Channel::from_angle_deg(deg)
+                    .ok_or_else(|| anyhow!("--mosaic-deg: {deg} is not an analyzer angle (0, 45, 90 or 135)"))?;
+            }
+            sensor.layout = Layout::Dofp { mosaic };
+        }
+        if let Some(b) = self.bit_depth {
+            sensor.bit_depth = b;
+        }
+        if let Some(b) = self.black_level_dn {
+            sensor.black_level_dn = b;
+        }
+        let (intrinsics, intrinsics_source) = match (&info, &file) {
+            (Some((t, _, intr)), _) => (*intr, format!("CameraInfo on {t}")),
+            (None, Some((s, l))) => (
+                Intrinsics::new(
+                    l.projection,
+                    l.focal_length_mm * 1000.0 / s.geometry.pixel_pitch_um,
+                    l.principal_point_px.0,
+                    l.principal_point_px.1,
+                ),
+                format!("sensor file {}", self.sensor.as_ref().unwrap().display()),
+            ),
+            (None, None) => bail!(
+                "bag {}: no intrinsics: record a sensor_msgs/CameraInfo topic or give --sensor FILE ([sensor] and [lens] \
+                 of CAPTURE.md)",
+                dir.display()
+            ),
+        };
+        Ok(BagInput {
+            lens: file.map(|f| f.1),
+            bag,
+            image_topic,
+            imu_topic,
+            fix_topic,
+            frames,
+            sensor,
+            intrinsics,
+            intrinsics_source,
+        })
+    }
+}
+
+/// `bag B, topic T, message I`, as the library's errors say it.
+pub fn bag_at(bag: &Bag, topic: &str, index: u64) -> String {
+    bpins_ros::Where { bag: bag.dir.clone(), topic: Some(topic.into()), index: Some(index) }.to_string()
+}
+
+/// One image of the bag with what is known at its stamp.
+pub struct BagFrame {
+    pub message: BagMessage,
+    pub stamp_ns: i64,
+    /// The sun (from the flags, or SPA at the stamp and the nearest fix), or why not.
+    pub sun: Result<SunPosition, String>,
+    /// The tilt with its variances (IMU, or level), or why not.
+    pub tilt: Result<Tilt, String>,
+}
+
+/// The bag's images in order, each with its sun and tilt.
+pub struct Frames<'a> {
+    input: &'a BagInput,
+    args: &'a BagArgs,
+    images: TopicCursor<'a>,
+    imu: Option<Track<'a, ImuSample>>,
+    fix: Option<Track<'a, (f64, f64)>>,
+}
+
+impl BagInput {
+    /// Walks the images (with cursors of their own for the IMU and GNSS topics).
+    pub fn frames<'a>(&'a self, args: &'a BagArgs) -> anyhow::Result<Frames<'a>> {
+        let imu = match &self.imu_topic {
+            Some(t) => Some(Track::new(self.bag.cursor(t)?, decode_imu)),
+            None => None,
+        };
+        let fix = match (&self.fix_topic, args.sun_azimuth_deg) {
+            (Some(t), None) => Some(Track::new(self.bag.cursor(t)?, decode_fix)),
+            _ => None,
+        };
+        Ok(Frames { input: self, args, images: self.bag.cursor(&self.image_topic)?, imu, fix })
+    }
+}
+
+impl Frames<'_> {
+    /// The next frame, `None` after the last.
+    pub fn next_frame(&mut self) -> anyhow::Result<Option<BagFrame>> {
+        let Some(m) = self.images.next().transpose()? else { return Ok(None) };
+        let at = || bag_at(&self.input.bag, &self.input.image_topic, m.index);
+        let im: Image = decode(&m.data).map_err(|e| anyhow!("{}: {e}", at()))?;
+        let g = &self.input.sensor.geometry;
+        if (im.width, im.height) != (g.width_px, g.height_px) {
+            bail!(
+                "{}: image of {} × {} px does not match the camera's {} × {} px ({})",
+                at(),
+                im.width,
+                im.height,
+                g.width_px,
+                g.height_px,
+                self.input.intrinsics_source
+            );
+        }
+        let stamp_ns = im.header.stamp.ns();
+        let a = self.args;
+        let sun = match (a.sun_azimuth_deg, a.sun_elevation_deg, self.fix.as_mut()) {
+            (Some(az), Some(el), _) => Ok(SunPosition::given(az, el)),
+            (_, _, Some(track)) => match place_at(track, stamp_ns, a.fix_max_age_s)? {
+                Ok((lat, lon)) => sun_from_unix_time(stamp_ns as f64 * 1e-9, lat, lon).map_err(|e| e.to_string()),
+                Err(why) => Err(why),
+            },
+            _ => Err("no sun".into()),
+        };
+        let how = match a.imu_match {
+            ImuMatchArg::Nearest => ImuMatch::Nearest,
+            ImuMatchArg::Interpolate => ImuMatch::Interpolate,
+        };
+        let var = a.tilt_sigma_deg.map(|s| s.to_radians().powi(2));
+        let tilt = match self.imu.as_mut() {
+            Some(track) => tilt_at(track, stamp_ns, how, a.imu_max_gap_s)?,
+            None => Ok(Tilt { tilt_x_deg: 0.0, tilt_y_deg: 0.0, roll_var_rad2: 0.0, pitch_var_rad2: 0.0 }),
+        };
+        let tilt = tilt.map(|t| match var {
+            Some(v) => Tilt { roll_var_rad2: v, pitch_var_rad2: v, ..t },
+            None => t,
+        });
+        drop(im);
+        Ok(Some(BagFrame { message: m, stamp_ns, sun, tilt }))
+    }
+}

@@ -1,0 +1,375 @@
+//! ROS 2 bags against an independent implementation: `rosbags` (PyPI, pure Python,
+//! no ROS; tests/ros/bags.py) writes bags of a simulated capture's frames, in MCAP
+//! and sqlite3 storage, with the pixel and CDR byte orders and row paddings a
+//! driver may use; `bpins heading --bag` must give the headings `bpins heading` gives
+//! on the capture itself, and the bag it writes, read back by rosbags, must hold
+//! REP 103's yaw (90° − heading), the heading's variance and the images' stamps.
+//! Bad bags must give errors naming the bag, the topic and the message index.
+//!
+//! Needs the `.venv` of crates/bpins-py/requirements-test.txt (rosbags, numpy,
+//! Pillow through matplotlib); without it the tests count as ignored
+//! (tests/needs.rs), and fail where `CI` is set. `BPINS_PYTHON` names another
+//! interpreter.
+
+#[path = "../../../tests/needs.rs"]
+mod needs;
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+const BAGS_PY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/ros/bags.py");
+/// The first image's stamp (2026-06-21T02:30:00Z), and the frames' spacing.
+const T0_NS: i64 = 1_782_009_000_000_000_000;
+const DT_NS: i64 = 100_000_000;
+
+fn python() -> Option<PathBuf> {
+    let p =
+        std::env::var_os("BPINS_PYTHON").map(PathBuf::from).unwrap_or_else(|| Path::new(REPO).join(".venv/bin/python"));
+    p.is_file().then_some(p)
+}
+
+fn main() -> std::process::ExitCode {
+    let missing = match python() {
+        None => Some(
+            "no Python environment at .venv; make it with `python3 -m venv .venv && \
+             .venv/bin/pip install -r crates/bpins-py/requirements-test.txt` (`.ci/run` does)"
+                .to_string(),
+        ),
+        Some(py) => match Command::new(&py).args(["-c", "import rosbags, numpy, PIL"]).output() {
+            Ok(o) if o.status.success() => None,
+            _ => Some(format!(
+                "{} lacks rosbags, numpy or Pillow; `{} -m pip install -r crates/bpins-py/requirements-test.txt`",
+                py.display(),
+                py.display()
+            )),
+        },
+    };
+    needs::run(vec![(
+        needs::Need::new("a Python environment with rosbags", missing),
+        vec![
+            ("bags_of_both_storages_give_the_captures_headings", bags_of_both_storages_give_the_captures_headings),
+            (
+                "the_output_bag_holds_rep103_yaw_variance_and_stamps",
+                the_output_bag_holds_rep103_yaw_variance_and_stamps,
+            ),
+            ("the_sun_follows_from_navsatfix_and_the_stamps", the_sun_follows_from_navsatfix_and_the_stamps),
+            (
+                "nan_in_an_imu_message_skips_its_frame_with_a_diagnostic",
+                nan_in_an_imu_message_skips_its_frame_with_a_diagnostic,
+            ),
+            ("bad_bags_are_refused_naming_bag_topic_and_message", bad_bags_are_refused_naming_bag_topic_and_message),
+        ],
+    )])
+}
+
+fn run(cmd: &mut Command) -> Output {
+    let o = cmd.output().expect("command runs");
+    if needs::verbose() {
+        println!("{}\n{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    }
+    o
+}
+
+fn bpins(args: &[&str]) -> Output {
+    run(Command::new(env!("CARGO_BIN_EXE_bpins")).args(args))
+}
+
+fn ok(o: Output) -> Output {
+    assert!(
+        o.status.success(),
+        "failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
+fn py(args: &[&str]) -> Output {
+    run(Command::new(python().expect("main checked")).arg(BAGS_PY).args(args))
+}
+
+fn json(p: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
+}
+
+/// A folder of the run's files, kept for the whole run.
+fn tmp() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    DIR.get_or_init(|| tempfile::tempdir().unwrap()).path()
+}
+
+/// A small simulated capture (3 frames, tilted, IMU 1σ 0.1°) and `bpins heading`'s
+/// JSON of it.
+fn capture() -> &'static (PathBuf, Value) {
+    static C: OnceLock<(PathBuf, Value)> = OnceLock::new();
+    C.get_or_init(|| {
+        let cap = tmp().join("cap");
+        let c = cap.to_str().unwrap();
+        ok(bpins(&[
+            "simulate",
+            "--out",
+            c,
+            "--width-px",
+            "306",
+            "--height-px",
+            "256",
+            "--pixel-pitch-um",
+            "27.6",
+            "--headings-deg",
+            "0,70,200",
+            "--tilt-x-deg",
+            "2",
+            "--tilt-y-deg",
+            "-1",
+            "--imu-sigma-deg",
+            "0.1",
+        ]));
+        let j = tmp().join("ref.json");
+        ok(bpins(&["heading", c, "--json", j.to_str().unwrap()]));
+        (cap, json(&j))
+    })
+}
+
+/// `bags.py write` of the capture into `name` with `extra` options; the bag's path.
+fn bag(name: &str, extra: &[&str]) -> PathBuf {
+    let b = tmp().join(name);
+    let mut args = vec!["write", capture().0.to_str().unwrap(), b.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    ok(py(&args));
+    b
+}
+
+const SUN: [&str; 4] = ["--sun-azimuth-deg", "40", "--sun-elevation-deg", "25"];
+const SENSOR: [&str; 4] = ["--bit-depth", "12", "--black-level-dn", "64"];
+
+/// `bpins heading --bag` with `extra`; its JSON.
+fn heading_bag(bag: &Path, extra: &[&str]) -> Value {
+    let j = bag.with_extension("json");
+    let mut args = vec!["heading", "--bag", bag.to_str().unwrap(), "--json", j.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    ok(bpins(&args));
+    json(&j)
+}
+
+fn assert_same_headings(got: &Value, what: &str) {
+    let want = &capture().1["frames"];
+    let got = &got["frames"];
+    assert_eq!(got.as_array().unwrap().len(), 3, "{what}");
+    for i in 0..3 {
+        for k in ["heading_deg", "sigma_deg"] {
+            let (a, b) = (want[i][k].as_f64().unwrap(), got[i][k].as_f64().unwrap());
+            assert!((a - b).abs() < 1e-9, "{what}, frame {i}, {k}: capture {a}, bag {b}");
+        }
+        assert_eq!(got[i]["stamp_ns"].as_i64().unwrap(), T0_NS + i as i64 * DT_NS, "{what}");
+    }
+}
+
+fn bags_of_both_storages_give_the_captures_headings() {
+    // A driver's every layout: mono16 little- and big-endian, padded rows, mono8
+    // is below (a 12-bit capture has no 8-bit equivalent), CDR of both byte orders;
+    // the camera from CameraInfo or from a sensor file; IMU nearest or slerped.
+    let sensor = tmp().join("sensor.toml");
+    let text = std::fs::read_to_string(capture().0.join("capture.toml")).unwrap();
+    std::fs::write(&sensor, text.split("[[frames]]").next().unwrap().replace("format = \"bpins-capture/1\"", ""))
+        .unwrap();
+    let cases: [(&str, &[&str], &[&str]); 4] = [
+        ("mcap_le", &["--storage", "mcap", "--camera-info", "--imu"], &SENSOR),
+        (
+            "sqlite_be_padded",
+            &[
+                "--storage",
+                "sqlite3",
+                "--camera-info",
+                "--imu",
+                "--big-endian-pixels",
+                "--pad",
+                "7",
+                "--cdr-big-endian",
+            ],
+            &SENSOR,
+        ),
+        ("mcap_sensor_file", &["--storage", "mcap", "--imu", "--pad", "2"], &["--sensor", sensor.to_str().unwrap()]),
+        (
+            "sqlite_nearest",
+            &["--storage", "sqlite3", "--camera-info", "--imu"],
+            &["--bit-depth", "12", "--black-level-dn", "64", "--imu-match", "nearest"],
+        ),
+    ];
+    for (name, write, read) in cases {
+        let b = bag(name, write);
+        let mut args: Vec<&str> = SUN.to_vec();
+        args.extend_from_slice(read);
+        assert_same_headings(&heading_bag(&b, &args), name);
+    }
+}
+
+fn the_output_bag_holds_rep103_yaw_variance_and_stamps() {
+    let b = bag("for_out", &["--storage", "mcap", "--camera-info", "--imu"]);
+    let out = tmp().join("out_rep103");
+    let mut args: Vec<&str> = SUN.to_vec();
+    args.extend_from_slice(&SENSOR);
+    args.extend_from_slice(&["--bag-out", out.to_str().unwrap()]);
+    let mine = heading_bag(&b, &args);
+    let back: Value = serde_json::from_slice(&ok(py(&["read", out.to_str().unwrap()])).stdout).unwrap();
+    let msgs = back.as_array().unwrap();
+    assert_eq!(msgs.len(), 3);
+    let wrap = |x: f64| (x + 180.0).rem_euclid(360.0) - 180.0;
+    for (i, m) in msgs.iter().enumerate() {
+        let f = &mine["frames"][i];
+        let (h, s) = (f["heading_deg"].as_f64().unwrap(), f["sigma_deg"].as_f64().unwrap());
+        assert_eq!((m["topic"].as_str(), m["type"].as_str()), (Some("/bpins/heading"), Some("sensor_msgs/msg/Imu")));
+        assert_eq!(m["stamp_ns"].as_i64().unwrap(), T0_NS + i as i64 * DT_NS);
+        assert_eq!(m["log_time_ns"].as_i64().unwrap(), T0_NS + i as i64 * DT_NS);
+        assert_eq!(m["frame_id"], "cam");
+        let yaw = m["yaw_deg"].as_f64().unwrap();
+        // REP 103: yaw counter-clockwise from East = 90° − heading; a writer that wrote
+        // heading − 90° fails here (the headings 0°, 70°, 200° tell the two apart).
+        assert!(wrap(yaw - (90.0 - h)).abs() < 1e-9, "frame {i}: yaw {yaw}, heading {h}");
+        assert!(wrap(yaw - (h - 90.0)).abs() > 1.0, "frame {i}: yaw {yaw} = heading − 90°");
+        let cov: Vec<f64> =
+            m["orientation_covariance"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        assert!((cov[8] - s.to_radians().powi(2)).abs() < 1e-15, "frame {i}: yaw variance {}", cov[8]);
+        let imu_var = 0.1f64.to_radians().powi(2);
+        assert!((cov[0] - imu_var).abs() < 1e-15 && (cov[4] - imu_var).abs() < 1e-15, "{cov:?}");
+        assert_eq!(
+            (m["angular_velocity_covariance0"].as_f64(), m["linear_acceleration_covariance0"].as_f64()),
+            (Some(-1.0), Some(-1.0))
+        );
+    }
+    // Never written over: the same --bag-out again is refused.
+    let again = bpins(&[
+        "heading",
+        "--bag",
+        b.to_str().unwrap(),
+        SUN[0],
+        SUN[1],
+        SUN[2],
+        SUN[3],
+        "--bag-out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!again.status.success() && String::from_utf8_lossy(&again.stderr).contains("already exists"));
+}
+
+fn the_sun_follows_from_navsatfix_and_the_stamps() {
+    // A capture rendered under the sun of 2026-06-21T02:30:00Z at Qingdao (SPA), and
+    // its bag with a NavSatFix there and images stamped from that instant (frame i
+    // at +0.1 i s: the sun moves 0.0004°/0.1 s, so the headings agree to ~0.001°).
+    let cap = tmp().join("cap_spa");
+    let c = cap.to_str().unwrap();
+    ok(bpins(&[
+        "simulate",
+        "--out",
+        c,
+        "--width-px",
+        "306",
+        "--height-px",
+        "256",
+        "--pixel-pitch-um",
+        "27.6",
+        "--headings-deg",
+        "30,250",
+        "--time-utc",
+        "2026-06-21T02:30:00Z",
+        "--latitude-deg",
+        "36.07",
+        "--longitude-deg",
+        "120.38",
+    ]));
+    let j = tmp().join("ref_spa.json");
+    ok(bpins(&["heading", c, "--json", j.to_str().unwrap()]));
+    let want = json(&j);
+    let b = tmp().join("bag_spa");
+    ok(py(&["write", c, b.to_str().unwrap(), "--camera-info", "--fix", "36.07,120.38"]));
+    let got = heading_bag(&b, &SENSOR);
+    for i in 0..2 {
+        let (a, g) = (&want["frames"][i], &got["frames"][i]);
+        let (ha, hg) = (a["heading_deg"].as_f64().unwrap(), g["heading_deg"].as_f64().unwrap());
+        assert!((ha - hg).abs() < 0.003, "frame {i}: capture {ha}, bag {hg}");
+        assert!(g["sun"].as_str().unwrap().contains("NREL SPA"), "{g}");
+    }
+    // No fix and no sun given: refused, saying what to give.
+    let b2 = bag("no_sun", &["--camera-info"]);
+    let o = bpins(&["heading", "--bag", b2.to_str().unwrap()]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("--sun-azimuth-deg") && e.contains("NavSatFix"), "{e}");
+}
+
+fn nan_in_an_imu_message_skips_its_frame_with_a_diagnostic() {
+    let b = bag("nan_imu", &["--camera-info", "--imu", "--nan-imu-frame", "1"]);
+    let out = tmp().join("out_nan");
+    let mut args: Vec<&str> = SUN.to_vec();
+    args.extend_from_slice(&SENSOR);
+    args.extend_from_slice(&["--bag-out", out.to_str().unwrap()]);
+    let got = heading_bag(&b, &args);
+    let why = got["frames"][1]["no_heading_reason"].as_str().unwrap();
+    // Frame 1's IMU samples are messages 2 and 3 of /imu/data.
+    assert!(why.contains("topic /imu/data, message 2") && why.contains("NaN"), "{why}");
+    assert!(got["frames"][0]["heading_deg"].is_f64() && got["frames"][2]["heading_deg"].is_f64());
+    let back: Value = serde_json::from_slice(&ok(py(&["read", out.to_str().unwrap()])).stdout).unwrap();
+    let diag: Vec<&Value> = back.as_array().unwrap().iter().filter(|m| m["topic"] == "/diagnostics").collect();
+    assert_eq!(diag.len(), 1);
+    assert_eq!(diag[0]["stamp_ns"].as_i64().unwrap(), T0_NS + DT_NS);
+    assert_eq!((diag[0]["level"].as_i64(), diag[0]["message"].as_str()), (Some(1), Some(why)));
+    assert_eq!(diag[0]["values"]["image_message"], "1");
+}
+
+fn bad_bags_are_refused_naming_bag_topic_and_message() {
+    let err = |o: Output| {
+        assert!(!o.status.success());
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let heading = |b: &Path, extra: &[&str]| {
+        let mut args = vec!["heading", "--bag", b.to_str().unwrap()];
+        args.extend_from_slice(&SUN);
+        args.extend_from_slice(extra);
+        err(bpins(&args))
+    };
+    // A truncated MCAP: the bag, the topic, and the message the damage stopped at.
+    let b = bag("truncated", &["--camera-info", "--imu"]);
+    let f = b.join("truncated.mcap");
+    let len = std::fs::metadata(&f).unwrap().len();
+    std::fs::OpenOptions::new().write(true).open(&f).unwrap().set_len(len * 2 / 3).unwrap();
+    let before = snapshot(&b);
+    let e = heading(&b, &SENSOR);
+    assert!(e.contains("truncated") && e.contains("topic /cam/image_raw, message "), "{e}");
+    assert!(snapshot(&b) == before, "the bag read was written to");
+    // An unknown encoding.
+    let b = bag("rgb", &["--camera-info", "--encoding", "rgb8"]);
+    let e = heading(&b, &SENSOR);
+    assert!(e.contains("topic /cam/image_raw, message 0") && e.contains("encoding `rgb8`"), "{e}");
+    // An image whose size does not match the camera (a sensor file of another size).
+    let b = bag("sized", &["--imu"]);
+    let before = snapshot(&b);
+    let sensor = tmp().join("small_sensor.toml");
+    std::fs::write(&sensor, "[sensor]\nlayout = \"dofp\"\nwidth_px = 300\nheight_px = 256\npixel_pitch_um = 27.6\nbit_depth = 12\n[lens]\nprojection = \"pinhole\"\nfocal_length_mm = 8.0\n").unwrap();
+    let e = heading(&b, &["--sensor", sensor.to_str().unwrap()]);
+    assert!(e.contains("message 0: image of 306 × 256 px does not match the camera's 300 × 256 px"), "{e}");
+    // A missing topic, and no intrinsics.
+    let e = heading(&b, &["--imu-topic", "/nope"]);
+    assert!(e.contains("topic /nope") && e.contains("no such topic") && e.contains("/cam/image_raw"), "{e}");
+    let e = heading(&b, &SENSOR);
+    assert!(e.contains("no intrinsics"), "{e}");
+    // Not a bag.
+    let e = heading(&tmp().join("cap"), &[]);
+    assert!(e.contains("metadata.yaml"), "{e}");
+    // Nothing was written into the bag read, nor beside its files.
+    assert!(snapshot(&b) == before, "the bag read was written to");
+}
+
+/// Every file of a folder with its bytes, sorted.
+fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .map(|p| {
+            let b = std::fs::read(&p).unwrap();
+            (p, b)
+        })
+        .collect();
+    v.sort();
+    v
+}

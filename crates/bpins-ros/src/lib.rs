@@ -1,0 +1,36 @@
+//! ROS 2 bags (rosbag2) in and out of bpins, without ROS installed.
+//!
+//! ```text
+//! bag folder ─ metadata.yaml (metadata.rs) ─┬─ *.mcap   (storage_mcap.rs, mapped, streamed)
+//!                                           └─ *.db3    (storage_sqlite.rs, paged queries)
+//!     messages: CDR (cdr.rs) → sensor_msgs/Image, CameraInfo, Imu, NavSatFix (msgs.rs)
+//!     → a DoFP mosaic buffer, intrinsics, tilt + 1σ, the sun's place (convert.rs)
+//! headings → sensor_msgs/Imu per REP 103/145, diagnostic_msgs/DiagnosticArray
+//!     (rep103.rs) → a new MCAP bag folder (writer.rs)
+//! ```
+//!
+//! Memory is bounded by one frame: an MCAP file is memory-mapped and read one message
+//! (or one decompressed chunk) at a time, a sqlite3 file in pages of rows; the image,
+//! IMU and GNSS topics are read by cursors of their own that walk forward in step
+//! ([`reader::TopicCursor`]). Nothing is ever written into a bag being read.
+//! Every error names the bag, the topic and the message index ([`BagError`]).
+//!
+//! Storage support: MCAP with uncompressed or zstd chunks (rosbag2's MCAP plugin
+//! writes zstd by default; lz4 chunks are refused by name), ROS 2 `cdr` message
+//! encoding; sqlite3 (`.db3`) as rosbag2 writes it (ROS 2 Foxy to Humble's default).
+//! Not read: bag-level compression (`compression_mode: file|message`), ROS 1 bags.
+
+pub mod cdr;
+pub mod convert;
+mod error;
+pub mod matching;
+pub mod metadata;
+pub mod msgs;
+pub mod reader;
+pub mod rep103;
+mod storage_mcap;
+mod storage_sqlite;
+pub mod writer;
+
+pub use error::{BagError, Where};
+pub use reader::{Bag, BagMessage, TopicCursor, TopicInfo};
