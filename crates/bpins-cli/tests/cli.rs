@@ -1006,6 +1006,8 @@ fn maps_writes_each_frames_kernel_maps() {
     assert!(same(layer("AoE_deg"), &want.aoe_deg));
     bpins(&["maps", &s(&cap), "--out", &s(&cap.join("maps"))]).fails().stderr_has("never writes into a capture");
     bpins(&["maps", &s(&cap), "--out", &s(&out), "--frames", "99"]).fails().stderr_has("frame 99 does not exist");
+}
+
 // ------------------------------------------------------------- locate (issue 33)
 
 /// The navigation user's loop: `simulate --every-min` makes an hour of stamped frames
