@@ -6,7 +6,7 @@
 //! and candidates.
 
 use crate::residuals::{Figures, Written};
-use bpins_core::diagnose::Diagnosis;
+use bpins_core::diagnose::{Candidate, Diagnosis};
 use bpins_core::fit::Param;
 use serde::Serialize;
 
@@ -19,7 +19,8 @@ struct Page {
     answer: Answer,
     steps: Vec<StepView>,
     remains: Verdict,
-    confusable: Vec<(&'static str, &'static str)>,
+    confusable: Vec<bpins_core::diagnose::pairs::Confusable>,
+    negligible: String,
     rankings: Vec<RankingView>,
     bic_threshold: f64,
     selected: String,
@@ -98,6 +99,14 @@ struct CandidateRow {
     effect: &'static str,
     delta_chi2: String,
     delta_bic: String,
+    /// The effect's size: heading change RMS / worst frame (°), AoP RMS (°), DoLP RMS,
+    /// DN at the worst pixel; and what the diagnosis made of it.
+    heading: String,
+    aop: String,
+    dolp: String,
+    dn: String,
+    verdict: String,
+    verdict_class: &'static str,
     class: &'static str,
     how: &'static str,
     params: String,
@@ -114,6 +123,7 @@ struct FrameRow {
     k: usize,
     heading_deg: String,
     sigma_deg: String,
+    sigma_stat_deg: String,
     reference_deg: String,
     error_deg: String,
     dmax: String,
@@ -136,7 +146,8 @@ pub fn diagnosis(
         steps,
         remains: Verdict { class: if d.unexplained() { "no" } else { "yes" }, text: d.summary() },
         confusable: d.confusable.clone(),
-        rankings: d.rankings.iter().enumerate().map(|(i, r)| ranking(i + 1, r, d.bic_threshold)).collect(),
+        negligible: d.negligible.join(", "),
+        rankings: d.rankings.iter().enumerate().map(|(i, r)| ranking(d, i + 1, r)).collect(),
         bic_threshold: d.bic_threshold,
         selected: if d.selected.is_empty() { "No effect.".into() } else { d.selected.join(", then ") },
         inseparable: d.inseparable.iter().map(|(effect, why)| Why { effect, why: why.clone() }).collect(),
@@ -170,6 +181,31 @@ fn opt(x: Option<f64>) -> String {
     x.map_or("—".into(), |v| format!("{v:.4}"))
 }
 
+/// Each effect with its size where the diagnosis added it: "name (heading up to …°,
+/// AoP … ° RMS, DoLP … RMS, … DN at the worst pixel)".
+pub fn sized(d: &Diagnosis, effects: &[&'static str]) -> String {
+    let words: Vec<String> = effects
+        .iter()
+        .map(|e| {
+            // The candidate of the step that added it.
+            let c = d.steps.windows(2).zip(&d.rankings).find_map(|(w, r)| {
+                (w[1].model.contains(e) && !w[0].model.contains(e)).then(|| r.iter().find(|c| c.effect == *e)).flatten()
+            });
+            match c.and_then(|c| c.size) {
+                Some(s) => format!(
+                    "{e} (heading up to {}, AoP {:.4}° RMS, DoLP {:.5} RMS, {:.1} DN at the worst pixel)",
+                    s.heading_change_max_deg.map_or("—".into(), |h| format!("{h:.4}°")),
+                    s.aop_change_rms_deg,
+                    s.dolp_change_rms,
+                    s.max_change_dn
+                ),
+                None => e.to_string(),
+            }
+        })
+        .collect();
+    words.join(", then ")
+}
+
 /// `value ± σ`, the σ "unconstrained" where the data cannot tell it.
 fn plus_minus(p: &Param) -> String {
     if p.sigma.is_finite() {
@@ -183,21 +219,41 @@ fn plus_minus(p: &Param) -> String {
 /// and after.
 fn answer(d: &Diagnosis, pair: &[Written; 2]) -> Answer {
     let (first, last) = (&d.steps[0], d.steps.last().expect("a starting step"));
-    let verdict = match (d.selected.is_empty(), d.unexplained()) {
-        (false, false) => format!("Missing: {}. With it the residual is at the noise.", d.selected.join(", then ")),
+    let mut verdict = match (d.selected.is_empty(), d.unexplained()) {
+        (false, false) => format!("Missing: {}. With it the residual is at the noise.", sized(d, &d.selected)),
         (false, true) => format!(
-            "{} explain{} part of the misfit; the rest no catalog effect explains.",
-            d.selected.join(", "),
+            "{} explain{} part of the misfit, possibly compensating for what is missing; the rest no catalog \
+             effect explains.",
+            sized(d, &d.selected),
             if d.selected.len() == 1 { "s" } else { "" }
         ),
-        (true, false) => "Nothing is missing: the model explains the data to the noise.".into(),
+        (true, false) if d.confusable.is_empty() => {
+            "Nothing that matters is missing: the model explains the data to the noise.".into()
+        }
+        (true, false) => "The residual is at the noise with the pair below in the model.".into(),
         (true, true) => "No catalog effect explains the misfit (see what remains).".into(),
     };
+    for p in &d.confusable {
+        verdict.push_str(&format!(
+            " {} or {}: the capture cannot tell which (neither is named); what separates them: {}.",
+            sized(d, &[p.first]),
+            p.second,
+            p.separates
+        ));
+    }
+    if !d.negligible.is_empty() {
+        verdict.push_str(&format!(" Detected but negligible (not named): {}.", sized(d, &d.negligible)));
+    }
+    for e in &d.selected {
+        for x in d.outside_physical(e) {
+            verdict.push_str(&format!(" Unphysical: {x}."));
+        }
+    }
     let params = last
         .fit
         .params
         .iter()
-        .filter(|p| d.selected.contains(&p.id.effect))
+        .filter(|p| d.selected.contains(&p.id.effect) || d.confusable.iter().any(|c| c.first == p.id.effect))
         .map(|p| ParamRow { name: p.name.clone(), value: plus_minus(p), unit: p.unit })
         .collect();
     let (b, a) = (&first.fit, &last.fit);
@@ -291,13 +347,77 @@ fn step(k: usize, s: &bpins_core::diagnose::Step, f: &Figures) -> StepView {
     }
 }
 
-fn ranking(step: usize, r: &[bpins_core::diagnose::Candidate], threshold: f64) -> RankingView {
+/// A candidate's size in the user's units, as (heading RMS / worst frame °, AoP RMS °,
+/// DoLP RMS, DN at the worst pixel); dashes where it has none.
+pub fn size_cells(c: &Candidate) -> [String; 4] {
+    let Some(s) = &c.size else { return ["—".into(), "—".into(), "—".into(), "—".into()] };
+    let heading = match (s.heading_change_rms_deg, s.heading_change_max_deg) {
+        (Some(r), Some(m)) => format!("{r:.4} / {m:.4}"),
+        _ => "— (not refitted)".into(),
+    };
+    [
+        heading,
+        format!("{:.4}", s.aop_change_rms_deg),
+        format!("{:.5}", s.dolp_change_rms),
+        format!("{:.1}", s.max_change_dn),
+    ]
+}
+
+/// What the diagnosis made of candidate `c` of step `step` (1-based), in words, and
+/// whether that is a finding ("yes"), a caution ("no") or neither ("").
+pub fn candidate_verdict(d: &Diagnosis, step: usize, c: &Candidate) -> (String, &'static str) {
+    // The effect a step added is the one its model gained.
+    let added =
+        d.steps.get(step).is_some_and(|s| s.model.contains(&c.effect)) && !d.steps[step - 1].model.contains(&c.effect);
+    let mut words = Vec::new();
+    let mut class = "";
+    if added {
+        if let Some(p) = d.confusable.iter().find(|p| p.first == c.effect || p.second == c.effect) {
+            let other = if p.first == c.effect { p.second } else { p.first };
+            words.push(format!("confusable with {other}: not named alone"));
+            class = "no";
+        } else if d.negligible.contains(&c.effect) {
+            words.push("detected, negligible: not named".to_string());
+        } else {
+            words.push("named".to_string());
+            class = "yes";
+        }
+        if d.possibly_compensating(c.effect) {
+            words.push("possibly compensating (the capture stays unexplained or a value is unphysical)".into());
+            class = "no";
+        }
+    } else if let Some(p) = d.confusable.iter().find(|p| p.second == c.effect) {
+        words.push(format!("confusable with {}", p.first));
+    }
+    if let Some(s) = c.size.filter(|_| c.identifiable) {
+        let what = s.what_matters();
+        words.push(if what.is_empty() {
+            "below every size threshold".into()
+        } else {
+            format!("matters: {}", what.join(", "))
+        });
+    }
+    for x in &c.outside_physical {
+        words.push(format!("unphysical: {x}"));
+        class = "no";
+    }
+    (words.join("; "), class)
+}
+
+fn ranking(d: &Diagnosis, step: usize, r: &[Candidate]) -> RankingView {
+    let threshold = d.bic_threshold;
     let rows = r
         .iter()
         .map(|c| CandidateRow {
             effect: c.effect,
             delta_chi2: format!("{:.1}", c.delta_chi2),
             delta_bic: format!("{:.1}", c.delta_bic),
+            heading: size_cells(c)[0].clone(),
+            aop: size_cells(c)[1].clone(),
+            dolp: size_cells(c)[2].clone(),
+            dn: size_cells(c)[3].clone(),
+            verdict: candidate_verdict(d, step, c).0,
+            verdict_class: candidate_verdict(d, step, c).1,
             class: if c.delta_bic > threshold { "yes" } else { "no" },
             how: if !c.identifiable {
                 "cannot be told from the nuisances"
@@ -329,6 +449,7 @@ fn frame_rows(fit: &bpins_core::fit::FitResult) -> Vec<FrameRow> {
             k,
             heading_deg: format!("{:.4}", f.heading_deg),
             sigma_deg: format!("{:.4}", f.heading_sigma_deg),
+            sigma_stat_deg: format!("{:.5}", f.heading_sigma_stat_deg),
             reference_deg: opt(f.reference_deg),
             error_deg: opt(f.heading_error_deg),
             dmax: format!("{:.4}", f.dmax),
