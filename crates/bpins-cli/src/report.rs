@@ -408,16 +408,17 @@ fn ranking(d: &Diagnosis, step: usize, r: &[Candidate]) -> RankingView {
     let threshold = d.bic_threshold;
     let rows = r
         .iter()
-        .map(|c| CandidateRow {
+        .map(|c| (c, size_cells(c), candidate_verdict(d, step, c)))
+        .map(|(c, [heading, aop, dolp, dn], (verdict, verdict_class))| CandidateRow {
             effect: c.effect,
             delta_chi2: format!("{:.1}", c.delta_chi2),
             delta_bic: format!("{:.1}", c.delta_bic),
-            heading: size_cells(c)[0].clone(),
-            aop: size_cells(c)[1].clone(),
-            dolp: size_cells(c)[2].clone(),
-            dn: size_cells(c)[3].clone(),
-            verdict: candidate_verdict(d, step, c).0,
-            verdict_class: candidate_verdict(d, step, c).1,
+            heading,
+            aop,
+            dolp,
+            dn,
+            verdict,
+            verdict_class,
             class: if c.delta_bic > threshold { "yes" } else { "no" },
             how: if !c.identifiable {
                 "cannot be told from the nuisances"

@@ -3,14 +3,21 @@
 //! separate them.
 //!
 //! ```text
-//! confusable: |ΔBIC_a − ΔBIC_b| < BIC_THRESHOLD
-//!          or f·|Δχ²_a − Δχ²_b| < 2·(√(f·Δχ²_a) + √(f·Δχ²_b))     f = n_eff/n of the model they add to
+//! D = max(0, f·|Δχ²_a − Δχ²_b| − |k_a − k_b|)   f = n_eff/n of the model they add to
+//! confusable: |ΔBIC_a − ΔBIC_b| < BIC_THRESHOLD + 2·(2√D)
 //! ```
 //!
-//! 2√Δχ² is the 1σ of a refit's Δχ² from the noise (the cross term of its signal with
-//! the noise: `refits`), on the effective-sample scale f (correlated residuals carry
-//! n_eff/n of their count); the sum of the two 1σ bounds the difference's 1σ however
-//! the two refits' noise is correlated. Units: χ² and ΔBIC have none.
+//! Two refits of the same data share their noise: the difference of their Δχ² moves
+//! with the noise only through the part of the signal on which they differ, whose
+//! power is about D (one refit's fitted signal nearly holding the other's), so its 1σ
+//! is 2√D (the cross term of that part with the noise, on the effective-sample scale:
+//! correlated residuals carry n_eff/n of their count). The |k_a − k_b| taken off is
+//! what the extra parameters of a refit that holds the other gain from noise alone
+//! (χ² with that many degrees of freedom: no signal they differ on). Within 2σ of that
+//! beyond the ΔBIC threshold, the data cannot say which. ΔBIC, not Δχ², is compared: an effect
+//! with fewer parameters that explains as much (a rotation of the whole analyzer
+//! array against four analyzer angles) is the simpler explanation, not a tie. Units:
+//! χ² and ΔBIC have none.
 
 use crate::diagnose::{Candidate, BIC_THRESHOLD};
 use crate::effects::{find, Stage};
@@ -28,9 +35,9 @@ pub struct Confusable {
 /// Whether `a` and `b` (each refitted on every pixel) explain the same Δχ² within the
 /// noise of their difference (module doc); `f` = n_eff/n of the model they add to.
 pub fn confusable(a: &Candidate, b: &Candidate, f: f64) -> bool {
-    let f = f.clamp(0.0, 1.0);
-    let noise = 2.0 * ((f * a.delta_chi2.max(0.0)).sqrt() + (f * b.delta_chi2.max(0.0)).sqrt());
-    (a.delta_bic - b.delta_bic).abs() < BIC_THRESHOLD || f * (a.delta_chi2 - b.delta_chi2).abs() < noise
+    let dk = a.added_rank.abs_diff(b.added_rank) as f64;
+    let d = (f.clamp(0.0, 1.0) * (a.delta_chi2 - b.delta_chi2).abs() - dk).max(0.0);
+    (a.delta_bic - b.delta_bic).abs() < BIC_THRESHOLD + 2.0 * 2.0 * d.sqrt()
 }
 
 /// What measures an effect of `stage` apart from the sky.
@@ -73,6 +80,10 @@ mod tests {
     use super::*;
 
     fn cand(effect: &'static str, delta_chi2: f64, delta_bic: f64) -> Candidate {
+        cand_k(effect, delta_chi2, delta_bic, 1)
+    }
+
+    fn cand_k(effect: &'static str, delta_chi2: f64, delta_bic: f64, added_rank: usize) -> Candidate {
         Candidate {
             effect,
             score: delta_chi2,
@@ -82,7 +93,7 @@ mod tests {
             every_pixel: true,
             bounded: false,
             identifiable: true,
-            added_rank: 1,
+            added_rank,
             params: Vec::new(),
             size: None,
             outside_physical: Vec::new(),
@@ -91,12 +102,22 @@ mod tests {
 
     #[test]
     fn the_issues_clean_sky_pair_is_confusable_and_a_clear_lead_is_not() {
-        // Issue 31: 21 822 against 21 805 at f = 0.01 — 0.17 apart, noise ≈ 5.9.
-        let (a, b) = (cand("sky_dolp_shape", 21822.0, 200.0), cand("sensor_nonlinearity", 21805.0, 180.0));
-        assert!(confusable(&a, &b, 0.01));
-        // A typical effect 10 % ahead of its runner-up at 10⁶: 10⁵·f = 1000 against ≈ 39.
+        // Issue 31: 21 822 against 21 805 on a white residual (f = 1), the same k:
+        // ΔBIC 17 apart, within 10 + 4√17 = 26.5.
+        let (a, b) = (cand("sky_dolp_shape", 21822.0, 21807.0), cand("sensor_nonlinearity", 21805.0, 21790.0));
+        assert!(confusable(&a, &b, 1.0));
+        // A typical effect 10 % ahead of its runner-up at 10⁶ (f = 0.01): 1000 apart
+        // against 10 + 4√1000 = 136.
         let (a, b) = (cand("analyzer_angles", 1e6, 9000.0), cand("window", 0.9e6, 8000.0));
         assert!(!confusable(&a, &b, 0.01));
+        // The same Δχ² with three more parameters (ln n_eff ≈ 14.7 each), which gain
+        // 3 from noise: the simpler one.
+        let (a, b) = (cand("array_rotation", 58000.0, 57985.0), cand_k("analyzer_angles", 58003.0, 57959.0, 4));
+        assert!(!confusable(&a, &b, 1.0));
+        // Two more gaining 6 (noise: 2): 23.4 ΔBIC apart against 10 + 4√4 = 18.
+        let (a, b) =
+            (cand("sky_depolarization", 1e6, 1e6 - 14.7), cand_k("extinction_ratio", 1e6 + 6.0, 1e6 + 6.0 - 44.1, 3));
+        assert!(!confusable(&a, &b, 1.0));
     }
 
     #[test]
