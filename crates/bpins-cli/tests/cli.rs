@@ -696,7 +696,7 @@ fn fit_writes_its_json_and_refuses_bad_input() {
 fn diagnose_refuses_a_negative_size_threshold_naming_the_flag() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("diag");
-    bpins(&["diagnose", CLEAN, "--min-heading-deg", "-0.1", "--out", &s(&out)]).fails().stderr_has("--min-heading-deg");
+    bpins(&["diagnose", CLEAN, "--min-heading-deg=-0.1", "--out", &s(&out)]).fails().stderr_has("--min-heading-deg");
     assert!(!out.exists());
 }
 
