@@ -114,7 +114,7 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
             i + 1
         );
         out!(
-            "  {:<22}  {:>12}  {:>12}  {:>17}  {:>8}  {:>8}  {:>8}",
+            "  {:<22}  {:>12}  {:>12}  {:>20}  {:>8}  {:>8}  {:>8}",
             "effect",
             "Δχ²",
             "ΔBIC",
@@ -127,7 +127,7 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
             let [heading, aop, dolp, dn] = crate::report::size_cells(c);
             let (verdict, _) = crate::report::candidate_verdict(d, i + 1, c);
             out!(
-                "  {:<22}  {:>12.1}  {:>12.1}  {:>17}  {:>8}  {:>8}  {:>8}  {}{}",
+                "  {:<22}  {:>12.1}  {:>12.1}  {:>20}  {:>8}  {:>8}  {:>8}  {}{}",
                 c.effect,
                 c.delta_chi2,
                 c.delta_bic,

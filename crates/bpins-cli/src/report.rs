@@ -350,7 +350,10 @@ fn step(k: usize, s: &bpins_core::diagnose::Step, f: &Figures) -> StepView {
 /// A candidate's size in the user's units, as (heading RMS / worst frame °, AoP RMS °,
 /// DoLP RMS, DN at the worst pixel); dashes where it has none.
 pub fn size_cells(c: &Candidate) -> [String; 4] {
-    let Some(s) = &c.size else { return ["—".into(), "—".into(), "—".into(), "—".into()] };
+    let Some(s) = &c.size else {
+        let none = if c.identifiable { "— (within the noise)" } else { "—" };
+        return [none.into(), "—".into(), "—".into(), "—".into()];
+    };
     let heading = match (s.heading_change_rms_deg, s.heading_change_max_deg) {
         (Some(r), Some(m)) => format!("{r:.4} / {m:.4}"),
         _ => "— (not refitted)".into(),
@@ -389,7 +392,7 @@ pub fn candidate_verdict(d: &Diagnosis, step: usize, c: &Candidate) -> (String, 
     } else if let Some(p) = d.confusable.iter().find(|p| p.second == c.effect) {
         words.push(format!("confusable with {}", p.first));
     }
-    if let Some(s) = c.size.filter(|_| c.identifiable) {
+    if let Some(s) = c.size.filter(|_| c.refitted) {
         let what = s.what_matters();
         words.push(if what.is_empty() {
             "below every size threshold".into()

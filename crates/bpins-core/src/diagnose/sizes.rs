@@ -14,7 +14,8 @@
 //! with the effect: what a user would get by modelling it), the AoP, DoLP and DN
 //! changes from one fit evaluated twice (what the effect itself contributes, not what
 //! the refit's other parameters moved to absorb it). A candidate known only by its
-//! score test (no refit) moves no heading: its heading change is `None`.
+//! score test (no refit) moves no heading: its heading change is `None`; one whose
+//! score is within its noise has no size at all (nothing to measure).
 //!
 //! An effect *matters* where one of its changes exceeds its threshold:
 //!
@@ -198,7 +199,8 @@ mod tests {
 /// Fills each identifiable candidate's size (module doc) and its fitted values outside
 /// the physical range: from its every-pixel refit (against `current`, every sample),
 /// else from its subsampled refit (against the base model's subsampled optimum
-/// `base_sub`, every `stride`-th sample), else from its score step (no heading change).
+/// `base_sub`, every `stride`-th sample), else from its score step (no heading change)
+/// where the score is beyond its noise; a candidate the data do not show has no size.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn fill(
     c: &Capture,
@@ -214,10 +216,14 @@ pub(crate) fn fill(
     let base_thresholds = Thresholds::of(current, given);
     for cand in ranking.iter_mut() {
         cand.outside_physical = outside_physical(&cand.params);
-        if !cand.identifiable {
+        let refit = refits.iter().find(|r| r.effect == cand.effect);
+        // A score within its noise (χ²_k: below k + 3√(2k), the refit's bar) shows no
+        // effect to size: its one-step parameters are noise, and for an effect that
+        // enters at second order the linear step is far off besides.
+        let k = cand.added_rank.max(1) as f64;
+        if !cand.identifiable || (refit.is_none() && cand.score <= k + 3.0 * (2.0 * k).sqrt()) {
             continue;
         }
-        let refit = refits.iter().find(|r| r.effect == cand.effect);
         cand.size = Some(match refit {
             Some(r) if r.full.is_some() => {
                 let full = r.full.as_ref().expect("converged");
