@@ -33,18 +33,25 @@ pub struct Args {
     /// sample's DoLP noise scatter.
     #[arg(long, value_name = "DOLP")]
     min_dolp: Option<f64>,
+    /// The same for the largest change of one pixel's model DN. Default: a tenth of one
+    /// pixel's noise at the frames' radiance scale.
+    #[arg(long, value_name = "DN")]
+    min_dn: Option<f64>,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let max_added = a.max_added;
-    for (flag, v) in
-        [("--min-heading-deg", a.min_heading_deg), ("--min-aop-deg", a.min_aop_deg), ("--min-dolp", a.min_dolp)]
-    {
+    for (flag, v) in [
+        ("--min-heading-deg", a.min_heading_deg),
+        ("--min-aop-deg", a.min_aop_deg),
+        ("--min-dolp", a.min_dolp),
+        ("--min-dn", a.min_dn),
+    ] {
         if v.is_some_and(|x| !(x.is_finite() && x >= 0.0)) {
             anyhow::bail!("{flag} must be a finite number ≥ 0, not {}", v.unwrap_or_default());
         }
     }
-    let min_size = MinSize { heading_deg: a.min_heading_deg, aop_deg: a.min_aop_deg, dolp: a.min_dolp };
+    let min_size = MinSize { heading_deg: a.min_heading_deg, aop_deg: a.min_aop_deg, dolp: a.min_dolp, dn: a.min_dn };
     let a = a.input;
     let (request, loaded) = a.load_request()?;
     let opts = DiagnoseOptions { base: loaded.options.clone(), max_added, min_size, ..Default::default() };

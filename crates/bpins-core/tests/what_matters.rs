@@ -16,7 +16,7 @@ use common::{cie_sky, simulate_in, small_capture, typical};
 const PRNU: f64 = 0.01;
 
 /// Thresholds at zero: every detected effect is named, as before issue 31.
-const NAME_EVERYTHING: MinSize = MinSize { heading_deg: Some(0.0), aop_deg: Some(0.0), dolp: Some(0.0) };
+const NAME_EVERYTHING: MinSize = MinSize { heading_deg: Some(0.0), aop_deg: Some(0.0), dolp: Some(0.0), dn: Some(0.0) };
 
 fn run(c: &Capture, frames: &[FrameData], min_size: MinSize) -> Diagnosis {
     let opts = DiagnoseOptions { max_added: 1, min_size, ..Default::default() };
