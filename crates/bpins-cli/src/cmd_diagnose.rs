@@ -131,8 +131,8 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
             "DN"
         );
         for c in ranking {
-            let [heading, aop, dolp, dn] = crate::report::size_cells(c);
-            let (verdict, _) = crate::report::candidate_verdict(d, i + 1, c);
+            let [heading, aop, dolp, dn] = crate::effect_sizes::size_cells(c);
+            let (verdict, _) = crate::effect_sizes::candidate_verdict(d, i + 1, c);
             out!(
                 "  {:<22}  {:>12.1}  {:>12.1}  {:>20}  {:>8}  {:>8}  {:>8}  {}{}",
                 c.effect,
@@ -160,9 +160,12 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
     if let Some(s) = d.steps.first() {
         out!("{}", crate::sample_line(&s.fit.sample));
     }
-    out!("named: {}", if d.selected.is_empty() { "nothing".into() } else { crate::report::sized(d, &d.selected) });
+    out!(
+        "named: {}",
+        if d.selected.is_empty() { "nothing".into() } else { crate::effect_sizes::sized(d, &d.selected) }
+    );
     if !d.negligible.is_empty() {
-        out!("detected, negligible (not named): {}", crate::report::sized(d, &d.negligible));
+        out!("detected, negligible (not named): {}", crate::effect_sizes::sized(d, &d.negligible));
     }
     for e in d.selected.iter().filter(|e| d.possibly_compensating(e)) {
         let unphysical: Vec<String> = d.outside_physical(e).collect();
