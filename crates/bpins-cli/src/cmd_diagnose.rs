@@ -6,6 +6,7 @@
 
 use crate::write_json;
 use anyhow::Context;
+use bpins_core::diagnose::sizes::MinSize;
 use bpins_core::diagnose::DiagnosisJson;
 use bpins_core::diagnose::{diagnose_frames, DiagnoseOptions, Diagnosis};
 use bpins_core::fit::FitOptions;
@@ -18,13 +19,42 @@ pub struct Args {
     /// Most effects to add.
     #[arg(long, default_value_t = 3)]
     max_added: usize,
+    /// An added effect is named only where it moves some frame's heading by more than
+    /// this (degrees), or passes --min-aop-deg or --min-dolp; else it is listed as
+    /// detected, negligible. Default: twice the RMS of the frames' heading 1σ (with the
+    /// misfit) of the fit with the effect.
+    #[arg(long, value_name = "DEG")]
+    min_heading_deg: Option<f64>,
+    /// The same for the RMS change of the model's AoP (degrees). Default: a tenth of one
+    /// sample's AoP noise scatter (the AoP residual RMS over √max(1, χ²/dof)).
+    #[arg(long, value_name = "DEG")]
+    min_aop_deg: Option<f64>,
+    /// The same for the RMS change of the model's DoLP. Default: a tenth of one
+    /// sample's DoLP noise scatter.
+    #[arg(long, value_name = "DOLP")]
+    min_dolp: Option<f64>,
+    /// The same for the largest change of one pixel's model DN. Default: a tenth of one
+    /// pixel's noise at the frames' radiance scale.
+    #[arg(long, value_name = "DN")]
+    min_dn: Option<f64>,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let max_added = a.max_added;
+    for (flag, v) in [
+        ("--min-heading-deg", a.min_heading_deg),
+        ("--min-aop-deg", a.min_aop_deg),
+        ("--min-dolp", a.min_dolp),
+        ("--min-dn", a.min_dn),
+    ] {
+        if v.is_some_and(|x| !(x.is_finite() && x >= 0.0)) {
+            anyhow::bail!("{flag} must be a finite number ≥ 0, not {}", v.unwrap_or_default());
+        }
+    }
+    let min_size = MinSize { heading_deg: a.min_heading_deg, aop_deg: a.min_aop_deg, dolp: a.min_dolp, dn: a.min_dn };
     let a = a.input;
     let (request, loaded) = a.load_request()?;
-    let opts = DiagnoseOptions { base: loaded.options.clone(), max_added, ..Default::default() };
+    let opts = DiagnoseOptions { base: loaded.options.clone(), max_added, min_size, ..Default::default() };
     let spinner = indicatif::ProgressBar::new_spinner();
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
     let t0 = std::time::Instant::now();
@@ -85,14 +115,34 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
             opt(s.fit.heading_rms_deg)
         );
     }
-    if let Some(first) = d.rankings.first() {
-        out!("first step, candidates by ΔBIC:");
-        for c in first {
+    for (i, ranking) in d.rankings.iter().enumerate() {
+        out!(
+            "step {}, candidates by ΔBIC; size: heading change RMS / worst frame (°), AoP RMS (°), DoLP RMS, DN at the worst pixel:",
+            i + 1
+        );
+        out!(
+            "  {:<22}  {:>12}  {:>12}  {:>20}  {:>8}  {:>8}  {:>8}",
+            "effect",
+            "Δχ²",
+            "ΔBIC",
+            "heading °",
+            "AoP °",
+            "DoLP",
+            "DN"
+        );
+        for c in ranking {
+            let [heading, aop, dolp, dn] = crate::effect_sizes::size_cells(c);
+            let (verdict, _) = crate::effect_sizes::candidate_verdict(d, i + 1, c);
             out!(
-                "  {:<22} Δχ² {:>12.1}  ΔBIC {:>12.1}  {}",
+                "  {:<22}  {:>12.1}  {:>12.1}  {:>20}  {:>8}  {:>8}  {:>8}  {}{}",
                 c.effect,
                 c.delta_chi2,
                 c.delta_bic,
+                heading,
+                aop,
+                dolp,
+                dn,
+                if verdict.is_empty() { String::new() } else { format!("{verdict}; ") },
                 if !c.identifiable {
                     "(cannot be told from the nuisances)"
                 } else if c.bounded {
@@ -110,12 +160,35 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
     if let Some(s) = d.steps.first() {
         out!("{}", crate::sample_line(&s.fit.sample));
     }
-    out!("selected: {}", if d.selected.is_empty() { "nothing".into() } else { d.selected.join(", ") });
+    out!(
+        "named: {}",
+        if d.selected.is_empty() { "nothing".into() } else { crate::effect_sizes::sized(d, &d.selected) }
+    );
+    if !d.negligible.is_empty() {
+        out!("detected, negligible (not named): {}", crate::effect_sizes::sized(d, &d.negligible));
+    }
+    for e in d.selected.iter().filter(|e| d.possibly_compensating(e)) {
+        let unphysical: Vec<String> = d.outside_physical(e).collect();
+        out!(
+            "possibly compensating: {e}{}",
+            if unphysical.is_empty() {
+                " (the capture stays unexplained)".to_string()
+            } else {
+                format!(": {}", unphysical.join("; "))
+            }
+        );
+    }
     for (e, why) in &d.inseparable {
         out!("inseparable on this capture (not fitted): {e}: {why}");
     }
-    for (a, b) in &d.confusable {
-        out!("confusable: {a} and {b} explain the data about equally well");
+    for p in &d.confusable {
+        out!(
+            "confusable: {} and {} explain the same χ² within its noise, neither is named ({} is in the model); what separates them: {}",
+            p.first,
+            p.second,
+            p.first,
+            p.separates
+        );
     }
     out!("{}", d.summary());
     Ok(())

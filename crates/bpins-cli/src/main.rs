@@ -39,6 +39,7 @@ mod cmd_heading_bag;
 mod cmd_run;
 mod cmd_simulate;
 mod cmd_sweep;
+mod effect_sizes;
 mod names;
 mod profiles;
 mod progress;

@@ -5,8 +5,9 @@
 //! DN residual before and after), then each step's sky-space profiles, maps, frames
 //! and candidates.
 
+use crate::effect_sizes::{candidate_verdict, size_cells, sized};
 use crate::residuals::{Figures, Written};
-use bpins_core::diagnose::Diagnosis;
+use bpins_core::diagnose::{Candidate, Diagnosis};
 use bpins_core::fit::Param;
 use serde::Serialize;
 
@@ -19,7 +20,8 @@ struct Page {
     answer: Answer,
     steps: Vec<StepView>,
     remains: Verdict,
-    confusable: Vec<(&'static str, &'static str)>,
+    confusable: Vec<bpins_core::diagnose::pairs::Confusable>,
+    negligible: String,
     rankings: Vec<RankingView>,
     bic_threshold: f64,
     selected: String,
@@ -98,6 +100,14 @@ struct CandidateRow {
     effect: &'static str,
     delta_chi2: String,
     delta_bic: String,
+    /// The effect's size: heading change RMS / worst frame (°), AoP RMS (°), DoLP RMS,
+    /// DN at the worst pixel; and what the diagnosis made of it.
+    heading: String,
+    aop: String,
+    dolp: String,
+    dn: String,
+    verdict: String,
+    verdict_class: &'static str,
     class: &'static str,
     how: &'static str,
     params: String,
@@ -114,6 +124,7 @@ struct FrameRow {
     k: usize,
     heading_deg: String,
     sigma_deg: String,
+    sigma_stat_deg: String,
     reference_deg: String,
     error_deg: String,
     dmax: String,
@@ -136,7 +147,8 @@ pub fn diagnosis(
         steps,
         remains: Verdict { class: if d.unexplained() { "no" } else { "yes" }, text: d.summary() },
         confusable: d.confusable.clone(),
-        rankings: d.rankings.iter().enumerate().map(|(i, r)| ranking(i + 1, r, d.bic_threshold)).collect(),
+        negligible: d.negligible.join(", "),
+        rankings: d.rankings.iter().enumerate().map(|(i, r)| ranking(d, i + 1, r)).collect(),
         bic_threshold: d.bic_threshold,
         selected: if d.selected.is_empty() { "No effect.".into() } else { d.selected.join(", then ") },
         inseparable: d.inseparable.iter().map(|(effect, why)| Why { effect, why: why.clone() }).collect(),
@@ -183,21 +195,41 @@ fn plus_minus(p: &Param) -> String {
 /// and after.
 fn answer(d: &Diagnosis, pair: &[Written; 2]) -> Answer {
     let (first, last) = (&d.steps[0], d.steps.last().expect("a starting step"));
-    let verdict = match (d.selected.is_empty(), d.unexplained()) {
-        (false, false) => format!("Missing: {}. With it the residual is at the noise.", d.selected.join(", then ")),
+    let mut verdict = match (d.selected.is_empty(), d.unexplained()) {
+        (false, false) => format!("Missing: {}. With it the residual is at the noise.", sized(d, &d.selected)),
         (false, true) => format!(
-            "{} explain{} part of the misfit; the rest no catalog effect explains.",
-            d.selected.join(", "),
+            "{} explain{} part of the misfit, possibly compensating for what is missing; the rest no catalog \
+             effect explains.",
+            sized(d, &d.selected),
             if d.selected.len() == 1 { "s" } else { "" }
         ),
-        (true, false) => "Nothing is missing: the model explains the data to the noise.".into(),
+        (true, false) if d.confusable.is_empty() => {
+            "Nothing that matters is missing: the model explains the data to the noise.".into()
+        }
+        (true, false) => "The residual is at the noise with the pair below in the model.".into(),
         (true, true) => "No catalog effect explains the misfit (see what remains).".into(),
     };
+    for p in &d.confusable {
+        verdict.push_str(&format!(
+            " {} or {}: the capture cannot tell which (neither is named); what separates them: {}.",
+            sized(d, &[p.first]),
+            p.second,
+            p.separates
+        ));
+    }
+    if !d.negligible.is_empty() {
+        verdict.push_str(&format!(" Detected but negligible (not named): {}.", sized(d, &d.negligible)));
+    }
+    for e in &d.selected {
+        for x in d.outside_physical(e) {
+            verdict.push_str(&format!(" Unphysical: {x}."));
+        }
+    }
     let params = last
         .fit
         .params
         .iter()
-        .filter(|p| d.selected.contains(&p.id.effect))
+        .filter(|p| d.selected.contains(&p.id.effect) || d.confusable.iter().any(|c| c.first == p.id.effect))
         .map(|p| ParamRow { name: p.name.clone(), value: plus_minus(p), unit: p.unit })
         .collect();
     let (b, a) = (&first.fit, &last.fit);
@@ -291,13 +323,21 @@ fn step(k: usize, s: &bpins_core::diagnose::Step, f: &Figures) -> StepView {
     }
 }
 
-fn ranking(step: usize, r: &[bpins_core::diagnose::Candidate], threshold: f64) -> RankingView {
+fn ranking(d: &Diagnosis, step: usize, r: &[Candidate]) -> RankingView {
+    let threshold = d.bic_threshold;
     let rows = r
         .iter()
-        .map(|c| CandidateRow {
+        .map(|c| (c, size_cells(c), candidate_verdict(d, step, c)))
+        .map(|(c, [heading, aop, dolp, dn], (verdict, verdict_class))| CandidateRow {
             effect: c.effect,
             delta_chi2: format!("{:.1}", c.delta_chi2),
             delta_bic: format!("{:.1}", c.delta_bic),
+            heading,
+            aop,
+            dolp,
+            dn,
+            verdict,
+            verdict_class,
             class: if c.delta_bic > threshold { "yes" } else { "no" },
             how: if !c.identifiable {
                 "cannot be told from the nuisances"
@@ -329,6 +369,7 @@ fn frame_rows(fit: &bpins_core::fit::FitResult) -> Vec<FrameRow> {
             k,
             heading_deg: format!("{:.4}", f.heading_deg),
             sigma_deg: format!("{:.4}", f.heading_sigma_deg),
+            sigma_stat_deg: format!("{:.5}", f.heading_sigma_stat_deg),
             reference_deg: opt(f.reference_deg),
             error_deg: opt(f.heading_error_deg),
             dmax: format!("{:.4}", f.dmax),

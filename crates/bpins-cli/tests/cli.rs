@@ -693,6 +693,14 @@ fn fit_writes_its_json_and_refuses_bad_input() {
 }
 
 #[test]
+fn diagnose_refuses_a_negative_size_threshold_naming_the_flag() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("diag");
+    bpins(&["diagnose", CLEAN, "--min-heading-deg=-0.1", "--out", &s(&out)]).fails().stderr_has("--min-heading-deg");
+    assert!(!out.exists());
+}
+
+#[test]
 fn diagnose_writes_its_json_and_report() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("diag");
@@ -713,6 +721,19 @@ fn diagnose_writes_its_json_and_report() {
     // Each step has the fields of fit.json.
     assert!(step["frames"].is_array() && step["params"].is_array() && step["noise"].is_object(), "{step:#}");
     assert!(v["selected"].is_array() && v["unexplained"].is_boolean() && v["unexplained_summary"].is_string());
+    // Every candidate's size in the user's units (null where its score is within the
+    // noise, as on this clean capture), with the thresholds it was held to; what was
+    // detected but is negligible; the pairs.
+    for c in v["rankings"][0].as_array().unwrap() {
+        let size = c.as_object().unwrap().get("size").expect("a size field");
+        if !size.is_null() {
+            for key in ["aop_change_rms_deg", "dolp_change_rms", "max_change_dn", "thresholds"] {
+                assert!(!size[key].is_null(), "{} size lacks {key}: {size}", c["effect"]);
+            }
+        }
+    }
+    assert!(v["negligible"].is_array() && v["confusable"].is_array());
+    assert!(step["frames"][0]["heading_sigma_stat_deg"].is_number());
     for f in [
         "residual_chi2.png",
         "residual_dn.png",

@@ -121,9 +121,11 @@ pub fn fit<'py>(
 ///
 /// The arguments are `fit`'s (`effects`: the model to start from and keep) and
 /// `max_added`, the most effects added. Returns the dict `bpins diagnose` writes as
-/// diagnosis.json: "selected" (effect names, in order), "steps" (each "model" beside
-/// a fit.json's fields), "rankings" (the candidates of each step with
-/// delta_chi2 and delta_bic), "inseparable" ([effect, reason] pairs), "confusable",
+/// diagnosis.json: "selected" (effect names named, in order), "negligible" (effects
+/// detected but too small to matter), "steps" (each "model" beside a fit.json's
+/// fields), "rankings" (the candidates of each step with delta_chi2, delta_bic and
+/// "size": heading, AoP, DoLP and DN change), "inseparable" ([effect, reason] pairs),
+/// "confusable" (pairs: first, second, what separates them),
 /// "unexplained" (bool) and "unexplained_summary" (words). The GIL is released.
 #[pyfunction]
 #[pyo3(signature = (capture, effects=None, *, max_added=3, calibration=None, fixed_dmax=None,

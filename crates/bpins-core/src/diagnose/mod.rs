@@ -26,17 +26,23 @@
 //! misfit it does not describe is not named — and the search repeats. Effects a sky
 //! capture cannot tell from the fit's nuisances ([`inseparable`]: vignetting from the
 //! sky's radiance, a factor on d_max from each frame's d_max) are not candidates but
-//! listed, with why, as what the capture cannot tell. Two candidates within
-//! 10 of each other in ΔBIC are reported as confusable (the data cannot tell them
-//! apart; the better one is still taken). When no effect is worth its parameters but
+//! listed, with why, as what the capture cannot tell. Two candidates that explain the
+//! same Δχ² within the noise of their difference (`pairs`) are a confusable pair:
+//! the better one is added to the model, neither is named, and the pair is reported
+//! with what would separate them. Every candidate carries its size in the user's
+//! units (`sizes`: the change to the heading, the AoP, the DoLP, the DN); an added
+//! effect whose size stays below the thresholds (derived from the frames' heading 1σ
+//! and noise, or given) is *detected, negligible*, not named. When no effect is worth its parameters but
 //! χ²/dof stays clearly above 1, the residual is reported as unexplained, described by
 //! channel, by radius and by the strongest trend of its sky-space profiles
 //! (`profiles::trends`) instead of naming the least-bad effect: as data
 //! ([`Remains`]), with the sentence rendered from it.
 
 mod json;
+pub mod pairs;
 mod refits;
 pub mod remains;
+pub mod sizes;
 
 use crate::capture::{Capture, FrameData};
 use crate::effects::{EffectDef, REGISTRY};
@@ -45,9 +51,11 @@ use crate::fit::uncertainty::score::score_candidates;
 use crate::fit::{fit_from, residual_maps_of, FitFrames, FitOptions, FitResult, Param};
 use crate::sensor::Layout;
 pub use json::DiagnosisJson;
+use pairs::{confusable, Confusable};
 pub use refits::CLOSE_MARGIN;
 use refits::{base_on_subsample, bound_on_every_pixel, converge, next_to_converge, refit_on_subsample};
 use remains::Remains;
+use sizes::{EffectSize, MinSize};
 
 /// How the search runs.
 #[derive(Clone, Debug)]
@@ -62,6 +70,8 @@ pub struct DiagnoseOptions {
     pub score_stride: usize,
     /// Catalog effects not to consider, as if the catalog lacked them.
     pub exclude: Vec<&'static str>,
+    /// Sizes below which an added effect is negligible (`None`: derived, `sizes`).
+    pub min_size: MinSize,
 }
 
 impl Default for DiagnoseOptions {
@@ -72,6 +82,7 @@ impl Default for DiagnoseOptions {
             refit_top: 2,
             score_stride: 3,
             exclude: Vec::new(),
+            min_size: MinSize::default(),
         }
     }
 }
@@ -164,6 +175,17 @@ pub struct Candidate {
     #[serde(rename = "constrained_params")]
     pub added_rank: usize,
     pub params: Vec<Param>,
+    /// What it changes in the user's units (`sizes`); `None` where unidentifiable.
+    pub size: Option<EffectSize>,
+    /// Its fitted values outside the range a real instrument or sky has, in words.
+    pub outside_physical: Vec<String>,
+}
+
+impl Candidate {
+    /// Whether its size passes the thresholds (`sizes`).
+    pub fn matters(&self) -> bool {
+        self.size.is_some_and(|s| s.matters())
+    }
 }
 
 /// One model along the way: its effects and its fit (the fit's fields beside
@@ -181,9 +203,13 @@ pub struct Diagnosis {
     pub steps: Vec<Step>,
     /// Candidates of each step, best first.
     pub rankings: Vec<Vec<Candidate>>,
+    /// Effects named: added, and large enough to matter (`sizes`).
     pub selected: Vec<&'static str>,
-    /// Pairs the evidence could not separate (best, runner-up).
-    pub confusable: Vec<(&'static str, &'static str)>,
+    /// Effects added (detected) whose size stays below the thresholds: not named.
+    pub negligible: Vec<&'static str>,
+    /// Pairs the evidence could not separate: the first added to the model, neither
+    /// named.
+    pub confusable: Vec<Confusable>,
     /// What the final model leaves: noise, or a residual no catalog effect explains.
     pub remains: Remains,
     /// Effects this capture cannot tell from the fit's nuisances, with why (not
@@ -203,6 +229,20 @@ impl Diagnosis {
     /// What remains, in words (rendered from [`Diagnosis::remains`]).
     pub fn summary(&self) -> String {
         self.remains.to_string()
+    }
+
+    /// Whether a named effect may only stand in for a misfit it does not describe: the
+    /// capture stays unexplained, or a fitted value lies outside the physical range.
+    pub fn possibly_compensating(&self, effect: &str) -> bool {
+        let named = self.selected.contains(&effect) || self.confusable.iter().any(|p| p.first == effect);
+        named && (self.unexplained() || self.outside_physical(effect).next().is_some())
+    }
+
+    /// The final model's fitted values of `effect` outside the physical range, in words.
+    pub fn outside_physical(&self, effect: &str) -> impl Iterator<Item = String> + '_ {
+        let params = self.steps.last().map_or(&[][..], |s| &s.fit.params[..]);
+        let own: Vec<Param> = params.iter().filter(|p| p.id.effect == effect).cloned().collect();
+        sizes::outside_physical(&own).into_iter()
     }
 }
 
@@ -257,8 +297,9 @@ pub fn diagnose_frames(
         steps: vec![Step { model: model.effects.iter().map(|e| e.name).collect(), fit: current.clone() }],
         rankings: Vec::new(),
         selected: Vec::new(),
+        negligible: Vec::new(),
         confusable: Vec::new(),
-        remains: Remains { chi2_per_dof: current.chi2_per_dof, noise_limit: f64::NAN, unexplained: None },
+        remains: Remains::within_noise(current.chi2_per_dof, f64::NAN, &[], &[], &[]),
         inseparable: insep.clone(),
         bic_threshold: BIC_THRESHOLD,
     };
@@ -291,6 +332,8 @@ pub fn diagnose_frames(
                 identifiable: s.identifiable,
                 added_rank: s.added_rank,
                 params: s.params,
+                size: None,
+                outside_physical: Vec::new(),
             });
         }
         // Unidentifiable candidates last; then by predicted ΔBIC.
@@ -370,6 +413,9 @@ pub fn diagnose_frames(
             converge(c, frames, &current, &mut refits[i], cand, full_bic)?;
             by_evidence(&mut ranking);
         }
+        progress("sizing the candidates");
+        let sub_state = base_sub.as_ref().map(|(s, _)| &s.state);
+        sizes::fill(c, frames, &model, &current, &refits, sub_state, &mut ranking, &opts.min_size, opts.score_stride)?;
         let best = ranking.first().cloned();
         let runner = ranking.get(1).cloned();
         d.rankings.push(ranking);
@@ -382,15 +428,16 @@ pub fn diagnose_frames(
         }
         let Some(best) = best.filter(|b| evident(b)) else { break };
         if explains(&best) {
-            if let Some(r) = runner.filter(|r| explains(r)) {
-                if best.delta_bic - r.delta_bic < BIC_THRESHOLD {
-                    d.confusable.push((best.effect, r.effect));
-                }
-            }
+            let f = current.n_eff / current.samples.max(1) as f64;
+            let pair = runner.filter(|r| explains(r) && confusable(&best, r, f));
             let refit = refits.into_iter().find(|r| r.effect == best.effect).expect("refitted");
             model = refit.model;
             current = refit.full.expect("converged on every pixel");
-            d.selected.push(best.effect);
+            match pair {
+                Some(r) => d.confusable.push(Confusable::new(best.effect, r.effect)),
+                None if best.matters() => d.selected.push(best.effect),
+                None => d.negligible.push(best.effect),
+            }
         } else {
             // Neither explains half alone: the best two together, each evident alone.
             let Some(second) = runner.filter(|r| evident(r)) else { break };
@@ -409,21 +456,30 @@ pub fn diagnose_frames(
             }
             model = m;
             current = r;
-            d.selected.extend([best.effect, second.effect]);
+            for cand in [&best, &second] {
+                if cand.matters() {
+                    d.selected.push(cand.effect);
+                } else {
+                    d.negligible.push(cand.effect);
+                }
+            }
         }
         d.steps.push(Step { model: model.effects.iter().map(|e| e.name).collect(), fit: current.clone() });
-        if d.selected.len() >= opts.max_added {
+        if model.effects.len() >= opts.base.effects.len() + opts.max_added {
             break;
         }
     }
     // Whatever remains: is it noise?
     let limit = Remains::noise_limit(current.dof);
+    let pairs: Vec<String> = d.confusable.iter().map(|p| format!("{} or {}", p.first, p.second)).collect();
     d.remains = if current.chi2_per_dof > limit {
         progress("describing the residual");
         let maps = residual_maps_of(c, frames, &model, &current.state, current.noise, &mut |_, _| {})?;
-        Remains::unexplained(current.chi2_per_dof, limit, d.selected.clone(), &maps.profiles)
+        let mut partial = d.selected.clone();
+        partial.extend(d.confusable.iter().flat_map(|p| [p.first, p.second]));
+        Remains::unexplained(current.chi2_per_dof, limit, partial, &maps.profiles)
     } else {
-        Remains { chi2_per_dof: current.chi2_per_dof, noise_limit: limit, unexplained: None }
+        Remains::within_noise(current.chi2_per_dof, limit, &d.selected, &pairs, &d.negligible)
     };
     Ok(d)
 }

@@ -14,6 +14,10 @@ pub struct Remains {
     pub noise_limit: f64,
     /// Present when χ²/dof is above the noise limit and no catalog effect explains it.
     pub unexplained: Option<Unexplained>,
+    /// Within the noise: what the model was given to get there — the effects named,
+    /// each confusable pair ("a or b") — and the effects detected but negligible.
+    pub named: Vec<String>,
+    pub negligible: Vec<&'static str>,
 }
 
 /// Where an unexplained residual lies.
@@ -53,7 +57,20 @@ impl Remains {
             by_radius: along(Axis::Radius),
             trends: trends(profiles, TREND_MIN_SAMPLES),
         };
-        Remains { chi2_per_dof, noise_limit, unexplained: Some(u) }
+        Remains { chi2_per_dof, noise_limit, unexplained: Some(u), named: Vec::new(), negligible: Vec::new() }
+    }
+
+    /// A residual within the noise once `named` (effects, and pairs as "a or b") and
+    /// `negligible` are in the model.
+    pub fn within_noise(
+        chi2_per_dof: f64,
+        noise_limit: f64,
+        named: &[&'static str],
+        pairs: &[String],
+        negligible: &[&'static str],
+    ) -> Remains {
+        let named = named.iter().map(|s| s.to_string()).chain(pairs.iter().cloned()).collect();
+        Remains { chi2_per_dof, noise_limit, unexplained: None, named, negligible: negligible.to_vec() }
     }
 
     /// Whether a structured residual remains that no catalog effect explains.
@@ -82,11 +99,20 @@ impl Unexplained {
 impl std::fmt::Display for Remains {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let Some(u) = &self.unexplained else {
-            return write!(
-                f,
-                "χ²/dof {:.3} is within the noise (≤ {:.3}): nothing structured remains.",
-                self.chi2_per_dof, self.noise_limit
-            );
+            write!(f, "χ²/dof {:.3} is within the noise (≤ {:.3})", self.chi2_per_dof, self.noise_limit)?;
+            if self.named.is_empty() {
+                write!(f, ": nothing structured remains")?;
+            } else {
+                write!(f, " once {} is modelled: nothing else structured remains", self.named.join(" and "))?;
+            }
+            if !self.negligible.is_empty() {
+                write!(
+                    f,
+                    "; detected but negligible (below the size thresholds, not named): {}",
+                    self.negligible.join(", ")
+                )?;
+            }
+            return write!(f, ".");
         };
         let n = u.partial.len();
         let added = u.partial.join(", ");
@@ -162,7 +188,8 @@ mod tests {
             by_radius: vec![],
             trends: vec![trend],
         };
-        let r = Remains { chi2_per_dof: 1.135, noise_limit: 1.02, unexplained: Some(u) };
+        let r =
+            Remains { chi2_per_dof: 1.135, noise_limit: 1.02, unexplained: Some(u), named: vec![], negligible: vec![] };
         assert!(r.is_unexplained());
         assert_eq!(r.trend(Quantity::DolpResidual).map(|t| t.axis), Some(Axis::Radius));
         assert!(r.trend(Quantity::MeanDnResidualSigma).is_none());
@@ -174,7 +201,16 @@ mod tests {
         );
         assert!(s.contains("largest in the 45° channel (χ² per sample 1.300"), "{s}");
         assert!(s.contains("In sky space, the DoLP residual (measured − model) varies most along the radius"), "{s}");
-        let quiet = Remains { chi2_per_dof: 0.999, noise_limit: 1.02, unexplained: None };
+        let quiet = Remains::within_noise(0.999, 1.02, &[], &[], &[]);
         assert_eq!(quiet.to_string(), "χ²/dof 0.999 is within the noise (≤ 1.020): nothing structured remains.");
+        // Never "nothing structured remains" beside a name.
+        let named = Remains::within_noise(0.993, 1.02, &["analyzer_angles"], &[], &["sky_dolp_shape"]);
+        assert_eq!(
+            named.to_string(),
+            "χ²/dof 0.993 is within the noise (≤ 1.020) once analyzer_angles is modelled: nothing else structured \
+             remains; detected but negligible (below the size thresholds, not named): sky_dolp_shape."
+        );
+        let pair = Remains::within_noise(0.993, 1.02, &[], &["window or lens_diattenuation".into()], &[]);
+        assert!(pair.to_string().contains("once window or lens_diattenuation is modelled"), "{pair}");
     }
 }

@@ -26,7 +26,7 @@
 use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 const fn angle(name: &'static str, typical: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec { name, unit: "deg", neutral: 0.0, typical, min: -45.0, max: 45.0, doc }
+    ParamSpec { name, unit: "deg", neutral: 0.0, typical, min: -45.0, max: 45.0, physical: None, doc }
 }
 
 pub const EFFECT: EffectDef = EffectDef {

@@ -45,6 +45,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 0.5,
             min: 0.0,
             max: 2.0,
+            physical: None,
             doc: "tan of the chief-ray angle per normalised image radius (f / exit-pupil distance)",
         },
         ParamSpec {
@@ -54,6 +55,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 0.05,
             min: 0.0,
             max: 1.0,
+            physical: None,
             doc: "increase of eps = 1/ER per sin^2 of the chief-ray angle",
         },
     ],

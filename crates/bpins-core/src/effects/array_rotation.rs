@@ -30,6 +30,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.5,
         min: -90.0,
         max: 90.0,
+        physical: None,
         doc: "rotation of the array, counter-clockwise as displayed",
     }],
     apply: Apply::Frame(apply),

@@ -10,15 +10,26 @@
 //! is the sensor's DSNU/PRNU (`sensor::Response::{dsnu_dn, prnu}`), random and not
 //! fittable; this effect is its systematic per-channel part, which a fit can recover.
 //!
-//! | param                          | unit | neutral | range    |
-//! |--------------------------------|------|---------|----------|
-//! | `gain45`, `gain90`, `gain135`  | 1    | 0       | −0.5…0.5 |
-//! | `offset0_dn` … `offset135_dn`  | DN   | 0       | ±1000    |
+//! | param                          | unit | neutral | fit bounds | physical |
+//! |--------------------------------|------|---------|------------|----------|
+//! | `gain45`, `gain90`, `gain135`  | 1    | 0       | −0.5…0.5   | ±0.1     |
+//! | `offset0_dn` … `offset135_dn`  | DN   | 0       | ±1000      | ±50      |
+//!
+//! Physical ranges: the channels of a micro-polarizer sensor share one pixel design and
+//! one black-level clamp, so their gains differ by a few per cent and their dark
+//! offsets by a few DN; ±10 % and ±50 DN are generous bounds. A fitted value beyond them
+//! (a −176 DN offset: a black level below zero on a 64 DN sensor) is the parameter
+//! standing in for a misfit it does not describe, flagged by the diagnosis.
 //!
 //! Cannot: non-linear response, gains that vary across the sensor (vignetting is a
 //! separate effect), or a gain on channel 0 (it is the intensity scale).
 
 use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+
+/// The range a real sensor's relative channel gain has (module doc).
+const GAIN_PHYSICAL: (f64, f64) = (-0.1, 0.1);
+/// The range a real sensor's per-channel dark offset has, DN (module doc).
+const OFFSET_PHYSICAL_DN: (f64, f64) = (-50.0, 50.0);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "channel_response",
@@ -26,13 +37,13 @@ pub const EFFECT: EffectDef = EffectDef {
     source: "seed paper §2.2 eq. 11 (EMVA 1288)",
     stage: Stage::Sensor,
     params: &[
-        ParamSpec { name: "gain45", unit: "1", neutral: 0.0, typical: 0.02, min: -0.5, max: 0.5, doc: "relative gain of the 45° channel" },
-        ParamSpec { name: "gain90", unit: "1", neutral: 0.0, typical: -0.01, min: -0.5, max: 0.5, doc: "relative gain of the 90° channel" },
-        ParamSpec { name: "gain135", unit: "1", neutral: 0.0, typical: 0.015, min: -0.5, max: 0.5, doc: "relative gain of the 135° channel" },
-        ParamSpec { name: "offset0_dn", unit: "DN", neutral: 0.0, typical: 1.0, min: -1000.0, max: 1000.0, doc: "offset of the 0° channel" },
-        ParamSpec { name: "offset45_dn", unit: "DN", neutral: 0.0, typical: -2.0, min: -1000.0, max: 1000.0, doc: "offset of the 45° channel" },
-        ParamSpec { name: "offset90_dn", unit: "DN", neutral: 0.0, typical: 5.0, min: -1000.0, max: 1000.0, doc: "offset of the 90° channel" },
-        ParamSpec { name: "offset135_dn", unit: "DN", neutral: 0.0, typical: 3.0, min: -1000.0, max: 1000.0, doc: "offset of the 135° channel" },
+        ParamSpec { name: "gain45", unit: "1", neutral: 0.0, typical: 0.02, min: -0.5, max: 0.5, physical: Some(GAIN_PHYSICAL), doc: "relative gain of the 45° channel" },
+        ParamSpec { name: "gain90", unit: "1", neutral: 0.0, typical: -0.01, min: -0.5, max: 0.5, physical: Some(GAIN_PHYSICAL), doc: "relative gain of the 90° channel" },
+        ParamSpec { name: "gain135", unit: "1", neutral: 0.0, typical: 0.015, min: -0.5, max: 0.5, physical: Some(GAIN_PHYSICAL), doc: "relative gain of the 135° channel" },
+        ParamSpec { name: "offset0_dn", unit: "DN", neutral: 0.0, typical: 1.0, min: -1000.0, max: 1000.0, physical: Some(OFFSET_PHYSICAL_DN), doc: "offset of the 0° channel" },
+        ParamSpec { name: "offset45_dn", unit: "DN", neutral: 0.0, typical: -2.0, min: -1000.0, max: 1000.0, physical: Some(OFFSET_PHYSICAL_DN), doc: "offset of the 45° channel" },
+        ParamSpec { name: "offset90_dn", unit: "DN", neutral: 0.0, typical: 5.0, min: -1000.0, max: 1000.0, physical: Some(OFFSET_PHYSICAL_DN), doc: "offset of the 90° channel" },
+        ParamSpec { name: "offset135_dn", unit: "DN", neutral: 0.0, typical: 3.0, min: -1000.0, max: 1000.0, physical: Some(OFFSET_PHYSICAL_DN), doc: "offset of the 135° channel" },
     ],
     apply: Apply::Frame(apply),
     wgsl: None,

@@ -36,6 +36,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.01,
         min: 0.0,
         max: 0.125,
+        physical: None,
         doc: "fraction of its signal a pixel gives to each edge neighbour",
     }],
     apply: Apply::Frame(apply),

@@ -24,7 +24,7 @@
 use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
 const fn eps(name: &'static str, typical: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec { name, unit: "1", neutral: 0.0, typical, min: 0.0, max: 0.5, doc }
+    ParamSpec { name, unit: "1", neutral: 0.0, typical, min: 0.0, max: 0.5, physical: None, doc }
 }
 
 pub const EFFECT: EffectDef = EffectDef {

@@ -31,6 +31,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.02,
         min: -0.5,
         max: 0.5,
+        physical: None,
         doc: "relative error of the focal length",
     }],
     apply: Apply::Frame(apply),

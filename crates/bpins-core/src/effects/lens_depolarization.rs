@@ -42,6 +42,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.1,
         min: 0.0,
         max: 2.0,
+        physical: None,
         doc: "depolarized fraction per r² (focal lengths²)",
     }],
     apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: None, pixel: lens_depolarization },

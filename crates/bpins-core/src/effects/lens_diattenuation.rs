@@ -37,6 +37,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.1,
         min: -50.0,
         max: 50.0,
+        physical: None,
         doc: "diattenuation per squared normalised radius",
     }],
     apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: None, pixel: lens_diattenuation },

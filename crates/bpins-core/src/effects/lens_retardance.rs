@@ -44,6 +44,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 20.0,
         min: -180.0,
         max: 180.0,
+        physical: None,
         doc: "retardance per squared normalised radius",
     }],
     apply: Apply::Ray { params: |v| [v[0].to_radians(), 0.0, 0.0, 0.0], frame: None, pixel: lens_retardance },

@@ -89,10 +89,23 @@ pub struct ParamSpec {
     /// A realistic strength, as real sensors show it: what the hidden-effect tests
     /// simulate (and `bpins effects` lists), so a new effect is tested by being here.
     pub typical: f64,
-    /// Physically meaningful range (inclusive).
+    /// The fit's bounds (inclusive): wide enough that a fit is never stopped short of
+    /// what the data say.
     pub min: f64,
     pub max: f64,
+    /// The range a real sensor, lens or sky can have where it is narrower than the
+    /// fit's bounds (`None`: the bounds are that range). A fitted value outside it is
+    /// flagged by the diagnosis: the parameter stands in for something else.
+    pub physical: Option<(f64, f64)>,
     pub doc: &'static str,
+}
+
+impl ParamSpec {
+    /// The range a real instrument or sky can have ([`ParamSpec::physical`], else the
+    /// fit's bounds).
+    pub fn physical_range(&self) -> (f64, f64) {
+        self.physical.unwrap_or((self.min, self.max))
+    }
 }
 
 /// One physical effect.

@@ -33,6 +33,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 1.0,
             min: -45.0,
             max: 45.0,
+            physical: None,
             doc: "rotation about camera x",
         },
         ParamSpec {
@@ -42,6 +43,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: -0.5,
             min: -45.0,
             max: 45.0,
+            physical: None,
             doc: "rotation about camera y",
         },
     ],

@@ -53,7 +53,7 @@ const fn spec(
     max: f64,
     doc: &'static str,
 ) -> ParamSpec {
-    ParamSpec { name, unit, neutral: 0.0, typical, min, max, doc }
+    ParamSpec { name, unit, neutral: 0.0, typical, min, max, physical: None, doc }
 }
 
 pub const EFFECT: EffectDef = EffectDef {

@@ -31,6 +31,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 5.0,
             min: -1e4,
             max: 1e4,
+            physical: None,
             doc: "offset along image x (columns)",
         },
         ParamSpec {
@@ -40,6 +41,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: -3.0,
             min: -1e4,
             max: 1e4,
+            physical: None,
             doc: "offset along image y (rows, down)",
         },
     ],

@@ -43,6 +43,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: -0.05,
             min: -1.0,
             max: 1.0,
+            physical: None,
             doc: "radial distortion per r²",
         },
         ParamSpec {
@@ -52,6 +53,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 0.02,
             min: -1.0,
             max: 1.0,
+            physical: None,
             doc: "radial distortion per r⁴",
         },
     ],

@@ -43,6 +43,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.04,
         min: -0.2,
         max: 0.2,
+        physical: None,
         doc: "quadratic coefficient: relative signal lost at full scale (LE = beta/8)",
     }],
     apply: Apply::Frame(apply),

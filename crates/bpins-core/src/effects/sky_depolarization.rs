@@ -31,6 +31,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.8,
         min: 0.0,
         max: 1.6,
+        physical: None,
         doc: "factor on the scene's peak DoLP (the true d_max is scene d_max × dmax ≤ 1)",
     }],
     apply: Apply::Frame(apply),

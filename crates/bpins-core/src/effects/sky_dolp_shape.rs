@@ -55,7 +55,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.3,
         min: 0.0,
         max: 1.0,
-        doc: "unpolarized share t of the sky's radiance at 90° from the sun (0: Rayleigh's DoLP shape, 1: Berry's |ω|)",
+        physical: None, doc: "unpolarized share t of the sky's radiance at 90° from the sun (0: Rayleigh's DoLP shape, 1: Berry's |ω|)",
     }],
     apply: Apply::Frame(apply),
     wgsl: Some(include_str!("../../../../shaders/effects/sky_dolp_shape.wgsl")),

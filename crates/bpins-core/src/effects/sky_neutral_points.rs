@@ -48,6 +48,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 20.0,
         min: 0.0,
         max: 60.0,
+        physical: None,
         doc: "angular separation of each pair of neutral points",
     }],
     apply: Apply::Frame(apply),

@@ -52,6 +52,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.05,
         min: 0.0,
         max: 1.0,
+        physical: None,
         doc: "glare radiance toward the sun, in the sky's radiance at the sun",
     }],
     apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: Some(with_sun), pixel: stray_light },

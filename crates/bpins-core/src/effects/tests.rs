@@ -26,6 +26,11 @@ fn names_are_unique_snake_case_with_units() {
             // of several parameters) away from neutral, so the hidden-effect test
             // exercises the effect.
             assert!(p.min <= p.typical && p.typical <= p.max, "{}.{} typical", e.name, p.name);
+            // A real instrument's range lies within the fit's bounds and holds neutral
+            // and typical.
+            let (lo, hi) = p.physical_range();
+            assert!(p.min <= lo && lo <= hi && hi <= p.max, "{}.{} physical", e.name, p.name);
+            assert!((lo..=hi).contains(&p.neutral) && (lo..=hi).contains(&p.typical), "{}.{}", e.name, p.name);
         }
         assert!(e.params.iter().any(|p| p.typical != p.neutral), "{}: typical = neutral", e.name);
     }

@@ -67,6 +67,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 5.0,
             min: -45.0,
             max: 45.0,
+            physical: None,
             doc: "tilt of the window's normal toward +x (right in the image), about the y axis",
         },
         ParamSpec {
@@ -76,6 +77,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 5.0,
             min: -45.0,
             max: 45.0,
+            physical: None,
             doc: "tilt of the window's normal toward +y (down in the image), about the x axis",
         },
     ],

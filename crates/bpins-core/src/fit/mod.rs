@@ -121,7 +121,8 @@ pub fn fit_from(
     let cov = solver::schur::BlockInverse::new(&acc.sys);
     let degenerate = cov.null.iter().map(|d| solver::lm::describe_null(&pb, &free, d)).collect();
     // Neighbour-correlated residuals carry less information than their count.
-    let n_eff = uncertainty::correlation::effective_samples(&pb, &theta, acc.n)?;
+    let corr = uncertainty::correlation::effective_samples(&pb, &theta, acc.n)?;
+    let n_eff = corr.n_eff;
     let widen = (acc.n as f64 / n_eff.max(1.0)).sqrt().max(1.0);
     // The free globals come first among the free slots: their sandwich 1σ, from the
     // residuals' own variance by cluster (a fixed pattern the same in every frame).
@@ -149,15 +150,17 @@ pub fn fit_from(
             let h = at(Nuisance::Heading);
             let reference = c.frames[k].heading_deg;
             let (chi2, n) = acc.frame_chi2[k];
+            let chi2_per_dof = chi2 / (n as f64 - PER_FRAME as f64).max(1.0);
             FrameFit {
                 heading_deg: theta[h].rem_euclid(360.0),
-                heading_sigma_deg: sigma(h),
+                heading_sigma_deg: heading_sigma_with_misfit(sigma(h), sigma_white(h), chi2_per_dof, corr.coherent[k]),
+                heading_sigma_stat_deg: sigma(h),
                 reference_deg: reference,
                 heading_error_deg: reference.map(|r| wrap_deg_180(theta[h] - r)),
                 scale_dn: theta[at(Nuisance::Scale)],
                 dmax: theta[at(Nuisance::Dmax)],
                 radiance: std::array::from_fn(|i| theta[at(Nuisance::Radiance(i))]),
-                chi2_per_dof: chi2 / (n as f64 - PER_FRAME as f64).max(1.0),
+                chi2_per_dof,
             }
         })
         .collect();
@@ -188,4 +191,26 @@ pub fn fit_from(
             radiance_basis: pb.basis.clone(),
         },
     })
+}
+
+/// A frame's heading 1σ with the misfit the model leaves, degrees:
+///
+/// ```text
+/// σ² = σ_stat²·max(1, χ²_k/dof_k) + σ_white²·E_k
+/// ```
+///
+/// σ_stat the statistical 1σ (white-noise 1σ widened for correlated residuals), scaled
+/// by the frame's χ²/dof where the residual is larger than its noise; σ_white the
+/// white-noise 1σ (the heading's column normalised: a residual of unit norm along it
+/// moves the heading by σ_white) and E_k the frame's coherent misfit power
+/// (`correlation`: the smooth part of the residual, in σ² units). σ_white·√E_k is how
+/// far that misfit moves the heading were it all along the heading's signature —
+/// the fit cannot say how much of it the heading absorbed (at the optimum the residual
+/// is orthogonal to that signature), so the bound is kept. A frame whose residual is
+/// noise keeps its statistical 1σ.
+fn heading_sigma_with_misfit(stat: f64, white: f64, chi2_per_dof: f64, coherent: f64) -> f64 {
+    if stat == 0.0 || !stat.is_finite() {
+        return stat;
+    }
+    (stat * stat * chi2_per_dof.max(1.0) + white * white * coherent).sqrt()
 }

@@ -145,13 +145,28 @@ pub fn diagnosis_problems(
     if top != Some(names[0]) {
         out.push(format!("ranked first: {top:?}"));
     }
-    let (mut got, mut want) = (d.selected.clone(), names.to_vec());
+    // A pair within the ΔBIC threshold of each other — what the diagnosis called
+    // confusable before issue 31 too, naming the better one — now names neither
+    // (`diagnose::pairs`): its better one counts as found (e.g. `sky_depolarization`
+    // with d_max given against four equal extinction ratios, (1 − ε)/(1 + ε) on the
+    // DoLP: 9.5 apart in ΔBIC, measured).
+    let mut got = d.selected.clone();
+    for p in &d.confusable {
+        let bic = |e: &str| d.rankings.iter().flatten().find(|c| c.effect == e).map(|c| c.delta_bic);
+        if let (Some(a), Some(b)) = (bic(p.first), bic(p.second)) {
+            if (a - b).abs() < bpins_core::diagnose::BIC_THRESHOLD {
+                got.push(p.first);
+            }
+        }
+    }
+    let mut want = names.to_vec();
     if !ordered {
         got.sort();
         want.sort();
     }
     if got != want {
-        out.push(format!("selected {:?}", d.selected));
+        let pairs: Vec<_> = d.confusable.iter().map(|p| (p.first, p.second)).collect();
+        out.push(format!("selected {:?} (negligible {:?}, pairs {pairs:?})", d.selected, d.negligible));
     }
     let last = &d.steps.last().unwrap().fit;
     if last.chi2_per_dof > 1.1 {

@@ -6,7 +6,7 @@ use crate::conventions::wrap_deg_90;
 use crate::error::Result;
 use crate::fit::input::frames::FitFrames;
 use crate::fit::input::noise::NoiseModel;
-use crate::fit::model::problem::{problem, Problem};
+use crate::fit::model::problem::{problem, FitFrame, Problem};
 use crate::fit::output::profiles::{Position, Profile, Profiler};
 use crate::fit::{FitOptions, FitState};
 use crate::recon::Reconstructor;
@@ -19,7 +19,7 @@ const AOP_MIN_MODEL_DOLP: f64 = 0.01;
 /// One polarization sample's residuals from its measured and model DN by channel:
 /// (measured − model AoP in degrees, wrapped to ±90°, where the model DoLP exceeds
 /// [`AOP_MIN_MODEL_DOLP`]; measured − model DoLP; the model DoLP).
-fn pol_residual(rec: &Reconstructor, meas: &[f64; 4], model: &[f64; 4]) -> (Option<f64>, f64, f64) {
+pub(crate) fn pol_residual(rec: &Reconstructor, meas: &[f64; 4], model: &[f64; 4]) -> (Option<f64>, f64, f64) {
     let (a, b) = (rec.stokes(meas), rec.stokes(model));
     let aop = (b.dolp() > AOP_MIN_MODEL_DOLP).then(|| wrap_deg_90(a.aop_rad().to_degrees() - b.aop_rad().to_degrees()));
     (aop, a.dolp() - b.dolp(), b.dolp())
@@ -44,53 +44,79 @@ pub(crate) fn polarization_residuals(pb: &Problem, theta: &[f64]) -> Result<(f64
 /// Frame `k`'s sums of squared AoP residuals (with their count) and DoLP residuals
 /// (with theirs).
 fn frame_pol_sums(pb: &Problem, rec: &Reconstructor, theta: &[f64], k: usize) -> Result<(f64, usize, f64, usize)> {
-    let c = pb.capture;
     let (mut sa, mut na, mut sd, mut nd) = (0.0, 0usize, 0.0, 0usize);
     let f = pb.chain(theta, k)?;
-    let mut buf = Vec::new();
-    // (u, v): the sample's pixel (a superpixel's top-left one), for the sky mask.
-    let mut add = |u: usize, v: usize, meas: [f64; 4], model: [f64; 4]| {
-        if meas.iter().any(|&y| !pb.usable(k, u, v, y)) {
-            return;
-        }
-        let (da, dd, _) = pol_residual(rec, &meas, &model);
+    for_each_sample(pb, k, 1, &[&f], |_, _, [meas, model]| {
+        let (da, dd, _) = pol_residual(rec, meas, model);
         if let Some(d) = da {
             sa += d * d;
             na += 1;
         }
         sd += dd * dd;
         nd += 1;
-    };
+    });
+    Ok((sa, na, sd, nd))
+}
+
+/// Visits every usable polarization sample of frame `k` (a DoFP mosaic's whole 2 × 2
+/// tiles, a colocated sensor's pixels; every `stride`-th one along each axis) with its
+/// measured DN by channel and each of `fits`'s model DN by channel (`[measured,
+/// fits[0], fits[1], …]`: `N` is one more than the fits); (u, v) is the sample's pixel
+/// (a superpixel's top-left one). A sample with any measured channel not usable (sky
+/// mask, saturation, border) is skipped.
+pub(crate) fn for_each_sample<const N: usize>(
+    pb: &Problem,
+    k: usize,
+    stride: usize,
+    fits: &[&FitFrame],
+    mut visit: impl FnMut(usize, usize, &[[f64; 4]; N]),
+) {
+    debug_assert_eq!(fits.len() + 1, N);
+    let c = pb.capture;
+    let stride = stride.max(1);
+    let mut buf = Vec::new();
+    let mut at = [[1.0; 4]; N];
     for r in pb.frames.rects(k) {
         match &c.sensor.layout {
             Layout::Dofp { mosaic } => {
                 // Whole 2 × 2 tiles (a sampled block starts at even coordinates).
-                for j in r.v0.div_ceil(2)..r.v1 / 2 {
-                    for i in r.u0.div_ceil(2)..r.u1 / 2 {
-                        let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
+                for j in (r.v0.div_ceil(2)..r.v1 / 2).step_by(stride) {
+                    for i in (r.u0.div_ceil(2)..r.u1 / 2).step_by(stride) {
                         for (dv, row) in mosaic.iter().enumerate() {
                             for (du, ch) in row.iter().enumerate() {
-                                pb.pixel(&f, k, 2 * i + du, 2 * j + dv, &mut buf);
-                                (meas[ch.index()], model[ch.index()]) = buf[0];
+                                for (m, f) in fits.iter().enumerate() {
+                                    pb.pixel(f, k, 2 * i + du, 2 * j + dv, &mut buf);
+                                    if m == 0 {
+                                        at[0][ch.index()] = buf[0].0;
+                                    }
+                                    at[m + 1][ch.index()] = buf[0].1;
+                                }
                             }
                         }
-                        add(2 * i, 2 * j, meas, model);
+                        if at[0].iter().all(|&y| pb.usable(k, 2 * i, 2 * j, y)) {
+                            visit(2 * i, 2 * j, &at);
+                        }
                     }
                 }
             }
             Layout::Colocated { channels } => {
-                for (u, v) in r.points(1) {
-                    pb.pixel(&f, k, u, v, &mut buf);
-                    let (mut meas, mut model) = ([1.0; 4], [1.0; 4]);
-                    for (c, &(y, m)) in channels.iter().zip(&buf) {
-                        (meas[c.index()], model[c.index()]) = (y, m);
+                for (u, v) in r.points(stride) {
+                    for (m, f) in fits.iter().enumerate() {
+                        pb.pixel(f, k, u, v, &mut buf);
+                        for (c, &(y, model)) in channels.iter().zip(&buf) {
+                            if m == 0 {
+                                at[0][c.index()] = y;
+                            }
+                            at[m + 1][c.index()] = model;
+                        }
                     }
-                    add(u, v, meas, model);
+                    if at[0].iter().all(|&y| pb.usable(k, u, v, y)) {
+                        visit(u, v, &at);
+                    }
                 }
             }
         }
     }
-    Ok((sa, na, sd, nd))
 }
 
 /// Residual maps of a fitted model, stacked over frames (the mean of measured −

@@ -38,7 +38,12 @@ impl Param {
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct FrameFit {
     pub heading_deg: f64,
+    /// 1σ, degrees, with the misfit the model leaves (`fit::fit_from`'s
+    /// `heading_sigma_with_misfit`: the statistical 1σ scaled by the frame's χ²/dof,
+    /// and the residual's coherent part as far as it could move the heading).
     pub heading_sigma_deg: f64,
+    /// The statistical part alone: the white-noise 1σ widened for correlated residuals.
+    pub heading_sigma_stat_deg: f64,
     pub reference_deg: Option<f64>,
     /// Fitted − reference heading, degrees, in (−180, 180].
     pub heading_error_deg: Option<f64>,
