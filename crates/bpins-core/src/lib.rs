@@ -81,9 +81,9 @@ pub mod fit;
 pub mod heading;
 #[cfg(feature = "io")]
 pub mod lab;
-pub mod maps;
 #[cfg(feature = "io")]
 pub mod locate;
+pub mod maps;
 pub(crate) mod math;
 pub mod montecarlo;
 pub mod noise;

@@ -19,8 +19,8 @@ mod array;
 mod capture;
 mod compass;
 mod fit;
-mod maps;
 mod locate;
+mod maps;
 mod sim;
 
 /// A bpins-core error as the Python exception a user expects: files that cannot be
