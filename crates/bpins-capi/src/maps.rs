@@ -2,6 +2,7 @@
 //! caller's float buffers, through `bpins_core::maps` (the kernel of Python's
 //! `stokes_maps` and `bpins maps`). No handle: a frame in, four maps out.
 
+use crate::types::mosaic_of_deg;
 use crate::{guard, BpinsStatus, Failure};
 use bpins_core::heading::field::{RawDn, RawImage};
 use bpins_core::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
@@ -67,20 +68,7 @@ impl BpinsMapsConfig {
         let interpolation = *Interpolation::ALL
             .get(self.interpolation as usize)
             .ok_or_else(|| config_error(format!("interpolation {}: one of BPINS_MAPS_* (0…2)", self.interpolation)))?;
-        let mut mosaic = DEFAULT_MOSAIC;
-        let mut seen = [false; 4];
-        for (r, row) in self.mosaic_deg.iter().enumerate() {
-            for (c, &deg) in row.iter().enumerate() {
-                let ch = Channel::from_angle_deg(deg as f64).filter(|ch| !seen[ch.index()]).ok_or_else(|| {
-                    config_error(format!(
-                        "mosaic_deg {:?}: each of 0, 45, 90, 135 exactly once (mosaic_deg[{r}][{c}] = {deg})",
-                        self.mosaic_deg
-                    ))
-                })?;
-                seen[ch.index()] = true;
-                mosaic[r][c] = ch;
-            }
-        }
+        let mosaic = mosaic_of_deg(self.mosaic_deg).map_err(config_error)?;
         let finite = [self.black_level_dn, self.full_scale_dn, self.aoe_centre_x_px, self.aoe_centre_y_px];
         if !finite.iter().all(|x| x.is_finite()) || self.full_scale_dn < 0.0 {
             return Err(config_error(format!(

@@ -197,6 +197,23 @@ fn config_error(m: String) -> Failure {
     Failure::new(BpinsStatus::BPINS_ERR_CONFIG, format!("the compass's configuration: {m}"))
 }
 
+/// A config's `mosaic_deg` as channels: each of 0, 45, 90, 135 exactly once (the
+/// compass's and the maps' configs alike); the error says which entry is wrong.
+pub(crate) fn mosaic_of_deg(mosaic_deg: [[u32; 2]; 2]) -> Result<[[Channel; 2]; 2], String> {
+    let mut mosaic = DEFAULT_MOSAIC;
+    let mut seen = [false; 4];
+    for (r, row) in mosaic_deg.iter().enumerate() {
+        for (c, &deg) in row.iter().enumerate() {
+            let ch = Channel::from_angle_deg(deg as f64).filter(|ch| !seen[ch.index()]).ok_or_else(|| {
+                format!("mosaic_deg {mosaic_deg:?}: each of 0, 45, 90, 135 exactly once (mosaic_deg[{r}][{c}] = {deg})")
+            })?;
+            seen[ch.index()] = true;
+            mosaic[r][c] = ch;
+        }
+    }
+    Ok(mosaic)
+}
+
 impl BpinsCompassConfig {
     /// The defaults: pinhole, IMX250MZR mosaic, sun-vector extractor, the field
     /// estimator's default options; size, bit depth, black level and lens zero (a
@@ -237,20 +254,7 @@ impl BpinsCompassConfig {
         let extractor = *Extractor::ALL
             .get(self.extractor as usize)
             .ok_or_else(|| config_error(format!("extractor {}: one of BPINS_EXTRACTOR_* (0…1)", self.extractor)))?;
-        let mut mosaic = DEFAULT_MOSAIC;
-        let mut seen = [false; 4];
-        for (r, row) in self.mosaic_deg.iter().enumerate() {
-            for (c, &deg) in row.iter().enumerate() {
-                let ch = Channel::from_angle_deg(deg as f64).filter(|ch| !seen[ch.index()]).ok_or_else(|| {
-                    config_error(format!(
-                        "mosaic_deg {:?}: each of 0, 45, 90, 135 exactly once (mosaic_deg[{r}][{c}] = {deg})",
-                        self.mosaic_deg
-                    ))
-                })?;
-                seen[ch.index()] = true;
-                mosaic[r][c] = ch;
-            }
-        }
+        let mosaic = mosaic_of_deg(self.mosaic_deg).map_err(config_error)?;
         let [k1, k2] = [self.distortion_k1, self.distortion_k2];
         if !(k1.is_finite() && k2.is_finite()) {
             return Err(config_error(format!("distortion k1 {k1}, k2 {k2}: finite numbers")));
