@@ -14,7 +14,6 @@ use bpins_core::recon::Reconstructor;
 use bpins_core::sensor::{Channel, Layout};
 use rayon::prelude::*;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -66,7 +65,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let (mw, mh) = a.interpolation.maps_size(w, h);
     let pb = crate::progress::bar(frames.len() as u64, "maps");
     let t0 = std::time::Instant::now();
-    let done = AtomicUsize::new(0);
     // One frame per task, a task per core at a time: read and decode, map, write.
     frames.par_iter().with_max_len(1).try_for_each_init(
         || [vec![0f32; mw * mh], vec![0f32; mw * mh], vec![0f32; mw * mh], vec![0f32; mw * mh]],
@@ -86,14 +84,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 &[("AoP_deg", aop), ("DoLP", dolp), ("I_dn", int), ("AoE_deg", aoe)],
             )
             .with_context(|| format!("writing {}", path.display()))?;
-            done.fetch_add(1, Ordering::Relaxed);
             pb.inc(1);
             Ok(())
         },
     )?;
     pb.finish_and_clear();
     let s = t0.elapsed().as_secs_f64();
-    let n = done.into_inner();
+    // try_for_each stopped at the first error: here every frame was written.
+    let n = frames.len();
     say!(
         "wrote {n} frames' maps ({mw} × {mh} px: AoP_deg, DoLP, I_dn, AoE_deg; {} interpolation) to {} in {s:.2} s \
          ({:.1} ms per frame)",
