@@ -4,12 +4,14 @@
 
 use crate::{ensure_not_in_capture, write_json};
 use anyhow::{bail, Context};
+use bpins_core::calibration::Calibration;
 use bpins_core::capture::Capture;
+use bpins_core::compass::Compass;
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::EffectSet;
 use bpins_core::heading::field::FieldOptions;
 use bpins_core::heading::Extractor;
-use bpins_core::pipeline::{apply_pixel_maps, field_headings_of, frame_headings_of, ReconMode};
+use bpins_core::pipeline::{apply_pixel_maps, frame_headings_of, ReconMode};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -94,15 +96,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     };
     let cal = match &a.calibration {
-        Some(p) => Some(bpins_core::calibration::Calibration::load(p)?),
+        Some(p) => Some(Calibration::load(p)?),
         None => None,
     };
     let pixels = cal.as_ref().and_then(|c| c.pixels.clone());
-    let mut known = cal.map(|c| c.effects).unwrap_or_else(EffectSet::new);
+    let mut known_set = cal.map(|c| c.effects).unwrap_or_else(EffectSet::new);
     for spec in &a.effects {
-        known.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
+        known_set.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
     }
-    let known = known.model();
+    let known = known_set.model();
     let mode = a.recon;
     if let Some(c) = a.cell_px {
         if c < 2 {
@@ -127,6 +129,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ensure_not_in_capture(p)?;
     }
     let field = a.estimator == Estimator::Field;
+    // The field estimator reads every frame through the compass, as a robot does (the
+    // calibration's per-pixel maps applied to each frame first, below).
+    let mut compass = if field {
+        let effects_only = Calibration { effects: known_set, ..Calibration::default() };
+        let c = Compass::for_capture(&capture, effects_only, opts, extractors[0])
+            .with_context(|| format!("{}", capture.toml_path().display()))?;
+        Some(c)
+    } else {
+        None
+    };
     out!(
         "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10}  sun az/el (°), source; or why no heading",
         "frame",
@@ -151,8 +163,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             data = apply_pixel_maps(&capture, data, m)
                 .with_context(|| format!("--calibration {}", a.calibration.as_ref().unwrap().display()))?;
         }
-        if field {
-            for h in field_headings_of(&capture, i, &data, &known, &opts, &extractors)? {
+        if let Some(compass) = &mut compass {
+            let headings = compass
+                .capture_frame(&data, f, &extractors)
+                .with_context(|| format!("{}: frame {}", capture.toml_path().display(), f.file.display()))?;
+            for h in headings {
                 let q = h.quality;
                 let (heading, parts, why) = match &h.result {
                     Ok((hd, p)) => (Some(*hd), Some(*p), None),
@@ -266,8 +281,8 @@ fn run_bag(a: &Args, extractors: &[Extractor], opts: FieldOptions) -> anyhow::Re
         bail!("--bag reads through the field estimator (the compass): --estimator plain is for captures");
     }
     let mut calibration = match &a.calibration {
-        Some(p) => bpins_core::calibration::Calibration::load(p)?,
-        None => bpins_core::calibration::Calibration::default(),
+        Some(p) => Calibration::load(p)?,
+        None => Calibration::default(),
     };
     for spec in &a.effects {
         calibration.effects.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;

@@ -2,12 +2,14 @@
 //! heading of every frame of a capture. The glue between `capture` (files) and the
 //! per-pixel physics; the CLI and the tests call these.
 
+use crate::calibration::Calibration;
 use crate::camera::Intrinsics;
 use crate::capture::{Capture, FrameData, FrameSpec};
 use crate::chain::{ChainFrame, NoiseIndex, Scene};
+use crate::compass::{Attitude, Compass, CompassError};
 use crate::effects::Model;
 use crate::error::{Error, Result};
-use crate::heading::field::{self, Cells, FieldContext, FieldHeading, FieldOptions, RawImage};
+use crate::heading::field::{Cells, FieldContext, FieldHeading, FieldOptions};
 use crate::heading::{Extractor, HeadingContext, HeadingEstimate, HeadingSums};
 use crate::pixel_analyzers::PixelMaps;
 use crate::recon::{self, PolImage, Reconstructor};
@@ -125,41 +127,39 @@ pub fn frame_headings_of(
 }
 
 /// What the field estimator knows about frame `f`: the capture's camera (plus `known`
-/// calibrations), the sun and the reference tilt with their 1σ, the mount tilt.
+/// calibrations), the sun and the reference tilt with their 1σ, the mount tilt — as
+/// the compass builds it ([`crate::compass`]).
 pub(crate) fn field_context(c: &Capture, f: &FrameSpec, known: &Model) -> FieldContext {
-    FieldContext {
-        intr: assumed_intrinsics(c, known),
-        lens_rho2: crate::effects::lens_diattenuation::rho2(known),
-        sun_az_deg: f.sun.azimuth_deg,
-        sun_el_deg: f.sun.elevation_deg,
-        sun_sigma_deg: f.sun_sigma_deg.unwrap_or(0.0),
+    let attitude = Attitude {
         tilt_x_deg: f.tilt_x_deg.unwrap_or(0.0),
         tilt_y_deg: f.tilt_y_deg.unwrap_or(0.0),
-        tilt_sigma_deg: f.tilt_sigma_deg.unwrap_or(0.0),
-        mount_tilt_deg: known.mount_tilt_deg,
+        sigma_deg: f.tilt_sigma_deg.unwrap_or(0.0),
+    };
+    let sun = (f.sun.azimuth_deg, f.sun.elevation_deg, f.sun_sigma_deg.unwrap_or(0.0));
+    crate::compass::field_context(assumed_intrinsics(c, known), known, sun, &attitude)
+}
+
+/// The compass for capture `c` with the `known` effects (no per-pixel maps: a
+/// calibration's are applied to the frame first, [`apply_pixel_maps`]), refusals
+/// named by the capture's file.
+fn capture_compass(c: &Capture, known: &Model, opts: &FieldOptions) -> Result<Compass> {
+    Compass::for_capture_known(c, Calibration::default(), known.clone(), *opts, Extractor::SunVector)
+        .map_err(|e| compass_error(c, e))
+}
+
+/// A compass's refusal of a capture's frame as the core's error, naming the capture.
+fn compass_error(c: &Capture, e: CompassError) -> Error {
+    match e {
+        CompassError::Core(e) => e,
+        e => Error::Capture { path: c.toml_path(), message: e.to_string() },
     }
 }
 
-/// The cells of one frame's pixels, the `known` analyzer and channel errors undone.
+/// The cells of one frame's pixels, the `known` analyzer and channel errors undone:
+/// the compass's ([`Compass::for_capture`]).
 pub(crate) fn frame_cells(c: &Capture, data: &FrameData, known: &Model, cell_px: Option<usize>) -> Result<Cells> {
-    let rec = Reconstructor::new(known, c.sensor.black_level_dn, &c.sensor.channels())?;
-    let full = c.sensor.full_scale_dn();
-    let g = &c.sensor.geometry;
-    let cell_px = cell_px.unwrap_or_else(|| Cells::default_cell_px(g.width_px as usize, g.height_px as usize));
-    Ok(match (data, &c.sensor.layout) {
-        (FrameData::Mosaic { width_px, height_px, dn }, Layout::Dofp { mosaic }) => {
-            let img = RawImage::packed(dn.as_slice(), *width_px as usize, *height_px as usize);
-            Cells::from_mosaic(&img, mosaic, &rec, full, cell_px)
-        }
-        (FrameData::Colocated { width_px, height_px, channels }, Layout::Colocated { .. }) => {
-            let planes: Vec<_> = channels
-                .iter()
-                .map(|(ch, p)| (*ch, RawImage::packed(p.as_slice(), *width_px as usize, *height_px as usize)))
-                .collect();
-            Cells::from_colocated(&planes, &rec, full, cell_px)
-        }
-        _ => return Err(Error::Model("frame data does not match the capture's sensor layout".into())),
-    })
+    let opts = FieldOptions { cell_px, ..FieldOptions::default() };
+    capture_compass(c, known, &opts)?.capture_cells(data).map_err(|e| compass_error(c, e))
 }
 
 /// Field headings (robust, honest 1σ: [`crate::heading::field`]) of frame `index`.
@@ -173,7 +173,9 @@ pub fn field_headings(
     field_headings_of(c, index, &c.read_frame(index)?, known, opts, extractors)
 }
 
-/// [`field_headings`] of frame `index` whose pixels `data` are already in memory.
+/// [`field_headings`] of frame `index` whose pixels `data` are already in memory:
+/// through the compass, as `bpins heading` and a robot read a frame
+/// ([`Compass::capture_frame`]).
 pub fn field_headings_of(
     c: &Capture,
     index: usize,
@@ -182,8 +184,7 @@ pub fn field_headings_of(
     opts: &FieldOptions,
     extractors: &[Extractor],
 ) -> Result<Vec<FieldHeading>> {
-    let cells = frame_cells(c, data, known, opts.cell_px)?;
-    Ok(field::estimate(&cells, &field_context(c, &c.frames[index], known), opts, extractors))
+    capture_compass(c, known, opts)?.capture_frame(data, &c.frames[index], extractors).map_err(|e| compass_error(c, e))
 }
 
 /// Sensor settings of a simulation beyond what `capture.toml` records.

@@ -67,6 +67,22 @@ struct RawLabFrame {
     dark: Option<bool>,
 }
 
+/// One `[[frames]]` table as [`LabCapture::to_toml_string`] writes it: a dark frame
+/// is `dark = true` alone; a polarized one its angle and DoLP; every lit one its
+/// exposure.
+#[derive(serde::Serialize)]
+struct OutLabFrame {
+    file: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dark: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    polarizer_angle_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    source_dolp: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    exposure_rel: Option<f64>,
+}
+
 impl LabCapture {
     /// Reads and validates `dir/capture.toml` of a lab capture and checks that every
     /// frame file exists (images are not decoded).
@@ -105,32 +121,20 @@ impl LabCapture {
         )
     }
 
-    /// `capture.toml` text of this lab capture.
+    /// `capture.toml` text of this lab capture (serde, as the sky writer's).
     pub fn to_toml_string(&self) -> String {
-        let sky = super::Capture {
-            dir: self.dir.clone(),
-            sensor: self.sensor.clone(),
-            lens: self.lens.clone(),
-            frames: Vec::new(),
-        };
-        let mut s = format!("format = \"{}\"\nkind = \"lab\"\n", super::FORMAT);
-        // The sky writer's [sensor] and [lens] (its `format` line and no frames dropped).
-        for line in sky.to_toml_string().lines().filter(|l| !l.starts_with("format")) {
-            s.push_str(line);
-            s.push('\n');
-        }
-        for f in &self.frames {
-            s.push_str(&format!("\n[[frames]]\nfile = {:?}\n", f.file.display().to_string()));
-            if f.dark {
-                s.push_str("dark = true\n");
-                continue;
-            }
-            if let Some(a) = f.polarizer_angle_deg {
-                s.push_str(&format!("polarizer_angle_deg = {a:?}\nsource_dolp = {:?}\n", f.source_dolp));
-            }
-            s.push_str(&format!("exposure_rel = {:?}\n", f.exposure_rel));
-        }
-        s
+        let frames = self
+            .frames
+            .iter()
+            .map(|f| OutLabFrame {
+                file: super::toml_out::file_key(&f.file),
+                dark: f.dark.then_some(true),
+                polarizer_angle_deg: f.polarizer_angle_deg.filter(|_| !f.dark),
+                source_dolp: f.polarizer_angle_deg.filter(|_| !f.dark).map(|_| f.source_dolp),
+                exposure_rel: (!f.dark).then_some(f.exposure_rel),
+            })
+            .collect();
+        super::toml_out::write(Some("lab"), &self.sensor, &self.lens, frames)
     }
 
     /// Writes this lab capture into the new folder `out_dir`: one 16-bit PNG (or EXR,

@@ -1,106 +1,164 @@
-//! Writing `capture.toml` (docs/spec/CAPTURE.md) from a typed [`Capture`]: every
-//! default written out explicitly (bit depth, black level, mosaic or channels,
-//! principal point), floats in Rust's shortest round-trip form so that the file reads
-//! back to the same `f64`s, and each frame's sun as it came (given angles, or the
-//! UTC time and place it was computed from).
+//! Writing `capture.toml` (docs/spec/CAPTURE.md) from a typed [`Capture`], through
+//! serde and the `toml` crate (the reader's, `spec.rs`): every default written out
+//! explicitly (bit depth, black level, mosaic or channels, principal point), floats in
+//! their shortest round-trip form so that the file reads back to the same `f64`s, and
+//! each frame's sun as it came (given angles, or the UTC time and place it was
+//! computed from). The key names are the reader's (`spec.rs`'s raw structs), so a
+//! written file reads back to the same capture (tested in `tests.rs`).
+
+use std::path::Path;
+
+use serde::Serialize;
 
 use super::spec::FORMAT;
-use super::Capture;
+use super::{Capture, LensSpec, SensorSpec};
 use crate::sensor::{Channel, Layout};
 use crate::sky::sun::SunSource;
 
-/// A TOML float that reads back to the same `f64`.
-fn num(x: f64) -> String {
-    if x.is_nan() {
-        "nan".into()
-    } else if x.is_infinite() {
-        if x > 0.0 { "inf" } else { "-inf" }.into()
-    } else {
-        format!("{x:?}")
-    }
+#[derive(Serialize)]
+struct OutTop<'a, F> {
+    format: &'a str,
+    /// `"lab"` for a lab capture; a sky capture does not write its default.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    kind: Option<&'a str>,
+    sensor: OutSensor,
+    lens: OutLens<'a>,
+    frames: Vec<F>,
 }
 
-/// A TOML basic string.
-fn string(s: &str) -> String {
-    let mut out = String::with_capacity(s.len() + 2);
-    out.push('"');
-    for ch in s.chars() {
-        match ch {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 || c as u32 == 0x7f => out.push_str(&format!("\\u{:04X}", c as u32)),
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
+#[derive(Serialize)]
+struct OutSensor {
+    layout: &'static str,
+    width_px: u32,
+    height_px: u32,
+    pixel_pitch_um: f64,
+    bit_depth: u32,
+    black_level_dn: f64,
+    /// Analyzer angles, degrees, by tile row and column (dofp).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mosaic: Option<[[u32; 2]; 2]>,
+    /// Analyzer angles, degrees, in plane order (colocated).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    channels: Option<Vec<u32>>,
 }
 
-fn angle(c: Channel) -> String {
-    format!("{}", 45 * c.index())
+#[derive(Serialize)]
+struct OutLens<'a> {
+    projection: &'a str,
+    focal_length_mm: f64,
+    principal_point_px: [f64; 2],
+}
+
+/// One `[[frames]]` table; an absent value is not written (CAPTURE.md: optional keys).
+#[derive(Serialize)]
+struct OutFrame {
+    file: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sun_azimuth_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sun_elevation_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    time_utc: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    latitude_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    longitude_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    heading_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tilt_x_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tilt_y_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tilt_sigma_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sun_sigma_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    yaw_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    yaw_sigma_deg: Option<f64>,
+}
+
+/// An analyzer's angle as the file writes it, degrees.
+fn angle(c: Channel) -> u32 {
+    45 * c.index() as u32
 }
 
 /// `capture.toml` text for `c`, every default written out explicitly.
 pub(crate) fn to_toml(c: &Capture) -> String {
-    let s = &c.sensor;
+    let frames = c
+        .frames
+        .iter()
+        .map(|f| {
+            let mut o = OutFrame {
+                file: file_key(&f.file),
+                sun_azimuth_deg: None,
+                sun_elevation_deg: None,
+                time_utc: None,
+                latitude_deg: None,
+                longitude_deg: None,
+                // Azimuths in files are in [0°, 360°) (CONVENTIONS.md).
+                heading_deg: f.heading_deg.map(crate::conventions::wrap_deg_360),
+                tilt_x_deg: f.tilt_x_deg,
+                tilt_y_deg: f.tilt_y_deg,
+                tilt_sigma_deg: f.tilt_sigma_deg,
+                sun_sigma_deg: f.sun_sigma_deg,
+                yaw_deg: f.yaw_deg,
+                yaw_sigma_deg: f.yaw_sigma_deg,
+            };
+            match &f.sun.source {
+                SunSource::Given => {
+                    o.sun_azimuth_deg = Some(f.sun.azimuth_deg);
+                    o.sun_elevation_deg = Some(f.sun.elevation_deg);
+                }
+                SunSource::Spa { time_utc, latitude_deg, longitude_deg } => {
+                    o.time_utc = Some(time_utc.clone());
+                    o.latitude_deg = Some(*latitude_deg);
+                    o.longitude_deg = Some(*longitude_deg);
+                }
+                SunSource::Unplaced { time_utc } => o.time_utc = Some(time_utc.clone()),
+            }
+            o
+        })
+        .collect();
+    write(None, &c.sensor, &c.lens, frames)
+}
+
+/// A frame's file as the toml names it: relative to the capture folder, `/`-separated.
+pub(crate) fn file_key(file: &Path) -> String {
+    let parts: Vec<String> = file.components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
+    parts.join("/")
+}
+
+/// `capture.toml` text of a capture of `kind` (`None`: sky) with this sensor, lens and
+/// `[[frames]]` tables (the sky's [`OutFrame`]s or a lab capture's own).
+pub(crate) fn write<F: Serialize>(kind: Option<&str>, s: &SensorSpec, l: &LensSpec, frames: Vec<F>) -> String {
     let g = &s.geometry;
-    let mut t = format!("format = {}\n\n[sensor]\n", string(FORMAT));
-    match &s.layout {
-        Layout::Dofp { .. } => t.push_str("layout = \"dofp\"\n"),
-        Layout::Colocated { .. } => t.push_str("layout = \"colocated\"\n"),
-    }
-    t.push_str(&format!("width_px = {}\nheight_px = {}\n", g.width_px, g.height_px));
-    t.push_str(&format!("pixel_pitch_um = {}\n", num(g.pixel_pitch_um)));
-    t.push_str(&format!("bit_depth = {}\nblack_level_dn = {}\n", s.bit_depth, num(s.black_level_dn)));
-    match &s.layout {
-        Layout::Dofp { mosaic } => t.push_str(&format!(
-            "mosaic = [[{}, {}], [{}, {}]]\n",
-            angle(mosaic[0][0]),
-            angle(mosaic[0][1]),
-            angle(mosaic[1][0]),
-            angle(mosaic[1][1])
-        )),
-        Layout::Colocated { channels } => {
-            let list: Vec<String> = channels.iter().map(|&ch| angle(ch)).collect();
-            t.push_str(&format!("channels = [{}]\n", list.join(", ")));
-        }
-    }
-    let l = &c.lens;
-    t.push_str(&format!("\n[lens]\nprojection = {}\n", string(l.projection.name())));
-    t.push_str(&format!("focal_length_mm = {}\n", num(l.focal_length_mm)));
-    let (px, py) = l.principal_point_px;
-    t.push_str(&format!("principal_point_px = [{}, {}]\n", num(px), num(py)));
-    for f in &c.frames {
-        let file: Vec<String> = f.file.components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
-        t.push_str(&format!("\n[[frames]]\nfile = {}\n", string(&file.join("/"))));
-        match &f.sun.source {
-            SunSource::Given => {
-                t.push_str(&format!("sun_azimuth_deg = {}\n", num(f.sun.azimuth_deg)));
-                t.push_str(&format!("sun_elevation_deg = {}\n", num(f.sun.elevation_deg)));
-            }
-            SunSource::Spa { time_utc, latitude_deg, longitude_deg } => {
-                t.push_str(&format!("time_utc = {}\n", string(time_utc)));
-                t.push_str(&format!("latitude_deg = {}\n", num(*latitude_deg)));
-                t.push_str(&format!("longitude_deg = {}\n", num(*longitude_deg)));
-            }
-            SunSource::Unplaced { time_utc } => {
-                t.push_str(&format!("time_utc = {}\n", string(time_utc)));
-            }
-        }
-        for (key, v) in [
-            // Azimuths in files are in [0°, 360°) (CONVENTIONS.md).
-            ("heading_deg", f.heading_deg.map(crate::conventions::wrap_deg_360)),
-            ("tilt_x_deg", f.tilt_x_deg),
-            ("tilt_y_deg", f.tilt_y_deg),
-            ("tilt_sigma_deg", f.tilt_sigma_deg),
-            ("sun_sigma_deg", f.sun_sigma_deg),
-            ("yaw_deg", f.yaw_deg),
-            ("yaw_sigma_deg", f.yaw_sigma_deg),
-        ] {
-            if let Some(v) = v {
-                t.push_str(&format!("{key} = {}\n", num(v)));
-            }
-        }
-    }
-    t
+    let (layout, mosaic, channels) = match &s.layout {
+        Layout::Dofp { mosaic } => ("dofp", Some(mosaic.map(|row| row.map(angle))), None),
+        Layout::Colocated { channels } => ("colocated", None, Some(channels.iter().map(|&ch| angle(ch)).collect())),
+    };
+    let top = OutTop {
+        format: FORMAT,
+        kind,
+        sensor: OutSensor {
+            layout,
+            width_px: g.width_px,
+            height_px: g.height_px,
+            pixel_pitch_um: g.pixel_pitch_um,
+            bit_depth: s.bit_depth,
+            black_level_dn: s.black_level_dn,
+            mosaic,
+            channels,
+        },
+        lens: OutLens {
+            projection: l.projection.name(),
+            focal_length_mm: l.focal_length_mm,
+            principal_point_px: [l.principal_point_px.0, l.principal_point_px.1],
+        },
+        frames,
+    };
+    // Every field is a number, a string, a bool or an array of them: nothing the
+    // serializer refuses (a non-finite float is written as TOML's nan / inf).
+    toml::to_string(&top).unwrap_or_else(|e| unreachable!("a capture's fields are all TOML values: {e}"))
 }

@@ -1,10 +1,17 @@
 //! Parsing a sweep file into [`SweepSpec`] (the types are in `spec.rs`, the format is
 //! documented in [`super`]): every check runs here, before any trial.
-//! (Over 500 lines: one linear reader of one format, key by key, each with its error.)
+//!
+//! Two stages, as for `capture.toml` (`capture/spec.rs`). serde turns the file into
+//! raw structs with `deny_unknown_fields` (unknown keys, missing keys and wrong types
+//! are errors naming their key, `errors[2].sigma`, through `serde_path_to_error`);
+//! the raw values then become the typed spec, each range and each rule that ties keys
+//! together checked with an error naming its key and what was expected.
 
+use std::fmt;
 use std::path::Path;
 
-use toml::{Table, Value};
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+use serde::Deserialize;
 
 use super::spec::*;
 use crate::camera::Intrinsics;
@@ -12,6 +19,158 @@ use crate::capture::{parse_sensor_lens, validate_sensor_lens};
 use crate::error::{Error, Result};
 use crate::heading::Extractor;
 use crate::sensor::{Channel, Layout};
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSweep {
+    #[allow(dead_code)]
+    format: String,
+    title: Option<String>,
+    seed: Option<u64>,
+    trials: Option<u64>,
+    extractors: Option<Vec<String>>,
+    combined: Option<bool>,
+    sources: Option<Vec<String>>,
+    /// `[sensor]` and `[lens]` are a capture's, read by its reader.
+    sensor: Option<toml::Value>,
+    lens: Option<toml::Value>,
+    sky: Option<RawSky>,
+    response: Option<RawResponse>,
+    errors: Option<Vec<RawError>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSky {
+    sun_elevations_deg: Option<ListOrRange>,
+    sun_azimuths_deg: Option<ListOrRange>,
+    trials_per_azimuth: Option<u64>,
+    dmax: Option<f64>,
+    scene: Option<Vec<String>>,
+}
+
+#[derive(Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawResponse {
+    peak_dn: Option<f64>,
+    quantize: Option<bool>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawError {
+    source: String,
+    param: String,
+    distribution: String,
+    mean: Option<f64>,
+    sigma: Option<f64>,
+    min: Option<f64>,
+    max: Option<f64>,
+    value: Option<f64>,
+    per: Option<String>,
+    known: Option<Known>,
+}
+
+/// A list of numbers, or `{ from, to, step }` (both ends included when on the grid).
+enum ListOrRange {
+    List(Vec<f64>),
+    Range { from: f64, to: f64, step: f64 },
+}
+
+impl<'de> Deserialize<'de> for ListOrRange {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ListOrRange;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a list of numbers or { from, to, step }")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<ListOrRange, A::Error> {
+                let mut out = Vec::new();
+                while let Some(x) = seq.next_element::<f64>()? {
+                    out.push(x);
+                }
+                Ok(ListOrRange::List(out))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> std::result::Result<ListOrRange, A::Error> {
+                #[derive(Deserialize)]
+                #[serde(deny_unknown_fields)]
+                struct Range {
+                    from: f64,
+                    to: f64,
+                    step: f64,
+                }
+                let r = Range::deserialize(de::value::MapAccessDeserializer::new(map))?;
+                Ok(ListOrRange::Range { from: r.from, to: r.to, step: r.step })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl<'de> Deserialize<'de> for Known {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = Known;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("true, false or \"both\"")
+            }
+            fn visit_bool<E: de::Error>(self, b: bool) -> std::result::Result<Known, E> {
+                Ok(if b { Known::Yes } else { Known::No })
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> std::result::Result<Known, E> {
+                match s {
+                    "both" => Ok(Known::Both),
+                    _ => Err(E::invalid_value(de::Unexpected::Str(s), &self)),
+                }
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// serde's refusal as the sweep's error: the key it is about (`sky.trials_per_azimut`
+/// for an unknown key, `errors[0].sigma` for a wrong type) and what was expected, in
+/// this format's words.
+fn serde_error(p: &Path, e: serde_path_to_error::Error<toml::de::Error>) -> Error {
+    let path = e.path().to_string();
+    let msg = e.inner().message().trim().to_string();
+    // The path ends at an unknown key already; a missing key's is its table's.
+    let join = |k: &str| match path.as_str() {
+        "." => k.to_string(),
+        p if p == k || p.ends_with(&format!(".{k}")) => p.to_string(),
+        p => format!("{p}.{k}"),
+    };
+    let named = |prefix: &str| -> Option<(String, String)> {
+        let rest = msg.strip_prefix(prefix)?.strip_prefix('`')?;
+        let (key, tail) = rest.split_once('`')?;
+        Some((key.to_string(), tail.trim_start_matches(',').trim().to_string()))
+    };
+    if let Some((key, tail)) = named("unknown field ") {
+        let expected = tail.strip_prefix("expected one of ").unwrap_or(&tail).replace('`', "");
+        return bad(p, &join(&key), format!("unknown key; expected one of {expected}"));
+    }
+    if let Some((key, _)) = named("missing field ") {
+        return bad(p, &join(&key), "missing; expected this key here (docs/sweep.md lists each)".into());
+    }
+    let words = msg
+        .replace("expected f64", "expected a number")
+        .replace("expected u64", "expected a whole number ≥ 0")
+        .replace("expected a sequence", "expected a list")
+        .replace("invalid type: ", "found ");
+    bad(p, if path == "." { "(file)" } else { &path }, words)
+}
+
+/// `x` as a finite number, or the error naming `key`.
+fn finite(p: &Path, key: &str, x: f64) -> Result<f64> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(bad(p, key, format!("found {x}; expected a finite number")))
+    }
+}
+
 impl SweepSpec {
     /// Reads and checks the sweep file at `path`.
     pub fn load(path: &Path) -> Result<SweepSpec> {
@@ -22,7 +181,7 @@ impl SweepSpec {
     /// Parses `text`, the contents of `path` (which errors name).
     pub fn parse(path: &Path, text: &str) -> Result<SweepSpec> {
         let p = path;
-        let table: Table = text.parse().map_err(|e: toml::de::Error| {
+        let table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
             let at = e.span().map(|r| {
                 let before = text.get(..r.start).unwrap_or(text);
                 let line = before.matches('\n').count() + 1;
@@ -30,45 +189,30 @@ impl SweepSpec {
             });
             bad(p, "(file)", format!("not valid TOML{}: {}", at.unwrap_or_default(), e.message().trim()))
         })?;
-        check_keys(
-            p,
-            "",
-            &table,
-            &[
-                "format",
-                "title",
-                "seed",
-                "trials",
-                "extractors",
-                "combined",
-                "sources",
-                "sensor",
-                "lens",
-                "sky",
-                "response",
-                "errors",
-            ],
-        )?;
+        // The format first: a file of another version is named as such, not by the
+        // keys this reader does not know.
         match table.get("format") {
-            Some(Value::String(f)) if f == FORMAT => {}
+            Some(toml::Value::String(f)) if f == FORMAT => {}
             Some(v) => return Err(bad(p, "format", format!("expected \"{FORMAT}\", found {v}"))),
             None => return Err(bad(p, "format", format!("missing; expected format = \"{FORMAT}\""))),
         }
-        let title = opt_str(p, "title", table.get("title"))?.unwrap_or_default();
-        let seed = opt_int(p, "seed", table.get("seed"), 0, i64::MAX)?.unwrap_or(0) as u64;
-        let trials =
-            req(p, "trials", opt_int(p, "trials", table.get("trials"), 1, 10_000_000)?, "a whole number ≥ 1")? as usize;
-        let extractors = match table.get("extractors") {
+        let raw: RawSweep =
+            serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| serde_error(p, e))?;
+        let title = raw.title.unwrap_or_default();
+        let seed = raw.seed.unwrap_or(0);
+        let trials = match raw.trials {
+            None => return Err(bad(p, "trials", "missing; expected a whole number ≥ 1".into())),
+            Some(t @ 1..=10_000_000) => t as usize,
+            Some(t) => return Err(bad(p, "trials", format!("found {t}; expected a whole number in [1, 10000000]"))),
+        };
+        let extractors = match raw.extractors {
             None => Extractor::ALL.iter().map(|&e| SweepExtractor::Plain(e)).collect(),
-            Some(v) => {
-                let list = v.as_array().ok_or_else(|| bad(p, "extractors", expected_list_of_extractors()))?;
+            Some(list) => {
                 let mut out = Vec::new();
                 for (i, e) in list.iter().enumerate() {
                     let key = format!("extractors[{i}]");
-                    let x = e
-                        .as_str()
-                        .and_then(SweepExtractor::from_name)
-                        .ok_or_else(|| bad(p, &key, format!("found {e}; expected one of {}", extractor_names())))?;
+                    let x = SweepExtractor::from_name(e)
+                        .ok_or_else(|| bad(p, &key, format!("found \"{e}\"; expected one of {}", extractor_names())))?;
                     if out.contains(&x) {
                         return Err(bad(p, &key, format!("`{}` is listed twice", x.name())));
                     }
@@ -80,9 +224,9 @@ impl SweepSpec {
                 out
             }
         };
-        let combined = opt_bool(p, "combined", table.get("combined"))?.unwrap_or(true);
+        let combined = raw.combined.unwrap_or(true);
 
-        let (sensor, lens) = parse_sensor_lens(p, table.get("sensor").cloned(), table.get("lens").cloned())?;
+        let (sensor, lens) = parse_sensor_lens(p, raw.sensor, raw.lens)?;
         validate_sensor_lens(&sensor, &lens, p)?;
         if let (Some(i), Layout::Dofp { .. }) =
             (extractors.iter().position(|e| *e == SweepExtractor::EdgePoint), &sensor.layout)
@@ -100,19 +244,17 @@ impl SweepSpec {
         }
 
         // [sky]
-        let sky = table_of(p, "sky", table.get("sky"))?;
-        check_keys(
-            p,
-            "sky.",
-            &sky,
-            &["sun_elevations_deg", "sun_azimuths_deg", "trials_per_azimuth", "dmax", "scene"],
-        )?;
-        let sun_elevations_deg = req(
-            p,
-            "sky.sun_elevations_deg",
-            list_or_range(p, "sky.sun_elevations_deg", sky.get("sun_elevations_deg"))?,
-            "a list of degrees or { from, to, step }",
-        )?;
+        let sky = raw.sky.ok_or_else(|| bad(p, "sky", "missing; expected a table [sky]".into()))?;
+        let sun_elevations_deg = match sky.sun_elevations_deg {
+            Some(v) => values(p, "sky.sun_elevations_deg", v)?,
+            None => {
+                return Err(bad(
+                    p,
+                    "sky.sun_elevations_deg",
+                    "missing; expected a list of degrees or { from, to, step }".into(),
+                ))
+            }
+        };
         for (i, &e) in sun_elevations_deg.iter().enumerate() {
             if !(e > 0.0 && e < 90.0) {
                 return Err(bad(
@@ -122,8 +264,10 @@ impl SweepSpec {
                 ));
             }
         }
-        let sun_azimuths_deg =
-            list_or_range(p, "sky.sun_azimuths_deg", sky.get("sun_azimuths_deg"))?.unwrap_or_else(|| vec![0.0]);
+        let sun_azimuths_deg = match sky.sun_azimuths_deg {
+            Some(v) => values(p, "sky.sun_azimuths_deg", v)?,
+            None => vec![0.0],
+        };
         for (i, &a) in sun_azimuths_deg.iter().enumerate() {
             if !(-360.0..=360.0).contains(&a) {
                 return Err(bad(
@@ -133,48 +277,30 @@ impl SweepSpec {
                 ));
             }
         }
-        let trials_per_azimuth =
-            opt_int(p, "sky.trials_per_azimuth", sky.get("trials_per_azimuth"), 1, i64::MAX)?.unwrap_or(1) as usize;
-        let dmax = opt_num(p, "sky.dmax", sky.get("dmax"))?.unwrap_or(0.6);
+        let trials_per_azimuth = match sky.trials_per_azimuth {
+            None => 1,
+            Some(n @ 1..) => n as usize,
+            Some(n) => return Err(bad(p, "sky.trials_per_azimuth", format!("found {n}; expected a whole number ≥ 1"))),
+        };
+        let dmax = finite(p, "sky.dmax", sky.dmax.unwrap_or(0.6))?;
         if !(dmax > 0.0 && dmax <= 1.0) {
             return Err(bad(p, "sky.dmax", format!("{dmax} is outside (0, 1]")));
         }
-
-        let scene = match sky.get("scene") {
-            None => Vec::new(),
-            Some(Value::Array(a)) => {
-                let mut out = Vec::new();
-                let mut check = crate::scene::FieldScene::new(0);
-                for (i, x) in a.iter().enumerate() {
-                    let key = format!("sky.scene[{i}]");
-                    let spec = x.as_str().ok_or_else(|| bad(p, &key, format!("found {x}; expected a string")))?;
-                    check.parse(spec).map_err(|e| {
-                        bad(
-                            p,
-                            &key,
-                            format!("{e}; expected an element of `bpins simulate --scene` or element.param=value"),
-                        )
-                    })?;
-                    out.push(spec.to_string());
-                }
-                out
-            }
-            Some(v) => {
-                return Err(bad(
+        let scene = sky.scene.unwrap_or_default();
+        let mut check = crate::scene::FieldScene::new(0);
+        for (i, spec) in scene.iter().enumerate() {
+            check.parse(spec).map_err(|e| {
+                bad(
                     p,
-                    "sky.scene",
-                    format!("found {v}; expected a list like [\"clouds\", \"clouds.count=8\"]"),
-                ))
-            }
-        };
+                    &format!("sky.scene[{i}]"),
+                    format!("{e}; expected an element of `bpins simulate --scene` or element.param=value"),
+                )
+            })?;
+        }
 
         // [response]
-        let resp = match table.get("response") {
-            None => Table::new(),
-            v => table_of(p, "response", v)?,
-        };
-        check_keys(p, "response.", &resp, &["peak_dn", "quantize"])?;
-        let peak_dn = opt_num(p, "response.peak_dn", resp.get("peak_dn"))?.unwrap_or(1000.0);
+        let resp = raw.response.unwrap_or_default();
+        let peak_dn = finite(p, "response.peak_dn", resp.peak_dn.unwrap_or(1000.0))?;
         let full = sensor.full_scale_dn();
         if !(peak_dn > 0.0 && peak_dn <= full) {
             return Err(bad(
@@ -183,20 +309,16 @@ impl SweepSpec {
                 format!("{peak_dn} DN is outside (0, {full}] DN (the bit depth's full scale)"),
             ));
         }
-        let quantize = opt_bool(p, "response.quantize", resp.get("quantize"))?.unwrap_or(false);
+        let quantize = resp.quantize.unwrap_or(false);
 
         // [[errors]]
-        let list = match table.get("errors") {
-            None => Vec::new(),
-            Some(Value::Array(a)) => a.clone(),
-            Some(v) => return Err(bad(p, "errors", format!("found {v}; expected [[errors]] tables"))),
-        };
+        let list = raw.errors.unwrap_or_default();
         if list.is_empty() {
             return Err(bad(p, "errors", "missing; expected at least one [[errors]] table".into()));
         }
         let mut errors: Vec<ErrorSpec> = Vec::new();
-        for (i, v) in list.iter().enumerate() {
-            let e = parse_error(p, i, v, &extractors)?;
+        for (i, e) in list.into_iter().enumerate() {
+            let e = parse_error(p, i, e, &extractors)?;
             if let Some(j) = errors.iter().position(|o| o.source == e.source && o.target == e.target) {
                 return Err(bad(
                     p,
@@ -213,15 +335,11 @@ impl SweepSpec {
             }
         }
         // An explicit order (its index keys each source's draws).
-        if let Some(v) = table.get("sources") {
-            let list = v
-                .as_array()
-                .ok_or_else(|| bad(p, "sources", format!("found {v}; expected a list of the errors' sources")))?;
+        if let Some(list) = raw.sources {
             let mut order: Vec<String> = Vec::new();
-            for (i, x) in list.iter().enumerate() {
+            for (i, name) in list.iter().enumerate() {
                 let key = format!("sources[{i}]");
-                let name = x.as_str().ok_or_else(|| bad(p, &key, format!("found {x}; expected a source name")))?;
-                if !sources.iter().any(|s| s == name) {
+                if !sources.contains(name) {
                     return Err(bad(
                         p,
                         &key,
@@ -231,10 +349,10 @@ impl SweepSpec {
                         ),
                     ));
                 }
-                if order.iter().any(|s| s == name) {
+                if order.contains(name) {
                     return Err(bad(p, &key, format!("`{name}` is listed twice")));
                 }
-                order.push(name.to_string());
+                order.push(name.clone());
             }
             if let Some(missing) = sources.iter().find(|s| !order.contains(s)) {
                 return Err(bad(p, "sources", format!("`{missing}` is missing; expected every errors' source once")));
@@ -337,21 +455,13 @@ impl SweepSpec {
     }
 }
 
-fn parse_error(p: &Path, i: usize, v: &Value, extractors: &[SweepExtractor]) -> Result<ErrorSpec> {
-    let pre = format!("errors[{i}]");
-    let t = v.as_table().ok_or_else(|| bad(p, &pre, format!("found {v}; expected a table")))?;
-    let k = |name: &str| format!("{pre}.{name}");
-    check_keys(
-        p,
-        &format!("{pre}."),
-        t,
-        &["source", "param", "distribution", "mean", "sigma", "min", "max", "value", "per", "known"],
-    )?;
-    let source = req(p, &k("source"), opt_str(p, &k("source"), t.get("source"))?, "the name of the row, a string")?;
+fn parse_error(p: &Path, i: usize, t: RawError, extractors: &[SweepExtractor]) -> Result<ErrorSpec> {
+    let k = |name: &str| format!("errors[{i}].{name}");
+    let source = t.source;
     if source.is_empty() || source == COMBINED {
         return Err(bad(p, &k("source"), format!("`{source}` is reserved or empty; name the source")));
     }
-    let pname = req(p, &k("param"), opt_str(p, &k("param"), t.get("param"))?, "a parameter name")?;
+    let pname = t.param;
     let target = Target::parse(&pname).ok_or_else(|| {
         bad(
             p,
@@ -363,35 +473,37 @@ fn parse_error(p: &Path, i: usize, v: &Value, extractors: &[SweepExtractor]) -> 
             ),
         )
     })?;
-    let num = |name: &str| opt_num(p, &k(name), t.get(name));
-    let dist_name = req(
-        p,
-        &k("distribution"),
-        opt_str(p, &k("distribution"), t.get("distribution"))?,
-        "\"normal\", \"uniform\" or \"fixed\"",
-    )?;
+    // Each number of the distribution: given or not, and finite where given.
+    let given = [("mean", t.mean), ("sigma", t.sigma), ("min", t.min), ("max", t.max), ("value", t.value)];
+    for (name, v) in given {
+        if let Some(x) = v {
+            finite(p, &k(name), x)?;
+        }
+    }
     let unused = |names: &[&str], d: &str| -> Result<()> {
-        for n in names {
-            if t.contains_key(*n) {
-                return Err(bad(p, &k(n), format!("is not a parameter of distribution = \"{d}\"")));
+        for (name, v) in given {
+            if names.contains(&name) && v.is_some() {
+                return Err(bad(p, &k(name), format!("is not a parameter of distribution = \"{d}\"")));
             }
         }
         Ok(())
     };
-    let distribution = match dist_name.as_str() {
+    let need = |name: &str, v: Option<f64>, expected: &str| {
+        v.ok_or_else(|| bad(p, &k(name), format!("missing; expected {expected}")))
+    };
+    let distribution = match t.distribution.as_str() {
         "normal" => {
             unused(&["min", "max", "value"], "normal")?;
-            let mean = num("mean")?.unwrap_or(0.0);
-            let sigma = req(p, &k("sigma"), num("sigma")?, "σ ≥ 0, a number")?;
+            let sigma = need("sigma", t.sigma, "σ ≥ 0, a number")?;
             if sigma < 0.0 {
                 return Err(bad(p, &k("sigma"), format!("{sigma} is negative; expected σ ≥ 0")));
             }
-            Distribution::Normal { mean, sigma }
+            Distribution::Normal { mean: t.mean.unwrap_or(0.0), sigma }
         }
         "uniform" => {
             unused(&["mean", "sigma", "value"], "uniform")?;
-            let min = req(p, &k("min"), num("min")?, "a number")?;
-            let max = req(p, &k("max"), num("max")?, "a number")?;
+            let min = need("min", t.min, "a number")?;
+            let max = need("max", t.max, "a number")?;
             if min > max {
                 return Err(bad(p, &k("max"), format!("{max} is below min = {min}")));
             }
@@ -399,7 +511,7 @@ fn parse_error(p: &Path, i: usize, v: &Value, extractors: &[SweepExtractor]) -> 
         }
         "fixed" => {
             unused(&["mean", "sigma", "min", "max"], "fixed")?;
-            Distribution::Fixed { value: req(p, &k("value"), num("value")?, "a number")? }
+            Distribution::Fixed { value: need("value", t.value, "a number")? }
         }
         other => {
             return Err(bad(
@@ -423,17 +535,12 @@ fn parse_error(p: &Path, i: usize, v: &Value, extractors: &[SweepExtractor]) -> 
             format!("{} can draw values beyond any finite number", distribution.describe()),
         ));
     }
-    let per = match opt_str(p, &k("per"), t.get("per"))?.as_deref() {
+    let per = match t.per.as_deref() {
         None | Some("trial") => Per::Trial,
         Some("pixel") => Per::Pixel,
         Some(o) => return Err(bad(p, &k("per"), format!("\"{o}\" is unknown; expected \"trial\" or \"pixel\""))),
     };
-    let known = match t.get("known") {
-        None | Some(Value::Boolean(false)) => Known::No,
-        Some(Value::Boolean(true)) => Known::Yes,
-        Some(Value::String(s)) if s == "both" => Known::Both,
-        Some(v) => return Err(bad(p, &k("known"), format!("found {v}; expected true, false or \"both\""))),
-    };
+    let known = t.known.unwrap_or(Known::No);
     // What fits what.
     match (target, per) {
         (Target::PixelNoise(_), Per::Pixel) => match distribution {
@@ -506,81 +613,21 @@ fn expected_list_of_extractors() -> String {
     format!("expected a non-empty list of {}", extractor_names())
 }
 
-fn check_keys(p: &Path, prefix: &str, t: &Table, allowed: &[&str]) -> Result<()> {
-    for key in t.keys() {
-        if !allowed.contains(&key.as_str()) {
-            return Err(bad(
-                p,
-                &format!("{prefix}{key}"),
-                format!("unknown key; expected one of {}", allowed.join(", ")),
-            ));
-        }
-    }
-    Ok(())
-}
-
-fn req<T>(p: &Path, key: &str, v: Option<T>, expected: &str) -> Result<T> {
-    v.ok_or_else(|| bad(p, key, format!("missing; expected {expected}")))
-}
-
-fn table_of(p: &Path, key: &str, v: Option<&Value>) -> Result<Table> {
-    match v {
-        Some(Value::Table(t)) => Ok(t.clone()),
-        Some(v) => Err(bad(p, key, format!("found {v}; expected a table [{key}]"))),
-        None => Err(bad(p, key, format!("missing; expected a table [{key}]"))),
-    }
-}
-
-fn opt_num(p: &Path, key: &str, v: Option<&Value>) -> Result<Option<f64>> {
-    match v {
-        None => Ok(None),
-        Some(Value::Float(x)) if x.is_finite() => Ok(Some(*x)),
-        Some(Value::Integer(i)) => Ok(Some(*i as f64)),
-        Some(v) => Err(bad(p, key, format!("found {v}; expected a finite number"))),
-    }
-}
-
-fn opt_int(p: &Path, key: &str, v: Option<&Value>, min: i64, max: i64) -> Result<Option<i64>> {
-    match v {
-        None => Ok(None),
-        Some(Value::Integer(i)) if (min..=max).contains(i) => Ok(Some(*i)),
-        Some(v) => Err(bad(p, key, format!("found {v}; expected a whole number in [{min}, {max}]"))),
-    }
-}
-
-fn opt_str(p: &Path, key: &str, v: Option<&Value>) -> Result<Option<String>> {
-    match v {
-        None => Ok(None),
-        Some(Value::String(s)) => Ok(Some(s.clone())),
-        Some(v) => Err(bad(p, key, format!("found {v}; expected a string"))),
-    }
-}
-
-fn opt_bool(p: &Path, key: &str, v: Option<&Value>) -> Result<Option<bool>> {
-    match v {
-        None => Ok(None),
-        Some(Value::Boolean(b)) => Ok(Some(*b)),
-        Some(v) => Err(bad(p, key, format!("found {v}; expected true or false"))),
-    }
-}
-
-/// A list of numbers, or `{ from, to, step }` (both ends included when on the grid).
-fn list_or_range(p: &Path, key: &str, v: Option<&Value>) -> Result<Option<Vec<f64>>> {
+/// The values of a list or of `{ from, to, step }` (both ends included when on the
+/// grid), each finite, at least one and at most 100 000.
+fn values(p: &Path, key: &str, v: ListOrRange) -> Result<Vec<f64>> {
     let out = match v {
-        None => return Ok(None),
-        Some(Value::Array(a)) => {
-            let mut out = Vec::with_capacity(a.len());
-            for (i, x) in a.iter().enumerate() {
-                out.push(opt_num(p, &format!("{key}[{i}]"), Some(x))?.expect("present"));
+        ListOrRange::List(list) => {
+            for (i, &x) in list.iter().enumerate() {
+                finite(p, &format!("{key}[{i}]"), x)?;
             }
-            out
+            list
         }
-        Some(Value::Table(t)) => {
-            let pre = format!("{key}.");
-            check_keys(p, &pre, t, &["from", "to", "step"])?;
-            let get = |n: &str| req(p, &format!("{pre}{n}"), opt_num(p, &format!("{pre}{n}"), t.get(n))?, "a number");
-            let (from, to, step) = (get("from")?, get("to")?, get("step")?);
-            if step.is_nan() || step <= 0.0 || to < from {
+        ListOrRange::Range { from, to, step } => {
+            for (n, x) in [("from", from), ("to", to), ("step", step)] {
+                finite(p, &format!("{key}.{n}"), x)?;
+            }
+            if step <= 0.0 || to < from {
                 return Err(bad(
                     p,
                     key,
@@ -595,10 +642,9 @@ fn list_or_range(p: &Path, key: &str, v: Option<&Value>) -> Result<Option<Vec<f6
             }
             (0..count as usize).map(|k| from + step * k as f64).collect()
         }
-        Some(v) => return Err(bad(p, key, format!("found {v}; expected a list of numbers or {{ from, to, step }}"))),
     };
     if out.is_empty() {
         return Err(bad(p, key, "empty; expected at least one value".into()));
     }
-    Ok(Some(out))
+    Ok(out)
 }

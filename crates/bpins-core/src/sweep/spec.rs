@@ -356,11 +356,18 @@ mod tests {
             ("format = \"bpins-sweep/1\"", "format = \"bpins-sweep/2\"", "format"),
             ("peak_dn = 153", "peak_dn = 1e9", "response.peak_dn"),
             ("trials_per_azimuth = 1", "trials_per_azimuth = 1\nscene = [\"fog\"]", "sky.scene[0]"),
+            // What serde refuses is named by its key as well: a missing key, an
+            // unknown one in an [[errors]] table, a wrong type in a list.
+            ("param = \"array_rotation.dtheta_deg\"", "", "errors[0].param"),
+            ("sigma = 0.1", "sigma = 0.1\nsgima = 0.2", "errors[0].sgima"),
+            ("sun_elevations_deg = [5, 30]", "sun_elevations_deg = [5, \"high\"]", "sky.sun_elevations_deg[1]"),
+            ("trials = 4", "trials = -4", "trials"),
         ];
         for (from, to, key) in cases {
             assert!(TINY.contains(from), "{from}");
             let e = err_of(&TINY.replacen(from, to, 1));
             assert!(e.starts_with("my-sweep.toml: "), "{e}");
+            assert!(!e.contains("f64") && !e.contains("u64") && !e.contains("field"), "serde's words: {e}");
             assert!(e.contains(&format!(": {key}: ")), "{key}: {e}");
             assert!(
                 e.contains("expected") || e.contains("must") || e.contains("outside") || e.contains("negative"),

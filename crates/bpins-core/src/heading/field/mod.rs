@@ -334,9 +334,20 @@ impl FieldHeading {
 /// Field headings of one frame's cells with each of `extractors` (the robust loop runs
 /// once; each extractor solves on its final weights).
 pub fn estimate(cells: &Cells, ctx: &FieldContext, opts: &FieldOptions, extractors: &[Extractor]) -> Vec<FieldHeading> {
-    let mut sc = FieldScratch::default();
-    match robust::fitted(cells, ctx, opts, &mut sc.robust) {
-        Ok(r) => extractors.iter().map(|&e| robust::heading(&r, e, cells, ctx, opts, &sc.robust)).collect(),
+    estimate_many_with(cells, ctx, opts, extractors, &mut FieldScratch::default())
+}
+
+/// [`estimate`] with buffers kept in `scratch` between frames (a capture's frames,
+/// [`crate::compass::Compass::capture_frame`]).
+pub fn estimate_many_with(
+    cells: &Cells,
+    ctx: &FieldContext,
+    opts: &FieldOptions,
+    extractors: &[Extractor],
+    scratch: &mut FieldScratch,
+) -> Vec<FieldHeading> {
+    match robust::fitted(cells, ctx, opts, &mut scratch.robust) {
+        Ok(r) => extractors.iter().map(|&e| robust::heading(&r, e, cells, ctx, opts, &scratch.robust)).collect(),
         Err((quality, why)) => {
             extractors.iter().map(|&e| FieldHeading { extractor: e, result: Err(why.clone()), quality }).collect()
         }

@@ -219,6 +219,13 @@ impl CompassConfig {
     }
 }
 
+/// A colocated capture's planes: their inversion and the cell size (`capture.rs`).
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
+struct Colocated {
+    rec: Reconstructor,
+    cell_px: usize,
+}
+
 /// Live frames in, headings out: build once, then one call per frame (the module's
 /// example shows a whole frame). Holds its buffers between frames, so a warm compass
 /// allocates nothing per frame; one compass per camera and thread (it is `Send`).
@@ -251,6 +258,9 @@ pub struct Compass {
     cell_px: usize,
     /// Each cell's own reconstruction where the calibration has per-pixel maps.
     cell_analyzers: Option<CellAnalyzers>,
+    /// A colocated capture's reconstruction (`None`: DoFP; `capture.rs`).
+    #[cfg_attr(not(feature = "io"), allow(dead_code))]
+    colocated: Option<Colocated>,
     /// The last frame's cells and the estimator's buffers, reused: no allocation per
     /// frame once they have grown to the sensor's grid.
     cells: Cells,
@@ -260,6 +270,13 @@ pub struct Compass {
 impl Compass {
     /// Checks the configuration and prepares what every frame shares.
     pub fn new(cfg: CompassConfig) -> Result<Compass, CompassError> {
+        let known = cfg.calibration.model();
+        Compass::with_known(cfg, known)
+    }
+
+    /// [`Compass::new`] with the known effects given as the chain's parameter block
+    /// rather than as `cfg.calibration`'s (whose per-pixel maps are still used).
+    fn with_known(cfg: CompassConfig, known: Model) -> Result<Compass, CompassError> {
         let bad = |m: String| Err(CompassError::Config(m));
         if cfg.width_px < 4 || cfg.height_px < 4 {
             return bad(format!("sensor of {} × {} px: at least 4 × 4", cfg.width_px, cfg.height_px));
@@ -284,7 +301,6 @@ impl Compass {
                 c.cx_px, c.cy_px
             ));
         }
-        let known = cfg.calibration.model();
         let intr = known.camera(c);
         let rec = Reconstructor::new(&known, cfg.black_level_dn, &Channel::ALL)?;
         let cell_px = cfg.options.cell_px.unwrap_or_else(|| Cells::default_cell_px(cfg.width_px, cfg.height_px));
@@ -307,6 +323,7 @@ impl Compass {
             full_scale_dn,
             cell_px,
             cell_analyzers,
+            colocated: None,
             cells: Cells::default(),
             scratch: FieldScratch::default(),
         })
@@ -341,17 +358,23 @@ impl Compass {
         };
         check_sun(az, el, sun_sigma)?;
         check_attitude(&attitude)?;
-        let Attitude { tilt_x_deg, tilt_y_deg, sigma_deg } = attitude;
+        self.fill_mosaic_cells(&frame);
+        let ctx = field_context(self.intr, &self.known, (az, el, sun_sigma), &attitude);
+        Ok(field::estimate_with(&self.cells, &ctx, &self.cfg.options, self.cfg.extractor, &mut self.scratch))
+    }
+
+    /// Fills `self.cells` from a DoFP frame of the sensor's size (checked by the caller).
+    fn fill_mosaic_cells<T: RawDn>(&mut self, frame: &RawImage<T>) {
         match &self.cell_analyzers {
             Some(cal) => self.cells.fill_from_mosaic_calibrated(
-                &frame,
+                frame,
                 &self.cfg.mosaic,
                 cal,
                 self.full_scale_dn,
                 &mut self.scratch.cells,
             ),
             None => self.cells.fill_from_mosaic(
-                &frame,
+                frame,
                 &self.cfg.mosaic,
                 &self.rec,
                 self.full_scale_dn,
@@ -359,20 +382,35 @@ impl Compass {
                 &mut self.scratch.cells,
             ),
         }
-        let ctx = FieldContext {
-            intr: self.intr,
-            lens_rho2: crate::effects::lens_diattenuation::rho2(&self.known),
-            sun_az_deg: az,
-            sun_el_deg: el,
-            sun_sigma_deg: sun_sigma,
-            tilt_x_deg,
-            tilt_y_deg,
-            tilt_sigma_deg: sigma_deg,
-            mount_tilt_deg: self.known.mount_tilt_deg,
-        };
-        Ok(field::estimate_with(&self.cells, &ctx, &self.cfg.options, self.cfg.extractor, &mut self.scratch))
     }
 }
+
+/// What the field estimator knows about a frame: the camera `intr` as calibrated, the
+/// known lens diattenuation and mount tilt of `known`, the sun `(azimuth, elevation,
+/// 1σ)` in degrees and the reference attitude. The one place a heading's context is
+/// made: the compass's frames, a capture's (`bpins heading`), the fit's masks and the
+/// locator's sun all take theirs from here.
+pub(crate) fn field_context(
+    intr: Intrinsics,
+    known: &Model,
+    sun: (f64, f64, f64),
+    attitude: &Attitude,
+) -> FieldContext {
+    FieldContext {
+        intr,
+        lens_rho2: crate::effects::lens_diattenuation::rho2(known),
+        sun_az_deg: sun.0,
+        sun_el_deg: sun.1,
+        sun_sigma_deg: sun.2,
+        tilt_x_deg: attitude.tilt_x_deg,
+        tilt_y_deg: attitude.tilt_y_deg,
+        tilt_sigma_deg: attitude.sigma_deg,
+        mount_tilt_deg: known.mount_tilt_deg,
+    }
+}
+
+#[cfg(feature = "io")]
+mod capture;
 
 #[cfg(test)]
 mod tests {
@@ -382,7 +420,7 @@ mod tests {
     use crate::sensor::Response;
     use crate::simulate::render_mosaic;
 
-    fn frame(truth: &Model, tilt: [f64; 2]) -> (Vec<u16>, Intrinsics) {
+    pub(super) fn frame(truth: &Model, tilt: [f64; 2]) -> (Vec<u16>, Intrinsics) {
         frame_under(truth, tilt, 40.0, 25.0)
     }
 
