@@ -9,10 +9,12 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::camera::Intrinsics;
 use crate::capture::{LensSpec, SensorSpec};
 use crate::effects::{find, EffectDef, Stage};
 use crate::error::Error;
 use crate::heading::Extractor;
+use crate::sensor::{Channel, Layout};
 
 /// The value of the `format` key this reader implements.
 pub const FORMAT: &str = "bpins-sweep/1";
@@ -55,6 +57,75 @@ pub struct SweepSpec {
     /// Trials per source and sun elevation.
     pub trials: usize,
     pub seed: u64,
+}
+
+impl SweepSpec {
+    /// Sensor width and height, pixels.
+    pub fn size_px(&self) -> (usize, usize) {
+        (self.sensor.geometry.width_px as usize, self.sensor.geometry.height_px as usize)
+    }
+
+    /// The nominal camera (what the reconstruction assumes unless an error is known).
+    pub fn intrinsics(&self) -> Intrinsics {
+        let (cx, cy) = self.lens.principal_point_px;
+        Intrinsics {
+            projection: self.lens.projection,
+            f_px: self.lens.focal_length_mm * 1000.0 / self.sensor.geometry.pixel_pitch_um,
+            cx_px: cx,
+            cy_px: cy,
+            distortion: [0.0; 2],
+        }
+    }
+
+    /// Squared normalised radius of the field's farthest corner.
+    pub fn corner_r2(&self) -> f64 {
+        let i = self.intrinsics();
+        let (w, h) = self.size_px();
+        let (x, y) = i.normalised(0.0, 0.0);
+        let (x2, y2) = i.normalised(w as f64 - 1.0, h as f64 - 1.0);
+        let (x3, y3) = i.normalised(w as f64 - 1.0, 0.0);
+        let (x4, y4) = i.normalised(0.0, h as f64 - 1.0);
+        (x * x + y * y).max(x2 * x2 + y2 * y2).max(x3 * x3 + y3 * y3).max(x4 * x4 + y4 * y4)
+    }
+
+    /// The analyzer channels the sensor has.
+    pub fn channels(&self) -> Vec<Channel> {
+        match &self.sensor.layout {
+            Layout::Colocated { channels } => channels.clone(),
+            Layout::Dofp { .. } => Channel::ALL.to_vec(),
+        }
+    }
+
+    /// Whether error `e` is drawn in source `s` (index into `sources`).
+    pub fn in_source(&self, e: &ErrorSpec, s: usize) -> bool {
+        let name = &self.sources[s];
+        (self.combined && name == COMBINED) || &e.source == name
+    }
+
+    /// Whether source `s` has rows with the `Known::Both` errors known and unknown.
+    pub fn has_both(&self, s: usize) -> bool {
+        self.errors.iter().any(|e| e.known == Known::Both && self.in_source(e, s))
+    }
+
+    /// The field conditions of trial `trial`: drawn anew per trial (their seed mixes
+    /// the sweep's seed and the trial), the same at every sun elevation; `None` for
+    /// the lab-clean sky.
+    pub fn field_scene(&self, trial: usize) -> Option<crate::scene::FieldScene> {
+        if self.scene.is_empty() {
+            return None;
+        }
+        let mut f = crate::scene::FieldScene::new(self.seed ^ (trial as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        for s in &self.scene {
+            f.parse(s).expect("checked when the file was read");
+        }
+        Some(f)
+    }
+
+    /// The trial's sun azimuth, degrees.
+    pub fn sun_azimuth_deg(&self, trial: usize) -> f64 {
+        let n = self.sun_azimuths_deg.len();
+        self.sun_azimuths_deg[(trial / self.trials_per_azimuth) % n]
+    }
 }
 
 /// A heading extractor a sweep can use: bpins' two ([`Extractor`], solved from the
