@@ -37,8 +37,37 @@ pub enum Error {
     BadSceneParam { spec: String, message: String },
     #[error("invalid model: {0}")]
     Model(String),
+    /// A value of a request or a simulation outside the range it must lie in: what
+    /// it is, the value as given (with its unit) and the range.
+    #[error("{what} {value}: must lie in {range}")]
+    OutOfRange { what: String, value: String, range: String },
+    /// Too few usable pixels or samples for what was asked (a frame all saturated,
+    /// a mask that leaves nothing, a capture without frames).
+    #[error("{0}")]
+    TooFewSamples(String),
+    /// A frame's pixels that do not match the capture's sensor (size or layout).
+    #[error("{0}")]
+    FrameMismatch(String),
+    /// Analyzer channels that cannot resolve Stokes I, Q and U.
+    #[error("{0}")]
+    Analyzers(String),
+    /// An effect asked of a model (a fit's) that does not have it.
+    #[error("{effect} is not in the model")]
+    NotInModel { effect: String },
+    /// An output that cannot be serialised or encoded (a bug of bpins, not of the
+    /// input): what was being written and why.
+    #[error("writing {what}: {message}")]
+    Encode { what: String, message: String },
     #[error("heading extraction failed: {0}")]
     Heading(String),
+    /// A timestamp that is not a time this library can place the sun at: what was
+    /// given and why.
+    #[error("{time}: {message}")]
+    Time { time: String, message: String },
+    /// A place outside the Earth's coordinates.
+    #[error("place: {0}")]
+    Place(String),
+    /// NREL SPA could not give a position (a date outside its range).
     #[error("sun position: {0}")]
     Sun(String),
     /// A report template that does not render (a bug of bpins, not of the input).

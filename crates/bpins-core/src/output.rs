@@ -177,7 +177,7 @@ mod tests {
         // A writer that fails half-way: the old file stays, no temporary is left.
         let e = write_with(&p, Replace::Allowed, |w| {
             w.write_all(b"half of a").unwrap();
-            Err(Error::Model("disk full".into()))
+            Err(Error::Encode { what: "test".into(), message: "disk full".into() })
         });
         assert!(e.is_err());
         assert_eq!(std::fs::read(&p).unwrap(), b"second");

@@ -78,7 +78,7 @@ pub fn reconstruct_frame(c: &Capture, data: &FrameData, known: &Model, mode: Rec
             let planes: Vec<_> = channels.iter().map(|(ch, p)| (*ch, p.as_slice())).collect();
             recon::colocated(&planes, *width_px as usize, *height_px as usize, &rec, full)
         }
-        _ => return Err(Error::Model("frame data does not match the capture's sensor layout".into())),
+        _ => return Err(Error::FrameMismatch("frame data does not match the capture's sensor layout".into())),
     })
 }
 
@@ -236,7 +236,7 @@ pub(crate) fn scene_of(f: &FrameSpec, dmax: f64) -> Scene {
 /// that of the first frame's field sky without the sun's disc and aureole (which
 /// then saturate where in view, as under an exposure set on the sky).
 pub fn sim_response(c: &Capture, s: &SimSensor, field: Option<&FieldScene>) -> Result<Response> {
-    let first = c.frames.first().ok_or_else(|| Error::Model("a capture needs at least one frame".into()))?;
+    let first = c.frames.first().ok_or_else(|| Error::TooFewSamples("a capture needs at least one frame".into()))?;
     let g = &c.sensor.geometry;
     let (w, h) = (g.width_px as usize, g.height_px as usize);
     let scene = scene_of(first, s.dmax);
@@ -258,10 +258,16 @@ pub fn sim_response(c: &Capture, s: &SimSensor, field: Option<&FieldScene>) -> R
     };
     let full = c.sensor.full_scale_dn();
     if !(s.peak_fraction > 0.0 && s.peak_fraction <= 1.0) {
-        return Err(Error::Model(format!("peak fraction {} must lie in (0, 1]", s.peak_fraction)));
+        return Err(Error::OutOfRange {
+            what: "peak fraction".into(),
+            value: s.peak_fraction.to_string(),
+            range: "(0, 1]".into(),
+        });
     }
     if !(peak > 0.0 && peak.is_finite()) {
-        return Err(Error::Model(format!("the first frame's peak signal {peak} is not positive: nothing to expose")));
+        return Err(Error::TooFewSamples(format!(
+            "the first frame's peak signal {peak} is not positive: nothing to expose"
+        )));
     }
     Ok(Response {
         gain_dn: s.peak_fraction * (full - c.sensor.black_level_dn) / peak,

@@ -40,7 +40,7 @@ impl Reconstructor {
         ch.sort();
         ch.dedup();
         if ch.len() < 3 {
-            return Err(Error::Model(format!("Stokes needs at least 3 analyzer channels, got {}", ch.len())));
+            return Err(Error::Analyzers(format!("Stokes needs at least 3 analyzer channels, got {}", ch.len())));
         }
         let a_row = |c: Channel| {
             let a = Analyzer::at(c.angle_deg(), model.analyzer_delta_deg[c.index()], model.analyzer_eps[c.index()]);
@@ -49,7 +49,7 @@ impl Reconstructor {
         let rows_a: Vec<DVec3> = ch.iter().map(|&c| a_row(c)).collect();
         let mut rows = [[0.0; 4]; 3];
         let singular = || {
-            Error::Model(format!(
+            Error::Analyzers(format!(
                 "analyzer angles {:?} cannot resolve Q and U",
                 ch.iter().map(|c| c.angle_deg()).collect::<Vec<_>>()
             ))

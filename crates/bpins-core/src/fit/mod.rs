@@ -94,7 +94,7 @@ pub fn fit(c: &Capture, frames: &[FrameData], opts: &FitOptions, progress: &dyn 
 /// The sensor noise of a capture (photon transfer over its frames).
 pub fn capture_noise(c: &Capture, frames: &[FrameData]) -> Result<NoiseModel> {
     input::noise::estimate(frames, c.sensor.black_level_dn, c.sensor.full_scale_dn())
-        .ok_or_else(|| Error::Model("too few usable pixels to estimate the sensor noise".into()))
+        .ok_or_else(|| Error::TooFewSamples("too few usable pixels to estimate the sensor noise".into()))
 }
 
 /// [`fit`] on the frames as [`FitFrames`] hold them (every pixel or a sample), from a

@@ -82,8 +82,10 @@ pub fn write_maps(cal: &LabCalibration, dir: &Path) -> Result<Vec<MapFile>> {
             let span = if high > low { high - low } else { 1.0 };
             let px: Vec<u8> =
                 m.iter().map(|&x| (((x as f64 - low) / span).clamp(0.0, 1.0) * 255.0).round() as u8).collect();
-            let img: ImageBuffer<Luma<u8>, Vec<u8>> = ImageBuffer::from_raw(w, h, px)
-                .ok_or_else(|| Error::Model(format!("map {name}: size does not match {w} × {h}")))?;
+            let img: ImageBuffer<Luma<u8>, Vec<u8>> = ImageBuffer::from_raw(w, h, px).ok_or_else(|| Error::Encode {
+                what: format!("map {name}"),
+                message: format!("size does not match {w} × {h}"),
+            })?;
             let rel = format!("png/{name}.png");
             let path = dir.join(&rel);
             write_with(&path, Replace::Allowed, |out| {

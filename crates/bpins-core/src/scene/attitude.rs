@@ -50,7 +50,9 @@ impl FieldAttitude {
             [("random tilt", Some(self.tilt_random_deg)), ("IMU σ", self.imu_sigma_deg), ("sun σ", self.sun_sigma_deg)];
         for (what, v) in checks {
             if let Some(v) = v.filter(|v| !(v.is_finite() && (0.0..=45.0).contains(v))) {
-                return Err(Error::Model(format!("{what} {v}° must lie in [0°, 45°]")));
+                return Err(Error::OutOfRange {
+                    what: what.into(), value: format!("{v}°"), range: "[0°, 45°]".into()
+                });
             }
         }
         let (t, s_imu, s_sun) = (self.tilt_random_deg, self.imu_sigma_deg.unwrap_or(0.0), self.sun_sigma_deg);

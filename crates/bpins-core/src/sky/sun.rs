@@ -18,7 +18,7 @@
 //! Time: an RFC 3339 timestamp (`2026-06-21T18:30:00Z`). An explicit offset other
 //! than `Z` (`…T20:30:00+02:00`) names the same instant and is accepted and converted
 //! to UTC; a timestamp without an offset, or a leap second, is an error
-//! ([`crate::Error::Sun`]).
+//! ([`crate::Error::Time`]).
 //!
 //! Cannot: model the observer's altitude, local pressure and temperature, or
 //! refraction below the horizon; the ΔT estimate is an extrapolation after 2026.
@@ -117,9 +117,9 @@ impl SunPosition {
 /// The apparent sun at `time_utc` (RFC 3339) seen from `latitude_deg` (north
 /// positive) and `longitude_deg` (east positive) at sea level, by NREL SPA.
 ///
-/// Errors ([`Error::Sun`]): an unparsable timestamp, a timestamp without offset,
-/// coordinates out of range or not finite, a year outside the ΔT estimator's range
-/// (−500 … 3000) or SPA's (−2000 … 6000).
+/// Errors: [`Error::Time`] for an unparsable timestamp, one without offset, a leap
+/// second or a year outside the ΔT estimator's range (−500 … 3000) or SPA's
+/// (−2000 … 6000); [`Error::Place`] for coordinates out of range or not finite.
 pub fn sun_from_time_place(time_utc: &str, latitude_deg: f64, longitude_deg: f64) -> Result<SunPosition> {
     sun_at(&parse_time_utc(time_utc)?, latitude_deg, longitude_deg)
 }
@@ -127,7 +127,8 @@ pub fn sun_from_time_place(time_utc: &str, latitude_deg: f64, longitude_deg: f64
 /// [`sun_from_time_place`] at `time_unix_s` seconds since 1970-01-01T00:00:00Z (UTC,
 /// leap seconds not counted, as every Unix clock and ROS time).
 pub fn sun_from_unix_time(time_unix_s: f64, latitude_deg: f64, longitude_deg: f64) -> Result<SunPosition> {
-    let bad = || Error::Sun(format!("time {time_unix_s} s since 1970 is not a representable time"));
+    let bad =
+        || Error::Time { time: format!("time {time_unix_s} s since 1970"), message: "not a representable time".into() };
     if !time_unix_s.is_finite() {
         return Err(bad());
     }
@@ -140,7 +141,8 @@ fn sun_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Result
     let time = *time;
     let time_utc = time.to_rfc3339_opts(SecondsFormat::AutoSi, true);
     check_place(latitude_deg, longitude_deg)?;
-    let dt_s = delta_t::estimate_from_date_like(&time).map_err(|e| Error::Sun(format!("ΔT for `{time_utc}`: {e}")))?;
+    let dt_s = delta_t::estimate_from_date_like(&time)
+        .map_err(|e| Error::Time { time: format!("time {time_utc}"), message: format!("ΔT: {e}") })?;
     let (azimuth_deg, elevation_deg) =
         spa_apparent(&time, latitude_deg, longitude_deg, 0.0, dt_s, Some(RefractionCorrection::standard()))?;
     Ok(SunPosition {
@@ -156,21 +158,19 @@ fn sun_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Result
 
 /// Parses an RFC 3339 timestamp with an explicit offset and converts it to UTC.
 pub fn parse_time_utc(s: &str) -> Result<DateTime<Utc>> {
-    let t = DateTime::parse_from_rfc3339(s.trim()).map_err(|e| {
-        Error::Sun(format!(
-            "time_utc `{s}` is not an RFC 3339 timestamp with offset, like \
-             2026-06-21T18:30:00Z ({e})"
-        ))
+    let t = DateTime::parse_from_rfc3339(s.trim()).map_err(|e| Error::Time {
+        time: format!("time_utc `{s}`"),
+        message: format!("not an RFC 3339 timestamp with offset, like 2026-06-21T18:30:00Z ({e})"),
     })?;
     Ok(t.with_timezone(&Utc))
 }
 
 fn check_place(latitude_deg: f64, longitude_deg: f64) -> Result<()> {
     if !(-90.0..=90.0).contains(&latitude_deg) {
-        return Err(Error::Sun(format!("latitude_deg = {latitude_deg} is outside [−90°, 90°]")));
+        return Err(Error::Place(format!("latitude_deg = {latitude_deg} is outside [−90°, 90°]")));
     }
     if !(-180.0..=180.0).contains(&longitude_deg) {
-        return Err(Error::Sun(format!("longitude_deg = {longitude_deg} is outside [−180°, 180°]")));
+        return Err(Error::Place(format!("longitude_deg = {longitude_deg} is outside [−180°, 180°]")));
     }
     Ok(())
 }
@@ -188,7 +188,7 @@ fn spa_apparent(
     let location = Location { latitude: latitude_deg, longitude: longitude_deg };
     let p = SolarPositions::new()
         .at(time, location, height_m, delta_t_s, refraction)
-        .map_err(|e| Error::Sun(format!("SPA at {time}: {e}")))?;
+        .map_err(|e| Error::Time { time: format!("time {time}"), message: format!("SPA: {e}") })?;
     let az = wrap_deg_360(p.azimuth());
     let el = p.elevation_angle();
     if !(az.is_finite() && el.is_finite()) {
@@ -271,11 +271,11 @@ mod tests {
             "-9999-01-01T00:00:00Z",
         ] {
             let r = sun_from_time_place(s, 10.0, 10.0);
-            assert!(matches!(r, Err(Error::Sun(_))), "{s:?}: {r:?}");
+            assert!(matches!(r, Err(Error::Time { .. })), "{s:?}: {r:?}");
         }
         for (lat, lon) in [(91.0, 0.0), (0.0, 181.0), (f64::NAN, 0.0), (0.0, f64::INFINITY)] {
             let r = sun_from_time_place("2026-06-21T18:30:00Z", lat, lon);
-            assert!(matches!(r, Err(Error::Sun(_))), "{lat} {lon}: {r:?}");
+            assert!(matches!(r, Err(Error::Place(_))), "{lat} {lon}: {r:?}");
         }
     }
 

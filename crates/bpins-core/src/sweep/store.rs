@@ -169,7 +169,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Summary> {
 }
 
 fn write_meta(dir: &Path, meta: &ShardMeta) -> Result<()> {
-    let text = toml::to_string(meta).map_err(|e| Error::Model(format!("serialising shard.toml: {e}")))?;
+    let text =
+        toml::to_string(meta).map_err(|e| Error::Encode { what: "shard.toml".into(), message: e.to_string() })?;
     crate::output::write_bytes(&dir.join("shard.toml"), Replace::Allowed, text.as_bytes())
 }
 
@@ -177,7 +178,8 @@ fn write_meta(dir: &Path, meta: &ShardMeta) -> Result<()> {
 pub fn write_outputs(spec: &SweepSpec, records: &[TrialRecord], dir: &Path) -> Result<Summary> {
     let summary = summarise(spec, records);
     write_trials(spec, records, &dir.join("trials.csv"))?;
-    let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::Model(format!("serialising summary: {e}")))?;
+    let json = serde_json::to_string_pretty(&summary)
+        .map_err(|e| Error::Encode { what: "summary.json".into(), message: e.to_string() })?;
     crate::output::write_bytes(&dir.join("summary.json"), Replace::Allowed, (json + "\n").as_bytes())?;
     crate::output::write_bytes(&dir.join("summary.csv"), Replace::Allowed, summary.rows_csv().as_bytes())?;
     crate::output::write_bytes(&dir.join("budget.csv"), Replace::Allowed, summary.budget_csv().as_bytes())?;

@@ -401,7 +401,7 @@ impl<'a> FitFrames<'a> {
             }
             (Pixels::Sampled { .. }, None) => None,
         };
-        model.ok_or_else(|| Error::Model("too few usable pixels to estimate the sensor noise".into()))
+        model.ok_or_else(|| Error::TooFewSamples("too few usable pixels to estimate the sensor noise".into()))
     }
 
     /// Each frame's sky mask, read with `opts.known` (a sampled capture's: with the
@@ -418,7 +418,7 @@ impl<'a> FitFrames<'a> {
     /// whole frame.
     pub(crate) fn first_heading(&self, c: &Capture, k: usize) -> Result<f64> {
         match self.known.as_ref().and_then(|x| x.heading[k].clone()) {
-            Some(h) => h.map_err(Error::Model),
+            Some(h) => h.map_err(Error::Heading),
             None => first_heading(c, k, &*self.full_frame(c, k)?),
         }
     }
@@ -455,7 +455,7 @@ fn check(c: &Capture, k: usize, f: &FrameData) -> Result<()> {
     };
     let size = f.size_px();
     if !ok || size != (w as u32, h as u32) {
-        return Err(Error::Model(format!(
+        return Err(Error::FrameMismatch(format!(
             "frame {k}: its pixels ({} × {}) do not match the capture's sensor ({w} × {h}, {} per pixel)",
             size.0, size.1, nq
         )));

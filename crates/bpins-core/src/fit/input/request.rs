@@ -58,12 +58,14 @@ impl FitRequest {
             .map(crate::effects::find)
             .collect::<Result<Vec<_>>>()?;
         if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
-            return Err(Error::Model(format!("fixed d_max {d}: must lie in [0, 1]")));
+            return Err(Error::OutOfRange { what: "fixed d_max".into(), value: d.to_string(), range: "[0, 1]".into() });
         }
         if let Some(b) = self.sample_budget_px.filter(|&b| b < MIN_BUDGET_PX) {
-            return Err(Error::Model(format!(
-                "sample budget {b} px: below the smallest, {MIN_BUDGET_PX} px (16 blocks of 8 × 8)"
-            )));
+            return Err(Error::OutOfRange {
+                what: "sample budget".into(),
+                value: format!("{b} px"),
+                range: format!("[{MIN_BUDGET_PX}, ∞) px (at least 16 blocks of 8 × 8)"),
+            });
         }
         let capture = Capture::load(&self.capture)?;
         let cal = self.calibration.as_deref().map(Calibration::load).transpose()?;

@@ -83,7 +83,7 @@ pub(crate) fn scale(pb: &Problem, theta: &[f64], k: usize) -> Result<f64> {
         }
     }
     if ss.is_nan() || ss <= 0.0 {
-        return Err(Error::Model(format!("frame {k}: no usable pixels to fit")));
+        return Err(Error::TooFewSamples(format!("frame {k}: no usable pixels to fit")));
     }
     Ok((sy / ss).max(1e-6))
 }

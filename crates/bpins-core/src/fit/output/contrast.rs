@@ -50,7 +50,7 @@ pub fn effect_change(
         .effects
         .iter()
         .find(|e| e.name == effect)
-        .ok_or_else(|| Error::Model(format!("{effect} is not in the model")))?;
+        .ok_or_else(|| Error::NotInModel { effect: effect.to_string() })?;
     let (pb, with) = problem(c, frames, opts, Some(state), noise)?;
     let mut without = with.clone();
     for (i, p) in pb.slots.of_effect(effect).zip(def.params) {
