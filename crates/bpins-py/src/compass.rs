@@ -199,7 +199,7 @@ impl Compass {
     #[pyo3(signature = (path, *, calibration=None, extractor="sun_vector"))]
     fn from_capture(path: PathBuf, calibration: Option<PathBuf>, extractor: &str) -> PyResult<Self> {
         let c = Capture::load(&path).map_err(py_err)?;
-        let Layout::Dofp { mosaic } = c.sensor.layout else {
+        let Layout::Dofp { .. } = c.sensor.layout else {
             return Err(PyValueError::new_err(format!(
                 "path: {} holds a colocated capture; the compass reads DoFP mosaics",
                 path.display()
@@ -207,11 +207,15 @@ impl Compass {
         };
         let g = &c.sensor.geometry;
         let (w, h) = (g.width_px as usize, g.height_px as usize);
-        let mut cfg = CompassConfig::dofp(c.intrinsics(), w, h, c.sensor.bit_depth, c.sensor.black_level_dn);
-        cfg.mosaic = mosaic;
-        cfg.calibration = self::calibration(calibration)?;
-        cfg.extractor = self::extractor(extractor)?;
-        let inner = Mutex::new(core::Compass::new(cfg).map_err(compass_err)?);
+        // The capture's own compass, as `bpins heading` reads the capture's frames.
+        let compass = core::Compass::for_capture(
+            &c,
+            self::calibration(calibration)?,
+            bpins_core::heading::field::FieldOptions::default(),
+            self::extractor(extractor)?,
+        )
+        .map_err(compass_err)?;
+        let inner = Mutex::new(compass);
         Ok(Compass { inner, width_px: w, height_px: h })
     }
 
