@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A one-node Slurm cluster on localhost, for trying examples/slurm/ and for the
-# Slurm test (crates/bpins-cli/tests/slurm.rs). Debian's slurm-wlm and munge
+# Slurm test (tests/slurm.rs). Debian's slurm-wlm and munge
 # (`apt-get install -y slurm-wlm munge`); run as root. Everything lives in STATE_DIR
 # (configuration, munge key and socket, spool, logs): nothing under /etc is touched,
 # and the daemons it starts are the only ones `stop` ends (by their pid files).

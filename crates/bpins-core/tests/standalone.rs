@@ -4,9 +4,9 @@
 //! `../shared` is there, every file of it must have an identical copy here and the
 //! copy no file the source lacks; a fresh clone has no `../shared`, and there the test
 //! is counted as ignored, saying so (with `CI` set it fails: CI has `../shared`). Both
-//! sides are only read. The harness is `tests/needs.rs` (`harness = false`).
+//! sides are only read. The harness is `tests/needs/mod.rs` (`harness = false`).
 
-#[path = "../../../tests/needs.rs"]
+#[path = "../../../tests/needs/mod.rs"]
 mod needs;
 
 use std::collections::BTreeSet;

@@ -1,5 +1,5 @@
 """Shared fixtures: where the samples and the bpins CLI are (set by the Rust test
-that runs pytest, crates/bpins-cli/tests/python.rs; defaults for a manual run from
+that runs pytest, tests/python.rs; defaults for a manual run from
 the repository root)."""
 
 import os

@@ -7,7 +7,13 @@ use bpins_core::capture::{Capture, FrameData};
 use bpins_core::compass::{Attitude, CompassConfig, Sun};
 use bpins_core::sensor::Layout;
 
-pub const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
+/// samples/clean of the repository: found upwards from the package that includes this
+/// file (crates/bpins-capi's own tests, or the root package's C example).
+pub fn clean_dir() -> std::path::PathBuf {
+    let here = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let found = here.ancestors().map(|a| a.join("samples/clean")).find(|p| p.join("capture.toml").is_file());
+    found.unwrap_or_else(|| here.join("samples/clean"))
+}
 
 pub struct Sample {
     pub config: CompassConfig,
@@ -19,7 +25,7 @@ pub struct Sample {
 
 /// Frame `k` of samples/clean, its sun, its attitude and its true heading.
 pub fn clean_frame(k: usize) -> Sample {
-    let c = Capture::load(std::path::Path::new(CLEAN)).expect("samples/clean");
+    let c = Capture::load(&clean_dir()).expect("samples/clean");
     let Layout::Dofp { mosaic } = c.sensor.layout else { panic!("samples/clean is DoFP") };
     let g = &c.sensor.geometry;
     let mut config = CompassConfig::dofp(

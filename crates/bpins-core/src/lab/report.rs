@@ -3,7 +3,7 @@
 //! template `report.html` beside this file (minijinja, every value escaped); this
 //! module gives it the numbers, formatted with their precision and units. Once loaded
 //! the page marks `<body data-images-ok="decoded/all">` so that a headless browser can
-//! check that every map was found and decoded (crates/bpins-cli/tests/report_render.rs).
+//! check that every map was found and decoded (tests/report_render.rs).
 
 use super::output::MapFile;
 use super::LabCalibration;

@@ -3,10 +3,12 @@
 //! buffer (shipped as `examples/c/f000.u16`, checked here to be that frame): its heading equals the Rust front door's to 1e-9° and the
 //! sample's truth within 2σ. Without a C compiler the test is counted as ignored,
 //! with the reason and the install command below the run's summary, except under CI
-//! (env `CI` set), where it fails (the harness is `tests/needs.rs`, `harness = false`).
+//! (env `CI` set), where it fails (the harness is `tests/needs/mod.rs`, `harness = false`).
 
+// The C ABI tests' sample frames (crates/bpins-capi/tests/common).
+#[path = "../crates/bpins-capi/tests/common/mod.rs"]
 mod common;
-#[path = "../../../tests/needs.rs"]
+#[path = "needs/mod.rs"]
 mod needs;
 
 use bpins_core::compass::{Compass, Sun};
@@ -50,7 +52,7 @@ fn lib_dir() -> PathBuf {
     }
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target"));
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target"));
     target.join("debug")
 }
 
@@ -62,7 +64,7 @@ fn value(stdout: &str, key: &str) -> f64 {
 
 fn the_c_example_reads_the_clean_sample_as_the_rust_front_door_does() {
     let cc = c_compiler().expect("main checked for a C compiler");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf();
     let lib = lib_dir().join("libbpins.a");
     assert!(lib.is_file(), "{} missing: cargo builds it with the crate", lib.display());
     if needs::verbose() {

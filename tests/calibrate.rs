@@ -9,7 +9,7 @@ use std::process::Command;
 
 use serde_json::Value;
 
-const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
 struct Run {
     code: Option<i32>,

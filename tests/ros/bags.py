@@ -1,4 +1,4 @@
-"""The independent side of bpins' ROS 2 bag tests (crates/bpins-cli/tests/ros.rs),
+"""The independent side of bpins' ROS 2 bag tests (tests/ros.rs),
 with `rosbags` (pure Python, no ROS):
 
     bags.py write CAPTURE BAG [options]   a capture's frames as a rosbag2 bag

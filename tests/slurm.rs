@@ -9,9 +9,9 @@
 //!
 //! Without slurm-wlm and munge installed, or not as root, it is counted as ignored,
 //! with the reason and the install command below the run's summary — except with
-//! `CI` set, where it fails (`.ci/run` installs them; the harness is `tests/needs.rs`).
+//! `CI` set, where it fails (`.ci/run` installs them; the harness is `tests/needs/mod.rs`).
 
-#[path = "../../../tests/needs.rs"]
+#[path = "needs/mod.rs"]
 mod needs;
 
 use std::fs;
@@ -20,7 +20,7 @@ use std::process::{Command, Output};
 use std::thread::sleep;
 use std::time::{Duration, Instant};
 
-const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
 fn main() -> std::process::ExitCode {
     needs::run(vec![

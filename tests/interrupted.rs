@@ -93,7 +93,7 @@ fn a_killed_simulate_leaves_whole_frames_and_no_capture_and_reruns() {
 
 #[test]
 fn a_killed_fit_leaves_each_output_absent_or_whole_and_reruns() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf();
     let sample = root.join("samples/clean");
     let t = tempfile::tempdir().unwrap();
     let out = t.path().join("fit");
@@ -117,7 +117,7 @@ fn a_killed_fit_leaves_each_output_absent_or_whole_and_reruns() {
 
 #[test]
 fn a_killed_diagnose_leaves_each_output_absent_or_whole_and_reruns() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf();
     let sample = root.join("samples/clean");
     let t = tempfile::tempdir().unwrap();
     let out = t.path().join("diag");

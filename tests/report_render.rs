@@ -2,9 +2,9 @@
 //! message, every residual map found and decoded, the tables there. Without Chromium on
 //! PATH these tests are counted as ignored, with the reason and the install command
 //! below the run's summary — except with `CI` set, where they fail (`.ci/run` installs
-//! it). The harness is `tests/needs.rs` (`harness = false`).
+//! it). The harness is `tests/needs/mod.rs` (`harness = false`).
 
-#[path = "../../../tests/needs.rs"]
+#[path = "needs/mod.rs"]
 mod needs;
 
 use std::fs::{self, File};
@@ -13,7 +13,7 @@ use std::process::Command;
 use std::thread::sleep;
 use std::time::{Duration, Instant};
 
-const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
+const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/clean");
 const BROWSERS: [&str; 3] = ["chromium", "chromium-browser", "google-chrome"];
 
 fn main() -> std::process::ExitCode {
@@ -142,7 +142,7 @@ fn calibrate_report_opens_in_headless_chromium() {
     let browser = browser();
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("cal");
-    let lab = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/lab-flawed-sensor/lab");
+    let lab = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/lab-flawed-sensor/lab");
     let run = Command::new(env!("CARGO_BIN_EXE_bpins")).args(["calibrate", lab, "--out"]).arg(&out).output().unwrap();
     assert!(run.status.success(), "`bpins calibrate` failed:\n{}", String::from_utf8_lossy(&run.stderr));
     let report = out.join("report.html");
@@ -161,7 +161,7 @@ fn sweep_report_opens_in_headless_chromium() {
     let browser = browser();
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("sweep");
-    let tiny = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sweeps/tiny.toml");
+    let tiny = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/sweeps/tiny.toml");
     let run = Command::new(env!("CARGO_BIN_EXE_bpins"))
         .args(["sweep", tiny, "--trials", "4", "--out"])
         .arg(&out)

@@ -9,7 +9,7 @@ use std::fs;
 use std::path::Path;
 use std::process::Command;
 
-pub const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+pub const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
 /// Why the GPU twin cannot run here (no usable adapter), or `None` where it can.
 pub fn gpu_missing() -> Option<String> {

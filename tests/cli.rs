@@ -20,7 +20,7 @@ use std::time::SystemTime;
 
 use serde_json::Value;
 
-const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
+const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/clean");
 
 const SOURCES: [&str; 5] = ["principal_point", "array_rotation", "channel_response", "lens_diattenuation", "combined"];
 const EXTRACTORS: [&str; 2] = ["sun_vector", "meridian_line"];

@@ -2,17 +2,17 @@
 //! and its EXR dump equal the CPU's within the tolerances of TOLERANCES.md. Without a
 //! usable adapter these tests are counted as ignored, with the reason and the install
 //! command below the run's summary — with `CI` set they fail (`.ci/run` installs Mesa
-//! lavapipe). The harness is `tests/needs.rs` (`harness = false`).
+//! lavapipe). The harness is `tests/needs/mod.rs` (`harness = false`).
 
 mod common;
-#[path = "../../../tests/needs.rs"]
+#[path = "needs/mod.rs"]
 mod needs;
 
 use common::{bpins, f64_of, read_json, s};
 use std::fs;
 use std::path::Path;
 
-const TINY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sweeps/tiny.toml");
+const TINY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/sweeps/tiny.toml");
 
 fn main() -> std::process::ExitCode {
     needs::run(vec![(

@@ -6,16 +6,16 @@
 //! polanalyser. `.ci/run` makes the environment (maturin, pytest, numpy,
 //! polanalyser); without it the test is counted as ignored, with the command that
 //! makes the environment below the run's summary, and fails where `CI` is set (the
-//! harness is `tests/needs.rs`, `harness = false`). `BPINS_PYTHON` names another
+//! harness is `tests/needs/mod.rs`, `harness = false`). `BPINS_PYTHON` names another
 //! interpreter (one whose environment has those).
 
-#[path = "../../../tests/needs.rs"]
+#[path = "needs/mod.rs"]
 mod needs;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+const REPO: &str = env!("CARGO_MANIFEST_DIR");
 
 fn python() -> Option<PathBuf> {
     let p =

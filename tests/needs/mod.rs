@@ -1,7 +1,7 @@
 //! The harness of the test binaries that need something outside Rust: a browser, a
 //! Python environment, a C compiler, a Slurm, a GPU adapter. Each such binary is
 //! `harness = false` in its crate's `Cargo.toml` and includes this file with
-//! `#[path = "…/tests/needs.rs"] mod needs;`.
+//! `#[path = "…/tests/needs/mod.rs"] mod needs;`.
 //!
 //! libtest decides at compile time whether a test is ignored; whether Chromium is
 //! installed is known only when the test runs. Here a test whose need is missing is

@@ -7,7 +7,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-const TINY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sweeps/tiny.toml");
+const TINY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/sweeps/tiny.toml");
 const FILES: [&str; 6] = ["summary.json", "summary.csv", "budget.csv", "trials.csv", "report.html", "shard.toml"];
 
 fn bpins(args: &[&str], out: Option<&Path>) -> Output {

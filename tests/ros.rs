@@ -8,10 +8,10 @@
 //!
 //! Needs the `.venv` of crates/bpins-py/requirements-test.txt (rosbags, numpy,
 //! Pillow through matplotlib); without it the tests count as ignored
-//! (tests/needs.rs), and fail where `CI` is set. `BPINS_PYTHON` names another
+//! (tests/needs/mod.rs), and fail where `CI` is set. `BPINS_PYTHON` names another
 //! interpreter.
 
-#[path = "../../../tests/needs.rs"]
+#[path = "needs/mod.rs"]
 mod needs;
 
 use serde_json::Value;
@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 
-const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+const REPO: &str = env!("CARGO_MANIFEST_DIR");
 const BAGS_PY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/ros/bags.py");
 /// The first image's stamp (2026-06-21T02:30:00Z), and the frames' spacing.
 const T0_NS: i64 = 1_782_009_000_000_000_000;

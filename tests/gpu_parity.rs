@@ -1,10 +1,10 @@
 //! Parity of the GPU twin with the CPU reference, on whatever Vulkan adapter exists
 //! (lavapipe in CI). Without an adapter these tests are counted as ignored, with the
 //! reason and the install command below the run's summary — except with `CI` set,
-//! where a missing adapter fails them (the harness is `tests/needs.rs`,
+//! where a missing adapter fails them (the harness is `tests/needs/mod.rs`,
 //! `harness = false`).
 
-#[path = "../../../tests/needs.rs"]
+#[path = "needs/mod.rs"]
 mod needs;
 
 use bpins_core::montecarlo::{self, Source, SweepConfig};
