@@ -83,7 +83,7 @@ fn write_sqlite(mcap_dir: &Path, dir: &Path) {
             let m = m.unwrap();
             db.execute(
                 "INSERT INTO messages (topic_id, timestamp, data) VALUES (?1, ?2, ?3)",
-                rusqlite::params![k as i64 + 1, m.log_time_ns, m.data],
+                rusqlite::params![k as i64 + 1, m.log_time_ns, &m.data[..]],
             )
             .unwrap();
         }
