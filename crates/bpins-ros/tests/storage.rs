@@ -31,8 +31,11 @@ fn messages() -> Written {
             out.push(("/imu", types::IMU, t + dt, imu));
         }
         let len = [1_000usize, 70_000, 300_000][i as usize % 3] + i as usize;
-        let image: Vec<u8> =
-            if i % 2 == 0 { (0..len).map(|k| (k / 64) as u8).collect() } else { (0..len).map(|_| next() as u8).collect() };
+        let image: Vec<u8> = if i % 2 == 0 {
+            (0..len).map(|k| (k / 64) as u8).collect()
+        } else {
+            (0..len).map(|_| next() as u8).collect()
+        };
         out.push(("/cam/image_raw", types::IMAGE, t, image));
     }
     out
@@ -85,7 +88,11 @@ fn uncompressed_and_zstd_chunks_of_any_size_read_back_the_messages_written() {
             let plain: Vec<(u64, i64, Vec<u8>)> = got.iter().map(|g| (g.0, g.1, g.2.clone())).collect();
             assert!(plain == want(&msgs, topic), "{name} {topic}: the messages read differ from those written");
             // Zero copy from the map for uncompressed chunks; decompressed otherwise.
-            assert!(got.iter().all(|g| g.3 != chunks.zstd), "{name} {topic}: borrowed {:?}", got.iter().map(|g| g.3).collect::<Vec<_>>());
+            assert!(
+                got.iter().all(|g| g.3 != chunks.zstd),
+                "{name} {topic}: borrowed {:?}",
+                got.iter().map(|g| g.3).collect::<Vec<_>>()
+            );
         }
         if chunks.zstd {
             // A zstd chunk's frame damaged (its magic flipped): an error naming the
@@ -98,7 +105,8 @@ fn uncompressed_and_zstd_chunks_of_any_size_read_back_the_messages_written() {
             std::fs::write(damaged.join(format!("{name}_0.mcap")), &b).unwrap();
             std::fs::copy(dir.join("metadata.yaml"), damaged.join("metadata.yaml")).unwrap();
             let bag = Bag::open(&damaged).unwrap();
-            let all: Vec<_> = ["/imu", "/cam/image_raw"].iter().flat_map(|t| bag.cursor(t).unwrap().collect::<Vec<_>>()).collect();
+            let all: Vec<_> =
+                ["/imu", "/cam/image_raw"].iter().flat_map(|t| bag.cursor(t).unwrap().collect::<Vec<_>>()).collect();
             let e = all.iter().find_map(|r| r.as_ref().err()).expect("the damage is found");
             assert!(e.to_string().contains(&format!("{name}_0.mcap")), "{e}");
         }
@@ -117,7 +125,10 @@ fn a_bag_split_over_files_reads_as_one() {
     let first_image = b.iter().position(|m| m.0 == "/cam/image_raw").unwrap();
     let im = b.remove(first_image);
     b.insert(0, im);
-    let parts = [(tmp.path().join("p0"), a.to_vec(), Chunks::default()), (tmp.path().join("p1"), b.clone(), Chunks { zstd: true, size_bytes: 8192 })];
+    let parts = [
+        (tmp.path().join("p0"), a.to_vec(), Chunks::default()),
+        (tmp.path().join("p1"), b.clone(), Chunks { zstd: true, size_bytes: 8192 }),
+    ];
     for (dir, m, c) in &parts {
         write(dir, *c, m);
     }
