@@ -150,3 +150,30 @@ fn a_bag_split_over_files_reads_as_one() {
     let e = Bag::open(&split).err().expect("refused").to_string();
     assert!(e.contains("split_1.mcap"), "{e}");
 }
+
+#[test]
+fn lz4_chunks_are_refused_by_name() {
+    // rosbag2 can be told to write lz4 chunks; bpins builds `mcap` without lz4. A zstd
+    // bag's first chunk relabelled `lz4` (its compression string and record length
+    // rewritten; the file's later offsets are not read by the linear walk).
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("z");
+    write(&dir, Chunks { zstd: true, size_bytes: 4096 }, &messages());
+    let b = std::fs::read(dir.join("z_0.mcap")).unwrap();
+    let i = b.windows(8).position(|w| w == b"\x04\x00\x00\x00zstd").unwrap();
+    let chunk = i - (1 + 8 + 8 + 8 + 8 + 4);
+    assert_eq!(b[chunk], 0x06, "not a chunk record");
+    let len = u64::from_le_bytes(b[chunk + 1..chunk + 9].try_into().unwrap()) - 1;
+    let mut out = b[..i].to_vec();
+    out[chunk + 1..chunk + 9].copy_from_slice(&len.to_le_bytes());
+    out.extend_from_slice(b"\x03\x00\x00\x00lz4");
+    out.extend_from_slice(&b[i + 8..]);
+    let lz4 = tmp.path().join("lz4");
+    std::fs::create_dir(&lz4).unwrap();
+    std::fs::write(lz4.join("z_0.mcap"), &out).unwrap();
+    std::fs::copy(dir.join("metadata.yaml"), lz4.join("metadata.yaml")).unwrap();
+    let bag = Bag::open(&lz4).unwrap();
+    let e = bag.cursor("/imu").unwrap().find_map(|r| r.err()).expect("refused").to_string();
+    assert!(e.contains("lz4") && e.contains("bpins reads uncompressed and zstd MCAP chunks"), "{e}");
+    assert!(e.contains("topic /imu, message 0"), "{e}");
+}
