@@ -77,6 +77,9 @@ fn record<'a>(buf: &'a [u8], pos: &mut usize) -> Result<Option<(u8, &'a [u8])>, 
     Ok(Some((rest[0], body)))
 }
 
+/// A message of the topic: (log time ns, its bytes).
+type Found<'a> = (i64, Cow<'a, [u8]>);
+
 /// What one record means for the cursor.
 enum Step<'a> {
     Message(i64, Cow<'a, [u8]>),
@@ -132,7 +135,7 @@ impl<'a> Cursor<'a> {
     /// The next message of `topic`: (log time ns, bytes), `None` at the end. The bytes
     /// are borrowed from the map unless they come out of a compressed chunk. After an
     /// error the cursor is not used again ([`crate::TopicCursor`] ends).
-    pub(crate) fn next(&mut self, topic: &str) -> Result<Option<(i64, Cow<'a, [u8]>)>, String> {
+    pub(crate) fn next(&mut self, topic: &str) -> Result<Option<Found<'a>>, String> {
         loop {
             let Some((path, map)) = self.files.get(self.file) else { return Ok(None) };
             let here = |e: String| format!("{}: {e}", path.display());

@@ -90,15 +90,7 @@ fn read_data(conn: &Connection, id: i64) -> Result<Vec<u8>, String> {
         let db = conn.handle();
         let msg = |what: &str| format!("{what}: {}", CStr::from_ptr(ffi::sqlite3_errmsg(db)).to_string_lossy());
         let mut blob: *mut ffi::sqlite3_blob = std::ptr::null_mut();
-        let rc = ffi::sqlite3_blob_open(
-            db,
-            b"main\0".as_ptr().cast(),
-            b"messages\0".as_ptr().cast(),
-            b"data\0".as_ptr().cast(),
-            id,
-            0,
-            &mut blob,
-        );
+        let rc = ffi::sqlite3_blob_open(db, c"main".as_ptr(), c"messages".as_ptr(), c"data".as_ptr(), id, 0, &mut blob);
         if rc != ffi::SQLITE_OK {
             ffi::sqlite3_blob_close(blob);
             return conn
