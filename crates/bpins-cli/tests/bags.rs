@@ -119,7 +119,7 @@ fn a_bag_with_zstd_chunks_gives_the_headings_of_its_uncompressed_twin() {
             all.push((m.log_time_ns, t.name.clone(), t.type_name.clone(), m.data.into_owned()));
         }
     }
-    all.sort_by(|a, b| a.0.cmp(&b.0));
+    all.sort_by_key(|m| m.0);
     let chunks = bpins_ros::writer::Chunks { zstd: true, size_bytes: 16 << 10 };
     let mut w = bpins_ros::writer::BagWriter::create_with(Path::new(&p("zstd")), chunks).unwrap();
     for (t, topic, ty, data) in &all {
