@@ -193,7 +193,7 @@ impl Tilt {
 }
 
 /// The orientation of `imu` as a unit quaternion (x, y, z, w) and its roll and
-/// pitch variances, checked: finite, not "not provided" (covariance[0] = −1), a
+/// pitch variances, checked: finite, not "not provided" (`covariance[0]` = −1), a
 /// quaternion of norm 1 ± 1 %.
 pub fn imu_orientation(imu: &Imu) -> Result<([f64; 4], f64, f64), String> {
     let q = imu.orientation;
