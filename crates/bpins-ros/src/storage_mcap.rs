@@ -1,10 +1,11 @@
 //! MCAP storage: each file memory-mapped (read-only) and walked record by record in
 //! place. A message of an uncompressed chunk (or outside any chunk) is handed on as a
 //! slice of the map: no copy, whatever its size. A zstd chunk is decompressed as it is
-//! walked, by `mcap`'s [`mcap::read::ChunkReader`] (its CRC checked), one message at
-//! a time; lz4 chunks are refused by name (the feature is not built). At most one
-//! message (and, for a zstd chunk, the decoder's window of it) is held in memory,
-//! whatever the file's length.
+//! walked, by `mcap`'s sans-I/O [`mcap::sans_io::LinearReader`] fed the chunk's bytes
+//! from the map (its CRC checked; no record longer than the chunk says it holds is
+//! allocated for), one message at a time; lz4 chunks are refused by name (the feature
+//! is not built). At most one message (and, for a zstd chunk, the decoder's window of
+//! it) is held in memory, whatever the file's length.
 //!
 //! The walk: the file's magic, then records `opcode u8, length u64 LE, body`
 //! (MCAP specification, "Records"); each body parsed by [`mcap::parse_record`], which
@@ -13,8 +14,8 @@
 //! reported truncated (after the messages before the cut).
 
 use crate::error::{BagError, Where};
-use mcap::read::ChunkReader;
 use mcap::records::Record;
+use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use std::borrow::Cow;
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -38,8 +39,9 @@ pub(crate) fn map(at: &Where, path: PathBuf) -> Result<(PathBuf, memmap2::Mmap),
 enum Chunk<'a> {
     /// Uncompressed: its records, read in place, and the offset of the next.
     Plain { records: &'a [u8], pos: usize },
-    /// zstd: decompressed by `mcap` as it is walked.
-    Compressed(Box<ChunkReader<'a>>),
+    /// zstd: decompressed by `mcap` as it is walked; `input` is what is left of the
+    /// chunk record's bytes (opcode, length and body) to feed it.
+    Compressed { reader: Box<LinearReader>, input: &'a [u8] },
 }
 
 /// One topic's messages across the bag's MCAP files.
@@ -94,7 +96,9 @@ impl<'a> Cursor<'a> {
     }
 
     /// Reads one parsed record: channels are noted, messages of the topic returned.
-    fn step(&mut self, topic: &str, record: Record<'a>, in_chunk: bool) -> Result<Step<'a>, String> {
+    /// `whole` is the record's bytes with its opcode and length (top-level records).
+    fn step(&mut self, topic: &str, record: Record<'a>, whole: Option<&'a [u8]>) -> Result<Step<'a>, String> {
+        let in_chunk = whole.is_none();
         match record {
             Record::Channel(ch) => {
                 let w = ch.topic == topic;
@@ -120,8 +124,26 @@ impl<'a> Cursor<'a> {
                     }
                     Ok(Step::Chunk(Chunk::Plain { records, pos: 0 }))
                 }
-                (_, Cow::Borrowed(compressed)) => {
-                    Ok(Step::Chunk(Chunk::Compressed(Box::new(ChunkReader::new(header, compressed).map_err(words)?))))
+                (_, Cow::Borrowed(_)) => {
+                    let whole = whole.unwrap_or_default();
+                    // A record inside the chunk is at most the chunk's uncompressed
+                    // size: a longer one (a damaged length) is refused before anything is
+                    // allocated for it. A chunk of more than 4 GiB is damaged (CDR
+                    // sequences have u32 lengths; rosbag2 chunks are far smaller).
+                    if header.uncompressed_size > 1 << 32 {
+                        return Err(format!(
+                            "a {} chunk that says it holds {} bytes uncompressed (the file is damaged)",
+                            header.compression, header.uncompressed_size
+                        ));
+                    }
+                    let limit = whole.len().max(header.uncompressed_size as usize);
+                    let options = LinearReaderOptions::default()
+                        .with_skip_start_magic(true)
+                        .with_skip_end_magic(true)
+                        .with_validate_chunk_crcs(true)
+                        .with_record_length_limit(limit);
+                    let reader = Box::new(LinearReader::new_with_options(options));
+                    Ok(Step::Chunk(Chunk::Compressed { reader, input: whole }))
                 }
                 // parse_record borrows its body: never owned here.
                 (_, Cow::Owned(_)) => Err("a chunk copied out of the map".into()),
@@ -155,22 +177,22 @@ impl<'a> Cursor<'a> {
                             ),
                         }
                     }
-                    Chunk::Compressed(reader) => {
+                    Chunk::Compressed { reader, input } => {
                         // mcap 0.26 can panic on a damaged chunk (an integer underflow
                         // when a record claims more bytes than its chunk holds; found by
                         // tests/fuzz_bags.rs): a damaged bag, reported as an error.
-                        let next = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| reader.next()));
+                        let next =
+                            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| next_in_chunk(reader, input)));
                         match next {
                             Err(_) => return Err(here("a record overruns its chunk (the file is damaged)".into())),
-                            Ok(None) => None,
-                            Ok(Some(r)) => Some(r.map_err(|e| here(words(e)))?),
+                            Ok(r) => r.map_err(|e| here(format!("in a compressed chunk: {}", words(e))))?,
                         }
                     }
                 };
                 match rec {
                     None => self.chunk = None,
                     Some(r) => {
-                        if let Step::Message(t, data) = self.step(topic, r, true).map_err(here)? {
+                        if let Step::Message(t, data) = self.step(topic, r, None).map_err(here)? {
                             return Ok(Some((t, data)));
                         }
                     }
@@ -196,7 +218,7 @@ impl<'a> Cursor<'a> {
             self.pos = Some(next_pos);
             let parsed =
                 mcap::parse_record(opcode, body).map_err(|e| here(format!("record at byte {pos}: {}", words(e))))?;
-            match self.step(topic, parsed, false).map_err(here)? {
+            match self.step(topic, parsed, Some(&buf[pos..next_pos])).map_err(here)? {
                 Step::Message(t, data) => return Ok(Some((t, data))),
                 Step::Chunk(c) => self.chunk = Some(c),
                 Step::Footer => {
@@ -210,6 +232,27 @@ impl<'a> Cursor<'a> {
                     self.wanted.clear();
                 }
                 Step::Other => {}
+            }
+        }
+    }
+}
+
+/// The next record of a compressed chunk, decompressed: `reader` is fed the chunk
+/// record's bytes from `input` as it asks for them, and told the input ended when they
+/// are spent (the end of the chunk, or an error if the chunk is not complete there).
+fn next_in_chunk(reader: &mut LinearReader, input: &mut &[u8]) -> mcap::McapResult<Option<Record<'static>>> {
+    loop {
+        match reader.next_event() {
+            None => return Ok(None),
+            Some(Err(e)) => return Err(e),
+            Some(Ok(LinearReadEvent::Record { data, opcode })) => {
+                return mcap::parse_record(opcode, data).map(|r| Some(r.into_owned()))
+            }
+            Some(Ok(LinearReadEvent::ReadRequest(n))) => {
+                let k = n.min(input.len());
+                reader.insert(k).copy_from_slice(&input[..k]);
+                reader.notify_read(k);
+                *input = &input[k..];
             }
         }
     }
