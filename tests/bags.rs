@@ -78,3 +78,66 @@ fn a_simulated_capture_as_a_bag_and_back_keeps_its_headings() {
     let meta = std::fs::read_to_string(tmp.path().join("bag/metadata.yaml")).unwrap();
     assert!(meta.contains("/bpins/reference_heading") && meta.contains("/gnss/fix"), "{meta}");
 }
+
+#[test]
+fn a_bag_with_zstd_chunks_gives_the_headings_of_its_uncompressed_twin() {
+    // rosbag2's MCAP plugin writes zstd chunks by default; rosbags (tests/ros.rs)
+    // writes them uncompressed. The same messages in small zstd chunks (an image
+    // spans several of the default size's worth; IMU samples share chunks) must give
+    // `heading --bag` the same frames, to the bit.
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    bpins(&[
+        "simulate",
+        "--out",
+        &p("cap"),
+        "--bag-out",
+        &p("bag"),
+        "--width-px",
+        "306",
+        "--height-px",
+        "256",
+        "--pixel-pitch-um",
+        "27.6",
+        "--headings-deg",
+        "10,130,260",
+        "--sun-azimuth-deg",
+        "40",
+        "--sun-elevation-deg",
+        "25",
+        "--tilt-x-deg",
+        "1",
+        "--imu-sigma-deg",
+        "0.1",
+    ]);
+    // The bag rewritten with zstd chunks of 16 KiB, messages in log-time order.
+    let bag = bpins_ros::Bag::open(Path::new(&p("bag"))).unwrap();
+    let mut all = Vec::new();
+    for t in &bag.topics {
+        for m in bag.cursor(&t.name).unwrap() {
+            let m = m.unwrap();
+            all.push((m.log_time_ns, t.name.clone(), t.type_name.clone(), m.data.into_owned()));
+        }
+    }
+    all.sort_by_key(|m| m.0);
+    let chunks = bpins_ros::writer::Chunks { zstd: true, size_bytes: 16 << 10 };
+    let mut w = bpins_ros::writer::BagWriter::create_with(Path::new(&p("zstd")), chunks).unwrap();
+    for (t, topic, ty, data) in &all {
+        w.write(topic, ty, *t, data).unwrap();
+    }
+    w.finish().unwrap();
+    let mcap = std::fs::read(tmp.path().join("zstd/zstd_0.mcap")).unwrap();
+    assert!(mcap.windows(4).any(|w| w == [0x28, 0xb5, 0x2f, 0xfd]), "no zstd frame in the rewritten bag");
+    let args = ["--sun-azimuth-deg", "40", "--sun-elevation-deg", "25", "--bit-depth", "12", "--black-level-dn", "64"];
+    let mut headings = Vec::new();
+    for name in ["bag", "zstd"] {
+        let (b, j) = (p(name), p(&format!("{name}.json")));
+        let mut a = vec!["heading", "--bag", &b, "--json", &j, "--imu-topic", "/imu/data"];
+        a.extend_from_slice(&args);
+        bpins(&a);
+        headings.push(json(Path::new(&j))["frames"].clone());
+    }
+    assert_eq!(headings[0].as_array().unwrap().len(), 3);
+    assert!(headings[0].as_array().unwrap().iter().all(|f| f["heading_deg"].is_f64()), "{}", headings[0]);
+    assert_eq!(headings[0], headings[1], "the zstd bag's frames differ from the uncompressed bag's");
+}

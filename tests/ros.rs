@@ -61,6 +61,9 @@ fn main() -> std::process::ExitCode {
                 nan_in_an_imu_message_skips_its_frame_with_a_diagnostic,
             ),
             ("bad_bags_are_refused_naming_bag_topic_and_message", bad_bags_are_refused_naming_bag_topic_and_message),
+            ("mono8_frames_give_the_8_bit_captures_headings", mono8_frames_give_the_8_bit_captures_headings),
+            ("a_split_bag_reads_as_one_bag", a_split_bag_reads_as_one_bag),
+            ("heading_frame_id_reaches_the_imu_header", heading_frame_id_reaches_the_imu_header),
         ],
     )])
 }
@@ -372,4 +375,92 @@ fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
         .collect();
     v.sort();
     v
+}
+
+fn mono8_frames_give_the_8_bit_captures_headings() {
+    // An 8-bit camera: its capture's DN fit mono8 (bags.py checks), so the bag's
+    // mono8 frames must give the capture's headings exactly.
+    let cap = tmp().join("cap8");
+    let c = cap.to_str().unwrap();
+    ok(bpins(&[
+        "simulate",
+        "--out",
+        c,
+        "--width-px",
+        "306",
+        "--height-px",
+        "256",
+        "--pixel-pitch-um",
+        "27.6",
+        "--bit-depth",
+        "8",
+        "--black-level-dn",
+        "4",
+        "--headings-deg",
+        "20,160,290",
+    ]));
+    let j = tmp().join("ref8.json");
+    ok(bpins(&["heading", c, "--json", j.to_str().unwrap()]));
+    let want = json(&j);
+    for (name, storage) in [("mono8_mcap", "mcap"), ("mono8_sqlite", "sqlite3")] {
+        let b = tmp().join(name);
+        ok(py(&["write", c, b.to_str().unwrap(), "--storage", storage, "--camera-info", "--mono8", "--pad", "3"]));
+        let mut args: Vec<&str> = SUN.to_vec();
+        args.extend_from_slice(&["--bit-depth", "8", "--black-level-dn", "4"]);
+        let got = heading_bag(&b, &args);
+        assert_eq!(got["frames"].as_array().unwrap().len(), 3, "{name}");
+        for i in 0..3 {
+            for k in ["heading_deg", "sigma_deg"] {
+                let (a, g) = (want["frames"][i][k].as_f64().unwrap(), got["frames"][i][k].as_f64().unwrap());
+                assert!((a - g).abs() < 1e-9, "{name}, frame {i}, {k}: capture {a}, bag {g}");
+            }
+        }
+        // mono8 frames for a 12-bit sensor: refused by name, not read as 12-bit DN.
+        let o = bpins(&["heading", "--bag", b.to_str().unwrap(), SUN[0], SUN[1], SUN[2], SUN[3], "--bit-depth", "12"]);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && e.contains("message 0: a mono8 image for a 12-bit sensor"), "{e}");
+    }
+}
+
+fn a_split_bag_reads_as_one_bag() {
+    // rosbag2 splits a long recording into NAME_0, NAME_1, … (`--max-bag-size`), each
+    // file with its own channels; metadata.yaml lists them in order. Frame 2 and its
+    // IMU samples lie in the second file (and, split after frame 1, frame 1's in the
+    // first and frame 2's in the second).
+    for (name, storage, after) in [("split_mcap", "mcap", "2"), ("split_sqlite", "sqlite3", "1")] {
+        let b = bag(name, &["--storage", storage, "--camera-info", "--imu", "--split-after", after]);
+        let meta = std::fs::read_to_string(b.join("metadata.yaml")).unwrap();
+        let ext = if storage == "mcap" { "mcap" } else { "db3" };
+        let files = [format!("{name}_0.{ext}"), format!("{name}_1.{ext}")];
+        assert!(files.iter().all(|f| meta.contains(f.as_str()) && b.join(f).is_file()), "{meta}");
+        let mut args: Vec<&str> = SUN.to_vec();
+        args.extend_from_slice(&SENSOR);
+        assert_same_headings(&heading_bag(&b, &args), name);
+        // The second file gone: refused when the bag is opened, naming the file.
+        let gone = tmp().join(format!("{name}_gone"));
+        std::fs::create_dir(&gone).unwrap();
+        std::fs::copy(b.join("metadata.yaml"), gone.join("metadata.yaml")).unwrap();
+        std::fs::copy(b.join(&files[0]), gone.join(&files[0])).unwrap();
+        let o = bpins(&[&["heading", "--bag", gone.to_str().unwrap()][..], &args[..]].concat());
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && e.contains(files[1].as_str()), "{e}");
+    }
+}
+
+fn heading_frame_id_reaches_the_imu_header() {
+    let b = bag("frame_id", &["--storage", "mcap", "--camera-info", "--imu"]);
+    let out = tmp().join("out_frame_id");
+    let mut args: Vec<&str> = SUN.to_vec();
+    args.extend_from_slice(&SENSOR);
+    args.extend_from_slice(&["--bag-out", out.to_str().unwrap(), "--heading-frame-id", "polcam_optical"]);
+    let mine = heading_bag(&b, &args);
+    let back: Value = serde_json::from_slice(&ok(py(&["read", out.to_str().unwrap()])).stdout).unwrap();
+    let msgs = back.as_array().unwrap();
+    assert_eq!(msgs.len(), 3);
+    for (i, m) in msgs.iter().enumerate() {
+        assert_eq!(m["type"], "sensor_msgs/msg/Imu", "message {i}");
+        assert_eq!(m["frame_id"], "polcam_optical", "message {i}: the image's frame id `cam` written instead");
+        assert_eq!(m["stamp_ns"].as_i64().unwrap(), T0_NS + i as i64 * DT_NS);
+        assert!(mine["frames"][i]["heading_deg"].is_f64());
+    }
 }

@@ -1,7 +1,7 @@
 """The independent side of bpins' ROS 2 bag tests (tests/ros.rs),
 with `rosbags` (pure Python, no ROS):
 
-    bags.py write CAPTURE BAG [options]   a capture's frames as a rosbag2 bag
+    bags.py write CAPTURE BAG [options]   a capture's frames as a rosbag2 bag (or a split one)
     bags.py read BAG                      a bag's Imu and DiagnosticArray messages, as JSON
 
 `write` stamps frame i at T0 + i·DT seconds and writes each as sensor_msgs/Image
@@ -25,6 +25,7 @@ from PIL import Image as PilImage
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
+from ruamel.yaml import YAML
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
 T = TS.types
@@ -52,6 +53,46 @@ def quat_zyx(yaw, pitch, roll):
 
 
 def write(a):
+    """The capture as one bag, or (--split-after N) as rosbag2 splits a recording
+    (`ros2 bag record --max-bag-size`): frames 0..N in BAG/BAG_0, the rest in BAG/BAG_1,
+    each storage file with its own connections, one metadata.yaml listing both."""
+    if a.split_after is None:
+        write_frames(a, a.bag, None)
+        return
+    bag = Path(a.bag)
+    parts = [bag.with_name(bag.name + f".part{k}") for k in (0, 1)]
+    write_frames(a, parts[0], range(0, a.split_after))
+    write_frames(a, parts[1], range(a.split_after, 1 << 30))
+    yaml = YAML()
+    metas = [yaml.load((p / "metadata.yaml").read_text()) for p in parts]
+    info = metas[0]["rosbag2_bagfile_information"]
+    bag.mkdir()
+    names = []
+    for k, (p, m) in enumerate(zip(parts, metas)):
+        i = m["rosbag2_bagfile_information"]
+        (old,) = i["relative_file_paths"]
+        name = f"{bag.name}_{k}{Path(old).suffix}"
+        (p / old).rename(bag / name)
+        names.append(name)
+        for f in i.get("files", []):
+            f["path"] = name
+        if k:
+            info["files"] = list(info.get("files", [])) + list(i.get("files", []))
+            info["message_count"] += i["message_count"]
+            counts = {t["topic_metadata"]["name"]: t["message_count"] for t in i["topics_with_message_count"]}
+            for t in info["topics_with_message_count"]:
+                t["message_count"] += counts.get(t["topic_metadata"]["name"], 0)
+            end = i["starting_time"]["nanoseconds_since_epoch"] + i["duration"]["nanoseconds"]
+            info["duration"]["nanoseconds"] = end - info["starting_time"]["nanoseconds_since_epoch"]
+        (p / "metadata.yaml").unlink()
+        p.rmdir()
+    info["relative_file_paths"] = names
+    with open(bag / "metadata.yaml", "w") as f:
+        yaml.dump(metas[0], f)
+
+
+def write_frames(a, bag_path, frames):
+    """The frames of the capture whose indices are in `frames` (all if None) as a bag."""
     cap = Path(a.capture)
     spec = tomllib.loads((cap / "capture.toml").read_text())
     s, lens = spec["sensor"], spec["lens"]
@@ -60,7 +101,7 @@ def write(a):
     cx, cy = lens.get("principal_point_px", [(w - 1) / 2, (h - 1) / 2])
     plugin = StoragePlugin.MCAP if a.storage == "mcap" else StoragePlugin.SQLITE3
     le = not a.cdr_big_endian
-    with Writer(a.bag, version=9, storage_plugin=plugin) as bag:
+    with Writer(bag_path, version=9, storage_plugin=plugin) as bag:
         def conn(topic, typ):
             return bag.add_connection(topic, typ, typestore=TS)
 
@@ -69,6 +110,8 @@ def write(a):
         c_imu = conn("/imu/data", "sensor_msgs/msg/Imu") if a.imu else None
         c_fix = conn("/gnss/fix", "sensor_msgs/msg/NavSatFix") if a.fix else None
         for i, fr in enumerate(spec["frames"]):
+            if frames is not None and i not in frames:
+                continue
             t_ns = a.t0_ns + i * a.dt_ns
             if c_info is not None:
                 k = np.array([f_px, 0, cx, 0, f_px, cy, 0, 0, 1], dtype=np.float64)
@@ -109,6 +152,7 @@ def write(a):
             dn = np.asarray(PilImage.open(cap / fr["file"]), dtype=np.uint16)
             assert dn.shape == (h, w), dn.shape
             if a.mono8:
+                assert dn.max() <= 255, f"{fr['file']}: DN up to {dn.max()} does not fit mono8"
                 row = dn.astype(np.uint8)
                 enc, big = "mono8", 0
             else:
@@ -167,6 +211,7 @@ def main():
     w.add_argument("--cdr-big-endian", action="store_true")
     w.add_argument("--pad", type=int, default=0, help="bytes of padding after each row")
     w.add_argument("--encoding", help="write this encoding name instead")
+    w.add_argument("--split-after", type=int, help="a split bag: frames from this one on in a second file")
     w.add_argument("--nan-imu-frame", type=int, default=-1, help="NaN in the IMU samples of this frame")
     r = sub.add_parser("read")
     r.add_argument("bag")

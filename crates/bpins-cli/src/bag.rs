@@ -245,8 +245,8 @@ pub fn bag_at(bag: &Bag, topic: &str, index: u64) -> String {
 }
 
 /// One image of the bag with what is known at its stamp.
-pub struct BagFrame {
-    pub message: BagMessage,
+pub struct BagFrame<'a> {
+    pub message: BagMessage<'a>,
     pub stamp_ns: i64,
     /// The sun (from the flags, or SPA at the stamp and the nearest fix), or why not.
     pub sun: Result<SunPosition, String>,
@@ -278,9 +278,9 @@ impl BagInput {
     }
 }
 
-impl Frames<'_> {
+impl<'a> Frames<'a> {
     /// The next frame, `None` after the last.
-    pub fn next_frame(&mut self) -> anyhow::Result<Option<BagFrame>> {
+    pub fn next_frame(&mut self) -> anyhow::Result<Option<BagFrame<'a>>> {
         let Some(m) = self.images.next().transpose()? else { return Ok(None) };
         let at = || bag_at(&self.input.bag, &self.input.image_topic, m.index);
         let im: Image = decode(&m.data).map_err(|e| anyhow!("{}: {e}", at()))?;

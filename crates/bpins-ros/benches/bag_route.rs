@@ -8,6 +8,9 @@
 //!   next message (MCAP mapped; sqlite3 row), CDR decoded, its mono16 pixels into a
 //!   reused buffer, the IMU samples around its stamp slerped, then the compass.
 //!   Target (issue 32): ≤ 1.5 × the front door's time per frame.
+//! * `bag_route/dofp_*_mcap_read_only`, `…_sqlite3_read_only`: the same without the
+//!   compass: the reading the route adds, single-threaded (on a loaded machine the
+//!   least disturbed way to say what the route costs an idle one).
 
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
@@ -83,7 +86,7 @@ fn write_sqlite(mcap_dir: &Path, dir: &Path) {
             let m = m.unwrap();
             db.execute(
                 "INSERT INTO messages (topic_id, timestamp, data) VALUES (?1, ?2, ?3)",
-                rusqlite::params![k as i64 + 1, m.log_time_ns, m.data],
+                rusqlite::params![k as i64 + 1, m.log_time_ns, &m.data[..]],
             )
             .unwrap();
         }
@@ -150,6 +153,29 @@ fn route(c: &mut Criterion) {
                         Mosaic::U8(r) => compass.heading(r, sun, att),
                     };
                     black_box(r.unwrap())
+                })
+            });
+            // The reading alone (everything above but the compass): what the route
+            // adds to the front door, on one core.
+            let mut images = bag.cursor("/cam/image_raw").unwrap();
+            let mut imu = Track::new(bag.cursor("/imu").unwrap(), decode_imu);
+            g.bench_function(format!("{name}_{storage}_read_only"), |b| {
+                b.iter(|| {
+                    let m = match images.next() {
+                        Some(m) => m.unwrap(),
+                        None => {
+                            images = bag.cursor("/cam/image_raw").unwrap();
+                            imu = Track::new(bag.cursor("/imu").unwrap(), decode_imu);
+                            images.next().unwrap().unwrap()
+                        }
+                    };
+                    let im: Image = decode(&m.data).unwrap();
+                    let t = tilt_at(&mut imu, im.header.stamp.ns(), ImuMatch::Interpolate, 0.05).unwrap().unwrap();
+                    let sum = match mosaic(&im, &mut scratch).unwrap() {
+                        Mosaic::U16(r) => r.data[r.data.len() / 2] as u64,
+                        Mosaic::U8(r) => r.data[r.data.len() / 2] as u64,
+                    };
+                    black_box((sum, t))
                 })
             });
         }

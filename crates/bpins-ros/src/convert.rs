@@ -10,8 +10,9 @@ use bpins_core::heading::field::RawImage;
 
 /// An image's pixels as the compass reads them: `u8` borrowed from the message
 /// (`mono8`, rows `step` bytes apart), `u16` borrowed where the message's byte
-/// order is the host's and the rows are 2-byte aligned, else converted to host
-/// order into a buffer reused from frame to frame (`mono16`, either byte order, any
+/// order is the host's and the rows are 2-byte aligned, copied as they are into a
+/// buffer reused from frame to frame where only the alignment is wrong, else
+/// converted to host order into that buffer (`mono16`, either byte order, any
 /// `step`).
 pub enum Mosaic<'a> {
     U8(RawImage<'a, u8>),
@@ -59,6 +60,17 @@ pub fn mosaic<'a>(im: &'a Image<'_>, scratch: &'a mut Vec<u16>) -> Result<Mosaic
         if let Ok(px) = bytemuck::try_cast_slice::<u8, u16>(&im.data[..need]) {
             return Ok(Mosaic::U16(RawImage { data: px, width_px: w, height_px: h, stride: step / 2 }));
         }
+    }
+    // The host's byte order but rows not 2-byte aligned in memory (a message borrowed
+    // from an MCAP file's map lies where the file puts it): one copy of the rows as
+    // they are, the buffer reused (resized only when the frame's size changes).
+    if big == cfg!(target_endian = "big") && step % 2 == 0 {
+        if scratch.len() != need / 2 {
+            scratch.clear();
+            scratch.resize(need / 2, 0);
+        }
+        bytemuck::cast_slice_mut::<u16, u8>(&mut scratch[..]).copy_from_slice(&im.data[..need]);
+        return Ok(Mosaic::U16(RawImage { data: &scratch[..], width_px: w, height_px: h, stride: step / 2 }));
     }
     scratch.clear();
     scratch.reserve(w * h);
@@ -181,7 +193,7 @@ impl Tilt {
 }
 
 /// The orientation of `imu` as a unit quaternion (x, y, z, w) and its roll and
-/// pitch variances, checked: finite, not "not provided" (covariance[0] = −1), a
+/// pitch variances, checked: finite, not "not provided" (`covariance[0]` = −1), a
 /// quaternion of norm 1 ± 1 %.
 pub fn imu_orientation(imu: &Imu) -> Result<([f64; 4], f64, f64), String> {
     let q = imu.orientation;
@@ -244,13 +256,21 @@ mod tests {
                 row.resize(step as usize, 0xAB);
                 data.extend(row);
             }
+            // The same bytes at an odd address too (as in a file's memory map).
+            let mut odd = vec![0u8; data.len() + 1];
+            odd[1..].copy_from_slice(&data);
             let im = image("mono16", big, 4, 3, step, data);
-            match mosaic(&im, &mut scratch).unwrap() {
-                Mosaic::U16(r) => {
-                    let packed: Vec<u16> = (0..3).flat_map(|v| r.data[v * r.stride..][..4].to_vec()).collect();
-                    assert_eq!(packed, dn, "big-endian {big}, step {step}");
+            let mut im_odd = im.clone();
+            im_odd.data = Cow::Borrowed(&odd[1..]);
+            assert_eq!(im_odd.data.as_ptr() as usize % 2, 1);
+            for im in [&im, &im_odd] {
+                match mosaic(im, &mut scratch).unwrap() {
+                    Mosaic::U16(r) => {
+                        let packed: Vec<u16> = (0..3).flat_map(|v| r.data[v * r.stride..][..4].to_vec()).collect();
+                        assert_eq!(packed, dn, "big-endian {big}, step {step}");
+                    }
+                    Mosaic::U8(_) => panic!("u8"),
                 }
-                Mosaic::U8(_) => panic!("u8"),
             }
         }
         let im = image("mono8", 0, 4, 3, 5, (0..15).collect());

@@ -1,16 +1,19 @@
 //! ROS 2 bags (rosbag2) in and out of bpins, without ROS installed.
 //!
 //! ```text
-//! bag folder ─ metadata.yaml (metadata.rs) ─┬─ *.mcap   (storage_mcap.rs, mapped, streamed)
-//!                                           └─ *.db3    (storage_sqlite.rs, paged queries)
+//! bag folder ─ metadata.yaml (metadata.rs) ─┬─ *.mcap   (storage_mcap.rs, mapped, read in place)
+//!                                           └─ *.db3    (storage_sqlite.rs, one row at a time)
 //!     messages: CDR (cdr.rs) → sensor_msgs/Image, CameraInfo, Imu, NavSatFix (msgs.rs)
 //!     → a DoFP mosaic buffer, intrinsics, tilt + 1σ, the sun's place (convert.rs)
 //! headings → sensor_msgs/Imu per REP 103/145, diagnostic_msgs/DiagnosticArray
 //!     (rep103.rs) → a new MCAP bag folder (writer.rs)
 //! ```
 //!
-//! Memory is bounded by one frame: an MCAP file is memory-mapped and read one message
-//! (or one decompressed chunk) at a time, a sqlite3 file in pages of rows; the image,
+//! Memory is bounded by one frame: an MCAP file is memory-mapped and walked record by
+//! record, a message of an uncompressed chunk handed on as a slice of the map (no
+//! copy; [`BagMessage::data`] borrows) and a zstd chunk decompressed as it is walked;
+//! a sqlite3 file is read one row at a time, each message's bytes by SQLite's blob
+//! API into one buffer; the image,
 //! IMU and GNSS topics are read by cursors of their own that walk forward in step
 //! ([`reader::TopicCursor`]). Nothing is ever written into a bag being read.
 //! Every error names the bag, the topic and the message index ([`BagError`]).

@@ -9,6 +9,7 @@
 use crate::error::{BagError, Where};
 use crate::metadata::Metadata;
 use crate::{storage_mcap, storage_sqlite};
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 /// One topic of a bag, as `metadata.yaml` lists it.
@@ -20,15 +21,16 @@ pub struct TopicInfo {
     pub message_count: u64,
 }
 
-/// One serialized message of a topic.
+/// One serialized message of a topic: its bytes borrowed from the bag's memory map
+/// where they lie there whole (MCAP, outside compressed chunks), else its own.
 #[derive(Clone, Debug, PartialEq)]
-pub struct BagMessage {
+pub struct BagMessage<'a> {
     /// 0-based index on its topic, in storage order.
     pub index: u64,
     /// When the recorder received it, ns since the Unix epoch.
     pub log_time_ns: i64,
     /// The CDR bytes (with their encapsulation header).
-    pub data: Vec<u8>,
+    pub data: Cow<'a, [u8]>,
 }
 
 pub(crate) enum Storage {
@@ -190,8 +192,8 @@ impl TopicCursor<'_> {
     }
 }
 
-impl Iterator for TopicCursor<'_> {
-    type Item = Result<BagMessage, BagError>;
+impl<'a> Iterator for TopicCursor<'a> {
+    type Item = Result<BagMessage<'a>, BagError>;
 
     fn next(&mut self) -> Option<Self::Item> {
         if self.done {
@@ -199,7 +201,7 @@ impl Iterator for TopicCursor<'_> {
         }
         let r = match &mut self.inner {
             Inner::Mcap(c) => c.next(&self.topic),
-            Inner::Sqlite(c) => c.next(&self.topic),
+            Inner::Sqlite(c) => c.next(&self.topic).map(|m| m.map(|(t, data)| (t, Cow::Owned(data)))),
         };
         let index = self.next_index;
         match r {

@@ -1,10 +1,22 @@
-//! MCAP storage: each file memory-mapped (read-only) and streamed record by record
-//! with `mcap`'s [`mcap::read::RawMessageStream`]: at most one decompressed chunk and
-//! one message in memory, whatever the file's length. Chunks may be uncompressed or
-//! zstd; lz4 chunks are refused by name (the feature is not built).
+//! MCAP storage: each file memory-mapped (read-only) and walked record by record in
+//! place. A message of an uncompressed chunk (or outside any chunk) is handed on as a
+//! slice of the map: no copy, whatever its size. A zstd chunk is decompressed as it is
+//! walked, by `mcap`'s sans-I/O [`mcap::sans_io::LinearReader`] fed the chunk's bytes
+//! from the map (its CRC checked; no record longer than the chunk says it holds is
+//! allocated for), one message at a time; lz4 chunks are refused by name (the feature
+//! is not built). At most one message (and, for a zstd chunk, the decoder's window of
+//! it) is held in memory, whatever the file's length.
+//!
+//! The walk: the file's magic, then records `opcode u8, length u64 LE, body`
+//! (MCAP specification, "Records"); each body parsed by [`mcap::parse_record`], which
+//! borrows. Chunk records hold records of the same framing. The data section ends at
+//! the footer, which the file's closing magic follows: a file that ends before them is
+//! reported truncated (after the messages before the cut).
 
 use crate::error::{BagError, Where};
-use mcap::read::RawMessageStream;
+use mcap::records::Record;
+use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::path::PathBuf;
 
@@ -17,87 +29,237 @@ pub(crate) fn map(at: &Where, path: PathBuf) -> Result<(PathBuf, memmap2::Mmap),
     // records' lengths and CRCs, and by CDR decoding), not undefined behaviour in
     // the safe code that reads it, which never trusts a length without bounds checks.
     let m = unsafe { memmap2::Mmap::map(&f) }.map_err(io)?;
+    // A hint (the walk is forward): read ahead more. Failing to advise changes nothing.
+    #[cfg(unix)]
+    let _ = m.advise(memmap2::Advice::Sequential);
     Ok((path, m))
+}
+
+/// The chunk being walked.
+enum Chunk<'a> {
+    /// Uncompressed: its records, read in place, and the offset of the next.
+    Plain { records: &'a [u8], pos: usize },
+    /// zstd: decompressed by `mcap` as it is walked; `input` is what is left of the
+    /// chunk record's bytes (opcode, length and body) to feed it.
+    Compressed { reader: Box<LinearReader>, input: &'a [u8] },
 }
 
 /// One topic's messages across the bag's MCAP files.
 pub(crate) struct Cursor<'a> {
     files: &'a [(PathBuf, memmap2::Mmap)],
     file: usize,
-    stream: Option<RawMessageStream<'a>>,
+    /// Offset of the next top-level record in the current file; `None` before its magic.
+    pos: Option<usize>,
+    chunk: Option<Chunk<'a>>,
     /// Channel id → whether it is the topic, its encoding checked.
     wanted: HashMap<u16, bool>,
 }
 
+/// The record at `*pos` of `buf`: (opcode, body), `pos` moved past it; `None` at the
+/// end of `buf`; an error if its header or body runs past the end.
+fn record<'a>(buf: &'a [u8], pos: &mut usize) -> Result<Option<(u8, &'a [u8])>, String> {
+    let rest = &buf[*pos..];
+    if rest.is_empty() {
+        return Ok(None);
+    }
+    if rest.len() < 9 {
+        return Err(format!("a record header at byte {} is cut short ({} bytes left)", *pos, rest.len()));
+    }
+    let len = u64::from_le_bytes(rest[1..9].try_into().expect("8 bytes"));
+    if len > (rest.len() - 9) as u64 {
+        return Err(format!(
+            "a record (opcode {:#04x}) of {len} bytes at byte {} runs past the end ({} bytes left)",
+            rest[0],
+            *pos,
+            rest.len() - 9
+        ));
+    }
+    let body = &rest[9..9 + len as usize];
+    *pos += 9 + len as usize;
+    Ok(Some((rest[0], body)))
+}
+
+/// A message of the topic: (log time ns, its bytes).
+type Found<'a> = (i64, Cow<'a, [u8]>);
+
+/// What one record means for the cursor.
+enum Step<'a> {
+    Message(i64, Cow<'a, [u8]>),
+    Chunk(Chunk<'a>),
+    Footer,
+    Other,
+}
+
 impl<'a> Cursor<'a> {
     pub(crate) fn new(files: &'a [(PathBuf, memmap2::Mmap)], _topic: &str) -> Self {
-        Cursor { files, file: 0, stream: None, wanted: HashMap::new() }
+        Cursor { files, file: 0, pos: None, chunk: None, wanted: HashMap::new() }
     }
 
-    /// The next message of `topic`: (log time ns, bytes), `None` at the end.
-    pub(crate) fn next(&mut self, topic: &str) -> Result<Option<(i64, Vec<u8>)>, String> {
-        loop {
-            if self.stream.is_none() {
-                let Some((path, map)) = self.files.get(self.file) else { return Ok(None) };
-                let s = RawMessageStream::new(&map[..]).map_err(|e| format!("{}: {}", path.display(), words(&e)))?;
-                self.stream = Some(s);
-                self.wanted.clear();
+    /// Reads one parsed record: channels are noted, messages of the topic returned.
+    /// `whole` is the record's bytes with its opcode and length (top-level records).
+    fn step(&mut self, topic: &str, record: Record<'a>, whole: Option<&'a [u8]>) -> Result<Step<'a>, String> {
+        let in_chunk = whole.is_none();
+        match record {
+            Record::Channel(ch) => {
+                let w = ch.topic == topic;
+                if w && ch.message_encoding != "cdr" {
+                    return Err(format!("message encoding `{}`: only `cdr` (ROS 2's) is read", ch.message_encoding));
+                }
+                self.wanted.insert(ch.id, w);
+                Ok(Step::Other)
             }
-            let path = &self.files[self.file].0;
-            let stream = self.stream.as_mut().expect("opened above");
-            // mcap 0.26 can panic on a damaged file (an integer underflow when a
-            // record claims more bytes than its uncompressed chunk holds; found by
-            // tests/fuzz_bags.rs): that is a damaged bag, reported as an error, and the
-            // stream is not used again.
-            let next = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| stream.next())) {
-                Ok(n) => n,
-                Err(_) => {
-                    self.stream = None;
-                    self.file = self.files.len();
-                    return Err(format!("{}: a record overruns its chunk (the file is damaged)", path.display()));
+            Record::Message { header, data } => match self.wanted.get(&header.channel_id) {
+                None => Err(format!("a message on channel {}, which no channel record declares", header.channel_id)),
+                Some(false) => Ok(Step::Other),
+                Some(true) => Ok(Step::Message(i64::try_from(header.log_time).unwrap_or(i64::MAX), data)),
+            },
+            Record::Chunk { header, data } if !in_chunk => match (header.compression.as_str(), data) {
+                ("", Cow::Borrowed(records)) => {
+                    if header.uncompressed_size != records.len() as u64 {
+                        return Err(format!(
+                            "an uncompressed chunk of {} bytes that says it holds {} (the file is damaged)",
+                            records.len(),
+                            header.uncompressed_size
+                        ));
+                    }
+                    Ok(Step::Chunk(Chunk::Plain { records, pos: 0 }))
                 }
-            };
-            match next {
-                None => {
-                    self.stream = None;
-                    self.file += 1;
+                (_, Cow::Borrowed(_)) => {
+                    let whole = whole.unwrap_or_default();
+                    // A record inside the chunk is at most the chunk's uncompressed
+                    // size: a longer one (a damaged length) is refused before anything is
+                    // allocated for it. A chunk of more than 4 GiB is damaged (CDR
+                    // sequences have u32 lengths; rosbag2 chunks are far smaller).
+                    if header.uncompressed_size > 1 << 32 {
+                        return Err(format!(
+                            "a {} chunk that says it holds {} bytes uncompressed (the file is damaged)",
+                            header.compression, header.uncompressed_size
+                        ));
+                    }
+                    let limit = whole.len().max(header.uncompressed_size as usize);
+                    let options = LinearReaderOptions::default()
+                        .with_skip_start_magic(true)
+                        .with_skip_end_magic(true)
+                        .with_validate_chunk_crcs(true)
+                        .with_record_length_limit(limit);
+                    let reader = Box::new(LinearReader::new_with_options(options));
+                    Ok(Step::Chunk(Chunk::Compressed { reader, input: whole }))
                 }
-                Some(Err(e)) => return Err(format!("{}: {}", path.display(), words(&e))),
-                Some(Ok(m)) => {
-                    let id = m.header.channel_id;
-                    let want = match self.wanted.get(&id) {
-                        Some(&w) => w,
-                        None => {
-                            let Some(ch) = stream.get_channel(id) else {
-                                return Err(format!(
-                                    "{}: a message on channel {id}, which no channel record declares",
-                                    path.display()
-                                ));
-                            };
-                            let w = ch.topic == topic;
-                            if w && ch.message_encoding != "cdr" {
-                                return Err(format!(
-                                    "{}: message encoding `{}`: only `cdr` (ROS 2's) is read",
-                                    path.display(),
-                                    ch.message_encoding
-                                ));
-                            }
-                            self.wanted.insert(id, w);
-                            w
+                // parse_record borrows its body: never owned here.
+                (_, Cow::Owned(_)) => Err("a chunk copied out of the map".into()),
+            },
+            Record::Chunk { .. } => Err("a chunk inside a chunk (the file is damaged)".into()),
+            Record::Footer(_) if !in_chunk => Ok(Step::Footer),
+            _ => Ok(Step::Other),
+        }
+    }
+
+    /// The next message of `topic`: (log time ns, bytes), `None` at the end. The bytes
+    /// are borrowed from the map unless they come out of a compressed chunk. After an
+    /// error the cursor is not used again ([`crate::TopicCursor`] ends).
+    pub(crate) fn next(&mut self, topic: &str) -> Result<Option<Found<'a>>, String> {
+        loop {
+            let Some((path, map)) = self.files.get(self.file) else { return Ok(None) };
+            let here = |e: String| format!("{}: {e}", path.display());
+            let buf: &'a [u8] = &map[..];
+            // Inside a chunk: its next record.
+            if let Some(chunk) = self.chunk.as_mut() {
+                let rec = match chunk {
+                    Chunk::Plain { records, pos } => {
+                        let (records, at): (&'a [u8], usize) = (records, *pos);
+                        match record(records, pos)
+                            .map_err(|e| here(format!("{e} of its chunk (the file is damaged)")))?
+                        {
+                            None => None,
+                            Some((opcode, body)) => Some(
+                                mcap::parse_record(opcode, body)
+                                    .map_err(|e| here(format!("record at byte {at} of a chunk: {}", words(e))))?,
+                            ),
                         }
-                    };
-                    if want {
-                        let t = i64::try_from(m.header.log_time).unwrap_or(i64::MAX);
-                        return Ok(Some((t, m.data.into_owned())));
+                    }
+                    Chunk::Compressed { reader, input } => {
+                        // mcap 0.26 can panic on a damaged chunk (an integer underflow
+                        // when a record claims more bytes than its chunk holds; found by
+                        // tests/fuzz_bags.rs): a damaged bag, reported as an error.
+                        let next =
+                            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| next_in_chunk(reader, input)));
+                        match next {
+                            Err(_) => return Err(here("a record overruns its chunk (the file is damaged)".into())),
+                            Ok(r) => r.map_err(|e| here(format!("in a compressed chunk: {}", words(e))))?,
+                        }
+                    }
+                };
+                match rec {
+                    None => self.chunk = None,
+                    Some(r) => {
+                        if let Step::Message(t, data) = self.step(topic, r, None).map_err(here)? {
+                            return Ok(Some((t, data)));
+                        }
                     }
                 }
+                continue;
+            }
+            // The file's next top-level record.
+            let pos = match self.pos {
+                Some(p) => p,
+                None => {
+                    if !buf.starts_with(mcap::MAGIC) {
+                        return Err(here("does not start with MCAP's magic bytes (not an MCAP file)".into()));
+                    }
+                    mcap::MAGIC.len()
+                }
+            };
+            let mut next_pos = pos;
+            let Some((opcode, body)) =
+                record(buf, &mut next_pos).map_err(|e| here(format!("{e} (the file is truncated or damaged)")))?
+            else {
+                return Err(here("the file ends before its footer (it is truncated)".into()));
+            };
+            self.pos = Some(next_pos);
+            let parsed =
+                mcap::parse_record(opcode, body).map_err(|e| here(format!("record at byte {pos}: {}", words(e))))?;
+            match self.step(topic, parsed, Some(&buf[pos..next_pos])).map_err(here)? {
+                Step::Message(t, data) => return Ok(Some((t, data))),
+                Step::Chunk(c) => self.chunk = Some(c),
+                Step::Footer => {
+                    if !buf[next_pos..].starts_with(mcap::MAGIC) {
+                        return Err(here(
+                            "the footer is not followed by MCAP's magic bytes (the file is damaged)".into(),
+                        ));
+                    }
+                    self.file += 1;
+                    self.pos = None;
+                    self.wanted.clear();
+                }
+                Step::Other => {}
+            }
+        }
+    }
+}
+
+/// The next record of a compressed chunk, decompressed: `reader` is fed the chunk
+/// record's bytes from `input` as it asks for them, and told the input ended when they
+/// are spent (the end of the chunk, or an error if the chunk is not complete there).
+fn next_in_chunk(reader: &mut LinearReader, input: &mut &[u8]) -> mcap::McapResult<Option<Record<'static>>> {
+    loop {
+        match reader.next_event() {
+            None => return Ok(None),
+            Some(Err(e)) => return Err(e),
+            Some(Ok(LinearReadEvent::Record { data, opcode })) => {
+                return mcap::parse_record(opcode, data).map(|r| Some(r.into_owned()))
+            }
+            Some(Ok(LinearReadEvent::ReadRequest(n))) => {
+                let k = n.min(input.len());
+                reader.insert(k).copy_from_slice(&input[..k]);
+                reader.notify_read(k);
+                *input = &input[k..];
             }
         }
     }
 }
 
 /// An MCAP error in words a user can act on.
-fn words(e: &mcap::McapError) -> String {
+fn words(e: mcap::McapError) -> String {
     let s = e.to_string();
     if s.contains("lz4") || s.contains("Lz4") || s.contains("compression") {
         format!("{s} (bpins reads uncompressed and zstd MCAP chunks; `mcap convert` or `ros2 bag convert` an lz4 bag)")

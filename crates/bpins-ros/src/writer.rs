@@ -1,5 +1,6 @@
 //! A new rosbag2 folder with MCAP storage: `NAME_0.mcap` (schemas `ros2msg`,
-//! messages `cdr`, profile `ros2`, uncompressed chunks) and `metadata.yaml`
+//! messages `cdr`, profile `ros2`, uncompressed chunks, or zstd chunks as rosbag2's
+//! MCAP plugin writes by default: [`BagWriter::create_with`]) and `metadata.yaml`
 //! (version 9), written last. The folder must not exist yet: bpins never writes
 //! into an existing bag.
 
@@ -23,9 +24,32 @@ pub struct BagWriter {
     last_ns: i64,
 }
 
+/// How the MCAP file's messages are grouped into chunks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Chunks {
+    /// zstd-compress each chunk (else stored uncompressed).
+    pub zstd: bool,
+    /// A chunk is closed once it holds this many bytes (a larger message is one chunk).
+    pub size_bytes: u64,
+}
+
+impl Default for Chunks {
+    /// Uncompressed chunks of `mcap`'s default size (1 MiB).
+    fn default() -> Self {
+        Chunks { zstd: false, size_bytes: mcap::WriteOptions::DEFAULT_CHUNK_SIZE }
+    }
+}
+
 impl BagWriter {
-    /// Creates the folder `dir` (which must not exist) and its MCAP file.
+    /// Creates the folder `dir` (which must not exist) and its MCAP file, with
+    /// uncompressed chunks.
     pub fn create(dir: &Path) -> Result<BagWriter, BagError> {
+        Self::create_with(dir, Chunks::default())
+    }
+
+    /// Creates the folder `dir` (which must not exist) and its MCAP file, with chunks
+    /// as `chunks` says.
+    pub fn create_with(dir: &Path, chunks: Chunks) -> Result<BagWriter, BagError> {
         let at = Where { bag: dir.to_path_buf(), ..Default::default() };
         let fail = |message: String| BagError::Write { at: at.clone(), message };
         if dir.exists() {
@@ -36,7 +60,8 @@ impl BagWriter {
         let file_name = format!("{stem}_0.mcap");
         let f = File::create(dir.join(&file_name)).map_err(|e| fail(format!("{file_name}: {e}")))?;
         let mcap = mcap::WriteOptions::new()
-            .compression(None)
+            .compression(chunks.zstd.then_some(mcap::Compression::Zstd))
+            .chunk_size(Some(chunks.size_bytes))
             .profile("ros2")
             .library("bpins")
             .create(BufWriter::new(f))

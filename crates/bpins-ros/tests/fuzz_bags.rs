@@ -1,4 +1,5 @@
-//! Fuzzing the bag reader: proptest damages valid bags (MCAP and sqlite3 files cut
+//! Fuzzing the bag reader: proptest damages valid bags (MCAP files with uncompressed
+//! or zstd chunks and sqlite3 files cut
 //! short, bytes flipped or inserted, metadata.yaml cut or flipped, message bytes
 //! flipped inside the sqlite3 rows) and raw CDR messages, and reading every topic
 //! through the mappings bpins uses (image → mosaic, CameraInfo → intrinsics, Imu →
@@ -13,7 +14,7 @@ use bpins_ros::convert::{camera_size_px, imu_orientation, intrinsics, mosaic, ti
 use bpins_ros::matching::{decode_fix, decode_imu};
 use bpins_ros::metadata::Metadata;
 use bpins_ros::msgs::{types, CameraInfo, Header, Image, Imu, NavSatFix, Time};
-use bpins_ros::writer::BagWriter;
+use bpins_ros::writer::{BagWriter, Chunks};
 use bpins_ros::Bag;
 use proptest::prelude::*;
 use std::borrow::Cow;
@@ -83,6 +84,23 @@ fn bases() -> &'static (tempfile::TempDir, PathBuf, PathBuf) {
         let sq = tmp.path().join("sqlite_bag");
         write_sqlite_bag(&sq);
         (tmp, mcap, sq)
+    })
+}
+
+/// A valid MCAP bag of [`messages`] in small zstd chunks (rosbag2's MCAP default is
+/// zstd), written once.
+fn zstd_base() -> &'static (tempfile::TempDir, PathBuf) {
+    static B: std::sync::OnceLock<(tempfile::TempDir, PathBuf)> = std::sync::OnceLock::new();
+    B.get_or_init(|| {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path().join("zstd_bag");
+        let mut w = BagWriter::create_with(&dir, Chunks { zstd: true, size_bytes: 512 }).unwrap();
+        for (topic, ty, t, bytes) in messages() {
+            w.write(topic, ty, t, &bytes).unwrap();
+        }
+        w.finish().unwrap();
+        read_all(&dir).expect("the undamaged zstd bag reads");
+        (tmp, dir)
     })
 }
 
@@ -246,6 +264,11 @@ proptest! {
     #[test]
     fn damaged_mcap_files(ds in prop::collection::vec(damage(), 1..4)) {
         damaged(&bases().1, "mcap_bag_0.mcap", &ds);
+    }
+
+    #[test]
+    fn damaged_zstd_mcap_files(ds in prop::collection::vec(damage(), 1..4)) {
+        damaged(&zstd_base().1, "zstd_bag_0.mcap", &ds);
     }
 
     #[test]
