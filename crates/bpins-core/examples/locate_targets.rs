@@ -63,6 +63,10 @@ impl Row {
 struct Stats {
     errs: [Vec<(f64, f64)>; 3],
     refused: usize,
+    /// Per frame: the sky's sun elevation error, its 1σ and the Rayleigh fit's error;
+    /// the quartic sky's separation, degrees.
+    elevation: Vec<(f64, f64, f64)>,
+    separation: Vec<f64>,
 }
 
 impl Stats {
@@ -144,6 +148,14 @@ fn run(row: &Row, seeds: u64) -> Result<Stats, Box<dyn std::error::Error>> {
         let field = (!field.is_empty()).then_some(field);
         let (c, data) = s.simulate(&base(), &row.model, field.as_ref(), &attitude, &SimSensor::samples(seed))?;
         let frames = measure_data(&c, &data, &Model::default(), &FieldOptions::default())?;
+        let (truth, _) = s.frames("png")?;
+        for (f, t) in frames.iter().zip(&truth) {
+            if let Ok(sun) = &f.sun {
+                let e = sun.elevation_deg - t.sun.elevation_deg;
+                st.elevation.push((e, sun.elevation_sigma_deg, sun.rayleigh_elevation_deg - t.sun.elevation_deg));
+                st.separation.push(sun.separation_deg);
+            }
+        }
         let obs: Vec<SunObs> = frames.iter().filter_map(|f| f.obs()).collect();
         let wide = LocateOptions {
             max_heading_sigma_deg: 90.0,
@@ -169,6 +181,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let seeds: u64 = args.next().map(|a| a.parse()).transpose()?.unwrap_or(8);
     let out = args.next().unwrap_or_else(|| "docs/locate.svg".into());
+    // Only the rows whose group or label contains this (all rows and the plot without).
+    let only = args.next();
     let mid = 45.0;
     let mut rows = vec![Row::new("target", "45° N, every 5 min for 1 h".into(), mid)];
     for span in [15.0, 30.0, 60.0, 120.0, 240.0] {
@@ -197,8 +211,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("| group | row | north RMS | lat RMS | lon RMS | within 2σ (N / lat / lon) | median 1σ (N / lat / lon) | refused |");
     println!("|---|---|---:|---:|---:|---|---|---:|");
     let mut span_points = Vec::new();
-    for row in &rows {
+    for row in rows
+        .iter()
+        .filter(|r| only.as_ref().is_none_or(|o| r.group.contains(o.as_str()) || r.label.contains(o.as_str())))
+    {
         let st = run(row, seeds)?;
+        let n = st.elevation.len().max(1) as f64;
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+        };
+        eprintln!(
+            "{}: per frame, elevation error RMS {:.3}° (Rayleigh's {:.3}°), {:.0} % within 2σ, median 1σ {:.3}°, median separation {:.1}°",
+            row.label,
+            (st.elevation.iter().map(|x| x.0 * x.0).sum::<f64>() / n).sqrt(),
+            (st.elevation.iter().map(|x| x.2 * x.2).sum::<f64>() / n).sqrt(),
+            100.0 * st.elevation.iter().filter(|x| x.0.abs() <= 2.0 * x.1).count() as f64 / n,
+            median(st.elevation.iter().map(|x| x.1).collect()),
+            median(st.separation.clone()),
+        );
         println!(
             "| {} | {} | {:.3} | {:.3} | {:.3} | {:.0} / {:.0} / {:.0} % | {:.3} / {:.3} / {:.3} | {} |",
             row.group,
@@ -218,8 +249,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             span_points.push((row.span_min, [st.rms(0), st.rms(1), st.rms(2)]));
         }
     }
-    std::fs::write(&out, svg(&span_points))?;
-    eprintln!("wrote {out}");
+    if only.is_none() {
+        std::fs::write(&out, svg(&span_points))?;
+        eprintln!("wrote {out}");
+    }
     Ok(())
 }
 
