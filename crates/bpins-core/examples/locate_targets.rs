@@ -67,6 +67,8 @@ struct Stats {
     /// the quartic sky's separation, degrees.
     elevation: Vec<(f64, f64, f64)>,
     separation: Vec<f64>,
+    /// As `errs`, the frames read as a Rayleigh sky.
+    rayleigh: [Vec<(f64, f64)>; 3],
 }
 
 impl Stats {
@@ -75,14 +77,18 @@ impl Stats {
         (e.iter().map(|x| x.0 * x.0).sum::<f64>() / e.len().max(1) as f64).sqrt()
     }
     fn within(&self, k: usize) -> f64 {
-        let e = &self.errs[k];
-        e.iter().filter(|x| x.0.abs() <= 2.0 * x.1).count() as f64 / e.len().max(1) as f64
+        within(&self.errs[k])
     }
     fn median_sigma(&self, k: usize) -> f64 {
         let mut s: Vec<f64> = self.errs[k].iter().map(|x| x.1).collect();
         s.sort_by(f64::total_cmp);
         s.get(s.len() / 2).copied().unwrap_or(f64::NAN)
     }
+}
+
+/// The share of errors within 2σ.
+fn within(e: &[(f64, f64)]) -> f64 {
+    e.iter().filter(|x| x.0.abs() <= 2.0 * x.1).count() as f64 / e.len().max(1) as f64
 }
 
 fn base() -> Capture {
@@ -163,6 +169,26 @@ fn run(row: &Row, seeds: u64) -> Result<Stats, Box<dyn std::error::Error>> {
             max_longitude_sigma_deg: 180.0,
             pole_only: false,
         };
+        // The same frames read as a Rayleigh sky (step 5 of sky_sun left out: the
+        // separation held at 0), for comparison.
+        let rayleigh: Vec<SunObs> = frames
+            .iter()
+            .filter_map(|f| {
+                let sun = f.sun.as_ref().ok()?;
+                Some(SunObs {
+                    elevation_deg: sun.rayleigh_elevation_deg,
+                    elevation_sigma_deg: sun.rayleigh_elevation_sigma_deg,
+                    ..f.obs()?
+                })
+            })
+            .collect();
+        if let Ok(r) = locate(&rayleigh, &wide) {
+            st.rayleigh[0].push((wrap_deg_180(r.heading_deg - s.heading_deg), r.heading_sigma_deg));
+            st.rayleigh[1].push((r.latitude_deg - s.latitude_deg, r.latitude_sigma_deg));
+            if let (Some(l), Some(sl)) = (r.longitude_deg, r.longitude_sigma_deg) {
+                st.rayleigh[2].push((wrap_deg_180(l - s.longitude_deg), sl));
+            }
+        }
         match locate(&obs, &wide) {
             Ok(r) => {
                 st.errs[0].push((wrap_deg_180(r.heading_deg - s.heading_deg), r.heading_sigma_deg));
@@ -229,6 +255,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             100.0 * st.elevation.iter().filter(|x| x.0.abs() <= 2.0 * x.1).count() as f64 / n,
             median(st.elevation.iter().map(|x| x.1).collect()),
             median(st.separation.clone()),
+        );
+        eprintln!(
+            "{}: read as a Rayleigh sky, within 2σ {:.0} / {:.0} / {:.0} % over {} seeds",
+            row.label,
+            100.0 * within(&st.rayleigh[0]),
+            100.0 * within(&st.rayleigh[1]),
+            100.0 * within(&st.rayleigh[2]),
+            st.rayleigh[0].len()
         );
         println!(
             "| {} | {} | {:.3} | {:.3} | {:.3} | {:.0} / {:.0} / {:.0} % | {:.3} / {:.3} / {:.3} | {} |",

@@ -79,6 +79,10 @@ pub struct SunObs {
     pub bearing_sigma_deg: f64,
     pub elevation_deg: f64,
     pub elevation_sigma_deg: f64,
+    /// The sky's neutral-point separation the frame's fit found and its 1σ, degrees
+    /// (0 for Rayleigh's sky; [`crate::heading::field::SkySun`]).
+    pub separation_deg: f64,
+    pub separation_sigma_deg: f64,
 }
 
 /// Bounds on the answer's 1σ past which [`locate`] says "not yet" instead.
@@ -134,6 +138,20 @@ pub enum LocateError {
          (the sequence is too short or too cloudy: take frames over a longer span)"
     )]
     TooUncertain { what: &'static str, sigma_deg: f64, limit_deg: f64, frames: usize },
+    #[error(
+        "not yet: the sky's polarization is not Rayleigh's (its neutral points {separation_deg:.0}° ± \
+         {separation_sigma_deg:.0}° apart, by the frames' median): the sun's elevation is weak in this view, and \
+         the {what}'s 1σ is {sigma_deg:.2}°, more than the {limit_deg:.2}° asked, from {frames} frames (take \
+         frames over a longer span, or with a wider view)"
+    )]
+    NotRayleigh {
+        separation_deg: f64,
+        separation_sigma_deg: f64,
+        what: &'static str,
+        sigma_deg: f64,
+        limit_deg: f64,
+        frames: usize,
+    },
     #[error("the fit did not converge: {0}")]
     Solver(String),
     #[error("relative yaw: {0}")]
@@ -159,12 +177,38 @@ pub fn locate(obs: &[SunObs], opts: &LocateOptions) -> Result<Located, LocateErr
         if let Some(s) = sigma {
             #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN 1σ must be refused too
             if !(s <= limit) {
-                return Err(LocateError::TooUncertain { what, sigma_deg: s, limit_deg: limit, frames: obs.len() });
+                let frames = obs.len();
+                return Err(match non_rayleigh(obs) {
+                    Some((separation_deg, separation_sigma_deg)) => LocateError::NotRayleigh {
+                        separation_deg,
+                        separation_sigma_deg,
+                        what,
+                        sigma_deg: s,
+                        limit_deg: limit,
+                        frames,
+                    },
+                    None => LocateError::TooUncertain { what, sigma_deg: s, limit_deg: limit, frames },
+                });
             }
         }
     }
     Ok(r)
 }
+
+/// The frames' median neutral-point separation and median 1σ where the sky is not
+/// Rayleigh's: the median |separation| over 5° and over twice its 1σ.
+fn non_rayleigh(obs: &[SunObs]) -> Option<(f64, f64)> {
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let sep = median(obs.iter().map(|o| o.separation_deg).collect());
+    let sigma = median(obs.iter().map(|o| o.separation_sigma_deg).collect());
+    (sep.abs() > NON_RAYLEIGH_DEG && sep.abs() > 2.0 * sigma).then_some((sep, sigma))
+}
+
+/// A neutral-point separation past which a refusal names the sky, degrees.
+const NON_RAYLEIGH_DEG: f64 = 5.0;
 
 /// The 3 × 3 covariance of a least-squares fit from the Jacobian `j` (rows: whitened
 /// residuals), inflated by `max(1, χ²/dof)`; `None` where JᵀJ is singular.

@@ -56,8 +56,10 @@ pub struct SkySun {
     /// The sun's elevation above the level frame's horizon, degrees.
     pub elevation_deg: f64,
     pub elevation_sigma_deg: f64,
-    /// The elevation a Rayleigh sky would give (steps 2–4), degrees.
+    /// The elevation and its 1σ a Rayleigh sky would give (steps 2–4, the separation
+    /// held at 0), degrees.
     pub rayleigh_elevation_deg: f64,
+    pub rayleigh_elevation_sigma_deg: f64,
     /// The neutral points' separation the quartic sky fits (step 5; signed, negative a
     /// split across the solar vertical, 0 Rayleigh's) and its 1σ, degrees.
     pub separation_deg: f64,
@@ -110,12 +112,19 @@ pub fn sky_sun(
     let q = quartic_fit(sc, psi, rayleigh_deg).ok_or_else(|| {
         NoHeading::Solver("the quartic sky (neutral points as a nuisance) could not be fitted".into())
     })?;
+    let sigma_deg = if q.misfit_rms_deg < r.misfit_rms_deg {
+        elevation(sc, r.coherent_deg, q.misfit_rms_deg, ctx.tilt_sigma_deg, opts.sigma_floor_deg)
+            .map_or(rayleigh_sigma_deg, |x| x.1)
+    } else {
+        rayleigh_sigma_deg
+    };
     Ok(SkySun {
         bearing_deg: wrap_deg_360(-psi),
         bearing_sigma_deg: parts.total_deg(),
         elevation_deg: q.elevation_deg,
-        elevation_sigma_deg: rayleigh_sigma_deg.hypot(q.nuisance_sigma_deg),
+        elevation_sigma_deg: sigma_deg.hypot(q.nuisance_sigma_deg),
         rayleigh_elevation_deg: rayleigh_deg,
+        rayleigh_elevation_sigma_deg: rayleigh_sigma_deg,
         separation_deg: q.separation_deg,
         separation_sigma_deg: q.separation_sigma_deg,
         quality: r.quality,
@@ -130,6 +139,9 @@ struct QuarticFit {
     nuisance_sigma_deg: f64,
     separation_deg: f64,
     separation_sigma_deg: f64,
+    /// The used cells' RMS residual beyond their noise under the quartic sky, degrees
+    /// (as `robust.rs`'s `misfit_rms_deg` under Rayleigh's).
+    misfit_rms_deg: f64,
 }
 
 /// Scale of the fitted separation parameter: p₂ = Q_SCALE·q, q = sin²(s/4).
@@ -178,19 +190,20 @@ fn quartic_fit(sc: &Scratch, psi_deg: f64, h_deg: f64) -> Option<QuarticFit> {
     // Level-frame sun for A = 0: s = (cos h·sin ψ, −cos h·cos ψ, sin h).
     let (sp, cp) = psi_deg.to_radians().sin_cos();
     let alpha0 = (-cp).atan2(sp).to_degrees();
-    let cells: Vec<(DVec3, f64, f64)> = sc
+    // (ray, chart angle, √weight, robust weight, noise variance) of the used cells.
+    let cells: Vec<(DVec3, f64, f64, f64, f64)> = sc
         .obs
         .iter()
         .zip(&sc.b.w)
         .filter(|(_, w)| w.0 > 0.0)
-        .filter_map(|(o, w)| Some((o.d, chart_angle(o.d, o.e)?, (w.0 / w.1).sqrt())))
+        .filter_map(|(o, w)| Some((o.d, chart_angle(o.d, o.e)?, (w.0 / w.1).sqrt(), w.0, o.var_aop)))
         .collect();
     if cells.len() < 6 {
         return None;
     }
     let f = |p: &[f64; 3]| -> Option<Vec<f64>> {
         let (a, z, q) = (p[0].to_radians(), (90.0 - p[1]).to_radians(), p[2] / Q_SCALE);
-        Some(cells.iter().map(|&(d, chi, sw)| wrap_rad_90(chi - quartic_angle(d, a, z, q)) * sw).collect())
+        Some(cells.iter().map(|&(d, chi, sw, ..)| wrap_rad_90(chi - quartic_angle(d, a, z, q)) * sw).collect())
     };
     let (p, chi2, jtj) = levenberg_marquardt([alpha0, h_deg, 0.0], &f)?;
     let q = p[2] / Q_SCALE;
@@ -206,7 +219,20 @@ fn quartic_fit(sc: &Scratch, psi_deg: f64, h_deg: f64) -> Option<QuarticFit> {
     let sep = |q: f64| 4.0 * q.abs().sqrt().min(1.0).asin().to_degrees() * q.signum();
     let separation_deg = sep(q);
     let separation_sigma_deg = sep(q.abs() + sigma_q) - sep(q.abs());
-    Some(QuarticFit { elevation_deg: p[1], nuisance_sigma_deg: nuisance, separation_deg, separation_sigma_deg })
+    // The misfit beyond the noise over the cells of weight ≥ ½, as robust.rs's.
+    let (a, z, qq) = (p[0].to_radians(), (90.0 - p[1]).to_radians(), q);
+    let (sw, swd2, noise) = cells.iter().filter(|c| c.3 >= 0.5).fold((0.0, 0.0, 0.0), |(s, d2, n), c| {
+        let delta = wrap_rad_90(c.1 - quartic_angle(c.0, a, z, qq));
+        (s + c.3, d2 + c.3 * delta * delta, n + c.3 * c.4)
+    });
+    let misfit_rms_deg = if sw > 0.0 { ((swd2 - noise).max(0.0) / sw).sqrt().to_degrees() } else { f64::NAN };
+    Some(QuarticFit {
+        elevation_deg: p[1],
+        nuisance_sigma_deg: nuisance,
+        separation_deg,
+        separation_sigma_deg,
+        misfit_rms_deg,
+    })
 }
 
 /// Levenberg–Marquardt on three parameters: `f(p)` the whitened residuals, a central-
