@@ -27,7 +27,9 @@
 //!
 //! Honest answers: a sequence with too few usable frames, or whose 1σ exceeds the
 //! asked bounds (too short a span, too cloudy), is a typed [`LocateError`], never an
-//! answer. Frame: ENU and CONVENTIONS.md's azimuths (from North toward East); the
+//! answer; where the frames' sky is not Rayleigh's (its neutral points split by more
+//! than 5° and twice their 1σ, by the frames' median: `sky_sun`'s step 5), the
+//! refusal says so ([`LocateError::NotRayleigh`]). Frame: ENU and CONVENTIONS.md's azimuths (from North toward East); the
 //! heading is the image top's azimuth at the first frame.
 //!
 //! Cannot: use frames whose sun is below the horizon or within 1° of the zenith;
@@ -324,4 +326,45 @@ pub(crate) fn levenberg_marquardt(
     }
     let j = jac(&p)?;
     Some((p, c, j))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An hour of exact suns at 45° N every 5 min, each with a 1° elevation 1σ and the
+    /// given neutral-point separation.
+    fn hour(separation_deg: f64) -> Vec<SunObs> {
+        (0..13)
+            .filter_map(|i| {
+                let t = 1_778_400_000.0 + 300.0 * i as f64;
+                let (a, h) = SunModel::sun(t, 45.0, 15.0)?;
+                Some(SunObs {
+                    time_unix_s: Some(t),
+                    yaw_deg: 0.0,
+                    yaw_sigma_deg: 0.0,
+                    bearing_deg: crate::conventions::wrap_deg_360(a - 30.0),
+                    bearing_sigma_deg: 0.05,
+                    elevation_deg: h,
+                    elevation_sigma_deg: 1.0,
+                    separation_deg,
+                    separation_sigma_deg: 2.0,
+                })
+            })
+            .collect()
+    }
+
+    /// A 1σ over the bounds is refused as too short a span on a Rayleigh sky, and as
+    /// a sky that is not Rayleigh's where the frames' neutral points are split.
+    #[test]
+    fn a_refusal_names_a_sky_that_is_not_rayleighs() {
+        let strict = LocateOptions { max_latitude_sigma_deg: 0.01, ..LocateOptions::default() };
+        let e = locate(&hour(0.0), &strict).unwrap_err();
+        assert!(matches!(e, LocateError::TooUncertain { what: "latitude", .. }), "{e}");
+        let e = locate(&hour(28.0), &strict).unwrap_err();
+        assert!(matches!(e, LocateError::NotRayleigh { what: "latitude", .. }), "{e}");
+        assert!(e.to_string().contains("not Rayleigh's (its neutral points 28° ± 2° apart"), "{e}");
+        // Within the bounds, the answer stands whatever the sky.
+        assert!(locate(&hour(28.0), &LocateOptions::default()).is_ok());
+    }
 }

@@ -157,6 +157,8 @@ mod tests {
                         bearing_sigma_deg: 0.05,
                         elevation_deg: h,
                         elevation_sigma_deg: 0.05,
+                        separation_deg: 0.0,
+                        separation_sigma_deg: 1.0,
                     })
                 })
                 .collect();

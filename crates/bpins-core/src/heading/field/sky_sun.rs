@@ -21,17 +21,39 @@
 //!    not average out; a narrow view near the zenith amplifies them, since its
 //!    E-vectors are nearly level); σ_tilt = the tilt's 1σ (a tilt about the horizontal
 //!    axis across the sun moves h 1:1)
+//! 5. the neutral points as a nuisance: Berry, Dennis & Lee's quartic sky (the
+//!    `sky_neutral_points` effect's model) fitted to the same cells with the same final
+//!    weights, unknowns the sun's level azimuth α, its elevation h and q = sin²(s/4)
+//!    of the neutral points' separation s (q enters the E-vector field linearly, so
+//!    it is free through 0, Rayleigh's sky); Levenberg–Marquardt from step 4's sun and
+//!    q = 0. The elevation is the quartic fit's h where the split is seen (|q| > 2σ_q),
+//!    else step 4's (less noisy: a Rayleigh sky pays nothing in its error); either
+//!    way its 1σ² = step 4's (with the quartic fit's misfit m where smaller) + σ_n²,
+//!    σ_n² = C_hh − C_hh|q the variance the free q adds (marginal minus conditional,
+//!    C = (JᵀJ)⁻¹·max(1, χ²/dof)): a split too small to be seen may still bias step
+//!    4's elevation by about σ_n
 //! ```
+//!
+//! Why step 5: with the neutral points 30° apart the Rayleigh sun's elevation is off
+//! by ≈ 3° in a ±28° view near the zenith while the cells' residual stays small (the
+//! pattern a little off the sun looks like Rayleigh's for a different sun); the free
+//! separation takes that bias out and puts what the view cannot tell apart into the
+//! 1σ (docs/locate.md: per frame 0.42° RMS against 2.8° read as Rayleigh's). On a
+//! Rayleigh sky the elevation is step 4's and its 1σ ≈ 1.5× wider (the quartic fit's
+//! h there is 1.5× noisier: 0.025° RMS against 0.017°).
 //!
 //! Frame: the level camera (CONVENTIONS.md; the frame's reference tilt undone): the
 //! bearing is the sun's azimuth minus the azimuth of the image top, degrees from
-//! North toward East, in [0°, 360°); the elevation in degrees above the horizon.
+//! North toward East, in [0°, 360°); the elevation in degrees above the horizon; the
+//! quartic sky's chart ξ = (x + iy)/(1 + z) of the level frame (sky_neutral_points.rs
+//! uses ENU's; a turn about the vertical only turns the chart).
 //!
-//! Cannot: read a Berry sky's elevation (its neutral points move the E-vectors'
-//! common normal by degrees in a narrow view, and its residual stays small: the 1σ
-//! does not cover it; docs/locate.md); tell the sun from the anti-sun when it stands below the horizon (the
-//! branch above is taken), read a sun within 1° of the zenith (no bearing) or below
-//! −10° (refused as by the heading); an elevation bias shared by every frame (a
+//! Cannot: a separation that differs between the sun's and the anti-sun's pair, or a
+//! sky other than Rayleigh's and Berry's quartic (the DoLP is not used: its maximum and
+//! shape are not known); a sun within half a separation of the zenith (the quartic
+//! model's own limit); tell the sun from the anti-sun when it stands below the horizon
+//! (the branch above is taken), read a sun within 1° of the zenith (no bearing) or
+//! below −10° (refused as by the heading); an elevation bias shared by every frame (a
 //! mount tilt not in the calibration) passes into the latitude.
 
 use super::robust::{self, block_sums, sum_blocks, Scratch, BLOCKS};
@@ -121,7 +143,7 @@ pub fn sky_sun(
     Ok(SkySun {
         bearing_deg: wrap_deg_360(-psi),
         bearing_sigma_deg: parts.total_deg(),
-        elevation_deg: q.elevation_deg,
+        elevation_deg: if q.split { q.elevation_deg } else { rayleigh_deg },
         elevation_sigma_deg: sigma_deg.hypot(q.nuisance_sigma_deg),
         rayleigh_elevation_deg: rayleigh_deg,
         rayleigh_elevation_sigma_deg: rayleigh_sigma_deg,
@@ -142,7 +164,12 @@ struct QuarticFit {
     /// The used cells' RMS residual beyond their noise under the quartic sky, degrees
     /// (as `robust.rs`'s `misfit_rms_deg` under Rayleigh's).
     misfit_rms_deg: f64,
+    /// Whether the split is seen: |q| over SPLIT_SIGMAS of its 1σ.
+    split: bool,
 }
+
+/// A split the fit sees: |q| over this many of its 1σ.
+const SPLIT_SIGMAS: f64 = 2.0;
 
 /// Scale of the fitted separation parameter: p₂ = Q_SCALE·q, q = sin²(s/4).
 const Q_SCALE: f64 = 100.0;
@@ -232,6 +259,7 @@ fn quartic_fit(sc: &Scratch, psi_deg: f64, h_deg: f64) -> Option<QuarticFit> {
         separation_deg,
         separation_sigma_deg,
         misfit_rms_deg,
+        split: q.abs() > SPLIT_SIGMAS * sigma_q,
     })
 }
 
