@@ -178,6 +178,7 @@ fn run(row: &Row, seeds: u64) -> Result<Stats, Box<dyn std::error::Error>> {
                 Some(SunObs {
                     elevation_deg: sun.rayleigh_elevation_deg,
                     elevation_sigma_deg: sun.rayleigh_elevation_sigma_deg,
+                    elevation_nuisance_sigma_deg: 0.0,
                     ..f.obs()?
                 })
             })

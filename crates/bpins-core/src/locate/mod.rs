@@ -81,6 +81,9 @@ pub struct SunObs {
     pub bearing_sigma_deg: f64,
     pub elevation_deg: f64,
     pub elevation_sigma_deg: f64,
+    /// What the sky's unknown neutral-point separation adds to the elevation's 1σ,
+    /// degrees: the same sky for every frame, so a bias shared by all of them.
+    pub elevation_nuisance_sigma_deg: f64,
     /// The sky's neutral-point separation the frame's fit found and its 1σ, degrees
     /// (0 for Rayleigh's sky; [`crate::heading::field::SkySun`]).
     pub separation_deg: f64,
@@ -207,6 +210,13 @@ fn non_rayleigh(obs: &[SunObs]) -> Option<(f64, f64)> {
     let sep = median(obs.iter().map(|o| o.separation_deg).collect());
     let sigma = median(obs.iter().map(|o| o.separation_sigma_deg).collect());
     (sep.abs() > NON_RAYLEIGH_DEG && sep.abs() > 2.0 * sigma).then_some((sep, sigma))
+}
+
+/// A frame's share of the elevation bias every frame may carry alike, degrees: its
+/// 1σ with what the sky's unknown neutral-point separation adds (the same sky for
+/// every frame; `sky_sun`'s step 5).
+pub(crate) fn shared_elevation_sigma(o: &SunObs) -> f64 {
+    o.elevation_sigma_deg.hypot(o.elevation_nuisance_sigma_deg)
 }
 
 /// A neutral-point separation past which a refusal names the sky, degrees.
@@ -347,6 +357,7 @@ mod tests {
                     bearing_sigma_deg: 0.05,
                     elevation_deg: h,
                     elevation_sigma_deg: 1.0,
+                    elevation_nuisance_sigma_deg: 0.5,
                     separation_deg,
                     separation_sigma_deg: 2.0,
                 })

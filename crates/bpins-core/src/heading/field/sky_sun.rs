@@ -26,21 +26,20 @@
 //!    weights, unknowns the sun's level azimuth α, its elevation h and q = sin²(s/4)
 //!    of the neutral points' separation s (q enters the E-vector field linearly, so
 //!    it is free through 0, Rayleigh's sky); Levenberg–Marquardt from step 4's sun and
-//!    q = 0. The elevation is the quartic fit's h where the split is seen (|q| > 2σ_q),
-//!    else step 4's (less noisy: a Rayleigh sky pays nothing in its error); either
-//!    way its 1σ² = step 4's (with the quartic fit's misfit m where smaller) + σ_n²,
+//!    q = 0. Where the split is seen (|q| > 2σ_q) the elevation is the quartic fit's
+//!    h, its 1σ² = step 4's (with the quartic fit's misfit m where smaller) + σ_n²,
 //!    σ_n² = C_hh − C_hh|q the variance the free q adds (marginal minus conditional,
-//!    C = (JᵀJ)⁻¹·max(1, χ²/dof)): a split too small to be seen may still bias step
-//!    4's elevation by about σ_n
+//!    C = (JᵀJ)⁻¹·max(1, χ²/dof)); else step 4's elevation and 1σ stand (a Rayleigh
+//!    sky pays nothing: the quartic h is 1.5× noisier there). A split too small to be
+//!    seen biases step 4's h little: the change of the pattern is second order in s
+//!    (q = sin²(s/4)), so 2σ_q (s ≈ 3°–4° in the ±28° view) moves h by ≈ 0.04°
 //! ```
 //!
 //! Why step 5: with the neutral points 30° apart the Rayleigh sun's elevation is off
 //! by ≈ 3° in a ±28° view near the zenith while the cells' residual stays small (the
 //! pattern a little off the sun looks like Rayleigh's for a different sun); the free
 //! separation takes that bias out and puts what the view cannot tell apart into the
-//! 1σ (docs/locate.md: per frame 0.42° RMS against 2.8° read as Rayleigh's). On a
-//! Rayleigh sky the elevation is step 4's and its 1σ ≈ 1.5× wider (the quartic fit's
-//! h there is 1.5× noisier: 0.025° RMS against 0.017°).
+//! 1σ (docs/locate.md: per frame 0.42° RMS against 2.8° read as Rayleigh's).
 //!
 //! Frame: the level camera (CONVENTIONS.md; the frame's reference tilt undone): the
 //! bearing is the sun's azimuth minus the azimuth of the image top, degrees from
@@ -82,6 +81,10 @@ pub struct SkySun {
     /// held at 0), degrees.
     pub rayleigh_elevation_deg: f64,
     pub rayleigh_elevation_sigma_deg: f64,
+    /// What the free separation adds to the elevation's 1σ, degrees (in
+    /// `elevation_sigma_deg` where the split is seen; a sky's separation is shared by
+    /// every frame of a sequence, so `locate` takes it as a shared bias).
+    pub elevation_nuisance_sigma_deg: f64,
     /// The neutral points' separation the quartic sky fits (step 5; signed, negative a
     /// split across the solar vertical, 0 Rayleigh's) and its 1σ, degrees.
     pub separation_deg: f64,
@@ -144,9 +147,10 @@ pub fn sky_sun(
         bearing_deg: wrap_deg_360(-psi),
         bearing_sigma_deg: parts.total_deg(),
         elevation_deg: if q.split { q.elevation_deg } else { rayleigh_deg },
-        elevation_sigma_deg: sigma_deg.hypot(q.nuisance_sigma_deg),
+        elevation_sigma_deg: if q.split { sigma_deg.hypot(q.nuisance_sigma_deg) } else { rayleigh_sigma_deg },
         rayleigh_elevation_deg: rayleigh_deg,
         rayleigh_elevation_sigma_deg: rayleigh_sigma_deg,
+        elevation_nuisance_sigma_deg: q.nuisance_sigma_deg,
         separation_deg: q.separation_deg,
         separation_sigma_deg: q.separation_sigma_deg,
         quality: r.quality,
