@@ -26,13 +26,15 @@
 //!    weights, unknowns the sun's level azimuth α, its elevation h and q = sin²(s/4)
 //!    of the neutral points' separation s (q enters the E-vector field linearly, so
 //!    it is free through 0, Rayleigh's sky); Levenberg–Marquardt from step 4's sun and
-//!    q = 0. Where the split is seen (|q| > 2σ_q) the elevation is the quartic fit's
+//!    q = 0. Where the split is seen (|q| > 3σ_q) the elevation is the quartic fit's
 //!    h, its 1σ² = step 4's (with the quartic fit's misfit m where smaller) + σ_n²,
 //!    σ_n² = C_hh − C_hh|q the variance the free q adds (marginal minus conditional,
 //!    C = (JᵀJ)⁻¹·max(1, χ²/dof)); else step 4's elevation and 1σ stand (a Rayleigh
 //!    sky pays nothing: the quartic h is 1.5× noisier there). A split too small to be
 //!    seen biases step 4's h little: the change of the pattern is second order in s
-//!    (q = sin²(s/4)), so 2σ_q (s ≈ 3°–4° in the ±28° view) moves h by ≈ 0.04°
+//!    (q = sin²(s/4)), so 3σ_q (s ≈ 4°–5° in the ±28° view) moves h by ≈ 0.05°–0.08°
+//!    (scaled from the 2.8° at 30°); σ_n goes to `locate` as a bias shared by all
+//!    frames (one sky, one separation)
 //! ```
 //!
 //! Why step 5: with the neutral points 30° apart the Rayleigh sun's elevation is off
@@ -173,7 +175,7 @@ struct QuarticFit {
 }
 
 /// A split the fit sees: |q| over this many of its 1σ.
-const SPLIT_SIGMAS: f64 = 2.0;
+const SPLIT_SIGMAS: f64 = 3.0;
 
 /// Scale of the fitted separation parameter: p₂ = Q_SCALE·q, q = sin²(s/4).
 const Q_SCALE: f64 = 100.0;
