@@ -4,9 +4,12 @@
 //! errors within 2σ; and the plot `docs/locate.svg` (RMS error against span).
 //!
 //! ```sh
-//! cargo run --release -p bpins-core --example locate_targets -- [SEEDS] [OUT.svg]
+//! cargo run --release -p bpins-core --example locate_targets -- [SEEDS] [OUT.svg] [ROW]
 //! ```
-//! (defaults 8 seeds per row, `docs/locate.svg`; a few minutes on two cores). Each
+//! (defaults 8 seeds per row, `docs/locate.svg`; a few minutes on two cores; with ROW,
+//! only the rows whose group or label contains it, and no plot). Per row, on stderr:
+//! the per-frame elevation error against its 1σ, and the share within 2σ of the same
+//! frames read as a Rayleigh sky (`sky_sun`'s step 5 left out), for comparison. Each
 //! seed draws the longitude, the camera's heading, the start (09:00–11:00 local solar
 //! time) and the noise; the day is drawn too except in the season rows. Camera: the
 //! samples' 8 mm pinhole field of view on a 306 × 256 DoFP sensor (27.6 µm), 12-bit,
