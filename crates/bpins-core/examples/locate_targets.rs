@@ -4,9 +4,12 @@
 //! errors within 2σ; and the plot `docs/locate.svg` (RMS error against span).
 //!
 //! ```sh
-//! cargo run --release -p bpins-core --example locate_targets -- [SEEDS] [OUT.svg]
+//! cargo run --release -p bpins-core --example locate_targets -- [SEEDS] [OUT.svg] [ROW]
 //! ```
-//! (defaults 8 seeds per row, `docs/locate.svg`; a few minutes on two cores). Each
+//! (defaults 8 seeds per row, `docs/locate.svg`; a few minutes on two cores; with ROW,
+//! only the rows whose group or label contains it, and no plot). Per row, on stderr:
+//! the per-frame elevation error against its 1σ, and the share within 2σ of the same
+//! frames read as a Rayleigh sky (`sky_sun`'s step 5 left out), for comparison. Each
 //! seed draws the longitude, the camera's heading, the start (09:00–11:00 local solar
 //! time) and the noise; the day is drawn too except in the season rows. Camera: the
 //! samples' 8 mm pinhole field of view on a 306 × 256 DoFP sensor (27.6 µm), 12-bit,
@@ -63,6 +66,12 @@ impl Row {
 struct Stats {
     errs: [Vec<(f64, f64)>; 3],
     refused: usize,
+    /// Per frame: the sky's sun elevation error, its 1σ and the Rayleigh fit's error;
+    /// the quartic sky's separation, degrees.
+    elevation: Vec<(f64, f64, f64)>,
+    separation: Vec<f64>,
+    /// As `errs`, the frames read as a Rayleigh sky.
+    rayleigh: [Vec<(f64, f64)>; 3],
 }
 
 impl Stats {
@@ -71,14 +80,18 @@ impl Stats {
         (e.iter().map(|x| x.0 * x.0).sum::<f64>() / e.len().max(1) as f64).sqrt()
     }
     fn within(&self, k: usize) -> f64 {
-        let e = &self.errs[k];
-        e.iter().filter(|x| x.0.abs() <= 2.0 * x.1).count() as f64 / e.len().max(1) as f64
+        within(&self.errs[k])
     }
     fn median_sigma(&self, k: usize) -> f64 {
         let mut s: Vec<f64> = self.errs[k].iter().map(|x| x.1).collect();
         s.sort_by(f64::total_cmp);
         s.get(s.len() / 2).copied().unwrap_or(f64::NAN)
     }
+}
+
+/// The share of errors within 2σ.
+fn within(e: &[(f64, f64)]) -> f64 {
+    e.iter().filter(|x| x.0.abs() <= 2.0 * x.1).count() as f64 / e.len().max(1) as f64
 }
 
 fn base() -> Capture {
@@ -144,6 +157,14 @@ fn run(row: &Row, seeds: u64) -> Result<Stats, Box<dyn std::error::Error>> {
         let field = (!field.is_empty()).then_some(field);
         let (c, data) = s.simulate(&base(), &row.model, field.as_ref(), &attitude, &SimSensor::samples(seed))?;
         let frames = measure_data(&c, &data, &Model::default(), &FieldOptions::default())?;
+        let (truth, _) = s.frames("png")?;
+        for (f, t) in frames.iter().zip(&truth) {
+            if let Ok(sun) = &f.sun {
+                let e = sun.elevation_deg - t.sun.elevation_deg;
+                st.elevation.push((e, sun.elevation_sigma_deg, sun.rayleigh_elevation_deg - t.sun.elevation_deg));
+                st.separation.push(sun.separation_deg);
+            }
+        }
         let obs: Vec<SunObs> = frames.iter().filter_map(|f| f.obs()).collect();
         let wide = LocateOptions {
             max_heading_sigma_deg: 90.0,
@@ -151,6 +172,27 @@ fn run(row: &Row, seeds: u64) -> Result<Stats, Box<dyn std::error::Error>> {
             max_longitude_sigma_deg: 180.0,
             pole_only: false,
         };
+        // The same frames read as a Rayleigh sky (step 5 of sky_sun left out: the
+        // separation held at 0), for comparison.
+        let rayleigh: Vec<SunObs> = frames
+            .iter()
+            .filter_map(|f| {
+                let sun = f.sun.as_ref().ok()?;
+                Some(SunObs {
+                    elevation_deg: sun.rayleigh_elevation_deg,
+                    elevation_sigma_deg: sun.rayleigh_elevation_sigma_deg,
+                    elevation_nuisance_sigma_deg: 0.0,
+                    ..f.obs()?
+                })
+            })
+            .collect();
+        if let Ok(r) = locate(&rayleigh, &wide) {
+            st.rayleigh[0].push((wrap_deg_180(r.heading_deg - s.heading_deg), r.heading_sigma_deg));
+            st.rayleigh[1].push((r.latitude_deg - s.latitude_deg, r.latitude_sigma_deg));
+            if let (Some(l), Some(sl)) = (r.longitude_deg, r.longitude_sigma_deg) {
+                st.rayleigh[2].push((wrap_deg_180(l - s.longitude_deg), sl));
+            }
+        }
         match locate(&obs, &wide) {
             Ok(r) => {
                 st.errs[0].push((wrap_deg_180(r.heading_deg - s.heading_deg), r.heading_sigma_deg));
@@ -169,6 +211,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let seeds: u64 = args.next().map(|a| a.parse()).transpose()?.unwrap_or(8);
     let out = args.next().unwrap_or_else(|| "docs/locate.svg".into());
+    // Only the rows whose group or label contains this (all rows and the plot without).
+    let only = args.next();
     let mid = 45.0;
     let mut rows = vec![Row::new("target", "45° N, every 5 min for 1 h".into(), mid)];
     for span in [15.0, 30.0, 60.0, 120.0, 240.0] {
@@ -197,8 +241,33 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("| group | row | north RMS | lat RMS | lon RMS | within 2σ (N / lat / lon) | median 1σ (N / lat / lon) | refused |");
     println!("|---|---|---:|---:|---:|---|---|---:|");
     let mut span_points = Vec::new();
-    for row in &rows {
+    for row in rows
+        .iter()
+        .filter(|r| only.as_ref().is_none_or(|o| r.group.contains(o.as_str()) || r.label.contains(o.as_str())))
+    {
         let st = run(row, seeds)?;
+        let n = st.elevation.len().max(1) as f64;
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+        };
+        eprintln!(
+            "{}: per frame, elevation error RMS {:.3}° (Rayleigh's {:.3}°), {:.0} % within 2σ, median 1σ {:.3}°, median separation {:.1}°",
+            row.label,
+            (st.elevation.iter().map(|x| x.0 * x.0).sum::<f64>() / n).sqrt(),
+            (st.elevation.iter().map(|x| x.2 * x.2).sum::<f64>() / n).sqrt(),
+            100.0 * st.elevation.iter().filter(|x| x.0.abs() <= 2.0 * x.1).count() as f64 / n,
+            median(st.elevation.iter().map(|x| x.1).collect()),
+            median(st.separation.clone()),
+        );
+        eprintln!(
+            "{}: read as a Rayleigh sky, within 2σ {:.0} / {:.0} / {:.0} % over {} seeds",
+            row.label,
+            100.0 * within(&st.rayleigh[0]),
+            100.0 * within(&st.rayleigh[1]),
+            100.0 * within(&st.rayleigh[2]),
+            st.rayleigh[0].len()
+        );
         println!(
             "| {} | {} | {:.3} | {:.3} | {:.3} | {:.0} / {:.0} / {:.0} % | {:.3} / {:.3} / {:.3} | {} |",
             row.group,
@@ -218,8 +287,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             span_points.push((row.span_min, [st.rms(0), st.rms(1), st.rms(2)]));
         }
     }
-    std::fs::write(&out, svg(&span_points))?;
-    eprintln!("wrote {out}");
+    if only.is_none() {
+        std::fs::write(&out, svg(&span_points))?;
+        eprintln!("wrote {out}");
+    }
     Ok(())
 }
 

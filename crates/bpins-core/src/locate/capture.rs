@@ -33,6 +33,9 @@ impl FrameSun {
             bearing_sigma_deg: s.bearing_sigma_deg,
             elevation_deg: s.elevation_deg,
             elevation_sigma_deg: s.elevation_sigma_deg,
+            elevation_nuisance_sigma_deg: s.elevation_nuisance_sigma_deg,
+            separation_deg: s.separation_deg,
+            separation_sigma_deg: s.separation_sigma_deg,
         })
     }
 }

@@ -27,7 +27,9 @@
 //!
 //! Honest answers: a sequence with too few usable frames, or whose 1σ exceeds the
 //! asked bounds (too short a span, too cloudy), is a typed [`LocateError`], never an
-//! answer. Frame: ENU and CONVENTIONS.md's azimuths (from North toward East); the
+//! answer; where the frames' sky is not Rayleigh's (its neutral points split by more
+//! than 5° and twice their 1σ, by the frames' median: `sky_sun`'s step 5), the
+//! refusal says so ([`LocateError::NotRayleigh`]). Frame: ENU and CONVENTIONS.md's azimuths (from North toward East); the
 //! heading is the image top's azimuth at the first frame.
 //!
 //! Cannot: use frames whose sun is below the horizon or within 1° of the zenith;
@@ -79,6 +81,13 @@ pub struct SunObs {
     pub bearing_sigma_deg: f64,
     pub elevation_deg: f64,
     pub elevation_sigma_deg: f64,
+    /// What the sky's unknown neutral-point separation adds to the elevation's 1σ,
+    /// degrees: the same sky for every frame, so a bias shared by all of them.
+    pub elevation_nuisance_sigma_deg: f64,
+    /// The sky's neutral-point separation the frame's fit found and its 1σ, degrees
+    /// (0 for Rayleigh's sky; [`crate::heading::field::SkySun`]).
+    pub separation_deg: f64,
+    pub separation_sigma_deg: f64,
 }
 
 /// Bounds on the answer's 1σ past which [`locate`] says "not yet" instead.
@@ -134,6 +143,20 @@ pub enum LocateError {
          (the sequence is too short or too cloudy: take frames over a longer span)"
     )]
     TooUncertain { what: &'static str, sigma_deg: f64, limit_deg: f64, frames: usize },
+    #[error(
+        "not yet: the sky's polarization is not Rayleigh's (its neutral points {separation_deg:.0}° ± \
+         {separation_sigma_deg:.0}° apart, by the frames' median): the sun's elevation is weak in this view, and \
+         the {what}'s 1σ is {sigma_deg:.2}°, more than the {limit_deg:.2}° asked, from {frames} frames (take \
+         frames over a longer span, or with a wider view)"
+    )]
+    NotRayleigh {
+        separation_deg: f64,
+        separation_sigma_deg: f64,
+        what: &'static str,
+        sigma_deg: f64,
+        limit_deg: f64,
+        frames: usize,
+    },
     #[error("the fit did not converge: {0}")]
     Solver(String),
     #[error("relative yaw: {0}")]
@@ -159,12 +182,45 @@ pub fn locate(obs: &[SunObs], opts: &LocateOptions) -> Result<Located, LocateErr
         if let Some(s) = sigma {
             #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN 1σ must be refused too
             if !(s <= limit) {
-                return Err(LocateError::TooUncertain { what, sigma_deg: s, limit_deg: limit, frames: obs.len() });
+                let frames = obs.len();
+                return Err(match non_rayleigh(obs) {
+                    Some((separation_deg, separation_sigma_deg)) => LocateError::NotRayleigh {
+                        separation_deg,
+                        separation_sigma_deg,
+                        what,
+                        sigma_deg: s,
+                        limit_deg: limit,
+                        frames,
+                    },
+                    None => LocateError::TooUncertain { what, sigma_deg: s, limit_deg: limit, frames },
+                });
             }
         }
     }
     Ok(r)
 }
+
+/// The frames' median neutral-point separation and median 1σ where the sky is not
+/// Rayleigh's: the median |separation| over 5° and over twice its 1σ.
+fn non_rayleigh(obs: &[SunObs]) -> Option<(f64, f64)> {
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let sep = median(obs.iter().map(|o| o.separation_deg).collect());
+    let sigma = median(obs.iter().map(|o| o.separation_sigma_deg).collect());
+    (sep.abs() > NON_RAYLEIGH_DEG && sep.abs() > 2.0 * sigma).then_some((sep, sigma))
+}
+
+/// A frame's share of the elevation bias every frame may carry alike, degrees: its
+/// 1σ with what the sky's unknown neutral-point separation adds (the same sky for
+/// every frame; `sky_sun`'s step 5).
+pub(crate) fn shared_elevation_sigma(o: &SunObs) -> f64 {
+    o.elevation_sigma_deg.hypot(o.elevation_nuisance_sigma_deg)
+}
+
+/// A neutral-point separation past which a refusal names the sky, degrees.
+const NON_RAYLEIGH_DEG: f64 = 5.0;
 
 /// The 3 × 3 covariance of a least-squares fit from the Jacobian `j` (rows: whitened
 /// residuals), inflated by `max(1, χ²/dof)`; `None` where JᵀJ is singular.
@@ -280,4 +336,46 @@ pub(crate) fn levenberg_marquardt(
     }
     let j = jac(&p)?;
     Some((p, c, j))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An hour of exact suns at 45° N every 5 min, each with a 1° elevation 1σ and the
+    /// given neutral-point separation.
+    fn hour(separation_deg: f64) -> Vec<SunObs> {
+        (0..13)
+            .filter_map(|i| {
+                let t = 1_778_400_000.0 + 300.0 * i as f64;
+                let (a, h) = SunModel::sun(t, 45.0, 15.0)?;
+                Some(SunObs {
+                    time_unix_s: Some(t),
+                    yaw_deg: 0.0,
+                    yaw_sigma_deg: 0.0,
+                    bearing_deg: crate::conventions::wrap_deg_360(a - 30.0),
+                    bearing_sigma_deg: 0.05,
+                    elevation_deg: h,
+                    elevation_sigma_deg: 1.0,
+                    elevation_nuisance_sigma_deg: 0.5,
+                    separation_deg,
+                    separation_sigma_deg: 2.0,
+                })
+            })
+            .collect()
+    }
+
+    /// A 1σ over the bounds is refused as too short a span on a Rayleigh sky, and as
+    /// a sky that is not Rayleigh's where the frames' neutral points are split.
+    #[test]
+    fn a_refusal_names_a_sky_that_is_not_rayleighs() {
+        let strict = LocateOptions { max_latitude_sigma_deg: 0.01, ..LocateOptions::default() };
+        let e = locate(&hour(0.0), &strict).unwrap_err();
+        assert!(matches!(e, LocateError::TooUncertain { what: "latitude", .. }), "{e}");
+        let e = locate(&hour(28.0), &strict).unwrap_err();
+        assert!(matches!(e, LocateError::NotRayleigh { what: "latitude", .. }), "{e}");
+        assert!(e.to_string().contains("not Rayleigh's (its neutral points 28° ± 2° apart"), "{e}");
+        // Within the bounds, the answer stands whatever the sky.
+        assert!(locate(&hour(28.0), &LocateOptions::default()).is_ok());
+    }
 }

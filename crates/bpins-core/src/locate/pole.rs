@@ -93,7 +93,7 @@ pub(crate) fn solve_pole(obs: &[SunObs]) -> Result<Located, LocateError> {
         None => vec![f64::NAN; obs.len()],
     };
     if sigma_i.iter().all(|x| x.is_finite()) {
-        let mut el_sigma: Vec<f64> = obs.iter().map(|o| o.elevation_sigma_deg).collect();
+        let mut el_sigma: Vec<f64> = obs.iter().map(super::shared_elevation_sigma).collect();
         el_sigma.sort_by(f64::total_cmp);
         let v_el: Vec<f64> = obs
             .iter()
@@ -157,6 +157,9 @@ mod tests {
                         bearing_sigma_deg: 0.05,
                         elevation_deg: h,
                         elevation_sigma_deg: 0.05,
+                        elevation_nuisance_sigma_deg: 0.0,
+                        separation_deg: 0.0,
+                        separation_sigma_deg: 1.0,
                     })
                 })
                 .collect();

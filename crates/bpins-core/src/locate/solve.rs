@@ -48,8 +48,9 @@ pub(crate) fn solve_stamped(obs: &[SunObs]) -> Result<Located, LocateError> {
     let (mut cov, chi2_per_dof) =
         covariance(&j, c).ok_or_else(|| LocateError::Solver("the frames do not determine the place".into()))?;
     // The elevations may share a bias (the estimator's own, a lens or sky error that
-    // every frame sees alike) of about one frame's 1σ: the median's.
-    let mut el_sigma: Vec<f64> = obs.iter().map(|o| o.elevation_sigma_deg).collect();
+    // every frame sees alike) of about one frame's 1σ with the sky's unknown
+    // neutral-point separation's part: the median's.
+    let mut el_sigma: Vec<f64> = obs.iter().map(super::shared_elevation_sigma).collect();
     el_sigma.sort_by(f64::total_cmp);
     let shared = el_sigma[el_sigma.len() / 2];
     let v: Vec<f64> = obs.iter().flat_map(|o| [0.0, 1.0 / o.elevation_sigma_deg.max(1e-6)]).collect();
