@@ -35,8 +35,6 @@ pub enum Error {
     UnknownElementParam { element: String, param: String, known: String },
     #[error("scene parameter `{spec}`: {message}")]
     BadSceneParam { spec: String, message: String },
-    #[error("invalid model: {0}")]
-    Model(String),
     /// A value of a request or a simulation outside the range it must lie in: what
     /// it is, the value as given (with its unit) and the range.
     #[error("{what} {value}: must lie in {range}")]
@@ -109,7 +107,7 @@ mod tests {
         };
         assert_eq!(e.to_string(), "/nonexistent/calibration.toml");
         assert_eq!(full_message(&e), "/nonexistent/calibration.toml: entity not found");
-        let plain = Error::Model("no".into());
-        assert_eq!(full_message(&plain), "invalid model: no");
+        let plain = Error::NotInModel { effect: "crosstalk".into() };
+        assert_eq!(full_message(&plain), "crosstalk is not in the model");
     }
 }

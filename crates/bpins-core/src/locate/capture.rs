@@ -85,7 +85,7 @@ pub fn measure_data(
     opts: &FieldOptions,
 ) -> Result<Vec<FrameSun>, LocateError> {
     if data.len() != c.frames.len() {
-        return Err(LocateError::Core(crate::Error::Model(format!(
+        return Err(LocateError::Core(crate::Error::FrameMismatch(format!(
             "{} frames of data for {} frames",
             data.len(),
             c.frames.len()

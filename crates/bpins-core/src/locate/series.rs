@@ -81,17 +81,24 @@ impl Series {
     /// `frames/fNNN.<ext>`. Errors on a bad time, place, step or span.
     pub fn frames(&self, ext: &str) -> Result<(Vec<FrameSpec>, Vec<FrameSpec>)> {
         if !(self.every_s > 0.0 && self.every_s.is_finite() && self.span_s >= 0.0 && self.span_s.is_finite()) {
-            return Err(Error::Model(format!(
-                "a series needs a frame interval > 0 and a span ≥ 0 (got every {} s over {} s)",
-                self.every_s, self.span_s
-            )));
+            return Err(Error::OutOfRange {
+                what: "a series' frame interval and span".into(),
+                value: format!("every {} s over {} s", self.every_s, self.span_s),
+                range: "an interval > 0 s and a span ≥ 0 s".into(),
+            });
         }
         let n = (self.span_s / self.every_s + 1e-9).floor() as usize + 1;
         if n > 10_000 {
-            return Err(Error::Model(format!("a series of {n} frames: at most 10000")));
+            return Err(Error::OutOfRange {
+                what: "a series' frame count".into(),
+                value: n.to_string(),
+                range: "[1, 10000]".into(),
+            });
         }
         if let Some(s) = self.yaw_sigma_deg.filter(|s| !(s.is_finite() && (0.0..=45.0).contains(s))) {
-            return Err(Error::Model(format!("yaw 1σ {s}° must lie in [0°, 45°]")));
+            return Err(Error::OutOfRange {
+                what: "yaw 1σ".into(), value: format!("{s}°"), range: "[0°, 45°]".into()
+            });
         }
         let t0 = parse_time_utc(&self.start_utc)?;
         let t0_s = t0.timestamp() as f64 + f64::from(t0.timestamp_subsec_nanos()) * 1e-9;
@@ -107,7 +114,7 @@ impl Series {
                 self.yaw_sigma_deg.unwrap_or(0.0) * Draws::keyed(self.seed, YAW_TRIAL, k as u32).normal(0)
             };
             let time = chrono::DateTime::from_timestamp(t.floor() as i64, ((t - t.floor()) * 1e9) as u32)
-                .ok_or_else(|| Error::Sun(format!("time {t} s is not representable")))?
+                .ok_or_else(|| Error::Time { time: format!("time {t} s"), message: "not representable".into() })?
                 .to_rfc3339_opts(SecondsFormat::AutoSi, true);
             let frame = FrameSpec {
                 file: PathBuf::from(format!("frames/f{k:03}.{ext}")),

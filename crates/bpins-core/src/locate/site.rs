@@ -98,7 +98,7 @@ impl Site {
     /// Errs on a site without longitude (the pole route: no clock, no sun).
     pub fn sun_at(&self, time_unix_s: f64) -> Result<(f64, f64, f64)> {
         let (Some(lon), Some(s_lon)) = (self.longitude_deg, self.longitude_sigma_deg) else {
-            return Err(Error::Sun(
+            return Err(Error::Place(
                 "the site has no longitude (located by the pole route, without a clock): the sun at a time needs one"
                     .into(),
             ));
