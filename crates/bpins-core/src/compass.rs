@@ -368,7 +368,7 @@ impl Compass {
             tilt_x_deg,
             tilt_y_deg,
             tilt_sigma_deg: sigma_deg,
-            mount_tilt_deg: self.known.mount_tilt_deg,
+            mount_tilt_deg: self.known.geometry.mount_tilt_deg,
         };
         Ok(field::estimate_with(&self.cells, &ctx, &self.cfg.options, self.cfg.extractor, &mut self.scratch))
     }
