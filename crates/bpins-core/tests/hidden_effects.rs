@@ -24,7 +24,8 @@ fn run(c: &Capture, frames: &[FrameData], max_added: usize, base: FitOptions) ->
 
 /// The fit options under which the diagnosis can separate `effect` on a sky capture,
 /// from what its definition says blinds a sky capture to it (`EffectDef::inseparable`;
-/// None: none can, e.g. crosstalk on a DoFP sensor, which is then fitted alone, below).
+/// None: none can, e.g. crosstalk on a DoFP sensor, which is then fitted alone, below;
+/// likewise an effect no sky capture separates, `SkyBlindness::Always`).
 fn separating(c: &Capture, effect: &str) -> Option<FitOptions> {
     let mut o = FitOptions::default();
     for _ in 0..3 {

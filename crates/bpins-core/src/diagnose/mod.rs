@@ -108,6 +108,7 @@ pub fn inseparable(c: &Capture, opts: &FitOptions) -> Vec<(&'static str, String)
         SkyBlindness::FreeRadiance => !opts.rayleigh_radiance,
         SkyBlindness::FreeDmax => opts.fixed_dmax.is_none(),
         SkyBlindness::Dofp => matches!(c.sensor.layout, Layout::Dofp { .. }),
+        SkyBlindness::Always => true,
     };
     REGISTRY
         .iter()

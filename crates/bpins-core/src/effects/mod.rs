@@ -169,6 +169,9 @@ pub enum SkyBlindness {
     FreeDmax,
     /// On a DoFP sensor.
     Dofp,
+    /// On any sky capture: only another kind of capture (or a fit of it alone with
+    /// the sky's d_max given) measures it.
+    Always,
 }
 
 /// What the diagnosis says of an effect a sky capture cannot separate.
