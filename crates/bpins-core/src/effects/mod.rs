@@ -38,6 +38,7 @@ pub mod analyzer_incidence;
 pub mod array_rotation;
 pub mod channel_response;
 pub mod crosstalk;
+pub mod dark_signal;
 pub mod extinction_ratio;
 pub mod focal_length;
 pub mod lens_depolarization;
@@ -402,6 +403,7 @@ const ALL: &[&EffectDef] = &[
     &analyzer_incidence::EFFECT,
     &channel_response::EFFECT,
     &crosstalk::EFFECT,
+    &dark_signal::EFFECT,
     &sensor_nonlinearity::EFFECT,
 ];
 
