@@ -48,6 +48,9 @@ fn main() {
     }
     shared += &ray_dispatch::ray_effects_wgsl(&ray_dispatch::ray_effects_in(&effects));
     shared += &ray_dispatch::analyzer_effects_wgsl(&ray_dispatch::analyzer_effects_in(&effects));
+    shared += &ray_dispatch::sky_effects_wgsl(&ray_dispatch::sky_effects_in(&effects));
+    shared += &ray_dispatch::sensor_effects_wgsl(&ray_dispatch::sensor_effects_in(&effects));
+    shared += &ray_dispatch::mosaic_effects_wgsl(&ray_dispatch::mosaic_effects_in(&effects));
     let mut failures = Vec::new();
     for k in wgsl_files(&root.join("kernels")) {
         println!("cargo:rerun-if-changed={}", k.display());

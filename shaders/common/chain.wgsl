@@ -3,16 +3,19 @@
 // order and step comments. The host builds FrameParams from the CPU's ChainFrame
 // (crates/bpins-gpu/src/params.rs; keep the two structs in sync, a test checks the
 // layout). Effects folded on the host (principal_point, mount_tilt, array_rotation,
-// channel_response) arrive inside these fields; the per-pixel effects of the registry
-// arrive as one vector each in `ray` and run in `ray_effects`, which is generated from
-// the registry (crates/bpins-gpu/src/ray_dispatch.rs) with `RAY_COUNT`.
+// channel_response) arrive inside these fields; the hooks of the registry (sky, per-pixel,
+// analyzer, sensor and mosaic effects) arrive as one vector each in `sky`, `ray`,
+// `analyzer`, `sensor` and `mosaic_fx` and run in `sky_effects`, `ray_effects`,
+// `analyzer_effects`, `sensor_effects` and `mosaic_effects`, which are generated from
+// the registry (crates/bpins-gpu/src/ray_dispatch.rs) with their counts.
 //
 // pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β      camera frame
-//   sky_stokes (or sky_neutral_points) → sky_dolp_shape → ray_effects (lens_diattenuation → lens_retardance
-//   → lens_depolarization → vignetting → …, registry order) → meridional_to_image
-//   → analyzer_effects (the pixel's own analyzer: polarimetric_nonuniformity, …) → analyzer_intensity
-//   → × g(1 + gain_k) → sensor_dn (PRNU, non-linearity, offsets, DSNU, read + shot noise,
-//   rounding)
+//   sky_stokes → sky_effects (sky_neutral_points → sky_dolp_shape → …) → ray_effects
+//   (lens_diattenuation → lens_retardance → lens_depolarization → vignetting → …,
+//   registry order) → meridional_to_image → analyzer_effects (the pixel's own analyzer:
+//   polarimetric_nonuniformity, …) → analyzer_intensity → × g(1 + gain_k)
+//   → mosaic_effects (crosstalk, …) → sensor_dn (PRNU, sensor_effects (non-linearity, …),
+//   offsets, DSNU, read + shot noise, rounding)
 
 // Keep in sync with `FrameParams` in crates/bpins-gpu/src/params.rs.
 struct FrameParams {
@@ -25,17 +28,13 @@ struct FrameParams {
     gain_dn: Wide4,    // DN per unit radiance g·(1 + gain_k)
     offset_dn: Wide4,  // black level + offset_k, DN
     noise: Wide4,      // read_noise_dn, system_gain_dn_per_e, dsnu_dn, prnu
-    adc: Wide4,        // quantize (0/1), full_scale_dn, non-linearity β (sensor_nonlinearity), 0
-    mosaic: Wide4,     // crosstalk c (DoFP), analyzer effects on (0/1), 0, 0
-    np_east: Wide4,    // sky_neutral_points: world East in the camera frame, on (0/1)
-    np_north: Wide4,   //   world North, 0
-    np_up: Wide4,      //   world Up, 0
-    np_half01: Wide4,  //   (cos θ_P/2, sin θ_P/2) of the sun's pair
-    np_half23: Wide4,  //   and of the anti-sun's pair
-    np_eia: Wide4,     //   cos A, sin A, 0, 0
-    sky_shape: Wide4,  // sky_dolp_shape: diffuse share t (0: off), 0, 0, 0
+    adc: Wide4,        // quantize (0/1), full_scale_dn, 0, 0
+    mosaic: Wide4,     // mosaic effects on (0/1; DoFP), analyzer effects on (0/1), 0, 0
+    sky: array<array<Wide4, 5>, SKY_COUNT>, // sky effects' vectors, registry order
     ray: array<Wide4, RAY_COUNT>, // per-pixel effects' vectors, registry order
     analyzer: array<array<Wide4, 2>, ANALYZER_COUNT>, // analyzer effects' vectors, registry order
+    sensor: array<Wide4, SENSOR_COUNT>, // sensor effects' vectors, registry order
+    mosaic_fx: array<Wide4, MOSAIC_COUNT>, // mosaic effects' vectors, registry order
     key: vec4<u32>,    // temporal noise key of this frame
     fixed_key: vec4<u32>, // fixed-pattern key of this trial
 }
@@ -44,9 +43,13 @@ struct ChainFrame {
     intr: Intrinsics,
     sun_cam: vec3<f64>,
     dmax: f64,
+    sky: array<array<vec4<f64>, 5>, SKY_COUNT>,
     ray: array<vec4<f64>, RAY_COUNT>,
     analyzer: array<array<vec4<f64>, 2>, ANALYZER_COUNT>,
     analyzer_on: bool,
+    sensor: array<vec4<f64>, SENSOR_COUNT>,
+    mosaic_fx: array<vec4<f64>, MOSAIC_COUNT>,
+    mosaic_on: bool,
     cos2t: vec4<f64>,
     sin2t: vec4<f64>,
     eps: vec4<f64>,
@@ -55,11 +58,6 @@ struct ChainFrame {
     noise: vec4<f64>,
     quantize: bool,
     full_scale_dn: f64,
-    crosstalk: f64,
-    nonlinearity: f64,
-    neutral_on: bool,
-    neutral: NeutralPoints,
-    diffuse: f64,
     key: vec4<u32>,
     fixed_key: vec4<u32>,
 }
@@ -77,15 +75,27 @@ fn chain_frame(p: FrameParams) -> ChainFrame {
     for (var k = 0u; k < ANALYZER_COUNT; k++) {
         analyzer[k] = array<vec4<f64>, 2>(wide(wide_analyzer[k][0]), wide(wide_analyzer[k][1]));
     }
-    let east = wide(p.np_east);
-    let h01 = wide(p.np_half01);
-    let h23 = wide(p.np_half23);
-    let np = NeutralPoints(east.xyz, wide(p.np_north).xyz, wide(p.np_up).xyz,
-        array<vec2<f64>, 4>(h01.xy, h01.zw, h23.xy, h23.zw), wide(p.np_eia).xy);
-    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, ray, analyzer, wide(p.mosaic).y != 0.0lf,
-        wide(p.cos2t), wide(p.sin2t),
-        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, wide(p.mosaic).x, adc.z, east.w != 0.0lf, np,
-        wide(p.sky_shape).x, p.key,
+    var wide_sky = p.sky;
+    var sky: array<array<vec4<f64>, 5>, SKY_COUNT>;
+    for (var k = 0u; k < SKY_COUNT; k++) {
+        for (var j = 0u; j < 5u; j++) {
+            sky[k][j] = wide(wide_sky[k][j]);
+        }
+    }
+    var wide_sensor = p.sensor;
+    var sensor: array<vec4<f64>, SENSOR_COUNT>;
+    for (var k = 0u; k < SENSOR_COUNT; k++) {
+        sensor[k] = wide(wide_sensor[k]);
+    }
+    var wide_mosaic = p.mosaic_fx;
+    var mosaic_fx: array<vec4<f64>, MOSAIC_COUNT>;
+    for (var k = 0u; k < MOSAIC_COUNT; k++) {
+        mosaic_fx[k] = wide(wide_mosaic[k]);
+    }
+    let flags = wide(p.mosaic);
+    return ChainFrame(intrinsics_from(p.camera, p.distortion), sun.xyz, sun.w, sky, ray, analyzer, flags.y != 0.0lf,
+        sensor, mosaic_fx, flags.x != 0.0lf, wide(p.cos2t), wide(p.sin2t),
+        wide(p.eps), wide(p.gain_dn), wide(p.offset_dn), wide(p.noise), adc.x != 0.0lf, adc.y, p.key,
         p.fixed_key);
 }
 
@@ -97,17 +107,10 @@ fn pixel_stokes(f: ChainFrame, u: f64, v: f64) -> Stokes {
 
 // Stokes vector (image frame) arriving along the true ray g, noise-free.
 fn ray_stokes(f: ChainFrame, g: RayGeometry) -> Stokes {
-    // Skylight along the ray, in its meridional frame (Rayleigh, or the quartic sky).
-    var s: Stokes;
-    if (f.neutral_on) {
-        s = sky_neutral_points(f.neutral, f.sun_cam, f.dmax, g.d, g.basis);
-    } else {
-        s = sky_stokes(f.sun_cam, f.dmax, g.d, g.basis);
-    }
-    // The sky's DoLP shape (a diffuse share), where it is on.
-    if (f.diffuse != 0.0lf) {
-        s = sky_dolp_shape(f.diffuse, f.dmax, s);
-    }
+    // Skylight along the ray, in its meridional frame (Rayleigh).
+    var s = sky_stokes(f.sun_cam, f.dmax, g.d, g.basis);
+    // Sky effects (the quartic sky, the DoLP shape, …), in registry order.
+    s = sky_effects(f.sky, f.sun_cam, f.dmax, g, s);
     // Per-pixel effects (lens Mueller matrices, falloff), meridional frame, in registry order.
     s = ray_effects(f.ray, g, s);
     // Rotate from the meridional frame to the image x frame.
@@ -194,8 +197,8 @@ fn sensor_noise(f: ChainFrame, pixel: u32, ch: u32) -> SensorNoise {
 fn sensor_dn(f: ChainFrame, signal_dn: f64, ch: u32, n: SensorNoise) -> f64 {
     // Gain non-uniformity (fixed pattern).
     let sig0 = signal_dn * (1.0lf + f.noise.w * n.prnu);
-    // Non-linear response (EMVA 1288 linearity error), the identity at β = 0.
-    let sig = sensor_nonlinearity(f.nonlinearity, sig0, f.full_scale_dn);
+    // Sensor effects (the non-linear response, …), each the identity at neutral.
+    let sig = sensor_effects(f.sensor, sig0, f.full_scale_dn);
     // Black level, channel offset and offset non-uniformity (fixed pattern).
     var dn = sig + f.offset_dn[ch] + f.noise.z * n.dsnu;
     // Temporal noise: read noise plus shot noise of variance K·signal.
@@ -216,11 +219,11 @@ fn mosaic_signal_at(f: ChainFrame, u: u32, v: u32, mosaic: vec4<u32>) -> f64 {
     return site_signal_dn(f, ray_stokes(f, g), g, u, v, ch);
 }
 
-// Photo-signal of DoFP pixel (u, v) of a w × h mosaic, with crosstalk from its edge
-// neighbours where the frame has any (0 outside the sensor).
+// Photo-signal of DoFP pixel (u, v) of a w × h mosaic, with the mosaic effects (crosstalk,
+// …) and its edge neighbours where the frame has any (0 outside the sensor).
 fn mosaic_pixel_signal_dn(f: ChainFrame, u: u32, v: u32, w: u32, h: u32, mosaic: vec4<u32>) -> f64 {
     let own = mosaic_signal_at(f, u, v, mosaic);
-    if (f.crosstalk == 0.0lf) {
+    if (!f.mosaic_on) {
         return own;
     }
     var up = 0.0lf;
@@ -239,7 +242,7 @@ fn mosaic_pixel_signal_dn(f: ChainFrame, u: u32, v: u32, w: u32, h: u32, mosaic:
     if (u + 1u < w) {
         right = mosaic_signal_at(f, u + 1u, v, mosaic);
     }
-    return crosstalk(f.crosstalk, own, up, down, left, right);
+    return mosaic_effects(f.mosaic_fx, own, up, down, left, right);
 }
 
 // DN of DoFP pixel (u, v) of a w × h frame.

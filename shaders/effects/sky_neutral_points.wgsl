@@ -3,7 +3,7 @@
 //   ξ = (E + iN)/(1 + U); ω·e^{−2iA} = −4 Π (ξ c_P − s_P e^{iA}) e^{−2iA} / (1 + |ξ|²)²
 //   χ = ½ arg(ω e^{−2iA}), DoLP = d_max |ω|/(2 − |ω|), radiance as Rayleigh.
 
-// Built by chain_frame() from FrameParams.np_* (crates/bpins-gpu/src/params.rs).
+// The frame constants, from the effect's vector (NeutralPoints::to_params on the host).
 struct NeutralPoints {
     east: vec3<f64>,
     north: vec3<f64>,
@@ -16,7 +16,18 @@ fn cmul(a: vec2<f64>, b: vec2<f64>) -> vec2<f64> {
     return vec2<f64>(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x);
 }
 
-fn sky_neutral_points(np: NeutralPoints, sun: vec3<f64>, dmax: f64, view: vec3<f64>, basis: MeridionalBasis) -> Stokes {
+// The quartic sky along the ray g in place of the sky so far s where it is on (p[0].w = 1:
+// the frame's constants, NeutralPoints::to_params); s itself otherwise.
+fn sky_neutral_points(p: array<vec4<f64>, 5>, sun: vec3<f64>, dmax: f64, g: RayGeometry, s: Stokes) -> Stokes {
+    if (p[0].w == 0.0lf) {
+        return s;
+    }
+    let np = NeutralPoints(p[0].xyz, p[1].xyz, p[2].xyz, array<vec2<f64>, 4>(p[3].xy, p[3].zw, p[4].xy, p[4].zw),
+        vec2<f64>(p[1].w, p[2].w));
+    return quartic_sky(np, sun, dmax, g.d, g.basis);
+}
+
+fn quartic_sky(np: NeutralPoints, sun: vec3<f64>, dmax: f64, view: vec3<f64>, basis: MeridionalBasis) -> Stokes {
     // Radiance as Rayleigh.
     let cg = dot3(sun, view);
     let radiance = 0.5lf * (1.0lf + cg * cg);

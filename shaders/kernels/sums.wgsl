@@ -36,7 +36,7 @@ const MAX_CTX: u32 = 2u;
 // are the uniform choices of the whole dispatch: llvmpipe runs both sides of every
 // `if` under a lane mask, so a branch on a uniform value still costs its untaken side;
 // a constant removes it at compile time.
-// The samples: 0 DoFP superpixels without crosstalk, 1 DoFP with crosstalk, 2 colocated.
+// The samples: 0 DoFP superpixels without mosaic effects, 1 DoFP with (crosstalk, …), 2 colocated.
 override SUMS_LAYOUT: u32 = 0u;
 // 1: every context puts every sample on the same assumed ray (the host checked the
 // cameras, distortions and grids), so the geometry is computed once for all.
@@ -73,8 +73,8 @@ struct Sample {
     ok: bool,
 }
 
-// DN of DoFP pixel (u, v): mosaic_pixel_dn (chain.wgsl). Without crosstalk (the frame's
-// c = 0, SUMS_LAYOUT 0) that is its own pixel's signal through the sensor, the same
+// DN of DoFP pixel (u, v): mosaic_pixel_dn (chain.wgsl). Without mosaic effects (the frame's
+// flag off, SUMS_LAYOUT 0) that is its own pixel's signal through the sensor, the same
 // calls without the neighbours' branch (which llvmpipe would run, masked).
 fn tile_pixel_dn(f: ChainFrame, u: u32, v: u32, w: u32, h: u32, mosaic: vec4<u32>) -> f64 {
     if (SUMS_LAYOUT == 1u) {

@@ -100,10 +100,10 @@ impl Calibration {
         self.pixels.as_ref()?;
         let m = self.model();
         let d = Model::default();
-        let clash = m.analyzer_delta_deg != d.analyzer_delta_deg
-            || m.analyzer_eps != d.analyzer_eps
-            || m.channel_gain != d.channel_gain
-            || m.channel_offset_dn != d.channel_offset_dn;
+        let clash = m.channels.analyzer_delta_deg != d.channels.analyzer_delta_deg
+            || m.channels.analyzer_eps != d.channels.analyzer_eps
+            || m.channels.gain != d.channels.gain
+            || m.channels.offset_dn != d.channels.offset_dn;
         clash.then(|| {
             "per-pixel maps ([pixels]) replace the analyzer and channel effects (analyzer_angles, \
              extinction_ratio, channel_response, array_rotation); give one or the other"

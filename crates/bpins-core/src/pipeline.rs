@@ -57,7 +57,7 @@ pub(crate) fn heading_context(c: &Capture, f: &FrameSpec, known: &Model) -> Head
     );
     ctx.tilt_x_deg = f.tilt_x_deg.unwrap_or(0.0);
     ctx.tilt_y_deg = f.tilt_y_deg.unwrap_or(0.0);
-    ctx.mount_tilt_deg = known.mount_tilt_deg;
+    ctx.mount_tilt_deg = known.geometry.mount_tilt_deg;
     ctx.lens_rho2 = crate::effects::lens_diattenuation::rho2(known);
     ctx
 }

@@ -43,7 +43,11 @@ impl Reconstructor {
             return Err(Error::Analyzers(format!("Stokes needs at least 3 analyzer channels, got {}", ch.len())));
         }
         let a_row = |c: Channel| {
-            let a = Analyzer::at(c.angle_deg(), model.analyzer_delta_deg[c.index()], model.analyzer_eps[c.index()]);
+            let a = Analyzer::at(
+                c.angle_deg(),
+                model.channels.analyzer_delta_deg[c.index()],
+                model.channels.analyzer_eps[c.index()],
+            );
             DVec3::new(0.5 * (1.0 + a.eps), 0.5 * (1.0 - a.eps) * a.cos2t, 0.5 * (1.0 - a.eps) * a.sin2t)
         };
         let rows_a: Vec<DVec3> = ch.iter().map(|&c| a_row(c)).collect();
@@ -86,8 +90,8 @@ impl Reconstructor {
         }
         Ok(Reconstructor {
             rows,
-            inv_gain: model.channel_gain.map(|g| 1.0 / g),
-            offset_dn: model.channel_offset_dn.map(|o| o + black_level_dn),
+            inv_gain: model.channels.gain.map(|g| 1.0 / g),
+            offset_dn: model.channels.offset_dn.map(|o| o + black_level_dn),
         })
     }
 
@@ -377,7 +381,7 @@ mod tests {
 
     fn channels_of(s: Stokes, rec_model: &Model) -> [f64; 4] {
         Channel::ALL.map(|c| {
-            let a = Analyzer::at(c.angle_deg(), rec_model.analyzer_delta_deg[c.index()], 0.0);
+            let a = Analyzer::at(c.angle_deg(), rec_model.channels.analyzer_delta_deg[c.index()], 0.0);
             crate::stokes::analyzer_intensity(s, &a)
         })
     }

@@ -104,7 +104,7 @@ fn mosaic_signal_row(
 ) {
     let chans = |v: usize| [0, 1].map(|u| Layout::dofp_channel(mosaic, u, v).index());
     let w = out.len();
-    if f.crosstalk == 0.0 {
+    if !f.has_mosaic_effects() {
         signal_row(f, v as f64, chans(v), out);
         return;
     }
@@ -120,7 +120,7 @@ fn mosaic_signal_row(
     for (u, o) in out.iter_mut().enumerate() {
         let left = if u > 0 { xt.own[u - 1] } else { 0.0 };
         let right = if u + 1 < w { xt.own[u + 1] } else { 0.0 };
-        *o = crate::effects::crosstalk::crosstalk(f.crosstalk, xt.own[u], xt.up[u], xt.down[u], left, right);
+        *o = crate::chain::mosaic_effects(&f.mosaic, &f.active.mosaic, xt.own[u], [xt.up[u], xt.down[u], left, right]);
     }
 }
 

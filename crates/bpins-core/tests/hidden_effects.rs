@@ -14,7 +14,7 @@ mod common;
 
 use bpins_core::capture::{Capture, FrameData};
 use bpins_core::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
-use bpins_core::effects::{EffectSet, REGISTRY};
+use bpins_core::effects::{find, EffectSet, SkyBlindness, REGISTRY};
 use bpins_core::fit::FitOptions;
 use common::{seed_of, simulate, small_capture, small_colocated_capture, typical, DMAX};
 
@@ -22,16 +22,20 @@ fn run(c: &Capture, frames: &[FrameData], max_added: usize, base: FitOptions) ->
     diagnose(c, frames, &DiagnoseOptions { base, max_added, ..Default::default() }, &|_| {}).unwrap()
 }
 
-/// The fit options under which the diagnosis can separate `effect` on a sky capture
-/// (None: none can; crosstalk is then fitted alone, below).
+/// The fit options under which the diagnosis can separate `effect` on a sky capture,
+/// from what its definition says blinds a sky capture to it (`EffectDef::inseparable`;
+/// None: none can, e.g. crosstalk on a DoFP sensor, which is then fitted alone, below;
+/// likewise an effect no sky capture separates, `SkyBlindness::Always`).
 fn separating(c: &Capture, effect: &str) -> Option<FitOptions> {
     let mut o = FitOptions::default();
     for _ in 0..3 {
-        match inseparable(c, &o).iter().find(|(e, _)| *e == effect).map(|x| x.0) {
-            Some("vignetting" | "stray_light") => o.rayleigh_radiance = true,
-            Some("sky_depolarization") => o.fixed_dmax = Some(DMAX),
-            Some(_) => return None,
-            None => return Some(o),
+        if !inseparable(c, &o).iter().any(|(e, _)| *e == effect) {
+            return Some(o);
+        }
+        match find(effect).unwrap().inseparable.map(|i| i.when) {
+            Some(SkyBlindness::FreeRadiance) => o.rayleigh_radiance = true,
+            Some(SkyBlindness::FreeDmax) => o.fixed_dmax = Some(DMAX),
+            _ => return None,
         }
     }
     None

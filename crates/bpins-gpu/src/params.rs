@@ -10,7 +10,7 @@
 use crate::{GpuError, Result};
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::chain::ChainFrame;
-use bpins_core::effects::{ANALYZER_COUNT, RAY_COUNT};
+use bpins_core::effects::{ANALYZER_COUNT, MOSAIC_COUNT, RAY_COUNT, SENSOR_COUNT, SKY_COUNT, SKY_WIDTH};
 use bpins_core::heading::HeadingContext;
 use bpins_core::recon::Reconstructor;
 use bpins_core::sensor::Channel;
@@ -70,22 +70,25 @@ pub struct FrameParams {
     pub gain_dn: Wide4,
     pub offset_dn: Wide4,
     pub noise: Wide4,
+    /// (quantize (0/1), full_scale_dn, 0, 0).
     pub adc: Wide4,
+    /// (mosaic effects on (0/1), analyzer effects on (0/1), 0, 0).
     pub mosaic: Wide4,
-    pub np_east: Wide4,
-    pub np_north: Wide4,
-    pub np_up: Wide4,
-    pub np_half01: Wide4,
-    pub np_half23: Wide4,
-    pub np_eia: Wide4,
-    /// (t, 0, 0, 0): `sky_dolp_shape`'s diffuse share (0: off).
-    pub sky_shape: Wide4,
+    /// The sky effects' vectors in registry order (`ChainFrame::sky`), WGSL
+    /// `array<array<Wide4, 5>, SKY_COUNT>`.
+    pub sky: [[Wide4; SKY_WIDTH]; SKY_COUNT],
     /// The per-pixel effects' vectors in registry order (`ChainFrame::ray`), WGSL
     /// `array<Wide4, RAY_COUNT>`: sized by the registry, filled without naming an effect.
     pub ray: [Wide4; RAY_COUNT],
     /// The analyzer effects' vectors in registry order (`ChainFrame::analyzer`), WGSL
     /// `array<array<Wide4, 2>, ANALYZER_COUNT>`.
     pub analyzer: [[Wide4; 2]; ANALYZER_COUNT],
+    /// The sensor effects' vectors in registry order (`ChainFrame::sensor`), WGSL
+    /// `array<Wide4, SENSOR_COUNT>`.
+    pub sensor: [Wide4; SENSOR_COUNT],
+    /// The mosaic effects' vectors in registry order (`ChainFrame::mosaic`), WGSL
+    /// `array<Wide4, MOSAIC_COUNT>`.
+    pub mosaic_fx: [Wide4; MOSAIC_COUNT],
     pub key: [u32; 4],
     pub fixed_key: [u32; 4],
 }
@@ -114,23 +117,18 @@ impl TryFrom<&ChainFrame> for FrameParams {
             gain_dn: Wide4::new(f.gain_dn),
             offset_dn: Wide4::new(f.offset_dn),
             noise: Wide4::new([r.read_noise_dn, r.system_gain_dn_per_e, r.dsnu_dn, r.prnu]),
-            adc: Wide4::new([if r.quantize { 1.0 } else { 0.0 }, r.full_scale_dn(), f.nonlinearity, 0.0]),
-            mosaic: Wide4::new([f.crosstalk, if f.has_analyzer_effects() { 1.0 } else { 0.0 }, 0.0, 0.0]),
-            np_east: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.east.x, n.east.y, n.east.z, 1.0])),
-            np_north: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.north.x, n.north.y, n.north.z, 0.0])),
-            np_up: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.up.x, n.up.y, n.up.z, 0.0])),
-            np_half01: f.neutral.map_or_else(Wide4::default, |n| {
-                let h = n.half_angles;
-                Wide4::new([h[0][0], h[0][1], h[1][0], h[1][1]])
-            }),
-            np_half23: f.neutral.map_or_else(Wide4::default, |n| {
-                let h = n.half_angles;
-                Wide4::new([h[2][0], h[2][1], h[3][0], h[3][1]])
-            }),
-            np_eia: f.neutral.map_or_else(Wide4::default, |n| Wide4::new([n.eia[0], n.eia[1], 0.0, 0.0])),
-            sky_shape: Wide4::new([f.diffuse, 0.0, 0.0, 0.0]),
+            adc: Wide4::new([if r.quantize { 1.0 } else { 0.0 }, r.full_scale_dn(), 0.0, 0.0]),
+            mosaic: Wide4::new([
+                if f.has_mosaic_effects() { 1.0 } else { 0.0 },
+                if f.has_analyzer_effects() { 1.0 } else { 0.0 },
+                0.0,
+                0.0,
+            ]),
+            sky: f.sky.map(|p| p.map(Wide4::new)),
             ray: f.ray.map(Wide4::new),
             analyzer: f.analyzer.map(|p| [Wide4::new([p[0], p[1], p[2], p[3]]), Wide4::new([p[4], p[5], p[6], p[7]])]),
+            sensor: f.sensor.map(Wide4::new),
+            mosaic_fx: f.mosaic.map(Wide4::new),
             key: f.key.0,
             fixed_key: f.fixed_key.0,
         })
@@ -268,8 +266,8 @@ mod tests {
             "render",
             FrameParams,
             [
-                camera, distortion, sun, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, mosaic, np_east, np_north,
-                np_up, np_half01, np_half23, np_eia, sky_shape, ray, analyzer, key, fixed_key
+                camera, distortion, sun, cos2t, sin2t, eps, gain_dn, offset_dn, noise, adc, mosaic, sky, ray, analyzer,
+                sensor, mosaic_fx, key, fixed_key
             ]
         );
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);

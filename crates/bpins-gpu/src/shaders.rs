@@ -4,8 +4,10 @@
 //! same modules with naga (a test checks the two assemble the same text).
 
 use crate::precision::Precision;
-use crate::ray_dispatch::{analyzer_effects_wgsl, ray_effects_wgsl};
-use bpins_core::effects::{ANALYZER_EFFECTS, RAY_EFFECTS, REGISTRY};
+use crate::ray_dispatch::{
+    analyzer_effects_wgsl, mosaic_effects_wgsl, ray_effects_wgsl, sensor_effects_wgsl, sky_effects_wgsl,
+};
+use bpins_core::effects::{ANALYZER_EFFECTS, MOSAIC_EFFECTS, RAY_EFFECTS, REGISTRY, SENSOR_EFFECTS, SKY_EFFECTS};
 
 /// The shared WGSL files, in file-name order (as build.rs reads them).
 const COMMON: &[(&str, &str)] = &[
@@ -50,6 +52,11 @@ pub fn module_source(kernel: &str) -> Option<String> {
     src += &ray_effects_wgsl(&RAY_EFFECTS.map(|e| e.name));
     // The analyzer effects in chain order, each with its slot of FrameParams::analyzer.
     src += &analyzer_effects_wgsl(&ANALYZER_EFFECTS.map(|e| e.name));
+    // The sky, sensor and mosaic effects in chain order, each with its slot of
+    // FrameParams::sky, ::sensor and ::mosaic_fx.
+    src += &sky_effects_wgsl(&SKY_EFFECTS.map(|e| e.name));
+    src += &sensor_effects_wgsl(&SENSOR_EFFECTS.map(|e| e.name));
+    src += &mosaic_effects_wgsl(&MOSAIC_EFFECTS.map(|e| e.name));
     src += body;
     Some(src)
 }
@@ -132,6 +139,35 @@ mod tests {
             at += pos + call.len();
         }
         assert!(src.contains(&format!("const RAY_COUNT: u32 = {}u;", RAY_EFFECTS.len())));
+    }
+
+    #[test]
+    fn build_rs_finds_the_registry_stage_hooks_and_the_dispatch_calls_them_in_order() {
+        use crate::ray_dispatch::{mosaic_effects_in, sensor_effects_in, sky_effects_in};
+        use bpins_core::effects::EffectDef;
+        let files: Vec<(String, String)> =
+            REGISTRY.iter().filter_map(|e| e.wgsl.map(|w| (e.name.to_string(), w.to_string()))).collect();
+        let src = module_source("render").unwrap();
+        type Finder = for<'a> fn(&'a [(String, String)]) -> Vec<&'a str>;
+        let kinds: [(&[&EffectDef], Finder, &str, &str); 3] = [
+            (&SKY_EFFECTS, sky_effects_in, "SKY_COUNT", "sun, dmax, g, out"),
+            (&SENSOR_EFFECTS, sensor_effects_in, "SENSOR_COUNT", "out, full_scale_dn"),
+            (&MOSAIC_EFFECTS, mosaic_effects_in, "MOSAIC_COUNT", "out, up, down, left, right"),
+        ];
+        for (effects, find, count, args) in kinds {
+            let mut found = find(&files);
+            found.sort();
+            let mut registry: Vec<&str> = effects.iter().map(|e| e.name).collect();
+            registry.sort();
+            assert_eq!(found, registry, "{count}");
+            let mut at = 0;
+            for (k, e) in effects.iter().enumerate() {
+                let call = format!("out = {}(p[{k}], {args});", e.name);
+                let pos = src[at..].find(&call).unwrap_or_else(|| panic!("{call} missing or out of order"));
+                at += pos + call.len();
+            }
+            assert!(src.contains(&format!("const {count}: u32 = {}u;", effects.len())));
+        }
     }
 
     #[test]

@@ -69,7 +69,7 @@ impl SumsVariant {
     /// The variant for these frames and their contexts (`n_ctx` per frame).
     fn of(layout: SampleLayout, frames: &[FrameParams], heading: &[HeadingParams], n_ctx: usize) -> SumsVariant {
         let layout = match layout {
-            // Crosstalk c (FrameParams::mosaic.x) anywhere in the dispatch.
+            // A mosaic effect (crosstalk; FrameParams::mosaic.x) anywhere in the dispatch.
             SampleLayout::Superpixels { .. } => {
                 u32::from(frames.iter().any(|f| f.mosaic.hi[0] != 0.0 || f.mosaic.lo[0] != 0.0))
             }

@@ -9,8 +9,9 @@
 //! pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β       camera frame
 //!   ray_stokes(frame, ray):
 //!   sky_stokes(sun, d_max, d)        Rayleigh, meridional frame          (sky::rayleigh)
-//!    or sky_neutral_points(…)        the quartic sky, where it is on     (effects)
-//!   sky_dolp_shape(t, d_max, S)      the sky's DoLP shape, where it is on (effects)
+//!   sky_effects(p, sun, d_max, g, S) every sky effect of the registry,   (effects)
+//!                                    in its order: sky_neutral_points (the
+//!                                    quartic sky), sky_dolp_shape, …
 //!   field_stokes(field, d, basis, S) scene elements: CIE radiance, clouds, (scene)
 //!                                    sun disc, skyline — CPU only
 //!   ray_effects(ray, g, S)           every per-pixel effect of the registry, (effects)
@@ -23,28 +24,29 @@
 //!                                    polarimetric_nonuniformity, …
 //!   analyzer_intensity(S, θ_p, ε_p)  micro-polarizer of the pixel          (stokes)
 //!   × g(1 + gain_k)·G_p              photo-signal in DN                   (sensor)
-//!   sensor_dn(signal, pixel, k)      PRNU, non-linearity, offsets, DSNU, read+shot
-//!                                    noise, rounding
+//!   mosaic_effects(p, S, neighbours) DoFP: every mosaic effect (crosstalk) (effects)
+//!   sensor_dn(signal, pixel, k)      PRNU, sensor_effects (every sensor    (effects)
+//!                                    effect: sensor_nonlinearity, …), offsets,
+//!                                    DSNU, read+shot noise, rounding
 //! ```
 //!
 //! `rows.rs` maps these functions over a row of pixels as loops the compiler
 //! vectorizes, bitwise equal to calling them pixel by pixel (tested there).
 //!
 //! Effects enter through the frame's parameters ([`Model`] folded by the registry)
-//! and, for per-pixel effects, through [`ray_effects`]: the registry's per-pixel
-//! functions in registry order, each fed its slot of [`ChainFrame::ray`]. Nothing here
-//! names a per-pixel effect; the WGSL twin of `ray_effects` is generated from the same
-//! registry by `bpins-gpu`.
+//! and through the stage hooks: [`sky_effects`], [`ray_effects`], [`analyzer_effects`],
+//! [`mosaic_effects`] and [`sensor_effects`], each the registry's functions of its kind
+//! in registry order, each fed its slot of the frame's array ([`ChainFrame::sky`],
+//! `ray`, `analyzer`, `mosaic`, `sensor`). Nothing here names an effect; the WGSL twins
+//! of the hooks are generated from the same registry by `bpins-gpu`.
 
 use crate::camera::{Intrinsics, RayGeometry};
 use crate::conventions::{enu_from_az_el_deg, level_from_camera, world_from_camera};
-use crate::effects::crosstalk::crosstalk;
-use crate::effects::sensor_nonlinearity::sensor_nonlinearity;
-use crate::effects::sky_dolp_shape::sky_dolp_shape;
-use crate::effects::sky_neutral_points::{sky_neutral_points, NeutralPoints};
 use crate::effects::{
-    frame_ray_params, neutral_analyzer_params, neutral_ray_params, AnalyzerParams, FrameContext, Model, PixelAnalyzer,
-    PixelSite, RayParams, ANALYZER_COUNT, ANALYZER_FNS, RAY_COUNT, RAY_FNS,
+    frame_ray_params, frame_sky_params, neutral_analyzer_params, neutral_mosaic_params, neutral_ray_params,
+    neutral_sky_params, AnalyzerParams, FrameContext, Model, PixelAnalyzer, PixelSite, RayParams, SensorParams,
+    SkyParams, ANALYZER_COUNT, ANALYZER_FNS, MOSAIC_COUNT, MOSAIC_FNS, RAY_COUNT, RAY_FNS, SENSOR_COUNT, SENSOR_FNS,
+    SKY_COUNT, SKY_FNS,
 };
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
 use crate::scene::{field_stokes, FieldFrame, FieldScene};
@@ -89,19 +91,22 @@ pub struct ChainFrame {
     /// Unit sun direction in the true camera frame.
     pub sun_cam: DVec3,
     pub dmax: f64,
+    /// Each sky effect's vector, in registry order (`Model::sky`), completed with the
+    /// frame's context where an effect asks for it.
+    pub sky: [SkyParams; SKY_COUNT],
     /// Each per-pixel effect's vector, in registry order (`Model::ray`); the ideal
     /// chain has every slot at its effect's neutral vector.
     pub ray: [RayParams; RAY_COUNT],
     /// Each analyzer effect's vector, in registry order (`Model::analyzer`).
     pub analyzer: [AnalyzerParams; ANALYZER_COUNT],
-    /// Which of `ray` and `analyzer` are off their effect's neutral vector: the
-    /// per-pixel path skips the others (set by [`ChainFrame::new`]; after changing
-    /// `ray` or `analyzer` by hand, set it again with [`ActiveEffects::of`]).
+    /// Each sensor effect's vector, in registry order (`Model::sensor`).
+    pub sensor: [SensorParams; SENSOR_COUNT],
+    /// Each mosaic effect's vector, in registry order (`Model::mosaic`).
+    pub mosaic: [SensorParams; MOSAIC_COUNT],
+    /// Which of `sky`, `ray`, `analyzer` and `mosaic` are off their effect's neutral
+    /// vector: the per-pixel path skips the others (set by [`ChainFrame::new`]; after
+    /// changing them by hand, set it again with [`ActiveEffects::of`]).
     pub active: ActiveEffects,
-    /// The quartic sky's frame constants where `sky_neutral_points` is on.
-    pub neutral: Option<NeutralPoints>,
-    /// The sky's unpolarized diffuse share t (`sky_dolp_shape`; 0: Rayleigh's DoLP shape).
-    pub diffuse: f64,
     /// The scene elements of a field capture (`scene`), folded for this frame; `None`
     /// for the lab-clean sky. The GPU backend refuses frames that have one.
     pub field: Option<FieldFrame>,
@@ -112,10 +117,6 @@ pub struct ChainFrame {
     /// Black level plus each channel's offset, DN.
     pub offset_dn: [f64; 4],
     pub response: Response,
-    /// DoFP crosstalk c (`crosstalk`).
-    pub crosstalk: f64,
-    /// The sensor's quadratic response coefficient β (`sensor_nonlinearity`).
-    pub nonlinearity: f64,
     /// Temporal noise key of this frame; fixed-pattern key of this trial.
     pub key: FrameKey,
     pub fixed_key: FrameKey,
@@ -129,28 +130,32 @@ impl ChainFrame {
         let intr = model.camera(nominal);
         let world_from_cam = true_world_from_camera(model, scene);
         let sun_cam = world_from_cam.transpose() * enu_from_az_el_deg(scene.sun_az_deg, scene.sun_el_deg);
-        let analyzers = Channel::ALL
-            .map(|c| Analyzer::at(c.angle_deg(), model.analyzer_delta_deg[c.index()], model.analyzer_eps[c.index()]));
+        let analyzers = Channel::ALL.map(|c| {
+            Analyzer::at(
+                c.angle_deg(),
+                model.channels.analyzer_delta_deg[c.index()],
+                model.channels.analyzer_eps[c.index()],
+            )
+        });
+        let context = FrameContext { sun_cam, world_from_cam };
         ChainFrame {
             intr,
             sun_cam,
             // The sky's true peak DoLP (sky_depolarization), at most 1.
-            dmax: (scene.dmax * model.sky_dmax_factor).min(1.0),
-            // Per-pixel vectors, completed with the frame's context (the sun) where an
-            // effect asks for it.
-            ray: frame_ray_params(&model.ray, &FrameContext { sun_cam }),
+            dmax: (scene.dmax * model.sky_block.dmax_factor).min(1.0),
+            // Sky and per-pixel vectors, completed with the frame's context (the sun,
+            // the camera's axes) where an effect asks for it.
+            sky: frame_sky_params(&model.sky, &context),
+            ray: frame_ray_params(&model.ray, &context),
             analyzer: model.analyzer,
-            active: ActiveEffects::of(&model.ray, &model.analyzer),
-            neutral: (model.neutral_separation_deg != 0.0)
-                .then(|| NeutralPoints::new(&world_from_cam, sun_cam, model.neutral_separation_deg.to_radians())),
-            diffuse: model.sky_diffuse,
+            sensor: model.sensor,
+            mosaic: model.mosaic,
+            active: ActiveEffects::of(model),
             field: None,
             analyzers,
-            gain_dn: model.channel_gain.map(|g| g * response.gain_dn),
-            offset_dn: model.channel_offset_dn.map(|o| o + response.black_level_dn),
+            gain_dn: model.channels.gain.map(|g| g * response.gain_dn),
+            offset_dn: model.channels.offset_dn.map(|o| o + response.black_level_dn),
             response: *response,
-            crosstalk: model.crosstalk,
-            nonlinearity: model.nonlinearity,
             key: FrameKey::new(noise.seed, noise.trial, noise.frame),
             fixed_key: FrameKey::new(noise.seed, noise.trial, FIXED_PATTERN_FRAME),
         }
@@ -174,11 +179,16 @@ impl ChainFrame {
         f
     }
 
-    /// Whether any per-pixel step is on: the quartic sky, the sky's DoLP shape, scene
-    /// elements, or a per-pixel effect off its neutral vector (the row kernels skip
-    /// them otherwise).
+    /// Whether any per-pixel step is on: a sky effect, scene elements, or a per-pixel
+    /// effect off its neutral vector (the row kernels skip them otherwise).
     pub fn has_pixel_effects(&self) -> bool {
-        self.neutral.is_some() || self.diffuse != 0.0 || self.field.is_some() || self.ray != *neutral_ray_params()
+        self.active.sky.contains(&true) || self.field.is_some() || self.ray != *neutral_ray_params()
+    }
+
+    /// Whether any mosaic effect is on: each DoFP pixel's signal then mixes its
+    /// neighbours' ([`mosaic_pixel_signal_dn`]).
+    pub fn has_mosaic_effects(&self) -> bool {
+        self.active.mosaic.contains(&true)
     }
 
     /// Whether any analyzer effect is off its neutral vector (the row kernels use the
@@ -198,11 +208,11 @@ impl ChainFrame {
 /// tilt on its mount.
 fn true_world_from_camera(model: &Model, scene: &Scene) -> DMat3 {
     world_from_camera(scene.heading_deg, scene.tilt_x_deg, scene.tilt_y_deg)
-        * level_from_camera(model.mount_tilt_deg[0], model.mount_tilt_deg[1])
+        * level_from_camera(model.geometry.mount_tilt_deg[0], model.geometry.mount_tilt_deg[1])
 }
 
-/// Which per-pixel and analyzer effects of the registry are on in a frame: off their
-/// neutral vector. Each effect is the identity, bitwise, at its neutral vector
+/// Which sky, per-pixel, analyzer and mosaic effects of the registry are on in a
+/// frame: off their neutral vector. Each effect is the identity, bitwise, at its neutral vector
 /// (`every_registered_effect_at_neutral_gives_bitwise_the_ideal_chain`), so the
 /// per-pixel path ([`ray_stokes`], [`pixel_analyzer`]) skips the ones that are off —
 /// the same numbers, without a neutral effect's work (a die's seeded draws, a
@@ -210,19 +220,34 @@ fn true_world_from_camera(model: &Model, scene: &Scene) -> DMat3 {
 /// kernels skip them together instead (`rows.rs`); the GPU applies them all.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ActiveEffects {
+    pub sky: [bool; SKY_COUNT],
     pub ray: [bool; RAY_COUNT],
     pub analyzer: [bool; ANALYZER_COUNT],
+    pub mosaic: [bool; MOSAIC_COUNT],
 }
 
 impl ActiveEffects {
-    /// The effects of `ray` and `analyzer` (registry order) off their neutral vector.
-    /// `ray` as the model gives it: a frame's context (the sun) completes a vector
-    /// only where its effect is on.
-    pub fn of(ray: &[RayParams; RAY_COUNT], analyzer: &[AnalyzerParams; ANALYZER_COUNT]) -> Self {
-        let (nr, na) = (neutral_ray_params(), neutral_analyzer_params());
+    /// The effects of `model` (registry order) off their neutral vector, the vectors
+    /// as the model gives them: a frame's context completes a vector only where its
+    /// effect is on. (Sensor effects are applied at every pixel: no mask.)
+    pub fn of(model: &Model) -> Self {
+        let (ns, nr, na, nm) =
+            (neutral_sky_params(), neutral_ray_params(), neutral_analyzer_params(), neutral_mosaic_params());
         ActiveEffects {
-            ray: std::array::from_fn(|k| ray[k] != nr[k]),
-            analyzer: std::array::from_fn(|k| analyzer[k] != na[k]),
+            sky: std::array::from_fn(|k| model.sky[k] != ns[k]),
+            ray: std::array::from_fn(|k| model.ray[k] != nr[k]),
+            analyzer: std::array::from_fn(|k| model.analyzer[k] != na[k]),
+            mosaic: std::array::from_fn(|k| model.mosaic[k] != nm[k]),
+        }
+    }
+
+    /// Every effect applied (as the row kernels and the GPU apply them).
+    pub fn all() -> Self {
+        ActiveEffects {
+            sky: [true; SKY_COUNT],
+            ray: [true; RAY_COUNT],
+            analyzer: [true; ANALYZER_COUNT],
+            mosaic: [true; MOSAIC_COUNT],
         }
     }
 }
@@ -265,22 +290,48 @@ pub(crate) fn ray_stokes_field<const FIELD: bool>(f: &ChainFrame, g: &RayGeometr
     meridional_to_image(s, g.basis.cos2b, g.basis.sin2b)
 }
 
-/// The sky's Stokes vector along the true ray `g`, in its meridional frame: Rayleigh
-/// or the quartic sky, its DoLP shape, and (`FIELD`) the frame's scene elements.
+/// The sky's Stokes vector along the true ray `g`, in its meridional frame: Rayleigh,
+/// the sky effects that are on ([`ActiveEffects`]), and (`FIELD`) the frame's scene
+/// elements.
 #[inline(always)]
 pub(crate) fn sky_along<const FIELD: bool>(f: &ChainFrame, g: &RayGeometry) -> Stokes {
-    // Skylight along the ray, in its meridional frame (Rayleigh, or the quartic sky).
-    let s = match &f.neutral {
-        None => sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis),
-        Some(np) => sky_neutral_points(np, f.sun_cam, f.dmax, g.d, &g.basis),
-    };
-    // The sky's DoLP shape (a diffuse share), where it is on.
-    let s = if f.diffuse != 0.0 { sky_dolp_shape(f.diffuse, f.dmax, s) } else { s };
+    // Skylight along the ray, in its meridional frame (Rayleigh).
+    let s = sky_stokes(f.sun_cam, f.dmax, g.d, &g.basis);
+    // Sky effects that are on (the quartic sky, the DoLP shape, …), in registry order.
+    let s = sky_effects_where(&f.sky, &f.active.sky, f.sun_cam, f.dmax, g, s);
     // Field conditions: the scene's radiance, clouds, sun and skyline (world-fixed).
     match &f.field {
         Some(field) if FIELD => field_stokes(field, g.d, &g.basis, s),
         _ => s,
     }
+}
+
+/// Every sky effect of the registry on the sky's meridional-frame Stokes vector `s`
+/// along the ray `g` (the sun `sun`, peak DoLP `dmax`), in registry order, effect `k`
+/// with its vector `p[k]`. WGSL twin: `sky_effects`, generated from the registry
+/// (`bpins-gpu`, `ray_dispatch.rs`).
+#[inline(always)]
+pub fn sky_effects(p: &[SkyParams; SKY_COUNT], sun: DVec3, dmax: f64, g: &RayGeometry, s: Stokes) -> Stokes {
+    sky_effects_where(p, &[true; SKY_COUNT], sun, dmax, g, s)
+}
+
+/// [`sky_effects`], effect `k` applied where `on[k]` ([`ActiveEffects::sky`]).
+#[inline(always)]
+fn sky_effects_where(
+    p: &[SkyParams; SKY_COUNT],
+    on: &[bool; SKY_COUNT],
+    sun: DVec3,
+    dmax: f64,
+    g: &RayGeometry,
+    s: Stokes,
+) -> Stokes {
+    let mut s = s;
+    for k in 0..SKY_COUNT {
+        if on[k] {
+            s = SKY_FNS[k](&p[k], sun, dmax, g, s);
+        }
+    }
+    s
 }
 
 /// Every per-pixel effect of the registry on the ray `g`'s meridional-frame Stokes
@@ -364,9 +415,42 @@ pub fn site_signal_dn(f: &ChainFrame, s: Stokes, g: &RayGeometry, u: u32, v: u32
     analyzer_intensity(s, &a.analyzer) * a.gain
 }
 
+/// Every mosaic effect of the registry on a DoFP pixel's photo-signal `own` and its
+/// edge neighbours' (DN, 0 outside the sensor), in registry order, effect `k` with its
+/// vector `p[k]` where `on[k]`. WGSL twin: `mosaic_effects`, generated from the
+/// registry (`bpins-gpu`, `ray_dispatch.rs`), which applies them all.
+#[inline(always)]
+pub fn mosaic_effects(
+    p: &[SensorParams; MOSAIC_COUNT],
+    on: &[bool; MOSAIC_COUNT],
+    own: f64,
+    [up, down, left, right]: [f64; 4],
+) -> f64 {
+    let mut out = own;
+    for k in 0..MOSAIC_COUNT {
+        if on[k] {
+            out = MOSAIC_FNS[k](&p[k], out, up, down, left, right);
+        }
+    }
+    out
+}
+
+/// Every sensor effect of the registry on the photo-signal `signal_dn` (DN above the
+/// offset, after PRNU; ADC full scale `full_scale_dn`), in registry order, effect `k`
+/// with its vector `p[k]`. WGSL twin: `sensor_effects`, generated from the registry.
+#[inline(always)]
+pub fn sensor_effects(p: &[SensorParams; SENSOR_COUNT], signal_dn: f64, full_scale_dn: f64) -> f64 {
+    let mut s = signal_dn;
+    for k in 0..SENSOR_COUNT {
+        s = SENSOR_FNS[k](&p[k], s, full_scale_dn);
+    }
+    s
+}
+
 /// Photo-signal in DN of DoFP pixel `(u, v)` of a `w × h` mosaic: its own ray and
-/// analyzer (the analyzer effects at its site), then crosstalk with its edge neighbours (each through its own ray and
-/// analyzer; 0 outside the sensor) where the frame has any.
+/// analyzer (the analyzer effects at its site), then the mosaic effects with its edge
+/// neighbours (each through its own ray and analyzer; 0 outside the sensor) where the
+/// frame has any.
 pub fn mosaic_pixel_signal_dn(
     f: &ChainFrame,
     u: usize,
@@ -381,14 +465,14 @@ pub fn mosaic_pixel_signal_dn(
         site_signal_dn(f, ray_stokes(f, &g), &g, u as u32, v as u32, ch)
     };
     let own = signal(u, v);
-    if f.crosstalk == 0.0 {
+    if !f.has_mosaic_effects() {
         return own;
     }
     let up = if v > 0 { signal(u, v - 1) } else { 0.0 };
     let down = if v + 1 < h { signal(u, v + 1) } else { 0.0 };
     let left = if u > 0 { signal(u - 1, v) } else { 0.0 };
     let right = if u + 1 < w { signal(u + 1, v) } else { 0.0 };
-    crosstalk(f.crosstalk, own, up, down, left, right)
+    mosaic_effects(&f.mosaic, &f.active.mosaic, own, [up, down, left, right])
 }
 
 /// The standard normal draws one sensor sample uses (0 where the response has no
@@ -442,21 +526,27 @@ pub fn sensor_noise4(f: &ChainFrame, pixel: u32) -> [SensorNoise; 4] {
 }
 
 /// The sensor's output DN for `signal_dn` on channel `ch` with the draws `n`:
-/// PRNU, non-linearity (`sensor_nonlinearity`), offsets, DSNU, read + shot noise, then
-/// rounding and clipping (sensor.rs).
+/// PRNU, the sensor effects (`sensor_nonlinearity`, …), offsets, DSNU, read + shot
+/// noise, then rounding and clipping (sensor.rs).
 #[inline(always)]
 pub fn sensor_dn(f: &ChainFrame, signal_dn: f64, ch: usize, n: &SensorNoise) -> f64 {
-    sensor_response(&f.response, f.nonlinearity, f.offset_dn[ch], signal_dn, n)
+    sensor_response(&f.response, &f.sensor, f.offset_dn[ch], signal_dn, n)
 }
 
-/// [`sensor_dn`] with the frame's non-linearity β and the channel's offset (black
-/// level + offset_k) already looked up.
+/// [`sensor_dn`] with the frame's sensor effects' vectors and the channel's offset
+/// (black level + offset_k) already looked up.
 #[inline(always)]
-fn sensor_response(r: &Response, beta: f64, offset_dn: f64, signal_dn: f64, n: &SensorNoise) -> f64 {
+fn sensor_response(
+    r: &Response,
+    sensor: &[SensorParams; SENSOR_COUNT],
+    offset_dn: f64,
+    signal_dn: f64,
+    n: &SensorNoise,
+) -> f64 {
     // Gain non-uniformity (fixed pattern).
     let sig = signal_dn * (1.0 + r.prnu * n.prnu);
-    // Non-linear response (EMVA 1288 linearity error), the identity at β = 0.
-    let sig = sensor_nonlinearity(beta, sig, r.full_scale_dn());
+    // Sensor effects (the non-linear response, …), each the identity at neutral.
+    let sig = sensor_effects(sensor, sig, r.full_scale_dn());
     // Black level, channel offset and offset non-uniformity (fixed pattern).
     let mut dn = sig + offset_dn + r.dsnu_dn * n.dsnu;
     // Temporal noise: read noise plus shot noise of variance K·signal.
@@ -514,7 +604,7 @@ pub(crate) mod tests {
             let mut f = ideal_frame(&set.model());
             assert_eq!(f.active, ideal.active, "{} at neutral is off", e.name);
             // Applied all the same (as the row kernels and the GPU do): the identity.
-            f.active = ActiveEffects { ray: [true; RAY_COUNT], analyzer: [true; ANALYZER_COUNT] };
+            f.active = ActiveEffects::all();
             for (u, v) in [(0.0, 0.0), (305.5, 255.5), (611.0, 511.0), (17.0, 400.0)] {
                 let (a, b) = (pixel_stokes(&f, u, v), pixel_stokes(&ideal, u, v));
                 assert_eq!(a, b, "{}", e.name);

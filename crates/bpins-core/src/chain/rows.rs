@@ -211,7 +211,7 @@ pub(crate) fn sensor_dn_row(
     let draws = t.iter().zip(d).zip(p);
     for (u, ((o, &sig), ((&temporal, &dsnu), &prnu))) in out.iter_mut().zip(signal).zip(draws).enumerate() {
         let offset = if u & 1 == 0 { o0 } else { o1 };
-        *o = sensor_response(r, f.nonlinearity, offset, sig, &SensorNoise { temporal, dsnu, prnu }) as f32;
+        *o = sensor_response(r, &f.sensor, offset, sig, &SensorNoise { temporal, dsnu, prnu }) as f32;
     }
 }
 
@@ -244,7 +244,7 @@ pub(crate) fn sensor_dn4_row(
     for (o, (sig, ((t, d), p))) in out.iter_mut().zip(signal.iter().zip(t.iter().zip(d).zip(p))) {
         let dn = |ch: usize| {
             let n = SensorNoise { temporal: t[ch], dsnu: d[ch], prnu: p[ch] };
-            let dn = sensor_response(r, f.nonlinearity, f.offset_dn[ch], sig[ch], &n);
+            let dn = sensor_response(r, &f.sensor, f.offset_dn[ch], sig[ch], &n);
             if used[ch] {
                 dn
             } else {

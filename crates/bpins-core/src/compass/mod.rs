@@ -405,7 +405,7 @@ pub(crate) fn field_context(
         tilt_x_deg: attitude.tilt_x_deg,
         tilt_y_deg: attitude.tilt_y_deg,
         tilt_sigma_deg: attitude.sigma_deg,
-        mount_tilt_deg: known.mount_tilt_deg,
+        mount_tilt_deg: known.geometry.mount_tilt_deg,
     }
 }
 

@@ -45,7 +45,7 @@ pub mod remains;
 pub mod sizes;
 
 use crate::capture::{Capture, FrameData};
-use crate::effects::{EffectDef, REGISTRY};
+use crate::effects::{EffectDef, SkyBlindness, REGISTRY};
 use crate::error::Result;
 use crate::fit::uncertainty::score::score_candidates;
 use crate::fit::{fit_from, residual_maps_of, FitFrames, FitOptions, FitResult, Param};
@@ -103,44 +103,17 @@ pub const EXCESS_FRACTION: f64 = 0.5;
 /// The catalog effects a sky capture fitted under `opts` cannot separate from the
 /// fit's own nuisances, each with why and what would measure it.
 pub fn inseparable(c: &Capture, opts: &FitOptions) -> Vec<(&'static str, String)> {
-    let mut out = Vec::new();
-    if !opts.rayleigh_radiance {
-        out.push((
-            "vignetting",
-            "an intensity-only radial falloff: the sky's radiance nuisance takes the same shape (a sky brightens \
-             toward the horizon, radially for a camera looking up); a lab flat field measures it (then `--calibration FILE` holds it)"
-                .to_string(),
-        ));
-    }
-    if !opts.rayleigh_radiance {
-        out.push((
-            "stray_light",
-            "unpolarized glare toward the sun: with the sky's radiance a free nuisance (a real sky brightens toward \
-             the sun), the capture weighs the glare only against the fitted radiance, not in the sky's unit at the \
-             sun (under the CIE clear sky it is read 40 % low, measured); where the sky's radiance is known \
-             (Rayleigh's, `--rayleigh-radiance`) it is measured, or measure the lens's glare spread in the lab"
-                .to_string(),
-        ));
-    }
-    if opts.fixed_dmax.is_none() {
-        out.push((
-            "sky_depolarization",
-            "a factor on the sky's d_max, which each frame fits: give the sky's d_max (--fixed-dmax) to measure it"
-                .to_string(),
-        ));
-    }
-    if matches!(c.sensor.layout, Layout::Dofp { .. }) {
-        out.push((
-            "crosstalk",
-            format!(
-                "away from the sensor's border (not fitted) crosstalk between a pixel and its four neighbours lowers \
-                 the modulation as a lower sky DoLP does ({}); a lab capture through a polarizer measures it, or fit \
-                 it alone with the sky's d_max given (`fit --effects crosstalk --fixed-dmax D`)",
-                if opts.fixed_dmax.is_none() { "each frame's d_max" } else { "sky_depolarization" }
-            ),
-        ));
-    }
-    out
+    // Each effect's definition says when and why (`EffectDef::inseparable`).
+    let blind = |when: SkyBlindness| match when {
+        SkyBlindness::FreeRadiance => !opts.rayleigh_radiance,
+        SkyBlindness::FreeDmax => opts.fixed_dmax.is_none(),
+        SkyBlindness::Dofp => matches!(c.sensor.layout, Layout::Dofp { .. }),
+        SkyBlindness::Always => true,
+    };
+    REGISTRY
+        .iter()
+        .filter_map(|e| e.inseparable.filter(|i| blind(i.when)).map(|i| (e.name, (i.why)(opts.fixed_dmax.is_some()))))
+        .collect()
 }
 
 /// One candidate of one step.

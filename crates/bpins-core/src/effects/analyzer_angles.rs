@@ -42,10 +42,12 @@ pub const EFFECT: EffectDef = EffectDef {
     ],
     apply: Apply::Frame(apply),
     wgsl: None,
+    derivatives: &[],
+    inseparable: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {
-    for (d, x) in m.analyzer_delta_deg.iter_mut().zip(v) {
+    for (d, x) in m.channels.analyzer_delta_deg.iter_mut().zip(v) {
         *d += x;
     }
 }

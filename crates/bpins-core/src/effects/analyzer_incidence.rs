@@ -61,6 +61,8 @@ pub const EFFECT: EffectDef = EffectDef {
     ],
     apply: Apply::Analyzer { params: |v| [v[0] * v[0], v[1], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], pixel: analyzer_incidence },
     wgsl: Some(include_str!("../../../../shaders/effects/analyzer_incidence.wgsl")),
+    derivatives: &[],
+    inseparable: None,
 };
 
 /// The analyzer `a` seen along the pixel's oblique chief ray; p = (c², e2, 0, …).

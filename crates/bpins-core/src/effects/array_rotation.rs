@@ -35,10 +35,12 @@ pub const EFFECT: EffectDef = EffectDef {
     }],
     apply: Apply::Frame(apply),
     wgsl: None,
+    derivatives: &[],
+    inseparable: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {
-    for d in &mut m.analyzer_delta_deg {
+    for d in &mut m.channels.analyzer_delta_deg {
         *d += v[0];
     }
 }

@@ -24,7 +24,7 @@
 //! Cannot: non-linear response, gains that vary across the sensor (vignetting is a
 //! separate effect), or a gain on channel 0 (it is the intensity scale).
 
-use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Model, ParamDerivative, ParamSpec, Stage};
 
 /// The range a real sensor's relative channel gain has (module doc).
 const GAIN_PHYSICAL: (f64, f64) = (-0.1, 0.1);
@@ -47,14 +47,24 @@ pub const EFFECT: EffectDef = EffectDef {
     ],
     apply: Apply::Frame(apply),
     wgsl: None,
+    derivatives: &[
+        ParamDerivative::Secant,
+        ParamDerivative::Secant,
+        ParamDerivative::Secant,
+        ParamDerivative::ChannelOffset(0),
+        ParamDerivative::ChannelOffset(1),
+        ParamDerivative::ChannelOffset(2),
+        ParamDerivative::ChannelOffset(3),
+    ],
+    inseparable: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {
     for k in 1..4 {
-        m.channel_gain[k] += v[k - 1];
+        m.channels.gain[k] += v[k - 1];
     }
     for k in 0..4 {
-        m.channel_offset_dn[k] += v[3 + k];
+        m.channels.offset_dn[k] += v[3 + k];
     }
 }
 
@@ -68,7 +78,7 @@ mod tests {
         set.set("channel_response", "gain90", 0.02).unwrap();
         set.set("channel_response", "offset45_dn", -3.0).unwrap();
         let m = set.model();
-        assert_eq!(m.channel_gain, [1.0, 1.0, 1.02, 1.0]);
-        assert_eq!(m.channel_offset_dn, [0.0, -3.0, 0.0, 0.0]);
+        assert_eq!(m.channels.gain, [1.0, 1.0, 1.02, 1.0]);
+        assert_eq!(m.channels.offset_dn, [0.0, -3.0, 0.0, 0.0]);
     }
 }

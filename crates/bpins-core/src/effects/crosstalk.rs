@@ -22,7 +22,7 @@
 //! Cannot: diagonal neighbours, anisotropic crosstalk (rows ≠ columns), or crosstalk
 //! that depends on the angle of incidence.
 
-use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Inseparable, ParamSpec, SensorParams, SkyBlindness, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "crosstalk",
@@ -39,18 +39,27 @@ pub const EFFECT: EffectDef = EffectDef {
         physical: None,
         doc: "fraction of its signal a pixel gives to each edge neighbour",
     }],
-    apply: Apply::Frame(apply),
+    apply: Apply::Mosaic { params: |v| [v[0], 0.0, 0.0, 0.0], pixel: crosstalk },
     wgsl: Some(include_str!("../../../../shaders/effects/crosstalk.wgsl")),
+    derivatives: &[],
+    inseparable: Some(Inseparable {
+        when: SkyBlindness::Dofp,
+        why: |dmax_fixed| {
+            format!(
+                "away from the sensor's border (not fitted) crosstalk between a pixel and its four neighbours lowers \
+                 the modulation as a lower sky DoLP does ({}); a lab capture through a polarizer measures it, or fit \
+                 it alone with the sky's d_max given (`fit --effects crosstalk --fixed-dmax D`)",
+                if dmax_fixed { "sky_depolarization" } else { "each frame's d_max" }
+            )
+        },
+    }),
 };
 
-fn apply(v: &[f64], m: &mut Model) {
-    m.crosstalk += v[0];
-}
-
-/// A pixel's photo-signal after crosstalk, from its own and its edge neighbours'
-/// (0 for a neighbour outside the sensor).
+/// A pixel's photo-signal after crosstalk c = `p[0]`, from its own and its edge
+/// neighbours' (0 for a neighbour outside the sensor).
 #[inline(always)]
-pub fn crosstalk(c: f64, own: f64, up: f64, down: f64, left: f64, right: f64) -> f64 {
+pub fn crosstalk(p: &SensorParams, own: f64, up: f64, down: f64, left: f64, right: f64) -> f64 {
+    let c = p[0];
     (1.0 - 4.0 * c) * own + c * (up + down + left + right)
 }
 
@@ -65,9 +74,9 @@ mod tests {
 
     #[test]
     fn signal_is_conserved_inside_and_zero_strength_is_the_identity() {
-        assert_eq!(crosstalk(0.0, 3.5, 1.0, 2.0, 3.0, 4.0), 3.5);
+        assert_eq!(crosstalk(&[0.0; 4], 3.5, 1.0, 2.0, 3.0, 4.0), 3.5);
         let (c, own, n) = (0.05, 10.0, [1.0, 2.0, 3.0, 4.0]);
-        let out = crosstalk(c, own, n[0], n[1], n[2], n[3]);
+        let out = crosstalk(&[c, 0.0, 0.0, 0.0], own, n[0], n[1], n[2], n[3]);
         // What this pixel loses, its neighbours gain: 4c·own leaves, c·Σn arrives.
         assert!((out - (own - 4.0 * c * own + c * n.iter().sum::<f64>())).abs() < 1e-15);
     }

@@ -40,10 +40,12 @@ pub const EFFECT: EffectDef = EffectDef {
     ],
     apply: Apply::Frame(apply),
     wgsl: None,
+    derivatives: &[],
+    inseparable: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {
-    for (e, x) in m.analyzer_eps.iter_mut().zip(v) {
+    for (e, x) in m.channels.analyzer_eps.iter_mut().zip(v) {
         *e += x;
     }
 }

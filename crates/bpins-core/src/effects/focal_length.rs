@@ -36,10 +36,12 @@ pub const EFFECT: EffectDef = EffectDef {
     }],
     apply: Apply::Frame(apply),
     wgsl: None,
+    derivatives: &[],
+    inseparable: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {
-    m.focal_scale += v[0];
+    m.geometry.focal_scale += v[0];
 }
 
 #[cfg(test)]

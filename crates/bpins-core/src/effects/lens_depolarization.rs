@@ -47,6 +47,8 @@ pub const EFFECT: EffectDef = EffectDef {
     }],
     apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: None, pixel: lens_depolarization },
     wgsl: Some(include_str!("../../../../shaders/effects/lens_depolarization.wgsl")),
+    derivatives: &[],
+    inseparable: None,
 };
 
 /// Applies the depolarizer to the ray's Stokes vector (any frame); `p = [p2, 0, 0, 0]`.

@@ -42,6 +42,8 @@ pub const EFFECT: EffectDef = EffectDef {
     }],
     apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: None, pixel: lens_diattenuation },
     wgsl: Some(include_str!("../../../../shaders/effects/lens_diattenuation.wgsl")),
+    derivatives: &[],
+    inseparable: None,
 };
 
 /// The lens's rho2 in `model` (what a reconstruction that knows the lens inverts).

@@ -49,6 +49,8 @@ pub const EFFECT: EffectDef = EffectDef {
     }],
     apply: Apply::Ray { params: |v| [v[0].to_radians(), 0.0, 0.0, 0.0], frame: None, pixel: lens_retardance },
     wgsl: Some(include_str!("../../../../shaders/effects/lens_retardance.wgsl")),
+    derivatives: &[],
+    inseparable: None,
 };
 
 /// Applies the retarder to a meridional-frame Stokes vector; `p = [delta2 (rad per r²), 0, 0, 0]`.

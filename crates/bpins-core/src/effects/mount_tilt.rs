@@ -49,11 +49,13 @@ pub const EFFECT: EffectDef = EffectDef {
     ],
     apply: Apply::Frame(apply),
     wgsl: None,
+    derivatives: &[],
+    inseparable: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {
-    m.mount_tilt_deg[0] += v[0];
-    m.mount_tilt_deg[1] += v[1];
+    m.geometry.mount_tilt_deg[0] += v[0];
+    m.geometry.mount_tilt_deg[1] += v[1];
 }
 
 #[cfg(test)]

@@ -73,6 +73,8 @@ pub const EFFECT: EffectDef = EffectDef {
         pixel: polarimetric_nonuniformity,
     },
     wgsl: Some(include_str!("../../../../shaders/effects/polarimetric_nonuniformity.wgsl")),
+    derivatives: &[],
+    inseparable: None,
 };
 
 /// The pixel `site`'s analyzer `a` on the simulated die; p = (σ_θ rad, g_x rad/px,

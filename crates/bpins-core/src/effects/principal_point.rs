@@ -47,11 +47,13 @@ pub const EFFECT: EffectDef = EffectDef {
     ],
     apply: Apply::Frame(apply),
     wgsl: None,
+    derivatives: &[],
+    inseparable: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {
-    m.pp_offset_px[0] += v[0];
-    m.pp_offset_px[1] += v[1];
+    m.geometry.pp_offset_px[0] += v[0];
+    m.geometry.pp_offset_px[1] += v[1];
 }
 
 #[cfg(test)]

@@ -59,11 +59,13 @@ pub const EFFECT: EffectDef = EffectDef {
     ],
     apply: Apply::Frame(apply),
     wgsl: None,
+    derivatives: &[],
+    inseparable: None,
 };
 
 fn apply(v: &[f64], m: &mut Model) {
-    m.distortion[0] += v[0];
-    m.distortion[1] += v[1];
+    m.geometry.distortion[0] += v[0];
+    m.geometry.distortion[1] += v[1];
 }
 
 #[cfg(test)]

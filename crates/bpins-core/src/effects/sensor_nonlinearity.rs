@@ -29,7 +29,7 @@
 //! Cannot: a cubic or S-shaped response, a non-linearity that differs per pixel or
 //! per channel, or one that depends on exposure time rather than on the signal.
 
-use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, ParamSpec, SensorParams, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "sensor_nonlinearity",
@@ -46,19 +46,23 @@ pub const EFFECT: EffectDef = EffectDef {
         physical: None,
         doc: "quadratic coefficient: relative signal lost at full scale (LE = beta/8)",
     }],
-    apply: Apply::Frame(apply),
+    apply: Apply::Sensor { params: |v| [v[0], 0.0, 0.0, 0.0], pixel: sensor_nonlinearity },
     wgsl: Some(include_str!("../../../../shaders/effects/sensor_nonlinearity.wgsl")),
+    derivatives: &[],
+    inseparable: None,
 };
 
-fn apply(v: &[f64], m: &mut Model) {
-    m.nonlinearity += v[0];
+/// The sensor's response to the photo-signal `signal_dn` (DN above the offset) at a
+/// quadratic coefficient β = `p[0]` and ADC full scale `full_scale_dn`; exactly
+/// `signal_dn` at β = 0.
+#[inline(always)]
+pub fn sensor_nonlinearity(p: &SensorParams, signal_dn: f64, full_scale_dn: f64) -> f64 {
+    quadratic_response(p[0], signal_dn, full_scale_dn)
 }
 
-/// The sensor's response to the photo-signal `signal_dn` (DN above the offset) at a
-/// quadratic coefficient `beta` and ADC full scale `full_scale_dn`; exactly `signal_dn`
-/// at β = 0.
+/// s·(1 − β·s/FS), DN: [`sensor_nonlinearity`] at β = `beta`.
 #[inline(always)]
-pub fn sensor_nonlinearity(beta: f64, signal_dn: f64, full_scale_dn: f64) -> f64 {
+pub fn quadratic_response(beta: f64, signal_dn: f64, full_scale_dn: f64) -> f64 {
     // s·(1 − β·s/FS): 1 − 0·x = 1 exactly, so β = 0 is the identity.
     signal_dn * (1.0 - beta * (signal_dn / full_scale_dn))
 }
@@ -69,7 +73,7 @@ pub fn sensor_nonlinearity(beta: f64, signal_dn: f64, full_scale_dn: f64) -> f64
 pub fn linearity_error(beta: f64, n: usize) -> f64 {
     let fs = 1.0;
     let xs: Vec<f64> = (0..n).map(|i| 0.05 + 0.9 * i as f64 / (n - 1) as f64).collect();
-    let ys: Vec<f64> = xs.iter().map(|&x| sensor_nonlinearity(beta, x, fs)).collect();
+    let ys: Vec<f64> = xs.iter().map(|&x| quadratic_response(beta, x, fs)).collect();
     let (mx, my) = (xs.iter().sum::<f64>() / n as f64, ys.iter().sum::<f64>() / n as f64);
     let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
     let sxx: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
@@ -90,11 +94,11 @@ mod tests {
     #[test]
     fn zero_strength_is_the_identity_and_full_scale_loses_beta() {
         for s in [0.0, 1.0, 123.456, 4095.0, -3.0] {
-            assert_eq!(sensor_nonlinearity(0.0, s, 4095.0), s);
+            assert_eq!(sensor_nonlinearity(&[0.0; 4], s, 4095.0), s);
         }
         // At full scale the response has lost β of its signal; at half scale β/2.
-        assert!((sensor_nonlinearity(0.04, 4095.0, 4095.0) - 4095.0 * 0.96).abs() < 1e-9);
-        assert!((sensor_nonlinearity(0.04, 2047.5, 4095.0) - 2047.5 * 0.98).abs() < 1e-9);
+        assert!((quadratic_response(0.04, 4095.0, 4095.0) - 4095.0 * 0.96).abs() < 1e-9);
+        assert!((quadratic_response(0.04, 2047.5, 4095.0) - 2047.5 * 0.98).abs() < 1e-9);
     }
 
     #[test]

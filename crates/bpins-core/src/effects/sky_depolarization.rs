@@ -17,7 +17,7 @@
 //! Cannot: a depolarization that varies over the sky (near the horizon, around
 //! clouds), or the neutral points (that is `sky_neutral_points`).
 
-use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, Inseparable, Model, ParamSpec, SkyBlindness, Stage};
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "sky_depolarization",
@@ -36,10 +36,18 @@ pub const EFFECT: EffectDef = EffectDef {
     }],
     apply: Apply::Frame(apply),
     wgsl: None,
+    derivatives: &[],
+    inseparable: Some(Inseparable {
+        when: SkyBlindness::FreeDmax,
+        why: |_| {
+            "a factor on the sky's d_max, which each frame fits: give the sky's d_max (--fixed-dmax) to measure it"
+                .to_string()
+        },
+    }),
 };
 
 fn apply(v: &[f64], m: &mut Model) {
-    m.sky_dmax_factor *= v[0];
+    m.sky_block.dmax_factor *= v[0];
 }
 
 #[cfg(test)]

@@ -40,8 +40,10 @@
 //! differs between the sun's and the anti-sun's half of the sky, a DoLP falling off
 //! faster than Rayleigh's (t < 0), or any change of the E-vector's orientation.
 
-use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+use super::{Apply, EffectDef, ParamSpec, SkyParams, Stage};
+use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
+use glam::DVec3;
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "sky_dolp_shape",
@@ -57,18 +59,30 @@ pub const EFFECT: EffectDef = EffectDef {
         max: 1.0,
         physical: None, doc: "unpolarized share t of the sky's radiance at 90° from the sun (0: Rayleigh's DoLP shape, 1: Berry's |ω|)",
     }],
-    apply: Apply::Frame(apply),
+    apply: Apply::Sky {
+        params: |v| [[v[0], 0.0, 0.0, 0.0], [0.0; 4], [0.0; 4], [0.0; 4], [0.0; 4]],
+        frame: None,
+        pixel: sky_dolp_shape,
+    },
     wgsl: Some(include_str!("../../../../shaders/effects/sky_dolp_shape.wgsl")),
+    derivatives: &[],
+    inseparable: None,
 };
 
-fn apply(v: &[f64], m: &mut Model) {
-    m.sky_diffuse += v[0];
+/// The sky's Stokes vector `s` with its DoLP reshaped by the diffuse share t = `p[0][0]`
+/// ([`dolp_shape`]); exactly `s` at t = 0.
+#[inline(always)]
+pub fn sky_dolp_shape(p: &SkyParams, _sun: DVec3, dmax: f64, _g: &RayGeometry, s: Stokes) -> Stokes {
+    if p[0][0] == 0.0 {
+        return s;
+    }
+    dolp_shape(p[0][0], dmax, s)
 }
 
 /// The sky's Stokes vector `s` (meridional frame, as the sky step gives it under the
 /// peak DoLP `dmax`) with its DoLP reshaped by the diffuse share `t`; I and V kept.
 #[inline(always)]
-pub fn sky_dolp_shape(t: f64, dmax: f64, s: Stokes) -> Stokes {
+pub fn dolp_shape(t: f64, dmax: f64, s: Stokes) -> Stokes {
     // The sky step's DoLP over d_max: p = w/(2 − w) ∈ [0, 1] (0 where there is no
     // polarization to reshape).
     let den = s.i * dmax;
@@ -84,7 +98,7 @@ mod tests {
     use crate::camera::meridional_basis;
     use crate::chain::tests::{ideal_frame, stokes_at};
     use crate::conventions::{enu_from_az_el_deg, world_from_camera};
-    use crate::effects::sky_neutral_points::{sky_neutral_points, NeutralPoints};
+    use crate::effects::sky_neutral_points::{quartic_sky, NeutralPoints};
     use crate::effects::{EffectSet, Model};
     use crate::sky::sky_stokes;
     use glam::DVec3;
@@ -95,12 +109,12 @@ mod tests {
         for v in [DVec3::new(-0.2, 0.1, 0.97), DVec3::new(0.3, -0.5, 0.81), DVec3::Z] {
             let v = v.normalize();
             let s = sky_stokes(sun, 0.6, v, &meridional_basis(v));
-            assert_eq!(sky_dolp_shape(0.0, 0.6, s), s);
+            assert_eq!(dolp_shape(0.0, 0.6, s), s);
         }
         // No polarization, or no d_max: nothing to reshape, and no NaN.
         let s = Stokes::new(0.7, 0.0, 0.0, 0.0);
-        assert_eq!(sky_dolp_shape(0.8, 0.0, s), s);
-        assert_eq!(sky_dolp_shape(0.8, 0.6, s), s);
+        assert_eq!(dolp_shape(0.8, 0.0, s), s);
+        assert_eq!(dolp_shape(0.8, 0.6, s), s);
     }
 
     #[test]
@@ -110,7 +124,7 @@ mod tests {
             let sg = f64::sqrt(1.0 - cg * cg);
             let v = DVec3::new(cg, 0.6 * sg, 0.8 * sg);
             let s = sky_stokes(sun, 0.6, v, &meridional_basis(v));
-            let r = sky_dolp_shape(t, 0.6, s);
+            let r = dolp_shape(t, 0.6, s);
             let want = 0.6 * sg * sg / (1.0 + (1.0 - t) * cg * cg);
             assert!((r.dolp() - want).abs() < 1e-12, "t {t}, cos γ {cg}: {} vs {want}", r.dolp());
             assert_eq!(r.i, s.i);
@@ -120,7 +134,7 @@ mod tests {
         }
         // At t = 1 it is Berry's |ω| = sin²γ times d_max.
         let v = DVec3::new(0.6, 0.0, 0.8);
-        let r = sky_dolp_shape(1.0, 0.5, sky_stokes(sun, 0.5, v, &meridional_basis(v)));
+        let r = dolp_shape(1.0, 0.5, sky_stokes(sun, 0.5, v, &meridional_basis(v)));
         assert!((r.dolp() - 0.5 * 0.64).abs() < 1e-12);
     }
 
@@ -134,10 +148,10 @@ mod tests {
         let t = 0.4;
         for (az, el) in [(40.0, 40.0), (40.0, 20.0), (40.0, 33.0), (100.0, 50.0), (220.0, 75.0), (300.0, 30.0)] {
             let v = r.transpose() * enu_from_az_el_deg(az, el);
-            let s = sky_neutral_points(&np, sun, 0.6, v, &meridional_basis(v));
+            let s = quartic_sky(&np, sun, 0.6, v, &meridional_basis(v));
             let p = s.dolp() / 0.6;
             let w = 2.0 * p / (1.0 + p);
-            let got = sky_dolp_shape(t, 0.6, s);
+            let got = dolp_shape(t, 0.6, s);
             let want = 0.6 * w / (1.0 + (1.0 - t) * (1.0 - w));
             assert!((got.dolp() - want).abs() < 1e-12, "{az} {el}: {} vs {want}", got.dolp());
             if s.dolp() > 1e-9 {

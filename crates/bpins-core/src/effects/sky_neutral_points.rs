@@ -31,8 +31,8 @@
 //! within half a separation of the zenith (a neutral point crosses the chart's pole
 //! at the nadir there and the orientation jumps).
 
-use super::{Apply, EffectDef, Model, ParamSpec, Stage};
-use crate::camera::MeridionalBasis;
+use super::{Apply, EffectDef, FrameContext, ParamSpec, SkyParams, Stage};
+use crate::camera::{MeridionalBasis, RayGeometry};
 use crate::stokes::Stokes;
 use glam::{DMat3, DVec3};
 
@@ -51,12 +51,33 @@ pub const EFFECT: EffectDef = EffectDef {
         physical: None,
         doc: "angular separation of each pair of neutral points",
     }],
-    apply: Apply::Frame(apply),
+    apply: Apply::Sky {
+        params: |v| [[v[0], 0.0, 0.0, 0.0], [0.0; 4], [0.0; 4], [0.0; 4], [0.0; 4]],
+        frame: Some(with_frame),
+        pixel: sky_neutral_points,
+    },
     wgsl: Some(include_str!("../../../../shaders/effects/sky_neutral_points.wgsl")),
+    derivatives: &[],
+    inseparable: None,
 };
 
-fn apply(v: &[f64], m: &mut Model) {
-    m.neutral_separation_deg += v[0];
+/// The vector completed with the frame's constants ([`NeutralPoints::to_params`]) from
+/// the separation (degrees) in `p[0][0]`; left neutral (all zero) at separation 0.
+fn with_frame(p: SkyParams, c: &FrameContext) -> SkyParams {
+    if p[0][0] == 0.0 {
+        return p;
+    }
+    NeutralPoints::new(&c.world_from_cam, c.sun_cam, p[0][0].to_radians()).to_params()
+}
+
+/// The quartic sky along the ray `g` in place of the sky so far `s` where it is on
+/// (`p[0][3]` = 1: a frame's [`NeutralPoints::to_params`]); `s` itself otherwise.
+#[inline(always)]
+pub fn sky_neutral_points(p: &SkyParams, sun: DVec3, dmax: f64, g: &RayGeometry, s: Stokes) -> Stokes {
+    if p[0][3] == 0.0 {
+        return s;
+    }
+    quartic_sky(&NeutralPoints::from_params(p), sun, dmax, g.d, &g.basis)
 }
 
 /// What the quartic sky needs per frame (host side): the world axes in the camera
@@ -97,6 +118,34 @@ impl NeutralPoints {
     }
 }
 
+impl NeutralPoints {
+    /// The frame vector: (East, 1), (North, cos A), (Up, sin A), the sun's pair's
+    /// (cos, sin θ_P/2) twice, the anti-sun's pair's twice. The 1 marks it on.
+    pub fn to_params(&self) -> SkyParams {
+        let h = self.half_angles;
+        let (e, n, u) = (self.east, self.north, self.up);
+        [
+            [e.x, e.y, e.z, 1.0],
+            [n.x, n.y, n.z, self.eia[0]],
+            [u.x, u.y, u.z, self.eia[1]],
+            [h[0][0], h[0][1], h[1][0], h[1][1]],
+            [h[2][0], h[2][1], h[3][0], h[3][1]],
+        ]
+    }
+
+    /// The frame constants of [`NeutralPoints::to_params`]'s vector.
+    #[inline(always)]
+    pub fn from_params(p: &SkyParams) -> Self {
+        NeutralPoints {
+            east: DVec3::new(p[0][0], p[0][1], p[0][2]),
+            north: DVec3::new(p[1][0], p[1][1], p[1][2]),
+            up: DVec3::new(p[2][0], p[2][1], p[2][2]),
+            half_angles: [[p[3][0], p[3][1]], [p[3][2], p[3][3]], [p[4][0], p[4][1]], [p[4][2], p[4][3]]],
+            eia: [p[1][3], p[2][3]],
+        }
+    }
+}
+
 fn cmul(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     [a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0]]
 }
@@ -104,7 +153,7 @@ fn cmul(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
 /// Skylight of the quartic sky along the unit camera-frame ray `view`, in its
 /// meridional frame `basis` (as `sky_stokes`); `sun` the unit sun (camera frame).
 #[inline]
-pub fn sky_neutral_points(np: &NeutralPoints, sun: DVec3, dmax: f64, view: DVec3, basis: &MeridionalBasis) -> Stokes {
+pub fn quartic_sky(np: &NeutralPoints, sun: DVec3, dmax: f64, view: DVec3, basis: &MeridionalBasis) -> Stokes {
     // Radiance as Rayleigh.
     let cg = sun.dot(view);
     let radiance = 0.5 * (1.0 + cg * cg);
@@ -165,7 +214,7 @@ mod tests {
         for (az, el) in [(40.0, 80.0), (100.0, 50.0), (220.0, 75.0), (300.0, 30.0), (10.0, 89.0)] {
             let v = r.transpose() * enu_from_az_el_deg(az, el);
             let b = meridional_basis(v);
-            let (a, want) = (sky_neutral_points(&np, sun, 0.6, v, &b), sky_stokes(sun, 0.6, v, &b));
+            let (a, want) = (quartic_sky(&np, sun, 0.6, v, &b), sky_stokes(sun, 0.6, v, &b));
             assert!((a.i - want.i).abs() < 1e-12, "{az} {el}");
             assert!((a.q - want.q).abs() < 1e-12 && (a.u - want.u).abs() < 1e-12, "{az} {el}: {a:?} vs {want:?}");
         }
@@ -177,15 +226,15 @@ mod tests {
         let (r, sun, np) = setup(20.0, 30.0);
         for el in [40.0, 20.0] {
             let v = r.transpose() * enu_from_az_el_deg(40.0, el);
-            let s = sky_neutral_points(&np, sun, 0.6, v, &meridional_basis(v));
+            let s = quartic_sky(&np, sun, 0.6, v, &meridional_basis(v));
             assert!(s.dolp() < 1e-9, "elevation {el}: DoLP {}", s.dolp());
         }
         // Between them (at the sun) the sky is now polarized; far away it is nearly Rayleigh.
         let v = r.transpose() * enu_from_az_el_deg(40.0, 30.5);
-        assert!(sky_neutral_points(&np, sun, 0.6, v, &meridional_basis(v)).dolp() > 1e-4);
+        assert!(quartic_sky(&np, sun, 0.6, v, &meridional_basis(v)).dolp() > 1e-4);
         let v = r.transpose() * enu_from_az_el_deg(130.0, 60.0);
         let b = meridional_basis(v);
-        let (a, ray) = (sky_neutral_points(&np, sun, 0.6, v, &b), sky_stokes(sun, 0.6, v, &b));
+        let (a, ray) = (quartic_sky(&np, sun, 0.6, v, &b), sky_stokes(sun, 0.6, v, &b));
         assert!((a.dolp() - ray.dolp()).abs() < 0.05 && (a.aop_rad() - ray.aop_rad()).abs() < 0.05);
     }
 
@@ -194,7 +243,7 @@ mod tests {
         let (r, sun, np) = setup(1e-6, 25.0);
         let v = r.transpose() * enu_from_az_el_deg(100.0, 50.0);
         let b = meridional_basis(v);
-        let (a, want) = (sky_neutral_points(&np, sun, 0.6, v, &b), sky_stokes(sun, 0.6, v, &b));
+        let (a, want) = (quartic_sky(&np, sun, 0.6, v, &b), sky_stokes(sun, 0.6, v, &b));
         assert!((a.q - want.q).abs() < 1e-9 && (a.u - want.u).abs() < 1e-9);
     }
 }

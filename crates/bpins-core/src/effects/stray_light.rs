@@ -33,7 +33,7 @@
 //! glare of other bright sources (clouds, ground), or a spread whose width differs
 //! from κ's.
 
-use super::{Apply, EffectDef, FrameContext, ParamSpec, RayParams, Stage};
+use super::{Apply, EffectDef, FrameContext, Inseparable, ParamSpec, RayParams, SkyBlindness, Stage};
 use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
 
@@ -57,6 +57,17 @@ pub const EFFECT: EffectDef = EffectDef {
     }],
     apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: Some(with_sun), pixel: stray_light },
     wgsl: Some(include_str!("../../../../shaders/effects/stray_light.wgsl")),
+    derivatives: &[],
+    inseparable: Some(Inseparable {
+        when: SkyBlindness::FreeRadiance,
+        why: |_| {
+            "unpolarized glare toward the sun: with the sky's radiance a free nuisance (a real sky brightens toward \
+             the sun), the capture weighs the glare only against the fitted radiance, not in the sky's unit at the \
+             sun (under the CIE clear sky it is read 40 % low, measured); where the sky's radiance is known \
+             (Rayleigh's, `--rayleigh-radiance`) it is measured, or measure the lens's glare spread in the lab"
+                .to_string()
+        },
+    }),
 };
 
 /// The vector completed with the frame's sun (camera frame): (a, sun x, y, z); left

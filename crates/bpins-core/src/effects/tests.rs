@@ -62,6 +62,20 @@ fn per_pixel_effects_have_their_wgsl_twin_and_only_they() {
             );
             assert!(e.wgsl.is_some_and(|w| w.contains(&sig)), "{}: its WGSL twin must define `{sig}`", e.name);
         }
+        // The stage hooks' signatures the generated WGSL `sky_effects`, `sensor_effects`
+        // and `mosaic_effects` call.
+        let hook = match e.apply {
+            Apply::Sky { .. } => {
+                Some("p: array<vec4<f64>, 5>, sun: vec3<f64>, dmax: f64, g: RayGeometry, s: Stokes) -> Stokes")
+            }
+            Apply::Sensor { .. } => Some("p: vec4<f64>, signal_dn: f64, full_scale_dn: f64) -> f64"),
+            Apply::Mosaic { .. } => Some("p: vec4<f64>, own: f64, up: f64, down: f64, left: f64, right: f64) -> f64"),
+            _ => None,
+        };
+        if let Some(args) = hook {
+            let sig = format!("fn {}({args}", e.name);
+            assert!(e.wgsl.is_some_and(|w| w.contains(&sig)), "{}: its WGSL twin must define `{sig}`", e.name);
+        }
         match e.wgsl {
             Some(src) => {
                 assert!(src.contains(&format!("fn {}(", e.name)), "{}: WGSL lacks fn {}", e.name, e.name);
@@ -169,4 +183,26 @@ fn assignments_parse_and_bad_ones_are_named() {
     assert!(e.contains("dtheta_deg"), "{e}");
     assert!(set.parse_assignment("array_rotation.dtheta_deg=abc").is_err());
     assert!(set.parse_assignment("array_rotation.dtheta_deg=1e9").is_err());
+}
+
+#[test]
+fn what_the_fit_and_the_diagnosis_know_of_an_effect_is_in_its_definition() {
+    for e in REGISTRY {
+        // One derivative kind per parameter, or none (central differences for all).
+        assert!(e.derivatives.is_empty() || e.derivatives.len() == e.params.len(), "{}: derivatives", e.name);
+        for (i, d) in e.derivatives.iter().enumerate() {
+            assert_eq!(e.derivative(i), *d);
+            if let ParamDerivative::ChannelOffset(k) = d {
+                // An offset column is 1 on its channel: the parameter is a DN offset.
+                assert!(*k < 4 && e.params[i].unit == "DN", "{}.{}", e.name, e.params[i].name);
+            }
+        }
+        assert_eq!(e.derivative(e.params.len()), ParamDerivative::Central);
+        // What a sky capture cannot separate says why and what measures it instead.
+        if let Some(i) = e.inseparable {
+            for fixed in [false, true] {
+                assert!((i.why)(fixed).len() > 40, "{}: why", e.name);
+            }
+        }
+    }
 }

@@ -21,7 +21,7 @@
 //! Cannot: a falloff that is not rotationally symmetric about the principal point,
 //! or that depends on polarization (that is `lens_diattenuation`).
 
-use super::{Apply, EffectDef, Model, ParamSpec, RayParams, Stage};
+use super::{Apply, EffectDef, Inseparable, Model, ParamSpec, RayParams, SkyBlindness, Stage};
 use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
 
@@ -54,6 +54,15 @@ pub const EFFECT: EffectDef = EffectDef {
     ],
     apply: Apply::Ray { params: |v| [v[0], v[1], 0.0, 0.0], frame: None, pixel: vignetting },
     wgsl: Some(include_str!("../../../../shaders/effects/vignetting.wgsl")),
+    derivatives: &[],
+    inseparable: Some(Inseparable {
+        when: SkyBlindness::FreeRadiance,
+        why: |_| {
+            "an intensity-only radial falloff: the sky's radiance nuisance takes the same shape (a sky brightens \
+             toward the horizon, radially for a camera looking up); a lab flat field measures it (then `--calibration FILE` holds it)"
+                .to_string()
+        },
+    }),
 };
 
 /// The falloff (v2, v4) in `model`: what a lab simulation of a flat field applies.

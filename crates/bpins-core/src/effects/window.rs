@@ -83,6 +83,8 @@ pub const EFFECT: EffectDef = EffectDef {
     ],
     apply: Apply::Ray { params: normal, frame: None, pixel: window },
     wgsl: Some(include_str!("../../../../shaders/effects/window.wgsl")),
+    derivatives: &[],
+    inseparable: None,
 };
 
 /// The vector of the window: its unit normal (true camera frame) and κ, (n_x, n_y, n_z, κ).

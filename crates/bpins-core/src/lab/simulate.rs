@@ -145,17 +145,18 @@ pub fn truth_maps(
                     .atan2(a.cos2t * chan.cos2t + a.sin2t * chan.sin2t)
                     .to_degrees();
             let angle = ch.angle_deg()
-                + model.analyzer_delta_deg[k]
+                + model.channels.analyzer_delta_deg[k]
                 + turn_deg
                 + flaws.angle_gradient_deg[0] * x
                 + flaws.angle_gradient_deg[1] * y
                 + flaws.angle_sigma_deg * key.normal(p, 0, 0);
-            let eps = (model.analyzer_eps[k] + (a.eps - chan.eps) + flaws.eps_sigma * key.normal(p, 1, 0)).max(0.0);
+            let eps =
+                (model.channels.analyzer_eps[k] + (a.eps - chan.eps) + flaws.eps_sigma * key.normal(p, 1, 0)).max(0.0);
             let r2 = ((u as f64 - intr.cx_px).powi(2) + (v as f64 - intr.cy_px).powi(2)) / (intr.f_px * intr.f_px);
             let vig = crate::effects::vignetting::factor(vig_v2, vig_v4, r2).max(1e-3);
             let own_gain = own.gain / frame.gain_dn[k];
-            let gain = model.channel_gain[k] * own_gain * vig * (1.0 + flaws.prnu * key.normal(p, 2, 0));
-            let offset = black_level_dn + model.channel_offset_dn[k] + flaws.dsnu_dn * key.normal(p, 3, 0);
+            let gain = model.channels.gain[k] * own_gain * vig * (1.0 + flaws.prnu * key.normal(p, 2, 0));
+            let offset = black_level_dn + model.channels.offset_dn[k] + flaws.dsnu_dn * key.normal(p, 3, 0);
             (angle as f32, eps as f32, gain, offset as f32)
         })
         .collect();

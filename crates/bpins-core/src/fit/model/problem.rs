@@ -217,8 +217,8 @@ impl Problem<'_> {
         out.clear();
         let (w, h) = (self.w(), self.h());
         match &self.capture.sensor.layout {
-            // Crosstalk: the pixel's own chain and its four neighbours'.
-            Layout::Dofp { mosaic } if f.crosstalk != 0.0 => {
+            // A mosaic effect (crosstalk): the pixel's own chain and its four neighbours'.
+            Layout::Dofp { mosaic } if f.has_mosaic_effects() => {
                 let ch = Layout::dofp_channel(mosaic, u, v).index();
                 let m = nonlinear(f, r * mosaic_pixel_signal_dn(f, u, v, w, h, mosaic)) + f.offset_dn[ch];
                 out.push((measured(0) as f64, m));
@@ -289,9 +289,10 @@ fn stages_of(f: &ChainFrame, uv: (usize, usize), from: Option<(Stages, Reuse)>) 
     }
 }
 
-/// The sensor's response to the model photo-signal `signal_dn` (`sensor_nonlinearity`;
-/// the identity at β = 0), as the chain's `sensor_dn` applies it.
+/// The sensor's response to the model photo-signal `signal_dn` (the sensor effects:
+/// `sensor_nonlinearity`, …; the identity at neutral), as the chain's `sensor_dn`
+/// applies it.
 #[inline(always)]
 fn nonlinear(f: &ChainFrame, signal_dn: f64) -> f64 {
-    crate::effects::sensor_nonlinearity::sensor_nonlinearity(f.nonlinearity, signal_dn, f.response.full_scale_dn())
+    crate::chain::sensor_effects(&f.sensor, signal_dn, f.response.full_scale_dn())
 }

@@ -4,7 +4,7 @@
 //! formed and when they are free — one row each, read by the fit, its starting
 //! guesses and its result.
 
-use crate::effects::EffectDef;
+use crate::effects::{EffectDef, ParamDerivative};
 use crate::fit::model::radiance;
 use crate::fit::FitOptions;
 
@@ -254,38 +254,28 @@ impl Slots {
     }
 }
 
-/// How an effect parameter's column is formed: central differences, except where the
-/// model is known to be affine in it. `channel_response` (`effects/channel_response.rs`:
-/// DN_k = g·(1 + gain_k)·I_θk + b + offset_k, channel 0 the reference): its gains scale
-/// a channel's signal (crosstalk then mixes neighbours' signals linearly, the fit's
-/// radiance factor multiplies the signal, nothing clips the model), so a one-sided
-/// secant is their exact column at half the evaluations — exact while
-/// `sensor_nonlinearity` is off; with its β ≠ 0 the response bends the signal and the
-/// secant's error is O(β·step) of the column, far below its noise; its offsets are added to
-/// their channel's DN after everything else (`ChainFrame::offset_dn`), so their
-/// column is 1 on that channel and 0 elsewhere, with no evaluation at all.
-pub(crate) fn effect_derivative(effect: &str, param: &str) -> Derivative {
-    match (effect, param) {
-        ("channel_response", "offset0_dn") => Derivative::Offset(0),
-        ("channel_response", "offset45_dn") => Derivative::Offset(1),
-        ("channel_response", "offset90_dn") => Derivative::Offset(2),
-        ("channel_response", "offset135_dn") => Derivative::Offset(3),
-        ("channel_response", _) => Derivative::Secant,
-        _ => Derivative::Central,
+/// How an effect parameter's column is formed: as its definition says
+/// ([`EffectDef::derivatives`]: central differences, except where the effect's form
+/// makes the model affine in it, e.g. `channel_response`'s gains and offsets).
+pub(crate) fn effect_derivative(e: &EffectDef, i: usize) -> Derivative {
+    match e.derivative(i) {
+        ParamDerivative::Central => Derivative::Central,
+        ParamDerivative::Secant => Derivative::Secant,
+        ParamDerivative::ChannelOffset(k) => Derivative::Offset(k),
     }
 }
 
 /// The slots of one effect's parameters, free, central differences of 10⁻⁶ × range
 /// (a secant of it, or an analytic column, per [`effect_derivative`]).
 fn effect_slots(e: &'static EffectDef) -> impl Iterator<Item = Slot> {
-    e.params.iter().map(move |p| Slot {
+    e.params.iter().enumerate().map(move |(i, p)| Slot {
         id: SlotId::Effect(EffectParam { effect: e.name, param: p.name }),
         unit: p.unit,
         min: p.min,
         max: p.max,
         step: 1e-6 * (p.max - p.min),
         free: true,
-        derivative: effect_derivative(e.name, p.name),
+        derivative: effect_derivative(e, i),
     })
 }
 

@@ -38,12 +38,12 @@ pub(crate) enum Reuse {
 impl Reuse {
     /// What `f`'s chain can reuse of `base`'s at the same pixel.
     pub fn between(f: &ChainFrame, base: &ChainFrame) -> Reuse {
-        if f.intr != base.intr || f.crosstalk != 0.0 || base.crosstalk != 0.0 {
+        if f.intr != base.intr || f.has_mosaic_effects() || base.has_mosaic_effects() {
             Reuse::Nothing
         } else if f.sun_cam != base.sun_cam
             || f.dmax != base.dmax
-            || f.neutral != base.neutral
-            || f.diffuse != base.diffuse
+            || f.sky != base.sky
+            || f.active.sky != base.active.sky
             || f.field != base.field
         {
             Reuse::Ray
@@ -112,10 +112,11 @@ mod tests {
     }
 
     /// Every effect at its typical strength beside the quartic sky and the DoLP shape
-    /// (so each stage has work to do), crosstalk apart.
+    /// (so each stage has work to do), the mosaic effects apart (crosstalk: a frame
+    /// with one reuses nothing).
     fn base_set() -> EffectSet {
         let mut set = EffectSet::new();
-        for e in REGISTRY.iter().filter(|e| e.name != "crosstalk") {
+        for e in REGISTRY.iter().filter(|e| !matches!(e.apply, crate::effects::Apply::Mosaic { .. })) {
             for p in e.params {
                 set.set(e.name, p.name, p.typical).unwrap();
             }

@@ -444,7 +444,8 @@ mod tests {
             let mut off_rayleigh = 0.0f64;
             for d in rays() {
                 let b = meridional_basis(d);
-                let st = sky_neutral_points(&np, s, 1.0, d, &b);
+                let g = crate::camera::RayGeometry { d, basis: b, r2: 0.0 };
+                let st = sky_neutral_points(&np.to_params(), s, 1.0, &g, crate::stokes::Stokes::default());
                 let phi = 0.5 * st.u.atan2(st.q);
                 let e = phi.cos() * b.p - phi.sin() * b.s;
                 let chi = chart_angle(d, e).unwrap();

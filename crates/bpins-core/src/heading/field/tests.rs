@@ -102,7 +102,7 @@ fn a_mount_tilt_composes_after_the_frame_tilt_as_rotations() {
     let truth = truth.model();
     let sc = scene(250.0, 30.0, [-10.0, 14.0]);
     let (dn, intr, w, h) = render(Projection::Equidistant, &truth, &sc, 7);
-    let composed = FieldContext { mount_tilt_deg: truth.mount_tilt_deg, ..context(intr, &sc) };
+    let composed = FieldContext { mount_tilt_deg: truth.geometry.mount_tilt_deg, ..context(intr, &sc) };
     let (err, sigma) = err_sigma(&run(&dn, w, h, &composed)[0], sc.heading_deg);
     assert!(err.abs() < 0.03 && err.abs() < 4.0 * sigma, "composed: error {err:+.4}°, 1σ {sigma:.4}°");
     // Adding the angles as if they were Euler angles of one rotation is wrong beyond
