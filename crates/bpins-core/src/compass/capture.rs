@@ -98,26 +98,20 @@ impl Compass {
     /// Fills `self.cells` from a capture's frame: a mosaic of a DoFP capture, or the
     /// planes of a colocated one; anything else is refused with its sizes.
     fn fill_capture_cells(&mut self, data: &FrameData) -> Result<(), CompassError> {
-        let (w, h) = (self.cfg.width_px, self.cfg.height_px);
-        let (got_w, got_h) = data.size_px();
-        let (got_w, got_h) = (got_w as usize, got_h as usize);
-        let wrong_size = |len| CompassError::FrameSize { got_w, got_h, stride: got_w, len, want_w: w, want_h: h };
+        let (w, h) = data.size_px();
+        let (w, h) = (w as usize, h as usize);
         match (data, &self.colocated) {
             (FrameData::Mosaic { dn, .. }, None) => {
-                let img = RawImage::packed(dn.as_slice(), got_w, got_h);
-                if got_w != w || got_h != h || !img.is_consistent() {
-                    return Err(wrong_size(dn.len()));
-                }
+                let img = RawImage::packed(dn.as_slice(), w, h);
+                self.check_size(&img)?;
                 self.fill_mosaic_cells(&img);
                 Ok(())
             }
             (FrameData::Colocated { channels, .. }, Some(co)) => {
                 let mut planes = Vec::with_capacity(channels.len());
                 for (ch, p) in channels {
-                    let img = RawImage::packed(p.as_slice(), got_w, got_h);
-                    if got_w != w || got_h != h || !img.is_consistent() {
-                        return Err(wrong_size(p.len()));
-                    }
+                    let img = RawImage::packed(p.as_slice(), w, h);
+                    self.check_size(&img)?;
                     planes.push((*ch, img));
                 }
                 self.cells = Cells::from_colocated(&planes, &co.rec, self.full_scale_dn, co.cell_px);

@@ -336,17 +336,7 @@ impl Compass {
         sun: Sun,
         attitude: Attitude,
     ) -> Result<FieldHeading, CompassError> {
-        let (w, h) = (self.cfg.width_px, self.cfg.height_px);
-        if frame.width_px != w || frame.height_px != h || !frame.is_consistent() {
-            return Err(CompassError::FrameSize {
-                got_w: frame.width_px,
-                got_h: frame.height_px,
-                stride: frame.stride,
-                len: frame.data.len(),
-                want_w: w,
-                want_h: h,
-            });
-        }
+        self.check_size(&frame)?;
         let (az, el, sun_sigma) = match sun {
             Sun::Angles { azimuth_deg, elevation_deg, sigma_deg } => (azimuth_deg, elevation_deg, sigma_deg),
             #[cfg(feature = "spa")]
@@ -361,6 +351,22 @@ impl Compass {
         self.fill_mosaic_cells(&frame);
         let ctx = field_context(self.intr, &self.known, (az, el, sun_sigma), &attitude);
         Ok(field::estimate_with(&self.cells, &ctx, &self.cfg.options, self.cfg.extractor, &mut self.scratch))
+    }
+
+    /// Whether `frame` is a buffer of the sensor's size: refused with its sizes if not.
+    fn check_size<T>(&self, frame: &RawImage<T>) -> Result<(), CompassError> {
+        let (w, h) = (self.cfg.width_px, self.cfg.height_px);
+        if frame.width_px != w || frame.height_px != h || !frame.is_consistent() {
+            return Err(CompassError::FrameSize {
+                got_w: frame.width_px,
+                got_h: frame.height_px,
+                stride: frame.stride,
+                len: frame.data.len(),
+                want_w: w,
+                want_h: h,
+            });
+        }
+        Ok(())
     }
 
     /// Fills `self.cells` from a DoFP frame of the sensor's size (checked by the caller).
