@@ -72,15 +72,11 @@ pub fn bag_to_capture(a: Args) -> anyhow::Result<()> {
         match (&f.sun, &f.tilt) {
             (Ok(sun), Ok(t)) => {
                 specs.push(FrameSpec {
-                    file: format!("frames/m{:06}.png", f.message.index).into(),
-                    sun: sun.clone(),
-                    heading_deg: None,
                     tilt_x_deg: Some(t.tilt_x_deg),
                     tilt_y_deg: Some(t.tilt_y_deg),
                     tilt_sigma_deg: Some(t.sigma_deg()),
                     sun_sigma_deg: (a.bag.sun_sigma_deg > 0.0).then_some(a.bag.sun_sigma_deg),
-                    yaw_deg: None,
-                    yaw_sigma_deg: None,
+                    ..FrameSpec::new(format!("frames/m{:06}.png", f.message.index), sun.clone())
                 });
                 kept.push(f.message.index);
             }

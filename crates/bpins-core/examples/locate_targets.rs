@@ -109,17 +109,7 @@ fn base() -> Capture {
             focal_length_mm: 8.0,
             principal_point_px: image_centre_px(w, h),
         },
-        frames: vec![FrameSpec {
-            file: PathBuf::from("frames/f000.png"),
-            sun: SunPosition::given(0.0, 45.0),
-            heading_deg: None,
-            tilt_x_deg: None,
-            tilt_y_deg: None,
-            tilt_sigma_deg: None,
-            sun_sigma_deg: None,
-            yaw_deg: None,
-            yaw_sigma_deg: None,
-        }],
+        frames: vec![FrameSpec::new("frames/f000.png", SunPosition::given(0.0, 45.0))],
     }
 }
 

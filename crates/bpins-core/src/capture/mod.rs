@@ -124,6 +124,25 @@ pub struct FrameSpec {
     pub yaw_sigma_deg: Option<f64>,
 }
 
+impl FrameSpec {
+    /// The frame `file` under `sun`, nothing else known (no reference heading, tilt,
+    /// 1σ or yaw): set what is known with struct update syntax,
+    /// `FrameSpec { heading_deg: Some(30.0), ..FrameSpec::new(file, sun) }`.
+    pub fn new(file: impl Into<PathBuf>, sun: SunPosition) -> Self {
+        FrameSpec {
+            file: file.into(),
+            sun,
+            heading_deg: None,
+            tilt_x_deg: None,
+            tilt_y_deg: None,
+            tilt_sigma_deg: None,
+            sun_sigma_deg: None,
+            yaw_deg: None,
+            yaw_sigma_deg: None,
+        }
+    }
+}
+
 /// The pixels of one frame, in DN.
 #[derive(Clone, Debug, PartialEq)]
 pub enum FrameData {

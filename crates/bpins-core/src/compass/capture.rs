@@ -156,15 +156,12 @@ mod tests {
                 principal_point_px: (152.5, 127.5),
             },
             frames: vec![FrameSpec {
-                file: "f.png".into(),
-                sun: SunPosition::given(40.0, 25.0),
                 heading_deg: Some(30.0),
                 tilt_x_deg: Some(2.0),
                 tilt_y_deg: Some(-1.0),
                 tilt_sigma_deg: Some(0.1),
                 sun_sigma_deg: Some(0.02),
-                yaw_deg: None,
-                yaw_sigma_deg: None,
+                ..FrameSpec::new("f.png", SunPosition::given(40.0, 25.0))
             }],
         };
         assert_eq!(capture.intrinsics(), lens);

@@ -20,7 +20,6 @@ use crate::scene::Draws;
 use crate::scene::{FieldAttitude, FieldScene};
 use crate::sky::sun::{parse_time_utc, sun_from_unix_time, SunPosition};
 use chrono::SecondsFormat;
-use std::path::PathBuf;
 
 /// The trial word of the gyro's draws (apart from the scene's and the attitude's).
 const YAW_TRIAL: u32 = 0x9a70_0001;
@@ -117,15 +116,8 @@ impl Series {
                 .ok_or_else(|| Error::Time { time: format!("time {t} s"), message: "not representable".into() })?
                 .to_rfc3339_opts(SecondsFormat::AutoSi, true);
             let frame = FrameSpec {
-                file: PathBuf::from(format!("frames/f{k:03}.{ext}")),
-                sun,
                 heading_deg: Some(self.heading_deg + turn),
-                tilt_x_deg: None,
-                tilt_y_deg: None,
-                tilt_sigma_deg: None,
-                sun_sigma_deg: None,
-                yaw_deg: None,
-                yaw_sigma_deg: None,
+                ..FrameSpec::new(format!("frames/f{k:03}.{ext}"), sun)
             };
             written.push(FrameSpec {
                 sun: SunPosition::unplaced(&time)?,
