@@ -53,7 +53,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for e in ELEMENTS {
         out!("{:<20} {}  ({})", e.name, e.summary, e.source);
         for p in e.params {
-            out!("    {:<18} {:>4}  default {:<8} range [{}, {}]  {}", p.name, p.unit, p.default, p.min, p.max, p.doc);
+            out!("    {:<18} {:>4}  default {:<8} range [{}, {}]  {}", p.name, p.unit, p.typical, p.min, p.max, p.doc);
         }
     }
     Ok(())

@@ -23,18 +23,14 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
-    #[error("unknown effect `{name}`; known effects: {known}")]
-    UnknownEffect { name: String, known: String },
-    #[error("effect `{effect}` has no parameter `{param}`; its parameters: {known}")]
-    UnknownParam { effect: String, param: String, known: String },
-    #[error("effect parameter `{spec}`: {message}")]
-    BadParam { spec: String, message: String },
-    #[error("unknown scene element `{name}`; known elements: {known}")]
-    UnknownElement { name: String, known: String },
-    #[error("scene element `{element}` has no parameter `{param}`; its parameters: {known}")]
-    UnknownElementParam { element: String, param: String, known: String },
-    #[error("scene parameter `{spec}`: {message}")]
-    BadSceneParam { spec: String, message: String },
+    /// A name not in its kind's registry of the catalog (`kind`: "effect" or
+    /// "scene element"; `kinds` its plural).
+    #[error("unknown {kind} `{name}`; known {kinds}: {known}")]
+    UnknownEntry { kind: &'static str, kinds: &'static str, name: String, known: String },
+    #[error("{kind} `{entry}` has no parameter `{param}`; its parameters: {known}")]
+    UnknownParam { kind: &'static str, entry: String, param: String, known: String },
+    #[error("{kind} parameter `{spec}`: {message}")]
+    BadParam { kind: &'static str, spec: String, message: String },
     /// A value of a request or a simulation outside the range it must lie in: what
     /// it is, the value as given (with its unit) and the range.
     #[error("{what} {value}: must lie in {range}")]

@@ -57,7 +57,8 @@ pub mod vignetting;
 pub mod window;
 
 use crate::camera::RayGeometry;
-use crate::error::{Error, Result};
+use crate::catalog::{self, Entry, Kind, Selection};
+use crate::error::Result;
 use crate::stokes::{Analyzer, Stokes};
 use glam::{DMat3, DVec3};
 
@@ -88,36 +89,7 @@ impl Stage {
     }
 }
 
-/// One parameter of an effect.
-#[derive(Debug, PartialEq)]
-pub struct ParamSpec {
-    /// Name as used in files and on the command line, unit as suffix.
-    pub name: &'static str,
-    /// Unit: "px", "deg", "DN" or "1" (dimensionless).
-    pub unit: &'static str,
-    /// The value at which the effect vanishes.
-    pub neutral: f64,
-    /// A realistic strength, as real sensors show it: what the hidden-effect tests
-    /// simulate (and `bpins effects` lists), so a new effect is tested by being here.
-    pub typical: f64,
-    /// The fit's bounds (inclusive): wide enough that a fit is never stopped short of
-    /// what the data say.
-    pub min: f64,
-    pub max: f64,
-    /// The range a real sensor, lens or sky can have where it is narrower than the
-    /// fit's bounds (`None`: the bounds are that range). A fitted value outside it is
-    /// flagged by the diagnosis: the parameter stands in for something else.
-    pub physical: Option<(f64, f64)>,
-    pub doc: &'static str,
-}
-
-impl ParamSpec {
-    /// The range a real instrument or sky can have ([`ParamSpec::physical`], else the
-    /// fit's bounds).
-    pub fn physical_range(&self) -> (f64, f64) {
-        self.physical.unwrap_or((self.min, self.max))
-    }
-}
+pub use crate::catalog::ParamSpec;
 
 /// One physical effect.
 #[derive(Debug)]
@@ -333,10 +305,6 @@ impl EffectDef {
     /// How the fit differentiates parameter `i` ([`EffectDef::derivatives`]).
     pub fn derivative(&self, i: usize) -> ParamDerivative {
         self.derivatives.get(i).copied().unwrap_or(ParamDerivative::Central)
-    }
-
-    pub(crate) fn param_index(&self, name: &str) -> Option<usize> {
-        self.params.iter().position(|p| p.name == name)
     }
 
     pub(crate) fn neutral_values(&self) -> Vec<f64> {
@@ -727,10 +695,26 @@ pub fn neutral_mosaic_params() -> &'static [SensorParams; MOSAIC_COUNT] {
 
 /// Looks an effect up by name.
 pub fn find(name: &str) -> Result<&'static EffectDef> {
-    REGISTRY.iter().copied().find(|e| e.name == name).ok_or_else(|| Error::UnknownEffect {
-        name: name.to_string(),
-        known: REGISTRY.iter().map(|e| e.name).collect::<Vec<_>>().join(", "),
-    })
+    catalog::find(name)
+}
+
+impl Entry for EffectDef {
+    const KIND: Kind = Kind::Effect;
+    fn registry() -> &'static [&'static Self] {
+        REGISTRY
+    }
+    fn name(&self) -> &'static str {
+        self.name
+    }
+    fn summary(&self) -> &'static str {
+        self.summary
+    }
+    fn source(&self) -> &'static str {
+        self.source
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        self.params
+    }
 }
 
 /// The geometry stage's parameter block: the true camera and its mount relative to
@@ -857,75 +841,20 @@ impl Model {
     }
 }
 
-/// A set of enabled effects with their values.
-#[derive(Clone, Debug, Default)]
-pub struct EffectSet {
-    entries: Vec<(&'static EffectDef, Vec<f64>)>,
-}
+/// A set of enabled effects with their values: the catalog's [`Selection`] of effects,
+/// which folds into the chain's parameter block ([`EffectSet::model`]).
+pub type EffectSet = Selection<EffectDef>;
 
 impl EffectSet {
-    pub fn new() -> Self {
-        EffectSet::default()
-    }
-
-    /// Enables `name` at neutral values (no-op when already enabled).
-    pub fn enable(&mut self, name: &str) -> Result<()> {
-        let def = find(name)?;
-        if !self.entries.iter().any(|(d, _)| d.name == def.name) {
-            self.entries.push((def, def.neutral_values()));
-        }
-        Ok(())
-    }
-
-    /// Sets `effect.param` to `value`, enabling the effect.
-    pub fn set(&mut self, effect: &str, param: &str, value: f64) -> Result<()> {
-        let def = find(effect)?;
-        let idx = def.param_index(param).ok_or_else(|| Error::UnknownParam {
-            effect: effect.to_string(),
-            param: param.to_string(),
-            known: def.params.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
-        })?;
-        let spec = &def.params[idx];
-        if !value.is_finite() || value < spec.min || value > spec.max {
-            return Err(Error::BadParam {
-                spec: format!("{effect}.{param}={value}"),
-                message: format!("must lie in [{}, {}] {}", spec.min, spec.max, spec.unit),
-            });
-        }
-        self.enable(effect)?;
-        let entry = self.entries.iter_mut().find(|(d, _)| d.name == def.name).expect("just enabled");
-        entry.1[idx] = value;
-        Ok(())
-    }
-
     /// Parses `effect.param=value` (as given to `--effect`) and applies it.
     pub fn parse_assignment(&mut self, spec: &str) -> Result<()> {
-        let bad = |m: &str| Error::BadParam { spec: spec.to_string(), message: m.to_string() };
-        let (lhs, rhs) = spec.split_once('=').ok_or_else(|| bad("expected effect.param=value"))?;
-        let (effect, param) = lhs.trim().split_once('.').ok_or_else(|| bad("expected effect.param=value"))?;
-        let value: f64 = rhs.trim().parse().map_err(|_| bad("the value is not a number"))?;
-        self.set(effect.trim(), param.trim(), value)
-    }
-
-    /// Value of `effect.param` if the effect is enabled.
-    pub fn get(&self, effect: &str, param: &str) -> Option<f64> {
-        let (def, vals) = self.entries.iter().find(|(d, _)| d.name == effect)?;
-        def.param_index(param).map(|i| vals[i])
-    }
-
-    /// Enabled effects with their values, in the order they were enabled.
-    pub fn iter(&self) -> impl Iterator<Item = (&'static EffectDef, &[f64])> {
-        self.entries.iter().map(|(d, v)| (*d, v.as_slice()))
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
+        self.parse(spec)
     }
 
     /// The chain's parameter block with every enabled effect folded in.
     pub fn model(&self) -> Model {
         let mut m = Model::default();
-        for (def, vals) in &self.entries {
+        for (def, vals) in self.iter() {
             match def.apply {
                 Apply::Frame(fold) => fold(vals, &mut m),
                 Apply::Ray { params, .. } => {

@@ -53,7 +53,7 @@
 
 use super::frame::element_index;
 use super::texture::Texture;
-use super::{Draws, ElementDef, ElementId, ElementParam, FieldRay};
+use super::{Draws, ElementDef, ElementId, FieldRay, ParamSpec};
 use crate::conventions::enu_from_az_el_deg;
 use crate::stokes::Stokes;
 use glam::DVec3;
@@ -64,13 +64,13 @@ pub const ELEMENT: ElementDef = ElementDef {
     summary: "seeded clouds fixed in the world: brighter, less polarized, E-vectors turned per frame",
     source: "Pomozi, Horvath & Wehner 2001 (J. Exp. Biol. 204); phenomenological profile",
     params: &[
-        ElementParam { integer: true, ..ElementParam::real("count", "1", 6.0, 0.0, 64.0, "number of clouds") },
-        ElementParam::real("radius_min_deg", "deg", 5.0, 0.5, 45.0, "smallest angular radius"),
-        ElementParam::real("radius_max_deg", "deg", 12.0, 0.5, 45.0, "largest angular radius"),
-        ElementParam::real("min_elevation_deg", "deg", 10.0, 0.0, 89.0, "lowest elevation of a cloud's centre"),
-        ElementParam::real("brightness", "1", 2.5, 0.1, 5.0, "radiance factor at the brightest cloud's core"),
-        ElementParam::real("dolp_factor", "1", 0.15, 0.0, 1.0, "DoLP factor at a cloud's core"),
-        ElementParam::real(
+        ParamSpec::shape("count", "count", 6.0, 0.0, 64.0, "number of clouds").vanishing_at(0.0),
+        ParamSpec::shape("radius_min_deg", "deg", 5.0, 0.5, 45.0, "smallest angular radius"),
+        ParamSpec::shape("radius_max_deg", "deg", 12.0, 0.5, 45.0, "largest angular radius"),
+        ParamSpec::shape("min_elevation_deg", "deg", 10.0, 0.0, 89.0, "lowest elevation of a cloud's centre"),
+        ParamSpec::shape("brightness", "1", 2.5, 0.1, 5.0, "radiance factor at the brightest cloud's core"),
+        ParamSpec::shape("dolp_factor", "1", 0.15, 0.0, 1.0, "DoLP factor at a cloud's core"),
+        ParamSpec::shape(
             "rotation_sigma_deg",
             "deg",
             17.0,
@@ -78,8 +78,8 @@ pub const ELEMENT: ElementDef = ElementDef {
             90.0,
             "1σ of each cloud's E-vector turn, drawn per frame",
         ),
-        ElementParam::real("texture", "1", 0.3, 0.0, 1.0, "raggedness of the edges (0: smooth discs)"),
-        ElementParam::real(
+        ParamSpec::shape("texture", "1", 0.3, 0.0, 1.0, "raggedness of the edges (0: smooth discs)"),
+        ParamSpec::shape(
             "coherence",
             "1",
             0.0,
@@ -87,7 +87,7 @@ pub const ELEMENT: ElementDef = ElementDef {
             1.0,
             "share of the turn's variance common to every cloud of a frame (correlation of two clouds' turns)",
         ),
-        ElementParam::real(
+        ParamSpec::shape(
             "rim",
             "1",
             0.0,

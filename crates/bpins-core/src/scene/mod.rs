@@ -5,7 +5,9 @@
 //!
 //! Each element is one module here with its equation, source, units, frame and
 //! limits in its doc block and its tests beside it, one [`ElementDef`] and one line
-//! in [`ELEMENTS`]. A capture's choice is a [`FieldScene`] (enabled elements with
+//! in [`ELEMENTS`]: a catalog entry of the same shape as an effect's
+//! ([`crate::catalog`]: its parameters are [`ParamSpec`]s, parsed, checked and
+//! refused by the same code). A capture's choice is a [`FieldScene`] (enabled elements with
 //! their values and a seed); per frame it is folded into a [`FieldFrame`] (world
 //! orientation, sun, each element's constants and per-frame draws) that the chain
 //! holds as `ChainFrame::field` and applies right after the sky's Stokes vector
@@ -30,7 +32,8 @@ pub mod texture;
 pub use attitude::FieldAttitude;
 pub use frame::{field_stokes, linear_stokes, Draws, FieldFrame, FieldRay};
 
-use crate::error::{Error, Result};
+use crate::catalog::{self, Entry, Kind, ParamSpec, Selection};
+use crate::error::Result;
 
 /// Which element (closed set: the per-pixel dispatch is a fixed sequence).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,38 +45,8 @@ pub enum ElementId {
     Overcast,
 }
 
-/// One parameter of a scene element.
-#[derive(Debug, PartialEq)]
-pub struct ElementParam {
-    /// Name on the command line, unit as suffix (`_deg`), none for a pure number.
-    pub name: &'static str,
-    /// Unit: "deg" or "1" (dimensionless; a radiance relative to the sky's zenith).
-    pub unit: &'static str,
-    /// The value `--scene NAME` uses.
-    pub default: f64,
-    /// Allowed range (inclusive).
-    pub min: f64,
-    pub max: f64,
-    /// Whether the value must be a whole number (a count).
-    pub integer: bool,
-    pub doc: &'static str,
-}
-
-impl ElementParam {
-    /// A real-valued parameter (`integer` false): name, unit, default, range, doc.
-    pub const fn real(
-        name: &'static str,
-        unit: &'static str,
-        default: f64,
-        min: f64,
-        max: f64,
-        doc: &'static str,
-    ) -> Self {
-        ElementParam { name, unit, default, min, max, integer: false, doc }
-    }
-}
-
-/// One scene element.
+/// One scene element: a catalog [`Entry`] with its parameters ([`ParamSpec`], as an
+/// effect's) and the id the per-pixel dispatch knows it by.
 #[derive(Debug, PartialEq)]
 pub struct ElementDef {
     pub id: ElementId,
@@ -82,16 +55,32 @@ pub struct ElementDef {
     pub summary: &'static str,
     /// Where its equations come from.
     pub source: &'static str,
-    pub params: &'static [ElementParam],
+    pub params: &'static [ParamSpec],
 }
 
 impl ElementDef {
-    pub fn param_index(&self, name: &str) -> Option<usize> {
-        self.params.iter().position(|p| p.name == name)
-    }
-
+    /// The values `--scene NAME` uses (each parameter's typical value).
     pub fn defaults(&self) -> Vec<f64> {
-        self.params.iter().map(|p| p.default).collect()
+        self.params.iter().map(|p| p.typical).collect()
+    }
+}
+
+impl Entry for ElementDef {
+    const KIND: Kind = Kind::Element;
+    fn registry() -> &'static [&'static Self] {
+        ELEMENTS
+    }
+    fn name(&self) -> &'static str {
+        self.name
+    }
+    fn summary(&self) -> &'static str {
+        self.summary
+    }
+    fn source(&self) -> &'static str {
+        self.source
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        self.params
     }
 }
 
@@ -103,103 +92,70 @@ pub static ELEMENTS: &[&ElementDef] =
 
 /// Looks an element up by name.
 pub fn find_element(name: &str) -> Result<&'static ElementDef> {
-    ELEMENTS.iter().copied().find(|e| e.name == name).ok_or_else(|| Error::UnknownElement {
-        name: name.to_string(),
-        known: ELEMENTS.iter().map(|e| e.name).collect::<Vec<_>>().join(", "),
-    })
+    catalog::find(name)
 }
 
-/// A capture's field conditions: the enabled elements with their values, and the
-/// seed every draw of the scene is keyed by. Empty: the lab-clean sky.
+/// A capture's field conditions: the enabled elements with their values (the
+/// catalog's [`Selection`] of scene elements), and the seed every draw of the scene is
+/// keyed by. Empty: the lab-clean sky.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FieldScene {
     pub seed: u64,
-    entries: Vec<(&'static ElementDef, Vec<f64>)>,
+    elements: Selection<ElementDef>,
 }
 
 impl FieldScene {
     /// No element enabled, draws keyed by `seed`.
     pub fn new(seed: u64) -> Self {
-        FieldScene { seed, entries: Vec::new() }
+        FieldScene { seed, elements: Selection::new() }
     }
 
     /// Every element at its defaults.
     pub fn all(seed: u64) -> Self {
         let mut s = FieldScene::new(seed);
         for e in ELEMENTS {
-            s.entries.push((e, e.defaults()));
+            s.enable(e.name).expect("a registered element");
         }
         s
     }
 
     /// Enables `name` at its defaults (no-op when already enabled).
     pub fn enable(&mut self, name: &str) -> Result<()> {
-        let def = find_element(name)?;
-        if !self.entries.iter().any(|(d, _)| d.id == def.id) {
-            self.entries.push((def, def.defaults()));
-        }
-        Ok(())
+        self.elements.enable(name)
     }
 
     /// Sets `element.param` to `value`, enabling the element.
     pub fn set(&mut self, element: &str, param: &str, value: f64) -> Result<()> {
-        let def = find_element(element)?;
-        let idx = def.param_index(param).ok_or_else(|| Error::UnknownElementParam {
-            element: element.to_string(),
-            param: param.to_string(),
-            known: def.params.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
-        })?;
-        let spec = &def.params[idx];
-        let bad = |message: String| Error::BadSceneParam { spec: format!("{element}.{param}={value}"), message };
-        if !value.is_finite() || value < spec.min || value > spec.max {
-            return Err(bad(format!("must lie in [{}, {}] {}", spec.min, spec.max, spec.unit)));
-        }
-        if spec.integer && value.fract() != 0.0 {
-            return Err(bad("must be a whole number".into()));
-        }
-        self.enable(element)?;
-        let entry = self.entries.iter_mut().find(|(d, _)| d.id == def.id).expect("just enabled");
-        entry.1[idx] = value;
-        Ok(())
+        self.elements.set(element, param, value)
     }
 
     /// Parses `name` (defaults) or `name.param=value`, as given to `--scene`.
     pub fn parse(&mut self, spec: &str) -> Result<()> {
-        let bad = |m: &str| Error::BadSceneParam { spec: spec.to_string(), message: m.to_string() };
-        match spec.split_once('=') {
-            None if !spec.contains('.') => self.enable(spec.trim()),
-            None => Err(bad("expected element or element.param=value")),
-            Some((lhs, rhs)) => {
-                let (element, param) = lhs.trim().split_once('.').ok_or_else(|| bad("expected element.param=value"))?;
-                let value: f64 = rhs.trim().parse().map_err(|_| bad("the value is not a number"))?;
-                self.set(element.trim(), param.trim(), value)
-            }
-        }
+        self.elements.parse(spec)
     }
 
     /// Value of `element.param` if the element is enabled.
     pub fn get(&self, element: &str, param: &str) -> Option<f64> {
-        let (def, vals) = self.entries.iter().find(|(d, _)| d.name == element)?;
-        def.param_index(param).map(|i| vals[i])
+        self.elements.get(element, param)
     }
 
     /// The values of element `id` (in its `params` order) if it is enabled.
     pub fn values(&self, id: ElementId) -> Option<&[f64]> {
-        self.entries.iter().find(|(d, _)| d.id == id).map(|(_, v)| v.as_slice())
+        self.elements.iter().find(|(d, _)| d.id == id).map(|(_, v)| v)
     }
 
     /// The same scene without element `id`.
     pub fn without(&self, id: ElementId) -> FieldScene {
-        FieldScene { seed: self.seed, entries: self.entries.iter().filter(|(d, _)| d.id != id).cloned().collect() }
+        FieldScene { seed: self.seed, elements: self.elements.without(|d| d.id == id) }
     }
 
     /// Enabled elements with their values, in the order they were enabled.
     pub fn iter(&self) -> impl Iterator<Item = (&'static ElementDef, &[f64])> {
-        self.entries.iter().map(|(d, v)| (*d, v.as_slice()))
+        self.elements.iter()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
+        self.elements.is_empty()
     }
 }
 
@@ -222,10 +178,7 @@ mod tests {
             pnames.dedup();
             assert_eq!(pnames.len(), e.params.len(), "{}: duplicate parameter", e.name);
             for p in e.params {
-                assert!(["deg", "1"].contains(&p.unit), "{}.{}", e.name, p.name);
-                assert_eq!(p.unit == "deg", p.name.ends_with("_deg"), "{}.{}: unit suffix", e.name, p.name);
-                assert!(p.min <= p.default && p.default <= p.max && !p.doc.is_empty(), "{}.{}", e.name, p.name);
-                assert!(!p.integer || p.default.fract() == 0.0, "{}.{}", e.name, p.name);
+                assert!(["deg", "1", "count"].contains(&p.unit), "{}.{}", e.name, p.name);
             }
             // Its file opens with the doc block: equation, source, units, frame, limits.
             let text = std::fs::read_to_string(dir.join(format!("{}.rs", e.name))).unwrap();
@@ -242,7 +195,7 @@ mod tests {
     fn specs_parse_and_bad_ones_are_named() {
         let mut s = FieldScene::new(1);
         s.parse("clouds").unwrap();
-        assert_eq!(s.get("clouds", "count"), Some(clouds::ELEMENT.params[0].default));
+        assert_eq!(s.get("clouds", "count"), Some(clouds::ELEMENT.params[0].typical));
         s.parse("clouds.count=3").unwrap();
         s.parse(" skyline.max_elevation_deg = 12.5 ").unwrap();
         assert_eq!(s.get("clouds", "count"), Some(3.0));

@@ -42,7 +42,7 @@
 
 use super::frame::element_index;
 use super::texture::Texture;
-use super::{Draws, ElementDef, ElementId, ElementParam, FieldRay};
+use super::{Draws, ElementDef, ElementId, FieldRay, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
 
@@ -53,12 +53,13 @@ pub const ELEMENT: ElementDef = ElementDef {
               nearly unpolarized, E-vectors turned across the deck",
     source: "Hegedus, Akesson & Horvath 2007 (JOSA A 24); Pomozi, Horvath & Wehner 2001; phenomenological",
     params: &[
-        ElementParam::real("cover", "1", 0.9, 0.0, 1.0, "fraction of the dome above the horizon under the deck"),
-        ElementParam::real("scale_deg", "deg", 25.0, 2.0, 90.0, "size of the deck's features (and of its holes)"),
-        ElementParam::real("edge", "1", 0.05, 0.001, 1.0, "softness of the holes' edges, in the noise's units"),
-        ElementParam::real("brightness", "1", 1.5, 0.1, 5.0, "radiance factor under the deck"),
-        ElementParam::real("dolp_factor", "1", 0.08, 0.0, 1.0, "DoLP factor under the deck"),
-        ElementParam::real(
+        ParamSpec::shape("cover", "1", 0.9, 0.0, 1.0, "fraction of the dome above the horizon under the deck")
+            .vanishing_at(0.0),
+        ParamSpec::shape("scale_deg", "deg", 25.0, 2.0, 90.0, "size of the deck's features (and of its holes)"),
+        ParamSpec::shape("edge", "1", 0.05, 0.001, 1.0, "softness of the holes' edges, in the noise's units"),
+        ParamSpec::shape("brightness", "1", 1.5, 0.1, 5.0, "radiance factor under the deck"),
+        ParamSpec::shape("dolp_factor", "1", 0.08, 0.0, 1.0, "DoLP factor under the deck"),
+        ParamSpec::shape(
             "rotation_sigma_deg",
             "deg",
             20.0,
@@ -66,7 +67,7 @@ pub const ELEMENT: ElementDef = ElementDef {
             90.0,
             "scale of the deck's E-vector turn (a per-frame common part and a part varying across the deck)",
         ),
-        ElementParam::real(
+        ParamSpec::shape(
             "min_elevation_deg",
             "deg",
             0.0,
@@ -175,7 +176,7 @@ mod tests {
     use glam::DMat3;
 
     fn values(cover: f64) -> Vec<f64> {
-        ELEMENT.params.iter().enumerate().map(|(i, p)| if i == 0 { cover } else { p.default }).collect()
+        ELEMENT.params.iter().enumerate().map(|(i, p)| if i == 0 { cover } else { p.typical }).collect()
     }
 
     fn through(o: &Overcast, d: DVec3, s: Stokes) -> Stokes {

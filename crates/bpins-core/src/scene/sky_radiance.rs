@@ -37,7 +37,7 @@
 //! dependence; a sky whose radiance is not symmetric about the solar vertical.
 //! f and k are clamped at ≥ 0 where extreme (c, d) pairs would make them negative.
 
-use super::{ElementDef, ElementId, ElementParam, FieldRay};
+use super::{ElementDef, ElementId, FieldRay, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
 
@@ -47,52 +47,13 @@ pub const ELEMENT: ElementDef = ElementDef {
     summary: "CIE standard general sky radiance: brighter toward the sun and the horizon (type 12 clear sky)",
     source: "CIE S 011/E:2003 eqs. 1-3; Kittler & Darula 2002",
     params: &[
-        ElementParam {
-            name: "strength",
-            unit: "1",
-            default: 1.0,
-            min: 0.0,
-            max: 1.0,
-            integer: false,
-            doc: "0: the Rayleigh radiance, 1: the CIE distribution",
-        },
-        ElementParam { name: "a", unit: "1", default: -1.0, min: -5.0, max: 5.0, integer: false, doc: "gradation a" },
-        ElementParam {
-            name: "b",
-            unit: "1",
-            default: -0.32,
-            min: -3.0,
-            max: -0.05,
-            integer: false,
-            doc: "gradation b",
-        },
-        ElementParam {
-            name: "c",
-            unit: "1",
-            default: 10.0,
-            min: 0.0,
-            max: 30.0,
-            integer: false,
-            doc: "indicatrix c (circumsolar strength)",
-        },
-        ElementParam {
-            name: "d_per_rad",
-            unit: "1",
-            default: -3.0,
-            min: -5.0,
-            max: 0.0,
-            integer: false,
-            doc: "indicatrix d, per radian of the angle from the sun",
-        },
-        ElementParam {
-            name: "e",
-            unit: "1",
-            default: 0.45,
-            min: 0.0,
-            max: 2.0,
-            integer: false,
-            doc: "indicatrix e (forward/back scattering)",
-        },
+        ParamSpec::shape("strength", "1", 1.0, 0.0, 1.0, "0: the Rayleigh radiance, 1: the CIE distribution")
+            .vanishing_at(0.0),
+        ParamSpec::shape("a", "1", -1.0, -5.0, 5.0, "gradation a"),
+        ParamSpec::shape("b", "1", -0.32, -3.0, -0.05, "gradation b"),
+        ParamSpec::shape("c", "1", 10.0, 0.0, 30.0, "indicatrix c (circumsolar strength)"),
+        ParamSpec::shape("d_per_rad", "1", -3.0, -5.0, 0.0, "indicatrix d, per radian of the angle from the sun"),
+        ParamSpec::shape("e", "1", 0.45, 0.0, 2.0, "indicatrix e (forward/back scattering)"),
     ],
 };
 

@@ -44,7 +44,7 @@
 
 use super::frame::element_index;
 use super::texture::Texture;
-use super::{linear_stokes, Draws, ElementDef, ElementId, ElementParam, FieldRay};
+use super::{linear_stokes, Draws, ElementDef, ElementId, FieldRay, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
 
@@ -57,17 +57,10 @@ pub const ELEMENT: ElementDef = ElementDef {
     summary: "trees and buildings on a seeded jagged skyline, dark and nearly unpolarized; the ground below",
     source: "procedural skyline; radiances after Horvath & Varju 2004",
     params: &[
-        ElementParam::real("max_elevation_deg", "deg", 20.0, 0.0, 60.0, "highest object top above the horizon"),
-        ElementParam::real("coverage", "1", 0.7, 0.0, 1.0, "probability that a stretch of horizon holds an object"),
-        ElementParam::real(
-            "tree_fraction",
-            "1",
-            0.5,
-            0.0,
-            1.0,
-            "probability that an object is a tree (else a building)",
-        ),
-        ElementParam::real(
+        ParamSpec::shape("max_elevation_deg", "deg", 20.0, 0.0, 60.0, "highest object top above the horizon"),
+        ParamSpec::shape("coverage", "1", 0.7, 0.0, 1.0, "probability that a stretch of horizon holds an object"),
+        ParamSpec::shape("tree_fraction", "1", 0.5, 0.0, 1.0, "probability that an object is a tree (else a building)"),
+        ParamSpec::shape(
             "object_radiance",
             "1",
             0.15,
@@ -75,8 +68,8 @@ pub const ELEMENT: ElementDef = ElementDef {
             2.0,
             "objects' mean radiance over the sky's zenith radiance",
         ),
-        ElementParam::real("object_dolp", "1", 0.04, 0.0, 0.3, "objects' largest DoLP"),
-        ElementParam::real("ground_albedo", "1", 0.2, 0.0, 1.0, "ground radiance over the sky's zenith radiance"),
+        ParamSpec::shape("object_dolp", "1", 0.04, 0.0, 0.3, "objects' largest DoLP"),
+        ParamSpec::shape("ground_albedo", "1", 0.2, 0.0, 1.0, "ground radiance over the sky's zenith radiance"),
     ],
 };
 

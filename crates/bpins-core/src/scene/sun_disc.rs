@@ -32,7 +32,7 @@
 //! sampled finer than one ray per pixel (a pixel sees the sun only where its ray
 //! falls inside 0.266°).
 
-use super::{ElementDef, ElementId, ElementParam, FieldRay};
+use super::{ElementDef, ElementId, FieldRay, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
 
@@ -45,24 +45,24 @@ pub const ELEMENT: ElementDef = ElementDef {
     summary: "the sun's limb-darkened disc (0.266°) far above the sky, and its unpolarized aureole",
     source: "Buie, Monger & Dey, Solar Energy 74, 113 (2003)",
     params: &[
-        ElementParam {
-            name: "disc_radiance",
-            unit: "1",
-            default: 1e5,
-            min: 0.0,
-            max: 1e8,
-            integer: false,
-            doc: "radiance at the disc's centre over the sky's zenith radiance",
-        },
-        ElementParam {
-            name: "csr",
-            unit: "1",
-            default: 0.05,
-            min: 0.0,
-            max: 0.4,
-            integer: false,
-            doc: "circumsolar ratio: the aureole's share (strength; the saturated region grows with it)",
-        },
+        ParamSpec::shape(
+            "disc_radiance",
+            "1",
+            1e5,
+            0.0,
+            1e8,
+            "radiance at the disc's centre over the sky's zenith radiance",
+        )
+        .vanishing_at(0.0),
+        ParamSpec::shape(
+            "csr",
+            "1",
+            0.05,
+            0.0,
+            0.4,
+            "circumsolar ratio: the aureole's share (strength; the saturated region grows with it)",
+        )
+        .vanishing_at(0.0),
     ],
 };
 

@@ -67,7 +67,7 @@ pub fn markdown() -> String {
     s.push_str("| element | parameters | what it puts in the scene | source |\n|---|---|---|---|\n");
     for e in ELEMENTS {
         let params: Vec<String> =
-            e.params.iter().map(|p| format!("`{}` ({}; {})", p.name, p.unit, num(p.default))).collect();
+            e.params.iter().map(|p| format!("`{}` ({}; {})", p.name, p.unit, num(p.typical))).collect();
         let _ = writeln!(s, "| `{}` | {} | {} | {} |", e.name, params.join(", "), cell(e.summary), cell(e.source));
     }
     s
