@@ -40,7 +40,9 @@ Chain, per frame (each mosaic pixel at its own ray, CONVENTIONS "Pixels"):
    g set per frame so the brightest pixel's expected DN is PEAK_FRACTION of full
    scale (auto exposure); shot noise K * Poisson(S / K) at system gain K DN/e-,
    read noise N(0, READ_NOISE_DN), black level b, rounding, clipping to
-   [0, 2^bits - 1]. One numpy Generator seeded from --seed and the sky's index.
+   [0, 2^bits - 1]; a frame that is the mean of n exposures has K/n and
+   READ_NOISE_DN/sqrt(n), rounded once. One numpy Generator seeded from --seed
+   and the capture's index.
 
 Usage (Python 3.12-3.14, as PySkyLumos needs):
 
@@ -100,10 +102,15 @@ SUNS_DEG = (
     (345.0, 20.0),
 )
 
-# The skies: folder name, PySkyLumos model class, what it is.
+# The captures: folder name, PySkyLumos model class, exposures averaged per frame,
+# what it is. The stacked capture lowers the noise variance 16-fold (shot and read
+# noise / 16, still rounded to whole DN once): the same information as 16 times the
+# pixels, where the CIE radiance's departure from the fit's radiance nuisance starts
+# to show in single frames.
 SKIES = (
-    ("rayleigh", Rayleigh, "PySkyLumos Rayleigh: DoLP sin^2 g/(1+cos^2 g), E-vector normal to the scattering plane"),
-    ("berry", Berry, "PySkyLumos Berry (2004, eq. 4.2): DoLP |omega|, neutral points 15 deg above/below sun and anti-sun (30 deg apart)"),
+    ("rayleigh", Rayleigh, 1, "PySkyLumos Rayleigh: DoLP sin^2 g/(1+cos^2 g), E-vector normal to the scattering plane"),
+    ("berry", Berry, 1, "PySkyLumos Berry (2004, eq. 4.2): DoLP |omega|, neutral points 15 deg above/below sun and anti-sun (30 deg apart)"),
+    ("rayleigh-stack16", Rayleigh, 16, "the Rayleigh sky, each frame the mean of 16 exposures"),
 )
 
 # Any place and time: with an explicit sun position PySkyLumos uses them only to
@@ -227,13 +234,15 @@ def ideal_channels(sky: Sky, theta: np.ndarray) -> np.ndarray:
     return 0.5 * (sky.intensity + q * np.cos(2 * theta) + uu * np.sin(2 * theta))
 
 
-def expose(i_theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Step 7: DN (uint16) of one frame."""
+def expose(i_theta: np.ndarray, rng: np.random.Generator, stack: int) -> np.ndarray:
+    """Step 7: DN (uint16) of one frame, the mean of `stack` exposures (rounded once):
+    shot noise K/stack * Poisson(S * stack / K), read noise sigma/sqrt(stack)."""
     full_dn = 2**BIT_DEPTH - 1
     gain = (PEAK_FRACTION * full_dn - BLACK_LEVEL_DN) / i_theta.max()
     signal_dn = gain * i_theta
-    shot_dn = SYSTEM_GAIN_DN_PER_E * rng.poisson(signal_dn / SYSTEM_GAIN_DN_PER_E)
-    dn = shot_dn + BLACK_LEVEL_DN + rng.normal(0.0, READ_NOISE_DN, signal_dn.shape)
+    k = SYSTEM_GAIN_DN_PER_E / stack
+    shot_dn = k * rng.poisson(signal_dn / k)
+    dn = shot_dn + BLACK_LEVEL_DN + rng.normal(0.0, READ_NOISE_DN / np.sqrt(stack), signal_dn.shape)
     return np.clip(np.rint(dn), 0, full_dn).astype(np.uint16)
 
 
@@ -269,7 +278,7 @@ def capture_toml(cam: Camera, frames: list[tuple[str, float, float, float]]) -> 
 def render(out: Path, seed: int) -> None:
     cam = Camera(WIDTH_PX, HEIGHT_PX, PIXEL_PITCH_UM, FOCAL_LENGTH_MM)
     theta = analyzer_map(cam)
-    for k, (name, model, what) in enumerate(SKIES):
+    for k, (name, model, stack, what) in enumerate(SKIES):
         rng = np.random.default_rng([seed, k])
         # Headings: one per frame, uniform, to the millidegree (the value written is the
         # one rendered).
@@ -279,7 +288,7 @@ def render(out: Path, seed: int) -> None:
         frames = []
         for j, ((sun_az, sun_el), heading) in enumerate(zip(SUNS_DEG, headings)):
             sky = sky_in_image(model, cam, float(heading), sun_az, sun_el, check=model is Rayleigh)
-            dn = expose(ideal_channels(sky, theta), rng)
+            dn = expose(ideal_channels(sky, theta), rng, stack)
             file = f"frames/f{j:03d}.png"
             Image.fromarray(dn).save(folder / file, optimize=True)
             frames.append((file, sun_az, sun_el, float(heading)))
