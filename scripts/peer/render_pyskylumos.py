@@ -110,7 +110,7 @@ SUNS_DEG = (
 SKIES = (
     ("rayleigh", Rayleigh, 1, "PySkyLumos Rayleigh: DoLP sin^2 g/(1+cos^2 g), E-vector normal to the scattering plane"),
     ("berry", Berry, 1, "PySkyLumos Berry (2004, eq. 4.2): DoLP |omega|, neutral points 15 deg above/below sun and anti-sun (30 deg apart)"),
-    ("rayleigh-stack16", Rayleigh, 16, "the Rayleigh sky, each frame the mean of 16 exposures"),
+    ("rayleigh-stack16", Rayleigh, 16, "PySkyLumos Rayleigh, other headings and noise"),
 )
 
 # Any place and time: with an explicit sun position PySkyLumos uses them only to
@@ -275,7 +275,7 @@ def capture_toml(cam: Camera, frames: list[tuple[str, float, float, float]]) -> 
     return "\n".join(lines) + "\n"
 
 
-def render(out: Path, seed: int) -> None:
+def render(out: Path, seed: int, stack_override: int | None = None) -> None:
     cam = Camera(WIDTH_PX, HEIGHT_PX, PIXEL_PITCH_UM, FOCAL_LENGTH_MM)
     theta = analyzer_map(cam)
     for k, (name, model, stack, what) in enumerate(SKIES):
@@ -283,17 +283,18 @@ def render(out: Path, seed: int) -> None:
         # Headings: one per frame, uniform, to the millidegree (the value written is the
         # one rendered).
         headings = np.round(rng.uniform(0.0, 360.0, len(SUNS_DEG)), 3)
+        n = stack_override or stack
         folder = out / name
         (folder / "frames").mkdir(parents=True, exist_ok=True)
         frames = []
         for j, ((sun_az, sun_el), heading) in enumerate(zip(SUNS_DEG, headings)):
             sky = sky_in_image(model, cam, float(heading), sun_az, sun_el, check=model is Rayleigh)
-            dn = expose(ideal_channels(sky, theta), rng, stack)
+            dn = expose(ideal_channels(sky, theta), rng, n)
             file = f"frames/f{j:03d}.png"
             Image.fromarray(dn).save(folder / file, optimize=True)
             frames.append((file, sun_az, sun_el, float(heading)))
         (folder / "capture.toml").write_text(capture_toml(cam, frames))
-        print(f"{name}: {len(frames)} frames to {folder} ({what})")
+        print(f"{name}: {len(frames)} frames, each the mean of {n} exposure(s), to {folder} ({what})")
 
 
 def read_capture_frames(folder: Path):
@@ -338,6 +339,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=Path, help="folder to write <sky>/capture.toml and frames into")
     ap.add_argument("--seed", type=int, default=31, help="seed of the headings and the noise (default 31)")
+    ap.add_argument("--stack", type=int, metavar="N", help="every frame the mean of N exposures (default: each capture's own)")
     ap.add_argument("--check-samples", type=Path, metavar="DIR", help="compare with a clean sample capture instead")
     a = ap.parse_args()
     if pyskylumos.__version__ != PYSKYLUMOS_VERSION:
@@ -346,7 +348,7 @@ def main() -> int:
         return check_samples(a.check_samples)
     if not a.out:
         ap.error("--out DIR or --check-samples DIR")
-    render(a.out, a.seed)
+    render(a.out, a.seed, a.stack)
     return 0
 
 
