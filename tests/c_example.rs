@@ -13,7 +13,7 @@ mod needs;
 
 use bpins_core::compass::{Compass, Sun};
 use bpins_core::conventions::wrap_deg_180;
-use bpins_core::heading::field::RawImage;
+use bpins_core::internal::heading::field::RawImage;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -461,7 +461,7 @@ fn simulate_exr_dump_writes_one_frame() {
     bpins(&["simulate", "--exr", &s(&exr), "--width-px", "64", "--height-px", "48"]).ok();
     let len = fs::metadata(&exr).expect("the EXR exists").len();
     assert!(len > 0, "empty EXR");
-    let (w, h, layers) = bpins_core::capture::read_exr_layers(&exr).expect("bpins reads its own EXR");
+    let (w, h, layers) = bpins_core::internal::capture::read_exr_layers(&exr).expect("bpins reads its own EXR");
     assert_eq!((w, h), (64, 48));
     let layer =
         |n: &str| &layers.iter().find(|(name, _)| name == n).unwrap_or_else(|| panic!("no layer {n} in the EXR")).1;
@@ -539,7 +539,7 @@ fn simulate_with_scene_elements_and_random_tilts_writes_the_imu_sigma() {
     let (a, b, other) = (tmp.path().join("a"), tmp.path().join("b"), tmp.path().join("other"));
     let r = bpins(&field_args(&a, "7")).ok();
     r.stderr_has("scene (seed 7)").stderr_has("clouds.count=12").stderr_has("IMU σ 0.1 deg");
-    let c = bpins_core::capture::Capture::load(&a).expect("bpins reads its field capture");
+    let c = bpins_core::internal::capture::Capture::load(&a).expect("bpins reads its field capture");
     assert_eq!(c.frames.len(), 4);
     let mut tilts = Vec::new();
     for f in &c.frames {
@@ -555,12 +555,12 @@ fn simulate_with_scene_elements_and_random_tilts_writes_the_imu_sigma() {
     bpins(&field_args(&b, "7")).ok();
     bpins(&field_args(&other, "8")).ok();
     let load = |d: &Path| {
-        let c = bpins_core::capture::Capture::load(d).unwrap();
+        let c = bpins_core::internal::capture::Capture::load(d).unwrap();
         (0..c.frames.len()).map(|i| c.read_frame(i).unwrap()).collect::<Vec<_>>()
     };
     assert_eq!(load(&a), load(&b));
     assert_ne!(load(&a), load(&other));
-    let reread = bpins_core::capture::Capture::load(&other).unwrap();
+    let reread = bpins_core::internal::capture::Capture::load(&other).unwrap();
     assert_ne!(reread.frames[0].tilt_x_deg, c.frames[0].tilt_x_deg);
 }
 
@@ -606,7 +606,7 @@ fn negative_angles_are_taken_as_written_and_a_twilight_sun_simulates() {
         "skyline",
     ];
     bpins(&args).ok();
-    let c = bpins_core::capture::Capture::load(&out).unwrap();
+    let c = bpins_core::internal::capture::Capture::load(&out).unwrap();
     let f = &c.frames[0];
     // Azimuths are written in [0°, 360°) (CONVENTIONS.md): −10° is 350°.
     assert_eq!((f.heading_deg, f.tilt_x_deg, f.tilt_y_deg), (Some(350.0), Some(-2.5), Some(-5.0)));
@@ -995,10 +995,10 @@ fn the_diagnose_table_keeps_its_columns_apart() {
 /// a frame that does not exist named.
 #[test]
 fn maps_writes_each_frames_kernel_maps() {
-    use bpins_core::capture::{read_exr_layers, Capture, FrameData};
-    use bpins_core::heading::field::RawImage;
-    use bpins_core::maps::{stokes_maps, Interpolation, MapsConfig};
-    use bpins_core::recon::Reconstructor;
+    use bpins_core::internal::capture::{read_exr_layers, Capture, FrameData};
+    use bpins_core::internal::heading::field::RawImage;
+    use bpins_core::internal::maps::{stokes_maps, Interpolation, MapsConfig};
+    use bpins_core::internal::recon::Reconstructor;
     use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("maps");

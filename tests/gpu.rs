@@ -83,7 +83,7 @@ fn gpu_simulate_writes_the_cpu_exr_dump() {
     let dump = |backend: &str| {
         let exr = tmp.path().join(format!("{backend}.exr"));
         bpins(&["simulate", "--backend", backend, "--exr", &s(&exr), "--width-px", "96", "--height-px", "64"]).ok();
-        bpins_core::capture::read_exr_layers(&exr).unwrap()
+        bpins_core::internal::capture::read_exr_layers(&exr).unwrap()
     };
     let (cpu, gpu) = (dump("cpu"), dump("gpu"));
     assert_eq!((cpu.0, cpu.1), (gpu.0, gpu.1));

@@ -7,7 +7,7 @@
 #[path = "needs/mod.rs"]
 mod needs;
 
-use bpins_core::montecarlo::{self, Source, SweepConfig};
+use bpins_core::internal::montecarlo::{self, Source, SweepConfig};
 use bpins_gpu::agree::{cases, compare, tolerances, trial_frame};
 use bpins_gpu::{Gpu, Precision};
 use needs::Need;
@@ -162,7 +162,7 @@ fn oversized_frames_are_a_clear_error_not_a_panic() {
 }
 
 fn the_gpu_is_a_library_backend_like_the_cpu() {
-    use bpins_core::backend::{Backend, Cpu};
+    use bpins_core::internal::backend::{Backend, Cpu};
     let gpu = gpu();
     let t = trial_frame(&cases()[0], 1, 3).unwrap();
     let frames = std::slice::from_ref(&t.frame);
@@ -178,7 +178,7 @@ fn the_gpu_is_a_library_backend_like_the_cpu() {
 }
 
 fn sky_maps_agree_on_both_backends_for_every_effect() {
-    use bpins_core::backend::{Backend, Cpu};
+    use bpins_core::internal::backend::{Backend, Cpu};
     use bpins_gpu::tolerance::{aop_diff_deg, stages, AOP_MIN_DOLP};
     for gpu in gpus() {
         let st = stages(gpu.precision());

@@ -2,7 +2,7 @@
 //! clean up) leave every file either absent or whole, never a capture that is not
 //! one, and rerunning the same command completes.
 
-use bpins_core::capture::Capture;
+use bpins_core::internal::capture::Capture;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -165,7 +165,7 @@ fn check_whole(out: &Path, outputs: &[&str]) {
                 bpins_core::calibration::Calibration::load(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
             }
             Some("exr") => {
-                bpins_core::capture::read_exr_layers(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+                bpins_core::internal::capture::read_exr_layers(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
             }
             Some("png") => {
                 image::open(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));

@@ -12,11 +12,11 @@ use bpins::{
     BpinsCompass, BpinsCompassConfig, BpinsHeading, BpinsStatus, BpinsSun, BPINS_SUN_ANGLES,
 };
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
-use bpins_core::heading::field::RawImage;
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::field::RawImage;
+use bpins_core::internal::simulate::render_mosaic;
 use bpins_core::sensor::{Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::render_mosaic;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use std::mem::MaybeUninit;

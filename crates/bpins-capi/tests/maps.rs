@@ -2,9 +2,9 @@
 //! refusals as statuses with messages.
 
 use bpins::*;
-use bpins_core::heading::field::RawImage;
-use bpins_core::maps::{stokes_maps, Interpolation, MapsConfig};
-use bpins_core::recon::Reconstructor;
+use bpins_core::internal::heading::field::RawImage;
+use bpins_core::internal::maps::{stokes_maps, Interpolation, MapsConfig};
+use bpins_core::internal::recon::Reconstructor;
 use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
 use std::ffi::CStr;
 

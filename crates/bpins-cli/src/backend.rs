@@ -30,9 +30,9 @@ impl Backend {
 }
 
 /// Opens the backend `b` (the library's trait: the CLI only chooses).
-pub fn open(b: Backend) -> anyhow::Result<Box<dyn bpins_core::backend::Backend>> {
+pub fn open(b: Backend) -> anyhow::Result<Box<dyn bpins_core::internal::backend::Backend>> {
     Ok(match b {
-        Backend::Cpu => Box::new(bpins_core::backend::Cpu),
+        Backend::Cpu => Box::new(bpins_core::internal::backend::Cpu),
         Backend::Gpu => Box::new(open_gpu()?),
     })
 }
@@ -56,9 +56,12 @@ pub fn open_gpu() -> anyhow::Result<bpins_gpu::Gpu> {
 
 /// A sweep's engine on backend `b`: the rayon reference, or the GPU twin opened into
 /// `gpu` (which the engine borrows, so it lives as long as the caller's slot).
-pub fn sums_engine(b: Backend, gpu: &mut Option<bpins_gpu::Gpu>) -> anyhow::Result<&dyn bpins_core::sweep::SumsEngine> {
+pub fn sums_engine(
+    b: Backend,
+    gpu: &mut Option<bpins_gpu::Gpu>,
+) -> anyhow::Result<&dyn bpins_core::internal::sweep::SumsEngine> {
     Ok(match b {
-        Backend::Cpu => &bpins_core::sweep::CpuSums,
+        Backend::Cpu => &bpins_core::internal::sweep::CpuSums,
         Backend::Gpu => gpu.insert(open_gpu()?),
     })
 }

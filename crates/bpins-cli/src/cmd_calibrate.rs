@@ -7,8 +7,8 @@
 use crate::{ensure_not_in_capture, write_json, write_output};
 use anyhow::Context;
 use bpins_core::calibration::Calibration;
-use bpins_core::capture::LabCapture;
-use bpins_core::lab::{calibrate, output, report};
+use bpins_core::internal::capture::LabCapture;
+use bpins_core::internal::lab::{calibrate, output, report};
 use serde_json::json;
 use std::path::PathBuf;
 use std::sync::Arc;

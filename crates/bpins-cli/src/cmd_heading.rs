@@ -5,13 +5,13 @@
 use crate::{ensure_not_in_capture, write_json};
 use anyhow::{bail, Context};
 use bpins_core::calibration::Calibration;
-use bpins_core::capture::Capture;
 use bpins_core::compass::Compass;
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::EffectSet;
-use bpins_core::heading::field::FieldOptions;
-use bpins_core::heading::Extractor;
-use bpins_core::pipeline::{apply_pixel_maps, frame_headings_of, ReconMode};
+use bpins_core::internal::capture::Capture;
+use bpins_core::internal::heading::field::FieldOptions;
+use bpins_core::internal::heading::Extractor;
+use bpins_core::internal::pipeline::{apply_pixel_maps, frame_headings_of, ReconMode};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -76,7 +76,7 @@ pub struct Args {
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq)]
 enum Estimator {
-    /// Cells, masks, robust reweighting, jackknife 1σ (bpins_core::heading::field).
+    /// Cells, masks, robust reweighting, jackknife 1σ (bpins_core::internal::heading::field).
     Field,
     /// Every sample, least squares, statistical 1σ (the Monte Carlo's extractors).
     Plain,
@@ -118,7 +118,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let capture = match &a.site {
         None => Capture::load(capture_dir)?,
         Some(p) => {
-            let site = bpins_core::locate::Site::load(p)?;
+            let site = bpins_core::internal::locate::Site::load(p)?;
             let mut c = Capture::load_unplaced(capture_dir)?;
             let n = site.place(&mut c).with_context(|| format!("--site {}", p.display()))?;
             say!("--site {}: the sun of {n} frame(s) stamped without a place from the located site", p.display());

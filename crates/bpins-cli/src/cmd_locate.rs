@@ -6,11 +6,11 @@
 
 use crate::{ensure_not_in_capture, write_json, write_output};
 use anyhow::{bail, Context};
-use bpins_core::capture::Capture;
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::EffectSet;
-use bpins_core::heading::field::FieldOptions;
-use bpins_core::locate::{locate, measure, LocateOptions, SeriesTruth, Site, SunObs};
+use bpins_core::internal::capture::Capture;
+use bpins_core::internal::heading::field::FieldOptions;
+use bpins_core::internal::locate::{locate, measure, LocateOptions, SeriesTruth, Site, SunObs};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -113,7 +113,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         pole_only: a.pole,
     };
     let result = locate(&obs, &lopts).map_err(|e| match e {
-        bpins_core::locate::LocateError::TooFewFrames { usable, needed, .. } => {
+        bpins_core::internal::locate::LocateError::TooFewFrames { usable, needed, .. } => {
             anyhow::anyhow!(
                 "too few frames with a sun: {usable} of {} usable, {needed} needed (too cloudy, the sun out of range, \
                  or too few frames)",
@@ -176,7 +176,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn frames_json(frames: &[bpins_core::locate::FrameSun]) -> serde_json::Value {
+fn frames_json(frames: &[bpins_core::internal::locate::FrameSun]) -> serde_json::Value {
     frames
         .iter()
         .map(|f| match &f.sun {

@@ -7,10 +7,10 @@
 
 use crate::ensure_not_in_capture;
 use anyhow::{bail, Context};
-use bpins_core::capture::{write_exr_layers_fast, Capture, FrameData};
-use bpins_core::heading::field::RawImage;
-use bpins_core::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
-use bpins_core::recon::Reconstructor;
+use bpins_core::internal::capture::{write_exr_layers_fast, Capture, FrameData};
+use bpins_core::internal::heading::field::RawImage;
+use bpins_core::internal::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
+use bpins_core::internal::recon::Reconstructor;
 use bpins_core::sensor::{Channel, Layout};
 use rayon::prelude::*;
 use std::path::PathBuf;

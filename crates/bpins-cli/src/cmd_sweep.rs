@@ -5,7 +5,7 @@
 use crate::progress::bar;
 use crate::Backend;
 use anyhow::Context;
-use bpins_core::sweep::{merge, run_to_dir, unit_count, Outcome, Shard, Summary, SweepSpec};
+use bpins_core::internal::sweep::{merge, run_to_dir, unit_count, Outcome, Shard, Summary, SweepSpec};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

@@ -173,14 +173,14 @@ pub fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> anyh
 /// place: `bpins_core::output`), replacing an earlier run's.
 pub fn write_output(path: &std::path::Path, bytes: &[u8]) -> anyhow::Result<()> {
     use anyhow::Context;
-    bpins_core::output::write_bytes(path, bpins_core::output::Replace::Allowed, bytes)
+    bpins_core::internal::output::write_bytes(path, bpins_core::internal::output::Replace::Allowed, bytes)
         .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Refuses an output path that lies in a capture (a folder holding capture.toml):
 /// bpins never writes into a capture.
 pub fn ensure_not_in_capture(out: &std::path::Path) -> anyhow::Result<()> {
-    if let Some(c) = bpins_core::capture::enclosing_capture(out)? {
+    if let Some(c) = bpins_core::internal::capture::enclosing_capture(out)? {
         anyhow::bail!("{}: is inside the capture {}; bpins never writes into a capture", out.display(), c.display());
     }
     Ok(())
@@ -232,18 +232,18 @@ pub struct FitInput {
 
 /// Why a fit read more pixels than its first sample, in words (`FitResult::raised`):
 /// `what` was done on them.
-pub fn raised_line(x: &bpins_core::fit::input::resolution::Raised, what: &str) -> String {
+pub fn raised_line(x: &bpins_core::internal::fit::input::resolution::Raised, what: &str) -> String {
     format!(
         "{} not told from neutral at {} px per frame (< {}σ), but every pixel would tell them: {what} on {}",
         x.params.join(", "),
         x.from_budget_px,
-        bpins_core::fit::input::resolution::TOLD_SIGMA,
+        bpins_core::internal::fit::input::resolution::TOLD_SIGMA,
         x.to_budget_px.map_or("every pixel".to_string(), |b| format!("a budget of {b} px per frame"))
     )
 }
 
 /// What of each frame a fit read, in words (`FitResult::sample`).
-pub fn sample_line(s: &bpins_core::fit::Sample) -> String {
+pub fn sample_line(s: &bpins_core::internal::fit::Sample) -> String {
     let budget = s.budget_px.map_or("none (--full)".to_string(), |b| format!("{b} px per frame"));
     if s.pixels_per_frame >= s.frame_px {
         format!("every pixel of each frame ({} px; sample budget {budget})", s.frame_px)
@@ -265,24 +265,29 @@ impl FitInput {
     /// there), then the capture with its frames as the fit reads them (whole, or
     /// sampled within the budget; a progress bar while reading). `out` must lie
     /// outside the capture.
-    pub fn load(&self) -> anyhow::Result<bpins_core::fit::Loaded> {
+    pub fn load(&self) -> anyhow::Result<bpins_core::internal::fit::Loaded> {
         self.load_request().map(|(_, loaded)| loaded)
     }
 
     /// [`FitInput::load`], with the request it read (to read the capture again).
-    pub fn load_request(&self) -> anyhow::Result<(bpins_core::fit::FitRequest, bpins_core::fit::Loaded)> {
+    pub fn load_request(
+        &self,
+    ) -> anyhow::Result<(bpins_core::internal::fit::FitRequest, bpins_core::internal::fit::Loaded)> {
         use anyhow::Context;
         if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
             anyhow::bail!("--fixed-dmax {d} must lie in [0, 1]");
         }
-        let min = bpins_core::fit::input::frames::MIN_BUDGET_PX;
+        let min = bpins_core::internal::fit::input::frames::MIN_BUDGET_PX;
         if let Some(b) = self.sample_budget.filter(|&b| b < min) {
             anyhow::bail!("--sample-budget {b} is below the smallest budget, {min} pixels (16 blocks of 8 × 8)");
         }
-        let budget =
-            if self.full { None } else { Some(self.sample_budget.unwrap_or(bpins_core::fit::DEFAULT_BUDGET_PX)) };
+        let budget = if self.full {
+            None
+        } else {
+            Some(self.sample_budget.unwrap_or(bpins_core::internal::fit::DEFAULT_BUDGET_PX))
+        };
         ensure_not_in_capture(&self.out)?;
-        let request = bpins_core::fit::FitRequest {
+        let request = bpins_core::internal::fit::FitRequest {
             capture: self.capture.clone(),
             effects: self.effects.clone(),
             trust_reference: self.trust_reference,

@@ -15,13 +15,13 @@
 //!   Target ≤ 30 s. Ten samples of it take several minutes.
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::effects::Model;
-use bpins_core::heading::{Extractor, HeadingContext, HeadingSums};
-use bpins_core::montecarlo::{run_sweep, run_trial, Source, SweepConfig};
-use bpins_core::recon::{superpixels, Reconstructor};
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::{Extractor, HeadingContext, HeadingSums};
+use bpins_core::internal::montecarlo::{run_sweep, run_trial, Source, SweepConfig};
+use bpins_core::internal::recon::{superpixels, Reconstructor};
+use bpins_core::internal::simulate::{mosaic_heading_sums, render_colocated, render_mosaic, sky_maps};
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::{mosaic_heading_sums, render_colocated, render_mosaic, sky_maps};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use std::time::Duration;

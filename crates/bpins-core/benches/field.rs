@@ -11,14 +11,14 @@
 //! * `field/*_cells` and `field/*_estimate`: the two stages of the first.
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
 use bpins_core::effects::Model;
-use bpins_core::heading::field::{estimate, Cells, FieldContext, FieldOptions, RawImage};
-use bpins_core::heading::Extractor;
-use bpins_core::recon::Reconstructor;
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::field::{estimate, Cells, FieldContext, FieldOptions, RawImage};
+use bpins_core::internal::heading::Extractor;
+use bpins_core::internal::recon::Reconstructor;
+use bpins_core::internal::simulate::render_mosaic;
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::render_mosaic;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 
@@ -62,7 +62,7 @@ fn field(c: &mut Criterion) {
         // The same with a lab calibration's per-pixel maps, every map present (their
         // values those of the sensor the frame was rendered with, so the estimator
         // sees the same sky): each cell through its own analyzers (pixel_analyzers.rs).
-        let mut maps = bpins_core::pixel_analyzers::PixelMaps::nominal(w, h, DEFAULT_MOSAIC);
+        let mut maps = bpins_core::internal::pixel_analyzers::PixelMaps::nominal(w, h, DEFAULT_MOSAIC);
         maps.offset_dn = Some(vec![64.0; w * h]);
         maps.gain = Some(vec![1.0; w * h]);
         maps.eps = Some(vec![0.0; w * h]);

@@ -11,10 +11,10 @@ use std::hint::black_box;
 
 use bpins_core::calibration::Calibration;
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::capture::{LabCapture, LensSpec, SensorSpec};
 use bpins_core::effects::Model;
-use bpins_core::lab::simulate::{lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
-use bpins_core::lab::{calibrate, output, report};
+use bpins_core::internal::capture::{LabCapture, LensSpec, SensorSpec};
+use bpins_core::internal::lab::simulate::{lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
+use bpins_core::internal::lab::{calibrate, output, report};
 use bpins_core::sensor::{Geometry, Layout, DEFAULT_MOSAIC};
 use criterion::{criterion_group, criterion_main, Criterion};
 

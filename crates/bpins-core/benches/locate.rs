@@ -12,14 +12,14 @@
 //! * `locate/hour_end_to_end`: both, what one `locate` of the hour costs.
 
 use bpins_core::camera::Projection;
-use bpins_core::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use bpins_core::conventions::image_centre_px;
 use bpins_core::effects::Model;
-use bpins_core::heading::field::FieldOptions;
-use bpins_core::locate::{locate, measure_data, LocateOptions, Series, SunObs};
-use bpins_core::pipeline::SimSensor;
+use bpins_core::internal::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+use bpins_core::internal::heading::field::FieldOptions;
+use bpins_core::internal::locate::{locate, measure_data, LocateOptions, Series, SunObs};
+use bpins_core::internal::pipeline::SimSensor;
+use bpins_core::internal::sky::sun::SunPosition;
 use bpins_core::sensor::{Geometry, Layout, DEFAULT_MOSAIC};
-use bpins_core::sky::sun::SunPosition;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
 use std::path::PathBuf;

@@ -12,13 +12,13 @@
 //!   memory-traffic floor on this machine.
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::effects::Model;
-use bpins_core::heading::field::RawImage;
-use bpins_core::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
-use bpins_core::recon::{angle_maps, demosaic, Reconstructor};
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::field::RawImage;
+use bpins_core::internal::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
+use bpins_core::internal::recon::{angle_maps, demosaic, Reconstructor};
+use bpins_core::internal::simulate::render_mosaic;
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::render_mosaic;
 use criterion::{criterion_group, criterion_main, Criterion};
 use rayon::prelude::*;
 use std::hint::black_box;

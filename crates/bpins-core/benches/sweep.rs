@@ -10,7 +10,7 @@
 //!   `examples/sweeps/design-2448x2048.toml` (DoFP 2448 × 2048, fisheye, 7 errors):
 //!   the unit of the 10 000-trial estimate in BENCHMARKS.md.
 
-use bpins_core::sweep::{run_units, unit_count, CpuSums, SweepSpec};
+use bpins_core::internal::sweep::{run_units, unit_count, CpuSums, SweepSpec};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::Path;
 use std::time::Duration;

@@ -8,15 +8,15 @@
 //! ```
 
 use bpins_core::calibration::Calibration;
-use bpins_core::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
 use bpins_core::conventions::{image_centre_px, wrap_deg_180};
 use bpins_core::effects::{find, EffectSet};
-use bpins_core::fit::{fit, FitOptions};
-use bpins_core::heading::field::RawImage;
-use bpins_core::pipeline::{simulate_capture, SimSensor};
+use bpins_core::internal::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+use bpins_core::internal::fit::{fit, FitOptions};
+use bpins_core::internal::heading::field::RawImage;
+use bpins_core::internal::pipeline::{simulate_capture, SimSensor};
+use bpins_core::internal::sky::sun::SunPosition;
 use bpins_core::sensor::{Geometry, Layout, DEFAULT_MOSAIC};
-use bpins_core::sky::sun::SunPosition;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut truth = EffectSet::new();

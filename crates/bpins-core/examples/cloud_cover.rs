@@ -10,9 +10,9 @@
 //! (defaults 12 frames per point, seed 2026, half resolution, `docs/cloud_cover.svg`;
 //! about ten minutes on two cores). Prints the table as Markdown and writes the plot.
 
-use bpins_core::field_conditions::{cover_condition, score_field, Score};
-use bpins_core::heading::field::FieldOptions;
-use bpins_core::heading::Extractor;
+use bpins_core::internal::field_conditions::{cover_condition, score_field, Score};
+use bpins_core::internal::heading::field::FieldOptions;
+use bpins_core::internal::heading::Extractor;
 use std::fmt::Write as _;
 
 const COVERS: [f64; 7] = [0.0, 0.15, 0.3, 0.45, 0.6, 0.75, 0.9];

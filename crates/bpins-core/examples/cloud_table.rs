@@ -1,5 +1,5 @@
 //! The README's cloud table: every cloudy field condition
-//! (`bpins_core::field_conditions::cloudy`) under several scene seeds (where the
+//! (`bpins_core::internal::field_conditions::cloudy`) under several scene seeds (where the
 //! clouds lie matters more than how many frames turn under them), each extractor of
 //! the field estimator: RMS error, the share of frames within 2σ, the largest
 //! |error|/σ, the frames refused, and the median cloud fraction the frames report.
@@ -10,9 +10,9 @@
 //! (defaults 8 frames per seed, seeds 2026…2030, full resolution: 40 frames per
 //! condition, about a minute on two cores).
 
-use bpins_core::field_conditions::{cloudy, score_field_all};
-use bpins_core::heading::field::FieldOptions;
-use bpins_core::heading::Extractor;
+use bpins_core::internal::field_conditions::{cloudy, score_field_all};
+use bpins_core::internal::heading::field::FieldOptions;
+use bpins_core::internal::heading::Extractor;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);

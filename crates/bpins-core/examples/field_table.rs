@@ -7,9 +7,9 @@
 //! ```
 //! (defaults 24 frames per condition, seed 2026; a few minutes on two cores).
 
-use bpins_core::field_conditions::{score_field, score_plain, standard};
-use bpins_core::heading::field::FieldOptions;
-use bpins_core::heading::Extractor;
+use bpins_core::internal::field_conditions::{score_field, score_plain, standard};
+use bpins_core::internal::heading::field::FieldOptions;
+use bpins_core::internal::heading::Extractor;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);

@@ -12,13 +12,13 @@
 //! the compass's alone: borrowed u16 buffer → heading ± 1σ.
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::capture::{Capture, FrameData};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
 use bpins_core::conventions::wrap_deg_180;
-use bpins_core::heading::field::RawImage;
+use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::field::RawImage;
+use bpins_core::internal::simulate::render_mosaic;
 use bpins_core::sensor::{Layout, Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::render_mosaic;
 use std::time::{Duration, Instant};
 
 /// One frame as the camera and the IMU deliver it, with the truth where known.

@@ -17,15 +17,15 @@
 //! Prints the table as Markdown.
 
 use bpins_core::camera::Projection;
-use bpins_core::capture::{Capture, FrameSpec, LensSpec, SensorSpec};
 use bpins_core::conventions::{image_centre_px, wrap_deg_180};
 use bpins_core::effects::{EffectSet, Model};
-use bpins_core::heading::field::FieldOptions;
-use bpins_core::locate::{locate, measure_data, LocateOptions, Series, SunObs};
-use bpins_core::pipeline::SimSensor;
-use bpins_core::scene::{Draws, FieldAttitude, FieldScene};
+use bpins_core::internal::capture::{Capture, FrameSpec, LensSpec, SensorSpec};
+use bpins_core::internal::heading::field::FieldOptions;
+use bpins_core::internal::locate::{locate, measure_data, LocateOptions, Series, SunObs};
+use bpins_core::internal::pipeline::SimSensor;
+use bpins_core::internal::scene::{Draws, FieldAttitude, FieldScene};
+use bpins_core::internal::sky::sun::SunPosition;
 use bpins_core::sensor::{Geometry, Layout, DEFAULT_MOSAIC};
-use bpins_core::sky::sun::SunPosition;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 

@@ -5,9 +5,9 @@
 //!
 //! `cargo run --release -p bpins-core --example schur_scaling -- [n_g] [frames…]`
 
-use bpins_core::fit::solver::block::BlockSystem;
-use bpins_core::fit::solver::linalg::PseudoInverse;
-use bpins_core::fit::solver::schur::BlockInverse;
+use bpins_core::internal::fit::solver::block::BlockSystem;
+use bpins_core::internal::fit::solver::linalg::PseudoInverse;
+use bpins_core::internal::fit::solver::schur::BlockInverse;
 use std::time::Instant;
 
 /// splitmix64: a seeded uniform in [−1, 1).

@@ -21,12 +21,12 @@
 //! of 8 bytes: 0.8 MB per second of the worst latency); the heap is exact.
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
 use bpins_core::conventions::wrap_deg_180;
-use bpins_core::heading::field::RawImage;
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::field::RawImage;
+use bpins_core::internal::simulate::render_mosaic;
 use bpins_core::sensor::{Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::render_mosaic;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicI64, AtomicU64, Ordering::Relaxed};
 use std::time::{Duration, Instant};

@@ -4,10 +4,10 @@
 //! `simulate` among them) picks a backend without knowing which it got.
 //!
 //! ```
-//! use bpins_core::backend::{Backend, Cpu};
-//! use bpins_core::chain::ChainFrame;
+//! use bpins_core::internal::backend::{Backend, Cpu};
+//! use bpins_core::internal::chain::ChainFrame;
 //! # use bpins_core::camera::{Intrinsics, Projection};
-//! # use bpins_core::chain::Scene;
+//! # use bpins_core::internal::chain::Scene;
 //! # let intr = Intrinsics::new(Projection::Pinhole, 300.0, 31.5, 23.5);
 //! # let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 0.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
 //! let frame = ChainFrame::noise_free(&Default::default(), &intr, &scene);

@@ -22,7 +22,7 @@
 //! naming the file and the key. Parameters not written keep their neutral values.
 //!
 //! A lab calibration (`bpins calibrate`) adds per-pixel maps
-//! ([`crate::pixel_analyzers`]), stored as float channels of an OpenEXR file beside
+//! (`pixel_analyzers`), stored as float channels of an OpenEXR file beside
 //! the toml:
 //!
 //! ```toml

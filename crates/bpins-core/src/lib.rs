@@ -5,100 +5,200 @@
 //! with noise → Stokes reconstruction → heading. Conventions (frames, angles, mosaic,
 //! Stokes) are those of `docs/spec/CONVENTIONS.md`, kept in [`conventions`].
 //!
-//! # Where things are
+//! # Where to start
 //!
-//! | for | modules |
+//! | you want | start at |
 //! |---|---|
-//! | a robot: raw frames in, heading ± 1σ out | [`compass`] (the front door), [`calibration`], [`backend`] |
-//! | headings from Stokes images or cells | [`heading`], [`heading::field`] (the field estimator) |
-//! | the measurement chain, pixel by pixel | [`sky`], [`camera`], [`effects`] (the catalog and its registry), [`sensor`], [`noise`], [`chain`], [`stokes`], [`recon`], [`conventions`] |
-//! | simulation and the seed paper's error analysis | [`simulate`], [`scene`] (field conditions), [`montecarlo`] |
-//! | measured captures (feature `io`) | `capture`, `pipeline`, `fit` (fit and diagnosis), `field_conditions` |
-//! | north and place from the sky alone, no GNSS (feature `io`) | `locate` |
+//! | a heading ± 1σ from a camera's raw frames (a robot) | [`compass::Compass`], with a [`calibration::Calibration`] |
+//! | the same from a capture on disk (`docs/spec/CAPTURE.md`) | [`Capture`], then [`compass::Compass::for_capture`] |
+//! | to fit the model to measured frames, and what it misses | [`fit()`], [`diagnose()`] |
+//! | a sensor's effects from lab frames | [`calibrate`] |
+//! | the seed paper's error analysis over any sensor | [`SweepSpec`], [`run_to_dir`] |
+//! | north and place from the sky over time, no GNSS | [`locate()`] |
+//! | AoP and DoLP maps of a raw frame | [`stokes_maps`] |
+//! | what can be simulated and fitted: lens and sensor effects, scene elements | [`catalog`], [`effects`], [`scene`] |
 //!
-//! The per-pixel kernels stay public where the GPU twin's parity tests and the
-//! registry-wide tests call them as the reference; row loops, scratch sums and the
-//! drivers' helpers are private.
+//! The camera and sensor descriptions these take are [`camera`] and [`sensor`];
+//! errors are typed ([`Error`], [`compass::CompassError`], [`LocateError`]).
+//! Adding an effect or a scene element is one module and one registry line
+//! (`docs/adding-an-effect.md`); everything else in the crate is the house behind the
+//! front door, private (the workspace's own crates reach it through a hidden
+//! `internal` module, with no stability promise).
 //!
-//! The per-pixel physics are pure functions (CPU reference of the GPU shaders);
-//! rayon appears only in the drivers that map them over pixels and trials.
-//! Libraries never print: errors are typed ([`Error`]).
+//! The per-pixel physics are pure functions (the CPU reference of the GPU shaders);
+//! rayon appears only in the drivers that map them over pixels and trials. Libraries
+//! never print.
 //!
-//! # Example: a frame from sky to heading
+//! # Example: headings from a capture on disk
 //!
-//! Simulate a small DoFP frame with a 0.3° rotated analyzer array, reconstruct it as
-//! a user would (nominal analyzers), and read the heading with both extractors:
+//! Read the `samples/clean` capture, made by an independent implementation of the
+//! spec, and read each frame's heading with its 1σ as a robot would:
 //!
 //! ```
-//! use bpins_core::camera::{Intrinsics, Projection};
-//! use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
+//! use bpins_core::calibration::Calibration;
+//! use bpins_core::compass::{Compass, Extractor, FieldOptions};
 //! use bpins_core::conventions::wrap_deg_180;
-//! use bpins_core::effects::{EffectSet, Model};
-//! use bpins_core::heading::{estimate, Extractor, HeadingContext};
-//! use bpins_core::recon::{demosaic, Reconstructor};
-//! use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
-//! use bpins_core::simulate::render_mosaic;
+//! use bpins_core::Capture;
 //!
-//! let (w, h) = (306, 256);
-//! let camera = Intrinsics { projection: Projection::Pinhole, f_px: 8000.0 / 27.6, cx_px: 152.5, cy_px: 127.5, distortion: [0.0; 2] };
-//! let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
-//! let sensor = Response { gain_dn: 3000.0, black_level_dn: 64.0, read_noise_dn: 1.0, bit_depth: 12, quantize: true, ..Response::ideal(1.0) };
-//!
-//! let mut truth = EffectSet::new();
-//! truth.parse_assignment("array_rotation.dtheta_deg=0.3")?;
-//! let frame = ChainFrame::new(&truth.model(), &camera, &scene, &sensor, NoiseIndex { seed: 1, trial: 0, frame: 0 });
-//! let dn = render_mosaic(&frame, w, h, &DEFAULT_MOSAIC); // DN, 12-bit
-//!
-//! let rec = Reconstructor::new(&Model::default(), 64.0, &Channel::ALL)?;
-//! let stokes = demosaic(&dn, w, h, &DEFAULT_MOSAIC, &rec, 4095.0);
-//! let ctx = HeadingContext::new(camera, w, h, scene.sun_az_deg, scene.sun_el_deg);
-//! for e in Extractor::ALL {
-//!     let est = estimate(&stokes, &ctx, e)?;
-//!     let err = wrap_deg_180(est.heading_deg - scene.heading_deg);
-//!     // The unknown array rotation biases the heading by about its own angle.
-//!     assert!(err > 0.1 && err < 0.5, "{}: {err}°", e.name());
+//! let capture = Capture::load(std::path::Path::new("../../samples/clean"))?;
+//! let mut compass = Compass::for_capture(&capture, Calibration::default(), FieldOptions::default(), Extractor::SunVector)?;
+//! for (i, frame) in capture.frames.iter().enumerate() {
+//!     let data = capture.read_frame(i)?;
+//!     let fix = &compass.capture_frame(&data, frame, &[Extractor::SunVector])?[0];
+//!     let (heading_deg, sigma_deg) = (fix.heading_deg().unwrap(), fix.sigma_deg().unwrap());
+//!     // Within a few 1σ of the capture's reference heading.
+//!     let err_deg = wrap_deg_180(heading_deg - frame.heading_deg.unwrap());
+//!     assert!(err_deg.abs() < 5.0 * sigma_deg + 0.01, "frame {i}: {err_deg}° off, 1σ {sigma_deg}°");
 //! }
-//! # Ok::<(), bpins_core::Error>(())
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod backend;
+// The front door: the modules a user of the library reads (see the table above).
 pub mod calibration;
 pub mod camera;
-#[cfg(feature = "io")]
-pub mod capture;
 pub mod catalog;
-pub mod chain;
 pub mod compass;
 pub mod conventions;
-#[cfg(feature = "io")]
-pub mod diagnose;
 pub mod effects;
 pub mod error;
-#[cfg(feature = "io")]
-pub mod field_conditions;
-#[cfg(feature = "io")]
-pub mod fit;
-pub mod heading;
-#[cfg(feature = "io")]
-pub mod lab;
-#[cfg(feature = "io")]
-pub mod locate;
-pub mod maps;
-pub(crate) mod math;
-pub mod montecarlo;
-pub mod noise;
-#[cfg(feature = "io")]
-pub mod output;
-#[cfg(feature = "io")]
-pub mod pipeline;
-pub mod pixel_analyzers;
-pub mod recon;
 pub mod scene;
 pub mod sensor;
-pub mod simulate;
-pub mod sky;
-pub mod stokes;
+
+// The house: every implementation module, private. The workspace's own crates (the
+// CLI, the GPU twin and its parity tests, the Python and C bindings, the ROS 2 reader)
+// and the end-to-end tests reach them through [`internal`].
+mod backend;
 #[cfg(feature = "io")]
-pub mod sweep;
+mod capture;
+mod chain;
+#[cfg(feature = "io")]
+mod diagnose;
+#[cfg(feature = "io")]
+mod field_conditions;
+#[cfg(feature = "io")]
+mod fit;
+mod heading;
+#[cfg(feature = "io")]
+mod lab;
+#[cfg(feature = "io")]
+mod locate;
+mod maps;
+mod math;
+mod montecarlo;
+mod noise;
+#[cfg(feature = "io")]
+mod output;
+#[cfg(feature = "io")]
+mod pipeline;
+mod pixel_analyzers;
+mod recon;
+mod simulate;
+mod sky;
+mod stokes;
+#[cfg(feature = "io")]
+mod sweep;
 
 pub use error::{Error, Result};
+
+// What each kind of user calls, beside the compass (feature `io`: measured captures).
+#[cfg(feature = "io")]
+pub use capture::{Capture, FrameData, FrameSpec, LabCapture};
+#[cfg(feature = "io")]
+pub use diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+#[cfg(feature = "io")]
+pub use fit::{fit, FitOptions, FitResult};
+#[cfg(feature = "io")]
+pub use lab::{calibrate, LabCalibration};
+#[cfg(feature = "io")]
+pub use locate::{locate, LocateError, LocateOptions, Located, SunObs};
+pub use maps::{stokes_maps, Maps, MapsConfig};
+#[cfg(feature = "io")]
+pub use sweep::{run_to_dir, SweepSpec};
+
+/// The house behind the front door, for the workspace's own crates and tests: the
+/// per-pixel chain and its kernels (the CPU reference the GPU twin's parity tests call),
+/// the fit's and the diagnosis's rooms, the capture format's readers and writers, the
+/// sweep's shards. Hidden from the documentation and free to change in any release:
+/// nothing here is part of bpins-core's public interface.
+#[doc(hidden)]
+pub mod internal {
+    pub mod backend {
+        pub use crate::backend::*;
+    }
+    #[cfg(feature = "io")]
+    pub mod capture {
+        pub use crate::capture::*;
+    }
+    pub mod chain {
+        pub use crate::chain::*;
+    }
+    #[cfg(feature = "io")]
+    pub mod diagnose {
+        pub use crate::diagnose::*;
+    }
+    pub mod effects {
+        pub use crate::effects::*;
+        pub mod lens_diattenuation {
+            pub use crate::effects::lens_diattenuation::*;
+        }
+    }
+    #[cfg(feature = "io")]
+    pub mod field_conditions {
+        pub use crate::field_conditions::*;
+    }
+    #[cfg(feature = "io")]
+    pub mod fit {
+        pub use crate::fit::*;
+    }
+    pub mod heading {
+        pub use crate::heading::*;
+    }
+    #[cfg(feature = "io")]
+    pub mod lab {
+        pub use crate::lab::*;
+    }
+    #[cfg(feature = "io")]
+    pub mod locate {
+        pub use crate::locate::*;
+    }
+    pub mod maps {
+        pub use crate::maps::*;
+    }
+    pub mod montecarlo {
+        pub use crate::montecarlo::*;
+    }
+    pub mod noise {
+        pub use crate::noise::*;
+    }
+    #[cfg(feature = "io")]
+    pub mod output {
+        pub use crate::output::*;
+    }
+    #[cfg(feature = "io")]
+    pub mod pipeline {
+        pub use crate::pipeline::*;
+    }
+    pub mod pixel_analyzers {
+        pub use crate::pixel_analyzers::*;
+    }
+    pub mod recon {
+        pub use crate::recon::*;
+    }
+    pub mod scene {
+        pub use crate::scene::frame::*;
+        pub use crate::scene::*;
+    }
+    pub mod simulate {
+        pub use crate::simulate::*;
+    }
+    pub mod sky {
+        pub use crate::sky::*;
+    }
+    pub mod stokes {
+        pub use crate::stokes::*;
+    }
+    #[cfg(feature = "io")]
+    pub mod sweep {
+        pub use crate::sweep::*;
+    }
+}

@@ -8,9 +8,9 @@
 
 mod common;
 
-use bpins_core::diagnose::{diagnose, DiagnoseOptions};
 use bpins_core::effects::EffectSet;
-use bpins_core::fit::output::profiles::{Axis, Quantity};
+use bpins_core::internal::diagnose::{diagnose, DiagnoseOptions};
+use bpins_core::internal::fit::output::profiles::{Axis, Quantity};
 use common::{simulate, small_capture, typical};
 
 #[test]

@@ -3,12 +3,12 @@
 //! this file holds one test so that nothing else in the process allocates meanwhile.
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
-use bpins_core::heading::field::RawImage;
-use bpins_core::heading::Extractor;
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::field::RawImage;
+use bpins_core::internal::heading::Extractor;
+use bpins_core::internal::simulate::render_mosaic;
 use bpins_core::sensor::{Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::render_mosaic;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -66,7 +66,7 @@ fn a_warm_compass_allocates_nothing_per_frame() {
         .collect();
     // A lab calibration's per-pixel maps (gain and angle patterns) cost no allocation
     // per frame either: each cell's reconstruction is made once, in `Compass::new`.
-    let mut maps = bpins_core::pixel_analyzers::PixelMaps::nominal(w, h, DEFAULT_MOSAIC);
+    let mut maps = bpins_core::internal::pixel_analyzers::PixelMaps::nominal(w, h, DEFAULT_MOSAIC);
     maps.gain = Some((0..w * h).map(|i| 1.0 + 0.01 * ((i * 7919 % 13) as f32 - 6.0) / 6.0).collect());
     maps.analyzer_deg = Some(
         (0..w * h)

@@ -8,9 +8,9 @@ use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use bpins_core::capture::{read_exr_layers, write_exr_layers, Capture, FrameData};
+use bpins_core::internal::capture::{read_exr_layers, write_exr_layers, Capture, FrameData};
+use bpins_core::internal::sky::sun::{sun_from_time_place, SunSource};
 use bpins_core::sensor::{Channel, Layout, DEFAULT_MOSAIC};
-use bpins_core::sky::sun::{sun_from_time_place, SunSource};
 use image::{GrayImage, ImageBuffer, Luma, RgbImage};
 
 const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");

@@ -2,13 +2,13 @@
 //! projection and extractor, against the heading the frame was simulated at.
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::{EffectSet, Model};
-use bpins_core::heading::{estimate, Extractor, HeadingContext};
-use bpins_core::recon::{self, Reconstructor};
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::{estimate, Extractor, HeadingContext};
+use bpins_core::internal::recon::{self, Reconstructor};
+use bpins_core::internal::simulate::{peak_intensity, render_colocated, render_mosaic};
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::{peak_intensity, render_colocated, render_mosaic};
 
 const W: usize = 612;
 const H: usize = 512;

@@ -6,13 +6,13 @@
 //! reads its heading within 2σ.
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::Model;
-use bpins_core::heading::field::{FieldHeading, NoHeading, RawImage};
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::field::{FieldHeading, NoHeading, RawImage};
+use bpins_core::internal::simulate::render_mosaic;
 use bpins_core::sensor::{Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::render_mosaic;
 
 const W: usize = 306;
 const H: usize = 256;

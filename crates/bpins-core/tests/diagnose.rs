@@ -2,9 +2,9 @@
 //! samples/README.md): the clean capture needs nothing; the hidden analyzer
 //! angles are named first, recovered, and the error falls to the noise.
 
-use bpins_core::capture::{Capture, FrameData};
-use bpins_core::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use bpins_core::fit::output::profiles::{Axis, Quantity};
+use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::internal::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+use bpins_core::internal::fit::output::profiles::{Axis, Quantity};
 use std::path::Path;
 
 fn run(sample: &str, max_added: usize) -> Diagnosis {
@@ -64,7 +64,7 @@ fn an_effect_outside_the_catalog_is_reported_unexplained_and_nothing_named() {
             other => other,
         })
         .collect();
-    let base = bpins_core::fit::FitOptions { rayleigh_radiance: true, ..Default::default() };
+    let base = bpins_core::internal::fit::FitOptions { rayleigh_radiance: true, ..Default::default() };
     let d = diagnose(&c, &frames, &DiagnoseOptions { base, max_added: 2, ..Default::default() }, &|_| {}).unwrap();
     eprintln!("selected {:?}; {}", d.selected, d.summary());
     assert!(d.unexplained(), "{}", d.summary());
@@ -78,11 +78,11 @@ fn an_effect_outside_the_catalog_is_reported_unexplained_and_nothing_named() {
 /// trees and buildings, the ground below it, and eight clouds: four frames.
 fn skyline_and_clouds() -> (Capture, Vec<FrameData>) {
     use bpins_core::camera::Projection;
-    use bpins_core::capture::{FrameSpec, LensSpec, SensorSpec};
-    use bpins_core::pipeline::{simulate_capture, SimSensor};
+    use bpins_core::internal::capture::{FrameSpec, LensSpec, SensorSpec};
+    use bpins_core::internal::pipeline::{simulate_capture, SimSensor};
+    use bpins_core::internal::sky::sun::SunPosition;
     use bpins_core::scene::FieldScene;
     use bpins_core::sensor::{Geometry, Layout, DEFAULT_MOSAIC};
-    use bpins_core::sky::sun::SunPosition;
     let frames = [7.0, 97.0, 187.0, 277.0]
         .iter()
         .enumerate()
@@ -134,10 +134,10 @@ fn clouds_and_a_skyline_are_not_blamed_on_the_lens_or_the_sensor() {
     assert!(fit.chi2_per_dof < 2.0, "χ²/dof {} on the sky mask", fit.chi2_per_dof);
     assert!(fit.heading_rms_deg.unwrap() < 0.05, "heading RMS {:?}", fit.heading_rms_deg);
     // Every pixel fitted, the clouds, the trees and the ground are all misfit.
-    let all = bpins_core::fit::fit(
+    let all = bpins_core::internal::fit::fit(
         &c,
         &frames,
-        &bpins_core::fit::FitOptions { all_pixels: true, ..Default::default() },
+        &bpins_core::internal::fit::FitOptions { all_pixels: true, ..Default::default() },
         &|_, _| {},
     )
     .unwrap();

@@ -5,9 +5,9 @@
 //! confidently wrong. The README's table is the same at full resolution
 //! (`cargo run --release -p bpins-core --example field_table`).
 
-use bpins_core::field_conditions::{score_field, score_plain, standard};
-use bpins_core::heading::field::FieldOptions;
-use bpins_core::heading::Extractor;
+use bpins_core::internal::field_conditions::{score_field, score_plain, standard};
+use bpins_core::internal::heading::field::FieldOptions;
+use bpins_core::internal::heading::Extractor;
 
 #[test]
 fn the_field_estimator_is_accurate_and_honest_in_every_condition() {
@@ -41,7 +41,7 @@ fn the_field_estimator_is_accurate_and_honest_in_every_condition() {
 /// heading in at least a quarter of the frames.
 #[test]
 fn under_clouds_the_field_estimator_is_honest_and_holes_carry_a_heading() {
-    use bpins_core::field_conditions::{cloudy, score_field_all};
+    use bpins_core::internal::field_conditions::{cloudy, score_field_all};
     let names: Vec<&str> = cloudy(1, 2, 0).unwrap().iter().map(|c| c.name).collect();
     for (k, name) in names.iter().enumerate() {
         let sims: Vec<_> =

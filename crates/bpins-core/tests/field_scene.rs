@@ -5,14 +5,14 @@
 //! toward azimuth 300°, away from the sun, so it sees the skyline and the ground.
 
 use bpins_core::camera::Projection;
-use bpins_core::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
-use bpins_core::chain::ChainFrame;
 use bpins_core::effects::Model;
-use bpins_core::pipeline::{sim_chain_frame, simulate_capture, SimSensor};
-use bpins_core::recon::{superpixels, PolImage, Reconstructor};
+use bpins_core::internal::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+use bpins_core::internal::chain::ChainFrame;
+use bpins_core::internal::pipeline::{sim_chain_frame, simulate_capture, SimSensor};
+use bpins_core::internal::recon::{superpixels, PolImage, Reconstructor};
+use bpins_core::internal::sky::sun::SunPosition;
 use bpins_core::scene::{ElementId, FieldScene};
 use bpins_core::sensor::{Channel, Geometry, Layout, DEFAULT_MOSAIC};
-use bpins_core::sky::sun::SunPosition;
 use glam::DVec3;
 use std::path::PathBuf;
 
@@ -124,7 +124,7 @@ fn a_field_capture_saturates_at_the_sun_is_unpolarized_below_the_horizon_and_dep
             let el = world_ray(&f1, x, y).z.asin().to_degrees();
             let s = img.iqu[j * img.width + i];
             if el < -1.5 {
-                let exact = bpins_core::chain::pixel_stokes(&f1, x.floor(), y.floor());
+                let exact = bpins_core::internal::chain::pixel_stokes(&f1, x.floor(), y.floor());
                 assert_eq!((exact.q, exact.u), (0.0, 0.0), "ground at ({x}, {y}) is polarized in the chain");
                 if s[0].is_finite() {
                     (0..3).for_each(|k| ground[k] += s[k]);

@@ -4,9 +4,9 @@
 
 mod common;
 
-use bpins_core::capture::{Capture, FrameData};
 use bpins_core::effects::find;
-use bpins_core::fit::{fit, FitOptions, FitResult};
+use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::internal::fit::{fit, FitOptions, FitResult};
 use std::path::Path;
 
 fn run(sample: &str, effects: &[&str]) -> FitResult {
@@ -50,7 +50,7 @@ fn every_candidate_scored_in_one_pass_scores_as_alone() {
     // get what scoring it alone gives (a small capture hiding the sky's DoLP shape and
     // a principal point, fitted with the principal point: a model with an effect).
     use bpins_core::effects::{EffectSet, REGISTRY};
-    use bpins_core::fit::{score_candidate, score_candidates};
+    use bpins_core::internal::fit::{score_candidate, score_candidates};
     let c = common::small_capture();
     let mut set = EffectSet::new();
     common::typical(&mut set, "sky_dolp_shape");
@@ -59,7 +59,7 @@ fn every_candidate_scored_in_one_pass_scores_as_alone() {
     let opts = FitOptions { effects: vec![find("principal_point").unwrap()], ..Default::default() };
     let base = fit(&c, &frames, &opts, &|_, _| {}).unwrap();
     let cands: Vec<_> = REGISTRY.iter().copied().filter(|e| e.name != "principal_point").collect();
-    let held = bpins_core::fit::FitFrames::all(&c, &frames).unwrap();
+    let held = bpins_core::internal::fit::FitFrames::all(&c, &frames).unwrap();
     let all = score_candidates(&c, &held, &opts, &base, &cands, 3, 1e-3).unwrap();
     let close = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-7 * a.abs().max(b.abs()).max(1e-6);
     for (e, s) in cands.iter().zip(&all) {
@@ -112,8 +112,8 @@ fn a_sky_the_model_cannot_follow_stops_when_steps_stall_and_little_is_left() {
     assert!(r.chi2_per_dof > 3.0, "χ²/dof {}", r.chi2_per_dof);
     assert!(r.iterations < 50, "{} iterations", r.iterations);
     // …and what another fit from there still gains is a small part of the misfit.
-    let all = bpins_core::fit::FitFrames::all(&c, &frames).unwrap();
-    let again = bpins_core::fit::fit_from(&c, &all, &opts, Some(&r.state), &|_, _| {}).unwrap();
+    let all = bpins_core::internal::fit::FitFrames::all(&c, &frames).unwrap();
+    let again = bpins_core::internal::fit::fit_from(&c, &all, &opts, Some(&r.state), &|_, _| {}).unwrap();
     let excess = r.chi2 - r.dof;
     assert!(r.chi2 - again.chi2 < 0.01 * excess, "χ² {} → {} of an excess {excess}", r.chi2, again.chi2);
 }

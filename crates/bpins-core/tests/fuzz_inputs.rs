@@ -19,10 +19,10 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
 use bpins_core::calibration::Calibration;
-use bpins_core::capture::{ranges, Capture, FrameData};
 use bpins_core::effects::EffectSet;
-use bpins_core::sky::sun::sun_from_time_place;
-use bpins_core::sweep::{Distribution, SweepSpec};
+use bpins_core::internal::capture::{ranges, Capture, FrameData};
+use bpins_core::internal::sky::sun::sun_from_time_place;
+use bpins_core::internal::sweep::{Distribution, SweepSpec};
 use proptest::prelude::*;
 
 const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");
@@ -395,11 +395,11 @@ fn assert_sweep_in_range(s: &SweepSpec) {
             Distribution::Fixed { value } => assert!(value.is_finite()),
         }
     }
-    assert!(bpins_core::sweep::unit_count(s) >= 1);
+    assert!(bpins_core::internal::sweep::unit_count(s) >= 1);
     assert!(s.corner_r2().is_finite());
     for source in 0..s.sources.len() {
         for trial in 0..2 {
-            let d = bpins_core::sweep::draws(s, source, trial);
+            let d = bpins_core::internal::sweep::draws(s, source, trial);
             assert!(d.iter().all(|x| x.is_finite()), "source {source} trial {trial} draws {d:?}");
         }
     }

@@ -12,10 +12,10 @@
 
 mod common;
 
-use bpins_core::capture::{Capture, FrameData};
-use bpins_core::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
 use bpins_core::effects::{find, EffectSet, SkyBlindness, REGISTRY};
-use bpins_core::fit::FitOptions;
+use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::internal::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
+use bpins_core::internal::fit::FitOptions;
 use common::{seed_of, simulate, small_capture, small_colocated_capture, typical, DMAX};
 
 fn run(c: &Capture, frames: &[FrameData], max_added: usize, base: FitOptions) -> Diagnosis {
@@ -66,7 +66,7 @@ fn every_catalog_effect_hidden_at_its_typical_strength_is_named_recovered_and_ex
             let Some(o) = separating(&c, e.name) else {
                 // Crosstalk: the fit with it alone and the sky's d_max given recovers it.
                 let opts = FitOptions { effects: vec![e], fixed_dmax: Some(DMAX), ..Default::default() };
-                let r = bpins_core::fit::fit(&c, &frames, &opts, &|_, _| {}).unwrap();
+                let r = bpins_core::internal::fit::fit(&c, &frames, &opts, &|_, _| {}).unwrap();
                 let values = set.iter().next().expect("one effect").1.to_vec();
                 for (p, &t) in r.params.iter().zip(&values) {
                     eprintln!(

@@ -9,16 +9,16 @@ use std::sync::Arc;
 
 use bpins_core::calibration::Calibration;
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::capture::{Capture, FrameData, LabCapture};
-use bpins_core::capture::{LabFrame, LensSpec, SensorSpec};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::EffectSet;
-use bpins_core::heading::field::RawImage;
-use bpins_core::lab::simulate::{lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
-use bpins_core::lab::{calibrate, LabCalibration};
-use bpins_core::pipeline::apply_pixel_maps;
-use bpins_core::pixel_analyzers::PixelMaps;
+use bpins_core::internal::capture::{Capture, FrameData, LabCapture};
+use bpins_core::internal::capture::{LabFrame, LensSpec, SensorSpec};
+use bpins_core::internal::heading::field::RawImage;
+use bpins_core::internal::lab::simulate::{lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
+use bpins_core::internal::lab::{calibrate, LabCalibration};
+use bpins_core::internal::pipeline::apply_pixel_maps;
+use bpins_core::internal::pixel_analyzers::PixelMaps;
 use bpins_core::sensor::{Geometry, Layout, DEFAULT_MOSAIC};
 
 const LAB: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/lab-flawed-sensor/lab");
@@ -95,13 +95,13 @@ fn the_flawed_sample_sensor_is_calibrated_and_its_sky_headings_fall_to_the_noise
     let mut s2 = 0.0;
     for (i, f) in sky.frames.iter().enumerate() {
         let data = apply_pixel_maps(&sky, sky.read_frame(i).unwrap(), &maps).unwrap();
-        let hs = bpins_core::pipeline::field_headings_of(
+        let hs = bpins_core::internal::pipeline::field_headings_of(
             &sky,
             i,
             &data,
             &Default::default(),
             &Default::default(),
-            &[bpins_core::heading::Extractor::SunVector],
+            &[bpins_core::internal::heading::Extractor::SunVector],
         )
         .unwrap();
         let e = wrap_deg_180(hs[0].heading_deg().unwrap() - f.heading_deg.unwrap());
@@ -282,13 +282,13 @@ fn sky_rms(c: &Capture, frames: &[FrameData], maps: Option<&PixelMaps>) -> f64 {
             Some(m) => apply_pixel_maps(c, frames[i].clone(), m).unwrap(),
             None => frames[i].clone(),
         };
-        let hs = bpins_core::pipeline::field_headings_of(
+        let hs = bpins_core::internal::pipeline::field_headings_of(
             c,
             i,
             &data,
             &Default::default(),
             &Default::default(),
-            &[bpins_core::heading::Extractor::SunVector],
+            &[bpins_core::internal::heading::Extractor::SunVector],
         )
         .unwrap();
         let e = wrap_deg_180(hs[0].heading_deg().unwrap() - f.heading_deg.unwrap());

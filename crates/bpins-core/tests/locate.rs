@@ -4,12 +4,12 @@
 
 mod common;
 
-use bpins_core::capture::{Capture, FrameData};
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::{EffectSet, Model};
-use bpins_core::heading::field::FieldOptions;
-use bpins_core::locate::{locate, measure_data, LocateError, LocateOptions, Located, Series, SunObs};
-use bpins_core::scene::{Draws, FieldScene};
+use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::internal::heading::field::FieldOptions;
+use bpins_core::internal::locate::{locate, measure_data, LocateError, LocateOptions, Located, Series, SunObs};
+use bpins_core::internal::scene::{Draws, FieldScene};
 
 /// The series of seed `seed`: a site drawn over latitudes −50°…60° and every
 /// longitude, a day of the year, a start between 08:00 and 14:00 local solar time,
@@ -186,8 +186,8 @@ fn the_pole_route_is_honest_over_seeds() {
 #[test]
 fn the_compass_navigates_with_a_located_site() {
     use bpins_core::compass::{Attitude, Compass, CompassConfig};
-    use bpins_core::heading::field::RawImage;
-    use bpins_core::locate::Site;
+    use bpins_core::internal::heading::field::RawImage;
+    use bpins_core::internal::locate::Site;
     let (c, data, s) = series(7, 5.0, 60.0, 0.0, None);
     let r = located(&c, &data, &LocateOptions::default()).unwrap();
     let site = Site::from_located(&r, None);
@@ -195,7 +195,7 @@ fn the_compass_navigates_with_a_located_site() {
     let (w, h) = (g.width_px as usize, g.height_px as usize);
     let mut compass = Compass::new(CompassConfig::dofp(c.intrinsics(), w, h, 12, 64.0)).unwrap();
     let last = c.frames.len() - 1;
-    let t = bpins_core::sky::sun::parse_time_utc(c.frames[last].sun.source.time_utc().unwrap()).unwrap();
+    let t = bpins_core::internal::sky::sun::parse_time_utc(c.frames[last].sun.source.time_utc().unwrap()).unwrap();
     let sun = site.compass_sun(t.timestamp() as f64).unwrap();
     let FrameData::Mosaic { dn, .. } = &data[last] else { panic!("dofp") };
     let fix = compass.heading(RawImage::packed(dn, w, h), sun, Attitude::default()).unwrap();

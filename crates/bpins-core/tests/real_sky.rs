@@ -8,10 +8,10 @@
 
 mod common;
 
-use bpins_core::capture::{Capture, FrameData};
-use bpins_core::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
 use bpins_core::effects::{EffectSet, SkyBlindness, REGISTRY};
-use bpins_core::fit::FitOptions;
+use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::internal::diagnose::{diagnose, inseparable, DiagnoseOptions, Diagnosis};
+use bpins_core::internal::fit::FitOptions;
 use common::{cie_sky, seed_of, simulate_in, small_capture, typical, DMAX};
 
 const PRNU: f64 = 0.01;
@@ -86,7 +86,7 @@ fn every_separable_effect_hidden_under_a_cie_sky_is_named_first_and_recovered() 
                 // fitted alone with the sky's d_max given, border pixels left out, it is
                 // recovered.
                 let opts = FitOptions { effects: vec![e], fixed_dmax: Some(DMAX), ..Default::default() };
-                let r = bpins_core::fit::fit(&c, &frames, &opts, &|_, _| {}).unwrap();
+                let r = bpins_core::internal::fit::fit(&c, &frames, &opts, &|_, _| {}).unwrap();
                 let truth = set.iter().next().expect("one effect").1[0];
                 let p = &r.params[0];
                 eprintln!(
@@ -186,7 +186,7 @@ fn the_1_sigma_matches_the_scatter_over_seeds() {
         for s in 0..seeds {
             let frames = simulate_in(&c, &set, 900 + s, &sky, PRNU);
             let opts = FitOptions { effects: vec![def], ..Default::default() };
-            let r = bpins_core::fit::fit(&c, &frames, &opts, &|_, _| {}).unwrap();
+            let r = bpins_core::internal::fit::fit(&c, &frames, &opts, &|_, _| {}).unwrap();
             for (p, t) in r.params.iter().zip(&truth) {
                 z2 += ((p.value - t) / p.sigma).powi(2);
                 z2_white += ((p.value - t) / p.sigma_white).powi(2);

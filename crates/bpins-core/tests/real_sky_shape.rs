@@ -8,9 +8,9 @@
 
 mod common;
 
-use bpins_core::capture::{Capture, FrameData};
-use bpins_core::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use bpins_core::effects::EffectSet;
+use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::internal::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use common::{cie_sky, diagnosis_problems, simulate_in, small_capture, typical};
 
 const PRNU: f64 = 0.01;
@@ -70,8 +70,8 @@ fn a_berry_shaped_sky_names_its_shape_and_nothing_else() {
 /// near-noise step, each scored on every pixel and then converged there; and for each
 /// the diagnosis bounded, its converged ΔBIC is below the threshold.
 fn bounds_hold(c: &Capture, frames: &[FrameData], d: &Diagnosis) {
-    use bpins_core::diagnose::{BIC_THRESHOLD, SCORE_PROBE};
-    use bpins_core::fit::{fit_from, score_candidates, FitFrames, FitOptions};
+    use bpins_core::internal::diagnose::{BIC_THRESHOLD, SCORE_PROBE};
+    use bpins_core::internal::fit::{fit_from, score_candidates, FitFrames, FitOptions};
     let step = d.steps.last().unwrap();
     let all = FitFrames::all(c, frames).unwrap();
     let mut model = FitOptions::default();

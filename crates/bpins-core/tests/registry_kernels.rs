@@ -7,12 +7,12 @@
 //! fails here by name, whatever its file says.
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{
+use bpins_core::effects::{EffectSet, REGISTRY};
+use bpins_core::internal::chain::{
     mosaic_pixel_signal_dn, ray_stokes, sensor_dn, site_signal_dn, ChainFrame, NoiseIndex, Scene, SensorNoise,
 };
-use bpins_core::effects::{EffectSet, REGISTRY};
+use bpins_core::internal::simulate::{render_colocated, render_mosaic};
 use bpins_core::sensor::{Channel, Layout, Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::{render_colocated, render_mosaic};
 
 const W: usize = 64;
 const H: usize = 48;

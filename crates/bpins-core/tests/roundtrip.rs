@@ -7,12 +7,12 @@
 use std::path::{Path, PathBuf};
 
 use bpins_core::camera::Projection;
-use bpins_core::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use bpins_core::conventions::image_centre_px;
 use bpins_core::effects::{EffectSet, Model};
-use bpins_core::pipeline::{sim_response, simulate_frame, SimSensor};
+use bpins_core::internal::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+use bpins_core::internal::pipeline::{sim_response, simulate_frame, SimSensor};
+use bpins_core::internal::sky::sun::SunPosition;
 use bpins_core::sensor::{Channel, Geometry, Layout, DEFAULT_MOSAIC};
-use bpins_core::sky::sun::SunPosition;
 
 /// A capture as `bpins simulate` builds one (cmd_simulate.rs `build_capture`), with
 /// values that do not print short, so the toml must round-trip every bit.

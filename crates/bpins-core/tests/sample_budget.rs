@@ -6,9 +6,9 @@
 
 mod common;
 
-use bpins_core::capture::{Capture, FrameData};
 use bpins_core::effects::{find, EffectSet};
-use bpins_core::fit::{fit, fit_from, FitFrames, FitOptions, FitResult};
+use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::internal::fit::{fit, fit_from, FitFrames, FitOptions, FitResult};
 use std::path::Path;
 
 fn sample(name: &str) -> (Capture, Vec<FrameData>) {

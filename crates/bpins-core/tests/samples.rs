@@ -5,13 +5,13 @@
 
 use std::path::Path;
 
-use bpins_core::capture::Capture;
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::Model;
-use bpins_core::heading::field::FieldOptions;
-use bpins_core::heading::Extractor;
-use bpins_core::pipeline::{field_headings, frame_headings, reconstruct_frame, ReconMode};
-use bpins_core::recon::angle_maps;
+use bpins_core::internal::capture::Capture;
+use bpins_core::internal::heading::field::FieldOptions;
+use bpins_core::internal::heading::Extractor;
+use bpins_core::internal::pipeline::{field_headings, frame_headings, reconstruct_frame, ReconMode};
+use bpins_core::internal::recon::angle_maps;
 use bpins_core::sensor::{Channel, Layout, DEFAULT_MOSAIC};
 
 const CLEAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples/clean");

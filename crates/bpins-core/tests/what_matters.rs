@@ -7,10 +7,10 @@
 
 mod common;
 
-use bpins_core::capture::{Capture, FrameData};
-use bpins_core::diagnose::sizes::MinSize;
-use bpins_core::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use bpins_core::effects::EffectSet;
+use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::internal::diagnose::sizes::MinSize;
+use bpins_core::internal::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use common::{cie_sky, simulate_in, small_capture, typical};
 
 const PRNU: f64 = 0.01;
@@ -76,7 +76,7 @@ fn two_candidates_explaining_the_same_chi2_stay_a_pair() {
     let mut set = EffectSet::new();
     typical(&mut set, "sky_depolarization");
     let frames = common::simulate(&c, &set, 100 + common::seed_of("sky_depolarization"));
-    let base = bpins_core::fit::FitOptions { fixed_dmax: Some(common::DMAX), ..Default::default() };
+    let base = bpins_core::internal::fit::FitOptions { fixed_dmax: Some(common::DMAX), ..Default::default() };
     let d = diagnose(&c, &frames, &DiagnoseOptions { base, max_added: 1, ..Default::default() }, &|_| {}).unwrap();
     show("sky_depolarization, d_max given", &d);
     assert!(d.selected.is_empty(), "named alone: {:?}", d.selected);
@@ -111,7 +111,7 @@ fn on_a_clean_capture_under_a_cie_sky_the_heading_1_sigma_covers_the_errors() {
     let (mut within, mut n) = (0, 0);
     for seed in [11, 12] {
         let frames = simulate_in(&c, &EffectSet::new(), seed, &cie_sky(), PRNU);
-        let fit = bpins_core::fit::fit(&c, &frames, &Default::default(), &|_, _| {}).unwrap();
+        let fit = bpins_core::internal::fit::fit(&c, &frames, &Default::default(), &|_, _| {}).unwrap();
         for f in &fit.frames {
             let e = f.heading_error_deg.unwrap();
             eprintln!(
@@ -132,7 +132,7 @@ fn a_misfit_the_model_does_not_explain_widens_the_heading_1_sigma() {
     // 1σ carries it (the statistical part stays beside it).
     let c = small_capture();
     let frames = simulate_in(&c, &shaped(1.0), 31, &cie_sky(), PRNU);
-    let fit = bpins_core::fit::fit(&c, &frames, &Default::default(), &|_, _| {}).unwrap();
+    let fit = bpins_core::internal::fit::fit(&c, &frames, &Default::default(), &|_, _| {}).unwrap();
     let (mut within, mut within_stat) = (0, 0);
     for f in &fit.frames {
         let e = f.heading_error_deg.unwrap();

@@ -14,11 +14,11 @@
 //!   lavapipe ten samples take a quarter of an hour). Target on an H100: ≤ 1 s.
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::effects::Model;
-use bpins_core::heading::{Extractor, HeadingContext};
-use bpins_core::montecarlo::{Source, SweepConfig};
-use bpins_core::recon::Reconstructor;
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::{Extractor, HeadingContext};
+use bpins_core::internal::montecarlo::{Source, SweepConfig};
+use bpins_core::internal::recon::Reconstructor;
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
 use bpins_gpu::{Gpu, SampleLayout, SumsJob};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};

@@ -9,10 +9,10 @@
 
 use crate::{GpuError, Result};
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::ChainFrame;
 use bpins_core::effects::{ANALYZER_COUNT, MOSAIC_COUNT, RAY_COUNT, SENSOR_COUNT, SKY_COUNT, SKY_WIDTH};
-use bpins_core::heading::HeadingContext;
-use bpins_core::recon::Reconstructor;
+use bpins_core::internal::chain::ChainFrame;
+use bpins_core::internal::heading::HeadingContext;
+use bpins_core::internal::recon::Reconstructor;
 use bpins_core::sensor::Channel;
 use bytemuck::{Pod, Zeroable};
 
@@ -190,7 +190,7 @@ pub struct HeadingParams {
 
 impl HeadingParams {
     pub fn new(ctx: &HeadingContext, grid: SampleGrid) -> Self {
-        let cos_2band = bpins_core::heading::HeadingSums::cos_2band(ctx);
+        let cos_2band = bpins_core::internal::heading::HeadingSums::cos_2band(ctx);
         HeadingParams {
             camera: camera(&ctx.intr),
             distortion: distortion(&ctx.intr),
@@ -280,7 +280,7 @@ mod tests {
     #[test]
     fn frames_with_scene_elements_are_refused_with_a_typed_error() {
         use bpins_core::camera::{Intrinsics, Projection};
-        use bpins_core::chain::{NoiseIndex, Scene};
+        use bpins_core::internal::chain::{NoiseIndex, Scene};
         use bpins_core::scene::FieldScene;
         let intr = Intrinsics::new(Projection::Equidistant, 160.0, 63.5, 63.5);
         let scene =

@@ -2,13 +2,13 @@
 
 use crate::compass::{mosaic_of, projection};
 use crate::{finite, py_err, whole};
-use bpins_core::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use bpins_core::effects::EffectSet;
-use bpins_core::pipeline::{sim_chain_frame, sim_response, simulate_frame, SimSensor};
-use bpins_core::recon::{angle_maps, colocated, Reconstructor};
+use bpins_core::internal::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+use bpins_core::internal::pipeline::{sim_chain_frame, sim_response, simulate_frame, SimSensor};
+use bpins_core::internal::recon::{angle_maps, colocated, Reconstructor};
+use bpins_core::internal::simulate::render_colocated;
+use bpins_core::internal::sky::sun::SunPosition;
 use bpins_core::sensor::{Channel, Geometry, Layout, Response};
-use bpins_core::simulate::render_colocated;
-use bpins_core::sky::sun::SunPosition;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;

@@ -13,12 +13,12 @@
 //!   least disturbed way to say what the route costs an idle one).
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
 use bpins_core::effects::Model;
-use bpins_core::heading::field::RawImage;
+use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::internal::heading::field::RawImage;
+use bpins_core::internal::simulate::render_mosaic;
 use bpins_core::sensor::{Response, DEFAULT_MOSAIC};
-use bpins_core::simulate::render_mosaic;
 use bpins_ros::cdr::{decode, encode};
 use bpins_ros::convert::{mosaic, Mosaic};
 use bpins_ros::matching::{decode_imu, tilt_at, ImuMatch, Track};

@@ -8,14 +8,14 @@
 //! ```
 //! use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
 //! use bpins_core::camera::{Intrinsics, Projection};
-//! use bpins_core::heading::field::RawImage;
-//! # use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
+//! use bpins_core::compass::RawImage;
+//! # use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
 //! # use bpins_core::sensor::{Response, DEFAULT_MOSAIC};
 //! # let (w, h) = (306, 256);
 //! # let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
 //! # let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 2.0, tilt_y_deg: -1.0, dmax: 0.6 };
 //! # let f = ChainFrame::new(&Default::default(), &lens, &scene, &Response::samples(2400.0), NoiseIndex { seed: 1, trial: 0, frame: 0 });
-//! # let raw: Vec<u16> = bpins_core::simulate::render_mosaic(&f, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+//! # let raw: Vec<u16> = bpins_core::internal::simulate::render_mosaic(&f, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
 //! // Once: the camera (an IMX250MZR-like DoFP sensor behind an 8 mm lens, binned) and
 //! // its calibration (here none: `Calibration::load("calibration.toml")` for a real one).
 //! let mut compass = Compass::new(CompassConfig::dofp(
@@ -39,11 +39,13 @@
 //! Errors are typed ([`CompassError`]); nothing here panics on input or aborts the
 //! host: buffers that do not match the sensor are refused with their sizes.
 
+pub use crate::heading::field::{FieldHeading, FieldOptions, FieldQuality, NoHeading, RawDn, RawImage, SigmaParts};
+pub use crate::heading::Extractor;
+
 use crate::calibration::Calibration;
 use crate::camera::Intrinsics;
 use crate::effects::Model;
-use crate::heading::field::{self, Cells, FieldContext, FieldHeading, FieldOptions, FieldScratch, RawDn, RawImage};
-use crate::heading::Extractor;
+use crate::heading::field::{self, Cells, FieldContext, FieldScratch};
 use crate::pixel_analyzers::CellAnalyzers;
 use crate::recon::Reconstructor;
 use crate::sensor::{Channel, DEFAULT_MOSAIC};
@@ -56,11 +58,11 @@ use crate::sky::sun::sun_from_unix_time;
 /// ```
 /// # use bpins_core::camera::{Intrinsics, Projection};
 /// # use bpins_core::compass::{Attitude, Compass, CompassConfig, CompassError, Sun};
-/// # use bpins_core::heading::field::RawImage;
+/// # use bpins_core::internal::heading::field::RawImage;
 /// # let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
-/// # let scene = bpins_core::chain::Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
-/// # let f = bpins_core::chain::ChainFrame::new(&Default::default(), &lens, &scene, &bpins_core::sensor::Response::samples(2400.0), bpins_core::chain::NoiseIndex { seed: 1, trial: 0, frame: 0 });
-/// # let raw: Vec<u16> = bpins_core::simulate::render_mosaic(&f, 306, 256, &bpins_core::sensor::DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+/// # let scene = bpins_core::internal::chain::Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+/// # let f = bpins_core::internal::chain::ChainFrame::new(&Default::default(), &lens, &scene, &bpins_core::sensor::Response::samples(2400.0), bpins_core::internal::chain::NoiseIndex { seed: 1, trial: 0, frame: 0 });
+/// # let raw: Vec<u16> = bpins_core::internal::simulate::render_mosaic(&f, 306, 256, &bpins_core::sensor::DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
 /// let mut compass = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0))?;
 /// let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
 /// // A buffer cut short (a dropped packet) is refused with its sizes, not read past.
@@ -169,7 +171,7 @@ pub struct Attitude {
 /// ```
 /// use bpins_core::camera::{Intrinsics, Projection};
 /// use bpins_core::compass::{Compass, CompassConfig};
-/// use bpins_core::heading::Extractor;
+/// use bpins_core::internal::heading::Extractor;
 /// use bpins_core::sensor::Channel::*;
 /// // A 2448 × 2048 IMX250MZR (3.45 µm pixels, 12 bit, black level 64 DN) behind a
 /// // 4 mm lens, principal point at the image centre.
@@ -233,11 +235,11 @@ struct Colocated {
 /// ```
 /// # use bpins_core::camera::{Intrinsics, Projection};
 /// # use bpins_core::compass::{Attitude, Compass, CompassConfig, CompassError, Sun};
-/// # use bpins_core::heading::field::RawImage;
+/// # use bpins_core::internal::heading::field::RawImage;
 /// # let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
-/// # let scene = bpins_core::chain::Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
-/// # let f = bpins_core::chain::ChainFrame::new(&Default::default(), &lens, &scene, &bpins_core::sensor::Response::samples(2400.0), bpins_core::chain::NoiseIndex { seed: 1, trial: 0, frame: 0 });
-/// # let raw: Vec<u16> = bpins_core::simulate::render_mosaic(&f, 306, 256, &bpins_core::sensor::DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+/// # let scene = bpins_core::internal::chain::Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+/// # let f = bpins_core::internal::chain::ChainFrame::new(&Default::default(), &lens, &scene, &bpins_core::sensor::Response::samples(2400.0), bpins_core::internal::chain::NoiseIndex { seed: 1, trial: 0, frame: 0 });
+/// # let raw: Vec<u16> = bpins_core::internal::simulate::render_mosaic(&f, 306, 256, &bpins_core::sensor::DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
 /// let mut compass = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0))?;
 /// let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
 /// let fix = compass.heading(RawImage::packed(&raw, 306, 256), sun, Attitude::default())?;

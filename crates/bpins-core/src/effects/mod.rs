@@ -33,28 +33,28 @@
 //!
 //! Catalog: docs/spec/EFFECTS.md, every effect of it.
 
-pub mod analyzer_angles;
-pub mod analyzer_incidence;
-pub mod array_rotation;
-pub mod channel_response;
-pub mod crosstalk;
-pub mod dark_signal;
-pub mod extinction_ratio;
-pub mod focal_length;
-pub mod lens_depolarization;
-pub mod lens_diattenuation;
-pub mod lens_retardance;
-pub mod mount_tilt;
-pub mod polarimetric_nonuniformity;
-pub mod principal_point;
-pub mod radial_distortion;
-pub mod sensor_nonlinearity;
-pub mod sky_depolarization;
-pub mod sky_dolp_shape;
-pub mod sky_neutral_points;
-pub mod stray_light;
-pub mod vignetting;
-pub mod window;
+pub(crate) mod analyzer_angles;
+pub(crate) mod analyzer_incidence;
+pub(crate) mod array_rotation;
+pub(crate) mod channel_response;
+pub(crate) mod crosstalk;
+pub(crate) mod dark_signal;
+pub(crate) mod extinction_ratio;
+pub(crate) mod focal_length;
+pub(crate) mod lens_depolarization;
+pub(crate) mod lens_diattenuation;
+pub(crate) mod lens_retardance;
+pub(crate) mod mount_tilt;
+pub(crate) mod polarimetric_nonuniformity;
+pub(crate) mod principal_point;
+pub(crate) mod radial_distortion;
+pub(crate) mod sensor_nonlinearity;
+pub(crate) mod sky_depolarization;
+pub(crate) mod sky_dolp_shape;
+pub(crate) mod sky_neutral_points;
+pub(crate) mod stray_light;
+pub(crate) mod vignetting;
+pub(crate) mod window;
 
 use crate::camera::RayGeometry;
 use crate::catalog::{self, Entry, Kind, Selection};
@@ -877,4 +877,4 @@ impl EffectSet {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -19,18 +19,18 @@
 //! element, frame). The CPU chain only: the GPU backend refuses frames with a field.
 
 #[cfg(feature = "io")]
-pub mod attitude;
-pub mod clouds;
-mod frame;
-pub mod overcast;
-pub mod sky_radiance;
-pub mod skyline;
-pub mod sun_disc;
-pub mod texture;
+pub(crate) mod attitude;
+pub(crate) mod clouds;
+pub(crate) mod frame;
+pub(crate) mod overcast;
+pub(crate) mod sky_radiance;
+pub(crate) mod skyline;
+pub(crate) mod sun_disc;
+pub(crate) mod texture;
 
 #[cfg(feature = "io")]
 pub use attitude::FieldAttitude;
-pub use frame::{field_stokes, linear_stokes, Draws, FieldFrame, FieldRay};
+pub(crate) use frame::{field_stokes, linear_stokes, Draws, FieldFrame, FieldRay};
 
 use crate::catalog::{self, Entry, Kind, ParamSpec, Selection};
 use crate::error::Result;

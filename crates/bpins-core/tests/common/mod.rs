@@ -7,11 +7,11 @@
 #![allow(dead_code)]
 
 use bpins_core::camera::Projection;
-use bpins_core::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use bpins_core::effects::EffectSet;
-use bpins_core::pipeline::{sim_response, simulate_frame, SimSensor};
+use bpins_core::internal::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+use bpins_core::internal::pipeline::{sim_response, simulate_frame, SimSensor};
+use bpins_core::internal::sky::sun::SunPosition;
 use bpins_core::sensor::{Geometry, Layout, DEFAULT_MOSAIC};
-use bpins_core::sky::sun::SunPosition;
 use std::path::PathBuf;
 
 /// The scene's (and the samples') peak degree of polarization.
@@ -135,7 +135,7 @@ pub fn cie_sky() -> bpins_core::scene::FieldScene {
 /// `ordered`, as a set otherwise), χ²/dof ≤ 1.1, and every hidden parameter the last
 /// fit holds recovered within 3σ of its truth.
 pub fn diagnosis_problems(
-    d: &bpins_core::diagnose::Diagnosis,
+    d: &bpins_core::internal::diagnose::Diagnosis,
     set: &EffectSet,
     names: &[&str],
     ordered: bool,
@@ -154,7 +154,7 @@ pub fn diagnosis_problems(
     for p in &d.confusable {
         let bic = |e: &str| d.rankings.iter().flatten().find(|c| c.effect == e).map(|c| c.delta_bic);
         if let (Some(a), Some(b)) = (bic(p.first), bic(p.second)) {
-            if (a - b).abs() < bpins_core::diagnose::BIC_THRESHOLD {
+            if (a - b).abs() < bpins_core::internal::diagnose::BIC_THRESHOLD {
                 got.push(p.first);
             }
         }

@@ -87,7 +87,7 @@ impl RawDn for f32 {
 /// at `data[v·stride]` (stride in samples, ≥ width).
 ///
 /// ```
-/// use bpins_core::heading::field::RawImage;
+/// use bpins_core::internal::heading::field::RawImage;
 /// // A camera driver's buffer: 8 × 4 px of 16-bit DN in rows padded to 12 samples.
 /// let buffer = vec![0u16; 12 * 4];
 /// let img = RawImage { data: &buffer, width_px: 8, height_px: 4, stride: 12 };

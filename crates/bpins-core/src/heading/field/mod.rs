@@ -53,13 +53,13 @@
 //!
 //! ```
 //! use bpins_core::camera::{Intrinsics, Projection};
-//! use bpins_core::chain::{ChainFrame, NoiseIndex, Scene};
+//! use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
 //! use bpins_core::effects::Model;
-//! use bpins_core::heading::field::{estimate, Cells, FieldContext, FieldOptions, RawImage};
-//! use bpins_core::heading::Extractor;
-//! use bpins_core::recon::Reconstructor;
+//! use bpins_core::internal::heading::field::{estimate, Cells, FieldContext, FieldOptions, RawImage};
+//! use bpins_core::internal::heading::Extractor;
+//! use bpins_core::internal::recon::Reconstructor;
 //! use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
-//! use bpins_core::simulate::render_mosaic;
+//! use bpins_core::internal::simulate::render_mosaic;
 //!
 //! // A 306 × 256 DoFP frame behind an 8 mm lens, tilted 6° and −4° on rough ground.
 //! let (w, h) = (306, 256);
@@ -295,8 +295,8 @@ pub struct FieldQuality {
 /// One extractor's field heading of one frame.
 ///
 /// ```
-/// use bpins_core::heading::field::{FieldHeading, FieldQuality, NoHeading, SigmaParts};
-/// use bpins_core::heading::Extractor;
+/// use bpins_core::internal::heading::field::{FieldHeading, FieldQuality, NoHeading, SigmaParts};
+/// use bpins_core::internal::heading::Extractor;
 /// // What a navigation filter does with one:
 /// fn to_filter(h: &FieldHeading) -> Option<(f64, f64)> {
 ///     match &h.result {
