@@ -456,3 +456,41 @@ pub fn diagnose_frames(
     };
     Ok(d)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::model::slots::EffectParam;
+
+    /// A diagnosis that named `focal_length` at `scale` and ended within the noise.
+    fn named_focal_length(scale: f64) -> Diagnosis {
+        let id = EffectParam { effect: "focal_length", param: "scale" };
+        let fit = FitResult { params: vec![Param::new(id, "1", scale, 0.001)], ..Default::default() };
+        Diagnosis {
+            steps: vec![Step { model: vec!["focal_length"], fit }],
+            rankings: Vec::new(),
+            selected: vec!["focal_length"],
+            negligible: Vec::new(),
+            confusable: Vec::new(),
+            remains: Remains::within_noise(1.0, 1.02, &["focal_length"], &[], &[]),
+            inseparable: Vec::new(),
+            bic_threshold: BIC_THRESHOLD,
+        }
+    }
+
+    #[test]
+    fn a_named_effect_outside_its_physical_range_is_possibly_compensating() {
+        // A focal length 2 % off (typical) is a finding; 20 % off is beyond what a lens's
+        // tolerance and focus give (±5 %): the capture's focal length is wrong, or the
+        // parameter stands in for something else.
+        let d = named_focal_length(0.02);
+        assert!(!d.possibly_compensating("focal_length"));
+        assert_eq!(d.outside_physical("focal_length").count(), 0);
+        let d = named_focal_length(0.2);
+        assert!(d.possibly_compensating("focal_length"));
+        let words: Vec<String> = d.outside_physical("focal_length").collect();
+        assert_eq!(words, vec!["focal_length.scale = 0.2000 1 outside the physical -0.05…0.05".to_string()]);
+        // Only what was named is marked.
+        assert!(!d.possibly_compensating("mount_tilt"));
+    }
+}
