@@ -36,7 +36,11 @@
 //! χ²/dof stays clearly above 1, the residual is reported as unexplained, described by
 //! channel, by radius and by the strongest trend of its sky-space profiles
 //! (`profiles::trends`) instead of naming the least-bad effect: as data
-//! ([`Remains`]), with the sentence rendered from it.
+//! ([`Remains`]), with the sentence rendered from it. A residual brought to the noise
+//! only with fitted values no real instrument or sky has (beyond the registry's physical
+//! range by more than 3σ, `sizes::excluded_physical`) is unexplained too: what was named
+//! may stand in for something outside the catalog, and every named effect is then
+//! possibly compensating.
 
 mod json;
 pub mod pairs;
@@ -194,7 +198,9 @@ pub struct Diagnosis {
 }
 
 impl Diagnosis {
-    /// Whether a structured residual remains that no catalog effect explains.
+    /// Whether the catalog leaves the capture unexplained: a structured residual
+    /// remains, or the model reached the noise only with fitted values no real
+    /// instrument or sky has ([`Remains::is_unexplained`]).
     pub fn unexplained(&self) -> bool {
         self.remains.is_unexplained()
     }
@@ -454,6 +460,11 @@ pub fn diagnose_frames(
     } else {
         Remains::within_noise(current.chi2_per_dof, limit, &d.selected, &pairs, &d.negligible)
     };
+    // What the search added, at values the data say no real instrument or sky has.
+    let added: Vec<&str> =
+        d.selected.iter().chain(&d.negligible).copied().chain(d.confusable.iter().map(|p| p.first)).collect();
+    let own: Vec<Param> = current.params.iter().filter(|p| added.contains(&p.id.effect)).cloned().collect();
+    d.remains = d.remains.with_unphysical(sizes::excluded_physical(&own));
     Ok(d)
 }
 

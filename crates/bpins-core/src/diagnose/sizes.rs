@@ -231,6 +231,20 @@ mod tests {
     }
 
     #[test]
+    fn only_a_value_beyond_its_physical_range_by_3_sigma_excludes_every_physical_value() {
+        use crate::fit::model::slots::EffectParam;
+        let scale = |value: f64, sigma: f64| {
+            crate::fit::Param::new(EffectParam { effect: "focal_length", param: "scale" }, "1", value, sigma)
+        };
+        // 0.08 ± 0.001: 30σ beyond 0.05. 0.08 ± 0.02: outside, but a physical value fits.
+        assert_eq!(excluded_physical(&[scale(0.08, 0.001)]).len(), 1);
+        assert!(excluded_physical(&[scale(0.08, 0.02)]).is_empty());
+        assert_eq!(outside_physical(&[scale(0.08, 0.02)]).len(), 1);
+        assert!(excluded_physical(&[scale(-0.08, f64::INFINITY)]).is_empty());
+        assert!(excluded_physical(&[scale(0.02, 0.0)]).is_empty());
+    }
+
+    #[test]
     fn the_heading_change_is_taken_frame_by_frame_across_the_wrap() {
         let st = |h: &[f64]| FitState {
             frames: h.iter().map(|&x| [x; crate::fit::PER_FRAME]).collect(),
@@ -290,6 +304,27 @@ pub(crate) fn fill(
         });
     }
     Ok(())
+}
+
+/// Each fitted value beyond its parameter's physical range by more than 3σ (its own
+/// 1σ, `Param::sigma`): no physical value fits the data, so the parameter stands in for
+/// something else. In words, as [`outside_physical`]. A value outside the range but
+/// within 3σ of it (a poorly constrained one) is flagged by [`outside_physical`] only.
+pub fn excluded_physical(params: &[crate::fit::Param]) -> Vec<String> {
+    let excluded: Vec<crate::fit::Param> = params
+        .iter()
+        .filter(|p| {
+            let Some(spec) =
+                crate::effects::find(p.id.effect).ok().and_then(|e| e.params.iter().find(|s| s.name == p.id.param))
+            else {
+                return false;
+            };
+            let (lo, hi) = spec.physical_range();
+            p.sigma.is_finite() && (lo - p.value > 3.0 * p.sigma || p.value - hi > 3.0 * p.sigma)
+        })
+        .cloned()
+        .collect();
+    outside_physical(&excluded)
 }
 
 /// Each fitted value outside its parameter's physical range
