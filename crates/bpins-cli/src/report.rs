@@ -197,6 +197,13 @@ fn answer(d: &Diagnosis, pair: &[Written; 2]) -> Answer {
     let (first, last) = (&d.steps[0], d.steps.last().expect("a starting step"));
     let mut verdict = match (d.selected.is_empty(), d.unexplained()) {
         (false, false) => format!("Missing: {}. With it the residual is at the noise.", sized(d, &d.selected)),
+        // At the noise, but only with values no real instrument or sky has.
+        (false, true) if d.remains.unexplained.is_none() => format!(
+            "{} bring{} the residual to the noise only with values no real instrument or sky has (below): possibly \
+             compensating for something outside the catalog, not a finding.",
+            sized(d, &d.selected),
+            if d.selected.len() == 1 { "s" } else { "" }
+        ),
         (false, true) => format!(
             "{} explain{} part of the misfit, possibly compensating for what is missing; the rest no catalog \
              effect explains.",

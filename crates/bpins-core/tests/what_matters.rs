@@ -1,9 +1,10 @@
 //! What the diagnosis names must matter in the user's units (issue 31): an effect at a
 //! negligible strength is detected (the evidence pays for it) yet listed as detected,
 //! negligible — it was named before the size thresholds — while the same effect at its
-//! typical strength is named both ways; and on a clean capture under a real-looking
-//! sky (the CIE clear sky, 1 % PRNU) the heading 1σ that carries the misfit covers the
-//! frames' heading errors.
+//! typical strength is named both ways; and the heading 1σ that carries the misfit
+//! covers the frames' heading errors under a real-looking sky (the CIE clear sky, 1 %
+//! PRNU) that the model fits, and under one it misfits without being wider than a few
+//! times the errors.
 
 mod common;
 
@@ -105,8 +106,9 @@ fn an_effect_at_its_typical_strength_is_named_both_ways() {
 
 #[test]
 fn on_a_clean_capture_under_a_cie_sky_the_heading_1_sigma_covers_the_errors() {
-    // Measured (2026-11-25): 15 of 16 frames within 2σ (the worst at 2.08σ); the
-    // misfit part adds < 1 % to the statistical 1σ here (the model fits this sky).
+    // Measured (2026-11-27): 16 of 16 frames within 2σ (15 of 16 before the spatial
+    // part, `fit::uncertainty::spatial`); the 1σ 0.0050–0.0062°, RMS 0.92 times the
+    // RMS error: the spatial part is the white-noise 1σ within its noise here.
     let c = small_capture();
     let (mut within, mut n) = (0, 0);
     for seed in [11, 12] {
@@ -119,6 +121,8 @@ fn on_a_clean_capture_under_a_cie_sky_the_heading_1_sigma_covers_the_errors() {
                 f.heading_sigma_deg, f.heading_sigma_stat_deg, f.chi2_per_dof
             );
             assert!(f.heading_sigma_deg >= f.heading_sigma_stat_deg);
+            // The misfit part does not inflate a clean frame's 1σ.
+            assert!(f.heading_sigma_deg < 1.5 * f.heading_sigma_stat_deg, "{f:?}");
             within += usize::from(e.abs() <= 2.0 * f.heading_sigma_deg);
             n += 1;
         }
@@ -127,23 +131,33 @@ fn on_a_clean_capture_under_a_cie_sky_the_heading_1_sigma_covers_the_errors() {
 }
 
 #[test]
-fn a_misfit_the_model_does_not_explain_widens_the_heading_1_sigma() {
-    // A Berry-shaped DoLP fitted without its shape: the residual is smooth, and the
-    // 1σ carries it (the statistical part stays beside it).
+fn on_a_sky_the_model_misfits_the_heading_1_sigma_covers_the_errors_and_no_more() {
+    // A Berry-shaped DoLP fitted without its shape (χ²/dof 10–12): the residual is
+    // smooth and pulls the heading by up to 0.17°. Measured (2026-11-27, seeds 31 and
+    // 32): the 1σ 0.105–0.144°, RMS 1.1 times the RMS error (0.111°, 0.114°), 16 of 16
+    // frames within 2σ; before (the residual's whole coherent power taken along the
+    // heading) 3.8–4.3°, 35 times the RMS error.
     let c = small_capture();
-    let frames = simulate_in(&c, &shaped(1.0), 31, &cie_sky(), PRNU);
-    let fit = bpins_core::internal::fit::fit(&c, &frames, &Default::default(), &|_, _| {}).unwrap();
-    let (mut within, mut within_stat) = (0, 0);
-    for f in &fit.frames {
-        let e = f.heading_error_deg.unwrap();
-        eprintln!(
-            "Berry unfitted: error {e:+.5}°, 1σ {:.5}° (statistical {:.5}°), χ²/dof {:.4}",
-            f.heading_sigma_deg, f.heading_sigma_stat_deg, f.chi2_per_dof
-        );
-        assert!(f.heading_sigma_deg > 2.0 * f.heading_sigma_stat_deg, "{f:?}");
-        within += usize::from(e.abs() <= 2.0 * f.heading_sigma_deg);
-        within_stat += usize::from(e.abs() <= 2.0 * f.heading_sigma_stat_deg);
+    let (mut errors, mut sigmas) = (Vec::new(), Vec::new());
+    for seed in [31, 32] {
+        let frames = simulate_in(&c, &shaped(1.0), seed, &cie_sky(), PRNU);
+        let fit = bpins_core::internal::fit::fit(&c, &frames, &Default::default(), &|_, _| {}).unwrap();
+        for f in &fit.frames {
+            let e = f.heading_error_deg.unwrap();
+            eprintln!(
+                "Berry unfitted, seed {seed}: error {e:+.5}°, 1σ {:.5}° (statistical {:.5}°), χ²/dof {:.4}",
+                f.heading_sigma_deg, f.heading_sigma_stat_deg, f.chi2_per_dof
+            );
+            assert!(f.chi2_per_dof > 5.0, "not a misfit: {f:?}");
+            errors.push(e);
+            sigmas.push(f.heading_sigma_deg);
+        }
     }
-    eprintln!("within 2σ: {within} of {} ({within_stat} with the statistical 1σ)", fit.frames.len());
-    assert!(within >= within_stat);
+    let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
+    let within = errors.iter().zip(&sigmas).filter(|(e, s)| e.abs() <= 2.0 * **s).count();
+    let width = rms(&sigmas) / rms(&errors);
+    eprintln!("within 2σ: {within} of {}; RMS 1σ {:.4}° = {width:.2} × the RMS error", errors.len(), rms(&sigmas));
+    // Honest: ≥ 90 % of the frames within 2σ. Useful: no wider than 3 times the errors.
+    assert!(within as f64 >= 0.9 * errors.len() as f64, "{within} of {} frames within 2σ", errors.len());
+    assert!(width <= 3.0, "the 1σ is {width:.1} times the RMS error");
 }

@@ -36,7 +36,11 @@
 //! χ²/dof stays clearly above 1, the residual is reported as unexplained, described by
 //! channel, by radius and by the strongest trend of its sky-space profiles
 //! (`profiles::trends`) instead of naming the least-bad effect: as data
-//! ([`Remains`]), with the sentence rendered from it.
+//! ([`Remains`]), with the sentence rendered from it. A residual brought to the noise
+//! only with fitted values no real instrument or sky has (beyond the registry's physical
+//! range by more than 3σ, `sizes::excluded_physical`) is unexplained too: what was named
+//! may stand in for something outside the catalog, and every named effect is then
+//! possibly compensating.
 
 mod json;
 pub mod pairs;
@@ -194,7 +198,9 @@ pub struct Diagnosis {
 }
 
 impl Diagnosis {
-    /// Whether a structured residual remains that no catalog effect explains.
+    /// Whether the catalog leaves the capture unexplained: a structured residual
+    /// remains, or the model reached the noise only with fitted values no real
+    /// instrument or sky has ([`Remains::is_unexplained`]).
     pub fn unexplained(&self) -> bool {
         self.remains.is_unexplained()
     }
@@ -454,5 +460,48 @@ pub fn diagnose_frames(
     } else {
         Remains::within_noise(current.chi2_per_dof, limit, &d.selected, &pairs, &d.negligible)
     };
+    // What the search added, at values the data say no real instrument or sky has.
+    let added: Vec<&str> =
+        d.selected.iter().chain(&d.negligible).copied().chain(d.confusable.iter().map(|p| p.first)).collect();
+    let own: Vec<Param> = current.params.iter().filter(|p| added.contains(&p.id.effect)).cloned().collect();
+    d.remains = d.remains.with_unphysical(sizes::excluded_physical(&own));
     Ok(d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::model::slots::EffectParam;
+
+    /// A diagnosis that named `focal_length` at `scale` and ended within the noise.
+    fn named_focal_length(scale: f64) -> Diagnosis {
+        let id = EffectParam { effect: "focal_length", param: "scale" };
+        let fit = FitResult { params: vec![Param::new(id, "1", scale, 0.001)], ..Default::default() };
+        Diagnosis {
+            steps: vec![Step { model: vec!["focal_length"], fit }],
+            rankings: Vec::new(),
+            selected: vec!["focal_length"],
+            negligible: Vec::new(),
+            confusable: Vec::new(),
+            remains: Remains::within_noise(1.0, 1.02, &["focal_length"], &[], &[]),
+            inseparable: Vec::new(),
+            bic_threshold: BIC_THRESHOLD,
+        }
+    }
+
+    #[test]
+    fn a_named_effect_outside_its_physical_range_is_possibly_compensating() {
+        // A focal length 2 % off (typical) is a finding; 20 % off is beyond what a lens's
+        // tolerance and focus give (±5 %): the capture's focal length is wrong, or the
+        // parameter stands in for something else.
+        let d = named_focal_length(0.02);
+        assert!(!d.possibly_compensating("focal_length"));
+        assert_eq!(d.outside_physical("focal_length").count(), 0);
+        let d = named_focal_length(0.2);
+        assert!(d.possibly_compensating("focal_length"));
+        let words: Vec<String> = d.outside_physical("focal_length").collect();
+        assert_eq!(words, vec!["focal_length.scale = 0.2000 1 outside the physical -0.05…0.05".to_string()]);
+        // Only what was named is marked.
+        assert!(!d.possibly_compensating("mount_tilt"));
+    }
 }

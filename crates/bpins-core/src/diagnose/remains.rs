@@ -1,6 +1,14 @@
 //! What remains after a diagnosis, as data — the final χ²/dof against what noise alone
 //! gives and, where it is above, where the misfit lies (by channel, by radius, the
-//! strongest trends in sky space) — with the English sentence rendered from it.
+//! strongest trends in sky space); and the fitted values of what the search added that
+//! no real instrument or sky has — with the English sentence rendered from it.
+//!
+//! A residual at the noise reached only with such a value is not an explanation: a
+//! broad veil of glare over the sensor is brought to the noise by channel offsets of
+//! +144 DN (measured, `tests/glare_and_ghost.rs`), which would otherwise read "nothing
+//! else structured remains" — and an effect named beside them, at a physical value,
+//! as a clean finding. Such a capture is unexplained too ([`Remains::is_unexplained`]),
+//! and everything the search named is possibly compensating.
 
 use crate::diagnose::{BIC_THRESHOLD, EXCESS_FRACTION};
 use crate::fit::output::profiles::{trends, Axis, Profile, ProfileBin, Trend};
@@ -18,6 +26,10 @@ pub struct Remains {
     /// each confusable pair ("a or b") — and the effects detected but negligible.
     pub named: Vec<String>,
     pub negligible: Vec<&'static str>,
+    /// The final model's fitted values of the effects the search added that lie
+    /// outside their physical range by more than 3σ (`sizes::excluded_physical`), in
+    /// words: where any is, the capture is unexplained whatever its χ²/dof.
+    pub unphysical: Vec<String>,
 }
 
 /// Where an unexplained residual lies.
@@ -57,7 +69,14 @@ impl Remains {
             by_radius: along(Axis::Radius),
             trends: trends(profiles, TREND_MIN_SAMPLES),
         };
-        Remains { chi2_per_dof, noise_limit, unexplained: Some(u), named: Vec::new(), negligible: Vec::new() }
+        Remains {
+            chi2_per_dof,
+            noise_limit,
+            unexplained: Some(u),
+            named: Vec::new(),
+            negligible: Vec::new(),
+            unphysical: Vec::new(),
+        }
     }
 
     /// A residual within the noise once `named` (effects, and pairs as "a or b") and
@@ -70,12 +89,27 @@ impl Remains {
         negligible: &[&'static str],
     ) -> Remains {
         let named = named.iter().map(|s| s.to_string()).chain(pairs.iter().cloned()).collect();
-        Remains { chi2_per_dof, noise_limit, unexplained: None, named, negligible: negligible.to_vec() }
+        Remains {
+            chi2_per_dof,
+            noise_limit,
+            unexplained: None,
+            named,
+            negligible: negligible.to_vec(),
+            unphysical: Vec::new(),
+        }
     }
 
-    /// Whether a structured residual remains that no catalog effect explains.
+    /// The same, with the fitted values no real instrument or sky has
+    /// ([`Remains::unphysical`]).
+    pub fn with_unphysical(self, unphysical: Vec<String>) -> Remains {
+        Remains { unphysical, ..self }
+    }
+
+    /// Whether the catalog leaves the capture unexplained: a structured residual
+    /// remains, or the model reached the noise only with values no real instrument or
+    /// sky has.
     pub fn is_unexplained(&self) -> bool {
-        self.unexplained.is_some()
+        self.unexplained.is_some() || !self.unphysical.is_empty()
     }
 
     /// The strongest trend of `quantity`, if any.
@@ -100,6 +134,18 @@ impl std::fmt::Display for Remains {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let Some(u) = &self.unexplained else {
             write!(f, "χ²/dof {:.3} is within the noise (≤ {:.3})", self.chi2_per_dof, self.noise_limit)?;
+            if !self.unphysical.is_empty() {
+                let named =
+                    if self.named.is_empty() { "the effects added".to_string() } else { self.named.join(" and ") };
+                return write!(
+                    f,
+                    " once {named} {} modelled, but only with values no real instrument or sky has ({}, each beyond \
+                     3σ): the catalog does not explain this capture, and {named} may stand in for an effect outside \
+                     it; nothing named is a finding.",
+                    if self.named.len() > 1 { "are" } else { "is" },
+                    self.unphysical.join("; ")
+                );
+            }
             if self.named.is_empty() {
                 write!(f, ": nothing structured remains")?;
             } else {
@@ -164,6 +210,13 @@ impl std::fmt::Display for Remains {
             let t: Vec<String> = u.trends.iter().map(|t| t.to_string()).collect();
             write!(f, " In sky space, {}.", t.join("; "))?;
         }
+        if !self.unphysical.is_empty() {
+            write!(
+                f,
+                " Values no real instrument or sky has (each beyond 3σ of its physical range): {}.",
+                self.unphysical.join("; ")
+            )?;
+        }
         Ok(())
     }
 }
@@ -188,8 +241,14 @@ mod tests {
             by_radius: vec![],
             trends: vec![trend],
         };
-        let r =
-            Remains { chi2_per_dof: 1.135, noise_limit: 1.02, unexplained: Some(u), named: vec![], negligible: vec![] };
+        let r = Remains {
+            chi2_per_dof: 1.135,
+            noise_limit: 1.02,
+            unexplained: Some(u),
+            named: vec![],
+            negligible: vec![],
+            unphysical: vec![],
+        };
         assert!(r.is_unexplained());
         assert_eq!(r.trend(Quantity::DolpResidual).map(|t| t.axis), Some(Axis::Radius));
         assert!(r.trend(Quantity::MeanDnResidualSigma).is_none());
@@ -212,5 +271,18 @@ mod tests {
         );
         let pair = Remains::within_noise(0.993, 1.02, &[], &["window or lens_diattenuation".into()], &[]);
         assert!(pair.to_string().contains("once window or lens_diattenuation is modelled"), "{pair}");
+        assert!(!pair.is_unexplained());
+        // At the noise only with a value no real sensor has: unexplained, and no finding.
+        let offsets = "channel_response.offset0_dn = 466.5387 DN outside the physical -50…50".to_string();
+        let glare = Remains::within_noise(0.970, 1.02, &["channel_response", "principal_point"], &[], &[])
+            .with_unphysical(vec![offsets]);
+        assert!(glare.is_unexplained());
+        assert_eq!(
+            glare.to_string(),
+            "χ²/dof 0.970 is within the noise (≤ 1.020) once channel_response and principal_point are modelled, but \
+             only with values no real instrument or sky has (channel_response.offset0_dn = 466.5387 DN outside the \
+             physical -50…50, each beyond 3σ): the catalog does not explain this capture, and channel_response and \
+             principal_point may stand in for an effect outside it; nothing named is a finding."
+        );
     }
 }

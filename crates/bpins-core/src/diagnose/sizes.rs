@@ -198,6 +198,53 @@ mod tests {
     }
 
     #[test]
+    fn every_fitted_value_beyond_its_physical_range_is_flagged_and_a_typical_one_is_not() {
+        use crate::fit::model::slots::EffectParam;
+        let param = |e: &'static crate::effects::EffectDef, p: &'static crate::effects::ParamSpec, value: f64| {
+            crate::fit::Param::new(EffectParam { effect: e.name, param: p.name }, p.unit, value, 0.0)
+        };
+        let mut narrower = 0;
+        for e in crate::effects::REGISTRY {
+            for p in e.params {
+                assert!(outside_physical(&[param(e, p, p.typical)]).is_empty(), "{}.{} typical", e.name, p.name);
+                let (lo, hi) = p.physical_range();
+                // Just beyond each side of the physical range that lies within the fit's
+                // bounds (a value the fit can reach): flagged, with its name and range.
+                for (beyond, inside) in [(hi + 0.1 * (p.max - hi), hi < p.max), (lo - 0.1 * (lo - p.min), lo > p.min)] {
+                    if !inside {
+                        continue;
+                    }
+                    narrower += 1;
+                    let words = outside_physical(&[param(e, p, beyond)]);
+                    assert_eq!(words.len(), 1, "{}.{} = {beyond}", e.name, p.name);
+                    assert!(words[0].starts_with(&format!("{}.{} = ", e.name, p.name)), "{}", words[0]);
+                }
+            }
+        }
+        // Every effect but the sky's shape and neutral points has a narrower range on
+        // one side at least (`effects::*`).
+        assert!(narrower >= 30, "{narrower} sides narrower than the fit's bounds");
+        // E.g. a focal length 20 % off its nominal one: beyond ±5 %.
+        let f = crate::effects::find("focal_length").unwrap();
+        let w = outside_physical(&[param(f, &f.params[0], 0.2)]);
+        assert_eq!(w, vec!["focal_length.scale = 0.2000 1 outside the physical -0.05…0.05".to_string()]);
+    }
+
+    #[test]
+    fn only_a_value_beyond_its_physical_range_by_3_sigma_excludes_every_physical_value() {
+        use crate::fit::model::slots::EffectParam;
+        let scale = |value: f64, sigma: f64| {
+            crate::fit::Param::new(EffectParam { effect: "focal_length", param: "scale" }, "1", value, sigma)
+        };
+        // 0.08 ± 0.001: 30σ beyond 0.05. 0.08 ± 0.02: outside, but a physical value fits.
+        assert_eq!(excluded_physical(&[scale(0.08, 0.001)]).len(), 1);
+        assert!(excluded_physical(&[scale(0.08, 0.02)]).is_empty());
+        assert_eq!(outside_physical(&[scale(0.08, 0.02)]).len(), 1);
+        assert!(excluded_physical(&[scale(-0.08, f64::INFINITY)]).is_empty());
+        assert!(excluded_physical(&[scale(0.02, 0.0)]).is_empty());
+    }
+
+    #[test]
     fn the_heading_change_is_taken_frame_by_frame_across_the_wrap() {
         let st = |h: &[f64]| FitState {
             frames: h.iter().map(|&x| [x; crate::fit::PER_FRAME]).collect(),
@@ -257,6 +304,27 @@ pub(crate) fn fill(
         });
     }
     Ok(())
+}
+
+/// Each fitted value beyond its parameter's physical range by more than 3σ (its own
+/// 1σ, `Param::sigma`): no physical value fits the data, so the parameter stands in for
+/// something else. In words, as [`outside_physical`]. A value outside the range but
+/// within 3σ of it (a poorly constrained one) is flagged by [`outside_physical`] only.
+pub fn excluded_physical(params: &[crate::fit::Param]) -> Vec<String> {
+    let excluded: Vec<crate::fit::Param> = params
+        .iter()
+        .filter(|p| {
+            let Some(spec) =
+                crate::effects::find(p.id.effect).ok().and_then(|e| e.params.iter().find(|s| s.name == p.id.param))
+            else {
+                return false;
+            };
+            let (lo, hi) = spec.physical_range();
+            p.sigma.is_finite() && (lo - p.value > 3.0 * p.sigma || p.value - hi > 3.0 * p.sigma)
+        })
+        .cloned()
+        .collect();
+    outside_physical(&excluded)
 }
 
 /// Each fitted value outside its parameter's physical range

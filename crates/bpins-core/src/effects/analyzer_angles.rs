@@ -13,20 +13,36 @@
 //! bias the AoP by an amount that depends on the AoP itself, and leak intensity into
 //! the DoLP.
 //!
-//! | param      | unit | neutral | range |
-//! |------------|------|---------|-------|
-//! | `d0_deg`   | deg  | 0       | ±45   |
-//! | `d45_deg`  | deg  | 0       | ±45   |
-//! | `d90_deg`  | deg  | 0       | ±45   |
-//! | `d135_deg` | deg  | 0       | ±45   |
+//! | param      | unit | neutral | fit bounds | physical |
+//! |------------|------|---------|------------|----------|
+//! | `d0_deg`   | deg  | 0       | ±45        | ±5       |
+//! | `d45_deg`  | deg  | 0       | ±45        | ±5       |
+//! | `d90_deg`  | deg  | 0       | ±45        | ±5       |
+//! | `d135_deg` | deg  | 0       | ±45        | ±5       |
 //!
 //! Cannot: errors that vary across the array (per pixel), or a retardance of the
 //! analyzers.
 
 use super::{Apply, EffectDef, Model, ParamSpec, Stage};
 
+/// The range a real array's per-channel angle error has, degrees. Engineering bound: no
+/// datasheet (Sony IMX250MZR, Lucid PHX050S) states an angle tolerance; the four grids
+/// are drawn by one lithographic mask, so a channel's mean error is a mask or alignment
+/// error far below 5°; beyond it the channel is not the nominal angle's (a wrong mosaic
+/// layout) or the value stands in for a misfit.
+const ANGLE_PHYSICAL_DEG: (f64, f64) = (-5.0, 5.0);
+
 const fn angle(name: &'static str, typical: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec { name, unit: "deg", neutral: 0.0, typical, min: -45.0, max: 45.0, physical: None, doc }
+    ParamSpec {
+        name,
+        unit: "deg",
+        neutral: 0.0,
+        typical,
+        min: -45.0,
+        max: 45.0,
+        physical: Some(ANGLE_PHYSICAL_DEG),
+        doc,
+    }
 }
 
 pub const EFFECT: EffectDef = EffectDef {

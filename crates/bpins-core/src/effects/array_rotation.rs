@@ -9,14 +9,20 @@
 //! degrees. Reconstruction that assumes the nominal angles reads every AoP
 //! exactly dtheta smaller (tested below), DoLP and intensity unchanged.
 //!
-//! | param        | unit | neutral | range |
-//! |--------------|------|---------|-------|
-//! | `dtheta_deg` | deg  | 0       | ±90   |
+//! | param        | unit | neutral | fit bounds | physical |
+//! |--------------|------|---------|------------|----------|
+//! | `dtheta_deg` | deg  | 0       | ±90        | ±5       |
 //!
 //! Cannot: per-channel errors (that is `analyzer_angles`) or a rotation that varies
 //! across the array.
 
 use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+
+/// The range a real array's rotation against the pixel grid has, degrees. Engineering
+/// bound: an on-chip array (IMX250MZR) is aligned to its pixels by lithography, a bonded
+/// one to within about a degree; beyond ±5° the layout is not the nominal one or the
+/// value stands in for a misfit.
+const ROTATION_PHYSICAL_DEG: (f64, f64) = (-5.0, 5.0);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "array_rotation",
@@ -30,7 +36,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.5,
         min: -90.0,
         max: 90.0,
-        physical: None,
+        physical: Some(ROTATION_PHYSICAL_DEG),
         doc: "rotation of the array, counter-clockwise as displayed",
     }],
     apply: Apply::Frame(apply),

@@ -21,9 +21,9 @@
 //! order: it acts on the whole charge), the offsets and the noise; exactly `s` at
 //! μ_dark = 0.
 //!
-//! | param     | unit | neutral | range    |
-//! |-----------|------|---------|----------|
-//! | `dark_dn` | DN   | 0       | [0, 500] |
+//! | param     | unit | neutral | fit bounds | physical |
+//! |-----------|------|---------|------------|----------|
+//! | `dark_dn` | DN   | 0       | [0, 500]   | [0, 100] |
 //!
 //! A sky capture cannot separate it (`inseparable`): an offset common to the four
 //! channels lowers the modulation as a lower sky DoLP does (measured: at 4 DN the
@@ -37,6 +37,12 @@
 
 use super::{Apply, EffectDef, Inseparable, ParamSpec, SensorParams, SkyBlindness, Stage};
 
+/// The range a real sky capture's dark signal has, DN. Engineering bound: a sky capture's
+/// exposure is under a second even at dusk, and CMOS dark currents (tens of e⁻/s at room
+/// temperature, doubling every 6–8 K: EMVA 1288) at conversion gains ≤ 1 DN/e⁻ stay
+/// below 100 DN unless the sensor is far hotter than a camera in the sun gets.
+const DARK_PHYSICAL_DN: (f64, f64) = (0.0, 100.0);
+
 pub const EFFECT: EffectDef = EffectDef {
     name: "dark_signal",
     summary: "s + μ_dark: thermal electrons add a signal, with its shot noise, to every pixel",
@@ -49,7 +55,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 4.0,
         min: 0.0,
         max: 500.0,
-        physical: None,
+        physical: Some(DARK_PHYSICAL_DN),
         doc: "thermal dark signal at the capture's exposure and temperature, DN (K·μ_I·t_exp)",
     }],
     apply: Apply::Sensor { params: |v| [v[0], 0.0, 0.0, 0.0], pixel: dark_signal },

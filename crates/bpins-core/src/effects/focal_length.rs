@@ -10,14 +10,21 @@
 //! field, every ray closer to the axis. Folded on the host into the true camera of
 //! each frame (both backends run the same folded camera; no per-pixel twin).
 //!
-//! | param   | unit | neutral | range |
-//! |---------|------|---------|-------|
-//! | `scale` | 1    | 0       | ±0.5  |
+//! | param   | unit | neutral | fit bounds | physical |
+//! |---------|------|---------|------------|----------|
+//! | `scale` | 1    | 0       | ±0.5       | ±0.05    |
 //!
 //! Cannot: a focal length that differs along x and y (anamorphic), or that varies
 //! over the field (that is `radial_distortion`).
 
 use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+
+/// The range a real lens's focal length has about its nominal one. Engineering bound:
+/// stock lenses' focal lengths are quoted rounded (an "8 mm" lens may be 8.2 mm), and
+/// focusing closer than infinity lengthens the image distance by about f²/d (under 1 %
+/// beyond 1 m for f ≤ 10 mm); beyond ±5 % the capture's focal length, pixel pitch or
+/// projection is wrong, or the value stands in for a misfit.
+const SCALE_PHYSICAL: (f64, f64) = (-0.05, 0.05);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "focal_length",
@@ -31,7 +38,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.02,
         min: -0.5,
         max: 0.5,
-        physical: None,
+        physical: Some(SCALE_PHYSICAL),
         doc: "relative error of the focal length",
     }],
     apply: Apply::Frame(apply),

@@ -15,9 +15,9 @@
 //! Per pixel on both backends (`shaders/effects/lens_depolarization.wgsl`), between
 //! the lens retarder and the vignetting.
 //!
-//! | param | unit | neutral | range  |
-//! |-------|------|---------|--------|
-//! | `p2`  | 1    | 0       | [0, 2] |
+//! | param | unit | neutral | fit bounds | physical |
+//! |-------|------|---------|------------|----------|
+//! | `p2`  | 1    | 0       | [0, 2]     | [0, 0.5] |
 //!
 //! (a is clamped at 0: a lens cannot depolarize more than completely.)
 //!
@@ -29,6 +29,11 @@
 use super::{Apply, EffectDef, ParamSpec, RayParams, Stage};
 use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
+
+/// The range a real lens's depolarization has. Engineering bound (no published lens
+/// measurement gives one): p2 = 0.5 loses half the polarization at 45° off the axis of a
+/// pinhole lens, far more than coated glass scatters.
+const P2_PHYSICAL: (f64, f64) = (0.0, 0.5);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "lens_depolarization",
@@ -42,7 +47,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.1,
         min: 0.0,
         max: 2.0,
-        physical: None,
+        physical: Some(P2_PHYSICAL),
         doc: "depolarized fraction per r² (focal lengths²)",
     }],
     apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: None, pixel: lens_depolarization },

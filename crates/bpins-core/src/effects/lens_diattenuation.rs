@@ -14,9 +14,9 @@
 //! Light polarized along p or s (U_p = 0) keeps its angle: on the solar meridian of a
 //! level camera the AoE is untouched (tested below).
 //!
-//! | param  | unit | neutral | range |
-//! |--------|------|---------|-------|
-//! | `rho2` | 1    | 0       | ±50   |  (|ρ| is clamped below 1 per pixel)
+//! | param  | unit | neutral | fit bounds | physical |
+//! |--------|------|---------|------------|----------|
+//! | `rho2` | 1    | 0       | ±50        | ±5       |  (|ρ| is clamped below 1 per pixel)
 //!
 //! Cannot: retardance (see `lens_retardance`), depolarization, or a ρ that is not
 //! rotationally symmetric (decentred or tilted elements).
@@ -24,6 +24,12 @@
 use super::{Apply, EffectDef, Model, ParamSpec, RayParams, Stage};
 use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
+
+/// The range a real lens's diattenuation has. Fresnel: an uncoated air–glass surface
+/// (n = 1.5) at 45° incidence has ρ = 0.044, so ten surfaces give at most ρ ≈ 0.4 at r = 1
+/// and coatings lower it; the seed paper's Monte Carlo draws ρ ~ N(0, 0.2) at its field corner
+/// (r² = 0.119, `docs/paper.md`): ±5 holds that draw to 3σ.
+const RHO2_PHYSICAL: (f64, f64) = (-5.0, 5.0);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "lens_diattenuation",
@@ -37,7 +43,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.1,
         min: -50.0,
         max: 50.0,
-        physical: None,
+        physical: Some(RHO2_PHYSICAL),
         doc: "diattenuation per squared normalised radius",
     }],
     apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: None, pixel: lens_diattenuation },

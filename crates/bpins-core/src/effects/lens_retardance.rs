@@ -16,9 +16,9 @@
 //! Q² + U² + V² is kept (tested). Applied after `lens_diattenuation`, per pixel on
 //! both backends (`shaders/effects/lens_retardance.wgsl`).
 //!
-//! | param        | unit | neutral | range |
-//! |--------------|------|---------|-------|
-//! | `delta2_deg` | deg  | 0       | ±180  |
+//! | param        | unit | neutral | fit bounds | physical |
+//! |--------------|------|---------|------------|----------|
+//! | `delta2_deg` | deg  | 0       | ±180       | ±90      |
 //!
 //! Cannot: a retarder whose fast axis is not radial (stress birefringence, decentred
 //! elements), or circular retardance (optical activity).
@@ -26,6 +26,11 @@
 use super::{Apply, EffectDef, ParamSpec, RayParams, Stage};
 use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
+
+/// The range a real lens's retardance has, degrees per r². Engineering bound: coated
+/// multi-element lenses retard by tens of degrees toward the edge of a wide field (see
+/// `typical`); ±90° per r² is a quarter wave at r = 1.
+const DELTA2_PHYSICAL_DEG: (f64, f64) = (-90.0, 90.0);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "lens_retardance",
@@ -44,7 +49,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 20.0,
         min: -180.0,
         max: 180.0,
-        physical: None,
+        physical: Some(DELTA2_PHYSICAL_DEG),
         doc: "retardance per squared normalised radius",
     }],
     apply: Apply::Ray { params: |v| [v[0].to_radians(), 0.0, 0.0, 0.0], frame: None, pixel: lens_retardance },

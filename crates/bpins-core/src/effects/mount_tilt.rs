@@ -11,14 +11,19 @@
 //! Near the zenith it moves the pattern almost like a principal-point shift of
 //! f·tilt (confusable for a narrow field of view).
 //!
-//! | param        | unit | neutral | range |
-//! |--------------|------|---------|-------|
-//! | `tilt_x_deg` | deg  | 0       | ±45   |
-//! | `tilt_y_deg` | deg  | 0       | ±45   |
+//! | param        | unit | neutral | fit bounds | physical |
+//! |--------------|------|---------|------------|----------|
+//! | `tilt_x_deg` | deg  | 0       | ±45        | ±5       |
+//! | `tilt_y_deg` | deg  | 0       | ±45        | ±5       |
 //!
 //! Cannot: a tilt that changes between frames (that is the frame's `tilt_*_deg`).
 
 use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+
+/// The range a real camera's tilt on its mount has, degrees. Engineering bound: a camera
+/// levelled by hand or by its mount sits within a degree or two; beyond ±5° the frames'
+/// tilt is not what the capture says, or the value stands in for a misfit.
+const TILT_PHYSICAL_DEG: (f64, f64) = (-5.0, 5.0);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "mount_tilt",
@@ -33,7 +38,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 1.0,
             min: -45.0,
             max: 45.0,
-            physical: None,
+            physical: Some(TILT_PHYSICAL_DEG),
             doc: "rotation about camera x",
         },
         ParamSpec {
@@ -43,7 +48,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: -0.5,
             min: -45.0,
             max: 45.0,
-            physical: None,
+            physical: Some(TILT_PHYSICAL_DEG),
             doc: "rotation about camera y",
         },
     ],

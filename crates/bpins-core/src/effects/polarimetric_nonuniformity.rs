@@ -25,13 +25,18 @@
 //! only the gradient is measured; `bpins calibrate` on a lab capture measures the real
 //! per-pixel angle, ε and gain maps (`--calibration` then corrects them).
 //!
-//! | param              | unit | neutral | range      |
-//! |--------------------|------|---------|------------|
-//! | `angle_sigma_deg`  | deg  | 0       | [0, 5]     |
-//! | `angle_grad_x_deg` | deg  | 0       | [−10, 10]  |
-//! | `angle_grad_y_deg` | deg  | 0       | [−10, 10]  |
-//! | `eps_sigma`        | 1    | 0       | [0, 0.1]   |
-//! | `gain_sigma`       | 1    | 0       | [0, 0.2]   |
+//! | param              | unit | neutral | fit bounds | physical  |
+//! |--------------------|------|---------|------------|-----------|
+//! | `angle_sigma_deg`  | deg  | 0       | [0, 5]     | [0, 2]    |
+//! | `angle_grad_x_deg` | deg  | 0       | [−10, 10]  | ±2        |
+//! | `angle_grad_y_deg` | deg  | 0       | [−10, 10]  | ±2        |
+//! | `eps_sigma`        | 1    | 0       | [0, 0.1]   | [0, 0.03] |
+//! | `gain_sigma`       | 1    | 0       | [0, 0.2]   | [0, 0.05] |
+//!
+//! Physical ranges: engineering bounds (no datasheet of the IMX250MZR or the PHX050S
+//! states a pixel-to-pixel spread): a spread of 2° (1σ) in angle, 0.03 in ε or 5 % in
+//! transmission, or a trend of 2° per 1000 px (5° across a 2448 px die), would be a die
+//! far outside what lithography draws; a fitted value beyond them stands in for a misfit.
 //!
 //! Cannot: spatially correlated (non-white) spread beyond the linear gradient, a
 //! gradient of ε or gain, or a die pattern other than the hash's (a real die's maps
@@ -49,11 +54,11 @@ const fn spec(
     name: &'static str,
     unit: &'static str,
     typical: f64,
-    min: f64,
-    max: f64,
+    (min, max): (f64, f64),
+    physical: (f64, f64),
     doc: &'static str,
 ) -> ParamSpec {
-    ParamSpec { name, unit, neutral: 0.0, typical, min, max, physical: None, doc }
+    ParamSpec { name, unit, neutral: 0.0, typical, min, max, physical: Some(physical), doc }
 }
 
 pub const EFFECT: EffectDef = EffectDef {
@@ -62,11 +67,39 @@ pub const EFFECT: EffectDef = EffectDef {
     source: "Powell & Gruev 2013, Opt. Express 21(18) 21039 (DoFP pixel-to-pixel non-uniformity)",
     stage: Stage::Analyzer,
     params: &[
-        spec("angle_sigma_deg", "deg", 0.5, 0.0, 5.0, "white spread of each pixel's analyzer angle (1 sigma)"),
-        spec("angle_grad_x_deg", "deg", 0.6, -10.0, 10.0, "analyzer angle change per 1000 px along image x"),
-        spec("angle_grad_y_deg", "deg", -0.4, -10.0, 10.0, "analyzer angle change per 1000 px along image y (down)"),
-        spec("eps_sigma", "1", 0.005, 0.0, 0.1, "white spread of each pixel's eps = 1/ER (1 sigma)"),
-        spec("gain_sigma", "1", 0.01, 0.0, 0.2, "white spread of each pixel's polarizer transmission (1 sigma)"),
+        spec(
+            "angle_sigma_deg",
+            "deg",
+            0.5,
+            (0.0, 5.0),
+            (0.0, 2.0),
+            "white spread of each pixel's analyzer angle (1 sigma)",
+        ),
+        spec(
+            "angle_grad_x_deg",
+            "deg",
+            0.6,
+            (-10.0, 10.0),
+            (-2.0, 2.0),
+            "analyzer angle change per 1000 px along image x",
+        ),
+        spec(
+            "angle_grad_y_deg",
+            "deg",
+            -0.4,
+            (-10.0, 10.0),
+            (-2.0, 2.0),
+            "analyzer angle change per 1000 px along image y (down)",
+        ),
+        spec("eps_sigma", "1", 0.005, (0.0, 0.1), (0.0, 0.03), "white spread of each pixel's eps = 1/ER (1 sigma)"),
+        spec(
+            "gain_sigma",
+            "1",
+            0.01,
+            (0.0, 0.2),
+            (0.0, 0.05),
+            "white spread of each pixel's polarizer transmission (1 sigma)",
+        ),
     ],
     apply: Apply::Analyzer {
         params: |v| [v[0].to_radians(), v[1].to_radians() * 1e-3, v[2].to_radians() * 1e-3, v[3], v[4], 0.0, 0.0, 0.0],

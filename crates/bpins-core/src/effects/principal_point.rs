@@ -9,14 +9,21 @@
 //! principal point, while reconstruction computes β = atan2(−(v − c_y), u − c_x) and
 //! the rays from the nominal one, so AoE = α − β errs by about δ/r at radius r.
 //!
-//! | param   | unit | neutral | range      |
-//! |---------|------|---------|------------|
-//! | `dx_px` | px   | 0       | ±10 000    |
-//! | `dy_px` | px   | 0       | ±10 000    |
+//! | param   | unit | neutral | fit bounds | physical |
+//! |---------|------|---------|------------|----------|
+//! | `dx_px` | px   | 0       | ±10 000    | ±200     |
+//! | `dy_px` | px   | 0       | ±10 000    | ±200     |
 //!
 //! Cannot: a principal point that moves with focus, or a tilted sensor (Scheimpflug).
 
 use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+
+/// The range a real principal point has about the nominal one, px. Engineering bound: a
+/// sensor's placement in its body and a lens mount's decentration are each a few tenths
+/// of a millimetre; 0.5 mm is 145 px at the IMX250MZR's 3.45 µm pitch. Beyond ±200 px the
+/// capture's principal point is wrong (a crop or region of interest) or the value stands
+/// in for a misfit.
+const OFFSET_PHYSICAL_PX: (f64, f64) = (-200.0, 200.0);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "principal_point",
@@ -31,7 +38,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 5.0,
             min: -1e4,
             max: 1e4,
-            physical: None,
+            physical: Some(OFFSET_PHYSICAL_PX),
             doc: "offset along image x (columns)",
         },
         ParamSpec {
@@ -41,7 +48,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: -3.0,
             min: -1e4,
             max: 1e4,
-            physical: None,
+            physical: Some(OFFSET_PHYSICAL_PX),
             doc: "offset along image y (rows, down)",
         },
     ],

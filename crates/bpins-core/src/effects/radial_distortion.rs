@@ -15,10 +15,10 @@
 //! camera's intrinsics; the per-pixel inversion is part of the camera geometry on
 //! both backends (`shaders/common/camera.wgsl`, `undistort`).
 //!
-//! | param | unit | neutral | range |
-//! |-------|------|---------|-------|
-//! | `k1`  | 1    | 0       | ±1    |
-//! | `k2`  | 1    | 0       | ±1    |
+//! | param | unit | neutral | fit bounds | physical |
+//! |-------|------|---------|------------|----------|
+//! | `k1`  | 1    | 0       | ±1         | ±0.5     |
+//! | `k2`  | 1    | 0       | ±1         | ±0.5     |
 //!
 //! Where the distortion folds inside the image (1 + 3 k1 r² + 5 k2 r⁴ reaches 0 at
 //! r_fold, as k1 = k2 = −1 does at r = 0.49), no ray lands beyond the fold's radius:
@@ -29,6 +29,12 @@
 //! beyond its fold (vignetting to black, or a second image).
 
 use super::{Apply, EffectDef, Model, ParamSpec, Stage};
+
+/// The range a real lens's distortion has about its declared projection. Engineering
+/// bound: machine-vision lenses calibrated against the right projection leave Brown
+/// coefficients of a few tenths at most; beyond ±0.5 the declared projection is wrong (a
+/// fisheye declared a pinhole) or the value stands in for a misfit.
+const K_PHYSICAL: (f64, f64) = (-0.5, 0.5);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "radial_distortion",
@@ -43,7 +49,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: -0.05,
             min: -1.0,
             max: 1.0,
-            physical: None,
+            physical: Some(K_PHYSICAL),
             doc: "radial distortion per r²",
         },
         ParamSpec {
@@ -53,7 +59,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 0.02,
             min: -1.0,
             max: 1.0,
-            physical: None,
+            physical: Some(K_PHYSICAL),
             doc: "radial distortion per r⁴",
         },
     ],

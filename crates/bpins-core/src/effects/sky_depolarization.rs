@@ -10,14 +10,19 @@
 //! the chain exactly ideal. Units: dimensionless. Changes every DoLP by the same
 //! factor and no AoP (tested). Folded on the host (no per-pixel twin).
 //!
-//! | param  | unit | neutral | range    |
-//! |--------|------|---------|----------|
-//! | `dmax` | 1    | 1       | [0, 1.6] |
+//! | param  | unit | neutral | fit bounds | physical |
+//! |--------|------|---------|------------|----------|
+//! | `dmax` | 1    | 1       | [0, 1.6]   | [0, 1.4] |
 //!
 //! Cannot: a depolarization that varies over the sky (near the horizon, around
 //! clouds), or the neutral points (that is `sky_neutral_points`).
 
 use super::{Apply, EffectDef, Inseparable, Model, ParamSpec, SkyBlindness, Stage};
+
+/// The range a real sky's d_max has, as a factor on the scene's (0.6 by default). Clear
+/// skies peak below a DoLP of about 0.8 (Coulson 1988, *Polarization and Intensity of Light
+/// in the Atmosphere*), 1.33 times 0.6; ≤ 1.4 holds that; overcast skies go to 0.
+const DMAX_PHYSICAL: (f64, f64) = (0.0, 1.4);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "sky_depolarization",
@@ -31,7 +36,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.8,
         min: 0.0,
         max: 1.6,
-        physical: None,
+        physical: Some(DMAX_PHYSICAL),
         doc: "factor on the scene's peak DoLP (the true d_max is scene d_max × dmax ≤ 1)",
     }],
     apply: Apply::Frame(apply),

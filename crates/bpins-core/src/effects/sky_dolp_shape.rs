@@ -30,9 +30,9 @@
 //! carry it). Per pixel on both backends (`shaders/effects/sky_dolp_shape.wgsl`);
 //! at t = 0 the factor is exactly 1 (and the chain skips the step).
 //!
-//! | param     | unit | neutral | range  |
-//! |-----------|------|---------|--------|
-//! | `diffuse` | 1    | 0       | [0, 1] |
+//! | param     | unit | neutral | fit bounds | physical |
+//! |-----------|------|---------|------------|----------|
+//! | `diffuse` | 1    | 0       | [0, 1]     | bounds   |
 //!
 //! Cannot: a DoLP that depends on the ray's elevation rather than on the scattering
 //! angle (multiple scattering lowering it toward the horizon: on a level camera
@@ -57,7 +57,10 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.3,
         min: 0.0,
         max: 1.0,
-        physical: None, doc: "unpolarized share t of the sky's radiance at 90° from the sun (0: Rayleigh's DoLP shape, 1: Berry's |ω|)",
+        // The bounds are the physical range: t is a share (0 … 1), and t = 1, Berry's |ω|,
+        // is a published model of the clear sky (Berry, Dennis & Lee 2004).
+        physical: None,
+        doc: "unpolarized share t of the sky's radiance at 90° from the sun (0: Rayleigh's DoLP shape, 1: Berry's |ω|)",
     }],
     apply: Apply::Sky {
         params: |v| [[v[0], 0.0, 0.0, 0.0], [0.0; 4], [0.0; 4], [0.0; 4], [0.0; 4]],

@@ -22,9 +22,9 @@
 //! the ray's meridional frame (camera). Units: separation in degrees; per pixel on
 //! both backends (`shaders/effects/sky_neutral_points.wgsl`), square roots only.
 //!
-//! | param            | unit | neutral | range    |
-//! |------------------|------|---------|----------|
-//! | `separation_deg` | deg  | 0       | [0, 60]  |
+//! | param            | unit | neutral | fit bounds | physical |
+//! |------------------|------|---------|------------|----------|
+//! | `separation_deg` | deg  | 0       | [0, 60]    | bounds   |
 //!
 //! Cannot: a separation that differs between the sun's and the anti-sun's pair, the
 //! depolarization toward the horizon (that is partly `sky_depolarization`), or a sun
@@ -48,6 +48,9 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 20.0,
         min: 0.0,
         max: 60.0,
+        // The bounds are the physical range: the Babinet and Brewster points are seen some
+        // 15–25° from the sun in clear air and farther in turbid air (Coulson 1988, ch. 5),
+        // each half a separation away.
         physical: None,
         doc: "angular separation of each pair of neutral points",
     }],

@@ -17,9 +17,9 @@
 //! backends through the frame's per-pixel vector). A per-pixel effect, after the
 //! lens's Mueller matrices and before vignetting.
 //!
-//! | param | unit | neutral | range  |
-//! |-------|------|---------|--------|
-//! | `a`   | 1    | 0       | [0, 1] |
+//! | param | unit | neutral | fit bounds | physical |
+//! |-------|------|---------|------------|----------|
+//! | `a`   | 1    | 0       | [0, 1]     | [0, 0.3] |
 //!
 //! Separable from a sky capture only where the sky's radiance is known: with the
 //! radiance a free nuisance the fit weighs the glare against the fitted radiance
@@ -37,6 +37,11 @@ use super::{Apply, EffectDef, FrameContext, Inseparable, ParamSpec, RayParams, S
 use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
 
+/// The range a real lens's glare has. Engineering bound: veiling-glare indices (ISO
+/// 9358) of camera lenses are a few per cent of the source; a = 0.3 already adds, toward
+/// the sun, a third of the sky's radiance there.
+const A_PHYSICAL: (f64, f64) = (0.0, 0.3);
+
 /// κ of the glare profile: 1 − cos γ at which the glare is half its peak.
 pub const KAPPA: f64 = 0.05;
 
@@ -52,7 +57,7 @@ pub const EFFECT: EffectDef = EffectDef {
         typical: 0.05,
         min: 0.0,
         max: 1.0,
-        physical: None,
+        physical: Some(A_PHYSICAL),
         doc: "glare radiance toward the sun, in the sky's radiance at the sun",
     }],
     apply: Apply::Ray { params: |v| [v[0], 0.0, 0.0, 0.0], frame: Some(with_sun), pixel: stray_light },

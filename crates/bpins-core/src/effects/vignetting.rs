@@ -11,10 +11,10 @@
 //! Per pixel on both backends (`shaders/effects/vignetting.wgsl`), after the lens
 //! Mueller matrices.
 //!
-//! | param | unit | neutral | range |
-//! |-------|------|---------|-------|
-//! | `v2`  | 1    | 0       | ±2    |
-//! | `v4`  | 1    | 0       | ±2    |
+//! | param | unit | neutral | fit bounds | physical  |
+//! |-------|------|---------|------------|-----------|
+//! | `v2`  | 1    | 0       | ±2         | [−2, 0.5] |
+//! | `v4`  | 1    | 0       | ±2         | bounds    |
 //!
 //! (The factor is clamped at 0 where the polynomial would go negative.)
 //!
@@ -24,6 +24,11 @@
 use super::{Apply, EffectDef, Inseparable, Model, ParamSpec, RayParams, SkyBlindness, Stage};
 use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
+
+/// The range a real lens's r² falloff has. Physics: the cos⁴ law (1 − 2r² + 3r⁴ on a
+/// pinhole) and mechanical vignetting only darken the edge; a lens corrected for flat
+/// illumination reaches about 0; v2 > 0.5 (an edge brighter by half at r = 1) is no lens.
+const V2_PHYSICAL: (f64, f64) = (-2.0, 0.5);
 
 pub const EFFECT: EffectDef = EffectDef {
     name: "vignetting",
@@ -38,7 +43,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: -0.2,
             min: -2.0,
             max: 2.0,
-            physical: None,
+            physical: Some(V2_PHYSICAL),
             doc: "falloff per r²",
         },
         ParamSpec {
@@ -48,6 +53,8 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 0.05,
             min: -2.0,
             max: 2.0,
+            // The bounds are the physical range: the cos⁴ law's own r⁴ term is +3 on a
+            // pinhole, beyond them, and a corrected lens's is smaller.
             physical: None,
             doc: "falloff per r⁴",
         },

@@ -32,10 +32,10 @@
 //! for the Stokes vector. A per-pixel effect, first in the chain's lens stage (light
 //! crosses the window before the lens).
 //!
-//! | param        | unit | neutral | range     |
-//! |--------------|------|---------|-----------|
-//! | `tilt_x_deg` | deg  | 0       | [−45, 45] |
-//! | `tilt_y_deg` | deg  | 0       | [−45, 45] |   (|D| is clamped below 1 per pixel)
+//! | param        | unit | neutral | fit bounds | physical |
+//! |--------------|------|---------|------------|----------|
+//! | `tilt_x_deg` | deg  | 0       | [−45, 45]  | ±15      |
+//! | `tilt_y_deg` | deg  | 0       | [−45, 45]  | ±15      |   (|D| is clamped below 1 per pixel)
 //!
 //! Cannot: a window of another κ (an anti-reflection coating lowers it several-fold:
 //! the tilt read is then the true one times √(κ_true/0.112) to first order), Fresnel's
@@ -49,6 +49,11 @@
 use super::{Apply, EffectDef, ParamSpec, RayParams, Stage};
 use crate::camera::RayGeometry;
 use crate::stokes::Stokes;
+
+/// The range a real window's tilt has, degrees. Engineering bound: a housing's window is
+/// set square to the lens within a few degrees, and a dome decentred by a few millimetres
+/// tilts its surface as seen from the lens by about as much; ±15° is generous.
+const TILT_PHYSICAL_DEG: (f64, f64) = (-15.0, 15.0);
 
 /// κ of the plate: ρ ≈ κ sin²θᵢ for two uncoated surfaces of refractive index 1.5.
 pub const KAPPA: f64 = 0.112;
@@ -67,7 +72,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 5.0,
             min: -45.0,
             max: 45.0,
-            physical: None,
+            physical: Some(TILT_PHYSICAL_DEG),
             doc: "tilt of the window's normal toward +x (right in the image), about the y axis",
         },
         ParamSpec {
@@ -77,7 +82,7 @@ pub const EFFECT: EffectDef = EffectDef {
             typical: 5.0,
             min: -45.0,
             max: 45.0,
-            physical: None,
+            physical: Some(TILT_PHYSICAL_DEG),
             doc: "tilt of the window's normal toward +y (down in the image), about the x axis",
         },
     ],

@@ -144,6 +144,19 @@ pub fn fit_from(
         })
         .collect();
     let dof = (acc.n as f64 - nf as f64).max(1.0);
+    // The heading's 1σ under the residual's spatial correlation, frame by frame
+    // (`spatial`): its row of A⁺ over the frame's local slots (the free globals, then
+    // its own), against the frame's JᵀWr by tile.
+    let n_g = free.iter().take_while(|&&i| i < pb.slots.n_global).count();
+    let spatial = |k: usize, h: usize| -> f64 {
+        let (Some(tiles), Ok(ph)) = (acc.tiles.as_ref(), free.binary_search(&h)) else { return f64::NAN };
+        let mut e = vec![0.0; nf];
+        e[ph] = 1.0;
+        let row = cov.solve(&e);
+        let own = pb.slots.frame(k).into_iter().filter_map(|i| free.binary_search(&i).ok());
+        let ell: Vec<f64> = (0..n_g).chain(own).map(|p| row[p]).collect();
+        tiles.sigma(k, &ell)
+    };
     let frames_out: Vec<FrameFit> = (0..frames.len())
         .map(|k| {
             let at = |n: Nuisance| pb.slots.at(k, n);
@@ -153,7 +166,7 @@ pub fn fit_from(
             let chi2_per_dof = chi2 / (n as f64 - PER_FRAME as f64).max(1.0);
             FrameFit {
                 heading_deg: theta[h].rem_euclid(360.0),
-                heading_sigma_deg: heading_sigma_with_misfit(sigma(h), sigma_white(h), chi2_per_dof, corr.coherent[k]),
+                heading_sigma_deg: heading_sigma_with_misfit(sigma(h), spatial(k, h)),
                 heading_sigma_stat_deg: sigma(h),
                 reference_deg: reference,
                 heading_error_deg: reference.map(|r| wrap_deg_180(theta[h] - r)),
@@ -196,21 +209,19 @@ pub fn fit_from(
 /// A frame's heading 1σ with the misfit the model leaves, degrees:
 ///
 /// ```text
-/// σ² = σ_stat²·max(1, χ²_k/dof_k) + σ_white²·E_k
+/// σ = max(σ_stat, σ_spatial)
 /// ```
 ///
-/// σ_stat the statistical 1σ (white-noise 1σ widened for correlated residuals), scaled
-/// by the frame's χ²/dof where the residual is larger than its noise; σ_white the
-/// white-noise 1σ (the heading's column normalised: a residual of unit norm along it
-/// moves the heading by σ_white) and E_k the frame's coherent misfit power
-/// (`correlation`: the smooth part of the residual, in σ² units). σ_white·√E_k is how
-/// far that misfit moves the heading were it all along the heading's signature —
-/// the fit cannot say how much of it the heading absorbed (at the optimum the residual
-/// is orthogonal to that signature), so the bound is kept. A frame whose residual is
-/// noise keeps its statistical 1σ.
-fn heading_sigma_with_misfit(stat: f64, white: f64, chi2_per_dof: f64, coherent: f64) -> f64 {
-    if stat == 0.0 || !stat.is_finite() {
+/// σ_stat the statistical 1σ (white-noise 1σ widened for correlated residuals),
+/// σ_spatial the heading's spatial sandwich (`spatial`: the residual tile by tile,
+/// projected on the heading's sensitivity, its pulls correlated over neighbouring
+/// tiles): what the misfit the model does not explain can move the heading by. A frame
+/// whose residual is noise keeps its statistical 1σ (σ_spatial ≈ σ_white ≤ σ_stat
+/// there), as the field heading takes the larger of its data 1σ
+/// (`heading::field::SigmaParts::total_deg`).
+fn heading_sigma_with_misfit(stat: f64, spatial: f64) -> f64 {
+    if stat == 0.0 || !stat.is_finite() || !spatial.is_finite() {
         return stat;
     }
-    (stat * stat * chi2_per_dof.max(1.0) + white * white * coherent).sqrt()
+    stat.max(spatial)
 }

@@ -15,6 +15,7 @@ use crate::fit::model::slots::Derivative;
 use crate::fit::model::stages::{Reuse, Stages};
 use crate::fit::solver::block::BlockSystem;
 use crate::fit::uncertainty::robust::Clusters;
+use crate::fit::uncertainty::spatial::Tiles;
 use rayon::prelude::*;
 
 /// The normal equations of a fit over some samples: JᵀWJ and JᵀWr by blocks
@@ -29,20 +30,25 @@ pub(crate) struct Accum {
     /// On every pixel with the normal equations: each cluster's score over the free
     /// globals, for their sandwich 1σ (`crate::fit::uncertainty::robust`).
     pub clusters: Option<Clusters>,
+    /// On every pixel with the normal equations: each frame's per-tile JᵀWr over its
+    /// local slots, for the heading's spatial 1σ (`crate::fit::uncertainty::spatial`).
+    pub tiles: Option<Tiles>,
 }
 
 /// One frame's (or one part's) sums over its local slots (the free globals, then its
-/// own free nuisances): JᵀWJ (lower triangle, row-major), JᵀWr, χ², samples.
+/// own free nuisances): JᵀWJ (lower triangle, row-major), JᵀWr, χ², samples; and,
+/// where tiles are kept, JᵀWr by tile (`(tile, sums)`, in the order met).
 struct Sums {
     a: Vec<f64>,
     b: Vec<f64>,
     chi2: f64,
     n: usize,
+    tiles: Vec<(usize, Vec<f64>)>,
 }
 
 impl Sums {
     fn new(n: usize) -> Self {
-        Sums { a: vec![0.0; n * n], b: vec![0.0; n], chi2: 0.0, n: 0 }
+        Sums { a: vec![0.0; n * n], b: vec![0.0; n], chi2: 0.0, n: 0, tiles: Vec::new() }
     }
 
     fn add(mut self, o: Sums) -> Sums {
@@ -91,6 +97,8 @@ struct FrameModel<'f> {
     base: &'f FitFrame,
     columns: &'f [Column],
     normal: bool,
+    /// The tile grid, where JᵀWr is kept by tile.
+    tiles: Option<&'f Tiles>,
 }
 
 impl Problem<'_> {
@@ -111,15 +119,25 @@ impl Problem<'_> {
             n: 0,
             frame_chi2: vec![(0.0, 0); self.frames.len()],
             clusters: (normal && stride == 1 && n_g > 0).then(|| Clusters::new(self.frames.n_clusters(), n_g)),
+            tiles: (normal && stride == 1).then(|| {
+                let (w, h) = (self.capture.sensor.geometry.width_px, self.capture.sensor.geometry.height_px);
+                let n_local: Vec<usize> = own.iter().map(|o| n_g + o.len()).collect();
+                Tiles::new(w as usize, h as usize, &n_local)
+            }),
         };
         for (k, own) in own.iter().enumerate() {
             // The local slots of this frame: the free globals, then its own.
             let local: Vec<usize> = free[..n_g].iter().chain(own).copied().collect();
             let base = self.chain(theta, k)?;
             let columns = if normal { self.columns(theta, k, &local, &base)? } else { Vec::new() };
-            let fm = FrameModel { k, base: &base, columns: &columns, normal };
+            let fm = FrameModel { k, base: &base, columns: &columns, normal, tiles: total.tiles.as_ref() };
             let rects = self.frames.parts(k, stride);
-            let parts: Vec<Sums> = rects.par_iter().map(|&r| self.accumulate_part(&fm, r, stride)).collect();
+            let mut parts: Vec<Sums> = rects.par_iter().map(|&r| self.accumulate_part(&fm, r, stride)).collect();
+            if let Some(t) = total.tiles.as_mut() {
+                for p in &mut parts {
+                    t.add(k, &std::mem::take(&mut p.tiles));
+                }
+            }
             // Each part's score, by cluster, before the parts are summed.
             let scores: Vec<(usize, Vec<f64>)> = match total.clusters {
                 Some(_) => rects.iter().zip(&parts).map(|(r, p)| (self.frames.cluster_of(r), p.b.clone())).collect(),
@@ -221,6 +239,7 @@ impl Problem<'_> {
         let mut d = vec![0.0; nl];
         let no_radiance = fm.base.radiance == [0.0; crate::fit::model::radiance::N];
         for (u, v) in r.points(stride) {
+            let tile = fm.tiles.map(|t| t.of(u, v));
             // The raw radiance functions once per pixel: the base's factor, its basis ψ
             // for the radiance columns and the factor the columns that keep it reuse.
             let phi = (fm.normal || !no_radiance).then(|| self.raw_radiance(fm.base, u, v));
@@ -245,6 +264,14 @@ impl Problem<'_> {
                     for c in 0..=a {
                         acc.a[a * nl + c] += wgt * d[a] * d[c];
                     }
+                }
+                if let Some(t) = tile {
+                    // Pixels come row by row: a tile's samples are met in runs.
+                    if acc.tiles.last().is_none_or(|(last, _)| *last != t) {
+                        acc.tiles.push((t, vec![0.0; nl]));
+                    }
+                    let sums = &mut acc.tiles.last_mut().expect("pushed").1;
+                    sums.iter_mut().zip(&d).for_each(|(s, dj)| *s += wgt * dj * r);
                 }
             }
             bufs.0 = samples;

@@ -39,8 +39,8 @@ impl Param {
 pub struct FrameFit {
     pub heading_deg: f64,
     /// 1σ, degrees, with the misfit the model leaves (`fit::fit_from`'s
-    /// `heading_sigma_with_misfit`: the statistical 1σ scaled by the frame's χ²/dof,
-    /// and the residual's coherent part as far as it could move the heading).
+    /// `heading_sigma_with_misfit`: the larger of the statistical 1σ and the residual
+    /// projected on the heading's sensitivity tile by tile, `fit::uncertainty::spatial`).
     pub heading_sigma_deg: f64,
     /// The statistical part alone: the white-noise 1σ widened for correlated residuals.
     pub heading_sigma_stat_deg: f64,

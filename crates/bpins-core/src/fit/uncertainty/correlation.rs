@@ -17,21 +17,9 @@
 //! Used by the fit for each parameter's 1σ (× √(n/n_eff)) and by the diagnosis for
 //! the evidence of a candidate: Δχ²·n_eff/n against k·ln n_eff. Units: none. Limits:
 //! ρ is clamped to ≤ 0.999 (n_eff ≥ n/4·10⁻⁶); a residual that is white (noise only)
-//! has ρ ≈ 0 ± 1/√n, so n_eff ≈ n.
-//!
-//! The same lag sums measure, frame by frame, the power of the residual's smooth part
-//! (the misfit the model does not explain), for the heading 1σ that carries it
-//! (`fit::fit_from`):
-//!
-//! ```text
-//! S_k = ½(Σ_x z·z_next + Σ_y z·z_next),  N_k = ½(pairs_x + pairs_y)
-//! E_k = max(0, S_k − 3·√(N_k/2))              coherent misfit power, in σ² units
-//! ```
-//!
-//! White noise gives S_k = 0 ± √(N_k/2); a misfit smooth over more than L pixels adds
-//! its own power (its lag-L autocovariance ≈ its variance) however far below the
-//! noise each pixel's share is. The 3σ floor keeps a noise-only frame at E_k = 0 (one
-//! frame in 740 above it).
+//! has ρ ≈ 0 ± 1/√n, so n_eff ≈ n. (The heading's 1σ under a misfit the model leaves
+//! is not from these sums but from the residual projected on the heading's sensitivity
+//! tile by tile: `spatial`.)
 
 use crate::error::Result;
 use crate::fit::model::problem::Problem;
@@ -43,30 +31,17 @@ use rayon::prelude::*;
 struct Lags {
     x: [f64; 3],
     y: [f64; 3],
-    /// Lag pairs counted, along x and along y.
-    pairs: [f64; 2],
-}
-
-impl Lags {
-    /// The frame's coherent misfit power E_k (module doc).
-    fn coherent(&self) -> f64 {
-        let s = 0.5 * (self.x[0] + self.y[0]);
-        let n = 0.5 * (self.pairs[0] + self.pairs[1]);
-        (s - 3.0 * (0.5 * n).sqrt()).max(0.0)
-    }
 }
 
 /// What the residuals' correlations give the fit.
 pub(crate) struct Correlation {
     /// Effective sample count over every frame.
     pub n_eff: f64,
-    /// Per frame: the coherent misfit power E_k, σ² units (module doc).
-    pub coherent: Vec<f64>,
 }
 
-/// n_eff of the residuals of `theta` over every usable sample, and each frame's
-/// coherent misfit power. The lag pairs lie within each rectangle the frames hold (the
-/// whole frame, or each sampled block of whole 2 × 2 tiles: neighbours stay adjacent).
+/// n_eff of the residuals of `theta` over every usable sample. The lag pairs lie within
+/// each rectangle the frames hold (the whole frame, or each sampled block of whole 2 × 2
+/// tiles: neighbours stay adjacent).
 pub(crate) fn effective_samples(pb: &Problem, theta: &[f64], samples: usize) -> Result<Correlation> {
     let lag = match pb.capture.sensor.layout {
         Layout::Dofp { .. } => 2,
@@ -89,10 +64,7 @@ pub(crate) fn effective_samples(pb: &Problem, theta: &[f64], samples: usize) -> 
             lags.y[i] += l.y[i];
         }
     }
-    Ok(Correlation {
-        n_eff: samples as f64 * factor(&lags.x) * factor(&lags.y),
-        coherent: per_frame.iter().map(Lags::coherent).collect(),
-    })
+    Ok(Correlation { n_eff: samples as f64 * factor(&lags.x) * factor(&lags.y) })
 }
 
 /// The lag products of frame `k`'s residuals under `theta`.
@@ -113,13 +85,12 @@ fn frame_lags(pb: &Problem, theta: &[f64], k: usize, lag: usize, nq: usize) -> R
                 }
             }
         }
-        let add = |acc: &mut [f64; 3], pairs: &mut f64, a: &[f64], b: &[f64]| {
+        let add = |acc: &mut [f64; 3], a: &[f64], b: &[f64]| {
             for (&p, &q) in a.iter().zip(b) {
                 if p.is_finite() && q.is_finite() {
                     acc[0] += p * q;
                     acc[1] += p * p;
                     acc[2] += q * q;
-                    *pairs += 1.0;
                 }
             }
         };
@@ -127,10 +98,10 @@ fn frame_lags(pb: &Problem, theta: &[f64], k: usize, lag: usize, nq: usize) -> R
         for v in 0..h {
             for u in 0..w {
                 if u + lag < w {
-                    add(&mut lags.x, &mut lags.pairs[0], at(u, v), at(u + lag, v));
+                    add(&mut lags.x, at(u, v), at(u + lag, v));
                 }
                 if v + lag < h {
-                    add(&mut lags.y, &mut lags.pairs[1], at(u, v), at(u, v + lag));
+                    add(&mut lags.y, at(u, v), at(u, v + lag));
                 }
             }
         }
@@ -150,15 +121,7 @@ fn factor(s: &[f64; 3]) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::{factor, Lags};
-
-    #[test]
-    fn only_power_beyond_the_noise_of_the_lag_sums_is_coherent() {
-        // 10⁶ pairs each way: white noise gives S = 0 ± 707; a floor at 3σ = 2121.
-        let lags = |s: f64| Lags { x: [s, 1e6, 1e6], y: [s, 1e6, 1e6], pairs: [1e6, 1e6] };
-        assert_eq!(lags(1500.0).coherent(), 0.0);
-        assert!((lags(5000.0).coherent() - (5000.0 - 3.0 * 5e5f64.sqrt())).abs() < 1e-9);
-    }
+    use super::factor;
 
     #[test]
     fn white_residuals_count_fully_and_correlated_ones_less() {

@@ -6,3 +6,4 @@
 pub mod correlation;
 pub(crate) mod robust;
 pub mod score;
+pub(crate) mod spatial;
