@@ -8,8 +8,8 @@
 mod needs;
 
 use bpins_core::internal::montecarlo::{self, Source, SweepConfig};
-use bpins_gpu::agree::{cases, compare, tolerances, trial_frame};
-use bpins_gpu::{Gpu, Precision};
+use bpins_gpu::agree::{cases, compare, tolerances, trial_frame, Case, TrialFrame};
+use bpins_gpu::{Gpu, Precision, SampleLayout, SumsJob};
 use needs::Need;
 use std::sync::OnceLock;
 
@@ -35,6 +35,10 @@ fn main() -> std::process::ExitCode {
                 ("whole_chain_agrees_ideal_and_with_every_effect", whole_chain_agrees_ideal_and_with_every_effect),
                 ("monte_carlo_trials_agree_trial_by_trial", monte_carlo_trials_agree_trial_by_trial),
                 ("sky_maps_agree_on_both_backends_for_every_effect", sky_maps_agree_on_both_backends_for_every_effect),
+                (
+                    "a_neutral_effect_left_out_of_a_dispatch_changes_no_output_bit",
+                    a_neutral_effect_left_out_of_a_dispatch_changes_no_output_bit,
+                ),
             ],
         ),
         (
@@ -207,6 +211,70 @@ fn sky_maps_agree_on_both_backends_for_every_effect() {
             assert!(aop <= aop_tol && aoe <= aop_tol && dolp <= dolp_tol, "{} ({p})", t.label);
         }
     }
+}
+
+/// A dispatch runs only the registry hooks some frame of it has on (pipeline masks,
+/// `crates/bpins-gpu/src/masks.rs`): a frame's every output (DN, maps, heading sums)
+/// is the same, bit for bit, rendered alone (no hook run), beside a frame with one
+/// effect, and beside a frame with every hook on (every hook run, at neutral for it).
+fn a_neutral_effect_left_out_of_a_dispatch_changes_no_output_bit() {
+    let (w, h) = (96, 64);
+    for gpu in gpus() {
+        let frame =
+            |name: &str, effects: Vec<&'static str>| trial_frame(&Case { name: name.into(), effects }, 1, 5).unwrap();
+        let ideal = frame("ideal", vec![]);
+        let lens = frame("lens_diattenuation", vec!["lens_diattenuation"]);
+        let hooks: Vec<&str> =
+            bpins_core::effects::REGISTRY.iter().filter(|e| e.wgsl.is_some()).map(|e| e.name).collect();
+        let every = frame("every_hook", hooks);
+        let [a, b, c] =
+            [vec![&ideal], vec![&ideal, &lens], vec![&ideal, &lens, &every]].map(|d| output_bits(gpu, &d, w, h));
+        let p = gpu.precision().name();
+        assert_ne!(c[0], c[1], "({p}) the lens changes the frame's outputs");
+        assert!(a[0] == c[0] && b[0] == c[0], "({p}) the ideal frame's outputs depend on the dispatch's hooks");
+        assert!(b[1] == c[1], "({p}) the lens frame's outputs depend on the dispatch's hooks");
+    }
+}
+
+/// Every output of each frame of one dispatch of `frames` (`w × h`), as bits: the
+/// mosaic, the colocated planes, the chain and sky maps, and the heading sums of both layouts.
+fn output_bits(gpu: &Gpu, frames: &[&TrialFrame], w: usize, h: usize) -> Vec<Vec<u64>> {
+    use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+    let chain: Vec<_> = frames.iter().map(|t| t.frame.clone()).collect();
+    let bits = |v: &[f32]| v.iter().map(|x| u64::from(x.to_bits())).collect::<Vec<_>>();
+    let sums = |layout, both: bool| {
+        let jobs: Vec<SumsJob> = frames
+            .iter()
+            .map(|t| SumsJob {
+                frame: &t.frame,
+                rec: &t.rec,
+                mask_full_scale_dn: t.frame.response.full_scale_dn(),
+                contexts: if both { t.contexts.clone() } else { vec![t.contexts[0]] },
+            })
+            .collect();
+        gpu.heading_sums(&jobs, w, h, layout).unwrap()
+    };
+    let mosaic = gpu.render_mosaic(&chain, w, h, &DEFAULT_MOSAIC).unwrap();
+    let planes = gpu.render_colocated(&chain, w, h, &Channel::ALL).unwrap();
+    let maps = gpu.chain_maps(&chain, w, h).unwrap();
+    let sky = gpu.sky_maps(&chain, w, h).unwrap();
+    let superpixels = sums(SampleLayout::Superpixels { mosaic: DEFAULT_MOSAIC }, false);
+    let colocated = sums(SampleLayout::Colocated, true);
+    (0..frames.len())
+        .map(|k| {
+            let mut v = bits(&mosaic[k]);
+            planes[k].iter().for_each(|p| v.extend(bits(p)));
+            maps[k]
+                .iter()
+                .for_each(|m| v.extend(bits(&[m.signal_dn.as_slice(), &[m.aop_deg, m.dolp, m.aoe_deg]].concat())));
+            [&sky[k].aop_deg, &sky[k].dolp, &sky[k].aoe_deg].iter().for_each(|m| v.extend(bits(m)));
+            for s in superpixels[k].iter().chain(&colocated[k]) {
+                let values = s.scatter.iter().chain([&s.n]).chain(s.line.iter().flatten());
+                v.extend(values.map(|x| x.to_bits()));
+            }
+            v
+        })
+        .collect()
 }
 
 /// wgpu's GL backend (Mesa llvmpipe through headless EGL here) with the f32 kernels:

@@ -7,7 +7,9 @@
 // analyzer, sensor and mosaic effects) arrive as one vector each in `sky`, `ray`,
 // `analyzer`, `sensor` and `mosaic_fx` and run in `sky_effects`, `ray_effects`,
 // `analyzer_effects`, `sensor_effects` and `mosaic_effects`, which are generated from
-// the registry (crates/bpins-gpu/src/ray_dispatch.rs) with their counts.
+// the registry (crates/bpins-gpu/src/ray_dispatch.rs) with their counts and their
+// pipeline masks (`SKY_ON`, …: the effects on in some frame of the dispatch; the
+// others are left out at compile time).
 //
 // pixel (u, v) ─ true intrinsics ─▶ ray d, meridional basis (p, s), 2β      camera frame
 //   sky_stokes → sky_effects (sky_neutral_points → sky_dolp_shape → …) → ray_effects
@@ -133,11 +135,6 @@ fn pixel_signal_dn(f: ChainFrame, s: Stokes, ch: u32) -> f64 {
     return analyzer_intensity(s, Analyzer(f.cos2t[ch], f.sin2t[ch], f.eps[ch])) * f.gain_dn[ch];
 }
 
-// Pipeline constant: 0 where no frame of the dispatch has an analyzer effect on (set by
-// frame_sums' pipelines, sums.rs `SumsVariant`), so that llvmpipe, which runs the untaken
-// side of a uniform branch under a lane mask, does not run the analyzer effects at all.
-override CHAIN_ANALYZER: u32 = 1u;
-
 // Where an analyzer sits: column u, row v, channel ch, position from the principal point (px).
 struct PixelSite {
     u: u32,
@@ -154,10 +151,13 @@ struct PixelAnalyzer {
 }
 
 // The analyzer of channel ch at pixel column u, row v (ray g) and the gain behind it:
-// the channel's, changed by the analyzer effects where the frame has any.
+// the channel's, changed by the analyzer effects where the frame has any. ANALYZER_ON
+// (the analyzer effects' pipeline mask, 0 where no frame of the dispatch has one on)
+// leaves the step out at compile time: llvmpipe, which runs the untaken side of a
+// uniform branch under a lane mask, then does not run the analyzer effects at all.
 fn pixel_analyzer(f: ChainFrame, g: RayGeometry, u: u32, v: u32, ch: u32) -> PixelAnalyzer {
     let a = PixelAnalyzer(Analyzer(f.cos2t[ch], f.sin2t[ch], f.eps[ch]), f.gain_dn[ch]);
-    if (CHAIN_ANALYZER == 0u || !f.analyzer_on) {
+    if (ANALYZER_ON == 0u || !f.analyzer_on) {
         return a;
     }
     let site = PixelSite(u, v, ch, f64(u) - f.intr.cx_px, f64(v) - f.intr.cy_px);
@@ -220,10 +220,11 @@ fn mosaic_signal_at(f: ChainFrame, u: u32, v: u32, mosaic: vec4<u32>) -> f64 {
 }
 
 // Photo-signal of DoFP pixel (u, v) of a w × h mosaic, with the mosaic effects (crosstalk,
-// …) and its edge neighbours where the frame has any (0 outside the sensor).
+// …) and its edge neighbours where the frame has any (0 outside the sensor; none at all
+// where the mosaic effects' pipeline mask MOSAIC_ON is 0).
 fn mosaic_pixel_signal_dn(f: ChainFrame, u: u32, v: u32, w: u32, h: u32, mosaic: vec4<u32>) -> f64 {
     let own = mosaic_signal_at(f, u, v, mosaic);
-    if (!f.mosaic_on) {
+    if (MOSAIC_ON == 0u || !f.mosaic_on) {
         return own;
     }
     var up = 0.0lf;

@@ -16,15 +16,12 @@ fn lib_rs() -> String {
 #[test]
 fn only_the_front_doors_modules_are_public() {
     let text = lib_rs();
-    let public: BTreeSet<&str> = text
-        .lines()
-        .filter_map(|l| l.trim().strip_prefix("pub mod ")?.strip_suffix(';'))
-        .collect();
+    let public: BTreeSet<&str> =
+        text.lines().filter_map(|l| l.trim().strip_prefix("pub mod ")?.strip_suffix(';')).collect();
     assert_eq!(public, FRONT.iter().copied().collect(), "src/lib.rs's `pub mod` lines");
     // Every other module is private, and the house is reached through `internal`,
     // hidden from the documentation.
-    let private: Vec<&str> =
-        text.lines().filter_map(|l| l.trim().strip_prefix("mod ")?.strip_suffix(';')).collect();
+    let private: Vec<&str> = text.lines().filter_map(|l| l.trim().strip_prefix("mod ")?.strip_suffix(';')).collect();
     assert!(private.len() >= 15 && private.contains(&"chain") && private.contains(&"fit"), "{private:?}");
     let hidden = text.find("#[doc(hidden)]\npub mod internal").expect("a hidden `internal` module");
     for m in private.iter().filter(|m| **m != "math") {
@@ -37,7 +34,8 @@ fn only_the_front_doors_modules_are_public() {
 fn the_front_page_says_where_to_start() {
     let text = lib_rs();
     assert!(text.contains("//! # Where to start"), "the crate's front page lost its table");
-    for entry in ["compass::Compass", "Capture", "fit()", "diagnose()", "calibrate", "SweepSpec", "locate()", "catalog"] {
+    for entry in ["compass::Compass", "Capture", "fit()", "diagnose()", "calibrate", "SweepSpec", "locate()", "catalog"]
+    {
         assert!(text.contains(&format!("[`{entry}`]")), "the front page does not point at `{entry}`");
     }
 }

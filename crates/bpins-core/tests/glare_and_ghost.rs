@@ -13,9 +13,9 @@
 
 mod common;
 
+use bpins_core::effects::EffectSet;
 use bpins_core::internal::capture::{Capture, FrameData};
 use bpins_core::internal::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use bpins_core::effects::EffectSet;
 use bpins_core::internal::noise::{stream, FrameKey};
 use common::{cie_sky, simulate_in, small_capture};
 

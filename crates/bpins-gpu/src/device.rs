@@ -1,13 +1,15 @@
 //! The device: an adapter, the kernels' precision (f64 where it has `SHADER_F64`,
 //! f32 otherwise or by choice: `precision.rs`), its pipelines, and buffer plumbing.
 
+use crate::masks::EffectMasks;
 use crate::precision::Precision;
 use crate::shaders::module_source_at;
 use crate::sums::SumsVariant;
 use crate::timing::{KernelTime, Timer};
 use crate::{GpuError, Result};
+use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 use wgpu::util::DeviceExt;
 
 /// A GPU ready to run the bpins kernels.
@@ -35,15 +37,40 @@ pub struct Traffic {
 }
 
 pub(crate) struct Pipelines {
-    pub render_mosaic: wgpu::ComputePipeline,
-    pub render_colocated: wgpu::ComputePipeline,
-    pub chain_maps: wgpu::ComputePipeline,
-    pub sky_maps: wgpu::ComputePipeline,
-    /// `frame_sums`, one pipeline per [`SumsVariant`], each made on first use (its
-    /// pipeline constants; llvmpipe compiles each for a while).
+    render_module: wgpu::ShaderModule,
     sums_module: wgpu::ShaderModule,
-    frame_sums: [OnceLock<wgpu::ComputePipeline>; SumsVariant::COUNT],
+    /// The pipelines of `render.wgsl` and `sums.wgsl`, one per entry point and set of
+    /// pipeline constants (the dispatch's effect masks, `SumsVariant`), each made on
+    /// first use (llvmpipe compiles each for a while).
+    specialised: Mutex<HashMap<Specialisation, wgpu::ComputePipeline>>,
     pub reduce_partials: wgpu::ComputePipeline,
+}
+
+/// One specialised pipeline: its entry point and its constants (name, value's bits).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+struct Specialisation {
+    entry: &'static str,
+    constants: Vec<(&'static str, u64)>,
+}
+
+/// An entry point of `render.wgsl`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum RenderEntry {
+    Mosaic,
+    Colocated,
+    ChainMaps,
+    SkyMaps,
+}
+
+impl RenderEntry {
+    fn name(self) -> &'static str {
+        match self {
+            RenderEntry::Mosaic => "render_mosaic",
+            RenderEntry::Colocated => "render_colocated",
+            RenderEntry::ChainMaps => "chain_maps",
+            RenderEntry::SkyMaps => "sky_maps",
+        }
+    }
 }
 
 impl Gpu {
@@ -331,32 +358,50 @@ fn open_adapter(chosen: Option<wgpu::Backends>) -> Result<wgpu::Adapter> {
 impl Pipelines {
     /// The entry point of one of these pipelines.
     fn name_of(&self, p: &wgpu::ComputePipeline) -> &'static str {
-        [
-            (&self.render_mosaic, "render_mosaic"),
-            (&self.render_colocated, "render_colocated"),
-            (&self.chain_maps, "chain_maps"),
-            (&self.sky_maps, "sky_maps"),
-            (&self.reduce_partials, "reduce_partials"),
-        ]
-        .into_iter()
-        .chain(self.frame_sums.iter().filter_map(|v| v.get()).map(|q| (q, "frame_sums")))
-        .find(|(q, _)| std::ptr::eq(*q, p))
-        .map_or("other", |(_, n)| n)
+        if p == &self.reduce_partials {
+            return "reduce_partials";
+        }
+        let made = self.specialised.lock().unwrap_or_else(|e| e.into_inner());
+        made.iter().find(|(_, q)| *q == p).map_or("other", |(s, _)| s.entry)
     }
 
-    /// The `frame_sums` pipeline of `v`, made now if it is the first use.
-    pub(crate) fn frame_sums(&self, device: &wgpu::Device, v: SumsVariant) -> &wgpu::ComputePipeline {
-        self.frame_sums[v.index()].get_or_init(|| {
-            let constants = v.constants();
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("frame_sums"),
-                layout: None,
-                module: &self.sums_module,
-                entry_point: Some("frame_sums"),
-                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
-                cache: None,
+    /// The pipeline of `entry` in `module` with `constants`, made now if it is the first use.
+    fn specialised(
+        &self,
+        device: &wgpu::Device,
+        module: &wgpu::ShaderModule,
+        entry: &'static str,
+        constants: &[(&'static str, f64)],
+    ) -> wgpu::ComputePipeline {
+        let key = Specialisation { entry, constants: constants.iter().map(|(n, v)| (*n, v.to_bits())).collect() };
+        let mut made = self.specialised.lock().unwrap_or_else(|e| e.into_inner());
+        made.entry(key)
+            .or_insert_with(|| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: None,
+                    module,
+                    entry_point: Some(entry),
+                    compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
+                    cache: None,
+                })
             })
-        })
+            .clone()
+    }
+
+    /// The `frame_sums` pipeline of `v`.
+    pub(crate) fn frame_sums(&self, device: &wgpu::Device, v: SumsVariant) -> wgpu::ComputePipeline {
+        self.specialised(device, &self.sums_module, "frame_sums", &v.constants())
+    }
+
+    /// The pipeline of a `render.wgsl` entry point running the hooks of `masks`.
+    pub(crate) fn render(
+        &self,
+        device: &wgpu::Device,
+        entry: RenderEntry,
+        masks: EffectMasks,
+    ) -> wgpu::ComputePipeline {
+        self.specialised(device, &self.render_module, entry.name(), &masks.constants())
     }
 
     fn new(device: &wgpu::Device, precision: Precision) -> Result<Pipelines> {
@@ -368,25 +413,19 @@ impl Pipelines {
                 source: wgpu::ShaderSource::Wgsl(src.into()),
             }))
         };
-        let pipeline = |m: &wgpu::ShaderModule, entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
+        let reduce = module("reduce")?;
+        Ok(Pipelines {
+            render_module: module("render")?,
+            sums_module: module("sums")?,
+            specialised: Mutex::new(HashMap::new()),
+            reduce_partials: device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("reduce_partials"),
                 layout: None,
-                module: m,
-                entry_point: Some(entry),
+                module: &reduce,
+                entry_point: Some("reduce_partials"),
                 compilation_options: Default::default(),
                 cache: None,
-            })
-        };
-        let (render, sums, reduce) = (module("render")?, module("sums")?, module("reduce")?);
-        Ok(Pipelines {
-            render_mosaic: pipeline(&render, "render_mosaic"),
-            render_colocated: pipeline(&render, "render_colocated"),
-            chain_maps: pipeline(&render, "chain_maps"),
-            sky_maps: pipeline(&render, "sky_maps"),
-            frame_sums: std::array::from_fn(|_| OnceLock::new()),
-            reduce_partials: pipeline(&reduce, "reduce_partials"),
-            sums_module: sums,
+            }),
         })
     }
 }

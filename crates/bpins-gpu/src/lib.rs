@@ -21,6 +21,7 @@
 
 pub mod agree;
 mod device;
+mod masks;
 pub mod montecarlo;
 pub mod params;
 pub mod precision;

@@ -9,7 +9,9 @@
 
 use crate::{GpuError, Result};
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::effects::{ANALYZER_COUNT, MOSAIC_COUNT, RAY_COUNT, SENSOR_COUNT, SKY_COUNT, SKY_WIDTH};
+use bpins_core::effects::{
+    AnalyzerParams, SkyParams, ANALYZER_COUNT, MOSAIC_COUNT, RAY_COUNT, SENSOR_COUNT, SKY_COUNT, SKY_WIDTH,
+};
 use bpins_core::internal::chain::ChainFrame;
 use bpins_core::internal::heading::HeadingContext;
 use bpins_core::internal::recon::Reconstructor;
@@ -93,6 +95,16 @@ pub struct FrameParams {
     pub fixed_key: [u32; 4],
 }
 
+/// The sky effects' vectors as [`FrameParams::sky`] carries them.
+pub(crate) fn sky_slots(sky: &[SkyParams; SKY_COUNT]) -> [[Wide4; SKY_WIDTH]; SKY_COUNT] {
+    sky.map(|p| p.map(Wide4::new))
+}
+
+/// The analyzer effects' vectors as [`FrameParams::analyzer`] carries them (8 values as 2 × 4).
+pub(crate) fn analyzer_slots(analyzer: &[AnalyzerParams; ANALYZER_COUNT]) -> [[Wide4; 2]; ANALYZER_COUNT] {
+    analyzer.map(|p| [Wide4::new([p[0], p[1], p[2], p[3]]), Wide4::new([p[4], p[5], p[6], p[7]])])
+}
+
 /// Frames with scene elements (`ChainFrame::field`, field conditions) have no WGSL
 /// twin: they are refused with [`GpuError::Unsupported`], never rendered without them.
 impl TryFrom<&ChainFrame> for FrameParams {
@@ -124,9 +136,9 @@ impl TryFrom<&ChainFrame> for FrameParams {
                 0.0,
                 0.0,
             ]),
-            sky: f.sky.map(|p| p.map(Wide4::new)),
+            sky: sky_slots(&f.sky),
             ray: f.ray.map(Wide4::new),
-            analyzer: f.analyzer.map(|p| [Wide4::new([p[0], p[1], p[2], p[3]]), Wide4::new([p[4], p[5], p[6], p[7]])]),
+            analyzer: analyzer_slots(&f.analyzer),
             sensor: f.sensor.map(Wide4::new),
             mosaic_fx: f.mosaic.map(Wide4::new),
             key: f.key.0,

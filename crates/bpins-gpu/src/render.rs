@@ -1,7 +1,8 @@
 //! Driver of `shaders/kernels/render.wgsl`: whole frames rendered on the device and
 //! read back (for dumps and the parity checks). CPU twin: `bpins_core::simulate`.
 
-use crate::device::Gpu;
+use crate::device::{Gpu, RenderEntry};
+use crate::masks::EffectMasks;
 use crate::params::{mosaic_positions, FrameParams, RenderDims};
 use crate::{GpuError, Result};
 use bpins_core::internal::chain::ChainFrame;
@@ -39,7 +40,7 @@ impl Gpu {
     /// f32 per pixel; batches as the device's limits allow.
     fn render(
         &self,
-        pipeline: &wgpu::ComputePipeline,
+        entry: RenderEntry,
         frames: &[ChainFrame],
         w: usize,
         h: usize,
@@ -51,6 +52,8 @@ impl Gpu {
         let mut out = Vec::with_capacity(frames.len());
         for chunk in frames.chunks(batch) {
             let params = chunk.iter().map(FrameParams::try_from).collect::<Result<Vec<FrameParams>>>()?;
+            // The entry point running the hooks some frame of the chunk has on.
+            let pipeline = &self.pipelines.render(&self.device, entry, EffectMasks::of(&params));
             let dims =
                 RenderDims { size: [w as u32, h as u32, chunk.len() as u32, 0], mosaic: mosaic_positions(mosaic) };
             let (u, f) = (self.uniform("dims", &dims), self.storage("frames", &params));
@@ -72,7 +75,7 @@ impl Gpu {
         h: usize,
         mosaic: &[[Channel; 2]; 2],
     ) -> Result<Vec<Vec<f32>>> {
-        self.render(&self.pipelines.render_mosaic, frames, w, h, mosaic, 1)
+        self.render(RenderEntry::Mosaic, frames, w, h, mosaic, 1)
     }
 
     /// Colocated frames: per frame, one `w × h` plane per channel of `channels` (as
@@ -84,7 +87,7 @@ impl Gpu {
         h: usize,
         channels: &[Channel],
     ) -> Result<Vec<Vec<Vec<f32>>>> {
-        let all = self.render(&self.pipelines.render_colocated, frames, w, h, &DEFAULT_MOSAIC, 4)?;
+        let all = self.render(RenderEntry::Colocated, frames, w, h, &DEFAULT_MOSAIC, 4)?;
         Ok(all
             .iter()
             .map(|px| channels.iter().map(|c| px.iter().skip(c.index()).step_by(4).copied().collect()).collect())
@@ -95,7 +98,7 @@ impl Gpu {
     /// The sky's AoP, DoLP and AoE maps of `frames` (`w × h`), no DN rendered: the WGSL
     /// twin of `bpins_core::internal::simulate::sky_maps`.
     pub fn sky_maps(&self, frames: &[ChainFrame], w: usize, h: usize) -> Result<Vec<SkyMaps>> {
-        let all = self.render(&self.pipelines.sky_maps, frames, w, h, &DEFAULT_MOSAIC, 3)?;
+        let all = self.render(RenderEntry::SkyMaps, frames, w, h, &DEFAULT_MOSAIC, 3)?;
         Ok(all
             .iter()
             .map(|px| {
@@ -111,7 +114,7 @@ impl Gpu {
     }
 
     pub fn chain_maps(&self, frames: &[ChainFrame], w: usize, h: usize) -> Result<Vec<Vec<ChainSample>>> {
-        let all = self.render(&self.pipelines.chain_maps, frames, w, h, &DEFAULT_MOSAIC, 7)?;
+        let all = self.render(RenderEntry::ChainMaps, frames, w, h, &DEFAULT_MOSAIC, 7)?;
         Ok(all
             .iter()
             .map(|px| {

@@ -4,6 +4,7 @@
 //! per-trial loop of `bpins_core::internal::montecarlo::run_trial` (colocated pixels).
 
 use crate::device::Gpu;
+use crate::masks::EffectMasks;
 use crate::params::{FrameParams, HeadingParams, ReconParams, ReduceDims, SampleGrid, SumsDims};
 use crate::precision::Precision;
 use crate::{GpuError, Result};
@@ -27,19 +28,21 @@ const GPU_RUN_SAMPLES: u32 = 128;
 pub const MAX_CONTEXTS: usize = 2;
 
 /// The specialisation of `frame_sums` a dispatch runs (its pipeline constants
-/// `SUMS_LAYOUT`, `SHARED_RAYS`, `SUMS_NOISE`, chain.wgsl's `CHAIN_ANALYZER` and
-/// camera.wgsl's `CAMERA_PROJECTION`, `CAMERA_DISTORTION`): what is uniform over the whole dispatch is decided at
-/// compile time, since llvmpipe runs the untaken side of a uniform branch too.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// `SUMS_LAYOUT`, `SHARED_RAYS`, `SUMS_NOISE`, the generated dispatch's effect masks
+/// `SKY_ON`, … ([`EffectMasks`]) and camera.wgsl's `CAMERA_PROJECTION`,
+/// `CAMERA_DISTORTION`): what is uniform over the whole dispatch is decided at compile
+/// time, since llvmpipe runs the untaken side of a uniform branch too.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(crate) struct SumsVariant {
-    /// 0 DoFP superpixels without crosstalk, 1 DoFP with crosstalk, 2 colocated.
+    /// 0 DoFP superpixels without mosaic effects, 1 DoFP with (crosstalk, …), 2 colocated.
     layout: u32,
     /// Every context of every frame has the same assumed camera, distortion and grid.
     shared_rays: bool,
     /// The sensor noise some frame draws: bit 0 temporal, 1 DSNU, 2 PRNU.
     noise: u32,
-    /// Some frame has an analyzer effect on (`ChainFrame::has_analyzer_effects`).
-    analyzer: bool,
+    /// The registry hooks some frame has on (the analyzer effects among them:
+    /// `ChainFrame::has_analyzer_effects`).
+    masks: EffectMasks,
     /// The projection id every camera (true and assumed) has; 4 where they differ.
     projection: u32,
     /// Some camera (true or assumed) has a radial distortion.
@@ -47,23 +50,16 @@ pub(crate) struct SumsVariant {
 }
 
 impl SumsVariant {
-    pub(crate) const COUNT: usize = 3 * 2 * 8 * 2 * 5 * 2;
-
-    pub(crate) fn index(self) -> usize {
-        let i = ((2 * self.layout as usize + usize::from(self.shared_rays)) * 8 + self.noise as usize) * 2
-            + usize::from(self.analyzer);
-        (i * 5 + self.projection as usize) * 2 + usize::from(self.distortion)
-    }
-
-    pub(crate) fn constants(self) -> [(&'static str, f64); 6] {
-        [
+    pub(crate) fn constants(self) -> Vec<(&'static str, f64)> {
+        let mut c = vec![
             ("SUMS_LAYOUT", self.layout as f64),
             ("SHARED_RAYS", if self.shared_rays { 1.0 } else { 0.0 }),
             ("SUMS_NOISE", self.noise as f64),
-            ("CHAIN_ANALYZER", if self.analyzer { 1.0 } else { 0.0 }),
             ("CAMERA_PROJECTION", self.projection as f64),
             ("CAMERA_DISTORTION", if self.distortion { 1.0 } else { 0.0 }),
-        ]
+        ];
+        c.extend(self.masks.constants());
+        c
     }
 
     /// The variant for these frames and their contexts (`n_ctx` per frame).
@@ -84,8 +80,8 @@ impl SumsVariant {
                 | (u32::from(on(&f.noise, 2)) << 1)
                 | (u32::from(on(&f.noise, 3)) << 2)
         });
-        // FrameParams::mosaic.y: the frame's analyzer effects are on.
-        let analyzer = frames.iter().any(|f| on(&f.mosaic, 1));
+        // The hooks off their neutral vector in some frame.
+        let masks = EffectMasks::of(frames);
         // Every camera, true (FrameParams) and assumed (HeadingParams): the projection id
         // (camera.w, an exact small integer) and the distortion (k1, k2).
         let cameras = || {
@@ -98,7 +94,7 @@ impl SumsVariant {
             _ => 4,
         };
         let distortion = cameras().any(|(_, k)| (0..2).any(|i| k.hi[i] != 0.0 || k.lo[i] != 0.0));
-        SumsVariant { layout, shared_rays, noise, analyzer, projection, distortion }
+        SumsVariant { layout, shared_rays, noise, masks, projection, distortion }
     }
 }
 
@@ -182,10 +178,10 @@ impl Gpu {
             let ru = self.uniform("reduce dims", &rdims);
             let p = &self.pipelines;
             let frame_sums = p.frame_sums(&self.device, SumsVariant::of(layout, &frames, &heading, n_ctx));
-            let g1 = self.bind(frame_sums, &[&u, &f, &r, &hb, &partials]);
+            let g1 = self.bind(&frame_sums, &[&u, &f, &r, &hb, &partials]);
             let g2 = self.bind(&p.reduce_partials, &[&ru, &partials, &sums]);
             let passes = [
-                (frame_sums, &g1, [wg_rows, runs, chunk.len() as u32]),
+                (&frame_sums, &g1, [wg_rows, runs, chunk.len() as u32]),
                 (&p.reduce_partials, &g2, [SUMS_LEN as u32, n_jobs, 1]),
             ];
             // The sums come back in the kernels' precision.

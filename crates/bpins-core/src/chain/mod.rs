@@ -217,7 +217,8 @@ fn true_world_from_camera(model: &Model, scene: &Scene) -> DMat3 {
 /// per-pixel path ([`ray_stokes`], [`pixel_analyzer`]) skips the ones that are off —
 /// the same numbers, without a neutral effect's work (a die's seeded draws, a
 /// window's Fresnel terms) at every pixel of every fit's every evaluation. The row
-/// kernels skip them together instead (`rows.rs`); the GPU applies them all.
+/// kernels skip them together instead (`rows.rs`); the GPU leaves out, per dispatch,
+/// those no frame of it has on (`bpins-gpu`, `masks.rs`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ActiveEffects {
     pub sky: [bool; SKY_COUNT],
@@ -418,7 +419,8 @@ pub fn site_signal_dn(f: &ChainFrame, s: Stokes, g: &RayGeometry, u: u32, v: u32
 /// Every mosaic effect of the registry on a DoFP pixel's photo-signal `own` and its
 /// edge neighbours' (DN, 0 outside the sensor), in registry order, effect `k` with its
 /// vector `p[k]` where `on[k]`. WGSL twin: `mosaic_effects`, generated from the
-/// registry (`bpins-gpu`, `ray_dispatch.rs`), which applies them all.
+/// registry (`bpins-gpu`, `ray_dispatch.rs`), which applies those some frame of the
+/// dispatch has on.
 #[inline(always)]
 pub fn mosaic_effects(
     p: &[SensorParams; MOSAIC_COUNT],
