@@ -215,8 +215,16 @@ fn sky_maps_agree_on_both_backends_for_every_effect() {
 
 /// A dispatch runs only the registry hooks some frame of it has on (pipeline masks,
 /// `crates/bpins-gpu/src/masks.rs`): a frame's every output (DN, maps, heading sums)
-/// is the same, bit for bit, rendered alone (no hook run), beside a frame with one
-/// effect, and beside a frame with every hook on (every hook run, at neutral for it).
+/// is the same rendered alone (no hook run), beside a frame with one effect, and beside
+/// a frame with every hook on (every hook run, at neutral for it).
+///
+/// The same means bit for bit with the f64 kernels, and on a CPU adapter (lavapipe) at
+/// either precision. A vendor's compiler may contract `a * b + c` into one fused
+/// multiply-add differently once other hooks are compiled in around it, so its f32
+/// kernels may differ in the last bits: on an NVIDIA H200 (driver 580.159.04) the ideal
+/// frame's DN mosaic, colocated planes and heading sums were bitwise the same, and its
+/// chain and sky maps differed by up to 4 ulp (7.6e-6° of AoP, 1.2e-7 of DoLP,
+/// 2.4e-4 DN of signal). There the bound is 1e-6 of each output's largest magnitude.
 fn a_neutral_effect_left_out_of_a_dispatch_changes_no_output_bit() {
     let (w, h) = (96, 64);
     for gpu in gpus() {
@@ -228,20 +236,46 @@ fn a_neutral_effect_left_out_of_a_dispatch_changes_no_output_bit() {
             bpins_core::effects::REGISTRY.iter().filter(|e| e.wgsl.is_some()).map(|e| e.name).collect();
         let every = frame("every_hook", hooks);
         let [a, b, c] =
-            [vec![&ideal], vec![&ideal, &lens], vec![&ideal, &lens, &every]].map(|d| output_bits(gpu, &d, w, h));
+            [vec![&ideal], vec![&ideal, &lens], vec![&ideal, &lens, &every]].map(|d| outputs(gpu, &d, w, h));
         let p = gpu.precision().name();
-        assert_ne!(c[0], c[1], "({p}) the lens changes the frame's outputs");
-        assert!(a[0] == c[0] && b[0] == c[0], "({p}) the ideal frame's outputs depend on the dispatch's hooks");
-        assert!(b[1] == c[1], "({p}) the lens frame's outputs depend on the dispatch's hooks");
+        let bitwise = gpu.precision() == Precision::F64 || gpu.is_cpu();
+        let of_scale = if bitwise { 0.0 } else { 1e-6 };
+        assert!(!differences(&c[0], &c[1], 0.0).is_empty(), "({p}) the lens changes the frame's outputs");
+        let cases = [("the ideal frame, alone", &a[0], &c[0]), ("the ideal frame, beside the lens", &b[0], &c[0])];
+        for (what, x, y) in cases.into_iter().chain([("the lens frame", &b[1], &c[1])]) {
+            let d = differences(x, y, of_scale);
+            assert!(d.is_empty(), "({p}) {what}: the outputs depend on the dispatch's hooks:\n{}", d.join("\n"));
+        }
     }
 }
 
-/// Every output of each frame of one dispatch of `frames` (`w × h`), as bits: the
-/// mosaic, the colocated planes, the chain and sky maps, and the heading sums of both layouts.
-fn output_bits(gpu: &Gpu, frames: &[&TrialFrame], w: usize, h: usize) -> Vec<Vec<u64>> {
+/// One frame's outputs, by name, each value widened to f64 (exactly).
+type Outputs = Vec<(String, Vec<f64>)>;
+
+/// The outputs where two frames differ by more than `of_scale` × the output's largest
+/// magnitude (`0.0`: in any bit): how many values differ, and by how much at most.
+fn differences(x: &Outputs, y: &Outputs, of_scale: f64) -> Vec<String> {
+    x.iter()
+        .zip(y)
+        .filter_map(|((name, u), (_, v))| {
+            let scale = u.iter().chain(v).map(|a| a.abs()).fold(0.0, f64::max);
+            let apart: Vec<f64> =
+                u.iter().zip(v).filter(|(a, b)| a.to_bits() != b.to_bits()).map(|(a, b)| (a - b).abs()).collect();
+            let most = apart.iter().copied().fold(0.0, f64::max);
+            (!apart.is_empty() && most >= of_scale * scale).then(|| {
+                let n = (apart.len(), u.len());
+                format!("  {name}: {} of {} values differ, by at most {most:e} (largest magnitude {scale:e})", n.0, n.1)
+            })
+        })
+        .collect()
+}
+
+/// Every output of each frame of one dispatch of `frames` (`w × h`): the mosaic, the
+/// colocated planes, the chain and sky maps, and the heading sums of both layouts.
+fn outputs(gpu: &Gpu, frames: &[&TrialFrame], w: usize, h: usize) -> Vec<Outputs> {
     use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
     let chain: Vec<_> = frames.iter().map(|t| t.frame.clone()).collect();
-    let bits = |v: &[f32]| v.iter().map(|x| u64::from(x.to_bits())).collect::<Vec<_>>();
+    let wide = |v: &[f32]| v.iter().map(|&x| f64::from(x)).collect::<Vec<_>>();
     let sums = |layout, both: bool| {
         let jobs: Vec<SumsJob> = frames
             .iter()
@@ -262,15 +296,21 @@ fn output_bits(gpu: &Gpu, frames: &[&TrialFrame], w: usize, h: usize) -> Vec<Vec
     let colocated = sums(SampleLayout::Colocated, true);
     (0..frames.len())
         .map(|k| {
-            let mut v = bits(&mosaic[k]);
-            planes[k].iter().for_each(|p| v.extend(bits(p)));
-            maps[k]
-                .iter()
-                .for_each(|m| v.extend(bits(&[m.signal_dn.as_slice(), &[m.aop_deg, m.dolp, m.aoe_deg]].concat())));
-            [&sky[k].aop_deg, &sky[k].dolp, &sky[k].aoe_deg].iter().for_each(|m| v.extend(bits(m)));
-            for s in superpixels[k].iter().chain(&colocated[k]) {
-                let values = s.scatter.iter().chain([&s.n]).chain(s.line.iter().flatten());
-                v.extend(values.map(|x| x.to_bits()));
+            let mut v: Outputs = vec![("mosaic DN".into(), wide(&mosaic[k]))];
+            planes[k].iter().enumerate().for_each(|(i, p)| v.push((format!("colocated plane {i} DN"), wide(p))));
+            let pixels = &maps[k];
+            v.push(("chain maps' signal DN".into(), pixels.iter().flat_map(|m| wide(&m.signal_dn)).collect()));
+            v.push(("chain maps' AoP°".into(), pixels.iter().map(|m| f64::from(m.aop_deg)).collect()));
+            v.push(("chain maps' DoLP".into(), pixels.iter().map(|m| f64::from(m.dolp)).collect()));
+            v.push(("chain maps' AoE°".into(), pixels.iter().map(|m| f64::from(m.aoe_deg)).collect()));
+            v.push(("sky map AoP°".into(), wide(&sky[k].aop_deg)));
+            v.push(("sky map DoLP".into(), wide(&sky[k].dolp)));
+            v.push(("sky map AoE°".into(), wide(&sky[k].aoe_deg)));
+            for (layout, s) in [("superpixel", &superpixels[k]), ("colocated", &colocated[k])] {
+                for (j, s) in s.iter().enumerate() {
+                    let values = s.scatter.iter().chain([&s.n]).chain(s.line.iter().flatten()).copied();
+                    v.push((format!("{layout} heading sums {j}"), values.collect()));
+                }
             }
             v
         })
