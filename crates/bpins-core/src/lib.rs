@@ -187,6 +187,9 @@ pub mod internal {
     pub mod scene {
         pub use crate::scene::frame::*;
         pub use crate::scene::*;
+        pub mod clouds {
+            pub use crate::scene::clouds::*;
+        }
     }
     pub mod simulate {
         pub use crate::simulate::*;

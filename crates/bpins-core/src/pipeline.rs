@@ -13,7 +13,7 @@ use crate::heading::field::{Cells, FieldContext, FieldHeading, FieldOptions};
 use crate::heading::{Extractor, HeadingContext, HeadingEstimate, HeadingSums};
 use crate::pixel_analyzers::PixelMaps;
 use crate::recon::{self, PolImage, Reconstructor};
-use crate::scene::{ElementId, FieldScene};
+use crate::scene::FieldScene;
 use crate::sensor::{Layout, Response};
 use crate::simulate::{peak_intensity, peak_signal, render_colocated, render_mosaic};
 
@@ -243,7 +243,7 @@ pub fn sim_response(c: &Capture, s: &SimSensor, field: Option<&FieldScene>) -> R
     let peak = match field.filter(|f| !f.is_empty()) {
         None => peak_intensity(&Model::default(), &c.intrinsics(), &scene, w, h, 8),
         Some(field) => {
-            let sky = field.without(ElementId::SunDisc);
+            let sky = field.without(crate::scene::sun_disc::ELEMENT.name);
             let idx = NoiseIndex { seed: 0, trial: 0, frame: 0 };
             let f = ChainFrame::new_in_field(
                 &Model::default(),

@@ -10,8 +10,9 @@ use bpins_core::internal::capture::{Capture, FrameData, FrameSpec, LensSpec, Sen
 use bpins_core::internal::chain::ChainFrame;
 use bpins_core::internal::pipeline::{sim_chain_frame, simulate_capture, SimSensor};
 use bpins_core::internal::recon::{superpixels, PolImage, Reconstructor};
+use bpins_core::internal::scene::clouds::Clouds;
 use bpins_core::internal::sky::sun::SunPosition;
-use bpins_core::scene::{ElementId, FieldScene};
+use bpins_core::scene::FieldScene;
 use bpins_core::sensor::{Channel, Geometry, Layout, DEFAULT_MOSAIC};
 use glam::DVec3;
 use std::path::PathBuf;
@@ -55,7 +56,7 @@ fn sensor() -> SimSensor {
 /// Every element but the overcast deck (which would hide the clear sky the checks
 /// below compare with), 16 clouds.
 fn field(seed: u64) -> FieldScene {
-    let mut f = FieldScene::all(seed).without(ElementId::Overcast);
+    let mut f = FieldScene::all(seed).without("overcast");
     f.set("clouds", "count", 16.0).unwrap();
     f
 }
@@ -143,11 +144,11 @@ fn a_field_capture_saturates_at_the_sun_is_unpolarized_below_the_horizon_and_dep
 
     // Clouds: at each cloud core in view, the DoLP is well below the clear sky's at the
     // same pixel (the same scattering angle), rendered without the clouds.
-    let clear = simulate_capture(&c, &Model::default(), &sensor(), Some(&scene.without(ElementId::Clouds))).unwrap().1;
+    let clear = simulate_capture(&c, &Model::default(), &sensor(), Some(&scene.without("clouds"))).unwrap().1;
     let mut checked = 0;
     for (fi, f) in [&f0, &f1].into_iter().enumerate() {
         let (cloudy, clear) = (stokes(&frames[fi]), stokes(&clear[fi]));
-        for cloud in &f.field.as_ref().unwrap().clouds.as_ref().unwrap().clouds {
+        for cloud in &f.field.as_ref().unwrap().element::<Clouds>().unwrap().clouds {
             let Some((u, v)) = f.intr.project(f.field.as_ref().unwrap().cam_from_world * cloud.centre_world) else {
                 continue;
             };
@@ -176,7 +177,7 @@ fn the_scene_is_seeded_and_an_empty_scene_is_the_lab_sky() {
     assert_eq!(a, run(Some(&field(5))), "same seed, same DN");
     let b = run(Some(&field(6)));
     assert_ne!(a[1], b[1], "another seed, other DN");
-    let clouds = |seed| chain(&c, 0, &field(seed)).field.unwrap().clouds.unwrap().clouds;
+    let clouds = |seed| chain(&c, 0, &field(seed)).field.unwrap().element::<Clouds>().unwrap().clouds.clone();
     assert!(clouds(5).iter().zip(clouds(6)).all(|(x, y)| x.centre_world != y.centre_world), "other clouds");
     // An empty scene is bitwise the lab-clean sky.
     assert_eq!(run(None), run(Some(&FieldScene::new(5))));

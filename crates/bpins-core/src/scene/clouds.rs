@@ -53,13 +53,13 @@
 
 use super::frame::element_index;
 use super::texture::Texture;
-use super::{Draws, ElementDef, ElementId, FieldRay, ParamSpec};
+use super::{same, Draws, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
 use crate::conventions::enu_from_az_el_deg;
 use crate::stokes::Stokes;
 use glam::DVec3;
+use std::sync::Arc;
 
 pub const ELEMENT: ElementDef = ElementDef {
-    id: ElementId::Clouds,
     name: "clouds",
     summary: "seeded clouds fixed in the world: brighter, less polarized, E-vectors turned per frame",
     source: "Pomozi, Horvath & Wehner 2001 (J. Exp. Biol. 204); phenomenological profile",
@@ -96,6 +96,8 @@ pub const ELEMENT: ElementDef = ElementDef {
             "strength of the bright, polarized, turned rim (its turn's share of the core's at ρ² = ½)",
         ),
     ],
+    layer: Layer::Cloud,
+    prepare: |v, cx| Arc::new(Clouds::new(v, cx.seed, cx.frame)),
 };
 
 /// One cloud of one frame.
@@ -134,8 +136,8 @@ impl Clouds {
         let sin_min = v[3].to_radians().sin();
         let (brightness, dolp_factor, sigma_rad, texture) = (v[4], v[5], v[6].to_radians(), v[7]);
         let (coherence, rim) = (v.get(8).copied().unwrap_or(0.0), v.get(9).copied().unwrap_or(0.0));
-        let world = Draws::world(seed, ElementId::Clouds);
-        let this_frame = Draws::frame(seed, ElementId::Clouds, frame);
+        let world = Draws::world(seed, &ELEMENT);
+        let this_frame = Draws::frame(seed, &ELEMENT, frame);
         // The frame's common turn (draw 64: past the largest count's own draws); at
         // coherence 0 each turn is σ·n_k exactly, as before the parameter existed.
         let common = if coherence > 0.0 { coherence.sqrt() * this_frame.normal(64) } else { 0.0 };
@@ -157,7 +159,7 @@ impl Clouds {
                     },
                     one_minus_cos_r,
                     reach: one_minus_cos_r / (1.0 - 0.5 * texture),
-                    texture: Texture::new(seed, element_index(ElementId::Clouds), k),
+                    texture: Texture::new(seed, element_index(&ELEMENT), k),
                 }
             })
             .collect();
@@ -206,6 +208,17 @@ impl Clouds {
             s = Stokes::new(ki * s.i, kp * (c2 * s.q - s2 * s.u), kp * (s2 * s.q + c2 * s.u), kp * s.v);
         }
         s
+    }
+}
+
+impl FieldElement for Clouds {
+    #[inline]
+    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
+        Clouds::apply(self, ray, s)
+    }
+
+    fn same_as(&self, other: &dyn FieldElement) -> bool {
+        same(self, other)
     }
 }
 

@@ -2,12 +2,16 @@
 //!
 //! ```text
 //! d_w = world_from_cam · d                       the ray in the world (ENU)
-//! S   ← sky_radiance(d_w, S)                    CIE radiance distribution (a scalar)
-//! S   ← clouds(d_w, S)                          each cloud in turn
-//! S   ← overcast(d_w, S)                        the deck, where it covers the ray
-//! S   ← sun_disc(d_w, S)                        disc and aureole added (unpolarized)
-//! S   ← skyline(d_w, S)                         trees, buildings, ground in front
+//! S   ← e.apply(d_w, S)  for each enabled element e, back to front:
+//!       Layer::Sky         sky_radiance           CIE radiance distribution (a scalar)
+//!       Layer::Cloud       clouds, overcast       each cloud in turn; the deck
+//!       Layer::Sun         sun_disc               disc and aureole added (unpolarized)
+//!       Layer::Foreground  skyline                trees, buildings, ground in front
 //! ```
+//!
+//! The order comes from the registry: each [`ElementDef`](super::ElementDef) names its
+//! [`Layer`], and within a layer the registry's order holds. An element adds itself by
+//! its file and its line in `ELEMENTS`; nothing here names one.
 //!
 //! Frame: the Stokes vector stays in the ray's meridional frame (p, s) throughout, as
 //! `sky_stokes` returns it; elements that set an E-vector in the world go through
@@ -15,15 +19,60 @@
 //! sun), elements' strengths relative to the Rayleigh sky's zenith radiance
 //! `½(1 + sin²h_sun)` of the frame.
 
-use super::{clouds::Clouds, overcast::Overcast, sky_radiance::SkyRadiance, skyline::Skyline, sun_disc::SunDisc};
-use super::{ElementId, FieldScene, ELEMENTS};
+use super::{ElementDef, FieldScene, ELEMENTS};
 use crate::camera::MeridionalBasis;
 use crate::noise::{stream, FrameKey, FIXED_PATTERN_FRAME};
 use crate::stokes::Stokes;
 use glam::{DMat3, DVec3};
+use std::any::Any;
+use std::fmt::Debug;
+use std::sync::Arc;
+
+/// Where an element sits in the field, back to front: [`field_stokes`] applies the
+/// layers in this order (within a layer, in the registry's order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Layer {
+    /// The sky itself: its radiance distribution.
+    Sky,
+    /// What floats in front of the sky: clouds, a deck.
+    Cloud,
+    /// The sun's disc and aureole, over the clouds.
+    Sun,
+    /// What stands in front of all of it: trees, buildings, the ground.
+    Foreground,
+}
+
+/// What an element's per-frame form is built from.
+#[derive(Clone, Copy, Debug)]
+pub struct ElementContext {
+    /// The scene's seed: every draw is keyed by it.
+    pub seed: u64,
+    /// The frame number (per-frame draws).
+    pub frame: u32,
+    /// Unit sun direction, ENU.
+    pub sun_world: DVec3,
+    /// The Rayleigh sky's radiance at the zenith, ½(1 + sin²h_sun).
+    pub zenith_radiance: f64,
+}
+
+/// One element folded for one frame: its constants and draws, and what it does to a ray.
+pub trait FieldElement: Any + Debug + Send + Sync {
+    /// The Stokes vector `s` along `ray` with this element applied; meridional frame of
+    /// `ray` in and out.
+    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes;
+
+    /// Whether `other` is the same element with the same constants (write
+    /// `same(self, other)`).
+    fn same_as(&self, other: &dyn FieldElement) -> bool;
+}
+
+/// `a == b` where `b` is of `a`'s type; false otherwise.
+pub fn same<T: FieldElement + PartialEq>(a: &T, b: &dyn FieldElement) -> bool {
+    (b as &dyn Any).downcast_ref::<T>() == Some(a)
+}
 
 /// Everything the scene elements need for one frame.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct FieldFrame {
     /// The true camera axes in ENU (columns), mount tilt included.
     pub world_from_cam: DMat3,
@@ -33,11 +82,17 @@ pub struct FieldFrame {
     /// The Rayleigh sky's radiance at the zenith, ½(1 + sin²h_sun): the unit of the
     /// elements' radiances.
     pub zenith_radiance: f64,
-    pub sky_radiance: Option<SkyRadiance>,
-    pub clouds: Option<Clouds>,
-    pub overcast: Option<Overcast>,
-    pub sun_disc: Option<SunDisc>,
-    pub skyline: Option<Skyline>,
+    /// The enabled elements, folded for this frame, in the order they apply.
+    pub elements: Vec<Arc<dyn FieldElement>>,
+}
+
+impl PartialEq for FieldFrame {
+    fn eq(&self, o: &Self) -> bool {
+        (self.world_from_cam, self.cam_from_world, self.sun_world, self.zenith_radiance)
+            == (o.world_from_cam, o.cam_from_world, o.sun_world, o.zenith_radiance)
+            && self.elements.len() == o.elements.len()
+            && self.elements.iter().zip(&o.elements).all(|(a, b)| a.same_as(b.as_ref()))
+    }
 }
 
 impl FieldFrame {
@@ -45,18 +100,21 @@ impl FieldFrame {
     /// (columns, ENU) under the unit sun `sun_world` (ENU).
     pub fn new(scene: &FieldScene, world_from_cam: DMat3, sun_world: DVec3, frame: u32) -> Self {
         let zenith_radiance = 0.5 * (1.0 + sun_world.z * sun_world.z);
-        let seed = scene.seed;
+        let cx = ElementContext { seed: scene.seed, frame, sun_world, zenith_radiance };
+        let mut enabled: Vec<(&ElementDef, &[f64])> = scene.iter().collect();
+        enabled.sort_by_key(|(d, _)| (d.layer, element_index(d)));
         FieldFrame {
             world_from_cam,
             cam_from_world: world_from_cam.transpose(),
             sun_world,
             zenith_radiance,
-            sky_radiance: scene.values(ElementId::SkyRadiance).map(|v| SkyRadiance::new(v, sun_world)),
-            clouds: scene.values(ElementId::Clouds).map(|v| Clouds::new(v, seed, frame)),
-            overcast: scene.values(ElementId::Overcast).map(|v| Overcast::new(v, seed, frame)),
-            sun_disc: scene.values(ElementId::SunDisc).map(|v| SunDisc::new(v, sun_world, zenith_radiance)),
-            skyline: scene.values(ElementId::Skyline).map(|v| Skyline::new(v, seed, zenith_radiance)),
+            elements: enabled.into_iter().map(|(d, v)| (d.prepare)(v, &cx)).collect(),
         }
+    }
+
+    /// The frame's element of type `T`, if enabled.
+    pub fn element<T: FieldElement>(&self) -> Option<&T> {
+        self.elements.iter().find_map(|e| (e.as_ref() as &dyn Any).downcast_ref::<T>())
     }
 }
 
@@ -78,28 +136,8 @@ pub struct FieldRay<'a> {
 pub fn field_stokes(f: &FieldFrame, d_cam: DVec3, basis: &MeridionalBasis, sky: Stokes) -> Stokes {
     // The ray in the world, where the scene is fixed.
     let ray = FieldRay { d_cam, d_world: f.world_from_cam * d_cam, basis, cam_from_world: &f.cam_from_world };
-    let mut s = sky;
-    // The sky's radiance distribution (CIE general sky): a scalar on every component.
-    if let Some(e) = &f.sky_radiance {
-        s = e.apply(&ray, s);
-    }
-    // Clouds fixed in the world: brighter, less polarized, their E-vectors turned.
-    if let Some(e) = &f.clouds {
-        s = e.apply(&ray, s);
-    }
-    // A cloud deck fixed in the world, with holes of clear sky.
-    if let Some(e) = &f.overcast {
-        s = e.apply(&ray, s);
-    }
-    // The sun's disc and aureole: unpolarized radiance added.
-    if let Some(e) = &f.sun_disc {
-        s = e.apply(&ray, s);
-    }
-    // Trees, buildings and the ground, in front of all of it.
-    if let Some(e) = &f.skyline {
-        s = e.apply(&ray, s);
-    }
-    s
+    // Each element, back to front.
+    f.elements.iter().fold(sky, |s, e| e.apply(&ray, s))
 }
 
 /// Stokes vector (meridional frame of `ray`) of radiance `i` with DoLP `dolp` and its
@@ -122,14 +160,14 @@ pub fn linear_stokes(i: f64, dolp: f64, e_world: DVec3, ray: &FieldRay) -> Stoke
 pub struct Draws(FrameKey);
 
 impl Draws {
-    /// Draws fixed in the world (the same in every frame) of element `id` under `seed`.
-    pub fn world(seed: u64, id: ElementId) -> Self {
-        Draws(FrameKey::new(seed, trial_of(id), FIXED_PATTERN_FRAME))
+    /// Draws fixed in the world (the same in every frame) of element `def` under `seed`.
+    pub fn world(seed: u64, def: &ElementDef) -> Self {
+        Draws(FrameKey::new(seed, trial_of(def), FIXED_PATTERN_FRAME))
     }
 
-    /// Draws of frame `frame` of element `id` under `seed`.
-    pub fn frame(seed: u64, id: ElementId, frame: u32) -> Self {
-        Draws(FrameKey::new(seed, trial_of(id), frame))
+    /// Draws of frame `frame` of element `def` under `seed`.
+    pub fn frame(seed: u64, def: &ElementDef, frame: u32) -> Self {
+        Draws(FrameKey::new(seed, trial_of(def), frame))
     }
 
     /// Draws under an explicit (seed, trial, frame) key (the field attitude's).
@@ -150,13 +188,14 @@ impl Draws {
 
 /// The trial word of an element's draws: its registry index, offset so the scene's
 /// keys never meet a Monte Carlo's small trial numbers under the same seed.
-fn trial_of(id: ElementId) -> u32 {
-    0x5ce0_0000 + ELEMENTS.iter().position(|e| e.id == id).unwrap_or(ELEMENTS.len()) as u32
+fn trial_of(def: &ElementDef) -> u32 {
+    0x5ce0_0000 + element_index(def)
 }
 
-/// Index into the element's texture salts (one noise field per salt).
-pub(crate) fn element_index(id: ElementId) -> u32 {
-    ELEMENTS.iter().position(|e| e.id == id).unwrap_or(ELEMENTS.len()) as u32
+/// The element's index in the registry: the key of its draws and its texture salts
+/// (one noise field per salt).
+pub(crate) fn element_index(def: &ElementDef) -> u32 {
+    ELEMENTS.iter().position(|e| e.name == def.name).unwrap_or(ELEMENTS.len()) as u32
 }
 
 #[cfg(test)]
@@ -172,6 +211,35 @@ mod tests {
         let d = DVec3::new(0.1, -0.3, 0.9).normalize();
         let s = Stokes::new(0.7, 0.1, -0.2, 0.01);
         assert_eq!(field_stokes(&f, d, &meridional_basis(d), s), s);
+    }
+
+    #[test]
+    fn elements_apply_back_to_front_by_layer_then_registry_order() {
+        use crate::scene::{clouds::Clouds, overcast::Overcast, sky_radiance::SkyRadiance};
+        use crate::scene::{skyline::Skyline, sun_disc::SunDisc};
+        let f =
+            FieldFrame::new(&FieldScene::all(3), world_from_camera(0.0, 0.0, 0.0), enu_from_az_el_deg(40.0, 25.0), 0);
+        let at = |is: fn(&dyn Any) -> bool| f.elements.iter().position(|e| is(e.as_ref() as &dyn Any));
+        let order = [
+            at(|e| e.is::<SkyRadiance>()),
+            at(|e| e.is::<Clouds>()),
+            at(|e| e.is::<Overcast>()),
+            at(|e| e.is::<SunDisc>()),
+            at(|e| e.is::<Skyline>()),
+        ];
+        assert_eq!(order, [0, 1, 2, 3, 4].map(Some), "the sky, clouds, the deck, the sun, the skyline");
+        // Overcast is registered after the sun's disc (its draws keyed by its place) yet
+        // applies before it: its layer, not its place, orders it.
+        let place = |name| ELEMENTS.iter().position(|e| e.name == name);
+        assert!(place("overcast") > place("sun_disc"));
+        // Each element's same_as is its own PartialEq, and false across types.
+        let g =
+            FieldFrame::new(&FieldScene::all(3), world_from_camera(0.0, 0.0, 0.0), enu_from_az_el_deg(40.0, 25.0), 0);
+        assert_eq!(f, g);
+        assert!(!f.elements[0].same_as(f.elements[1].as_ref()));
+        let h =
+            FieldFrame::new(&FieldScene::all(4), world_from_camera(0.0, 0.0, 0.0), enu_from_az_el_deg(40.0, 25.0), 0);
+        assert_ne!(f, h, "another seed, other clouds");
     }
 
     #[test]
@@ -192,11 +260,12 @@ mod tests {
 
     #[test]
     fn draws_are_keyed_by_seed_element_and_frame() {
-        let a = Draws::world(1, ElementId::Clouds);
-        assert_eq!(a.uniform(0), Draws::world(1, ElementId::Clouds).uniform(0));
-        assert_ne!(a.uniform(0), Draws::world(2, ElementId::Clouds).uniform(0));
-        assert_ne!(a.uniform(0), Draws::world(1, ElementId::Skyline).uniform(0));
-        assert_ne!(a.uniform(0), Draws::frame(1, ElementId::Clouds, 0).uniform(0));
-        assert_ne!(Draws::frame(1, ElementId::Clouds, 0).normal(3), Draws::frame(1, ElementId::Clouds, 1).normal(3));
+        let (clouds, skyline) = (&super::super::clouds::ELEMENT, &super::super::skyline::ELEMENT);
+        let a = Draws::world(1, clouds);
+        assert_eq!(a.uniform(0), Draws::world(1, clouds).uniform(0));
+        assert_ne!(a.uniform(0), Draws::world(2, clouds).uniform(0));
+        assert_ne!(a.uniform(0), Draws::world(1, skyline).uniform(0));
+        assert_ne!(a.uniform(0), Draws::frame(1, clouds, 0).uniform(0));
+        assert_ne!(Draws::frame(1, clouds, 0).normal(3), Draws::frame(1, clouds, 1).normal(3));
     }
 }

@@ -30,32 +30,28 @@ pub(crate) mod texture;
 
 #[cfg(feature = "io")]
 pub use attitude::FieldAttitude;
-pub(crate) use frame::{field_stokes, linear_stokes, Draws, FieldFrame, FieldRay};
+pub use frame::Layer;
+pub(crate) use frame::{field_stokes, linear_stokes, same, Draws, ElementContext, FieldElement, FieldFrame, FieldRay};
 
 use crate::catalog::{self, Entry, Kind, ParamSpec, Selection};
 use crate::error::Result;
 
-/// Which element (closed set: the per-pixel dispatch is a fixed sequence).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ElementId {
-    SkyRadiance,
-    Clouds,
-    SunDisc,
-    Skyline,
-    Overcast,
-}
-
 /// One scene element: a catalog [`Entry`] with its parameters ([`ParamSpec`], as an
-/// effect's) and the id the per-pixel dispatch knows it by.
-#[derive(Debug, PartialEq)]
+/// effect's), the [`Layer`] it sits in and how it folds itself for one frame.
+#[derive(Debug)]
 pub struct ElementDef {
-    pub id: ElementId,
     pub name: &'static str,
     /// One line: what it puts in the scene.
     pub summary: &'static str,
     /// Where its equations come from.
     pub source: &'static str,
     pub params: &'static [ParamSpec],
+    /// Where it sits, back to front: the per-pixel call applies the layers in order
+    /// (within a layer, the registry's order).
+    pub layer: Layer,
+    /// Its form for one frame, from its values (in `params` order) and the frame's
+    /// seed, number and sun.
+    pub prepare: fn(&[f64], &ElementContext) -> std::sync::Arc<dyn FieldElement>,
 }
 
 impl ElementDef {
@@ -84,9 +80,9 @@ impl Entry for ElementDef {
     }
 }
 
-/// Every scene element. [`field_stokes`] applies them back to front: the sky's
-/// radiance, clouds, the overcast deck, the sun's disc, the skyline. (The registry's
-/// order keys each element's seeded draws, so a new element goes last here.)
+/// Every scene element. [`field_stokes`] applies them back to front by [`Layer`]: the
+/// sky's radiance, clouds and the overcast deck, the sun's disc, the skyline. (The
+/// registry's order keys each element's seeded draws, so a new element goes last here.)
 pub static ELEMENTS: &[&ElementDef] =
     &[&sky_radiance::ELEMENT, &clouds::ELEMENT, &sun_disc::ELEMENT, &skyline::ELEMENT, &overcast::ELEMENT];
 
@@ -139,14 +135,9 @@ impl FieldScene {
         self.elements.get(element, param)
     }
 
-    /// The values of element `id` (in its `params` order) if it is enabled.
-    pub fn values(&self, id: ElementId) -> Option<&[f64]> {
-        self.elements.iter().find(|(d, _)| d.id == id).map(|(_, v)| v)
-    }
-
-    /// The same scene without element `id`.
-    pub fn without(&self, id: ElementId) -> FieldScene {
-        FieldScene { seed: self.seed, elements: self.elements.without(|d| d.id == id) }
+    /// The same scene without the element named `name` (unchanged where it is not enabled).
+    pub fn without(&self, name: &str) -> FieldScene {
+        FieldScene { seed: self.seed, elements: self.elements.without(|d| d.name == name) }
     }
 
     /// Enabled elements with their values, in the order they were enabled.
@@ -209,7 +200,7 @@ mod tests {
         assert!(s.parse("clouds.count=1e9").is_err());
         assert!(s.parse("clouds.count=abc").is_err());
         assert!(s.parse("clouds.count").is_err());
-        assert_eq!(s.without(ElementId::Clouds).iter().count(), 1);
+        assert_eq!(s.without("clouds").iter().count(), 1);
         assert_eq!(FieldScene::all(1).iter().count(), ELEMENTS.len());
     }
 }

@@ -42,12 +42,12 @@
 
 use super::frame::element_index;
 use super::texture::Texture;
-use super::{Draws, ElementDef, ElementId, FieldRay, ParamSpec};
+use super::{same, Draws, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
+use std::sync::Arc;
 
 pub const ELEMENT: ElementDef = ElementDef {
-    id: ElementId::Overcast,
     name: "overcast",
     summary: "a cloud deck fixed in the world over `cover` of the dome, with holes of clear sky: brighter, \
               nearly unpolarized, E-vectors turned across the deck",
@@ -76,6 +76,8 @@ pub const ELEMENT: ElementDef = ElementDef {
             "`cover` is the share of the sky above this elevation (a camera's view: 40° for a zenith fisheye)",
         ),
     ],
+    layer: Layer::Cloud,
+    prepare: |v, cx| Arc::new(Overcast::new(v, cx.seed, cx.frame)),
 };
 
 /// Directions of the lattice the cover's threshold is measured on.
@@ -107,7 +109,7 @@ impl Overcast {
     /// under `seed` (its holes the same in every frame, its common turn drawn per frame).
     pub fn new(v: &[f64], seed: u64, frame: u32) -> Self {
         let (cover, scale_rad, edge) = (v[0].clamp(0.0, 1.0), v[1].to_radians(), v[2]);
-        let salt = element_index(ElementId::Overcast);
+        let salt = element_index(&ELEMENT);
         let deck = Texture::new(seed, salt, 0);
         let per_rad = 1.0 / scale_rad;
         // The threshold that puts `cover` of the dome above the lowest elevation under
@@ -133,7 +135,7 @@ impl Overcast {
             brightness: v[3],
             dolp_factor: v[4],
             sigma_rad: v[5].to_radians(),
-            frame_turn: Draws::frame(seed, ElementId::Overcast, frame).normal(0),
+            frame_turn: Draws::frame(seed, &ELEMENT, frame).normal(0),
             deck,
             turns: Texture::new(seed, salt, 1),
         }
@@ -166,6 +168,17 @@ impl Overcast {
         let kp = ki * (1.0 - (1.0 - self.dolp_factor) * c);
         let (s2, c2) = (2.0 * c * theta).sin_cos();
         Stokes::new(ki * s.i, kp * (c2 * s.q - s2 * s.u), kp * (s2 * s.q + c2 * s.u), kp * s.v)
+    }
+}
+
+impl FieldElement for Overcast {
+    #[inline]
+    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
+        Overcast::apply(self, ray, s)
+    }
+
+    fn same_as(&self, other: &dyn FieldElement) -> bool {
+        same(self, other)
     }
 }
 

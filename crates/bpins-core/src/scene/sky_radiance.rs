@@ -37,12 +37,12 @@
 //! dependence; a sky whose radiance is not symmetric about the solar vertical.
 //! f and k are clamped at ≥ 0 where extreme (c, d) pairs would make them negative.
 
-use super::{ElementDef, ElementId, FieldRay, ParamSpec};
+use super::{same, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
+use std::sync::Arc;
 
 pub const ELEMENT: ElementDef = ElementDef {
-    id: ElementId::SkyRadiance,
     name: "sky_radiance",
     summary: "CIE standard general sky radiance: brighter toward the sun and the horizon (type 12 clear sky)",
     source: "CIE S 011/E:2003 eqs. 1-3; Kittler & Darula 2002",
@@ -55,6 +55,8 @@ pub const ELEMENT: ElementDef = ElementDef {
         ParamSpec::shape("d_per_rad", "1", -3.0, -5.0, 0.0, "indicatrix d, per radian of the angle from the sun"),
         ParamSpec::shape("e", "1", 0.45, 0.0, 2.0, "indicatrix e (forward/back scattering)"),
     ],
+    layer: Layer::Sky,
+    prepare: |v, cx| Arc::new(SkyRadiance::new(v, cx.sun_world)),
 };
 
 /// The CIE sky of one frame.
@@ -114,6 +116,17 @@ impl SkyRadiance {
         }
         let k = self.factor(ray.d_world);
         Stokes::new(k * s.i, k * s.q, k * s.u, k * s.v)
+    }
+}
+
+impl FieldElement for SkyRadiance {
+    #[inline]
+    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
+        SkyRadiance::apply(self, ray, s)
+    }
+
+    fn same_as(&self, other: &dyn FieldElement) -> bool {
+        same(self, other)
     }
 }
 

@@ -44,15 +44,15 @@
 
 use super::frame::element_index;
 use super::texture::Texture;
-use super::{linear_stokes, Draws, ElementDef, ElementId, FieldRay, ParamSpec};
+use super::{linear_stokes, same, Draws, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
+use std::sync::Arc;
 
 /// Azimuth bins of the tabulated skyline (0.05° each).
 const BINS: usize = 7200;
 
 pub const ELEMENT: ElementDef = ElementDef {
-    id: ElementId::Skyline,
     name: "skyline",
     summary: "trees and buildings on a seeded jagged skyline, dark and nearly unpolarized; the ground below",
     source: "procedural skyline; radiances after Horvath & Varju 2004",
@@ -71,6 +71,8 @@ pub const ELEMENT: ElementDef = ElementDef {
         ParamSpec::shape("object_dolp", "1", 0.04, 0.0, 0.3, "objects' largest DoLP"),
         ParamSpec::shape("ground_albedo", "1", 0.2, 0.0, 1.0, "ground radiance over the sky's zenith radiance"),
     ],
+    layer: Layer::Foreground,
+    prepare: |v, cx| Arc::new(Skyline::new(v, cx.seed, cx.zenith_radiance)),
 };
 
 /// The skyline of one frame.
@@ -95,7 +97,7 @@ impl Skyline {
     pub fn new(v: &[f64], seed: u64, zenith_radiance: f64) -> Self {
         let elevation_deg = profile_deg(v[0], v[1], v[2], seed);
         let sin_elevation: Vec<f64> = elevation_deg.iter().map(|e| e.to_radians().sin()).collect();
-        let el = element_index(ElementId::Skyline);
+        let el = element_index(&ELEMENT);
         Skyline {
             sin_max: sin_elevation.iter().copied().fold(0.0, f64::max),
             sin_elevation,
@@ -144,7 +146,7 @@ impl Skyline {
 
 /// The skyline's elevation in degrees in each azimuth bin: hills and objects.
 fn profile_deg(max_deg: f64, coverage: f64, tree_fraction: f64, seed: u64) -> Vec<f64> {
-    let draws = Draws::world(seed, ElementId::Skyline);
+    let draws = Draws::world(seed, &ELEMENT);
     let bin_deg = 360.0 / BINS as f64;
     // Smooth noise in azimuth, knots every `step_deg` (`salt` keeps fields apart), in [0, 1).
     let smooth = |az_deg: f64, step_deg: f64, salt: u32| {
@@ -194,6 +196,17 @@ fn profile_deg(max_deg: f64, coverage: f64, tree_fraction: f64, seed: u64) -> Ve
         az += w;
     }
     el
+}
+
+impl FieldElement for Skyline {
+    #[inline]
+    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
+        Skyline::apply(self, ray, s)
+    }
+
+    fn same_as(&self, other: &dyn FieldElement) -> bool {
+        same(self, other)
+    }
 }
 
 #[cfg(test)]

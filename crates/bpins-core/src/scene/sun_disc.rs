@@ -32,15 +32,15 @@
 //! sampled finer than one ray per pixel (a pixel sees the sun only where its ray
 //! falls inside 0.266°).
 
-use super::{ElementDef, ElementId, FieldRay, ParamSpec};
+use super::{same, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
+use std::sync::Arc;
 
 /// Angular radius of the sun's disc in the law, mrad.
 pub const DISC_RADIUS_MRAD: f64 = 4.65;
 
 pub const ELEMENT: ElementDef = ElementDef {
-    id: ElementId::SunDisc,
     name: "sun_disc",
     summary: "the sun's limb-darkened disc (0.266°) far above the sky, and its unpolarized aureole",
     source: "Buie, Monger & Dey, Solar Energy 74, 113 (2003)",
@@ -64,6 +64,8 @@ pub const ELEMENT: ElementDef = ElementDef {
         )
         .vanishing_at(0.0),
     ],
+    layer: Layer::Sun,
+    prepare: |v, cx| Arc::new(SunDisc::new(v, cx.sun_world, cx.zenith_radiance)),
 };
 
 /// The sun of one frame.
@@ -119,6 +121,17 @@ impl SunDisc {
         }
         let add = self.scale * self.sunshape(self.angle_mrad(ray.d_world));
         Stokes::new(s.i + add, s.q, s.u, s.v)
+    }
+}
+
+impl FieldElement for SunDisc {
+    #[inline]
+    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
+        SunDisc::apply(self, ray, s)
+    }
+
+    fn same_as(&self, other: &dyn FieldElement) -> bool {
+        same(self, other)
     }
 }
 
