@@ -53,7 +53,7 @@
 
 use super::frame::element_index;
 use super::texture::Texture;
-use super::{same, Draws, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
+use super::{Draws, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
 use crate::conventions::enu_from_az_el_deg;
 use crate::stokes::Stokes;
 use glam::DVec3;
@@ -189,10 +189,12 @@ impl Clouds {
         }
         ((1.0 - rho2) * (1.0 - rho2), self.rim * 4.0 * rho2 * (1.0 - rho2))
     }
+}
 
+impl FieldElement for Clouds {
     /// The sky's Stokes vector `s` (meridional frame of `ray`) seen through the clouds.
     #[inline]
-    pub fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
+    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
         let mut s = s;
         for c in &self.clouds {
             let (tau, omega) = self.profiles(c, ray.d_world);
@@ -208,17 +210,6 @@ impl Clouds {
             s = Stokes::new(ki * s.i, kp * (c2 * s.q - s2 * s.u), kp * (s2 * s.q + c2 * s.u), kp * s.v);
         }
         s
-    }
-}
-
-impl FieldElement for Clouds {
-    #[inline]
-    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
-        Clouds::apply(self, ray, s)
-    }
-
-    fn same_as(&self, other: &dyn FieldElement) -> bool {
-        same(self, other)
     }
 }
 

@@ -56,19 +56,23 @@ pub struct ElementContext {
 }
 
 /// One element folded for one frame: its constants and draws, and what it does to a ray.
-pub trait FieldElement: Any + Debug + Send + Sync {
+pub trait FieldElement: Any + Debug + Send + Sync + SameAs {
     /// The Stokes vector `s` along `ray` with this element applied; meridional frame of
     /// `ray` in and out.
     fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes;
-
-    /// Whether `other` is the same element with the same constants (write
-    /// `same(self, other)`).
-    fn same_as(&self, other: &dyn FieldElement) -> bool;
 }
 
-/// `a == b` where `b` is of `a`'s type; false otherwise.
-pub fn same<T: FieldElement + PartialEq>(a: &T, b: &dyn FieldElement) -> bool {
-    (b as &dyn Any).downcast_ref::<T>() == Some(a)
+/// Equality across element types (false between two types): for [`FieldFrame`]'s
+/// `PartialEq`. Every `PartialEq` element has it.
+pub trait SameAs {
+    /// Whether `other` is of this type and equal to `self`.
+    fn same_as(&self, other: &dyn Any) -> bool;
+}
+
+impl<T: Any + PartialEq> SameAs for T {
+    fn same_as(&self, other: &dyn Any) -> bool {
+        other.downcast_ref::<T>() == Some(self)
+    }
 }
 
 /// Everything the scene elements need for one frame.
@@ -91,7 +95,7 @@ impl PartialEq for FieldFrame {
         (self.world_from_cam, self.cam_from_world, self.sun_world, self.zenith_radiance)
             == (o.world_from_cam, o.cam_from_world, o.sun_world, o.zenith_radiance)
             && self.elements.len() == o.elements.len()
-            && self.elements.iter().zip(&o.elements).all(|(a, b)| a.same_as(b.as_ref()))
+            && self.elements.iter().zip(&o.elements).all(|(a, b)| a.same_as(b.as_ref() as &dyn Any))
     }
 }
 
@@ -236,7 +240,7 @@ mod tests {
         let g =
             FieldFrame::new(&FieldScene::all(3), world_from_camera(0.0, 0.0, 0.0), enu_from_az_el_deg(40.0, 25.0), 0);
         assert_eq!(f, g);
-        assert!(!f.elements[0].same_as(f.elements[1].as_ref()));
+        assert!(!f.elements[0].same_as(f.elements[1].as_ref() as &dyn Any));
         let h =
             FieldFrame::new(&FieldScene::all(4), world_from_camera(0.0, 0.0, 0.0), enu_from_az_el_deg(40.0, 25.0), 0);
         assert_ne!(f, h, "another seed, other clouds");

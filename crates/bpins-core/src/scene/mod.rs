@@ -31,7 +31,7 @@ pub(crate) mod texture;
 #[cfg(feature = "io")]
 pub use attitude::FieldAttitude;
 pub use frame::Layer;
-pub(crate) use frame::{field_stokes, linear_stokes, same, Draws, ElementContext, FieldElement, FieldFrame, FieldRay};
+pub(crate) use frame::{field_stokes, linear_stokes, Draws, ElementContext, FieldElement, FieldFrame, FieldRay};
 
 use crate::catalog::{self, Entry, Kind, ParamSpec, Selection};
 use crate::error::Result;

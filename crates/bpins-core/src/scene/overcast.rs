@@ -42,7 +42,7 @@
 
 use super::frame::element_index;
 use super::texture::Texture;
-use super::{same, Draws, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
+use super::{Draws, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
 use std::sync::Arc;
@@ -154,10 +154,12 @@ impl Overcast {
         let x = ((n - (self.threshold - self.edge)) / (2.0 * self.edge)).clamp(0.0, 1.0);
         x * x * (3.0 - 2.0 * x)
     }
+}
 
+impl FieldElement for Overcast {
     /// The sky's Stokes vector `s` (meridional frame of `ray`) seen through the deck.
     #[inline]
-    pub fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
+    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
         let c = self.cover_at(ray.d_world);
         if c == 0.0 {
             return s;
@@ -168,17 +170,6 @@ impl Overcast {
         let kp = ki * (1.0 - (1.0 - self.dolp_factor) * c);
         let (s2, c2) = (2.0 * c * theta).sin_cos();
         Stokes::new(ki * s.i, kp * (c2 * s.q - s2 * s.u), kp * (s2 * s.q + c2 * s.u), kp * s.v)
-    }
-}
-
-impl FieldElement for Overcast {
-    #[inline]
-    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
-        Overcast::apply(self, ray, s)
-    }
-
-    fn same_as(&self, other: &dyn FieldElement) -> bool {
-        same(self, other)
     }
 }
 

@@ -37,7 +37,7 @@
 //! dependence; a sky whose radiance is not symmetric about the solar vertical.
 //! f and k are clamped at ≥ 0 where extreme (c, d) pairs would make them negative.
 
-use super::{same, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
+use super::{ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
 use std::sync::Arc;
@@ -107,26 +107,17 @@ impl SkyRadiance {
         let rayleigh = 0.5 * (1.0 + cos_g * cos_g);
         (1.0 + self.strength * (cie / rayleigh - 1.0)).max(0.0)
     }
+}
 
+impl FieldElement for SkyRadiance {
     /// The sky's Stokes vector `s` (any frame) with the CIE radiance distribution.
     #[inline]
-    pub fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
+    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
         if self.strength == 0.0 {
             return s;
         }
         let k = self.factor(ray.d_world);
         Stokes::new(k * s.i, k * s.q, k * s.u, k * s.v)
-    }
-}
-
-impl FieldElement for SkyRadiance {
-    #[inline]
-    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
-        SkyRadiance::apply(self, ray, s)
-    }
-
-    fn same_as(&self, other: &dyn FieldElement) -> bool {
-        same(self, other)
     }
 }
 

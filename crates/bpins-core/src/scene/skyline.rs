@@ -44,7 +44,7 @@
 
 use super::frame::element_index;
 use super::texture::Texture;
-use super::{linear_stokes, same, Draws, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
+use super::{linear_stokes, Draws, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
 use std::sync::Arc;
@@ -117,31 +117,6 @@ impl Skyline {
         let (a, b) = (self.sin_elevation[i], self.sin_elevation[(i + 1) % BINS]);
         a + (b - a) * f
     }
-
-    /// What the ray sees: the sky `s` (meridional frame), an object or the ground.
-    #[inline]
-    pub fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
-        let d = ray.d_world;
-        if d.z >= self.sin_max {
-            return s;
-        }
-        if d.z < 0.0 {
-            // The ground: diffuse, unpolarized, textured.
-            let n = self.textures[3].fbm(d * 60.0, 2);
-            return Stokes::new(self.ground_radiance * (1.0 + 0.3 * n), 0.0, 0.0, 0.0);
-        }
-        if d.z >= self.sin_top(d) {
-            return s;
-        }
-        // A tree or a building: dark, textured, a few percent polarized at no
-        // particular angle (χ from the local vertical, fixed in the world).
-        let i = self.object_radiance * (1.0 + 0.5 * self.textures[0].fbm(d * 120.0, 2));
-        let dolp = self.object_dolp * (0.5 + 0.5 * self.textures[1].fbm(d * 40.0, 2));
-        let chi = std::f64::consts::PI * self.textures[2].fbm(d * 40.0, 2);
-        let up = (DVec3::Z - d * d.z).normalize();
-        let e = up * chi.cos() + d.cross(up) * chi.sin();
-        linear_stokes(i, dolp, e, ray)
-    }
 }
 
 /// The skyline's elevation in degrees in each azimuth bin: hills and objects.
@@ -199,13 +174,29 @@ fn profile_deg(max_deg: f64, coverage: f64, tree_fraction: f64, seed: u64) -> Ve
 }
 
 impl FieldElement for Skyline {
+    /// What the ray sees: the sky `s` (meridional frame), an object or the ground.
     #[inline]
     fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
-        Skyline::apply(self, ray, s)
-    }
-
-    fn same_as(&self, other: &dyn FieldElement) -> bool {
-        same(self, other)
+        let d = ray.d_world;
+        if d.z >= self.sin_max {
+            return s;
+        }
+        if d.z < 0.0 {
+            // The ground: diffuse, unpolarized, textured.
+            let n = self.textures[3].fbm(d * 60.0, 2);
+            return Stokes::new(self.ground_radiance * (1.0 + 0.3 * n), 0.0, 0.0, 0.0);
+        }
+        if d.z >= self.sin_top(d) {
+            return s;
+        }
+        // A tree or a building: dark, textured, a few percent polarized at no
+        // particular angle (χ from the local vertical, fixed in the world).
+        let i = self.object_radiance * (1.0 + 0.5 * self.textures[0].fbm(d * 120.0, 2));
+        let dolp = self.object_dolp * (0.5 + 0.5 * self.textures[1].fbm(d * 40.0, 2));
+        let chi = std::f64::consts::PI * self.textures[2].fbm(d * 40.0, 2);
+        let up = (DVec3::Z - d * d.z).normalize();
+        let e = up * chi.cos() + d.cross(up) * chi.sin();
+        linear_stokes(i, dolp, e, ray)
     }
 }
 

@@ -32,7 +32,7 @@
 //! sampled finer than one ray per pixel (a pixel sees the sun only where its ray
 //! falls inside 0.266°).
 
-use super::{same, ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
+use super::{ElementDef, FieldElement, FieldRay, Layer, ParamSpec};
 use crate::stokes::Stokes;
 use glam::DVec3;
 use std::sync::Arc;
@@ -112,26 +112,17 @@ impl SunDisc {
     pub fn angle_mrad(&self, d: DVec3) -> f64 {
         2000.0 * (0.5 * (d - self.sun_world).length()).min(1.0).asin()
     }
+}
 
+impl FieldElement for SunDisc {
     /// The Stokes vector `s` with the sun's radiance along `ray` added (unpolarized).
     #[inline]
-    pub fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
+    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
         if self.scale == 0.0 {
             return s;
         }
         let add = self.scale * self.sunshape(self.angle_mrad(ray.d_world));
         Stokes::new(s.i + add, s.q, s.u, s.v)
-    }
-}
-
-impl FieldElement for SunDisc {
-    #[inline]
-    fn apply(&self, ray: &FieldRay, s: Stokes) -> Stokes {
-        SunDisc::apply(self, ray, s)
-    }
-
-    fn same_as(&self, other: &dyn FieldElement) -> bool {
-        same(self, other)
     }
 }
 
