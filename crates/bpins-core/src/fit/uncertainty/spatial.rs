@@ -32,10 +32,7 @@
 //! absorbed); correlation beyond R tiles counts as independent. The sampled frames'
 //! blocks (`fit::input::frames`) fall into the same tiles.
 
-/// Tiles along the image's longer side (`heading::field::spatial`'s super-blocks).
-pub const TILES: usize = 16;
-/// Bartlett bandwidth, tiles.
-pub const BANDWIDTH: usize = 2;
+use crate::heading::field::spatial::{bartlett, SUPER_BLOCKS as TILES};
 
 /// The tile grid of a frame, and each frame's per-tile sums of w·r·d over its local
 /// slots.
@@ -80,33 +77,6 @@ impl Tiles {
         let g: Vec<f64> = sums.chunks_exact((*n).max(1)).map(|b| b.iter().zip(ell).map(|(x, l)| x * l).sum()).collect();
         bartlett(&g, self.cols, self.rows).sqrt()
     }
-}
-
-/// V = Σ_t Σ_t' K(|t − t'|) g_t g_t' over a `cols` × `rows` grid (module doc), ≥ 0.
-fn bartlett(g: &[f64], cols: usize, rows: usize) -> f64 {
-    let bw = BANDWIDTH as isize;
-    let mut v = 0.0;
-    for r in 0..rows as isize {
-        for c in 0..cols as isize {
-            let gt = g[r as usize * cols + c as usize];
-            if gt == 0.0 {
-                continue;
-            }
-            for dr in -bw..=bw {
-                for dc in -bw..=bw {
-                    let (rr, cc) = (r + dr, c + dc);
-                    if rr < 0 || cc < 0 || rr >= rows as isize || cc >= cols as isize {
-                        continue;
-                    }
-                    let k = 1.0 - ((dr * dr + dc * dc) as f64).sqrt() / (BANDWIDTH + 1) as f64;
-                    if k > 0.0 {
-                        v += k * gt * g[rr as usize * cols + cc as usize];
-                    }
-                }
-            }
-        }
-    }
-    v.max(0.0)
 }
 
 #[cfg(test)]

@@ -93,7 +93,7 @@ pub mod cells;
 mod clouds;
 mod robust;
 mod sky_sun;
-mod spatial;
+pub(crate) mod spatial;
 mod stats;
 
 pub use cells::{Cell, CellScratch, Cells, RawDn, RawImage};

@@ -25,8 +25,9 @@
 //! columns). Cannot: see a bias shared by every cell alike (a turn common to the whole
 //! sky is a heading); correlation beyond R super-blocks is counted as independent.
 
-/// Super-blocks per side of the grid's longer side.
-const SUPER_BLOCKS: usize = 16;
+/// Super-blocks per side of the grid's longer side (the fit's spatial 1σ,
+/// `fit::uncertainty::spatial`, tiles a frame alike).
+pub(crate) const SUPER_BLOCKS: usize = 16;
 /// Bartlett bandwidth, super-blocks.
 const BANDWIDTH: usize = 2;
 
@@ -51,29 +52,35 @@ pub(super) fn coherent_sigma_deg(
     if h <= 0.0 {
         return f64::NAN;
     }
+    bartlett(sums, bc, br).sqrt() / h
+}
+
+/// V = Σ_b Σ_b' K(|b − b'|) G_b G_b' (module doc) of the sums `g` on a `cols` × `rows`
+/// grid (row-major), K the Bartlett kernel of bandwidth [`BANDWIDTH`]; ≥ 0.
+pub(crate) fn bartlett(g: &[f64], cols: usize, rows: usize) -> f64 {
     let bw = BANDWIDTH as isize;
     let mut v = 0.0;
-    for r in 0..br as isize {
-        for c in 0..bc as isize {
-            let gb = sums[r as usize * bc + c as usize];
+    for r in 0..rows as isize {
+        for c in 0..cols as isize {
+            let gb = g[r as usize * cols + c as usize];
             if gb == 0.0 {
                 continue;
             }
             for dr in -bw..=bw {
                 for dc in -bw..=bw {
                     let (rr, cc) = (r + dr, c + dc);
-                    if rr < 0 || cc < 0 || rr >= br as isize || cc >= bc as isize {
+                    if rr < 0 || cc < 0 || rr >= rows as isize || cc >= cols as isize {
                         continue;
                     }
                     let k = 1.0 - ((dr * dr + dc * dc) as f64).sqrt() / (BANDWIDTH + 1) as f64;
                     if k > 0.0 {
-                        v += k * gb * sums[rr as usize * bc + cc as usize];
+                        v += k * gb * g[rr as usize * cols + cc as usize];
                     }
                 }
             }
         }
     }
-    v.max(0.0).sqrt() / h
+    v.max(0.0)
 }
 
 #[cfg(test)]
