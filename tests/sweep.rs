@@ -69,6 +69,25 @@ fn merged_slices_equal_the_unsharded_sweep_and_slices_restart() {
     }
     assert!(rows.iter().all(|r| r["trials"] == 6));
     assert!(!v["budget"].as_array().unwrap().is_empty());
+    // What a few trials can say (issue 49 item 7): each mean with its own 1σ, σ/√n; each
+    // budget's shares of Σσ² summing to 100 % (a share of the combined variance can pass
+    // 100 % by the trials' scatter), printed so, with how well each σ is known.
+    for r in rows {
+        let (sd, ms) = (r["std_deg"].as_f64().unwrap(), r["mean_sigma_deg"].as_f64().unwrap());
+        assert!((ms - sd / 6f64.sqrt()).abs() <= 1e-12 * sd.max(1.0), "{r}");
+    }
+    for b in v["budget"].as_array().unwrap() {
+        let sum: f64 = b["shares"].as_array().unwrap().iter().map(|x| x["share_of_sum"].as_f64().unwrap()).sum();
+        assert!((sum - 1.0).abs() < 1e-9, "{b}");
+    }
+    let budget_lines: Vec<&str> = stdout.lines().filter(|l| l.starts_with("budget ")).collect();
+    assert!(!budget_lines.is_empty() && budget_lines.iter().all(|l| l.contains("of Σσ²") && l.contains("from 6 trials")));
+    for l in &budget_lines {
+        for pct in l.split(" %").filter_map(|p| p.rsplit(' ').next()?.parse::<f64>().ok()) {
+            assert!((0.0..=100.0).contains(&pct), "a share beyond 100 %: {l}");
+        }
+    }
+    assert!(stdout.contains("±1σ (°)") && stdout.contains("not a bias"), "{stdout}");
 
     let shards: Vec<PathBuf> = (0..4).map(|i| t.path().join(format!("shard-{i}"))).collect();
     for (i, d) in shards.iter().enumerate() {

@@ -5,7 +5,9 @@
 use crate::progress::bar;
 use crate::Backend;
 use anyhow::Context;
-use bpins_core::internal::sweep::{merge, run_to_dir, unit_count, Outcome, Shard, Summary, SweepSpec};
+use bpins_core::internal::sweep::{
+    describe, merge, nominal_rows, run_to_dir, unit_count, Outcome, Row, Shard, Summary, SweepSpec, NOMINAL,
+};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -74,7 +76,18 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         Outcome::Computed(s) => {
             let secs = t0.elapsed().as_secs_f64();
-            print_rows(&s)?;
+            // The nominal chain's own error, for a whole sweep (a slice's table is partial).
+            let nominal = if shard == Shard::WHOLE {
+                let n = spec.sun_elevations_deg.len() * spec.trials;
+                let pb = bar(n as u64, "nominal");
+                let rows = nominal_rows(&spec, engine, &|done, _| pb.set_position(done as u64))
+                    .context("the nominal chain's trials")?;
+                pb.finish_and_clear();
+                rows
+            } else {
+                Vec::new()
+            };
+            print_rows(&s, &nominal)?;
             say!(
                 "{units} trials in {secs:.1} s ({:.1} trials/s); wrote {}",
                 units as f64 / secs.max(1e-9),
@@ -88,51 +101,88 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 pub fn run_merge(a: MergeArgs) -> anyhow::Result<()> {
     crate::ensure_not_in_capture(&a.out)?;
     let s = merge(&a.shards, &a.out).with_context(|| format!("merging into {}", a.out.display()))?;
-    print_rows(&s)?;
+    print_rows(&s, &[])?;
     say!("merged {} slices; wrote {}", a.shards.len(), a.out.join("summary.json").display());
     Ok(())
 }
 
-fn print_rows(s: &Summary) -> anyhow::Result<()> {
+/// The paired difference of a row's errors from the nominal chain's on the same trials
+/// (same sun, same field conditions): its mean and that mean's 1σ, degrees.
+fn against_nominal(r: &Row, nominal: &[Row]) -> Option<(f64, f64)> {
+    let n = nominal.iter().find(|n| n.extractor == r.extractor && n.sun_elevation_deg == r.sun_elevation_deg)?;
+    if n.errors_deg.len() != r.errors_deg.len() {
+        return None;
+    }
+    let d: Vec<f64> = r.errors_deg.iter().zip(&n.errors_deg).map(|(a, b)| a - b).collect();
+    let ([mean, std, ..], count, _) = describe(&d);
+    (count > 1).then(|| (mean, std / (count as f64).sqrt()))
+}
+
+/// The table, the nominal chain's own error (where it was computed: not on `merge`) and
+/// the budget.
+fn print_rows(s: &Summary, nominal: &[Row]) -> anyhow::Result<()> {
     out!("Heading error, degrees ({} trials per source and sun elevation)", s.trials_per_source);
     out!(
-        "{:<20} {:<14} {:>8} {:<8} {:>10} {:>9} {:>9} {:>9} {:>7}",
+        "{:<20} {:<14} {:>8} {:<8} {:>10} {:>9} {:>9} {:>9} {:>9} {:>7}  {}",
         "source",
         "extractor",
         "sun (°)",
         "known",
         "mean (°)",
+        "±1σ (°)",
         "σ (°)",
         "RMS (°)",
         "p95 (°)",
-        "trials"
+        "trials",
+        if nominal.is_empty() { "" } else { "mean less nominal (°)" }
     );
-    for r in &s.rows {
+    for r in nominal.iter().chain(&s.rows) {
+        let own = if r.source == NOMINAL {
+            "(the chain's own error)".to_string()
+        } else {
+            // A paired difference beyond twice its 1σ: the source moves the mean.
+            against_nominal(r, nominal).map_or(String::new(), |(m, se)| {
+                format!("{m:+.4} ± {se:.4}{}", if m.abs() > 2.0 * se { "  bias" } else { "" })
+            })
+        };
         out!(
-            "{:<20} {:<14} {:>8} {:<8} {:>+10.4} {:>9.4} {:>9.4} {:>9.4} {:>7}",
+            "{:<20} {:<14} {:>8} {:<8} {:>+10.4} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>7}  {}",
             r.source,
             r.extractor,
             r.sun_elevation_deg,
             r.known.map(|k| if k { "known" } else { "unknown" }).unwrap_or("—"),
             r.mean_deg,
+            r.mean_sigma_deg,
             r.std_deg,
             r.rms_deg,
             r.p95_deg,
-            r.trials
+            r.trials,
+            own
+        );
+    }
+    out!("±1σ: the mean's own 1σ (σ/√trials); a mean within twice it is the trials' scatter, not a bias.");
+    if !nominal.is_empty() {
+        out!(
+            "nominal: the same suns and sky with no error source drawn; every row's mean carries its error (a sweep \
+             reads 2×2 superpixels, as the seed paper does: their four rays let the intensity's gradient toward the \
+             sun leak into S1 and S2, more the nearer the sun and the coarser the pixel). `mean less nominal` is a \
+             source's own bias, trial by trial; `bias` marks one beyond twice its 1σ."
         );
     }
     for b in &s.budget {
         let shares: Vec<String> =
-            b.shares.iter().map(|x| format!("{} {:.0} %", x.source, 100.0 * x.share_of_combined)).collect();
+            b.shares.iter().map(|x| format!("{} {:.0} %", x.source, 100.0 * x.share_of_sum)).collect();
         out!(
-            "budget {} at sun {}°{}: {}; σ combined {:.4}°, √Σσ² {:.4}° ({})",
+            "budget {} at sun {}°{}: {} of Σσ²; σ combined {:.4}°, √Σσ² {:.4}° ({}); each σ ± {:.0} % from {} trials",
             b.extractor,
             b.sun_elevation_deg,
             b.known.map(|k| if k { " (known)" } else { " (unknown)" }).unwrap_or(""),
             shares.join(", "),
             b.combined_std_deg,
             b.root_sum_square_deg,
-            if b.adds_in_quadrature { "adds in quadrature" } else { "does not add in quadrature" }
+            if b.adds_in_quadrature { "adds in quadrature" } else { "does not add in quadrature" },
+            100.0 * b.sigma_relative_uncertainty,
+            s.trials_per_source
         );
     }
     Ok(())

@@ -87,8 +87,8 @@ mod store;
 pub use edge_point::heading as edge_point_heading;
 pub use report::html as report_html;
 pub use run::{
-    columns, draws, peak, run_units, unit, unit_count, unit_index, variants, CpuSums, Reading, Shard, SumsEngine,
-    SumsJob, TrialRecord, TrialSetup, Unit, MAX_CONTEXTS,
+    columns, draws, nominal_rows, peak, run_units, unit, unit_count, unit_index, variants, CpuSums, Reading, Shard,
+    SumsEngine, SumsJob, TrialRecord, TrialSetup, Unit, MAX_CONTEXTS, NOMINAL,
 };
 pub use spec::{Distribution, ErrorSpec, Known, Per, PixelNoise, SweepExtractor, SweepSpec, Target, COMBINED, FORMAT};
 pub use stats::{describe, percentile_sorted, summarise, Budget, Row, Share, Summary, SUMMARY_FORMAT};

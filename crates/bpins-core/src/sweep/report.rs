@@ -106,7 +106,7 @@ pub fn html(spec: &SweepSpec, summary: &Summary) -> Result<String> {
                 r.extractor.clone(),
                 r.sun_elevation_deg.to_string(),
                 known(r.known),
-                format!("{:+.4}", r.mean_deg),
+                format!("{:+.4} ± {:.4}", r.mean_deg, r.mean_sigma_deg),
                 format!("{:.4}", r.std_deg),
                 format!("{:.4}", r.rms_deg),
                 format!("{:.4}", r.p95_deg),
@@ -121,7 +121,7 @@ pub fn html(spec: &SweepSpec, summary: &Summary) -> Result<String> {
         .iter()
         .map(|b| {
             let shares: Vec<String> =
-                b.shares.iter().map(|s| format!("{} {:.1} %", s.source, 100.0 * s.share_of_combined)).collect();
+                b.shares.iter().map(|s| format!("{} {:.1} %", s.source, 100.0 * s.share_of_sum)).collect();
             [
                 b.extractor.clone(),
                 b.sun_elevation_deg.to_string(),

@@ -256,6 +256,26 @@ impl TrialSetup {
     }
 }
 
+/// The name of [`nominal_rows`]' pseudo-source: no error source drawn.
+pub const NOMINAL: &str = "nominal";
+
+/// The nominal chain's own heading error: every trial's sun and field conditions with
+/// no error source drawn (every parameter at its neutral value, no pixel noise), one
+/// row per extractor and sun elevation, source [`NOMINAL`]. Every source's row
+/// carries this error too (the extractor on this sensor at this sun: a 2 × 2
+/// superpixel's four rays read an intensity gradient as polarization, a field of view
+/// that misses the sun's half of the sky, the field conditions): a source's own effect
+/// is its row's mean less this one. Costs one source's trials.
+pub fn nominal_rows(
+    spec: &SweepSpec,
+    engine: &dyn SumsEngine,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Vec<super::stats::Row>> {
+    let nominal = SweepSpec { sources: vec![NOMINAL.to_string()], combined: false, ..spec.clone() };
+    let records = run_units(&nominal, 0..unit_count(&nominal), engine, progress)?;
+    Ok(super::stats::summarise(&nominal, &records).rows)
+}
+
 /// Contexts one pass over the pixels may carry (the GPU's limit).
 pub const MAX_CONTEXTS: usize = 2;
 
@@ -459,6 +479,31 @@ pub(crate) mod tests {
         for i in 0..unit_count(&s) {
             assert_eq!(unit_index(&s, unit(&s, i)), i);
         }
+    }
+
+    /// The nominal rows are the rows a source would have whose every error is drawn at
+    /// its neutral value: the same trials, bit for bit.
+    #[test]
+    fn nominal_rows_are_a_source_drawn_at_neutral() {
+        let s = tiny();
+        let nominal = nominal_rows(&s, &CpuSums, &|_, _| {}).unwrap();
+        assert_eq!(nominal.len(), s.extractors.len() * s.sun_elevations_deg.len());
+        assert!(nominal.iter().all(|r| r.source == NOMINAL && r.trials + r.failed == s.trials));
+        let mut neutral = s.clone();
+        for e in &mut neutral.errors {
+            e.distribution = super::super::spec::Distribution::Fixed { value: e.target.neutral() };
+            e.per = Per::Trial;
+        }
+        let recs = run_units(&neutral, 0..unit_count(&neutral), &CpuSums, &|_, _| {}).unwrap();
+        let rows = super::super::stats::summarise(&neutral, &recs).rows;
+        for n in &nominal {
+            for r in rows.iter().filter(|r| r.extractor == n.extractor && r.sun_elevation_deg == n.sun_elevation_deg) {
+                assert_eq!(r.errors_deg, n.errors_deg, "{} at {}°", r.source, r.sun_elevation_deg);
+            }
+        }
+        // An error drawn away from neutral moves the trials off the nominal ones.
+        let moved = super::super::stats::summarise(&s, &run_units(&s, 0..unit_count(&s), &CpuSums, &|_, _| {}).unwrap());
+        assert!(moved.rows.iter().any(|r| nominal.iter().all(|n| n.errors_deg != r.errors_deg)));
     }
 
     #[test]

@@ -25,6 +25,10 @@ pub struct Row {
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub known: Option<bool>,
     pub mean_deg: f64,
+    /// The mean's own 1σ, σ/√n: a mean within about twice it is the trials' scatter,
+    /// not a bias (absent in summaries written before it was added).
+    #[serde(default)]
+    pub mean_sigma_deg: f64,
     /// Sample standard deviation (n − 1).
     pub std_deg: f64,
     pub rms_deg: f64,
@@ -45,8 +49,15 @@ pub struct Row {
 pub struct Share {
     pub source: String,
     pub variance_deg2: f64,
-    /// Its variance over the combined row's.
+    /// Its variance over the combined row's. Each σ is estimated from a finite number
+    /// of trials, so this can exceed 1 (a single source's σ drawn high, the combined
+    /// row's low) where the sources do add in quadrature: read it with
+    /// [`Budget::sigma_relative_uncertainty`].
     pub share_of_combined: f64,
+    /// Its variance over Σσ² of the single sources: the shares sum to 1 (absent in
+    /// summaries written before it was added).
+    #[serde(default)]
+    pub share_of_sum: f64,
 }
 
 /// The error budget of one extractor at one sun elevation.
@@ -62,6 +73,11 @@ pub struct Budget {
     pub root_sum_square_deg: f64,
     /// root_sum_square_deg / combined_std_deg.
     pub quadrature_ratio: f64,
+    /// The relative 1σ of each σ in the budget, 1/√(2(n − 1)) for n trials (a normal
+    /// sample's standard deviation): how far a share can stray from its true value
+    /// (absent in summaries written before it was added).
+    #[serde(default)]
+    pub sigma_relative_uncertainty: f64,
     /// Whether the ratio is within two standard errors of 1: the ratio of two
     /// independent σ estimates from n trials each has a relative standard error of
     /// about 1/√(n − 1), so the test is |ratio − 1| ≤ 2/√(n − 1).
@@ -131,6 +147,7 @@ pub fn summarise(spec: &SweepSpec, records: &[TrialRecord]) -> Summary {
                     sun_elevation_deg: el,
                     known,
                     mean_deg: mean,
+                    mean_sigma_deg: if n > 0 { std / (n as f64).sqrt() } else { f64::NAN },
                     std_deg: std,
                     rms_deg: rms,
                     p95_deg: p95,
@@ -182,8 +199,12 @@ fn budget(spec: &SweepSpec, rows: &[Row]) -> Vec<Budget> {
                     source: s.clone(),
                     variance_deg2: v,
                     share_of_combined: v / (c.std_deg * c.std_deg),
+                    share_of_sum: 0.0,
                 });
             }
+        }
+        for sh in &mut shares {
+            sh.share_of_sum = if sum_var > 0.0 { sh.variance_deg2 / sum_var } else { f64::NAN };
         }
         let rss = sum_var.sqrt();
         let ratio = rss / c.std_deg;
@@ -196,6 +217,11 @@ fn budget(spec: &SweepSpec, rows: &[Row]) -> Vec<Budget> {
             combined_std_deg: c.std_deg,
             root_sum_square_deg: rss,
             quadrature_ratio: ratio,
+            sigma_relative_uncertainty: if c.trials > 1 {
+                1.0 / (2.0 * (c.trials - 1) as f64).sqrt()
+            } else {
+                f64::INFINITY
+            },
             adds_in_quadrature: (ratio - 1.0).abs() <= tol,
         });
     }
@@ -206,11 +232,11 @@ impl Summary {
     /// The rows as CSV (one header line; `known` empty where it does not apply).
     pub fn rows_csv(&self) -> String {
         let mut s = String::from(
-            "source,extractor,sun_elevation_deg,known,mean_deg,std_deg,rms_deg,p95_deg,max_abs_deg,trials,failed\n",
+            "source,extractor,sun_elevation_deg,known,mean_deg,std_deg,rms_deg,p95_deg,max_abs_deg,trials,failed,mean_sigma_deg\n",
         );
         for r in &self.rows {
             s += &format!(
-                "{},{},{},{},{},{},{},{},{},{},{}\n",
+                "{},{},{},{},{},{},{},{},{},{},{},{}\n",
                 r.source,
                 r.extractor,
                 r.sun_elevation_deg,
@@ -221,7 +247,8 @@ impl Summary {
                 r.p95_deg,
                 r.max_abs_deg,
                 r.trials,
-                r.failed
+                r.failed,
+                r.mean_sigma_deg
             );
         }
         s
@@ -230,12 +257,12 @@ impl Summary {
     /// The budget as CSV, one line per (extractor, elevation, known, source).
     pub fn budget_csv(&self) -> String {
         let mut s = String::from(
-            "extractor,sun_elevation_deg,known,source,variance_deg2,share_of_combined,combined_std_deg,root_sum_square_deg,adds_in_quadrature\n",
+            "extractor,sun_elevation_deg,known,source,variance_deg2,share_of_combined,combined_std_deg,root_sum_square_deg,adds_in_quadrature,share_of_sum\n",
         );
         for b in &self.budget {
             for sh in &b.shares {
                 s += &format!(
-                    "{},{},{},{},{},{},{},{},{}\n",
+                    "{},{},{},{},{},{},{},{},{},{}\n",
                     b.extractor,
                     b.sun_elevation_deg,
                     b.known.map(|k| k.to_string()).unwrap_or_default(),
@@ -244,7 +271,8 @@ impl Summary {
                     sh.share_of_combined,
                     b.combined_std_deg,
                     b.root_sum_square_deg,
-                    b.adds_in_quadrature
+                    b.adds_in_quadrature,
+                    sh.share_of_sum
                 );
             }
         }
@@ -286,6 +314,13 @@ mod tests {
         for b in &s.budget {
             let total: f64 = b.shares.iter().map(|x| x.share_of_combined).sum();
             assert!(total > 0.0 && b.quadrature_ratio.is_finite(), "{b:?}");
+            // The shares of Σσ² sum to one, whatever the trials drew.
+            let sum: f64 = b.shares.iter().map(|x| x.share_of_sum).sum();
+            assert!((sum - 1.0).abs() < 1e-12, "{b:?}");
+            assert!((b.sigma_relative_uncertainty - 1.0 / 6f64.sqrt()).abs() < 1e-12, "4 trials: {b:?}");
+        }
+        for r in &s.rows {
+            assert!((r.mean_sigma_deg - r.std_deg / 2.0).abs() < 1e-15, "σ/√4: {r:?}");
         }
         let csv = s.rows_csv();
         assert_eq!(csv.lines().count(), 1 + s.rows.len());
