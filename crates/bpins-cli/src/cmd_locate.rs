@@ -1,8 +1,10 @@
 //! `bpins locate CAPTURE`: north, latitude and longitude from frames of one camera
 //! over time, without GNSS (bpins_core::locate; docs/locate.md). Per frame the sky's
 //! sun (bearing from the image top, elevation, 1σ), then the answer with its 1σ, or
-//! why there is none yet; `--site-out` writes the site file that `bpins heading
-//! --site` and the Compass take in place of a GNSS position.
+//! why there is none yet (exit 2: too few frames with a sun, a 1σ over the bounds, or
+//! frames in which the sun did not move, each the library's typed `LocateError`);
+//! `--site-out` writes the site file that `bpins heading --site` and the Compass take
+//! in place of a GNSS position.
 
 use crate::{ensure_not_in_capture, write_json, write_output};
 use anyhow::{bail, Context};

@@ -6,7 +6,7 @@ use crate::capture::{Capture, FrameData};
 use crate::effects::Model;
 use crate::heading::field::{sky_sun, FieldOptions, FieldScratch, NoHeading, SkySun};
 use crate::pipeline::{field_context, frame_cells};
-use crate::sky::sun::parse_time_utc;
+use crate::sky::sun::{parse_time_utc, SunSource};
 
 /// One frame of a capture as `locate` reads it.
 #[derive(Clone, Debug, PartialEq)]
@@ -19,6 +19,9 @@ pub struct FrameSun {
     pub yaw_sigma_deg: f64,
     /// The sky's sun, or why the frame has none.
     pub sun: Result<SkySun, NoHeading>,
+    /// The sun's azimuth and elevation the capture gives the frame by hand, degrees
+    /// (None: a stamp, or nothing); [`SunObs::given_sun_deg`].
+    pub given_sun_deg: Option<[f64; 2]>,
 }
 
 impl FrameSun {
@@ -36,6 +39,7 @@ impl FrameSun {
             elevation_nuisance_sigma_deg: s.elevation_nuisance_sigma_deg,
             separation_deg: s.separation_deg,
             separation_sigma_deg: s.separation_sigma_deg,
+            given_sun_deg: self.given_sun_deg,
         })
     }
 }
@@ -116,7 +120,9 @@ fn measure_with(
         let cells = frame_cells(c, &data, known, opts.cell_px)?;
         let ctx = field_context(c, f, known);
         let sun = sky_sun(&cells, &ctx, opts, &mut scratch);
-        out.push(FrameSun { index: i, time_unix_s, yaw_deg: yaw[i].0, yaw_sigma_deg: yaw[i].1, sun });
+        let given_sun_deg =
+            matches!(f.sun.source, SunSource::Given).then_some([f.sun.azimuth_deg, f.sun.elevation_deg]);
+        out.push(FrameSun { index: i, time_unix_s, yaw_deg: yaw[i].0, yaw_sigma_deg: yaw[i].1, sun, given_sun_deg });
         progress(i + 1);
     }
     Ok(out)

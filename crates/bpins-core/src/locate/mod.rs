@@ -27,7 +27,12 @@
 //!
 //! Honest answers: a sequence with too few usable frames, or whose 1σ exceeds the
 //! asked bounds (too short a span, too cloudy), is a typed [`LocateError`], never an
-//! answer; where the frames' sky is not Rayleigh's (its neutral points split by more
+//! answer; so are frames in which the sun cannot be seen to move (`motion.rs`, refused
+//! before any fit, whose 1σ would not see it): suns given by hand, the same for every
+//! frame ([`LocateError::SunGiven`]), one stamp on every frame
+//! ([`LocateError::OneInstant`]), stamps whose span lets the sun move less than 5× the
+//! 1σ of its travel ([`LocateError::SpanTooShort`]) and suns that, the camera's turns
+//! taken out, span less than that ([`LocateError::SunStill`]); where the frames' sky is not Rayleigh's (its neutral points split by more
 //! than 5° and twice their 1σ, by the frames' median: `sky_sun`'s step 5), the
 //! refusal says so ([`LocateError::NotRayleigh`]). Frame: ENU and CONVENTIONS.md's azimuths (from North toward East); the
 //! heading is the image top's azimuth at the first frame.
@@ -39,6 +44,7 @@
 
 mod capture;
 mod model;
+mod motion;
 mod pole;
 mod series;
 mod site;
@@ -46,6 +52,7 @@ mod solve;
 
 pub use capture::{measure, measure_data, relative_yaw, FrameSun};
 pub use model::SunModel;
+pub use motion::MIN_TRAVEL_SIGMAS;
 pub use series::{with_reference_tilts, Series, SeriesTruth};
 pub use site::Site;
 
@@ -88,6 +95,11 @@ pub struct SunObs {
     /// (0 for Rayleigh's sky; [`crate::heading::field::SkySun`]).
     pub separation_deg: f64,
     pub separation_sigma_deg: f64,
+    /// The sun's azimuth and elevation the capture gives this frame by hand
+    /// (`sun_azimuth_deg`, `sun_elevation_deg`), degrees; `None` where it gives a stamp
+    /// or nothing. No answer is read from it, but frames that all share one are refused:
+    /// the capture says the sun stood still ([`LocateError::SunGiven`]).
+    pub given_sun_deg: Option<[f64; 2]>,
 }
 
 /// Bounds on the answer's 1σ past which [`locate`] says "not yet" instead.
@@ -157,12 +169,46 @@ pub enum LocateError {
         limit_deg: f64,
         frames: usize,
     },
+    #[error(
+        "not yet: the sun did not move between frames: the capture gives all {frames} frames the same sun by hand \
+         (azimuth {azimuth_deg}°, elevation {elevation_deg}°), as under a turntable, so they hold no pole, north or \
+         latitude; locate needs frames of one camera over time in which the sun moves: each with its time_utc, or \
+         without stamps at least 3 frames over an hour or more"
+    )]
+    SunGiven { azimuth_deg: f64, elevation_deg: f64, frames: usize },
+    #[error(
+        "not yet: every frame carries the same stamp ({time_utc}): {frames} frames of one instant see the sun in one \
+         place, and the place is read from its motion; give each frame the time it was taken (time_utc), the frames \
+         spread over an hour or more"
+    )]
+    OneInstant { time_utc: String, frames: usize },
+    #[error(
+        "not yet: the frames' stamps span {:.1} min, in which the sun moves at least {travel_deg:.3}°, not over {} × \
+         the {sigma_deg:.3}° 1σ of that travel as {frames} frames measure it: {}", span_s / 60.0, MIN_TRAVEL_SIGMAS,
+         needed(*needed_s)
+    )]
+    SpanTooShort { span_s: f64, travel_deg: f64, sigma_deg: f64, needed_s: Option<f64>, frames: usize },
+    #[error(
+        "not yet: the sun did not move between frames: its direction, the camera's turns taken out, spans \
+         {travel_deg:.3}° over {frames} frames, not over {} × the {sigma_deg:.3}° 1σ of that travel (a turntable \
+         under a fixed sun, one frame repeated, or frames too close in time): {}", MIN_TRAVEL_SIGMAS,
+         needed(*needed_s)
+    )]
+    SunStill { travel_deg: f64, sigma_deg: f64, needed_s: Option<f64>, frames: usize },
     #[error("the fit did not converge: {0}")]
     Solver(String),
     #[error("relative yaw: {0}")]
     Yaw(String),
     #[error(transparent)]
     Core(#[from] crate::Error),
+}
+
+/// What a motion refusal asks for: the shortest span over which the sun moves enough.
+fn needed(needed_s: Option<f64>) -> String {
+    match needed_s {
+        Some(s) => format!("take frames over at least {:.0} min (the sun moves at least 13.8°/h)", (s / 60.0).ceil()),
+        None => "no span is enough at this 1σ (too cloudy, or a sun too poorly seen)".into(),
+    }
 }
 
 /// North, latitude and (with stamps) longitude from `obs` (see the module doc).
@@ -172,6 +218,7 @@ pub fn locate(obs: &[SunObs], opts: &LocateOptions) -> Result<Located, LocateErr
     if obs.len() < needed {
         return Err(LocateError::TooFewFrames { usable: obs.len(), total: obs.len(), needed, reasons: String::new() });
     }
+    motion::check(obs, stamped)?;
     let r = if stamped { solve::solve_stamped(obs)? } else { pole::solve_pole(obs)? };
     let checks = [
         ("heading", Some(r.heading_sigma_deg), opts.max_heading_sigma_deg),
@@ -360,6 +407,7 @@ mod tests {
                     elevation_nuisance_sigma_deg: 0.5,
                     separation_deg,
                     separation_sigma_deg: 2.0,
+                    given_sun_deg: None,
                 })
             })
             .collect()

@@ -160,6 +160,7 @@ mod tests {
                         elevation_nuisance_sigma_deg: 0.0,
                         separation_deg: 0.0,
                         separation_sigma_deg: 1.0,
+                        given_sun_deg: None,
                     })
                 })
                 .collect();
