@@ -44,6 +44,9 @@ struct RawSensor {
     black_level_dn: Option<f64>,
     mosaic: Option<Vec<Vec<f64>>>,
     channels: Option<Vec<f64>>,
+    /// CAPTURE.md's colour-polarization keys: recognised, to be refused by name.
+    colour_tiles: Option<toml::Value>,
+    band_centre_nm: Option<toml::Value>,
 }
 
 #[derive(Deserialize)]
@@ -152,6 +155,17 @@ pub(crate) fn parse_sensor_lens(
     let p = toml_path;
     let s: RawSensor = section(p, "sensor", sensor)?;
     let l: RawLens = section(p, "lens", lens)?;
+    if let Some(tiles) = &s.colour_tiles {
+        bail!(
+            p,
+            "[sensor] colour_tiles = {tiles}: a colour-polarization sensor (each 2×2 analyzer tile under one colour \
+             filter, CONVENTIONS.md); bpins does not read colour-polarization captures yet. Do not delete the key to \
+             read the frames as monochrome: that mixes the bands' polarization (bpins refuses such frames too)"
+        );
+    }
+    if s.band_centre_nm.is_some() {
+        bail!(p, "[sensor] band_centre_nm is for a colour-polarization sensor, with colour_tiles (CAPTURE.md)");
+    }
 
     let layout = match s.layout.as_str() {
         "dofp" => {
