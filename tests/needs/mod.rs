@@ -67,7 +67,7 @@ pub fn run(groups: Vec<(Need, Vec<Test>)>) -> ExitCode {
     for (need, tests) in groups {
         let missing = need.missing.clone();
         if let Some(why) = &missing {
-            notes.push(format!("{} test(s) need {}: {why}", tests.len(), need.name));
+            notes.push(format!("{} test(s) need {}: {why}{}", tests.len(), need.name, run_hint(why)));
         }
         for (name, body) in tests {
             trials.push(match missing.clone() {
@@ -97,6 +97,19 @@ pub fn run(groups: Vec<(Need, Vec<Test>)>) -> ExitCode {
         println!();
     }
     conclusion.exit_code()
+}
+
+/// How to run this binary's tests once their need is met (where `why` does not say
+/// already): `cargo test -p PACKAGE --test BINARY`, from the names cargo compiled it
+/// under; `--include-ignored` runs them anyway, failing where the need is missing.
+fn run_hint(why: &str) -> String {
+    let (package, binary) = (env!("CARGO_PKG_NAME"), env!("CARGO_CRATE_NAME"));
+    let command = format!("cargo test -p {package} --test {binary}");
+    if why.contains(&command) {
+        String::new()
+    } else {
+        format!("; once it is there: `{command}`")
+    }
 }
 
 /// The first of `names` found on `PATH` (or in `extra` folders).

@@ -32,6 +32,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         gpu.adapter_name(),
         gpu.precision().name()
     );
+    if let Some(note) = crate::backend::cpu_adapter_note(&gpu) {
+        say!("{note}");
+    }
     let pb = crate::progress::bar((n_cases as u64) * a.trials as u64, "trials");
     let stages =
         agree(&gpu, a.trials, a.seed, &|done, _| pb.set_position(done as u64)).context("comparing backends")?;

@@ -55,8 +55,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let a = a.input;
     let (request, loaded) = a.load_request()?;
     let opts = DiagnoseOptions { base: loaded.options.clone(), max_added, min_size, ..Default::default() };
-    let spinner = indicatif::ProgressBar::new_spinner();
-    spinner.enable_steady_tick(std::time::Duration::from_millis(200));
+    let spinner = crate::progress::spinner("diagnose");
     let t0 = std::time::Instant::now();
     let d = diagnose_frames(&loaded.capture, &loaded.frames, &opts, &|what| spinner.set_message(what.to_string()))
         .context("diagnosing")?;
@@ -77,6 +76,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     // Residual maps of every step, side by side in the report.
     let mut maps = Vec::new();
     let mut ends = Vec::new();
+    let pb = crate::progress::bar(d.steps.len() as u64, "residual maps of the steps");
     for (k, s) in d.steps.iter().enumerate() {
         let effects = s.model.iter().map(|n| bpins_core::effects::find(n)).collect::<Result<Vec<_>, _>>()?;
         let opts = FitOptions { effects, ..opts.base.clone() };
@@ -87,7 +87,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if k == 0 || k + 1 == d.steps.len() {
             ends.push(m);
         }
+        pb.inc(1);
     }
+    pb.finish_and_clear();
     let (first, last) = (&ends[0], ends.last().expect("a starting step"));
     let pair = crate::residuals::before_after(&a.out.join("answer"), first, last)?;
     let html = crate::report::diagnosis(&d, &a.capture.display().to_string(), &maps, &pair)?;
@@ -97,17 +99,27 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A left-aligned column's width: its header's or its widest entry's, in characters
+/// (`{:<w$}` pads by characters, and so is each entry measured).
+fn column_width<'a>(header: &str, entries: impl Iterator<Item = &'a str>) -> usize {
+    entries.map(|e| e.chars().count()).chain([header.chars().count()]).max().unwrap_or(0)
+}
+
 fn opt(x: Option<f64>) -> String {
     x.map_or("—".into(), |v| format!("{v:.4}"))
 }
 
 fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
-    // Two spaces between columns, each as wide as its header: the columns never run together.
-    out!("{:<40}  {:>9}  {:>10}  {:>9}  {:>14}", "model", "χ²/dof", "AoP RMS °", "DoLP RMS", "heading RMS °");
-    for s in &d.steps {
-        let m = if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") };
+    // Two spaces between columns, each as wide as its header or its widest entry (a model
+    // of several effects, an effect named `polarimetric_nonuniformity`): the columns never
+    // run together.
+    let models: Vec<String> =
+        d.steps.iter().map(|s| if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") }).collect();
+    let mw = column_width("model", models.iter().map(String::as_str));
+    out!("{:<mw$}  {:>9}  {:>10}  {:>9}  {:>14}", "model", "χ²/dof", "AoP RMS °", "DoLP RMS", "heading RMS °");
+    for (s, m) in d.steps.iter().zip(&models) {
         out!(
-            "{:<40}  {:>9.4}  {:>10.4}  {:>9.5}  {:>14}",
+            "{:<mw$}  {:>9.4}  {:>10.4}  {:>9.5}  {:>14}",
             m,
             s.fit.chi2_per_dof,
             s.fit.aop_rms_deg,
@@ -120,8 +132,9 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
             "step {}, candidates by ΔBIC; size: heading change RMS / worst frame (°), AoP RMS (°), DoLP RMS, DN at the worst pixel:",
             i + 1
         );
+        let ew = column_width("effect", ranking.iter().map(|c| c.effect));
         out!(
-            "  {:<22}  {:>12}  {:>12}  {:>20}  {:>8}  {:>8}  {:>8}",
+            "  {:<ew$}  {:>12}  {:>12}  {:>20}  {:>8}  {:>8}  {:>8}",
             "effect",
             "Δχ²",
             "ΔBIC",
@@ -134,7 +147,7 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
             let [heading, aop, dolp, dn] = crate::effect_sizes::size_cells(c);
             let (verdict, _) = crate::effect_sizes::candidate_verdict(d, i + 1, c);
             out!(
-                "  {:<22}  {:>12.1}  {:>12.1}  {:>20}  {:>8}  {:>8}  {:>8}  {}{}",
+                "  {:<ew$}  {:>12.1}  {:>12.1}  {:>20}  {:>8}  {:>8}  {:>8}  {}{}",
                 c.effect,
                 c.delta_chi2,
                 c.delta_bic,

@@ -22,7 +22,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.capture.display(),
         if names.is_empty() { "none".to_string() } else { names.join(", ") }
     );
-    let spinner = indicatif::ProgressBar::new_spinner();
+    let spinner = crate::progress::spinner("fit");
     let progress = |stage: &str, it: usize| spinner.set_message(format!("iteration {it} ({stage})"));
     let first = fit_from(&loaded.capture, &loaded.frames, &loaded.options, None, &progress).context("fitting")?;
     // A parameter the sample cannot tell from neutral but every pixel could: read
@@ -99,7 +99,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let cal_path = a.out.join("calibration.toml");
     crate::write_output(&cal_path, cal.to_toml().as_bytes())?;
     say!("wrote {} (bpins heading --calibration, fit/diagnose --calibration)", cal_path.display());
+    let maps = crate::progress::spinner("residual maps");
     crate::residuals::compute_and_write(&a.out, &c, &frames, &opts, &r)?;
+    maps.finish_and_clear();
     say!("wrote residual maps (EXR and PNG) and sky-space profiles (CSV and SVG) to {}", a.out.display());
     say!("wrote {}", path.display());
     Ok(())

@@ -115,14 +115,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let Some(capture_dir) = &a.capture else {
         return run_bag(&a, &extractors, opts);
     };
-    let capture = match &a.site {
-        None => Capture::load(capture_dir)?,
+    // Which frames take their sun (and its 1σ) from --site.
+    let (capture, from_site) = match &a.site {
+        None => {
+            let c = Capture::load(capture_dir)?;
+            let n = c.frames.len();
+            (c, vec![false; n])
+        }
         Some(p) => {
             let site = bpins_core::internal::locate::Site::load(p)?;
             let mut c = Capture::load_unplaced(capture_dir)?;
+            let unplaced: Vec<bool> = c.frames.iter().map(|f| !f.sun.is_known()).collect();
             let n = site.place(&mut c).with_context(|| format!("--site {}", p.display()))?;
-            say!("--site {}: the sun of {n} frame(s) stamped without a place from the located site", p.display());
-            c
+            say!(
+                "--site {}: the sun of {n} frame(s) stamped without a place from the located site, its 1σ the \
+                 site's latitude and longitude 1σ propagated through SPA",
+                p.display()
+            );
+            (c, unplaced)
         }
     };
     if let Some(p) = &a.json {
@@ -139,24 +149,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     } else {
         None
     };
-    out!(
-        "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10}  sun az/el (°), source; or why no heading",
-        "frame",
-        "extractor",
-        "heading (°)",
-        "1σ (°)",
-        "reference (°)",
-        "error (°)",
-        "err/1σ",
-        "used (%)",
-        "cloud (%)",
-        "resid (°)"
-    );
+    // The header goes out with the first frame's rows: a frame that cannot be read
+    // (truncated, the wrong size) ends the command before any table.
+    let mut header = true;
     let pb = crate::progress::bar(capture.frames.len() as u64, "frames");
     let mut rows: Vec<Row> = Vec::new();
     for (i, f) in capture.frames.iter().enumerate() {
         let file = f.file.display().to_string();
-        let sun = format!("{:.4}/{:.4}, {}", f.sun.azimuth_deg, f.sun.elevation_deg, f.sun.source.describe());
+        let sun = sun_text(f, from_site[i]);
         let mut frame_rows: Vec<Row> = Vec::new();
         let mut data = capture.read_frame(i)?;
         if let Some(m) = &pixels {
@@ -192,6 +192,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     cloud_fraction: Some(q.cloud_fraction),
                     residual_deg: Some(q.residual_rms_deg),
                     sun: sun.clone(),
+                    sun_sigma_deg: f.sun_sigma_deg,
                 });
             }
         } else {
@@ -212,11 +213,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     cloud_fraction: None,
                     residual_deg: None,
                     sun: sun.clone(),
+                    sun_sigma_deg: f.sun_sigma_deg,
                 });
             }
         }
         pb.inc(1);
-        pb.suspend(|| frame_rows.iter().try_for_each(Row::print))?;
+        pb.suspend(|| -> anyhow::Result<()> {
+            if std::mem::take(&mut header) {
+                print_header()?;
+            }
+            frame_rows.iter().try_for_each(Row::print)
+        })?;
         rows.extend(frame_rows);
     }
     pb.finish_and_clear();
@@ -272,6 +279,49 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The table's header.
+fn print_header() -> anyhow::Result<()> {
+    out!(
+        "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10}  sun az/el (°) [± its 1σ], source; or why no heading",
+        "frame",
+        "extractor",
+        "heading (°)",
+        "1σ (°)",
+        "reference (°)",
+        "error (°)",
+        "err/1σ",
+        "used (%)",
+        "cloud (%)",
+        "resid (°)"
+    );
+    Ok(())
+}
+
+/// The sun of frame `f` as the heading uses it: azimuth/elevation, the 1σ it carries
+/// into the heading where it has one (`sun_sigma_deg`, or the site's propagated where
+/// `from_site`), and where it came from.
+fn sun_text(f: &bpins_core::FrameSpec, from_site: bool) -> String {
+    use bpins_core::internal::sky::sun::SunSource;
+    let (az, el) = (f.sun.azimuth_deg, f.sun.elevation_deg);
+    let Some(sigma) = f.sun_sigma_deg else {
+        return format!("{az:.4}/{el:.4}, {}", f.sun.source.describe());
+    };
+    let source = match &f.sun.source {
+        SunSource::Spa { time_utc, latitude_deg, longitude_deg } => {
+            let ns = if *latitude_deg < 0.0 { 'S' } else { 'N' };
+            let ew = if *longitude_deg < 0.0 { 'W' } else { 'E' };
+            let place = format!("{:.4}°{ns} {:.4}°{ew}", latitude_deg.abs(), longitude_deg.abs());
+            if from_site {
+                format!("NREL SPA from {time_utc} at the located site {place} (--site), 1σ its place's propagated")
+            } else {
+                format!("NREL SPA from {time_utc} at {place}, 1σ sun_sigma_deg")
+            }
+        }
+        other => other.describe(),
+    };
+    format!("{az:.4}/{el:.4} ± {sigma:.4}, {source}")
+}
+
 /// `--bag`: the front door over a ROS 2 bag (cmd_heading_bag.rs).
 fn run_bag(a: &Args, extractors: &[Extractor], opts: FieldOptions) -> anyhow::Result<()> {
     let [extractor] = extractors else {
@@ -312,6 +362,8 @@ struct Row {
     cloud_fraction: Option<f64>,
     residual_deg: Option<f64>,
     sun: String,
+    /// The sun's 1σ the heading carries, degrees (`None`: taken as exact).
+    sun_sigma_deg: Option<f64>,
 }
 
 impl Row {
@@ -346,7 +398,7 @@ impl Row {
         let mut v = json!({
             "file": self.file, "extractor": self.extractor.name(), "heading_deg": self.heading_deg,
             "sigma_deg": self.sigma_deg, "reference_heading_deg": self.reference_deg, "error_deg": self.error_deg(),
-            "no_heading_reason": self.why, "sun": self.sun,
+            "no_heading_reason": self.why, "sun": self.sun, "sun_sigma_deg": self.sun_sigma_deg,
         });
         if let (Some(o), Some(extra)) = (v.as_object_mut(), self.extra.as_object()) {
             o.extend(extra.clone());

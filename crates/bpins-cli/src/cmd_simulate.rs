@@ -509,6 +509,8 @@ fn write_dump(
 ) -> anyhow::Result<()> {
     let g = &c.sensor.geometry;
     let (w, h) = (g.width_px as usize, g.height_px as usize);
+    // One frame: seconds on a CPU rasterizer at full size; a log still hears of it.
+    let sp = crate::progress::spinner("rendering the frame");
     let f = sim_chain_frame(c, 0, model, resp, sim, field);
     let planes = engine.render_colocated(std::slice::from_ref(&f), w, h, &Channel::ALL)?.remove(0);
     let colocated = Capture {
@@ -526,6 +528,7 @@ fn write_dump(
         Channel::ALL.iter().zip(&planes).map(|(ch, p)| (ch.exr_name(), p.as_slice())).collect();
     layers.extend([("AoP", aop.as_slice()), ("DoLP", dolp.as_slice()), ("AoE", aoe.as_slice())]);
     write_exr_layers(path, g.width_px, g.height_px, &layers)?;
+    sp.finish_and_clear();
     say!("wrote {} ({}×{} px; I0…I135 in DN, AoP and AoE in degrees, DoLP in 1)", path.display(), w, h);
     Ok(())
 }

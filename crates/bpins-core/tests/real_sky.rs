@@ -172,7 +172,9 @@ fn clouds_and_a_skyline_under_a_cie_sky_blame_no_lens_or_sensor_effect() {
 /// 1σ 64 % optimistic. Slow (two fits per seed): `cargo test --release -p bpins-core --test real_sky --
 /// --ignored --nocapture`.
 #[test]
-#[ignore]
+#[ignore = "slow: 24 fits (12 seeds × 2 effects), a statistical check of the fit's 1σ against the scatter \
+            over seeds; run with: cargo test --release -p bpins-core --test real_sky -- --ignored --nocapture \
+            the_1_sigma_matches_the_scatter_over_seeds"]
 fn the_1_sigma_matches_the_scatter_over_seeds() {
     let c = small_capture();
     let sky = cie_sky();

@@ -52,8 +52,11 @@ fn main() -> std::process::ExitCode {
     let beside = Path::new(REPO).join("../shared");
     let missing = beside.canonicalize().is_err().then(|| {
         format!(
-            "{} is absent (a fresh clone): nothing to compare samples/ and docs/spec/ with; the project's \
-             machines and CI have it beside the checkout",
+            "{} is absent, as in any clone made outside the project's own machines. It is the project's shared \
+             spec and samples, kept beside the checkout on those machines and in CI (`.ci/run`), and this test \
+             only checks that samples/ and docs/spec/ here are byte-identical copies of it. Nothing else reads \
+             it: every other test and command uses those in-repo copies, so you need nothing more; with \
+             ../shared beside the checkout it runs as `cargo test -p bpins-core --test standalone`",
             beside.display()
         )
     });

@@ -101,9 +101,17 @@ pub(crate) fn read_dofp(path: &Path, label: &str, size: (u32, u32), bit_depth: u
     };
     let file = File::open(path).map_err(|e| io(path, e))?;
     let img = guarded(path, || {
-        ImageReader::with_format(BufReader::new(file), format)
-            .decode()
-            .map_err(|e| err(path, format!("{label}: cannot decode the image: {e}")))
+        ImageReader::with_format(BufReader::new(file), format).decode().map_err(|e| {
+            // A file cut short (a copy or a write interrupted) says so.
+            let text = e.to_string();
+            let short = if text.contains("end of file") || text.contains("EOF") {
+                let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+                format!(" (the file ends early, at {bytes} bytes: truncated?)")
+            } else {
+                String::new()
+            };
+            err(path, format!("{label}: cannot decode the image: {text}{short}"))
+        })
     })?;
     check_size(path, label, (img.width() as usize, img.height() as usize), size)?;
     let values: Vec<u16> = match img {

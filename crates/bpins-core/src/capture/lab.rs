@@ -21,7 +21,7 @@ use super::spec::{clean, frame_label, parse_header, Header};
 use super::validate::{normalised, validate_frame_file, validate_sensor_lens};
 use super::{FrameData, LensSpec, SensorSpec};
 use crate::sensor::Layout;
-use crate::{Error, Result};
+use crate::Result;
 
 /// A lab capture: where it lies, the sensor, and what each frame shows.
 #[derive(Clone, Debug, PartialEq)]
@@ -87,11 +87,7 @@ impl LabCapture {
     /// Reads and validates `dir/capture.toml` of a lab capture and checks that every
     /// frame file exists (images are not decoded).
     pub fn load(dir: &Path) -> Result<LabCapture> {
-        let toml_path = dir.join("capture.toml");
-        let text = fs::read_to_string(&toml_path).map_err(|e| match e.kind() {
-            std::io::ErrorKind::NotFound => err(&toml_path, super::NOT_FOUND),
-            _ => Error::Io { path: toml_path.clone(), source: e },
-        })?;
+        let (toml_path, text) = super::read_capture_toml(dir)?;
         let c = parse(dir, &toml_path, &text)?;
         for (i, f) in c.frames.iter().enumerate() {
             if !dir.join(&f.file).is_file() {

@@ -22,6 +22,7 @@ macro_rules! bail {
     };
 }
 
+mod colour;
 mod exr;
 mod images;
 pub mod lab;
@@ -34,6 +35,7 @@ mod writer;
 use std::fs;
 use std::path::{Component, Path, PathBuf};
 
+pub use colour::{colour_period, ColourPeriod};
 pub use exr::{read_exr_layers, write_exr_layers, write_exr_layers_fast, ExrLayers};
 pub use lab::{LabCapture, LabFrame};
 
@@ -185,12 +187,7 @@ impl Capture {
             },
             _ => dir,
         };
-        let toml_path = dir.join("capture.toml");
-        let bytes = fs::read(&toml_path).map_err(|e| match e.kind() {
-            std::io::ErrorKind::NotFound => err(&toml_path, NOT_FOUND),
-            _ => Error::Io { path: toml_path.clone(), source: e },
-        })?;
-        let text = String::from_utf8(bytes).map_err(|_| err(&toml_path, "not UTF-8 text"))?;
+        let (toml_path, text) = read_capture_toml(dir)?;
         let capture = spec::parse(dir, &toml_path, &text, unplaced)?;
         validate::validate(&capture, &toml_path)?;
         for (i, f) in capture.frames.iter().enumerate() {
@@ -239,11 +236,14 @@ impl Capture {
         let size = (g.width_px, g.height_px);
         let full = self.sensor.full_scale_dn();
         match &self.sensor.layout {
-            Layout::Dofp { .. } => Ok(FrameData::Mosaic {
-                width_px: g.width_px,
-                height_px: g.height_px,
-                dn: images::read_dofp(&path, &label, size, self.sensor.bit_depth, full)?,
-            }),
+            Layout::Dofp { .. } => {
+                let dn = images::read_dofp(&path, &label, size, self.sensor.bit_depth, full)?;
+                let (w, h) = (g.width_px as usize, g.height_px as usize);
+                if let Some(period) = colour::colour_period(&dn, w, h, self.sensor.black_level_dn, full) {
+                    bail!(&path, "{label}: {period}");
+                }
+                Ok(FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn })
+            }
             Layout::Colocated { channels } => Ok(FrameData::Colocated {
                 width_px: g.width_px,
                 height_px: g.height_px,
@@ -308,6 +308,62 @@ pub fn load_sensor_file(path: &Path) -> Result<(SensorSpec, LensSpec)> {
 }
 
 /// `p` made absolute, `..` resolved, and every existing prefix canonicalised.
+/// `dir/capture.toml` (its path and its text), or why `dir` is no capture folder, in
+/// words: a file given for the folder, a ROS 2 bag (which `bpins heading --bag` and
+/// `bpins bag-to-capture` read), or nothing there ([`NOT_FOUND`]). Sky and lab
+/// captures are opened through here.
+pub(crate) fn read_capture_toml(dir: &Path) -> Result<(PathBuf, String)> {
+    let toml_path = dir.join("capture.toml");
+    if dir.is_file() {
+        let bag = matches!(dir.extension().and_then(|e| e.to_str()), Some("mcap" | "db3"));
+        let hint = if bag {
+            format!(
+                "; it looks like a ROS 2 bag's storage file: give its folder (the one with metadata.yaml) to \
+                 `bpins heading --bag {}` or `bpins bag-to-capture --bag {} --out CAPTURE`",
+                parent_or_dot(dir),
+                parent_or_dot(dir)
+            )
+        } else {
+            String::new()
+        };
+        bail!(dir, "is a file, not a capture folder (a folder holding capture.toml){hint}");
+    }
+    let bytes = match fs::read(&toml_path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            if looks_like_a_ros2_bag(dir) {
+                bail!(
+                    dir,
+                    "has no capture.toml but looks like a ROS 2 bag (metadata.yaml and .mcap/.db3 storage): \
+                     `bpins heading --bag {d}` reads its frames as they are, `bpins bag-to-capture --bag {d} \
+                     --out CAPTURE` makes a capture of them (docs/ros2.md)",
+                    d = dir.display()
+                );
+            }
+            return Err(err(&toml_path, NOT_FOUND));
+        }
+        Err(e) => return Err(Error::Io { path: toml_path, source: e }),
+    };
+    let text = String::from_utf8(bytes).map_err(|_| err(&toml_path, "not UTF-8 text"))?;
+    Ok((toml_path, text))
+}
+
+/// The folder of `file` as a user would type it (`.` for a bare name).
+fn parent_or_dot(file: &Path) -> String {
+    match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.display().to_string(),
+        _ => ".".into(),
+    }
+}
+
+/// A rosbag2 folder: `metadata.yaml` beside `.mcap` or `.db3` storage files.
+fn looks_like_a_ros2_bag(dir: &Path) -> bool {
+    dir.join("metadata.yaml").is_file()
+        && fs::read_dir(dir).is_ok_and(|entries| {
+            entries.flatten().any(|e| matches!(e.path().extension().and_then(|x| x.to_str()), Some("mcap" | "db3")))
+        })
+}
+
 /// The capture folder (one holding `capture.toml`) that `path` lies in or is, if
 /// any: outputs must never go there. `..` and symbolic links are resolved first.
 pub fn enclosing_capture(path: &Path) -> Result<Option<PathBuf>> {
