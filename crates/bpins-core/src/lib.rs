@@ -115,6 +115,75 @@ pub use maps::{stokes_maps, Maps, MapsConfig};
 #[cfg(feature = "io")]
 pub use sweep::{run_to_dir, SweepSpec};
 
+// The types the entry points above (and the public modules) take, return or expose,
+// each reachable by a public path: a user can name, build and match on what the
+// front door hands them (issue 44). Re-exports only; the modules stay private.
+
+/// The per-pixel chain's inputs, as the compass and the scene elements see them.
+pub use chain::{ActiveEffects, ChainFrame, NoiseIndex, Scene};
+/// The sky mask of a frame: which pixels the heading reads.
+pub use heading::field::SkyMask;
+/// Headings read from the per-pixel sums, and the context each is read in.
+pub use heading::{HeadingContext, HeadingEstimate, HeadingSums};
+/// What [`stokes_maps`] needs and may fail with: build the reconstructor with
+/// [`Reconstructor::new`]; match on [`MapsError`].
+pub use maps::{Interpolation, MapsError};
+/// A frame's noise key: the seed of its reproducible per-pixel noise.
+pub use noise::FrameKey;
+/// Per-pixel analyzer descriptions (measured or nominal), as calibrations carry them.
+pub use pixel_analyzers::{CellAnalyzer, CellAnalyzers, PixelMaps};
+/// The Stokes reconstruction of a raw mosaic: the reconstructor [`stokes_maps`] takes,
+/// and the per-pixel polarization image it produces.
+pub use recon::{PolImage, Reconstructor};
+/// What a scene element implements and is given: see [`scene`] and `docs/adding-an-effect.md`.
+pub use scene::frame::{ElementContext, FieldElement, FieldFrame, FieldRay, SameAs};
+/// The sun's place in the sky, and where it came from (a time and place, or given).
+#[cfg(feature = "spa")]
+pub use sky::sun::{SunPosition, SunSource};
+/// Stokes vectors and the micro-polarizer analyzers that measure them.
+pub use stokes::{Analyzer, Stokes};
+
+/// A capture's sensor and lens descriptions, lab frames and writer (`docs/spec/CAPTURE.md`).
+#[cfg(feature = "io")]
+pub use capture::{CaptureWriter, LabFrame, LensSpec, SensorSpec};
+/// The parts of a [`Diagnosis`]: candidates, steps, what remains, and the sizes it tests.
+#[cfg(feature = "io")]
+pub use diagnose::{
+    pairs::Confusable,
+    remains::{Remains, Unexplained},
+    sizes::{EffectSize, MinSize, Thresholds},
+    Candidate, Step,
+};
+/// The parts of a [`FitResult`] and of [`FitOptions`]: parameters, per-frame fits, profiles, trends.
+#[cfg(feature = "io")]
+pub use fit::{
+    input::{noise::NoiseModel, resolution::Raised},
+    model::{radiance::Basis, slots::EffectParam},
+    output::profiles::{Axis, Profile, ProfileBin, Quantity, Trend, TrendPoint},
+    FitState, FrameFit, Param, Sample,
+};
+/// The parts of a [`LabCalibration`]: darks, photon transfer, flat field, per-channel summaries.
+#[cfg(feature = "io")]
+pub use lab::{
+    flat::FlatField,
+    photon_transfer::{Dark, PhotonTransfer, PtcPoint},
+    summary::ChannelSummary,
+    LeftOut, SigmaMaps,
+};
+/// How [`locate()`] found north and place.
+#[cfg(feature = "io")]
+pub use locate::Route;
+/// The sums engine to pass [`run_to_dir`] on the CPU (rayon); `bpins-gpu` has the GPU's.
+#[cfg(feature = "io")]
+pub use sweep::CpuSums;
+/// A [`SweepSpec`]'s parts, what [`run_to_dir`] takes (its sums engine) and returns
+/// (its outcome, shards), and the summary's rows.
+#[cfg(feature = "io")]
+pub use sweep::{
+    Budget, Distribution, ErrorSpec, Known, Outcome, Per, PixelNoise, Row, Shard, Share, Summary, SumsEngine, SumsJob,
+    SweepExtractor, Target,
+};
+
 /// The house behind the front door, for the workspace's own crates and tests: the
 /// per-pixel chain and its kernels (the CPU reference the GPU twin's parity tests call),
 /// the fit's and the diagnosis's rooms, the capture format's readers and writers, the
