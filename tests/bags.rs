@@ -141,3 +141,144 @@ fn a_bag_with_zstd_chunks_gives_the_headings_of_its_uncompressed_twin() {
     assert!(headings[0].as_array().unwrap().iter().all(|f| f["heading_deg"].is_f64()), "{}", headings[0]);
     assert_eq!(headings[0], headings[1], "the zstd bag's frames differ from the uncompressed bag's");
 }
+
+/// `bpins` with `args`, failing: its stderr.
+fn bpins_fails(args: &[&str]) -> String {
+    let o = Command::new(env!("CARGO_BIN_EXE_bpins")).args(args).output().unwrap();
+    assert!(!o.status.success(), "{args:?} succeeded:\n{}", String::from_utf8_lossy(&o.stdout));
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn the_docs_bag_commands_run_as_written_on_the_docs_simulated_bag() {
+    // docs/ros2.md's test stack (`simulate --bag-out`) holds two sensor_msgs/Imu topics:
+    // the IMU (/imu/data) and the truth (/bpins/reference_heading). The truth is
+    // bpins' own output, never taken for the IMU, so the README's and docs/ros2.md's
+    // commands, which name no --imu-topic, read the IMU.
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    let (cap, run1) = (p("cap"), p("run1"));
+    bpins(&[
+        "simulate",
+        "--out",
+        &cap,
+        "--bag-out",
+        &run1,
+        "--time-utc",
+        "2026-06-21T02:30:00Z",
+        "--latitude-deg",
+        "36.07",
+        "--longitude-deg",
+        "120.38",
+        "--tilt-x-deg",
+        "2",
+    ]);
+    let meta = std::fs::read_to_string(tmp.path().join("run1/metadata.yaml")).unwrap();
+    assert!(meta.contains(bpins_ros::topics::REFERENCE_HEADING) && meta.contains(bpins_ros::topics::IMU), "{meta}");
+    // README.md, "Robot logs": exactly its flags.
+    let (out, json_path) = (p("run1_bpins"), p("run1.json"));
+    let o = bpins(&["heading", "--bag", &run1, "--bit-depth", "12", "--black-level-dn", "64", "--bag-out", &out]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("tilt from /imu/data (/bpins/reference_heading not read: bpins' own output"),
+        "the tilt's source is not said:\n{err}"
+    );
+    assert!(Path::new(&out).join("metadata.yaml").is_file());
+    // docs/ros2.md, "The whole path": its flags, and the tilt read from the IMU.
+    bpins(&[
+        "heading",
+        "--bag",
+        &run1,
+        "--bit-depth",
+        "12",
+        "--black-level-dn",
+        "64",
+        "--json",
+        &json_path,
+        "--bag-out",
+        &p("run1_bpins2"),
+        "--heading-frame-id",
+        "bpins_body",
+    ]);
+    let frames = json(Path::new(&json_path))["frames"].as_array().unwrap().clone();
+    assert_eq!(frames.len(), 8);
+    for f in &frames {
+        assert!(f["heading_deg"].is_f64(), "{f}");
+        assert!((f["tilt_x_deg"].as_f64().unwrap() - 2.0).abs() < 1e-6, "the tilt is not the IMU's: {f}");
+    }
+    // docs/ros2.md: the recorded frames into a capture, exactly its flags.
+    let run1_cap = p("run1_cap");
+    bpins(&[
+        "bag-to-capture",
+        "--bag",
+        &run1,
+        "--out",
+        &run1_cap,
+        "--bit-depth",
+        "12",
+        "--black-level-dn",
+        "64",
+        "--pixel-pitch-um",
+        "3.45",
+    ]);
+    let toml = std::fs::read_to_string(tmp.path().join("run1_cap/capture.toml")).unwrap();
+    assert_eq!(toml.matches("[[frames]]").count(), 8, "{toml}");
+    let tilts: Vec<f64> =
+        toml.lines().filter_map(|l| l.strip_prefix("tilt_x_deg = ")).map(|v| v.trim().parse().unwrap()).collect();
+    assert!(tilts.len() == 8 && tilts.iter().all(|t| (t - 2.0).abs() < 1e-6), "the tilt is not the IMU's:\n{toml}");
+    // Named, the truth is read like any topic.
+    bpins(&["heading", "--bag", &run1, "--bit-depth", "12", "--imu-topic", "/bpins/reference_heading"]);
+}
+
+#[test]
+fn two_imus_are_an_error_naming_both_and_the_topic_left_out() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    bpins(&[
+        "simulate",
+        "--out",
+        &p("cap"),
+        "--bag-out",
+        &p("bag"),
+        "--width-px",
+        "100",
+        "--height-px",
+        "80",
+        "--headings-deg",
+        "10,20",
+    ]);
+    // The bag again with a second IMU, /imu/second.
+    let bag = bpins_ros::Bag::open(Path::new(&p("bag"))).unwrap();
+    let mut all = Vec::new();
+    for t in &bag.topics {
+        for m in bag.cursor(&t.name).unwrap() {
+            let m = m.unwrap();
+            all.push((m.log_time_ns, t.name.clone(), t.type_name.clone(), m.data.to_vec()));
+            if t.name == bpins_ros::topics::IMU {
+                all.push((m.log_time_ns, "/imu/second".into(), t.type_name.clone(), m.data.to_vec()));
+            }
+        }
+    }
+    all.sort_by_key(|m| m.0);
+    let mut w = bpins_ros::writer::BagWriter::create(Path::new(&p("two"))).unwrap();
+    for (t, topic, ty, data) in &all {
+        w.write(topic, ty, *t, data).unwrap();
+    }
+    w.finish().unwrap();
+    let (two, c) = (p("two"), p("c"));
+    let sun = ["--sun-azimuth-deg", "40", "--sun-elevation-deg", "25"];
+    for cmd in [vec!["heading", "--bag", &two], vec!["bag-to-capture", "--bag", &two, "--out", &c]] {
+        let cmd = [&cmd[..], &sun[..]].concat();
+        let cmd = &cmd[..];
+        let err = bpins_fails(cmd);
+        assert!(
+            err.contains("2 topics of type sensor_msgs/msg/Imu (/imu/data, /imu/second)")
+                && err.contains("besides bpins' own output /bpins/reference_heading")
+                && err.contains("choose one with --imu-topic"),
+            "{cmd:?}:\n{err}"
+        );
+    }
+    let mut args = vec!["heading", "--bag", &two, "--imu-topic", "/imu/second"];
+    args.extend_from_slice(&sun);
+    bpins(&args);
+}

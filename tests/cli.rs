@@ -988,6 +988,32 @@ fn the_diagnose_table_keeps_its_columns_apart() {
     assert_eq!(cols, ["model", "χ²/dof", "AoP RMS °", "DoLP RMS", "heading RMS °"], "{header}");
     let row = r.stdout.lines().nth(1).unwrap();
     assert_eq!(row.split("  ").map(str::trim).filter(|c| !c.is_empty()).count(), 5, "{row}");
+    // The candidates' table: every number column ends where its header ends, whatever the
+    // effect's name (`polarimetric_nonuniformity` is wider than the old fixed column).
+    let lines: Vec<&str> = r.stdout.lines().collect();
+    let at = lines.iter().position(|l| l.trim_start().starts_with("effect")).expect("a candidates' table");
+    let head = cell_ends(lines[at]);
+    assert_eq!(head.len(), 7, "{}", lines[at]);
+    let rows: Vec<&str> = lines[at + 1..].iter().take_while(|l| l.starts_with("  ")).copied().collect();
+    assert!(rows.iter().any(|l| l.contains("polarimetric_nonuniformity")), "{}", r.stdout);
+    for row in rows {
+        let ends = cell_ends(row);
+        assert!(ends.len() >= 7 && ends[1..7] == head[1..7], "columns moved:\n{}\n{row}", lines[at]);
+    }
+}
+
+/// Where each cell of a table row ends, in characters (cells are apart by two spaces or more).
+fn cell_ends(line: &str) -> Vec<usize> {
+    let chars: Vec<char> = line.chars().collect();
+    let mut ends = Vec::new();
+    for i in 0..chars.len() {
+        let last = i + 1 == chars.len();
+        let gap = !last && chars[i + 1] == ' ' && chars.get(i + 2) == Some(&' ');
+        if chars[i] != ' ' && (last || gap) {
+            ends.push(i + 1);
+        }
+    }
+    ends
 }
 
 /// `bpins maps`: one EXR per asked frame with the kernel's four maps (the same
@@ -1098,6 +1124,36 @@ fn locate_finds_the_site_and_heading_navigates_with_it() {
     assert_eq!(snapshot(&cap), before);
 }
 
+/// Issue 49: frames in which the sun did not move hold no pole, north or latitude, and
+/// `locate` says so (exit 2) instead of answering: the clean sample (a turntable under
+/// a sun given by hand), its frames all stamped at one instant, and stamped over an
+/// hour while the sun they show stood still.
+#[test]
+fn locate_refuses_frames_in_which_the_sun_did_not_move() {
+    let r = bpins(&["locate", CLEAN]).fails();
+    assert_eq!(r.code, Some(2));
+    r.stderr_has("not yet: the sun did not move between frames: the capture gives all 8 frames the same sun by hand");
+    let (_tmp, cap) = clean_copy();
+    // Each frame's sun given by hand becomes a stamp, `step_min` minutes after the last.
+    let stamp = |t: &str, step_min: usize| -> String {
+        let parts: Vec<&str> = t.split("sun_azimuth_deg = 40.0\nsun_elevation_deg = 25.0").collect();
+        let mut out = parts[0].to_string();
+        for (k, rest) in parts[1..].iter().enumerate() {
+            out += &format!("time_utc = \"2026-05-10T08:{:02}:00Z\"{rest}", 10 + step_min * k);
+        }
+        out
+    };
+    edit_toml(&cap, |t| stamp(t, 0));
+    let r = bpins(&["locate", &s(&cap)]).fails();
+    assert_eq!(r.code, Some(2));
+    r.stderr_has("every frame carries the same stamp (2026-05-10T08:10:00Z)");
+    let (_tmp, cap) = clean_copy();
+    edit_toml(&cap, |t| stamp(t, 7));
+    let r = bpins(&["locate", &s(&cap)]).fails();
+    assert_eq!(r.code, Some(2));
+    r.stderr_has("not yet: the sun did not move between frames: its direction, the camera's turns taken out");
+}
+
 /// Wraps degrees to (−180°, 180°].
 fn bpins_core_wrap(d: f64) -> f64 {
     let r = d.rem_euclid(360.0);
@@ -1105,5 +1161,156 @@ fn bpins_core_wrap(d: f64) -> f64 {
         r - 360.0
     } else {
         r
+    }
+}
+
+// ------------------------------------------- progress in a log, messages at the edges
+
+/// With stderr not a terminal (a log, CI), a long command prints plain `progress:`
+/// lines (position/total, elapsed, eta) instead of nothing, at a bounded rate: here
+/// at `BPINS_PROGRESS_EVERY_S=1` (at most a line per second and one per tenth of the
+/// work, after 0.3 s), 40 trials give a few lines, not 40; a short command none.
+#[test]
+fn a_long_command_prints_plain_progress_lines_to_a_log_at_a_bounded_rate() {
+    let args = ["run", "--trials-per-azimuth", "1", "--seed", "7"];
+    let r = bpins_env(&args, &[("BPINS_PROGRESS_EVERY_S", "1"), ("RAYON_NUM_THREADS", "1")]).ok();
+    let lines: Vec<&str> = r.stderr.lines().filter(|l| l.starts_with("progress: trials ")).collect();
+    let steps: Vec<&&str> = lines.iter().filter(|l| !l.contains(" done in ")).collect();
+    assert!(!steps.is_empty(), "no progress line in the log:\n{}", r.stderr);
+    for l in &steps {
+        assert!(l.contains("/40 (") && l.contains(" %)") && l.contains(" elapsed, eta "), "{l}");
+    }
+    assert!(lines.last().unwrap().starts_with("progress: trials 40/40 done in "), "{}", r.stderr);
+    // The rate: one line per tenth and one per second at most (the run's own time).
+    let secs: f64 = r
+        .stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("40 trials in ")?.strip_suffix(" s")?.parse().ok())
+        .unwrap_or_else(|| panic!("no timing line:\n{}", r.stderr));
+    assert!(
+        steps.len() as f64 <= 10.0 + secs + 2.0 && steps.len() < 40,
+        "{} lines in {secs} s:\n{}",
+        steps.len(),
+        r.stderr
+    );
+    // Positions only move forward, and no two lines repeat one.
+    let pos: Vec<u64> =
+        steps.iter().map(|l| l["progress: trials ".len()..].split('/').next().unwrap().parse().unwrap()).collect();
+    assert!(pos.windows(2).all(|w| w[0] <= w[1]), "{pos:?}");
+    // At the default pace (nothing within 3 s) a short command says nothing more.
+    let r = bpins(&["heading", CLEAN]).ok();
+    assert!(!r.stderr.contains("progress:"), "{}", r.stderr);
+}
+
+/// A file given where a capture folder belongs is named as such, by every command
+/// that opens a capture, not as "Not a directory (os error 20)".
+#[test]
+fn a_file_given_for_a_capture_folder_is_called_a_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = s(&tmp.path().join("out"));
+    for args in [
+        vec!["heading", "README.md"],
+        vec!["maps", "README.md", "--out", &out],
+        vec!["fit", "README.md", "--out", &out],
+        vec!["calibrate", "README.md", "--out", &out],
+        vec!["locate", "README.md"],
+    ] {
+        let r = bpins(&args).fails();
+        r.stderr_has("README.md: is a file, not a capture folder (a folder holding capture.toml)");
+        assert!(!r.stderr.contains("os error"), "{}", r.stderr);
+    }
+}
+
+/// A ROS 2 bag (metadata.yaml and .mcap or .db3 storage, no capture.toml) given as a
+/// capture is recognised, and the commands that read it named.
+#[test]
+fn a_ros2_bag_given_as_a_capture_points_to_heading_bag() {
+    let tmp = tempfile::tempdir().unwrap();
+    for storage in ["run_0.mcap", "run_0.db3"] {
+        let bag = tmp.path().join(storage.replace('.', "_"));
+        fs::create_dir_all(&bag).unwrap();
+        fs::write(bag.join("metadata.yaml"), "rosbag2_bagfile_information:\n  version: 5\n").unwrap();
+        fs::write(bag.join(storage), b"").unwrap();
+        for args in
+            [vec!["heading".into(), s(&bag)], vec!["fit".into(), s(&bag), "--out".into(), s(&tmp.path().join("o"))]]
+        {
+            let r = bpins(&args).fails();
+            r.stderr_has("looks like a ROS 2 bag");
+            r.stderr_has(&format!("bpins heading --bag {}", bag.display()));
+            r.stderr_has("bpins bag-to-capture --bag");
+        }
+        // The storage file itself: its folder is the bag.
+        let r = bpins(&["heading", &s(&bag.join(storage))]).fails();
+        r.stderr_has("is a file, not a capture folder");
+        r.stderr_has(&format!("bpins heading --bag {}", bag.display()));
+    }
+    // A folder without capture.toml that is no bag stays "not found".
+    let empty = tmp.path().join("empty");
+    fs::create_dir_all(&empty).unwrap();
+    bpins(&["heading", &s(&empty)]).fails().stderr_has("capture.toml: not found");
+}
+
+/// A truncated frame ends `heading` with the file and "truncated?" before any of the
+/// table: the header goes out with the first frame's rows. A later truncated frame
+/// leaves the rows before it, header included.
+#[test]
+fn a_truncated_frame_is_named_before_any_table() {
+    let (_tmp, cap) = clean_copy();
+    let first = cap.join("frames/f000.png");
+    let whole = fs::read(&first).unwrap();
+    fs::write(&first, &whole[..1000]).unwrap();
+    let r = bpins(&["heading", &s(&cap)]).fails();
+    r.stderr_has("frames/f000.png").stderr_has("the file ends early, at 1000 bytes: truncated?");
+    assert!(r.stdout.is_empty(), "the table began before the error:\n{}", r.stdout);
+    fs::write(&first, &whole).unwrap();
+    let later = cap.join("frames/f003.png");
+    let bytes = fs::read(&later).unwrap();
+    fs::write(&later, &bytes[..bytes.len() / 2]).unwrap();
+    let r = bpins(&["heading", &s(&cap)]).fails();
+    r.stderr_has("frames/f003.png");
+    let rows: Vec<&str> = r.stdout.lines().collect();
+    assert!(rows.len() == 4 && rows[0].starts_with("frame ") && rows[3].starts_with("frames/f002.png"), "{}", r.stdout);
+}
+
+/// `heading --site` shows the sun's 1σ that the heading carries: the site's latitude
+/// and longitude 1σ propagated through SPA (here ≈ 0.05°), not SPA's own ±0.0003°;
+/// the JSON's `sun_sigma_deg` and the heading's sun share (`sigma_parts_deg.sun_deg`)
+/// are that number, and a site known exactly gives the sun no 1σ.
+#[test]
+fn heading_under_a_located_site_shows_the_suns_propagated_sigma() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cap = tmp.path().join("series");
+    let mut args = vec!["simulate", "--out", cap.to_str().unwrap(), "--every-min", "5", "--span-min", "10"];
+    args.extend(["--width-px", "306", "--height-px", "256", "--pixel-pitch-um", "27.6"]);
+    args.extend(["--time-utc", "2026-06-21T01:00:00Z", "--latitude-deg", "36.07", "--longitude-deg", "120.38"]);
+    args.extend(["--headings-deg", "30"]);
+    bpins(&args).ok();
+    let site = |lat_sigma: f64, lon_sigma: f64| {
+        let p = tmp.path().join(format!("site-{lat_sigma}.toml"));
+        let text = format!(
+            "format = \"bpins-site/1\"\nroute = \"stamped\"\ntime_utc = \"2026-06-21T01:00:00Z\"\n\
+             latitude_deg = 36.07\nlatitude_sigma_deg = {lat_sigma}\nlongitude_deg = 120.38\n\
+             longitude_sigma_deg = {lon_sigma}\nheading_deg = 30.0\nheading_sigma_deg = 0.05\n"
+        );
+        fs::write(&p, text).unwrap();
+        p
+    };
+    let json = tmp.path().join("h.json");
+    let r = bpins(&["heading", &s(&cap), "--site", &s(&site(0.039, 0.05)), "--json", &s(&json)]).ok();
+    assert!(!r.stdout.contains("0.0003"), "SPA's own accuracy shown as the sun's 1σ:\n{}", r.stdout);
+    let frames = read_json(&json)["frames"].as_array().unwrap().clone();
+    assert_eq!(frames.len(), 3);
+    for f in &frames {
+        let sigma = f64_of(f, "sun_sigma_deg");
+        // ∂(az, el)/∂(lat, lon) is of order 1 here: the place's 0.04–0.05° carries over.
+        assert!((0.02..0.2).contains(&sigma), "sun 1σ {sigma}: {f}");
+        assert!((f64_of(&f["sigma_parts_deg"], "sun_deg") - sigma).abs() < 1e-12, "{f}");
+        let shown = format!("± {sigma:.4}, NREL SPA from");
+        assert!(f["sun"].as_str().unwrap().contains(&shown) && r.stdout.contains(&shown), "{shown}:\n{}", r.stdout);
+        assert!(f["sun"].as_str().unwrap().contains("located site"), "{f}");
+    }
+    bpins(&["heading", &s(&cap), "--site", &s(&site(0.0, 0.0)), "--json", &s(&json)]).ok();
+    for f in read_json(&json)["frames"].as_array().unwrap() {
+        assert_eq!(f64_of(f, "sun_sigma_deg"), 0.0, "{f}");
     }
 }

@@ -11,7 +11,7 @@ use bpins_ros::cdr::decode;
 use bpins_ros::convert::{camera_size_px, intrinsics, Tilt};
 use bpins_ros::matching::{decode_fix, decode_imu, place_at, tilt_at, ImuMatch, ImuSample, Track};
 use bpins_ros::msgs::{types, CameraInfo, Image};
-use bpins_ros::{Bag, BagMessage, TopicCursor};
+use bpins_ros::{topics, Bag, BagMessage, TopicCursor, TopicInfo, Where};
 use std::path::PathBuf;
 
 /// The flags of a bag's inputs.
@@ -29,7 +29,8 @@ pub struct BagArgs {
     #[arg(long, value_name = "TOPIC")]
     pub camera_info_topic: Option<String>,
     /// The sensor_msgs/Imu topic for each frame's reference tilt and its 1σ
-    /// (default: the bag's only Imu topic; without one the camera is taken as level).
+    /// (default: the bag's only Imu topic outside /bpins/, where bpins writes its
+    /// headings and a simulated bag's truth; without one the camera is taken as level).
     #[arg(long, value_name = "TOPIC")]
     pub imu_topic: Option<String>,
     /// The sensor_msgs/NavSatFix topic: with each image's stamp, the sun through NREL
@@ -88,6 +89,8 @@ pub struct BagInput {
     pub bag: Bag,
     pub image_topic: String,
     pub imu_topic: Option<String>,
+    /// bpins' own Imu topics (`/bpins/…`) passed over when choosing the IMU.
+    pub imu_left_out: Vec<String>,
     pub fix_topic: Option<String>,
     /// Frames (the image topic's message count in metadata.yaml).
     pub frames: u64,
@@ -99,14 +102,43 @@ pub struct BagInput {
     pub intrinsics_source: String,
 }
 
+/// The topic of `type_name` to read: the flag's (any topic of that type, bpins' own
+/// included), else the bag's only one outside bpins' own outputs (`/bpins/…`: the
+/// headings and a simulated bag's truth are `sensor_msgs/Imu` but no IMU's
+/// measurements; bpins_ros::topics), else none. Several: an error naming them, and
+/// the ones left out.
 fn pick(bag: &Bag, flag: &Option<String>, type_name: &str, what: &str) -> anyhow::Result<Option<String>> {
-    match flag {
-        Some(t) => Ok(Some(bag.topic(t, type_name).with_context(|| format!("--{what}-topic"))?.name.clone())),
-        None => Ok(bag
-            .only_topic_of_type(type_name)
-            .with_context(|| format!("choose one with --{what}-topic"))?
-            .map(|t| t.name.clone())),
+    if let Some(t) = flag {
+        return Ok(Some(bag.topic(t, type_name).with_context(|| format!("--{what}-topic"))?.name.clone()));
     }
+    let (own, inputs): (Vec<&TopicInfo>, Vec<&TopicInfo>) =
+        bag.topics.iter().filter(|t| t.type_name == type_name).partition(|t| topics::is_bpins_output(&t.name));
+    match inputs.as_slice() {
+        [] => Ok(None),
+        [one] => Ok(Some(one.name.clone())),
+        many => {
+            let names = |ts: &[&TopicInfo]| ts.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(", ");
+            let left_out = match own.as_slice() {
+                [] => String::new(),
+                own => format!(" besides bpins' own output {} (never read unless named)", names(own)),
+            };
+            bail!(
+                "{}: {} topics of type {type_name} ({}){left_out}: choose one with --{what}-topic",
+                Where { bag: bag.dir.clone(), topic: None, index: None },
+                many.len(),
+                names(many)
+            )
+        }
+    }
+}
+
+/// bpins' own outputs of `type_name` in the bag (`/bpins/…`), which `pick` passes over.
+fn own_outputs(bag: &Bag, type_name: &str) -> Vec<String> {
+    bag.topics
+        .iter()
+        .filter(|t| t.type_name == type_name && topics::is_bpins_output(&t.name))
+        .map(|t| t.name.clone())
+        .collect()
 }
 
 impl BagArgs {
@@ -225,10 +257,12 @@ impl BagArgs {
                 dir.display()
             ),
         };
+        let imu_left_out = if self.imu_topic.is_none() { own_outputs(&bag, types::IMU) } else { Vec::new() };
         Ok(BagInput {
             lens: file.map(|f| f.1),
             bag,
             image_topic,
+            imu_left_out,
             imu_topic,
             fix_topic,
             frames,
@@ -236,6 +270,18 @@ impl BagArgs {
             intrinsics,
             intrinsics_source,
         })
+    }
+}
+
+impl BagInput {
+    /// Where each frame's tilt comes from, for the output: the Imu topic or a level
+    /// camera, and bpins' own Imu topics passed over.
+    pub fn tilt_source(&self) -> String {
+        let from = self.imu_topic.as_deref().unwrap_or("nowhere (no Imu topic: the camera taken as level)");
+        match self.imu_left_out.as_slice() {
+            [] => from.to_string(),
+            own => format!("{from} ({} not read: bpins' own output, not an IMU's)", own.join(", ")),
+        }
     }
 }
 

@@ -12,8 +12,8 @@ use bpins_core::sensor::Layout;
 use bpins_ros::cdr::{decode, encode};
 use bpins_ros::convert::{mosaic, Mosaic};
 use bpins_ros::msgs::{types, CameraInfo, Header, Image, NavSatFix, NavSatStatus, Time};
-use bpins_ros::rep103;
 use bpins_ros::writer::BagWriter;
+use bpins_ros::{rep103, topics};
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
@@ -36,6 +36,7 @@ pub fn bag_to_capture(a: Args) -> anyhow::Result<()> {
         bail!("--bag DIR is required");
     }
     let input = a.bag.open()?;
+    say!("bag {}: images on {}, tilt from {}", input.bag.dir.display(), input.image_topic, input.tilt_source());
     let bag_dir = std::fs::canonicalize(&input.bag.dir).unwrap_or_else(|_| input.bag.dir.clone());
     if std::path::absolute(&a.out).is_ok_and(|o| o.starts_with(&bag_dir)) {
         bail!("--out {}: is inside the bag {}; bpins never writes into a bag", a.out.display(), bag_dir.display());
@@ -123,8 +124,9 @@ const DT_NS: i64 = 100_000_000;
 /// equidistant lenses: `plumb_bob`, `equidistant`, no distortion), an Imu
 /// (`/imu/data`: the reference tilt, yaw 0 with variance 1e6 rad², i.e. not
 /// measured), a NavSatFix (`/gnss/fix`) where the sun came from a time and place,
-/// and the truth (`/bpins/reference_heading`, an Imu per REP 103) where the
-/// reference heading is known. Stamps: the frame's `time_utc`, else T0 + i·0.1 s,
+/// and the truth (`/bpins/reference_heading`, an Imu per REP 103, under bpins' own
+/// namespace so that no reader takes it for the IMU) where the reference heading is
+/// known (topic names: bpins_ros::topics). Stamps: the frame's `time_utc`, else T0 + i·0.1 s,
 /// and at least 1 ms after the previous frame's.
 pub fn capture_to_bag(c: &Capture, out: &Path) -> anyhow::Result<()> {
     let Layout::Dofp { .. } = c.sensor.layout else {
@@ -168,17 +170,17 @@ pub fn capture_to_bag(c: &Capture, out: &Path) -> anyhow::Result<()> {
                 p: [f_px, 0.0, cx, 0.0, 0.0, f_px, cy, 0.0, 0.0, 0.0, 1.0, 0.0],
                 ..Default::default()
             };
-            w.write("/cam/camera_info", types::CAMERA_INFO, t_ns, &encode(&ci))?;
+            w.write(topics::CAMERA_INFO, types::CAMERA_INFO, t_ns, &encode(&ci))?;
         }
         let (tx, ty) = (f.tilt_x_deg.unwrap_or(0.0), f.tilt_y_deg.unwrap_or(0.0));
         let var = f.tilt_sigma_deg.unwrap_or(0.0).to_radians().powi(2);
         // An IMU without a magnetometer: the tilt, yaw not measured.
         let mut imu = rep103::heading_imu(header("imu"), 90.0, 0.0, tx, ty, var, var);
         imu.orientation_covariance[8] = 1e6;
-        w.write("/imu/data", types::IMU, t_ns, &encode(&imu))?;
+        w.write(topics::IMU, types::IMU, t_ns, &encode(&imu))?;
         if let Some(h) = f.heading_deg {
             let truth = rep103::heading_imu(header("cam"), h, 0.0, tx, ty, 0.0, 0.0);
-            w.write("/bpins/reference_heading", types::IMU, t_ns, &encode(&truth))?;
+            w.write(topics::REFERENCE_HEADING, types::IMU, t_ns, &encode(&truth))?;
         }
         if let Some((lat, lon)) = place {
             let fix = NavSatFix {
@@ -188,7 +190,7 @@ pub fn capture_to_bag(c: &Capture, out: &Path) -> anyhow::Result<()> {
                 longitude: lon,
                 ..Default::default()
             };
-            w.write("/gnss/fix", types::NAV_SAT_FIX, t_ns, &encode(&fix))?;
+            w.write(topics::GNSS_FIX, types::NAV_SAT_FIX, t_ns, &encode(&fix))?;
         }
         let FrameData::Mosaic { dn, .. } = c.read_frame(i)? else { bail!("frame {i}: not a mosaic") };
         let data: Vec<u8> = dn.iter().flat_map(|&x| (x.round().clamp(0.0, 65535.0) as u16).to_le_bytes()).collect();
@@ -201,7 +203,7 @@ pub fn capture_to_bag(c: &Capture, out: &Path) -> anyhow::Result<()> {
             step: 2 * g.width_px,
             data: Cow::Owned(data),
         };
-        w.write("/cam/image_raw", types::IMAGE, t_ns, &encode(&im))?;
+        w.write(topics::IMAGE, types::IMAGE, t_ns, &encode(&im))?;
         pb.inc(1);
     }
     pb.finish_and_clear();

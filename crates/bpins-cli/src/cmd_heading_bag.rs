@@ -81,7 +81,7 @@ pub fn run(
         input.bag.dir.display(),
         input.image_topic,
         input.intrinsics_source,
-        input.imu_topic.as_deref().unwrap_or("nowhere (no Imu topic: the camera taken as level)"),
+        input.tilt_source(),
         match (args.sun_azimuth_deg, &input.fix_topic) {
             (Some(_), _) => "--sun-azimuth-deg/--sun-elevation-deg".to_string(),
             (None, Some(t)) => format!("NREL SPA at each stamp and the fix on {t}"),

@@ -33,6 +33,7 @@ pub mod reader;
 pub mod rep103;
 mod storage_mcap;
 mod storage_sqlite;
+pub mod topics;
 pub mod writer;
 
 pub use error::{BagError, Where};
