@@ -111,15 +111,7 @@ fn a_bag_with_zstd_chunks_gives_the_headings_of_its_uncompressed_twin() {
         "0.1",
     ]);
     // The bag rewritten with zstd chunks of 16 KiB, messages in log-time order.
-    let bag = bpins_ros::Bag::open(Path::new(&p("bag"))).unwrap();
-    let mut all = Vec::new();
-    for t in &bag.topics {
-        for m in bag.cursor(&t.name).unwrap() {
-            let m = m.unwrap();
-            all.push((m.log_time_ns, t.name.clone(), t.type_name.clone(), m.data.into_owned()));
-        }
-    }
-    all.sort_by_key(|m| m.0);
+    let all = messages(Path::new(&p("bag")));
     let chunks = bpins_ros::writer::Chunks { zstd: true, size_bytes: 16 << 10 };
     let mut w = bpins_ros::writer::BagWriter::create_with(Path::new(&p("zstd")), chunks).unwrap();
     for (t, topic, ty, data) in &all {
@@ -248,17 +240,13 @@ fn two_imus_are_an_error_naming_both_and_the_topic_left_out() {
         "10,20",
     ]);
     // The bag again with a second IMU, /imu/second.
-    let bag = bpins_ros::Bag::open(Path::new(&p("bag"))).unwrap();
-    let mut all = Vec::new();
-    for t in &bag.topics {
-        for m in bag.cursor(&t.name).unwrap() {
-            let m = m.unwrap();
-            all.push((m.log_time_ns, t.name.clone(), t.type_name.clone(), m.data.to_vec()));
-            if t.name == bpins_ros::topics::IMU {
-                all.push((m.log_time_ns, "/imu/second".into(), t.type_name.clone(), m.data.to_vec()));
-            }
-        }
-    }
+    let mut all = messages(Path::new(&p("bag")));
+    let second: Vec<_> = all
+        .iter()
+        .filter(|m| m.1 == bpins_ros::topics::IMU)
+        .map(|(t, _, ty, data)| (*t, "/imu/second".to_string(), ty.clone(), data.clone()))
+        .collect();
+    all.extend(second);
     all.sort_by_key(|m| m.0);
     let mut w = bpins_ros::writer::BagWriter::create(Path::new(&p("two"))).unwrap();
     for (t, topic, ty, data) in &all {
@@ -281,4 +269,19 @@ fn two_imus_are_an_error_naming_both_and_the_topic_left_out() {
     let mut args = vec!["heading", "--bag", &two, "--imu-topic", "/imu/second"];
     args.extend_from_slice(&sun);
     bpins(&args);
+}
+
+/// Every message of the bag at `dir`: (log time ns, topic, type, CDR bytes), in log-time
+/// order (a stable sort: each topic's messages keep their order).
+fn messages(dir: &Path) -> Vec<(i64, String, String, Vec<u8>)> {
+    let bag = bpins_ros::Bag::open(dir).unwrap();
+    let mut all = Vec::new();
+    for t in &bag.topics {
+        for m in bag.cursor(&t.name).unwrap() {
+            let m = m.unwrap();
+            all.push((m.log_time_ns, t.name.clone(), t.type_name.clone(), m.data.into_owned()));
+        }
+    }
+    all.sort_by_key(|m| m.0);
+    all
 }
