@@ -587,6 +587,57 @@ mod tests {
         }
     }
 
+    /// The CLI's and Python's simulation path (`pipeline::sim_response`,
+    /// `simulate_frame`): the same gain and the same bits, so they can move onto the
+    /// renderer without a change in their frames.
+    #[cfg(all(feature = "io", feature = "spa"))]
+    #[test]
+    fn the_same_gain_and_bits_as_the_captures_simulation() {
+        use crate::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+        use crate::pipeline::{sim_response, simulate_frame, SimSensor};
+        use crate::sensor::Geometry;
+        use crate::sky::sun::SunPosition;
+        let v = view();
+        let capture = Capture {
+            dir: ".".into(),
+            sensor: SensorSpec {
+                layout: Layout::Dofp { mosaic: crate::sensor::DEFAULT_MOSAIC },
+                geometry: Geometry { width_px: 306, height_px: 256, pixel_pitch_um: 27.6 },
+                bit_depth: 12,
+                black_level_dn: 64.0,
+            },
+            lens: LensSpec {
+                projection: Projection::Pinhole,
+                focal_length_mm: 8.0,
+                principal_point_px: (152.5, 127.5),
+            },
+            frames: vec![FrameSpec {
+                file: "frames/f000.png".into(),
+                sun: SunPosition::given(v.sun_azimuth_deg, v.sun_elevation_deg),
+                heading_deg: Some(v.heading_deg),
+                tilt_x_deg: Some(v.tilt_x_deg),
+                tilt_y_deg: Some(v.tilt_y_deg),
+                tilt_sigma_deg: None,
+                sun_sigma_deg: None,
+                yaw_deg: None,
+                yaw_sigma_deg: None,
+            }],
+        };
+        let mut effects = EffectSet::new();
+        effects.set("lens_diattenuation", "rho2", 0.3).unwrap();
+        let sim = SimSensor { seed: 4, ..SimSensor::samples(4) };
+        let resp = sim_response(&capture, &sim, None).unwrap();
+        let FrameData::Mosaic { dn, .. } = simulate_frame(&capture, 0, &effects.model(), &resp, &sim, None) else {
+            panic!("a dofp capture renders a mosaic")
+        };
+        let mut cfg = RendererConfig::dofp(capture.intrinsics(), 306, 256, Response::samples(1.0));
+        cfg.effects = effects;
+        let mut r = Renderer::new(cfg).unwrap();
+        assert_eq!(r.expose(&v, sim.peak_fraction).unwrap(), resp.gain_dn);
+        assert_eq!(r.config().response, resp);
+        assert_eq!(r.raw_frame(&v, seed(4)).unwrap().dn, dn);
+    }
+
     #[test]
     fn the_compass_reads_the_views_heading_back_within_its_sigma() {
         let r = exposed(Response::samples(1.0));
