@@ -250,7 +250,12 @@ impl Calibration {
     pub fn write_pixels(&self, dir: &Path) -> Result<()> {
         let Some(px) = &self.pixels else { return Ok(()) };
         let present = px.present();
-        crate::capture::write_exr_layers_fast(&dir.join(PIXELS_FILE), px.width_px as u32, px.height_px as u32, &present)
+        crate::output::exr::write_exr_layers_fast(
+            &dir.join(PIXELS_FILE),
+            px.width_px as u32,
+            px.height_px as u32,
+            &present,
+        )
     }
 
     /// Reads a calibration file.
@@ -310,7 +315,7 @@ fn read_pixels(path: &Path, t: &toml::Table) -> Result<PixelMaps> {
         }
     }
     let exr_path = path.parent().unwrap_or(Path::new(".")).join(file);
-    let (ew, eh, layers) = crate::capture::read_exr_layers(&exr_path)?;
+    let (ew, eh, layers) = crate::output::exr::read_exr_layers(&exr_path)?;
     if (ew as usize, eh as usize) != (w, h) {
         return Err(err(format!("{} is {ew} × {eh} px but width_px × height_px is {w} × {h}", exr_path.display())));
     }

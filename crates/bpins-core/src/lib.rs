@@ -16,10 +16,11 @@
 //! | the seed paper's error analysis over any sensor | [`SweepSpec`], [`run_to_dir`] |
 //! | north and place from the sky over time, no GNSS | [`locate()`] |
 //! | AoP and DoLP maps of a raw frame | [`stokes_maps`] |
+//! | a sky's Stokes, AoP and DoLP maps, a sensor's raw DN frames (seeded noise), a trial of the seed paper's Monte Carlo | [`render::Renderer`], [`render::paper_trial`] |
 //! | what can be simulated and fitted: lens and sensor effects, scene elements | [`catalog`], [`effects`], [`scene`] |
 //!
 //! The camera and sensor descriptions these take are [`camera`] and [`sensor`];
-//! errors are typed ([`Error`], [`compass::CompassError`], [`LocateError`]).
+//! errors are typed ([`Error`], [`compass::CompassError`], [`LocateError`], [`render::RenderError`]).
 //! Adding an effect or a scene element is one module and one registry line
 //! (`docs/adding-an-effect.md`); everything else in the crate is the house behind the
 //! front door, private (the workspace's own crates reach it through a hidden
@@ -61,6 +62,7 @@ pub mod compass;
 pub mod conventions;
 pub mod effects;
 pub mod error;
+pub mod render;
 pub mod scene;
 pub mod sensor;
 

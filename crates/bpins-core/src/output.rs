@@ -17,6 +17,8 @@
 //! the usual 022), not the temporary file's private 0600, so a result folder shared
 //! with a colleague or a web server is readable as its umask says.
 
+pub(crate) mod exr;
+
 use crate::error::{Error, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};

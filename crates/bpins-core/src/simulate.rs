@@ -18,6 +18,14 @@ use rayon::prelude::*;
 /// Renders a DoFP mosaic (`w × h`, row-major DN): each pixel its own ray and analyzer.
 pub fn render_mosaic(f: &ChainFrame, w: usize, h: usize, mosaic: &[[Channel; 2]; 2]) -> Vec<f32> {
     let mut out = vec![0f32; w * h];
+    render_mosaic_into(f, w, h, mosaic, &mut out);
+    out
+}
+
+/// [`render_mosaic`] into the caller's buffer `out` (`w × h`, row-major; rows past
+/// `h` are left alone): bitwise the same DN, no allocation but the row buffers.
+pub fn render_mosaic_into(f: &ChainFrame, w: usize, h: usize, mosaic: &[[Channel; 2]; 2], out: &mut [f32]) {
+    let out = &mut out[..w * h];
     out.par_chunks_mut(w.max(1)).enumerate().for_each_init(
         || (vec![0.0; w], NoiseRows::default(), CrosstalkRows::default()),
         |(signal, scratch, xt), (v, row)| {
@@ -28,7 +36,6 @@ pub fn render_mosaic(f: &ChainFrame, w: usize, h: usize, mosaic: &[[Channel; 2];
             sensor_dn_row(f, (v * w) as u32, chans, &signal[..row.len()], scratch, row);
         },
     );
-    out
 }
 
 /// Heading sums of a DoFP frame (`w × h`) reconstructed as 2 × 2 superpixels, fused:

@@ -7,7 +7,7 @@
 use std::collections::BTreeSet;
 
 const FRONT: &[&str] =
-    &["calibration", "camera", "catalog", "compass", "conventions", "effects", "error", "scene", "sensor"];
+    &["calibration", "camera", "catalog", "compass", "conventions", "effects", "error", "render", "scene", "sensor"];
 
 fn lib_rs() -> String {
     std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/src/lib.rs")).expect("src/lib.rs")
@@ -34,8 +34,17 @@ fn only_the_front_doors_modules_are_public() {
 fn the_front_page_says_where_to_start() {
     let text = lib_rs();
     assert!(text.contains("//! # Where to start"), "the crate's front page lost its table");
-    for entry in ["compass::Compass", "Capture", "fit()", "diagnose()", "calibrate", "SweepSpec", "locate()", "catalog"]
-    {
+    for entry in [
+        "compass::Compass",
+        "Capture",
+        "fit()",
+        "diagnose()",
+        "calibrate",
+        "SweepSpec",
+        "locate()",
+        "catalog",
+        "render::Renderer",
+    ] {
         assert!(text.contains(&format!("[`{entry}`]")), "the front page does not point at `{entry}`");
     }
 }

@@ -3,12 +3,9 @@
 use crate::compass::{mosaic_of, projection};
 use crate::{finite, py_err, whole};
 use bpins_core::effects::EffectSet;
-use bpins_core::internal::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
-use bpins_core::internal::pipeline::{sim_chain_frame, sim_response, simulate_frame, SimSensor};
-use bpins_core::internal::recon::{angle_maps, colocated, Reconstructor};
-use bpins_core::internal::simulate::render_colocated;
-use bpins_core::internal::sky::sun::SunPosition;
-use bpins_core::sensor::{Channel, Geometry, Layout, Response};
+use bpins_core::render::{Renderer, RendererConfig, Stage, View};
+use bpins_core::sensor::{Geometry, Layout, Response};
+use bpins_core::{Capture, FrameSpec, LensSpec, NoiseIndex, SensorSpec, SunPosition};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -45,8 +42,9 @@ pub(crate) fn effect_set(effects: Option<BTreeMap<String, BTreeMap<String, f64>>
 ///
 /// Returns a dict: "mosaic" (uint16, height × width, DN, with shot and read noise),
 /// "aop_deg", "dolp", "aoe_deg" and "intensity_dn" (float32, height × width: the
-/// noise-free truth at each pixel as reconstructed with the true effects known; AoP
-/// in the image frame, counter-clockwise as displayed, (−90°, 90°]), and
+/// noise-free truth at each pixel, the light reaching its analyzer after the lens;
+/// AoP in the image frame, counter-clockwise as displayed, (−90°, 90°]; AoE about
+/// the true principal point; intensity in DN, the gain times Stokes S0), and
 /// "focal_length_px" and "principal_point_px" (the nominal camera). `effects` is
 /// {"effect": {"param": value}} with the names of `bpins.effects()`.
 #[pyfunction]
@@ -109,37 +107,43 @@ pub fn simulate<'py>(
     };
     // The capture's own rules (ranges, sizes) before anything is rendered.
     capture.validate().map_err(py_err)?;
-    let model = effect_set(effects)?.model();
-    let s = SimSensor {
-        peak_fraction: finite("peak_fraction", peak_fraction)?,
+    let frame = &capture.frames[0];
+    // The front door's renderer (bpins_core::render): the capture's camera, the
+    // sensor's response with its gain set from the peak, the effects as the truth.
+    let response = Response {
+        black_level_dn: capture.sensor.black_level_dn,
         read_noise_dn: finite("read_noise_dn", read_noise_dn)?,
         system_gain_dn_per_e: finite("system_gain_dn_per_e", system_gain_dn_per_e)?,
-        dsnu_dn: 0.0,
-        prnu: 0.0,
-        dmax: finite("dmax", dmax)?,
-        seed,
+        bit_depth,
+        quantize: true,
+        ..Response::ideal(1.0)
     };
+    let mut cfg = RendererConfig::dofp(capture.intrinsics(), width_px as usize, height_px as usize, response);
+    cfg.layout = capture.sensor.layout.clone();
+    cfg.effects = effect_set(effects)?;
+    cfg.dmax = finite("dmax", dmax)?;
+    let view = View {
+        sun_azimuth_deg: frame.sun.azimuth_deg,
+        sun_elevation_deg: frame.sun.elevation_deg,
+        heading_deg,
+        tilt_x_deg,
+        tilt_y_deg,
+    };
+    let peak_fraction = finite("peak_fraction", peak_fraction)?;
     let (w, h) = (width_px as usize, height_px as usize);
     let (dn, truth) = py
-        .detach(|| -> bpins_core::Result<_> {
-            let resp = sim_response(&capture, &s, None)?;
-            let FrameData::Mosaic { dn, .. } = simulate_frame(&capture, 0, &model, &resp, &s, None) else {
-                unreachable!("a dofp capture renders a mosaic")
-            };
-            // The truth: the same chain without noise or quantisation, reconstructed
-            // with the true effects known.
-            let ideal = Response::ideal(resp.gain_dn);
-            let f = sim_chain_frame(&capture, 0, &model, &ideal, &s, None);
-            let planes = render_colocated(&f, w, h, &Channel::ALL);
-            let rec = Reconstructor::new(&model, 0.0, &Channel::ALL)?;
-            let refs: Vec<(Channel, &[f32])> =
-                Channel::ALL.iter().copied().zip(planes.iter().map(|p| p.as_slice())).collect();
-            let img = colocated(&refs, w, h, &rec, f64::MAX);
-            let [aop, dolp, aoe] = angle_maps(&img, &capture.intrinsics());
-            let intensity: Vec<f32> = img.iqu.iter().map(|s| s[0] as f32).collect();
-            Ok((dn.into_iter().map(|x| x as u16).collect::<Vec<u16>>(), [aop, dolp, aoe, intensity]))
+        .detach(|| -> Result<_, bpins_core::render::RenderError> {
+            let mut renderer = Renderer::new(cfg)?;
+            let gain_dn = renderer.expose(&view, peak_fraction)?;
+            let raw = renderer.raw_frame(&view, NoiseIndex { seed, trial: 0, frame: 0 })?;
+            let mut dn = Vec::new();
+            raw.to_u16_into(&mut dn);
+            // The truth: the same chain without noise, what reaches the analyzers.
+            let m = renderer.sky_maps(&view, Stage::Analyzers)?;
+            let intensity: Vec<f32> = m.s0.iter().map(|&s| (s as f64 * gain_dn) as f32).collect();
+            Ok((dn, [m.aop_deg, m.dolp, m.aoe_deg, intensity]))
         })
-        .map_err(py_err)?;
+        .map_err(render_err)?;
     let [aop, dolp, aoe, intensity] = truth;
     let out = PyDict::new(py);
     out.set_item("mosaic", array2(py, dn, h, w)?)?;
@@ -150,4 +154,13 @@ pub fn simulate<'py>(
     out.set_item("focal_length_px", capture.focal_length_px())?;
     out.set_item("principal_point_px", capture.lens.principal_point_px)?;
     Ok(out)
+}
+
+/// A renderer's error as Python's: the chain's own as `py_err` maps it, the rest
+/// (a configuration or a view out of range) as `ValueError`.
+fn render_err(e: bpins_core::render::RenderError) -> PyErr {
+    match e {
+        bpins_core::render::RenderError::Core(e) => py_err(e),
+        e => PyValueError::new_err(e.to_string()),
+    }
 }

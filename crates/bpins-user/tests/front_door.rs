@@ -185,3 +185,58 @@ fn never_the_house_behind_the_front_door() {
         assert!(!text.contains(&word), "{} names `{word}`", f.display());
     }
 }
+
+#[test]
+fn a_skys_maps_and_a_sensors_raw_frames_simulated() {
+    use bpins_core::camera::{Intrinsics, Projection};
+    use bpins_core::render::{
+        paper_trial, ErrorSource, PaperConfig, RawFrame, RenderError, Renderer, RendererConfig, SkyMaps, Stage,
+        TrialResult, View,
+    };
+    use bpins_core::scene::FieldScene;
+    use bpins_core::sensor::Response;
+    use bpins_core::NoiseIndex;
+
+    let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+    let mut cfg = RendererConfig::dofp(lens, 306, 256, Response::samples(1.0));
+    cfg.effects.parse_assignment("array_rotation.dtheta_deg=0.2").unwrap();
+    let mut scene = FieldScene::new(3);
+    scene.enable("sky_radiance").unwrap();
+    cfg.scene = scene;
+    let mut renderer = Renderer::new(cfg).expect("a renderer");
+    let view = View { sun_azimuth_deg: 40.0, sun_elevation_deg: 25.0, heading_deg: 30.0, ..View::default() };
+    assert!(renderer.expose(&view, 0.7).unwrap() > 0.0);
+
+    // Maps into the caller's buffers, kept from frame to frame.
+    let mut maps = SkyMaps::default();
+    for stage in [Stage::Sky, Stage::Analyzers] {
+        renderer.sky_maps_into(&view, stage, &mut maps).unwrap();
+        assert_eq!(maps.aop_deg.len(), 306 * 256);
+        assert!(maps.s0.iter().all(|&s| s > 0.0) && maps.dolp.iter().any(|&d| d > 0.3));
+    }
+
+    // The raw frame: the same seed, the same bits; read back by the compass.
+    let mut frame = RawFrame::default();
+    let noise = NoiseIndex { seed: 11, trial: 0, frame: 0 };
+    renderer.raw_frame_into(&view, noise, &mut frame).unwrap();
+    assert_eq!(frame, renderer.raw_frame(&view, noise).unwrap());
+    let mut raw = Vec::new();
+    frame.to_u16_into(&mut raw);
+    let mut compass = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+    let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+    let fix = compass.heading(RawImage::packed(&raw, 306, 256), sun, Attitude::default()).unwrap();
+    let err = wrap_deg_180(fix.heading_deg().unwrap() - 30.0);
+    // The compass knows nothing of the array's 0.2° turn: within it and 3σ.
+    assert!(err.abs() < 0.2 + 3.0 * fix.sigma_deg().unwrap(), "{err}° off");
+
+    // A view out of range: an error the caller can match on.
+    match renderer.raw_frame(&View { sun_elevation_deg: 95.0, ..view }, noise) {
+        Err(RenderError::View(_)) => {}
+        other => panic!("{:?}", other.map(|f| f.width_px)),
+    }
+
+    // One trial of the seed paper's Monte Carlo, at a quarter of its resolution.
+    let paper = PaperConfig { width_px: 306, height_px: 256, pixel_pitch_um: 13.8, ..PaperConfig::default() };
+    let t: TrialResult = paper_trial(&paper, ErrorSource::ChannelResponse, 0).expect("a trial");
+    assert!(!t.errors.is_empty() && t.errors.iter().all(|(_, _, e)| e.abs() < 1.0));
+}

@@ -1,6 +1,6 @@
 //! Frame images of a `bpins-capture/1` capture (docs/spec/CAPTURE.md, "Image
 //! files"): decoding and checking on read, checking and encoding on write (EXR
-//! files go through `exr.rs`).
+//! frames' headers are checked in `exr.rs`, EXR files read and written in `output/exr.rs`).
 //!
 //! * `dofp`: one single-channel image of the raw mosaic in DN: 16-bit grayscale PNG
 //!   or TIFF, or a one-channel EXR (any channel name; written as `DN`). An 8-bit
@@ -20,7 +20,6 @@
 
 use std::fs::File;
 use std::io::BufReader;
-use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 
 use image::{DynamicImage, ImageBuffer, ImageFormat, ImageReader, Luma};
@@ -39,10 +38,7 @@ pub(crate) fn io(path: &Path, source: std::io::Error) -> Error {
 }
 
 /// Runs a decoder or encoder; a panic inside it becomes an error about `path`.
-pub(crate) fn guarded<T>(path: &Path, f: impl FnOnce() -> Result<T>) -> Result<T> {
-    catch_unwind(AssertUnwindSafe(f))
-        .unwrap_or_else(|_| Err(err(path, "the image library failed on this file (corrupt or unsupported)")))
-}
+pub(crate) use crate::output::exr::guarded;
 
 pub(crate) fn check_size(path: &Path, label: &str, got: (usize, usize), want: (u32, u32)) -> Result<()> {
     if got != (want.0 as usize, want.1 as usize) {
@@ -184,8 +180,8 @@ pub(crate) fn to_u16(dn: &[f32]) -> Vec<u16> {
 pub(crate) fn write_dofp(path: &Path, width_px: u32, height_px: u32, dn: &[f32], replace: Replace) -> Result<()> {
     let kind = spec::image_kind(path);
     if kind == Some("exr") {
-        let image = super::exr::exr_image(path, width_px, height_px, &[("DN", dn)])?;
-        return output::write_with(path, replace, |w| super::exr::write_exr_to(path, w, image));
+        let image = crate::output::exr::exr_image(path, width_px, height_px, &[("DN", dn)])?;
+        return output::write_with(path, replace, |w| crate::output::exr::write_exr_to(path, w, image));
     }
     let format = match kind {
         Some("png") => ImageFormat::Png,
@@ -210,8 +206,8 @@ pub(crate) fn write_colocated(
     replace: Replace,
 ) -> Result<()> {
     let layers: Vec<(&str, &[f32])> = planes.iter().map(|(c, v)| (c.exr_name(), v.as_slice())).collect();
-    let image = super::exr::exr_image(path, width_px, height_px, &layers)?;
-    output::write_with(path, replace, |w| super::exr::write_exr_to(path, w, image))
+    let image = crate::output::exr::exr_image(path, width_px, height_px, &layers)?;
+    output::write_with(path, replace, |w| crate::output::exr::write_exr_to(path, w, image))
 }
 
 /// Checks that `data` fits frame `i` of capture `c` and will read back (before any

@@ -4,7 +4,7 @@
 //! A capture is a folder holding `capture.toml` and the frame images it names.
 //! [`Capture::load`] parses (`spec.rs`) and validates (`validate.rs`) `capture.toml`
 //! and checks that every frame file exists; [`Capture::read_frame`] decodes and
-//! checks one image (`images.rs`, `exr.rs`); [`Capture::write`] writes a new capture
+//! checks one image (`images.rs`, `exr.rs`; EXR files through `output/exr.rs`); [`Capture::write`] writes a new capture
 //! into a new folder (`toml_out.rs` writes the toml). Conventions (pixels, angles,
 //! mosaic) are those of CONVENTIONS.md.
 //!
@@ -35,8 +35,8 @@ mod writer;
 use std::fs;
 use std::path::{Component, Path, PathBuf};
 
+pub use crate::output::exr::{read_exr_layers, write_exr_layers, write_exr_layers_fast, ExrLayers};
 pub use colour::{colour_period, ColourPeriod};
-pub use exr::{read_exr_layers, write_exr_layers, write_exr_layers_fast, ExrLayers};
 pub use lab::{LabCapture, LabFrame};
 
 /// The message of the [`Error::Capture`] for a folder without `capture.toml` (a

@@ -5,8 +5,9 @@
 //! are the compass's own.
 
 use super::*;
+use crate::calibration::Calibration;
 use crate::capture::{Capture, FrameData, FrameSpec};
-use crate::sensor::Layout;
+use crate::sensor::{Layout, DEFAULT_MOSAIC};
 
 impl Compass {
     /// A compass for the frames of capture `c` (`capture.toml`: its camera, sensor

@@ -44,6 +44,7 @@
 
 mod json;
 pub mod pairs;
+mod raise;
 mod refits;
 pub mod remains;
 pub mod sizes;

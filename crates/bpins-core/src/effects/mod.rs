@@ -31,6 +31,15 @@
 //! Adding an effect is its module, its WGSL file where it acts per pixel, and one line
 //! in [`REGISTRY`], for either kind: `docs/adding-an-effect.md`.
 //!
+//! Where things live: this file, what an effect is ([`EffectDef`], [`Stage`], how the
+//! fit differentiates it, when a sky capture cannot separate it) and the registry
+//! itself; `hooks.rs`, how an effect enters the chain ([`Apply`]) and the signature and
+//! parameter vector of each kind of hook; `slots.rs`, the per-stage tables derived from
+//! the registry at compile time (counts, effects, functions, slots, neutral vectors);
+//! `model.rs`, the chain's parameters ([`Model`], one block per stage) and
+//! [`EffectSet`], which folds a selection of effects into them; `tests.rs`, the
+//! registry-wide tests. Each effect's own tests sit in its module.
+//!
 //! Catalog: docs/spec/EFFECTS.md, every effect of it.
 
 pub(crate) mod analyzer_angles;
@@ -56,11 +65,25 @@ pub(crate) mod stray_light;
 pub(crate) mod vignetting;
 pub(crate) mod window;
 
-use crate::camera::RayGeometry;
-use crate::catalog::{self, Entry, Kind, Selection};
+mod hooks;
+mod model;
+mod slots;
+
+use crate::catalog::{self, Entry, Kind};
 use crate::error::Result;
-use crate::stokes::{Analyzer, Stokes};
-use glam::{DMat3, DVec3};
+
+pub use hooks::{
+    AnalyzerFn, AnalyzerParams, Apply, FrameContext, MosaicFn, PixelAnalyzer, PixelSite, RayFn, RayParams, SensorFn,
+    SensorParams, SkyFn, SkyParams, SKY_WIDTH,
+};
+pub use model::{ChannelBlock, EffectSet, GeometryBlock, Model, SkyBlock};
+pub use slots::{
+    analyzer_slot, frame_ray_params, frame_sky_params, neutral_analyzer_params, neutral_mosaic_params,
+    neutral_ray_params, neutral_sensor_params, neutral_sky_params, ray_slot, stage_slot, ANALYZER_COUNT,
+    ANALYZER_EFFECTS, MOSAIC_COUNT, MOSAIC_EFFECTS, RAY_COUNT, RAY_EFFECTS, SENSOR_COUNT, SENSOR_EFFECTS, SKY_COUNT,
+    SKY_EFFECTS,
+};
+pub(crate) use slots::{ANALYZER_FNS, MOSAIC_FNS, RAY_FNS, SENSOR_FNS, SKY_FNS};
 
 /// Where in the chain an effect acts (for listings and documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,150 +180,6 @@ pub struct Inseparable {
     pub why: fn(dmax_fixed: bool) -> String,
 }
 
-/// The per-frame parameter vector of one per-pixel effect (WGSL `vec4<f64>`).
-pub type RayParams = [f64; 4];
-
-/// A per-pixel effect's function: `(its RayParams, the ray, meridional-frame Stokes) →
-/// meridional-frame Stokes`, pure; WGSL `fn name(p: vec4<f64>, g: RayGeometry, s: Stokes) -> Stokes`.
-pub type RayFn = fn(p: &RayParams, g: &RayGeometry, s: Stokes) -> Stokes;
-
-/// What a per-pixel or sky effect may know of the frame beyond its own values
-/// (`Apply::Ray`'s and `Apply::Sky`'s `frame`): the sun, a unit vector in the true
-/// camera frame, and the true camera's axes in the ENU world (columns).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrameContext {
-    pub sun_cam: DVec3,
-    pub world_from_cam: DMat3,
-}
-
-/// How many 4-vectors a sky effect's frame vector holds: room for a frame's constants
-/// of the sky model (the quartic sky's world axes and neutral points take all five).
-pub const SKY_WIDTH: usize = 5;
-
-/// The per-frame vector of one sky effect (WGSL `array<vec4<f64>, SKY_WIDTH>`).
-pub type SkyParams = [[f64; 4]; SKY_WIDTH];
-
-/// A sky effect's function: `(its SkyParams, the sun (unit, camera frame), the sky's
-/// peak DoLP d_max, the ray, the sky's meridional-frame Stokes vector so far) → the
-/// sky's meridional-frame Stokes vector`, pure; WGSL `fn name(p: array<vec4<f64>, 5>,
-/// sun: vec3<f64>, dmax: f64, g: RayGeometry, s: Stokes) -> Stokes`.
-pub type SkyFn = fn(p: &SkyParams, sun: DVec3, dmax: f64, g: &RayGeometry, s: Stokes) -> Stokes;
-
-/// The per-frame vector of one sensor or mosaic effect (WGSL `vec4<f64>`).
-pub type SensorParams = [f64; 4];
-
-/// A sensor effect's function: `(its SensorParams, the photo-signal above the offset
-/// (DN, after PRNU), the ADC's full scale (DN)) → the signal (DN)`, pure; WGSL
-/// `fn name(p: vec4<f64>, signal_dn: f64, full_scale_dn: f64) -> f64`.
-pub type SensorFn = fn(p: &SensorParams, signal_dn: f64, full_scale_dn: f64) -> f64;
-
-/// A mosaic effect's function: `(its SensorParams, a DoFP pixel's photo-signal, its
-/// four edge neighbours' (up, down, left, right; 0 outside the sensor), DN) → the
-/// pixel's photo-signal (DN)`, pure; WGSL `fn name(p: vec4<f64>, own: f64, up: f64,
-/// down: f64, left: f64, right: f64) -> f64`.
-pub type MosaicFn = fn(p: &SensorParams, own: f64, up: f64, down: f64, left: f64, right: f64) -> f64;
-
-/// The per-frame parameter vector of one analyzer effect (WGSL `array<vec4<f64>, 2>`:
-/// `p[0]` is `(x[0], …, x[3])`, `p[1]` is `(x[4], …, x[7])`).
-pub type AnalyzerParams = [f64; 8];
-
-/// Where an analyzer sits: pixel column `u` and row `v`, its channel index `ch`, and its
-/// position relative to the principal point, px (WGSL struct `PixelSite`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PixelSite {
-    pub u: u32,
-    pub v: u32,
-    pub ch: u32,
-    pub x_px: f64,
-    pub y_px: f64,
-}
-
-/// One pixel's analyzer and the gain behind it, DN per unit radiance (WGSL struct
-/// `PixelAnalyzer`): what the analyzer effects change.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PixelAnalyzer {
-    pub analyzer: Analyzer,
-    pub gain: f64,
-}
-
-/// An analyzer effect's function: `(its AnalyzerParams, the pixel's site, its ray, the
-/// pixel's analyzer) → the pixel's analyzer`, pure; WGSL `fn name(p: array<vec4<f64>, 2>,
-/// site: PixelSite, g: RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer`.
-pub type AnalyzerFn = fn(p: &AnalyzerParams, site: &PixelSite, g: &RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer;
-
-/// How an effect enters the chain.
-#[derive(Clone, Copy, Debug)]
-pub enum Apply {
-    /// Adds the effect's parameter `values` (in `params` order) into the frame's
-    /// parameter block `model`, which both backends read alike.
-    Frame(fn(values: &[f64], model: &mut Model)),
-    /// Acts on every ray's Stokes vector in its meridional frame, after the sky and the
-    /// scene and before the rotation to the image frame, in registry order. `params`
-    /// turns the values into the per-pixel vector once per frame (neutral values must
-    /// give a vector at which `pixel` is exactly the identity); `pixel` is the per-pixel
-    /// function, named as the effect and its WGSL twin. `frame`, where given, completes
-    /// the vector with the frame's context ([`FrameContext`]: the sun in the camera
-    /// frame) when the chain's frame is built (`ChainFrame::new`; it must leave a
-    /// neutral vector as it is), so the pixel function and its WGSL twin read the
-    /// sun from their vector on both backends (`stray_light`).
-    Ray {
-        params: fn(values: &[f64]) -> RayParams,
-        frame: Option<fn(p: RayParams, context: &FrameContext) -> RayParams>,
-        pixel: RayFn,
-    },
-    /// Changes each pixel's analyzer (angle, ε) and the gain behind it, per pixel and
-    /// channel, in the image frame: after the channel's analyzer (`analyzer_angles`,
-    /// `extinction_ratio`, `array_rotation`) and gain (`channel_response`), in registry
-    /// order. `params` turns the values into the per-pixel vector once per frame
-    /// (neutral values must give a vector at which `pixel` is exactly the identity);
-    /// `pixel` reads the pixel's site and ray (`chain::site_signal_dn`).
-    Analyzer { params: fn(values: &[f64]) -> AnalyzerParams, pixel: AnalyzerFn },
-    /// Changes the sky's Stokes vector along each ray, in its meridional frame: after
-    /// the Rayleigh sky (`sky::sky_stokes`) and before the scene elements, in registry
-    /// order. `params` turns the values into the frame vector (neutral values must give
-    /// a vector at which `pixel` is exactly the identity); `frame`, where given,
-    /// completes it with the frame's context ([`FrameContext`]: the sun, the camera's
-    /// axes in the world; it must leave a neutral vector as it is), so the sky model's
-    /// frame constants are computed once per frame on the host for both backends
-    /// (`sky_neutral_points`).
-    Sky {
-        params: fn(values: &[f64]) -> SkyParams,
-        frame: Option<fn(p: SkyParams, context: &FrameContext) -> SkyParams>,
-        pixel: SkyFn,
-    },
-    /// Changes each pixel's photo-signal (DN above the offset, after PRNU) before the
-    /// offsets, noise and rounding (`chain::sensor_dn`), in registry order; applied at
-    /// every pixel on both backends, so `pixel` at the neutral vector must be exactly
-    /// the identity and cheap (`sensor_nonlinearity`).
-    Sensor { params: fn(values: &[f64]) -> SensorParams, pixel: SensorFn },
-    /// Mixes each DoFP pixel's photo-signal with its four edge neighbours'
-    /// (`chain::mosaic_pixel_signal_dn`), in registry order; where one is on, every
-    /// pixel's neighbours are evaluated (`crosstalk`).
-    Mosaic { params: fn(values: &[f64]) -> SensorParams, pixel: MosaicFn },
-}
-
-impl Apply {
-    const fn is_ray(&self) -> bool {
-        matches!(self, Apply::Ray { .. })
-    }
-
-    const fn is_sky(&self) -> bool {
-        matches!(self, Apply::Sky { .. })
-    }
-
-    const fn is_sensor(&self) -> bool {
-        matches!(self, Apply::Sensor { .. })
-    }
-
-    const fn is_mosaic(&self) -> bool {
-        matches!(self, Apply::Mosaic { .. })
-    }
-
-    const fn is_analyzer(&self) -> bool {
-        matches!(self, Apply::Analyzer { .. })
-    }
-}
-
 impl EffectDef {
     /// How the fit differentiates parameter `i` ([`EffectDef::derivatives`]).
     pub fn derivative(&self, i: usize) -> ParamDerivative {
@@ -310,45 +189,12 @@ impl EffectDef {
     pub(crate) fn neutral_values(&self) -> Vec<f64> {
         self.params.iter().map(|p| p.neutral).collect()
     }
-
-    /// The per-pixel vector at neutral values (`None` for a frame effect).
-    fn neutral_ray_params(&self) -> Option<RayParams> {
-        match self.apply {
-            Apply::Ray { params, .. } => Some(params(&self.neutral_values())),
-            _ => None,
-        }
-    }
-
-    /// The analyzer vector at neutral values (`None` for another kind of effect).
-    fn neutral_analyzer_params(&self) -> Option<AnalyzerParams> {
-        match self.apply {
-            Apply::Analyzer { params, .. } => Some(params(&self.neutral_values())),
-            _ => None,
-        }
-    }
-
-    /// The vector of a sky, sensor or mosaic effect at neutral values (`None` for another
-    /// kind of effect).
-    fn neutral_stage_params(&self) -> Option<StageParams> {
-        let v = self.neutral_values();
-        match self.apply {
-            Apply::Sky { params, .. } => Some(StageParams::Sky(params(&v))),
-            Apply::Sensor { params, .. } | Apply::Mosaic { params, .. } => Some(StageParams::Vec4(params(&v))),
-            _ => None,
-        }
-    }
-}
-
-/// A stage hook's vector at neutral values ([`EffectDef::neutral_stage_params`]).
-enum StageParams {
-    Sky(SkyParams),
-    Vec4(SensorParams),
 }
 
 /// Every effect bpins knows, in chain order. Adding an effect: one module, one line here.
 pub static REGISTRY: &[&EffectDef] = ALL;
 
-/// The registry as a constant, from which the per-pixel tables below are derived at
+/// The registry as a constant, from which the per-stage tables (`slots.rs`) are derived at
 /// compile time.
 const ALL: &[&EffectDef] = &[
     &principal_point::EFFECT,
@@ -375,324 +221,6 @@ const ALL: &[&EffectDef] = &[
     &sensor_nonlinearity::EFFECT,
 ];
 
-/// How many effects act per pixel ([`Apply::Ray`]): the length of [`Model::ray`].
-pub const RAY_COUNT: usize = {
-    let mut n = 0;
-    let mut i = 0;
-    while i < ALL.len() {
-        if ALL[i].apply.is_ray() {
-            n += 1;
-        }
-        i += 1;
-    }
-    n
-};
-
-/// The per-pixel effects in chain order: slot `k` of [`Model::ray`] is `RAY_EFFECTS[k]`.
-pub static RAY_EFFECTS: [&EffectDef; RAY_COUNT] = {
-    let mut out = [ALL[0]; RAY_COUNT];
-    let (mut i, mut k) = (0, 0);
-    while i < ALL.len() {
-        if ALL[i].apply.is_ray() {
-            out[k] = ALL[i];
-            k += 1;
-        }
-        i += 1;
-    }
-    out
-};
-
-/// The per-pixel functions in chain order, as constants the chain calls directly
-/// (`chain::ray_effects`; a constant table lets the compiler inline each call).
-pub(crate) const RAY_FNS: [RayFn; RAY_COUNT] = {
-    let mut out: [RayFn; RAY_COUNT] = [identity_ray; RAY_COUNT];
-    let (mut i, mut k) = (0, 0);
-    while i < ALL.len() {
-        if let Apply::Ray { pixel, .. } = ALL[i].apply {
-            out[k] = pixel;
-            k += 1;
-        }
-        i += 1;
-    }
-    out
-};
-
-fn identity_ray(_: &RayParams, _: &RayGeometry, s: Stokes) -> Stokes {
-    s
-}
-
-/// How many effects act on each pixel's analyzer ([`Apply::Analyzer`]): the length of
-/// [`Model::analyzer`].
-pub const ANALYZER_COUNT: usize = {
-    let mut n = 0;
-    let mut i = 0;
-    while i < ALL.len() {
-        if ALL[i].apply.is_analyzer() {
-            n += 1;
-        }
-        i += 1;
-    }
-    n
-};
-
-/// The analyzer effects in chain order: slot `k` of [`Model::analyzer`] is `ANALYZER_EFFECTS[k]`.
-pub static ANALYZER_EFFECTS: [&EffectDef; ANALYZER_COUNT] = {
-    let mut out = [ALL[0]; ANALYZER_COUNT];
-    let (mut i, mut k) = (0, 0);
-    while i < ALL.len() {
-        if ALL[i].apply.is_analyzer() {
-            out[k] = ALL[i];
-            k += 1;
-        }
-        i += 1;
-    }
-    out
-};
-
-/// The analyzer effects' functions in chain order (`chain::analyzer_effects`).
-pub(crate) const ANALYZER_FNS: [AnalyzerFn; ANALYZER_COUNT] = {
-    let mut out: [AnalyzerFn; ANALYZER_COUNT] = [identity_analyzer; ANALYZER_COUNT];
-    let (mut i, mut k) = (0, 0);
-    while i < ALL.len() {
-        if let Apply::Analyzer { pixel, .. } = ALL[i].apply {
-            out[k] = pixel;
-            k += 1;
-        }
-        i += 1;
-    }
-    out
-};
-
-fn identity_analyzer(_: &AnalyzerParams, _: &PixelSite, _: &RayGeometry, a: PixelAnalyzer) -> PixelAnalyzer {
-    a
-}
-
-/// The slot of analyzer effect `def` in [`Model::analyzer`] (`None` for another kind).
-pub fn analyzer_slot(def: &EffectDef) -> Option<usize> {
-    ANALYZER_EFFECTS.iter().position(|e| e.name == def.name)
-}
-
-/// Every analyzer effect at its neutral vector: the ideal chain's [`Model::analyzer`].
-pub fn neutral_analyzer_params() -> &'static [AnalyzerParams; ANALYZER_COUNT] {
-    static NEUTRAL: std::sync::LazyLock<[AnalyzerParams; ANALYZER_COUNT]> = std::sync::LazyLock::new(|| {
-        ANALYZER_EFFECTS.map(|e| e.neutral_analyzer_params().expect("ANALYZER_EFFECTS holds analyzer effects only"))
-    });
-    &NEUTRAL
-}
-
-/// The slot of per-pixel effect `def` in [`Model::ray`] (`None` for a frame effect).
-pub fn ray_slot(def: &EffectDef) -> Option<usize> {
-    RAY_EFFECTS.iter().position(|e| e.name == def.name)
-}
-
-/// The per-pixel effects' frame completions, slot by slot (`Apply::Ray::frame`).
-const RAY_FRAME_FNS: [Option<fn(RayParams, &FrameContext) -> RayParams>; RAY_COUNT] = {
-    let mut out: [Option<fn(RayParams, &FrameContext) -> RayParams>; RAY_COUNT] = [None; RAY_COUNT];
-    let (mut i, mut k) = (0, 0);
-    while i < ALL.len() {
-        if let Apply::Ray { frame, .. } = ALL[i].apply {
-            out[k] = frame;
-            k += 1;
-        }
-        i += 1;
-    }
-    out
-};
-
-/// The frame's per-pixel vectors: `ray` (`Model::ray`) with each effect's frame
-/// completion applied under `context` (`ChainFrame::ray`).
-pub fn frame_ray_params(ray: &[RayParams; RAY_COUNT], context: &FrameContext) -> [RayParams; RAY_COUNT] {
-    let mut out = *ray;
-    for (p, f) in out.iter_mut().zip(RAY_FRAME_FNS) {
-        if let Some(f) = f {
-            *p = f(*p, context);
-        }
-    }
-    out
-}
-
-/// Every per-pixel effect at its neutral vector: the ideal chain's [`Model::ray`].
-pub fn neutral_ray_params() -> &'static [RayParams; RAY_COUNT] {
-    static NEUTRAL: std::sync::LazyLock<[RayParams; RAY_COUNT]> = std::sync::LazyLock::new(|| {
-        RAY_EFFECTS.map(|e| e.neutral_ray_params().expect("RAY_EFFECTS holds per-pixel effects only"))
-    });
-    &NEUTRAL
-}
-
-/// How many effects of the registry `$is` selects (an `Apply::is_*`), at compile time.
-macro_rules! count_of {
-    ($is:ident) => {{
-        let (mut n, mut i) = (0, 0);
-        while i < ALL.len() {
-            if ALL[i].apply.$is() {
-                n += 1;
-            }
-            i += 1;
-        }
-        n
-    }};
-}
-
-/// The `$n` effects of the registry `$is` selects, in chain order, at compile time.
-macro_rules! effects_of {
-    ($is:ident, $n:expr) => {{
-        let mut out = [ALL[0]; $n];
-        let (mut i, mut k) = (0, 0);
-        while i < ALL.len() {
-            if ALL[i].apply.$is() {
-                out[k] = ALL[i];
-                k += 1;
-            }
-            i += 1;
-        }
-        out
-    }};
-}
-
-/// How many effects act on the sky ([`Apply::Sky`]): the length of [`Model::sky`].
-pub const SKY_COUNT: usize = count_of!(is_sky);
-
-/// The sky effects in chain order: slot `k` of [`Model::sky`] is `SKY_EFFECTS[k]`.
-pub static SKY_EFFECTS: [&EffectDef; SKY_COUNT] = effects_of!(is_sky, SKY_COUNT);
-
-/// The sky effects' functions in chain order (`chain::sky_effects`).
-pub(crate) const SKY_FNS: [SkyFn; SKY_COUNT] = {
-    let mut out: [SkyFn; SKY_COUNT] = [identity_sky; SKY_COUNT];
-    let (mut i, mut k) = (0, 0);
-    while i < ALL.len() {
-        if let Apply::Sky { pixel, .. } = ALL[i].apply {
-            out[k] = pixel;
-            k += 1;
-        }
-        i += 1;
-    }
-    out
-};
-
-fn identity_sky(_: &SkyParams, _: DVec3, _: f64, _: &RayGeometry, s: Stokes) -> Stokes {
-    s
-}
-
-/// The sky effects' frame completions, slot by slot (`Apply::Sky::frame`).
-const SKY_FRAME_FNS: [Option<fn(SkyParams, &FrameContext) -> SkyParams>; SKY_COUNT] = {
-    let mut out: [Option<fn(SkyParams, &FrameContext) -> SkyParams>; SKY_COUNT] = [None; SKY_COUNT];
-    let (mut i, mut k) = (0, 0);
-    while i < ALL.len() {
-        if let Apply::Sky { frame, .. } = ALL[i].apply {
-            out[k] = frame;
-            k += 1;
-        }
-        i += 1;
-    }
-    out
-};
-
-/// The frame's sky vectors: `sky` (`Model::sky`) with each effect's frame completion
-/// applied under `context` (`ChainFrame::sky`).
-pub fn frame_sky_params(sky: &[SkyParams; SKY_COUNT], context: &FrameContext) -> [SkyParams; SKY_COUNT] {
-    let mut out = *sky;
-    for (p, f) in out.iter_mut().zip(SKY_FRAME_FNS) {
-        if let Some(f) = f {
-            *p = f(*p, context);
-        }
-    }
-    out
-}
-
-/// How many effects act on the photo-signal ([`Apply::Sensor`]): the length of [`Model::sensor`].
-pub const SENSOR_COUNT: usize = count_of!(is_sensor);
-
-/// The sensor effects in chain order: slot `k` of [`Model::sensor`] is `SENSOR_EFFECTS[k]`.
-pub static SENSOR_EFFECTS: [&EffectDef; SENSOR_COUNT] = effects_of!(is_sensor, SENSOR_COUNT);
-
-/// The sensor effects' functions in chain order (`chain::sensor_effects`).
-pub(crate) const SENSOR_FNS: [SensorFn; SENSOR_COUNT] = {
-    let mut out: [SensorFn; SENSOR_COUNT] = [identity_sensor; SENSOR_COUNT];
-    let (mut i, mut k) = (0, 0);
-    while i < ALL.len() {
-        if let Apply::Sensor { pixel, .. } = ALL[i].apply {
-            out[k] = pixel;
-            k += 1;
-        }
-        i += 1;
-    }
-    out
-};
-
-fn identity_sensor(_: &SensorParams, signal_dn: f64, _: f64) -> f64 {
-    signal_dn
-}
-
-/// How many effects mix neighbouring DoFP pixels ([`Apply::Mosaic`]): the length of
-/// [`Model::mosaic`].
-pub const MOSAIC_COUNT: usize = count_of!(is_mosaic);
-
-/// The mosaic effects in chain order: slot `k` of [`Model::mosaic`] is `MOSAIC_EFFECTS[k]`.
-pub static MOSAIC_EFFECTS: [&EffectDef; MOSAIC_COUNT] = effects_of!(is_mosaic, MOSAIC_COUNT);
-
-/// The mosaic effects' functions in chain order (`chain::mosaic_effects`).
-pub(crate) const MOSAIC_FNS: [MosaicFn; MOSAIC_COUNT] = {
-    let mut out: [MosaicFn; MOSAIC_COUNT] = [identity_mosaic; MOSAIC_COUNT];
-    let (mut i, mut k) = (0, 0);
-    while i < ALL.len() {
-        if let Apply::Mosaic { pixel, .. } = ALL[i].apply {
-            out[k] = pixel;
-            k += 1;
-        }
-        i += 1;
-    }
-    out
-};
-
-fn identity_mosaic(_: &SensorParams, own: f64, _: f64, _: f64, _: f64, _: f64) -> f64 {
-    own
-}
-
-/// The slot of a sky, sensor or mosaic effect `def` in its stage's array of [`Model`]
-/// (`Model::sky`, `Model::sensor`, `Model::mosaic`; `None` for another kind).
-pub fn stage_slot(def: &EffectDef) -> Option<usize> {
-    let table: &[&EffectDef] = match def.apply {
-        Apply::Sky { .. } => &SKY_EFFECTS,
-        Apply::Sensor { .. } => &SENSOR_EFFECTS,
-        Apply::Mosaic { .. } => &MOSAIC_EFFECTS,
-        _ => return None,
-    };
-    table.iter().position(|e| e.name == def.name)
-}
-
-/// Every sky effect at its neutral vector: the ideal chain's [`Model::sky`].
-pub fn neutral_sky_params() -> &'static [SkyParams; SKY_COUNT] {
-    static NEUTRAL: std::sync::LazyLock<[SkyParams; SKY_COUNT]> = std::sync::LazyLock::new(|| {
-        SKY_EFFECTS.map(|e| match e.neutral_stage_params() {
-            Some(StageParams::Sky(p)) => p,
-            _ => unreachable!("SKY_EFFECTS holds sky effects only"),
-        })
-    });
-    &NEUTRAL
-}
-
-/// The neutral vectors of `effects` (sensor or mosaic effects).
-fn neutral_vec4_params<const N: usize>(effects: &[&EffectDef; N]) -> [SensorParams; N] {
-    effects.map(|e| match e.neutral_stage_params() {
-        Some(StageParams::Vec4(p)) => p,
-        _ => unreachable!("a sensor or mosaic effect has a 4-vector"),
-    })
-}
-
-/// Every sensor effect at its neutral vector: the ideal chain's [`Model::sensor`].
-pub fn neutral_sensor_params() -> &'static [SensorParams; SENSOR_COUNT] {
-    static NEUTRAL: std::sync::LazyLock<[SensorParams; SENSOR_COUNT]> =
-        std::sync::LazyLock::new(|| neutral_vec4_params(&SENSOR_EFFECTS));
-    &NEUTRAL
-}
-
-/// Every mosaic effect at its neutral vector: the ideal chain's [`Model::mosaic`].
-pub fn neutral_mosaic_params() -> &'static [SensorParams; MOSAIC_COUNT] {
-    static NEUTRAL: std::sync::LazyLock<[SensorParams; MOSAIC_COUNT]> =
-        std::sync::LazyLock::new(|| neutral_vec4_params(&MOSAIC_EFFECTS));
-    &NEUTRAL
-}
-
 /// Looks an effect up by name.
 pub fn find(name: &str) -> Result<&'static EffectDef> {
     catalog::find(name)
@@ -714,165 +242,6 @@ impl Entry for EffectDef {
     }
     fn params(&self) -> &'static [ParamSpec] {
         self.params
-    }
-}
-
-/// The geometry stage's parameter block: the true camera and its mount relative to
-/// the nominal ones (`Apply::Frame` effects fold into it: `principal_point`,
-/// `focal_length`, `radial_distortion`, `mount_tilt`). Angles in degrees.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GeometryBlock {
-    /// True principal point minus nominal, (x, y) px.
-    pub pp_offset_px: [f64; 2],
-    /// True focal length = nominal · (1 + focal_scale).
-    pub focal_scale: f64,
-    /// Radial distortion (k1, k2) of the normalised coordinates, added to the nominal.
-    pub distortion: [f64; 2],
-    /// Camera tilt on its mount about camera x then y, degrees.
-    pub mount_tilt_deg: [f64; 2],
-}
-
-impl Default for GeometryBlock {
-    fn default() -> Self {
-        GeometryBlock { pp_offset_px: [0.0; 2], focal_scale: 0.0, distortion: [0.0; 2], mount_tilt_deg: [0.0; 2] }
-    }
-}
-
-/// The sky stage's parameter block (`sky_depolarization` folds into it); the sky's
-/// per-ray effects are hooks ([`Model::sky`]).
-#[derive(Clone, Debug, PartialEq)]
-pub struct SkyBlock {
-    /// Factor on the scene's sky d_max (1: as the scene says).
-    pub dmax_factor: f64,
-}
-
-impl Default for SkyBlock {
-    fn default() -> Self {
-        SkyBlock { dmax_factor: 1.0 }
-    }
-}
-
-/// The four channels' parameter block, by channel index (0°, 45°, 90°, 135°): each
-/// channel's analyzer (analyzer stage) and the gain and offset behind it (sensor
-/// stage). `analyzer_angles`, `array_rotation`, `extinction_ratio` and
-/// `channel_response` fold into it; per-pixel analyzer and sensor effects are hooks.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ChannelBlock {
-    /// Each analyzer's angle minus nominal, degrees.
-    pub analyzer_delta_deg: [f64; 4],
-    /// Each analyzer's ε = 1/ER.
-    pub analyzer_eps: [f64; 4],
-    /// Relative gain of each channel (1 + gain_k); channel 0 is the reference.
-    pub gain: [f64; 4],
-    /// Offset of each channel, DN, added to the black level.
-    pub offset_dn: [f64; 4],
-}
-
-impl Default for ChannelBlock {
-    fn default() -> Self {
-        ChannelBlock { analyzer_delta_deg: [0.0; 4], analyzer_eps: [0.0; 4], gain: [1.0; 4], offset_dn: [0.0; 4] }
-    }
-}
-
-/// The chain's parameters: one block per stage (what `Apply::Frame` effects fold
-/// into) and one array per kind of hook (each effect's vector in its slot), the ideal
-/// chain plus what enabled effects put in. `Model::default()` is the ideal chain. No
-/// field is named after an effect.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Model {
-    /// The geometry stage: the true camera and mount.
-    pub geometry: GeometryBlock,
-    /// The sky stage's block: its peak DoLP.
-    pub sky_block: SkyBlock,
-    /// Each sky effect's vector, slot `k` for [`SKY_EFFECTS`]`[k]` (its neutral vector
-    /// where the effect is off), before the frame's completion.
-    pub sky: [SkyParams; SKY_COUNT],
-    /// Each per-pixel effect's vector, slot `k` for [`RAY_EFFECTS`]`[k]` (its neutral
-    /// vector where the effect is off). Read one through its module (e.g.
-    /// `lens_diattenuation::rho2`), never by a slot number written out.
-    pub ray: [RayParams; RAY_COUNT],
-    /// Each analyzer effect's vector, slot `k` for [`ANALYZER_EFFECTS`]`[k]` (its
-    /// neutral vector where the effect is off).
-    pub analyzer: [AnalyzerParams; ANALYZER_COUNT],
-    /// The analyzer and sensor stages' per-channel block.
-    pub channels: ChannelBlock,
-    /// Each sensor effect's vector, slot `k` for [`SENSOR_EFFECTS`]`[k]`.
-    pub sensor: [SensorParams; SENSOR_COUNT],
-    /// Each mosaic effect's vector, slot `k` for [`MOSAIC_EFFECTS`]`[k]`.
-    pub mosaic: [SensorParams; MOSAIC_COUNT],
-}
-
-impl Default for Model {
-    fn default() -> Self {
-        Model {
-            geometry: GeometryBlock::default(),
-            sky_block: SkyBlock::default(),
-            sky: *neutral_sky_params(),
-            ray: *neutral_ray_params(),
-            analyzer: *neutral_analyzer_params(),
-            channels: ChannelBlock::default(),
-            sensor: *neutral_sensor_params(),
-            mosaic: *neutral_mosaic_params(),
-        }
-    }
-}
-
-impl Model {
-    /// The camera `nominal` with this model's geometry folded in: principal point
-    /// moved, focal length scaled, radial distortion added. The chain's true camera,
-    /// and the camera a heading extractor assumes when the model is a calibration.
-    pub fn camera(&self, nominal: &crate::camera::Intrinsics) -> crate::camera::Intrinsics {
-        let g = &self.geometry;
-        crate::camera::Intrinsics {
-            f_px: nominal.f_px * (1.0 + g.focal_scale),
-            distortion: [nominal.distortion[0] + g.distortion[0], nominal.distortion[1] + g.distortion[1]],
-            cx_px: nominal.cx_px + g.pp_offset_px[0],
-            cy_px: nominal.cy_px + g.pp_offset_px[1],
-            ..*nominal
-        }
-    }
-
-    /// The vector of per-pixel effect `def` (its neutral vector where it is off).
-    ///
-    /// # Panics
-    /// If `def` is a frame effect, which has no per-pixel vector: a programming error.
-    pub fn ray_params(&self, def: &EffectDef) -> &RayParams {
-        &self.ray[ray_slot(def).unwrap_or_else(|| panic!("{} is not a per-pixel effect", def.name))]
-    }
-}
-
-/// A set of enabled effects with their values: the catalog's [`Selection`] of effects,
-/// which folds into the chain's parameter block ([`EffectSet::model`]).
-pub type EffectSet = Selection<EffectDef>;
-
-impl EffectSet {
-    /// Parses `effect.param=value` (as given to `--effect`) and applies it.
-    pub fn parse_assignment(&mut self, spec: &str) -> Result<()> {
-        self.parse(spec)
-    }
-
-    /// The chain's parameter block with every enabled effect folded in.
-    pub fn model(&self) -> Model {
-        let mut m = Model::default();
-        for (def, vals) in self.iter() {
-            match def.apply {
-                Apply::Frame(fold) => fold(vals, &mut m),
-                Apply::Ray { params, .. } => {
-                    m.ray[ray_slot(def).expect("a per-pixel effect has a slot")] = params(vals)
-                }
-                Apply::Analyzer { params, .. } => {
-                    m.analyzer[analyzer_slot(def).expect("an analyzer effect has a slot")] = params(vals)
-                }
-                Apply::Sky { params, .. } => m.sky[stage_slot(def).expect("a sky effect has a slot")] = params(vals),
-                Apply::Sensor { params, .. } => {
-                    m.sensor[stage_slot(def).expect("a sensor effect has a slot")] = params(vals)
-                }
-                Apply::Mosaic { params, .. } => {
-                    m.mosaic[stage_slot(def).expect("a mosaic effect has a slot")] = params(vals)
-                }
-            }
-        }
-        m
     }
 }
 

@@ -1,6 +1,7 @@
 //! Registry-wide tests: names, units, WGSL twins, the per-pixel tables, neutral identity.
 
 use super::*;
+use crate::stokes::{Analyzer, Stokes};
 
 #[test]
 fn names_are_unique_snake_case_with_units() {

@@ -62,7 +62,7 @@ pub fn write_maps(cal: &LabCalibration, dir: &Path) -> Result<Vec<MapFile>> {
     let (w, h) = (cal.maps.width_px as u32, cal.maps.height_px as u32);
     let maps = maps_of(cal);
     let layers: Vec<(&str, &[f32])> = maps.iter().map(|(n, _, m)| (n.as_str(), m.as_ref())).collect();
-    crate::capture::write_exr_layers_fast(&dir.join("maps.exr"), w, h, &layers)?;
+    crate::output::exr::write_exr_layers_fast(&dir.join("maps.exr"), w, h, &layers)?;
     let png_dir = dir.join("png");
     std::fs::create_dir_all(&png_dir).map_err(|e| Error::Io { path: png_dir.clone(), source: e })?;
     // One PNG per map, encoded in parallel (the EXR above compresses its blocks in

@@ -1,9 +1,10 @@
-//! What `bpins fit` and `bpins diagnose` are asked, and what they write, in one place
-//! for every front end (the CLI, the Python package): a [`FitRequest`] names the
-//! capture, the model's effects, the options and a calibration, and [`FitRequest::load`]
-//! checks it and reads the capture into [`FitOptions`] and frames; [`FitJson`] and
-//! [`crate::diagnose::DiagnosisJson`] are `fit.json` and `diagnosis.json` (docs/diagnose.md, "fit.json and
-//! diagnosis.json"), so every front end writes the same schema.
+//! What a fit (and a diagnosis, which reads its capture the same way) is asked, and
+//! what a fit writes, in one place for every front end (the CLI, the Python package): a
+//! [`FitRequest`] names the capture, the model's effects, the options and a
+//! calibration, and [`FitRequest::load`] checks it and reads the capture into
+//! [`FitOptions`] and frames; [`FitJson`] is `fit.json` (`diagnosis.json`, the
+//! diagnosis's own type, carries the same fields in each step; docs/diagnose.md,
+//! "fit.json and diagnosis.json"), so every front end writes the same schema.
 
 use crate::calibration::Calibration;
 use crate::capture::Capture;

@@ -19,12 +19,13 @@
 //! ([`Raised`]). Units: pixels per frame. Limits: one raise (the second fit's 1σ is
 //! what is reported, whatever it says). A diagnosis searches on its first sample
 //! and raises only its final model's fit (which effects are named is decided on the
-//! sample: the evidence of a weak effect grows with the budget, `--sample-budget`).
+//! sample: the evidence of a weak effect grows with the budget, `--sample-budget`);
+//! that raise lives with the diagnosis, which calls [`needed_budget`] here (the fit
+//! knows nothing of the diagnosis).
 
-use crate::diagnose::Diagnosis;
 use crate::error::Result;
 use crate::fit::input::request::{FitRequest, Loaded};
-use crate::fit::{fit_from, FitOptions, FitResult};
+use crate::fit::{fit_from, FitResult};
 
 /// The most pixels a frame a raise reads (4 × [`crate::fit::DEFAULT_BUDGET_PX`]: 8 MB a
 /// frame held), so that a raise keeps the fit's memory bounded by the frame: a frame
@@ -96,31 +97,6 @@ impl FitRequest {
         let mut r = fit_from(&l.capture, &l.frames, &l.options, Some(&first.state), progress)?;
         r.raised = Some(Raised { from_budget_px: first.sample.pixels_per_frame, to_budget_px: budget, params });
         Ok((l, r))
-    }
-}
-
-impl FitRequest {
-    /// After a diagnosis `d` of `loaded` (this request's frames): where the final
-    /// model's parameters need more pixels ([`needed_budget`]), the capture is read
-    /// again within that budget and the final model fitted again from the last step's
-    /// values; that fit replaces the last step's (its `raised` says so). The search
-    /// itself — which effects are named — ran on the first sample.
-    pub fn raise_diagnosis_where_needed(
-        &self,
-        loaded: Loaded,
-        mut d: Diagnosis,
-        progress: &dyn Fn(&str, usize),
-    ) -> Result<(Loaded, Diagnosis)> {
-        let Some(last) = d.steps.last_mut() else { return Ok((loaded, d)) };
-        let Some((budget, params)) = needed_budget(&last.fit) else { return Ok((loaded, d)) };
-        let again = FitRequest { sample_budget_px: budget, ..self.clone() };
-        let l = again.load(&|_, _| {})?;
-        let effects = last.model.iter().map(|n| crate::effects::find(n)).collect::<Result<Vec<_>>>()?;
-        let opts = FitOptions { effects, ..l.options.clone() };
-        let mut r = fit_from(&l.capture, &l.frames, &opts, Some(&last.fit.state), progress)?;
-        r.raised = Some(Raised { from_budget_px: last.fit.sample.pixels_per_frame, to_budget_px: budget, params });
-        last.fit = r;
-        Ok((l, d))
     }
 }
 

@@ -12,7 +12,7 @@
 //! superpixels, colocated pixels; nominal inversion, `recon::Reconstructor`), and the
 //! largest ΔDN. What it cannot say: the change to the heading — the heading is refitted
 //! with the effect, so that change is the difference of two fits' headings
-//! (`diagnose::sizes`), not of two evaluations.
+//! (the diagnosis's `sizes`), not of two evaluations.
 
 use crate::capture::Capture;
 use crate::error::{Error, Result};

@@ -3,7 +3,7 @@
 //! diagnosis ranks each step's candidates with it (their Δχ² on the subsample
 //! against the base model's own subsampled optimum) and converges on every pixel only
 //! the ones whose ranking, acceptance or reported numbers need it
-//! (`diagnose::converge`), warm-started from here.
+//! (the diagnosis's `converge`), warm-started from here.
 
 use crate::capture::Capture;
 use crate::error::Result;

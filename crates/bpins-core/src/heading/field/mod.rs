@@ -8,7 +8,7 @@
 //! count overstates the information a thousandfold. This estimator works on
 //! **cells** (`cells.rs`: blocks of ~1/64 of the shorter side, each its mean Stokes
 //! vector and that mean's measured noise) and runs every extractor inside one robust
-//! loop (`robust.rs`):
+//! loop (steps 1–3 `observe.rs`, step 4 `robust.rs`, step 5 `sigma.rs`):
 //!
 //! ```text
 //! 1. per cell: ray d, E-vector e (AoE from Q_p, U_p; known lens ρ undone, seed eq. 13),
@@ -91,7 +91,9 @@
 
 pub mod cells;
 mod clouds;
+mod observe;
 mod robust;
+mod sigma;
 mod sky_sun;
 pub(crate) mod spatial;
 mod stats;
@@ -347,7 +349,7 @@ pub fn estimate_many_with(
     scratch: &mut FieldScratch,
 ) -> Vec<FieldHeading> {
     match robust::fitted(cells, ctx, opts, &mut scratch.robust) {
-        Ok(r) => extractors.iter().map(|&e| robust::heading(&r, e, cells, ctx, opts, &scratch.robust)).collect(),
+        Ok(r) => extractors.iter().map(|&e| sigma::heading(&r, e, cells, ctx, opts, &scratch.robust)).collect(),
         Err((quality, why)) => {
             extractors.iter().map(|&e| FieldHeading { extractor: e, result: Err(why.clone()), quality }).collect()
         }
@@ -365,7 +367,7 @@ pub fn estimate_with(
     scratch: &mut FieldScratch,
 ) -> FieldHeading {
     match robust::fitted(cells, ctx, opts, &mut scratch.robust) {
-        Ok(r) => robust::heading(&r, extractor, cells, ctx, opts, &scratch.robust),
+        Ok(r) => sigma::heading(&r, extractor, cells, ctx, opts, &scratch.robust),
         Err((quality, why)) => FieldHeading { extractor, result: Err(why), quality },
     }
 }

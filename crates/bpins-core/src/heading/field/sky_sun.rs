@@ -57,7 +57,8 @@
 //! below −10° (refused as by the heading); an elevation bias shared by every frame (a
 //! mount tilt not in the calibration) passes into the latitude.
 
-use super::robust::{self, block_sums, sum_blocks, Scratch, BLOCKS};
+use super::robust::{self, Scratch};
+use super::sigma::{self, block_sums, sum_blocks, BLOCKS};
 use super::{Cells, FieldContext, FieldOptions, FieldQuality, FieldScratch, NoHeading};
 use crate::conventions::{wrap_deg_180, wrap_deg_360};
 use crate::heading::{sun_vector, Extractor, HeadingSums};
@@ -107,7 +108,7 @@ pub fn sky_sun(
     let mut ctx = FieldContext { sun_az_deg: 0.0, sun_sigma_deg: 0.0, ..*ctx };
     let lenient = FieldOptions { max_sun_offset_deg: 180.0, ..*opts };
     // Step 1.
-    robust::observe(cells, &ctx, opts, ctx.level_from_camera(), &mut sc.slots, &mut sc.obs);
+    super::observe::observe(cells, &ctx, opts, ctx.level_from_camera(), &mut sc.slots, &mut sc.obs);
     let mut start = HeadingSums::default();
     for o in &sc.obs {
         start.add_scatter_weighted(o.e, 1.0 / (o.var_aop + START_SIGMA_RAD * START_SIGMA_RAD));
@@ -129,7 +130,7 @@ pub fn sky_sun(
     }
     let r = r.expect("ROUNDS ≥ 1");
     // Step 3.
-    let fh = robust::heading(&r, Extractor::SunVector, cells, &ctx, opts, sc);
+    let fh = sigma::heading(&r, Extractor::SunVector, cells, &ctx, opts, sc);
     let (psi, parts) = fh.result?;
     // Step 4.
     let (rayleigh_deg, rayleigh_sigma_deg) =

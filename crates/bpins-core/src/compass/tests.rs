@@ -1,0 +1,172 @@
+//! The compass's tests (`frame` is shared with `capture.rs`'s).
+
+use super::*;
+use crate::calibration::Calibration;
+use crate::camera::Projection;
+use crate::chain::{ChainFrame, NoiseIndex, Scene};
+use crate::sensor::{Response, DEFAULT_MOSAIC};
+use crate::simulate::render_mosaic;
+
+pub(super) fn frame(truth: &Model, tilt: [f64; 2]) -> (Vec<u16>, Intrinsics) {
+    frame_under(truth, tilt, 40.0, 25.0)
+}
+
+fn frame_under(truth: &Model, tilt: [f64; 2], sun_az_deg: f64, sun_el_deg: f64) -> (Vec<u16>, Intrinsics) {
+    let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+    let scene =
+        Scene { sun_az_deg, sun_el_deg, heading_deg: 30.0, tilt_x_deg: tilt[0], tilt_y_deg: tilt[1], dmax: 0.6 };
+    let f =
+        ChainFrame::new(truth, &lens, &scene, &Response::samples(2400.0), NoiseIndex { seed: 2, trial: 0, frame: 0 });
+    (render_mosaic(&f, 306, 256, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect(), lens)
+}
+
+#[test]
+fn u8_u16_f32_and_strided_buffers_give_the_same_heading() {
+    let (raw, lens) = frame(&Model::default(), [1.0, 2.0]);
+    let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+    let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+    let att = Attitude { tilt_x_deg: 1.0, tilt_y_deg: 2.0, sigma_deg: 0.0 };
+    let a = c.heading(RawImage::packed(&raw, 306, 256), sun, att).unwrap();
+    let f: Vec<f32> = raw.iter().map(|&x| x as f32).collect();
+    let b = c.heading(RawImage::packed(&f, 306, 256), sun, att).unwrap();
+    let mut padded = vec![0u16; 320 * 256];
+    for v in 0..256 {
+        padded[v * 320..][..306].copy_from_slice(&raw[v * 306..][..306]);
+    }
+    let s = c.heading(RawImage { data: &padded, width_px: 306, height_px: 256, stride: 320 }, sun, att).unwrap();
+    assert_eq!(a, b);
+    assert_eq!(a, s);
+    let (h, sigma) = (a.heading_deg().unwrap(), a.sigma_deg().unwrap());
+    assert!((h - 30.0).abs() < 0.02 && (h - 30.0).abs() < 3.0 * sigma, "{h} ± {sigma}");
+    // An 8-bit camera: the DN scaled to 8 bits, black level too.
+    let mut c8 = Compass::new(CompassConfig::dofp(lens, 306, 256, 8, 4.0)).unwrap();
+    let raw8: Vec<u8> = raw.iter().map(|&x| ((x as f64 / 16.0).round() as u8).max(1)).collect();
+    let r8 = c8.heading(RawImage::packed(&raw8, 306, 256), sun, att).unwrap();
+    assert!((r8.heading_deg().unwrap() - 30.0).abs() < 0.1, "{r8:?}");
+}
+
+#[test]
+#[cfg(feature = "spa")]
+fn the_calibration_and_the_sun_from_a_clock_are_used() {
+    use crate::effects::EffectSet;
+    let mut truth = EffectSet::new();
+    truth.set("array_rotation", "dtheta_deg", 0.5).unwrap();
+    let (raw, lens) = frame(&truth.model(), [0.0, 0.0]);
+    let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+    let read = |cal: Calibration| {
+        let mut c =
+            Compass::new(CompassConfig { calibration: cal, ..CompassConfig::dofp(lens, 306, 256, 12, 64.0) }).unwrap();
+        c.heading(RawImage::packed(&raw, 306, 256), sun, Attitude::default()).unwrap().heading_deg().unwrap()
+    };
+    let raw_err = read(Calibration::default()) - 30.0;
+    let cal_err = read(Calibration { effects: truth.clone(), ..Default::default() }) - 30.0;
+    assert!(raw_err.abs() > 0.3 && cal_err.abs() < 0.02, "uncalibrated {raw_err}, calibrated {cal_err}");
+    // A clock and a place: 2026-06-21T02:30:00Z (10:30 local) at Qingdao, the sun
+    // from SPA; the frame rendered under that sun reads back at its heading.
+    let (time_s, lat, lon) = (1_782_009_000.0, 36.07, 120.38);
+    let s = crate::sky::sun::sun_from_unix_time(time_s, lat, lon).unwrap();
+    assert!(s.elevation_deg > 30.0 && s.elevation_deg < 80.0, "{s:?}");
+    let (raw, lens) = frame_under(&Model::default(), [0.0, 0.0], s.azimuth_deg, s.elevation_deg);
+    let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+    let t = Sun::UnixTime { time_s, latitude_deg: lat, longitude_deg: lon, sigma_deg: 0.0 };
+    let r = c.heading(RawImage::packed(&raw, 306, 256), t, Attitude::default()).unwrap();
+    assert!((r.heading_deg().unwrap() - 30.0).abs() < 0.03, "{r:?}");
+    let bad = Sun::UnixTime { time_s: f64::NAN, latitude_deg: 0.0, longitude_deg: 0.0, sigma_deg: 0.0 };
+    assert!(matches!(c.heading(RawImage::packed(&raw, 306, 256), bad, Attitude::default()), Err(CompassError::Sun(_))));
+}
+
+#[test]
+fn compasses_on_several_threads_read_what_one_reads() {
+    // Frames under three attitudes; one compass reads them in turn, then three
+    // compasses, each on its own thread (and the first moved there), read them
+    // at once: the same headings, bit for bit.
+    let frames: Vec<(Vec<u16>, [f64; 2])> =
+        [[0.0, 0.0], [3.0, -2.0], [-4.0, 1.0]].into_iter().map(|t| (frame(&Model::default(), t).0, t)).collect();
+    let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+    let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+    let read_all = |c: &mut Compass| -> Vec<FieldHeading> {
+        frames
+            .iter()
+            .map(|(raw, t)| {
+                let att = Attitude { tilt_x_deg: t[0], tilt_y_deg: t[1], sigma_deg: 0.05 };
+                c.heading(RawImage::packed(raw, 306, 256), sun, att).unwrap()
+            })
+            .collect()
+    };
+    let mut one = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+    let alone = read_all(&mut one);
+    let together: Vec<Vec<FieldHeading>> = std::thread::scope(|s| {
+        let mut handles = vec![s.spawn(|| read_all(&mut one))];
+        for _ in 0..2 {
+            handles
+                .push(s.spawn(|| read_all(&mut Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap())));
+        }
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    for r in &together {
+        assert_eq!(r, &alone);
+    }
+    assert!(alone.iter().all(|h| (h.heading_deg().unwrap() - 30.0).abs() < 0.05), "{alone:?}");
+}
+
+#[test]
+fn wrong_buffers_and_configurations_are_refused_not_panicked_on() {
+    let (raw, lens) = frame(&Model::default(), [0.0, 0.0]);
+    let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+    let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
+    let short = c.heading(
+        RawImage { data: &raw[..1000], width_px: 306, height_px: 256, stride: 306 },
+        sun,
+        Attitude::default(),
+    );
+    assert!(matches!(short, Err(CompassError::FrameSize { len: 1000, .. })), "{short:?}");
+    let small = c.heading(RawImage::packed(&raw[..300 * 200], 300, 200), sun, Attitude::default());
+    assert!(small.unwrap_err().to_string().contains("300 × 200"));
+    let att = Attitude { tilt_x_deg: 95.0, ..Default::default() };
+    assert!(matches!(c.heading(RawImage::packed(&raw, 306, 256), sun, att), Err(CompassError::Attitude(_))));
+    for cfg in [
+        CompassConfig::dofp(lens, 2, 2, 12, 64.0),
+        CompassConfig::dofp(lens, 306, 256, 17, 64.0),
+        CompassConfig::dofp(lens, 306, 256, 12, 5000.0),
+        CompassConfig::dofp(Intrinsics { f_px: -1.0, ..lens }, 306, 256, 12, 64.0),
+    ] {
+        assert!(matches!(Compass::new(cfg), Err(CompassError::Config(_))));
+    }
+}
+
+/// Each refusal names the value that is wrong and the range it must lie in, not
+/// only the values given (issue 35: "sun: azimuth 40°, elevation 95°, 1σ 0°").
+#[test]
+fn refusals_name_the_wrong_value_and_its_range() {
+    let (raw, lens) = frame(&Model::default(), [0.0, 0.0]);
+    let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+    let sun = |az, el, s| Sun::Angles { azimuth_deg: az, elevation_deg: el, sigma_deg: s };
+    let msg = |c: &mut Compass, s: Sun, a: Attitude| {
+        c.heading(RawImage::packed(&raw, 306, 256), s, a).unwrap_err().to_string()
+    };
+    let ok = sun(40.0, 25.0, 0.0);
+    let level = Attitude::default();
+    for (s, want) in [
+        (sun(40.0, 95.0, 0.0), "elevation 95° is outside [−90, 90]°"),
+        (sun(f64::NAN, 25.0, 0.0), "azimuth NaN° is not a number"),
+        (sun(40.0, 25.0, -1.0), "1σ -1° must be a finite number ≥ 0"),
+    ] {
+        let m = msg(&mut c, s, level);
+        assert!(m.starts_with("sun: ") && m.contains(want), "{m}");
+    }
+    for (a, want) in [
+        (Attitude { tilt_x_deg: 95.0, ..level }, "tilt about x 95° is outside (−90, 90)°"),
+        (Attitude { tilt_y_deg: -90.0, ..level }, "tilt about y -90° is outside (−90, 90)°"),
+        (Attitude { sigma_deg: f64::INFINITY, ..level }, "1σ inf° must be a finite number ≥ 0"),
+    ] {
+        let m = msg(&mut c, ok, a);
+        assert!(m.starts_with("attitude: ") && m.contains(want), "{m}");
+    }
+    let refusal = |cfg| Compass::new(cfg).err().expect("refused").to_string();
+    let m = refusal(CompassConfig::dofp(Intrinsics { f_px: -5.0, ..lens }, 306, 256, 12, 64.0));
+    assert!(m.contains("focal length -5 px must be a finite number > 0") && !m.contains("principal"), "{m}");
+    let m = refusal(CompassConfig::dofp(Intrinsics { cx_px: f64::NAN, ..lens }, 306, 256, 12, 64.0));
+    assert!(m.contains("principal point (NaN, 127.5) px must be finite"), "{m}");
+    let m = c.heading(RawImage::packed(&raw[..300 * 200], 300, 200), ok, level).unwrap_err().to_string();
+    assert!(m.contains("give the sensor's width and height"), "{m}");
+}
