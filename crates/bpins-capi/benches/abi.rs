@@ -12,11 +12,10 @@ use bpins::{
     BpinsCompass, BpinsCompassConfig, BpinsHeading, BpinsStatus, BpinsSun, BPINS_SUN_ANGLES,
 };
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
-use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
-use bpins_core::internal::heading::field::RawImage;
-use bpins_core::internal::simulate::render_mosaic;
-use bpins_core::sensor::{Response, DEFAULT_MOSAIC};
+use bpins_core::compass::{Attitude, Compass, CompassConfig, RawImage, Sun};
+use bpins_core::render::{Renderer, RendererConfig, View};
+use bpins_core::sensor::Response;
+use bpins_core::NoiseIndex;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use std::mem::MaybeUninit;
@@ -32,16 +31,10 @@ fn one_size(c: &mut Criterion, w: usize, h: usize, f_px: f64) {
     #[allow(non_snake_case)]
     let (W, H) = (w, h);
     let lens = Intrinsics::new(Projection::Pinhole, f_px, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
-    let scene =
-        Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 2.0, tilt_y_deg: -1.0, dmax: 0.6 };
-    let f = ChainFrame::new(
-        &Default::default(),
-        &lens,
-        &scene,
-        &Response::samples(2400.0),
-        NoiseIndex { seed: 3, trial: 0, frame: 0 },
-    );
-    let raw: Vec<u16> = render_mosaic(&f, W, H, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+    let renderer = Renderer::new(RendererConfig::dofp(lens, W, H, Response::samples(2400.0))).unwrap();
+    let view = View { sun_azimuth_deg: 40.0, sun_elevation_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 2.0, tilt_y_deg: -1.0 };
+    let mut raw = Vec::new();
+    renderer.raw_frame(&view, NoiseIndex { seed: 3, trial: 0, frame: 0 }).unwrap().to_u16_into(&mut raw);
     let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
     let att = Attitude { tilt_x_deg: 2.0, tilt_y_deg: -1.0, sigma_deg: 0.1 };
 

@@ -8,7 +8,7 @@ use crate::types::{BpinsAttitude, BpinsCompassConfig, BpinsHeading, BpinsSun};
 use crate::{guard, BpinsStatus, Failure};
 use bpins_core::calibration::Calibration;
 use bpins_core::compass::{Compass, CompassError};
-use bpins_core::internal::heading::field::{RawDn, RawImage};
+use bpins_core::compass::{RawDn, RawImage};
 use std::ffi::{c_char, CStr};
 
 /// A compass: the camera, the sensor and its calibration, with the estimator's

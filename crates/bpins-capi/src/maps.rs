@@ -4,9 +4,8 @@
 
 use crate::types::mosaic_of_deg;
 use crate::{guard, BpinsStatus, Failure};
-use bpins_core::internal::heading::field::{RawDn, RawImage};
-use bpins_core::internal::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
-use bpins_core::internal::recon::Reconstructor;
+use bpins_core::compass::{RawDn, RawImage};
+use bpins_core::{stokes_maps_into, Interpolation, MapsConfig, MapsOut, Reconstructor};
 use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
 
 /// Each channel interpolated bilinearly on its own lattice (the default).

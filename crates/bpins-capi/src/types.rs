@@ -6,9 +6,7 @@
 
 use crate::{BpinsStatus, Failure};
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::compass::{Attitude, CompassConfig, Sun};
-use bpins_core::internal::heading::field::{FieldHeading, FieldOptions, NoHeading};
-use bpins_core::internal::heading::Extractor;
+use bpins_core::compass::{Attitude, CompassConfig, Extractor, FieldHeading, FieldOptions, NoHeading, Sun};
 use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
 use std::ffi::c_char;
 

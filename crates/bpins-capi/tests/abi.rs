@@ -7,9 +7,8 @@ mod common;
 
 use bpins::*;
 use bpins_core::calibration::Calibration;
-use bpins_core::compass::{Compass, CompassConfig, Sun};
+use bpins_core::compass::{Compass, CompassConfig, RawImage, Sun};
 use bpins_core::effects::EffectSet;
-use bpins_core::internal::heading::field::RawImage;
 use std::ffi::{CStr, CString};
 use std::mem::MaybeUninit;
 use std::ptr::{null, null_mut};

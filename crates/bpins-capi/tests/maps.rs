@@ -2,9 +2,8 @@
 //! refusals as statuses with messages.
 
 use bpins::*;
-use bpins_core::internal::heading::field::RawImage;
-use bpins_core::internal::maps::{stokes_maps, Interpolation, MapsConfig};
-use bpins_core::internal::recon::Reconstructor;
+use bpins_core::compass::RawImage;
+use bpins_core::{stokes_maps, Interpolation, MapsConfig, Reconstructor};
 use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
 use std::ffi::CStr;
 

@@ -114,6 +114,9 @@ pub use lab::{calibrate, LabCalibration};
 #[cfg(feature = "io")]
 pub use locate::{locate, LocateError, LocateOptions, Located, SunObs};
 pub use maps::{stokes_maps, Maps, MapsConfig};
+/// [`stokes_maps`] into the caller's buffers (no allocation per frame), as the C ABI
+/// and the Python binding call it.
+pub use maps::{stokes_maps_into, MapsOut};
 #[cfg(feature = "io")]
 pub use sweep::{run_to_dir, SweepSpec};
 

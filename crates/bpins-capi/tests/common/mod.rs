@@ -4,7 +4,7 @@
 #![allow(dead_code)]
 
 use bpins_core::compass::{Attitude, CompassConfig, Sun};
-use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::{Capture, FrameData};
 use bpins_core::sensor::Layout;
 
 /// samples/clean of the repository: found upwards from the package that includes this
