@@ -79,6 +79,54 @@ fn a_simulated_capture_as_a_bag_and_back_keeps_its_headings() {
     assert!(meta.contains("/bpins/reference_heading") && meta.contains("/gnss/fix"), "{meta}");
 }
 
+/// Issue 46 item 4: `--tilt-sigma-deg` gives one heading and 1σ on the same frames
+/// whether they are read from a capture or from its bag.
+#[test]
+fn tilt_sigma_is_taken_alike_from_a_capture_and_its_bag() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    bpins(&[
+        "simulate",
+        "--out",
+        &p("cap"),
+        "--bag-out",
+        &p("bag"),
+        "--width-px",
+        "306",
+        "--height-px",
+        "256",
+        "--pixel-pitch-um",
+        "27.6",
+        "--headings-deg",
+        "30,250",
+        "--time-utc",
+        "2026-06-21T02:30:00Z",
+        "--latitude-deg",
+        "36.07",
+        "--longitude-deg",
+        "120.38",
+    ]);
+    let tilt = ["--tilt-sigma-deg", "0.05"];
+    let (cap, cap_json) = (p("cap"), p("cap.json"));
+    let mut args = vec!["heading", &cap, "--json", &cap_json];
+    args.extend_from_slice(&tilt);
+    bpins(&args);
+    let bag = p("bag");
+    let bag_json = p("bag.json");
+    let mut args = vec!["heading", "--bag", &bag, "--json", &bag_json];
+    args.extend_from_slice(&["--bit-depth", "12", "--black-level-dn", "64", "--imu-topic", "/imu/data"]);
+    args.extend_from_slice(&tilt);
+    bpins(&args);
+    let (cap, bag) = (json(&tmp.path().join("cap.json")), json(&tmp.path().join("bag.json")));
+    for i in 0..2 {
+        let h = |v: &Value| v["frames"][i]["heading_deg"].as_f64().unwrap();
+        let s = |v: &Value| v["frames"][i]["sigma_deg"].as_f64().unwrap();
+        assert!((h(&cap) - h(&bag)).abs() < 1e-4, "frame {i}: capture {}, bag {}", h(&cap), h(&bag));
+        assert!((s(&cap) - s(&bag)).abs() < 1e-4, "frame {i}: capture 1σ {}, bag 1σ {}", s(&cap), s(&bag));
+        assert!(cap["frames"][i]["sigma_parts_deg"]["tilt_deg"].as_f64().unwrap() > 0.005, "{cap}");
+    }
+}
+
 #[test]
 fn a_bag_with_zstd_chunks_gives_the_headings_of_its_uncompressed_twin() {
     // rosbag2's MCAP plugin writes zstd chunks by default; rosbags (tests/ros.rs)

@@ -303,6 +303,26 @@ fn clean_sample_headings_through_the_cli() {
     assert_eq!(snapshot(Path::new(CLEAN)), before);
 }
 
+/// Issue 46 item 4: `--tilt-sigma-deg` on a capture whose frames carry no tilt keys
+/// takes them as level ± that 1σ (as the bag route does without an IMU), so each
+/// heading's 1σ grows, through its tilt part, and the heading stays.
+#[test]
+fn tilt_sigma_on_a_capture_without_tilt_keys_is_level_plus_minus_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (plain, tilted) = (tmp.path().join("a.json"), tmp.path().join("b.json"));
+    bpins(&["heading", CLEAN, "--json", &s(&plain)]).ok();
+    bpins(&["heading", CLEAN, "--tilt-sigma-deg", "0.05", "--json", &s(&tilted)])
+        .ok()
+        .stderr_has("taken as level");
+    let (a, b) = (read_json(&plain), read_json(&tilted));
+    for (fa, fb) in a["frames"].as_array().unwrap().iter().zip(b["frames"].as_array().unwrap()) {
+        assert_eq!(f64_of(&fa["sigma_parts_deg"], "tilt_deg"), 0.0, "{fa}");
+        assert!(f64_of(&fb["sigma_parts_deg"], "tilt_deg") > 0.005, "{fb}");
+        assert!(f64_of(fb, "sigma_deg") > f64_of(fa, "sigma_deg") + 0.002, "without {fa}\nwith {fb}");
+        assert!((f64_of(fb, "heading_deg") - f64_of(fa, "heading_deg")).abs() < 1e-3, "{fa}\n{fb}");
+    }
+}
+
 // ------------------------------------------------------------- bad input
 
 #[test]

@@ -62,7 +62,9 @@ pub struct BagArgs {
     #[arg(long, default_value_t = 0.0)]
     pub sun_sigma_deg: f64,
     /// 1σ of each tilt angle, degrees, instead of the IMU's orientation covariance
-    /// (or, without an IMU, the level camera's).
+    /// (or, without an IMU, the level camera's). With a capture (`bpins heading
+    /// CAPTURE`): instead of each frame's `tilt_sigma_deg`, and a frame without tilt
+    /// keys is taken as level ± this 1σ, as a bag without an IMU is (field estimator).
     #[arg(long)]
     pub tilt_sigma_deg: Option<f64>,
     /// How an IMU sample is matched to an image's stamp.

@@ -116,7 +116,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         return run_bag(&a, &extractors, opts);
     };
     // Which frames take their sun (and its 1σ) from --site.
-    let (capture, from_site) = match &a.site {
+    let (mut capture, from_site) = match &a.site {
         None => {
             let c = Capture::load(capture_dir)?;
             let n = c.frames.len();
@@ -137,6 +137,19 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     if let Some(p) = &a.json {
         ensure_not_in_capture(p)?;
+    }
+    // --tilt-sigma-deg: every frame's reference tilt 1σ, as the bag route takes it in
+    // place of the IMU's covariance; a frame without tilt keys is level ± it (as a bag
+    // without an IMU is), so both routes give one heading and 1σ on the same frames.
+    if let Some(s) = a.bag.tilt_sigma_deg {
+        let level = capture.frames.iter().filter(|f| f.tilt_x_deg.is_none() && f.tilt_y_deg.is_none()).count();
+        for f in &mut capture.frames {
+            f.tilt_sigma_deg = Some(s);
+        }
+        say!(
+            "--tilt-sigma-deg {s}: every frame's reference tilt 1σ ({level} frame(s) without tilt keys taken as level \
+             ± {s}°)"
+        );
     }
     let field = a.estimator == Estimator::Field;
     // The field estimator reads every frame through the compass, as a robot does (the
