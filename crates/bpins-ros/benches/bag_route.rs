@@ -13,12 +13,10 @@
 //!   least disturbed way to say what the route costs an idle one).
 
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
-use bpins_core::effects::Model;
-use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
-use bpins_core::internal::heading::field::RawImage;
-use bpins_core::internal::simulate::render_mosaic;
-use bpins_core::sensor::{Response, DEFAULT_MOSAIC};
+use bpins_core::compass::{Attitude, Compass, CompassConfig, RawImage, Sun};
+use bpins_core::render::{Renderer, RendererConfig, View};
+use bpins_core::sensor::Response;
+use bpins_core::NoiseIndex;
 use bpins_ros::cdr::{decode, encode};
 use bpins_ros::convert::{mosaic, Mosaic};
 use bpins_ros::matching::{decode_imu, tilt_at, ImuMatch, Track};
@@ -102,22 +100,11 @@ fn route(c: &mut Criterion) {
     let mut g = c.benchmark_group("bag_route");
     for (w, h, pitch, name) in [(612usize, 512usize, 13.8, "dofp_512x612"), (2448, 2048, 3.45, "dofp_2048x2448")] {
         let intr = Intrinsics::new(Projection::Pinhole, 8000.0 / pitch, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
-        let scene = Scene {
-            sun_az_deg: 40.0,
-            sun_el_deg: 25.0,
-            heading_deg: 30.0,
-            tilt_x_deg: 4.0,
-            tilt_y_deg: -3.0,
-            dmax: 0.6,
-        };
-        let f = ChainFrame::new(
-            &Model::default(),
-            &intr,
-            &scene,
-            &Response::samples(3000.0),
-            NoiseIndex { seed: 1, trial: 0, frame: 0 },
-        );
-        let dn: Vec<u16> = render_mosaic(&f, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+        let renderer = Renderer::new(RendererConfig::dofp(intr, w, h, Response::samples(3000.0))).unwrap();
+        let view =
+            View { sun_azimuth_deg: 40.0, sun_elevation_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 4.0, tilt_y_deg: -3.0 };
+        let mut dn = Vec::new();
+        renderer.raw_frame(&view, NoiseIndex { seed: 1, trial: 0, frame: 0 }).unwrap().to_u16_into(&mut dn);
         let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
         let att = Attitude { tilt_x_deg: 4.0, tilt_y_deg: -3.0, sigma_deg: 0.1 };
         let mut compass = Compass::new(CompassConfig::dofp(intr, w, h, 12, 64.0)).unwrap();

@@ -6,7 +6,7 @@
 use crate::msgs::{CameraInfo, Image, Imu};
 use crate::rep103;
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::internal::heading::field::RawImage;
+use bpins_core::compass::RawImage;
 
 /// An image's pixels as the compass reads them: `u8` borrowed from the message
 /// (`mono8`, rows `step` bytes apart), `u16` borrowed where the message's byte
