@@ -311,9 +311,7 @@ fn tilt_sigma_on_a_capture_without_tilt_keys_is_level_plus_minus_it() {
     let tmp = tempfile::tempdir().unwrap();
     let (plain, tilted) = (tmp.path().join("a.json"), tmp.path().join("b.json"));
     bpins(&["heading", CLEAN, "--json", &s(&plain)]).ok();
-    bpins(&["heading", CLEAN, "--tilt-sigma-deg", "0.05", "--json", &s(&tilted)])
-        .ok()
-        .stderr_has("taken as level");
+    bpins(&["heading", CLEAN, "--tilt-sigma-deg", "0.05", "--json", &s(&tilted)]).ok().stderr_has("taken as level");
     let (a, b) = (read_json(&plain), read_json(&tilted));
     for (fa, fb) in a["frames"].as_array().unwrap().iter().zip(b["frames"].as_array().unwrap()) {
         assert_eq!(f64_of(&fa["sigma_parts_deg"], "tilt_deg"), 0.0, "{fa}");
@@ -321,6 +319,86 @@ fn tilt_sigma_on_a_capture_without_tilt_keys_is_level_plus_minus_it() {
         assert!(f64_of(fb, "sigma_deg") > f64_of(fa, "sigma_deg") + 0.002, "without {fa}\nwith {fb}");
         assert!((f64_of(fb, "heading_deg") - f64_of(fa, "heading_deg")).abs() < 1e-3, "{fa}\n{fb}");
     }
+}
+
+/// Issue 50 item 2: a flag that a combination would ignore is refused by clap, which
+/// names both flags and exits 2 (before anything is read or written).
+#[test]
+fn combinations_that_would_ignore_a_flag_are_refused_naming_both() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (out, bag) = (s(&tmp.path().join("out")), s(&tmp.path().join("no_bag")));
+    let sun = ["--sun-azimuth-deg", "1", "--sun-elevation-deg", "2"];
+    let cases: Vec<(Vec<&str>, [&str; 2])> = vec![
+        (vec!["heading", "--bag", &bag, "--site", "site.toml"], ["--site", "--bag"]),
+        (vec!["heading", CLEAN, "--recon", "superpixel"], ["--recon", "--estimator"]),
+        (vec!["heading", "--bag", &bag, "--recon", "demosaic"], ["--recon", "--bag"]),
+        (vec!["heading", CLEAN, "--estimator", "plain", "--cell-px", "8"], ["--cell-px", "--estimator"]),
+        (
+            vec!["heading", CLEAN, "--estimator", "plain", "--cell-px", "8", "--recon", "demosaic"],
+            ["--cell-px", "--recon"],
+        ),
+        (
+            vec!["heading", CLEAN, "--estimator", "plain", "--tilt-sigma-deg", "0.1"],
+            ["--tilt-sigma-deg", "--estimator"],
+        ),
+        (vec!["heading", "--bag", &bag, "--estimator", "plain"], ["--estimator", "--bag"]),
+        (vec!["heading", "--bag", &bag, "--extractor", "all"], ["--extractor", "--bag"]),
+        (vec!["heading", "--bag", &bag, "--heading-topic", "/h"], ["--heading-topic", "--bag-out"]),
+        (vec!["heading", "--bag", &bag, "--diagnostics-topic", "/d"], ["--diagnostics-topic", "--bag-out"]),
+        (vec!["heading", "--bag", &bag, "--heading-frame-id", "cam"], ["--heading-frame-id", "--bag-out"]),
+        (vec!["heading", CLEAN, "--heading-topic", "/h"], ["--heading-topic", "--bag-out"]),
+        (
+            vec!["heading", "--bag", &bag, "--fix-topic", "/f", sun[0], sun[1], sun[2], sun[3]],
+            ["--fix-topic", "--sun-azimuth-deg"],
+        ),
+        (vec!["heading", CLEAN, "--image-topic", "/x"], ["CAPTURE", "--image-topic"]),
+        (vec!["heading", CLEAN, "--bit-depth", "8"], ["CAPTURE", "--bit-depth"]),
+        (vec!["heading", CLEAN, "--sun-sigma-deg", "0.1"], ["CAPTURE", "--sun-sigma-deg"]),
+        (vec!["heading", CLEAN, "--imu-match", "nearest"], ["CAPTURE", "--imu-match"]),
+        (vec!["heading", CLEAN, sun[0], sun[1], sun[2], sun[3]], ["CAPTURE", "--sun-azimuth-deg"]),
+        (
+            vec!["bag-to-capture", "--bag", &bag, "--out", &out, "--fix-topic", "/f", sun[0], sun[1], sun[2], sun[3]],
+            ["--fix-topic", "--sun-azimuth-deg"],
+        ),
+        (vec!["simulate", "--out", &out, "--lab", "--scene", "clouds"], ["--lab", "--scene"]),
+        (vec!["simulate", "--out", &out, "--lab", "--headings-deg", "0"], ["--lab", "--headings-deg"]),
+        (vec!["simulate", "--out", &out, "--lab", "--backend", "cpu"], ["--lab", "--backend"]),
+        (vec!["simulate", "--out", &out, "--lab-darks", "3"], ["--lab-darks", "--lab"]),
+        (vec!["simulate", "--out", &out, "--pixel-eps-sigma", "0.01"], ["--pixel-eps-sigma", "--lab"]),
+        (
+            vec![
+                "simulate",
+                "--out",
+                &out,
+                "--time-utc",
+                "2026-06-21T02:30:00Z",
+                "--latitude-deg",
+                "36",
+                "--longitude-deg",
+                "120",
+                "--sun-azimuth-deg",
+                "3",
+            ],
+            ["--time-utc", "--sun-azimuth-deg"],
+        ),
+        (
+            vec!["simulate", "--out", &out, "--latitude-deg", "36", "--longitude-deg", "120"],
+            ["--latitude-deg", "--time-utc"],
+        ),
+    ];
+    for (args, [a, b]) in &cases {
+        let r = bpins(args);
+        assert_eq!(r.code, Some(2), "`bpins {}` was not refused:\n{}{}", r.args, r.stdout, r.stderr);
+        r.stderr_has(a).stderr_has(b);
+        assert!(r.stdout.is_empty(), "`bpins {}` ran: {}", r.args, r.stdout);
+        assert!(!Path::new(&out).exists(), "`bpins {}` wrote {out}", r.args);
+    }
+    // --extractor is typed: an unknown one is refused by clap, listing the values.
+    let r = bpins(&["heading", CLEAN, "--extractor", "sunvector"]);
+    assert_eq!(r.code, Some(2));
+    r.stderr_has("--extractor").stderr_has("sun_vector, meridian_line, all");
+    // What each flag combines with still runs: `all` on a capture, --recon with plain.
+    bpins(&["heading", CLEAN, "--extractor", "all", "--estimator", "plain", "--recon", "superpixel"]).ok();
 }
 
 // ------------------------------------------------------------- bad input

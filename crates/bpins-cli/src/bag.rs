@@ -14,7 +14,9 @@ use bpins_ros::msgs::{types, CameraInfo, Image};
 use bpins_ros::{topics, Bag, BagMessage, TopicCursor, TopicInfo, Where};
 use std::path::PathBuf;
 
-/// The flags of a bag's inputs.
+/// The flags of a bag's inputs: each but --tilt-sigma-deg (which `heading CAPTURE`
+/// takes too) requires --bag, so that clap refuses it, naming both, where it would
+/// be ignored.
 #[derive(clap::Args, Clone, Debug)]
 pub struct BagArgs {
     /// A ROS 2 bag (rosbag2 folder with metadata.yaml; MCAP or sqlite3 storage) to
@@ -22,44 +24,44 @@ pub struct BagArgs {
     #[arg(long, value_name = "DIR")]
     pub bag: Option<PathBuf>,
     /// The sensor_msgs/Image topic (default: the bag's only Image topic).
-    #[arg(long, value_name = "TOPIC")]
+    #[arg(long, requires = "bag", value_name = "TOPIC")]
     pub image_topic: Option<String>,
     /// The sensor_msgs/CameraInfo topic for the intrinsics (default: the bag's only
     /// one, if any; its first message is used).
-    #[arg(long, value_name = "TOPIC")]
+    #[arg(long, requires = "bag", value_name = "TOPIC")]
     pub camera_info_topic: Option<String>,
     /// The sensor_msgs/Imu topic for each frame's reference tilt and its 1σ
     /// (default: the bag's only Imu topic outside /bpins/, where bpins writes its
     /// headings and a simulated bag's truth; without one the camera is taken as level).
-    #[arg(long, value_name = "TOPIC")]
+    #[arg(long, requires = "bag", value_name = "TOPIC")]
     pub imu_topic: Option<String>,
     /// The sensor_msgs/NavSatFix topic: with each image's stamp, the sun through NREL
-    /// SPA (default: the bag's only NavSatFix topic, unless the sun is given).
-    #[arg(long, value_name = "TOPIC")]
+    /// SPA (default: the bag's only NavSatFix topic; not with --sun-azimuth-deg).
+    #[arg(long, requires = "bag", conflicts_with = "sun_azimuth_deg", value_name = "TOPIC")]
     pub fix_topic: Option<String>,
     /// A sensor file: the [sensor] and [lens] tables of capture.toml (CAPTURE.md),
     /// for the mosaic, bit depth, black level and, without CameraInfo, the lens.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, requires = "bag", value_name = "FILE")]
     pub sensor: Option<PathBuf>,
     /// DoFP analyzer angles, degrees, by tile: row 0 col 0, row 0 col 1, row 1 col 0,
     /// row 1 col 1 (default: the sensor file's, else 90,45,135,0).
-    #[arg(long, value_delimiter = ',', num_args = 4, value_name = "DEG")]
+    #[arg(long, requires = "bag", value_delimiter = ',', num_args = 4, value_name = "DEG")]
     pub mosaic_deg: Option<Vec<f64>>,
     /// ADC bits (default: the sensor file's, else 8 for mono8 and 16 for mono16).
-    #[arg(long)]
+    #[arg(long, requires = "bag")]
     pub bit_depth: Option<u32>,
     /// Black level, DN (default: the sensor file's, else 0).
-    #[arg(long)]
+    #[arg(long, requires = "bag")]
     pub black_level_dn: Option<f64>,
     /// The sun's azimuth (from North toward East), degrees, for every frame, instead
     /// of NREL SPA from a NavSatFix topic; with --sun-elevation-deg.
-    #[arg(long, allow_negative_numbers = true, requires = "sun_elevation_deg")]
+    #[arg(long, requires = "bag", allow_negative_numbers = true, requires = "sun_elevation_deg")]
     pub sun_azimuth_deg: Option<f64>,
     /// The sun's elevation, degrees, with --sun-azimuth-deg.
-    #[arg(long, allow_negative_numbers = true, requires = "sun_azimuth_deg")]
+    #[arg(long, requires = "bag", allow_negative_numbers = true, requires = "sun_azimuth_deg")]
     pub sun_elevation_deg: Option<f64>,
     /// 1σ of the sun's azimuth and elevation, degrees (clock or position error).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, requires = "bag", default_value_t = 0.0)]
     pub sun_sigma_deg: f64,
     /// 1σ of each tilt angle, degrees, instead of the IMU's orientation covariance
     /// (or, without an IMU, the level camera's). With a capture (`bpins heading
@@ -68,13 +70,13 @@ pub struct BagArgs {
     #[arg(long)]
     pub tilt_sigma_deg: Option<f64>,
     /// How an IMU sample is matched to an image's stamp.
-    #[arg(long, value_enum, default_value_t = ImuMatchArg::Interpolate)]
+    #[arg(long, requires = "bag", value_enum, default_value_t = ImuMatchArg::Interpolate)]
     pub imu_match: ImuMatchArg,
     /// Largest time between an image and the IMU samples used for it, seconds.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, requires = "bag", default_value_t = 0.05)]
     pub imu_max_gap_s: f64,
     /// Largest time between an image and the GNSS fix used for it, seconds.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, requires = "bag", default_value_t = 10.0)]
     pub fix_max_age_s: f64,
 }
 

@@ -17,8 +17,17 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Capture folder holding capture.toml (bpins-capture/1); or --bag.
-    #[arg(required_unless_present = "bag", conflicts_with = "bag")]
+    /// Capture folder holding capture.toml (bpins-capture/1); or --bag. The bag's
+    /// flags but --tilt-sigma-deg are refused with it (clap does not check their
+    /// `requires = "bag"` against an argument that conflicts with --bag).
+    #[arg(
+        required_unless_present = "bag",
+        conflicts_with_all = [
+            "bag", "image_topic", "camera_info_topic", "imu_topic", "fix_topic", "sensor", "mosaic_deg",
+            "bit_depth", "black_level_dn", "sun_azimuth_deg", "sun_elevation_deg", "sun_sigma_deg", "imu_match",
+            "imu_max_gap_s", "fix_max_age_s",
+        ]
+    )]
     capture: Option<PathBuf>,
     #[command(flatten)]
     bag: crate::bag::BagArgs,
@@ -28,33 +37,33 @@ pub struct Args {
     #[arg(long, value_name = "DIR", requires = "bag")]
     bag_out: Option<PathBuf>,
     /// With --bag-out: the topic of the sensor_msgs/Imu headings.
-    #[arg(long, default_value = "/bpins/heading", value_name = "TOPIC")]
+    #[arg(long, default_value = "/bpins/heading", value_name = "TOPIC", requires = "bag_out")]
     heading_topic: String,
     /// With --bag-out: the topic of the diagnostic_msgs/DiagnosticArray of frames
     /// without a heading.
-    #[arg(long, default_value = "/diagnostics", value_name = "TOPIC")]
+    #[arg(long, default_value = "/diagnostics", value_name = "TOPIC", requires = "bag_out")]
     diagnostics_topic: String,
     /// With --bag-out: the frame_id of the Imu headings (default: the image's). The
     /// orientation is that of bpins' body frame (x the image top, z the optical
     /// axis: docs/ros2.md); name a TF frame that is it.
-    #[arg(long, value_name = "FRAME")]
+    #[arg(long, value_name = "FRAME", requires = "bag_out")]
     heading_frame_id: Option<String>,
-    /// Heading extractor: sun_vector, meridian_line, or all.
-    #[arg(long, default_value = "sun_vector")]
-    extractor: String,
+    /// Heading extractor (`all`: each in turn; a capture only, --bag reads one).
+    #[arg(long, value_enum, default_value = "sun_vector")]
+    extractor: ExtractorArg,
     /// Estimator: `field` (robust to clouds, trees, the sun in view, tilt; a 1σ that
     /// includes the reference tilt's and the sun's errors) or `plain` (every pixel, no
     /// masks, statistical 1σ only: the seed paper's extractors as they are).
     #[arg(long, value_enum, default_value_t = Estimator::Field)]
     estimator: Estimator,
     /// Field estimator: cell size in pixels (default: about 1/64 of the shorter side).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "recon")]
     cell_px: Option<usize>,
     /// Plain estimator: how DoFP mosaics become Stokes samples: `demosaic` (bilinear,
     /// every pixel its own ray; most accurate) or `superpixel` (2×2 tiles at their
-    /// centres; faster, biased by ~0.05° on gradients).
-    #[arg(long, value_parser = crate::names::by_name(&ReconMode::ALL, ReconMode::name), default_value = "demosaic")]
-    recon: ReconMode,
+    /// centres; faster, biased by ~0.05° on gradients). Default: demosaic.
+    #[arg(long, value_parser = crate::names::by_name(&ReconMode::ALL, ReconMode::name), conflicts_with = "bag")]
+    recon: Option<ReconMode>,
     /// A known calibration to compensate, as effect.param=value (repeatable),
     /// e.g. --effect array_rotation.dtheta_deg=0.3.
     #[arg(long = "effect", value_name = "EFFECT.PARAM=VALUE")]
@@ -69,8 +78,8 @@ pub struct Args {
     json: Option<PathBuf>,
     /// A site located by `bpins locate` (bpins-site/1) in place of a GNSS position:
     /// frames stamped with `time_utc` alone get the sun at this site, its 1σ the
-    /// site's propagated.
-    #[arg(long, value_name = "FILE")]
+    /// site's propagated. A capture only (a bag's suns come from its fixes or --sun-*).
+    #[arg(long, value_name = "FILE", conflicts_with = "bag")]
     site: Option<PathBuf>,
 }
 
@@ -82,18 +91,59 @@ enum Estimator {
     Plain,
 }
 
-pub fn run(a: Args) -> anyhow::Result<()> {
-    let extractors: Vec<Extractor> = if a.extractor == "all" {
-        Extractor::ALL.to_vec()
-    } else {
-        match Extractor::from_name(&a.extractor) {
-            Some(e) => vec![e],
-            None => bail!(
-                "unknown extractor `{}`; use one of: {}, all",
-                a.extractor,
-                Extractor::ALL.map(|e| e.name()).join(", ")
-            ),
+/// `--extractor`: one of the library's extractors, or `all`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ExtractorArg {
+    One(Extractor),
+    All,
+}
+
+impl clap::ValueEnum for ExtractorArg {
+    fn value_variants<'a>() -> &'a [Self] {
+        static VARIANTS: std::sync::LazyLock<Vec<ExtractorArg>> = std::sync::LazyLock::new(|| {
+            Extractor::ALL.into_iter().map(ExtractorArg::One).chain([ExtractorArg::All]).collect()
+        });
+        &VARIANTS
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(match self {
+            ExtractorArg::One(e) => clap::builder::PossibleValue::new(e.name()).help(e.describe()),
+            ExtractorArg::All => clap::builder::PossibleValue::new("all").help("every extractor, each in turn"),
+        })
+    }
+}
+
+impl Args {
+    /// A combination of flags clap cannot see (it turns on a flag's value): the two
+    /// flags as a clap conflict names them, for `main` to refuse as clap does.
+    pub fn refused(&self) -> Option<(String, String)> {
+        let plain = self.estimator == Estimator::Plain;
+        let pair = |a: &str, b: &str| Some((a.to_string(), b.to_string()));
+        if plain {
+            if self.bag.bag.is_some() {
+                return pair("--estimator plain", "--bag <DIR>");
+            }
+            if self.cell_px.is_some() {
+                return pair("--cell-px <CELL_PX>", "--estimator plain");
+            }
+            if self.bag.tilt_sigma_deg.is_some() {
+                return pair("--tilt-sigma-deg <TILT_SIGMA_DEG>", "--estimator plain");
+            }
+        } else if self.recon.is_some() {
+            return pair("--recon <RECON>", "--estimator field (the default)");
         }
+        if self.extractor == ExtractorArg::All && self.bag.bag.is_some() {
+            return pair("--extractor all", "--bag <DIR>");
+        }
+        None
+    }
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let extractors: Vec<Extractor> = match a.extractor {
+        ExtractorArg::All => Extractor::ALL.to_vec(),
+        ExtractorArg::One(e) => vec![e],
     };
     let cal = match &a.calibration {
         Some(p) => Some(Calibration::load(p)?),
@@ -105,7 +155,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         known_set.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
     }
     let known = known_set.model();
-    let mode = a.recon;
+    let mode = a.recon.unwrap_or(ReconMode::Demosaic);
     if let Some(c) = a.cell_px {
         if c < 2 {
             bail!("--cell-px {c}: a cell must be at least 2 pixels (one DoFP tile)");

@@ -96,13 +96,13 @@ pub struct Args {
     #[arg(long, default_value_t = 25.0, allow_negative_numbers = true)]
     sun_elevation_deg: f64,
     /// Instead of the sun's angles: UTC time (RFC 3339) for NREL SPA, with --latitude-deg/--longitude-deg.
-    #[arg(long, requires_all = ["latitude_deg", "longitude_deg"])]
+    #[arg(long, conflicts_with_all = ["sun_azimuth_deg", "sun_elevation_deg"], requires_all = ["latitude_deg", "longitude_deg"])]
     time_utc: Option<String>,
     /// Latitude, degrees north.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, requires = "time_utc", allow_negative_numbers = true)]
     latitude_deg: Option<f64>,
     /// Longitude, degrees east.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, requires = "time_utc", allow_negative_numbers = true)]
     longitude_deg: Option<f64>,
     /// One frame per heading, degrees (a turntable).
     #[arg(long, value_delimiter = ',', default_value = "0,45,90,135,180,225,270,315", allow_hyphen_values = true)]
@@ -158,29 +158,29 @@ pub struct Args {
     /// per-channel flaws come from --effect (analyzer_angles, extinction_ratio,
     /// channel_response, array_rotation, vignetting), per-pixel ones from --prnu,
     /// --dsnu-dn and --pixel-*; --peak-fraction sets a polarized flat's peak.
-    #[arg(long, requires = "out")]
+    #[arg(long, conflicts_with_all = ["scene", "scene_seed", "tilt_random_deg", "imu_sigma_deg", "sun_sigma_deg", "time_utc", "every_min", "headings_deg", "sun_azimuth_deg", "sun_elevation_deg", "tilt_x_deg", "tilt_y_deg", "dmax", "backend"], requires = "out")]
     lab: bool,
     /// Lab: polarizer angles, degrees (image frame).
-    #[arg(long, value_delimiter = ',', default_value = "0,15,30,45,60,75,90,105,120,135,150,165")]
+    #[arg(long, requires = "lab", value_delimiter = ',', default_value = "0,15,30,45,60,75,90,105,120,135,150,165")]
     lab_angles_deg: Vec<f64>,
     /// Lab: exposures of the unpolarized flats, relative (the flag alone: none).
-    #[arg(long, value_delimiter = ',', num_args = 0.., default_value = "0.3,0.6,1.2")]
+    #[arg(long, requires = "lab", value_delimiter = ',', num_args = 0.., default_value = "0.3,0.6,1.2")]
     lab_exposures: Vec<f64>,
     /// Lab: number of dark frames.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, requires = "lab", default_value_t = 1)]
     lab_darks: usize,
     /// Lab: also write the per-pixel truth (offset_dn, gain, analyzer_deg, eps) to
     /// this EXR file (outside the capture).
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, requires = "lab", value_name = "FILE")]
     lab_truth: Option<PathBuf>,
     /// Lab: white spread (1σ) of each pixel's analyzer angle, degrees.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, requires = "lab", default_value_t = 0.0)]
     pixel_angle_sigma_deg: f64,
     /// Lab: change of the analyzer angles across the die's width and height, degrees (X,Y).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0,0")]
+    #[arg(long, requires = "lab", value_delimiter = ',', allow_hyphen_values = true, default_value = "0,0")]
     pixel_angle_gradient_deg: Vec<f64>,
     /// Lab: white spread (1σ) of each pixel's extinction ratio ε.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, requires = "lab", default_value_t = 0.0)]
     pixel_eps_sigma: f64,
 }
 

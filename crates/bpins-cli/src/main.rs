@@ -46,7 +46,7 @@ mod progress;
 mod report;
 mod residuals;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -114,7 +114,12 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(a) => cmd_run::run(a),
         Command::Simulate(a) => cmd_simulate::run(*a),
-        Command::Heading(a) => cmd_heading::run(a),
+        Command::Heading(a) => {
+            if let Some((x, y)) = a.refused() {
+                refuse("heading", &x, &y);
+            }
+            cmd_heading::run(a)
+        }
         Command::Maps(a) => cmd_maps::run(a),
         Command::Locate(a) => cmd_locate::run(a),
         Command::BagToCapture(a) => capture_bag::bag_to_capture(a),
@@ -136,6 +141,16 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// Refuses a combination of `subcommand`'s flags that clap's own rules cannot state
+/// (it turns on a flag's value, e.g. `--estimator plain`) as clap refuses a conflict:
+/// its message naming both, the usage, exit status 2.
+fn refuse(subcommand: &str, a: &str, b: &str) -> ! {
+    let mut cli = Cli::command();
+    cli.build();
+    let sub = cli.find_subcommand_mut(subcommand).expect("a subcommand of bpins");
+    sub.error(clap::error::ErrorKind::ArgumentConflict, format!("the argument '{a}' cannot be used with '{b}'")).exit()
 }
 
 /// Standard output was closed by its reader (a broken pipe): the command stops there.
