@@ -3,6 +3,12 @@
 
 use std::path::PathBuf;
 
+/// The message of the [`Error::Capture`] for a folder without `capture.toml` (a
+/// missing folder, a mistyped path): the bindings turn it into their language's
+/// file-not-found error (Python's `FileNotFoundError`).
+#[cfg(feature = "io")]
+pub use crate::capture::NOT_FOUND as CAPTURE_NOT_FOUND;
+
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// A capture (`capture.toml` or a frame) that cannot be read as CAPTURE.md says.

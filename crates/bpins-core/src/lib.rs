@@ -66,9 +66,10 @@ pub mod render;
 pub mod scene;
 pub mod sensor;
 
-// The house: every implementation module, private. The workspace's own crates (the
-// CLI, the GPU twin and its parity tests, the Python and C bindings, the ROS 2 reader)
-// and the end-to-end tests reach them through [`internal`].
+// The house: every implementation module, private. The C binding and the ROS 2 reader
+// use only the front door; the CLI, the GPU twin and its parity tests, the Python
+// binding's fit and diagnosis, and the end-to-end tests reach the house through
+// [`internal`].
 mod backend;
 #[cfg(feature = "io")]
 mod capture;
@@ -178,6 +179,11 @@ pub use lab::{
 /// How [`locate()`] found north and place.
 #[cfg(feature = "io")]
 pub use locate::Route;
+/// What [`locate()`] is given from a capture on disk and what its answer is kept as:
+/// each frame's sky sun and turn ([`measure`], [`FrameSun::obs`] the [`SunObs`]), and
+/// the site file (`bpins-site/1`) that the compass takes in place of GNSS ([`Site`]).
+#[cfg(feature = "io")]
+pub use locate::{measure, FrameSun, Site};
 /// The sums engine to pass [`run_to_dir`] on the CPU (rayon); `bpins-gpu` has the GPU's.
 #[cfg(feature = "io")]
 pub use sweep::CpuSums;

@@ -7,7 +7,7 @@
 use crate::array::Borrowed;
 use crate::{py_err, whole};
 use bpins_core::effects::REGISTRY;
-use bpins_core::internal::capture::{Capture, FrameData};
+use bpins_core::{Capture, FrameData};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;

@@ -7,10 +7,8 @@ use crate::array::{Borrowed, Mosaic};
 use crate::{finite, py_err, whole};
 use bpins_core::calibration::Calibration;
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::compass::{self as core, Attitude, CompassConfig, CompassError, Sun};
-use bpins_core::internal::capture::Capture;
-use bpins_core::internal::heading::field::{FieldHeading, RawImage};
-use bpins_core::internal::heading::Extractor;
+use bpins_core::compass::{self as core, Attitude, CompassConfig, CompassError, Extractor, FieldHeading, RawImage, Sun};
+use bpins_core::Capture;
 use bpins_core::sensor::{Channel, Layout};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -211,7 +209,7 @@ impl Compass {
         let compass = core::Compass::for_capture(
             &c,
             self::calibration(calibration)?,
-            bpins_core::internal::heading::field::FieldOptions::default(),
+            core::FieldOptions::default(),
             self::extractor(extractor)?,
         )
         .map_err(compass_err)?;
@@ -320,7 +318,7 @@ fn site_sun(
     if sigma_deg < 0.0 {
         return Err(PyValueError::new_err(format!("sun_sigma_deg = {sigma}: expected a 1σ ≥ 0")));
     }
-    let site = bpins_core::internal::locate::Site::load(path).map_err(|e| crate::py_err_in("site: ", e))?;
+    let site = bpins_core::Site::load(path).map_err(|e| crate::py_err_in("site: ", e))?;
     let (azimuth_deg, elevation_deg, s) = site.sun_at(unix_time_of(t)?).map_err(|e| crate::py_err_in("site: ", e))?;
     Ok(Sun::Angles { azimuth_deg, elevation_deg, sigma_deg: s.hypot(sigma_deg) })
 }

@@ -42,7 +42,7 @@ pub(crate) fn py_err_in(prefix: &str, e: bpins_core::Error) -> PyErr {
         bpins_core::Error::Io { .. } => PyOSError::new_err(text),
         // A capture folder without capture.toml (bpins-core says so in words, as a
         // capture error): a file error to Python too.
-        bpins_core::Error::Capture { message, .. } if message == bpins_core::internal::capture::NOT_FOUND => {
+        bpins_core::Error::Capture { message, .. } if message == bpins_core::error::CAPTURE_NOT_FOUND => {
             PyFileNotFoundError::new_err(text)
         }
         _ => PyValueError::new_err(text),

@@ -4,8 +4,8 @@
 
 use crate::{finite, py_err};
 use bpins_core::effects::EffectSet;
-use bpins_core::internal::heading::field::FieldOptions;
-use bpins_core::internal::locate::{locate as locate_obs, measure, LocateError, LocateOptions, Site, SunObs};
+use bpins_core::compass::FieldOptions;
+use bpins_core::{locate as locate_obs, measure, Capture, LocateError, LocateOptions, Site, SunObs};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -58,7 +58,7 @@ pub fn locate<'py>(
             None => EffectSet::new(),
         }
         .model();
-        let c = bpins_core::internal::capture::Capture::load_unplaced(&capture).map_err(py_err)?;
+        let c = Capture::load_unplaced(&capture).map_err(py_err)?;
         let frames = measure(&c, &known, &FieldOptions::default(), |_| {}).map_err(locate_err)?;
         let obs: Vec<SunObs> = frames.iter().filter_map(|f| f.obs()).collect();
         let first_time = frames
@@ -68,9 +68,7 @@ pub fn locate<'py>(
         Ok((locate_obs(&obs, &opts).map_err(locate_err)?, frames, first_time))
     })?;
     if let Some(p) = &site_out {
-        let text = Site::from_located(&located, first_time).to_toml_string();
-        bpins_core::internal::output::write_bytes(p, bpins_core::internal::output::Replace::Allowed, text.as_bytes())
-            .map_err(py_err)?;
+        Site::from_located(&located, first_time).write(p).map_err(py_err)?;
     }
     let mut v = serde_json::to_value(&located).map_err(|e| PyValueError::new_err(e.to_string()))?;
     v["frames"] = frames

@@ -7,9 +7,8 @@
 use crate::array::{Borrowed, Mosaic};
 use crate::compass::mosaic_of;
 use crate::{finite, py_err};
-use bpins_core::internal::heading::field::RawImage;
-use bpins_core::internal::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
-use bpins_core::internal::recon::Reconstructor;
+use bpins_core::compass::RawImage;
+use bpins_core::{stokes_maps_into, Interpolation, MapsConfig, MapsOut, Reconstructor};
 use bpins_core::sensor::Channel;
 use numpy::{PyArray2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};

@@ -64,6 +64,12 @@ impl Site {
         t
     }
 
+    /// Writes [`Site::to_toml_string`] to `path` whole or not at all (a temporary
+    /// beside it, renamed into place), replacing a file there.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        crate::output::write_bytes(path, crate::output::Replace::Allowed, self.to_toml_string().as_bytes())
+    }
+
     /// Reads and checks a `bpins-site/1` file; errors name the file and the key.
     pub fn load(path: &Path) -> Result<Site> {
         let bad = |m: String| Error::Calibration { path: path.to_path_buf(), message: m };
