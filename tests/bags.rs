@@ -127,6 +127,47 @@ fn tilt_sigma_is_taken_alike_from_a_capture_and_its_bag() {
     }
 }
 
+/// Issue 50 item 4: `heading --bag` (--bag-out, --json) and `bag-to-capture --out`
+/// refuse an output in the bag reached through a symbolic link or through `..`.
+#[test]
+fn outputs_into_the_bag_through_a_link_or_dotdot_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    let place = ["--time-utc", "2026-06-21T02:30:00Z", "--latitude-deg", "36.07", "--longitude-deg", "120.38"];
+    let (cap, bag) = (p("cap"), p("bag"));
+    let mut args = vec!["simulate", "--out", &cap, "--bag-out", &bag, "--width-px", "96", "--height-px", "64"];
+    args.extend_from_slice(&place);
+    bpins(&args);
+    bpins(&["simulate", "--out", &p("cap2"), "--width-px", "96", "--height-px", "64", "--headings-deg", "0"]);
+    std::os::unix::fs::symlink(tmp.path().join("bag"), tmp.path().join("link")).unwrap();
+    let listing = || {
+        let mut v: Vec<_> = std::fs::read_dir(tmp.path().join("bag")).unwrap().map(|e| e.unwrap().path()).collect();
+        v.sort();
+        v
+    };
+    let before = listing();
+    let sensor = ["--bit-depth", "12", "--black-level-dn", "64", "--imu-topic", "/imu/data"];
+    for target in [p("link/out"), p("nowhere/../bag/out"), p("link/../bag/out"), p("link/deeper/out")] {
+        let mut args = vec!["heading", "--bag", &bag, "--bag-out", &target];
+        args.extend_from_slice(&sensor);
+        assert!(bpins_fails(&args).contains("never writes into a bag"), "--bag-out {target}");
+        let json = format!("{target}.json");
+        let mut args = vec!["heading", "--bag", &bag, "--json", &json];
+        args.extend_from_slice(&sensor);
+        assert!(bpins_fails(&args).contains("never writes into a bag"), "--json {json}");
+        let mut args = vec!["bag-to-capture", "--bag", &bag, "--out", &target, "--pixel-pitch-um", "27.6"];
+        args.extend_from_slice(&sensor);
+        assert!(bpins_fails(&args).contains("never writes into a bag"), "bag-to-capture --out {target}");
+        assert_eq!(listing(), before, "an output through {target} changed the bag");
+    }
+    // A capture reached through a link is one too, for --json beside a bag.
+    std::os::unix::fs::symlink(tmp.path().join("cap2"), tmp.path().join("caplink")).unwrap();
+    let json = p("caplink/out.json");
+    let mut args = vec!["heading", "--bag", &bag, "--json", &json];
+    args.extend_from_slice(&sensor);
+    assert!(bpins_fails(&args).contains("never writes into a capture"));
+}
+
 #[test]
 fn a_bag_with_zstd_chunks_gives_the_headings_of_its_uncompressed_twin() {
     // rosbag2's MCAP plugin writes zstd chunks by default; rosbags (tests/ros.rs)

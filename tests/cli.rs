@@ -468,6 +468,31 @@ fn json_output_into_the_capture_through_a_missing_folder_is_refused() {
     assert_eq!(snapshot(&cap), before);
 }
 
+/// Issue 50 item 4: an output reached through a symbolic link into the capture, or
+/// through `..` past one, is refused by every command that writes beside a capture.
+#[test]
+fn outputs_into_the_capture_through_a_link_or_dotdot_are_refused() {
+    let (tmp, cap) = clean_copy();
+    let before = snapshot(&cap);
+    let link = tmp.path().join("link");
+    std::os::unix::fs::symlink(&cap, &link).unwrap();
+    let frames_link = tmp.path().join("frames_link");
+    std::os::unix::fs::symlink(cap.join("frames"), &frames_link).unwrap();
+    let targets = [
+        link.join("out.json"),
+        link.join("new/deeper/out.json"),
+        frames_link.join("../out.json"),
+        tmp.path().join("nowhere/../link/out.json"),
+    ];
+    for t in &targets {
+        bpins(&["heading", &s(&cap), "--json", &s(t)]).fails().stderr_has("never writes into a capture");
+        bpins(&["maps", &s(&cap), "--out", &s(&t.with_extension(""))]).fails().stderr_has("inside the capture");
+        let sim = ["simulate", "--out", &s(&t.with_extension("")), "--headings-deg", "0"];
+        bpins(&sim).fails().stderr_has("inside the capture");
+        assert_eq!(snapshot(&cap), before, "an output through {} changed the capture", t.display());
+    }
+}
+
 #[test]
 fn simulate_never_writes_into_an_existing_capture() {
     let (_tmp, cap) = clean_copy();

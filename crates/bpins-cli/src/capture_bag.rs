@@ -37,10 +37,7 @@ pub fn bag_to_capture(a: Args) -> anyhow::Result<()> {
     }
     let input = a.bag.open()?;
     say!("bag {}: images on {}, tilt from {}", input.bag.dir.display(), input.image_topic, input.tilt_source());
-    let bag_dir = std::fs::canonicalize(&input.bag.dir).unwrap_or_else(|_| input.bag.dir.clone());
-    if std::path::absolute(&a.out).is_ok_and(|o| o.starts_with(&bag_dir)) {
-        bail!("--out {}: is inside the bag {}; bpins never writes into a bag", a.out.display(), bag_dir.display());
-    }
+    crate::ensure_not_in_input(&a.out, &[&input.bag.dir]).context("--out")?;
     let intr = input.intrinsics;
     if intr.distortion != [0.0; 2] {
         bail!(

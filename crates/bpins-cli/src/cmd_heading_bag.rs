@@ -39,21 +39,10 @@ pub fn run(
     out: BagOut,
 ) -> anyhow::Result<()> {
     let input = args.open()?;
-    if let Some(o) = out.bag_out {
-        let inside = std::path::absolute(o)
-            .ok()
-            .zip(std::fs::canonicalize(&input.bag.dir).ok())
-            .is_some_and(|(o, b)| o.starts_with(&b));
-        if inside {
-            bail!(
-                "--bag-out {}: is inside the bag {}; bpins never writes into a bag",
-                o.display(),
-                input.bag.dir.display()
-            );
+    for (flag, o) in [("--bag-out", out.bag_out.map(|p| p.as_path())), ("--json", out.json)] {
+        if let Some(o) = o {
+            crate::ensure_not_in_input(o, &[&input.bag.dir]).with_context(|| flag)?;
         }
-    }
-    if let Some(j) = out.json {
-        crate::ensure_not_in_capture(j)?;
     }
     let s = &input.sensor;
     let Layout::Dofp { mosaic: tiles } = s.layout else { bail!("the sensor must be a DoFP mosaic") };

@@ -305,6 +305,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(parent) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         crate::ensure_not_in_capture(parent)?;
     }
+    if let Some(b) = &a.bag_out {
+        crate::ensure_not_in_capture(b).context("--bag-out")?;
+    }
     // Each frame is written as it is made (memory: one batch of frames), capture.toml
     // last: a run killed part-way leaves whole frames and no capture.
     let written = Capture { dir: out.clone(), ..written };

@@ -193,12 +193,51 @@ pub fn write_output(path: &std::path::Path, bytes: &[u8]) -> anyhow::Result<()> 
 }
 
 /// Refuses an output path that lies in a capture (a folder holding capture.toml):
-/// bpins never writes into a capture.
+/// bpins never writes into a capture. [`ensure_not_in_input`] with no bag.
 pub fn ensure_not_in_capture(out: &std::path::Path) -> anyhow::Result<()> {
-    if let Some(c) = bpins_core::internal::capture::enclosing_capture(out)? {
+    ensure_not_in_input(out, &[])
+}
+
+/// The one check that bpins never writes into its input: refuses an output path
+/// `out` that is or lies in a capture (any folder holding capture.toml) or in one of
+/// `bags` (a bag's folder). Both sides are compared resolved ([`resolve`]: `..` taken
+/// and symbolic links followed, through the existing part of a path not yet made), so
+/// that an output reached through `..` or a link into an input is caught.
+pub fn ensure_not_in_input(out: &std::path::Path, bags: &[&std::path::Path]) -> anyhow::Result<()> {
+    let o = resolve(out)?;
+    if let Some(c) = o.ancestors().find(|a| a.join("capture.toml").is_file()) {
         anyhow::bail!("{}: is inside the capture {}; bpins never writes into a capture", out.display(), c.display());
     }
+    for bag in bags {
+        let b = resolve(bag)?;
+        if o.starts_with(&b) {
+            anyhow::bail!("{}: is inside the bag {}; bpins never writes into a bag", out.display(), b.display());
+        }
+    }
     Ok(())
+}
+
+/// `p` made absolute, its components taken in order: `.` dropped, `..` the parent of
+/// what precedes it, and each prefix that exists canonicalized (its links followed)
+/// before the next is added, as the kernel walks it.
+fn resolve(p: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
+    use anyhow::Context;
+    use std::path::Component;
+    let abs = std::path::absolute(p).with_context(|| format!("{}", p.display()))?;
+    let mut out = std::path::PathBuf::new();
+    for c in abs.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            c => out.push(c),
+        }
+        if out.exists() {
+            out = std::fs::canonicalize(&out).unwrap_or(out);
+        }
+    }
+    Ok(out)
 }
 
 /// What `fit` and `diagnose` read: a capture, the model's effects, where to write.
