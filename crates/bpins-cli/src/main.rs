@@ -217,27 +217,9 @@ pub fn ensure_not_in_input(out: &std::path::Path, bags: &[&std::path::Path]) -> 
     Ok(())
 }
 
-/// `p` made absolute, its components taken in order: `.` dropped, `..` the parent of
-/// what precedes it, and each prefix that exists canonicalized (its links followed)
-/// before the next is added, as the kernel walks it.
+/// `p` resolved as every input check resolves it (`capture::resolve_path`).
 fn resolve(p: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
-    use anyhow::Context;
-    use std::path::Component;
-    let abs = std::path::absolute(p).with_context(|| format!("{}", p.display()))?;
-    let mut out = std::path::PathBuf::new();
-    for c in abs.components() {
-        match c {
-            Component::ParentDir => {
-                out.pop();
-            }
-            Component::CurDir => {}
-            c => out.push(c),
-        }
-        if out.exists() {
-            out = std::fs::canonicalize(&out).unwrap_or(out);
-        }
-    }
-    Ok(out)
+    Ok(bpins_core::internal::capture::resolve_path(p)?)
 }
 
 /// What `fit` and `diagnose` read: a capture, the model's effects, where to write.

@@ -367,12 +367,15 @@ fn looks_like_a_ros2_bag(dir: &Path) -> bool {
 /// The capture folder (one holding `capture.toml`) that `path` lies in or is, if
 /// any: outputs must never go there. `..` and symbolic links are resolved first.
 pub fn enclosing_capture(path: &Path) -> Result<Option<PathBuf>> {
-    let resolved = resolve(path)?;
+    let resolved = resolve_path(path)?;
     Ok(resolved.ancestors().find(|a| a.join("capture.toml").is_file()).map(Path::to_path_buf))
 }
 
-/// `p` made absolute, `..` and `.` removed, and every existing prefix canonicalized.
-fn resolve(p: &Path) -> Result<PathBuf> {
+/// `p` made absolute, its components taken in order: `.` dropped, `..` the parent of
+/// what precedes it, and each prefix that exists canonicalized (its links followed)
+/// before the next is added, as the kernel walks it. The one resolution every "never
+/// write into the input" check compares with (captures here, bags in the CLI).
+pub fn resolve_path(p: &Path) -> Result<PathBuf> {
     let abs = std::path::absolute(p).map_err(|e| Error::Io { path: p.to_path_buf(), source: e })?;
     let mut out = PathBuf::new();
     for c in abs.components() {

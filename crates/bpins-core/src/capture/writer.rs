@@ -16,7 +16,7 @@
 //! replaced; without the mark an existing file is refused, as bpins never overwrites
 //! what it did not leave half-done.
 
-use super::{images, resolve, validate, Capture, FrameData, Layout};
+use super::{images, resolve_path as resolve, validate, Capture, FrameData, Layout};
 use crate::output::{self, Replace};
 use crate::{Error, Result};
 use std::fs;
