@@ -25,7 +25,8 @@ const API: &str = "docs/api/bpins-core.txt";
 
 #[test]
 fn the_public_api_is_the_one_in_docs_api() {
-    let target = std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| Path::new(REPO).join("target"));
+    let target =
+        std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| Path::new(REPO).join("target"));
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let out = Command::new(cargo)
         .current_dir(REPO)
@@ -63,9 +64,8 @@ fn api_text(root: &Path) -> String {
     let mut pages = BTreeMap::new();
     collect(root, root, &mut pages);
     assert!(pages.len() > 20, "only {} item pages under {}", pages.len(), root.display());
-    let mut s = String::from(
-        "# The public API of bpins-core, from `cargo doc` (tests/public_api.rs writes and checks it).\n",
-    );
+    let mut s =
+        String::from("# The public API of bpins-core, from `cargo doc` (tests/public_api.rs writes and checks it).\n");
     for (path, lines) in pages {
         s += &format!("\n[{path}]\n");
         for l in lines {
@@ -110,15 +110,18 @@ fn signatures(html: &str) -> Vec<String> {
     let traits = cut("trait-implementations-list");
     let auto = cut("synthetic-implementations-list").min(cut("blanket-implementations-list"));
     let inherent = &html[..traits.min(auto)];
-    for h in blocks(inherent, "<h3 class=\"code-header\">", "</h3>")
-        .into_iter()
-        .chain(blocks(inherent, "<h4 class=\"code-header\">", "</h4>"))
-    {
+    for h in blocks(inherent, "<h3 class=\"code-header\">", "</h3>").into_iter().chain(blocks(
+        inherent,
+        "<h4 class=\"code-header\">",
+        "</h4>",
+    )) {
         out.push(one_line(&text(h)));
     }
     if traits < auto {
-        let mut impls: Vec<String> =
-            blocks(&html[traits..auto], "<h3 class=\"code-header\">", "</h3>").into_iter().map(|h| one_line(&text(h))).collect();
+        let mut impls: Vec<String> = blocks(&html[traits..auto], "<h3 class=\"code-header\">", "</h3>")
+            .into_iter()
+            .map(|h| one_line(&text(h)))
+            .collect();
         impls.sort();
         out.extend(impls);
     }

@@ -81,7 +81,9 @@ fn merged_slices_equal_the_unsharded_sweep_and_slices_restart() {
         assert!((sum - 1.0).abs() < 1e-9, "{b}");
     }
     let budget_lines: Vec<&str> = stdout.lines().filter(|l| l.starts_with("budget ")).collect();
-    assert!(!budget_lines.is_empty() && budget_lines.iter().all(|l| l.contains("of Σσ²") && l.contains("from 6 trials")));
+    assert!(
+        !budget_lines.is_empty() && budget_lines.iter().all(|l| l.contains("of Σσ²") && l.contains("from 6 trials"))
+    );
     for l in &budget_lines {
         for pct in l.split(" %").filter_map(|p| p.rsplit(' ').next()?.parse::<f64>().ok()) {
             assert!((0.0..=100.0).contains(&pct), "a share beyond 100 %: {l}");

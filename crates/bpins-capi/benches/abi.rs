@@ -32,7 +32,8 @@ fn one_size(c: &mut Criterion, w: usize, h: usize, f_px: f64) {
     let (W, H) = (w, h);
     let lens = Intrinsics::new(Projection::Pinhole, f_px, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
     let renderer = Renderer::new(RendererConfig::dofp(lens, W, H, Response::samples(2400.0))).unwrap();
-    let view = View { sun_azimuth_deg: 40.0, sun_elevation_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 2.0, tilt_y_deg: -1.0 };
+    let view =
+        View { sun_azimuth_deg: 40.0, sun_elevation_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 2.0, tilt_y_deg: -1.0 };
     let mut raw = Vec::new();
     renderer.raw_frame(&view, NoiseIndex { seed: 3, trial: 0, frame: 0 }).unwrap().to_u16_into(&mut raw);
     let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };

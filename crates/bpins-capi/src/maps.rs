@@ -5,8 +5,8 @@
 use crate::types::mosaic_of_deg;
 use crate::{guard, BpinsStatus, Failure};
 use bpins_core::compass::{RawDn, RawImage};
-use bpins_core::{stokes_maps_into, Interpolation, MapsConfig, MapsOut, Reconstructor};
 use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+use bpins_core::{stokes_maps_into, Interpolation, MapsConfig, MapsOut, Reconstructor};
 
 /// Each channel interpolated bilinearly on its own lattice (the default).
 pub const BPINS_MAPS_BILINEAR: u32 = 0;

@@ -3,8 +3,8 @@
 
 use bpins::*;
 use bpins_core::compass::RawImage;
-use bpins_core::{stokes_maps, Interpolation, MapsConfig, Reconstructor};
 use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+use bpins_core::{stokes_maps, Interpolation, MapsConfig, Reconstructor};
 use std::ffi::CStr;
 
 fn last_error() -> String {

@@ -113,8 +113,11 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
     // Two spaces between columns, each as wide as its header or its widest entry (a model
     // of several effects, an effect named `polarimetric_nonuniformity`): the columns never
     // run together.
-    let models: Vec<String> =
-        d.steps.iter().map(|s| if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") }).collect();
+    let models: Vec<String> = d
+        .steps
+        .iter()
+        .map(|s| if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") })
+        .collect();
     let mw = column_width("model", models.iter().map(String::as_str));
     out!("{:<mw$}  {:>9}  {:>10}  {:>9}  {:>14}", "model", "χ²/dof", "AoP RMS °", "DoLP RMS", "heading RMS °");
     for (s, m) in d.steps.iter().zip(&models) {

@@ -7,9 +7,11 @@ use crate::array::{Borrowed, Mosaic};
 use crate::{finite, py_err, whole};
 use bpins_core::calibration::Calibration;
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::compass::{self as core, Attitude, CompassConfig, CompassError, Extractor, FieldHeading, RawImage, Sun};
-use bpins_core::Capture;
+use bpins_core::compass::{
+    self as core, Attitude, CompassConfig, CompassError, Extractor, FieldHeading, RawImage, Sun,
+};
 use bpins_core::sensor::{Channel, Layout};
+use bpins_core::Capture;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;

@@ -3,8 +3,8 @@
 //! them; the answer as a dict, "not yet" as a `ValueError` saying why.
 
 use crate::{finite, py_err};
-use bpins_core::effects::EffectSet;
 use bpins_core::compass::FieldOptions;
+use bpins_core::effects::EffectSet;
 use bpins_core::{locate as locate_obs, measure, Capture, LocateError, LocateOptions, Site, SunObs};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;

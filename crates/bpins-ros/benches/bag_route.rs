@@ -101,8 +101,13 @@ fn route(c: &mut Criterion) {
     for (w, h, pitch, name) in [(612usize, 512usize, 13.8, "dofp_512x612"), (2448, 2048, 3.45, "dofp_2048x2448")] {
         let intr = Intrinsics::new(Projection::Pinhole, 8000.0 / pitch, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
         let renderer = Renderer::new(RendererConfig::dofp(intr, w, h, Response::samples(3000.0))).unwrap();
-        let view =
-            View { sun_azimuth_deg: 40.0, sun_elevation_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 4.0, tilt_y_deg: -3.0 };
+        let view = View {
+            sun_azimuth_deg: 40.0,
+            sun_elevation_deg: 25.0,
+            heading_deg: 30.0,
+            tilt_x_deg: 4.0,
+            tilt_y_deg: -3.0,
+        };
         let mut dn = Vec::new();
         renderer.raw_frame(&view, NoiseIndex { seed: 1, trial: 0, frame: 0 }).unwrap().to_u16_into(&mut dn);
         let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };

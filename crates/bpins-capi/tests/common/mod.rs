@@ -4,8 +4,8 @@
 #![allow(dead_code)]
 
 use bpins_core::compass::{Attitude, CompassConfig, Sun};
-use bpins_core::{Capture, FrameData};
 use bpins_core::sensor::Layout;
+use bpins_core::{Capture, FrameData};
 
 /// samples/clean of the repository: found upwards from the package that includes this
 /// file (crates/bpins-capi's own tests, or the root package's C example).

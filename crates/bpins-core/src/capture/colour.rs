@@ -56,7 +56,13 @@ impl std::fmt::Display for ColourPeriod {
 
 /// The colour-period test on a DoFP mosaic (`dn[v·W + u]`, DN), black level and full
 /// scale in DN: `Some` where the tiles alternate as a colour sensor's.
-pub fn colour_period(dn: &[f32], width_px: usize, height_px: usize, black_dn: f64, full_dn: f64) -> Option<ColourPeriod> {
+pub fn colour_period(
+    dn: &[f32],
+    width_px: usize,
+    height_px: usize,
+    black_dn: f64,
+    full_dn: f64,
+) -> Option<ColourPeriod> {
     let (tw, th) = (width_px / 2, height_px / 2);
     if tw < 2 || th < 2 || dn.len() < width_px * height_px {
         return None;
@@ -69,8 +75,8 @@ pub fn colour_period(dn: &[f32], width_px: usize, height_px: usize, black_dn: f6
         let mut row = [0.0f64; 2];
         for tx in 0..tw {
             let u = 2 * tx;
-            let s0 = dn[r0 + u] as f64 + dn[r0 + u + 1] as f64 + dn[r1 + u] as f64 + dn[r1 + u + 1] as f64
-                - 4.0 * black_dn;
+            let s0 =
+                dn[r0 + u] as f64 + dn[r0 + u + 1] as f64 + dn[r1 + u] as f64 + dn[r1 + u + 1] as f64 - 4.0 * black_dn;
             row[tx % 2] += s0;
         }
         for c in 0..2 {

@@ -45,9 +45,9 @@
 //! [`CompassError`]); `capture.rs`, a capture's frames through the same compass;
 //! `tests.rs`, the tests.
 
-pub use crate::heading::field::{FieldHeading, FieldOptions, FieldQuality, NoHeading, RawDn, RawImage, SigmaParts};
 /// The sun one frame's sky shows, with 1σ (what `bpins_core::measure` reads for `locate`).
 pub use crate::heading::field::SkySun;
+pub use crate::heading::field::{FieldHeading, FieldOptions, FieldQuality, NoHeading, RawDn, RawImage, SigmaParts};
 pub use crate::heading::Extractor;
 pub use inputs::{Attitude, CompassConfig, CompassError, Sun};
 

@@ -502,7 +502,8 @@ pub(crate) mod tests {
             }
         }
         // An error drawn away from neutral moves the trials off the nominal ones.
-        let moved = super::super::stats::summarise(&s, &run_units(&s, 0..unit_count(&s), &CpuSums, &|_, _| {}).unwrap());
+        let moved =
+            super::super::stats::summarise(&s, &run_units(&s, 0..unit_count(&s), &CpuSums, &|_, _| {}).unwrap());
         assert!(moved.rows.iter().any(|r| nominal.iter().all(|n| n.errors_deg != r.errors_deg)));
     }
 
