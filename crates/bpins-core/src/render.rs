@@ -612,15 +612,10 @@ mod tests {
                 principal_point_px: (152.5, 127.5),
             },
             frames: vec![FrameSpec {
-                file: "frames/f000.png".into(),
-                sun: SunPosition::given(v.sun_azimuth_deg, v.sun_elevation_deg),
                 heading_deg: Some(v.heading_deg),
                 tilt_x_deg: Some(v.tilt_x_deg),
                 tilt_y_deg: Some(v.tilt_y_deg),
-                tilt_sigma_deg: None,
-                sun_sigma_deg: None,
-                yaw_deg: None,
-                yaw_sigma_deg: None,
+                ..FrameSpec::new("frames/f000.png", SunPosition::given(v.sun_azimuth_deg, v.sun_elevation_deg))
             }],
         };
         let mut effects = EffectSet::new();
