@@ -164,3 +164,44 @@ fn text(html: &str) -> String {
 fn one_line(s: &str) -> String {
     s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
+
+/// The workspace's clients use the named doors (issue 44 item 3): the front door,
+/// `twin` (the GPU twin) and `tool` (the CLI, Python's fit and diagnosis). The hidden
+/// `internal` module is for bpins-core's own tests, benches and examples and the
+/// end-to-end tests in tests/; no other crate's source, bench or example names it.
+#[test]
+fn no_client_crate_reaches_past_the_named_doors() {
+    let mut offenders = Vec::new();
+    for krate in fs::read_dir(Path::new(REPO).join("crates")).unwrap() {
+        let krate = krate.unwrap().path();
+        if krate.file_name().is_some_and(|n| n == "bpins-core") {
+            continue;
+        }
+        let mut stack = vec![krate];
+        while let Some(dir) = stack.pop() {
+            for e in fs::read_dir(&dir).unwrap() {
+                let p = e.unwrap().path();
+                if p.is_dir() {
+                    if !p.ends_with("target") && !p.ends_with("python") {
+                        stack.push(p);
+                    }
+                } else if p.extension().is_some_and(|x| x == "rs") {
+                    let text = fs::read_to_string(&p).unwrap();
+                    for (i, line) in text.lines().enumerate() {
+                        if line.contains("bpins_core::internal") {
+                            offenders.push(format!("{}:{}: {}", p.display(), i + 1, line.trim()));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "client crates name bpins_core::internal (use the front door, bpins_core::twin or bpins_core::tool):\n{}",
+        offenders.join("\n")
+    );
+    // The check reads the crates it means to: the GPU twin names its door.
+    let gpu = fs::read_to_string(Path::new(REPO).join("crates/bpins-gpu/src/sums.rs")).unwrap();
+    assert!(gpu.contains("bpins_core::twin::"), "crates/bpins-gpu/src/sums.rs no longer names bpins_core::twin");
+}

@@ -30,9 +30,9 @@ impl Backend {
 }
 
 /// Opens the backend `b` (the library's trait: the CLI only chooses).
-pub fn open(b: Backend) -> anyhow::Result<Box<dyn bpins_core::internal::backend::Backend>> {
+pub fn open(b: Backend) -> anyhow::Result<Box<dyn bpins_core::twin::Backend>> {
     Ok(match b {
-        Backend::Cpu => Box::new(bpins_core::internal::backend::Cpu),
+        Backend::Cpu => Box::new(bpins_core::twin::Cpu),
         Backend::Gpu => Box::new(open_gpu()?),
     })
 }
@@ -102,12 +102,9 @@ fn cpu_note(adapter: &str, cpu: bool) -> Option<String> {
 
 /// A sweep's engine on backend `b`: the rayon reference, or the GPU twin opened into
 /// `gpu` (which the engine borrows, so it lives as long as the caller's slot).
-pub fn sums_engine(
-    b: Backend,
-    gpu: &mut Option<bpins_gpu::Gpu>,
-) -> anyhow::Result<&dyn bpins_core::internal::sweep::SumsEngine> {
+pub fn sums_engine(b: Backend, gpu: &mut Option<bpins_gpu::Gpu>) -> anyhow::Result<&dyn bpins_core::SumsEngine> {
     Ok(match b {
-        Backend::Cpu => &bpins_core::internal::sweep::CpuSums,
+        Backend::Cpu => &bpins_core::CpuSums,
         Backend::Gpu => gpu.insert(open_gpu()?),
     })
 }

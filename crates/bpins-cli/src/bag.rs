@@ -4,9 +4,11 @@
 
 use anyhow::{anyhow, bail, Context};
 use bpins_core::camera::Intrinsics;
-use bpins_core::internal::capture::{load_sensor_file, LensSpec, SensorSpec};
-use bpins_core::internal::sky::sun::{sun_from_unix_time, SunPosition};
 use bpins_core::sensor::{Channel, Layout, DEFAULT_MOSAIC};
+use bpins_core::tool::capture::load_sensor_file;
+use bpins_core::tool::sun::sun_from_unix_time;
+use bpins_core::SunPosition;
+use bpins_core::{LensSpec, SensorSpec};
 use bpins_ros::cdr::decode;
 use bpins_ros::convert::{camera_size_px, intrinsics, Tilt};
 use bpins_ros::matching::{decode_fix, decode_imu, place_at, tilt_at, ImuMatch, ImuSample, Track};

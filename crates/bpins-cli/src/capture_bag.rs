@@ -6,9 +6,9 @@
 use crate::bag::BagArgs;
 use anyhow::{anyhow, bail, Context};
 use bpins_core::camera::Projection;
-use bpins_core::internal::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
-use bpins_core::internal::sky::sun::SunSource;
 use bpins_core::sensor::Layout;
+use bpins_core::SunSource;
+use bpins_core::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use bpins_ros::cdr::{decode, encode};
 use bpins_ros::convert::{mosaic, Mosaic};
 use bpins_ros::msgs::{types, CameraInfo, Header, Image, NavSatFix, NavSatStatus, Time};

@@ -10,7 +10,8 @@ use crate::progress::bar;
 use crate::write_json;
 use crate::Backend;
 use anyhow::Context;
-use bpins_core::internal::sweep::{run_units, unit_count, SumsEngine, SweepSpec};
+use bpins_core::tool::sweep::{run_units, unit_count};
+use bpins_core::{SumsEngine, SweepSpec};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -95,7 +96,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let gpu = device.as_ref();
     let engine: &dyn SumsEngine = match gpu {
         Some(g) => g,
-        None => &bpins_core::internal::sweep::CpuSums,
+        None => &bpins_core::CpuSums,
     };
     let (adapter, precision) = match gpu {
         Some(g) => (g.adapter_name(), g.precision().name()),

@@ -6,9 +6,10 @@
 
 use crate::{ensure_not_in_capture, write_json, write_output};
 use anyhow::Context;
+use bpins_core::calibrate;
 use bpins_core::calibration::Calibration;
-use bpins_core::internal::capture::LabCapture;
-use bpins_core::internal::lab::{calibrate, output, report};
+use bpins_core::tool::lab::{report_html, write_maps};
+use bpins_core::LabCapture;
 use serde_json::json;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -88,7 +89,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
 
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
-    let maps = output::write_maps(&cal, &a.out).context("writing the maps")?;
+    let maps = write_maps(&cal, &a.out).context("writing the maps")?;
     let calibration = Calibration {
         source: format!("bpins calibrate {}", a.lab.display()),
         pixels: Some(Arc::new(cal.maps.clone())),
@@ -110,10 +111,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "maps": maps,
     });
     write_json(&a.out.join("summary.json"), &summary)?;
-    write_output(
-        &a.out.join("report.html"),
-        report::report_html(&cal, &a.lab.display().to_string(), &maps)?.as_bytes(),
-    )?;
+    write_output(&a.out.join("report.html"), report_html(&cal, &a.lab.display().to_string(), &maps)?.as_bytes())?;
     let t_all = t0.elapsed().as_secs_f64();
     say!(
         "wrote {} (+ pixels.exr), maps.exr, png/, summary.json, report.html to {} in {t_all:.1} s \

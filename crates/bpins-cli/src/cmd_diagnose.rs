@@ -6,10 +6,11 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::internal::diagnose::sizes::MinSize;
-use bpins_core::internal::diagnose::DiagnosisJson;
-use bpins_core::internal::diagnose::{diagnose_frames, DiagnoseOptions, Diagnosis};
-use bpins_core::internal::fit::FitOptions;
+use bpins_core::tool::diagnose::diagnose_frames;
+use bpins_core::tool::diagnose::DiagnosisJson;
+use bpins_core::FitOptions;
+use bpins_core::MinSize;
+use bpins_core::{DiagnoseOptions, Diagnosis};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -61,7 +62,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .context("diagnosing")?;
     // The final model's parameters on more pixels where the sample cannot decide them
     // but every pixel could (`fit::resolution`).
-    let (bpins_core::internal::fit::Loaded { capture: c, frames, .. }, d) = request
+    let (bpins_core::tool::fit::Loaded { capture: c, frames, .. }, d) = request
         .raise_diagnosis_where_needed(loaded, d, &|_, it| spinner.set_message(format!("final model, iteration {it}")))
         .context("fitting the final model on more pixels")?;
     spinner.finish_and_clear();

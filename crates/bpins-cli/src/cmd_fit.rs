@@ -4,7 +4,7 @@
 
 use crate::write_json;
 use anyhow::Context;
-use bpins_core::internal::fit::{fit_from, FitJson};
+use bpins_core::tool::fit::{fit_from, FitJson};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -27,7 +27,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let first = fit_from(&loaded.capture, &loaded.frames, &loaded.options, None, &progress).context("fitting")?;
     // A parameter the sample cannot tell from neutral but every pixel could: read
     // more of each frame and fit again (`fit::resolution`).
-    let (bpins_core::internal::fit::Loaded { options: opts, capture: c, frames }, r) =
+    let (bpins_core::tool::fit::Loaded { options: opts, capture: c, frames }, r) =
         request.raise_where_needed(loaded, first, &progress).context("fitting on more pixels")?;
     spinner.finish_and_clear();
     if let Some(x) = &r.raised {

@@ -6,12 +6,12 @@ use crate::{ensure_not_in_capture, write_json};
 use anyhow::{bail, Context};
 use bpins_core::calibration::Calibration;
 use bpins_core::compass::Compass;
+use bpins_core::compass::Extractor;
+use bpins_core::compass::FieldOptions;
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::EffectSet;
-use bpins_core::internal::capture::Capture;
-use bpins_core::internal::heading::field::FieldOptions;
-use bpins_core::internal::heading::Extractor;
-use bpins_core::internal::pipeline::{apply_pixel_maps, frame_headings_of, ReconMode};
+use bpins_core::tool::pipeline::{apply_pixel_maps, frame_headings_of, ReconMode};
+use bpins_core::Capture;
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -85,7 +85,7 @@ pub struct Args {
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq)]
 enum Estimator {
-    /// Cells, masks, robust reweighting, jackknife 1σ (bpins_core::internal::heading::field).
+    /// Cells, masks, robust reweighting, jackknife 1σ (bpins_core::compass).
     Field,
     /// Every sample, least squares, statistical 1σ (the Monte Carlo's extractors).
     Plain,
@@ -173,7 +173,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             (c, vec![false; n])
         }
         Some(p) => {
-            let site = bpins_core::internal::locate::Site::load(p)?;
+            let site = bpins_core::Site::load(p)?;
             let mut c = Capture::load_unplaced(capture_dir)?;
             let unplaced: Vec<bool> = c.frames.iter().map(|f| !f.sun.is_known()).collect();
             let n = site.place(&mut c).with_context(|| format!("--site {}", p.display()))?;
@@ -364,7 +364,7 @@ fn print_header() -> anyhow::Result<()> {
 /// into the heading where it has one (`sun_sigma_deg`, or the site's propagated where
 /// `from_site`), and where it came from.
 fn sun_text(f: &bpins_core::FrameSpec, from_site: bool) -> String {
-    use bpins_core::internal::sky::sun::SunSource;
+    use bpins_core::SunSource;
     let (az, el) = (f.sun.azimuth_deg, f.sun.elevation_deg);
     let Some(sigma) = f.sun_sigma_deg else {
         return format!("{az:.4}/{el:.4}, {}", f.sun.source.describe());

@@ -8,11 +8,12 @@
 
 use crate::{ensure_not_in_capture, write_json, write_output};
 use anyhow::{bail, Context};
+use bpins_core::compass::FieldOptions;
 use bpins_core::conventions::wrap_deg_180;
 use bpins_core::effects::EffectSet;
-use bpins_core::internal::capture::Capture;
-use bpins_core::internal::heading::field::FieldOptions;
-use bpins_core::internal::locate::{locate, measure, LocateOptions, SeriesTruth, Site, SunObs};
+use bpins_core::tool::locate::SeriesTruth;
+use bpins_core::Capture;
+use bpins_core::{locate, measure, LocateOptions, Site, SunObs};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -115,7 +116,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         pole_only: a.pole,
     };
     let result = locate(&obs, &lopts).map_err(|e| match e {
-        bpins_core::internal::locate::LocateError::TooFewFrames { usable, needed, .. } => {
+        bpins_core::LocateError::TooFewFrames { usable, needed, .. } => {
             anyhow::anyhow!(
                 "too few frames with a sun: {usable} of {} usable, {needed} needed (too cloudy, the sun out of range, \
                  or too few frames)",
@@ -178,7 +179,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn frames_json(frames: &[bpins_core::internal::locate::FrameSun]) -> serde_json::Value {
+fn frames_json(frames: &[bpins_core::FrameSun]) -> serde_json::Value {
     frames
         .iter()
         .map(|f| match &f.sun {

@@ -7,11 +7,12 @@
 
 use crate::ensure_not_in_capture;
 use anyhow::{bail, Context};
-use bpins_core::internal::capture::{write_exr_layers_fast, Capture, FrameData};
-use bpins_core::internal::heading::field::RawImage;
-use bpins_core::internal::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
-use bpins_core::internal::recon::Reconstructor;
+use bpins_core::compass::RawImage;
 use bpins_core::sensor::{Channel, Layout};
+use bpins_core::tool::capture::write_exr_layers_fast;
+use bpins_core::Reconstructor;
+use bpins_core::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
+use bpins_core::{Capture, FrameData};
 use rayon::prelude::*;
 use std::path::PathBuf;
 

@@ -5,10 +5,11 @@
 use crate::progress::bar;
 use crate::{write_json, Backend};
 use anyhow::Context;
-use bpins_core::internal::heading::Extractor;
-use bpins_core::internal::montecarlo::{paper_figures_deg, Row, Source};
-use bpins_core::internal::sweep::{run_units, summarise, unit_count, SweepSpec};
+use bpins_core::compass::Extractor;
 use bpins_core::sensor::{Channel, Layout};
+use bpins_core::tool::montecarlo::{paper_figures_deg, Row, Source};
+use bpins_core::tool::sweep::{run_units, summarise, unit_count};
+use bpins_core::SweepSpec;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -89,7 +90,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 }
 
 /// The sweep's rows as Table 3: the paper's figures beside, ρ known before unknown.
-fn table3(spec: &SweepSpec, records: &[bpins_core::internal::sweep::TrialRecord]) -> Vec<Row> {
+fn table3(spec: &SweepSpec, records: &[bpins_core::tool::sweep::TrialRecord]) -> Vec<Row> {
     let summary = summarise(spec, records);
     let mut rows: Vec<(usize, Row)> = Vec::new();
     for r in summary.rows {

@@ -8,13 +8,15 @@ use anyhow::{bail, Context};
 use bpins_core::camera::Projection;
 use bpins_core::conventions::image_centre_px;
 use bpins_core::effects::EffectSet;
-use bpins_core::internal::capture::{write_exr_layers, Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
-use bpins_core::internal::chain::ChainFrame;
-use bpins_core::internal::pipeline::{reconstruct_frame, sim_chain_frame, sim_response, ReconMode, SimSensor};
-use bpins_core::internal::recon::angle_maps;
-use bpins_core::internal::sky::sun::{sun_from_time_place, SunPosition};
 use bpins_core::scene::{FieldAttitude, FieldScene};
 use bpins_core::sensor::{Channel, Geometry, Layout, DEFAULT_MOSAIC};
+use bpins_core::tool::capture::write_exr_layers;
+use bpins_core::tool::pipeline::angle_maps;
+use bpins_core::tool::pipeline::{reconstruct_frame, sim_chain_frame, sim_response, ReconMode, SimSensor};
+use bpins_core::tool::sun::sun_from_time_place;
+use bpins_core::ChainFrame;
+use bpins_core::SunPosition;
+use bpins_core::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -239,7 +241,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         attitude.draw(&nominal.frames).context("--tilt-random-deg / --imu-sigma-deg / --sun-sigma-deg")?;
     // A series writes its stamps and yaw; the attitude draws give the reference tilt.
     let reference_frames = match series_written {
-        Some(w) => bpins_core::internal::locate::with_reference_tilts(w, reference_frames),
+        Some(w) => bpins_core::tool::locate::with_reference_tilts(w, reference_frames),
         None => reference_frames,
     };
     let capture = Capture { frames: truth_frames, ..nominal.clone() };
@@ -355,7 +357,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 }
 
 /// The time series of `--every-min`, if asked.
-fn series_of(a: &Args) -> anyhow::Result<Option<bpins_core::internal::locate::Series>> {
+fn series_of(a: &Args) -> anyhow::Result<Option<bpins_core::tool::locate::Series>> {
     let Some(every) = a.every_min else { return Ok(None) };
     if a.sun_sigma_deg.is_some() {
         bail!("--sun-sigma-deg: a series' sun comes from SPA at its stamps; leave the sun's 1σ out");
@@ -363,7 +365,7 @@ fn series_of(a: &Args) -> anyhow::Result<Option<bpins_core::internal::locate::Se
     let (Some(t), Some(lat), Some(lon)) = (&a.time_utc, a.latitude_deg, a.longitude_deg) else {
         bail!("--every-min needs --time-utc, --latitude-deg and --longitude-deg (the site and the first frame's time)");
     };
-    Ok(Some(bpins_core::internal::locate::Series {
+    Ok(Some(bpins_core::tool::locate::Series {
         latitude_deg: lat,
         longitude_deg: lon,
         start_utc: t.clone(),
@@ -376,11 +378,11 @@ fn series_of(a: &Args) -> anyhow::Result<Option<bpins_core::internal::locate::Se
     }))
 }
 
-/// `--lab`: a lab capture of the sensor (bpins_core::internal::lab::simulate), written whole
+/// `--lab`: a lab capture of the sensor (bpins_core::tool::lab), written whole
 /// (capture.toml last), and its truth where asked.
 fn run_lab(a: &Args, model: &bpins_core::effects::Model) -> anyhow::Result<()> {
-    use bpins_core::internal::capture::LabCapture;
-    use bpins_core::internal::lab::simulate::{lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
+    use bpins_core::tool::lab::{lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
+    use bpins_core::LabCapture;
     if !matches!(a.layout, LayoutArg::Dofp) {
         bail!("--lab: a lab capture calibrates a dofp mosaic; use --layout dofp");
     }
@@ -502,7 +504,7 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
 /// One EXR: every channel at every pixel (as a colocated sensor would read it), and
 /// the angle maps reconstructed with the nominal model.
 fn write_dump(
-    engine: &dyn bpins_core::internal::backend::Backend,
+    engine: &dyn bpins_core::twin::Backend,
     c: &Capture,
     model: &bpins_core::effects::Model,
     resp: &bpins_core::sensor::Response,

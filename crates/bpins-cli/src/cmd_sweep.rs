@@ -5,9 +5,8 @@
 use crate::progress::bar;
 use crate::Backend;
 use anyhow::Context;
-use bpins_core::internal::sweep::{
-    describe, merge, nominal_rows, run_to_dir, unit_count, Outcome, Row, Shard, Summary, SweepSpec, NOMINAL,
-};
+use bpins_core::tool::sweep::{describe, merge, nominal_rows, unit_count, NOMINAL};
+use bpins_core::{run_to_dir, Outcome, Row, Shard, Summary, SweepSpec};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

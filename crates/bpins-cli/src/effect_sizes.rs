@@ -1,7 +1,7 @@
 //! An effect's size and what the diagnosis made of it, in words, for the printed
 //! table (`cmd_diagnose`) and the report (`report`): one wording for both.
 
-use bpins_core::internal::diagnose::{Candidate, Diagnosis};
+use bpins_core::{Candidate, Diagnosis};
 
 /// Each effect with its size where the diagnosis added it: "name (heading up to …°,
 /// AoP … ° RMS, DoLP … RMS, … DN at the worst pixel)".

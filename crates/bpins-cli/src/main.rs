@@ -188,7 +188,7 @@ pub fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> anyh
 /// place: `bpins_core::output`), replacing an earlier run's.
 pub fn write_output(path: &std::path::Path, bytes: &[u8]) -> anyhow::Result<()> {
     use anyhow::Context;
-    bpins_core::internal::output::write_bytes(path, bpins_core::internal::output::Replace::Allowed, bytes)
+    bpins_core::tool::output::write_bytes(path, bpins_core::tool::output::Replace::Allowed, bytes)
         .with_context(|| format!("writing {}", path.display()))
 }
 
@@ -219,7 +219,7 @@ pub fn ensure_not_in_input(out: &std::path::Path, bags: &[&std::path::Path]) -> 
 
 /// `p` resolved as every input check resolves it (`capture::resolve_path`).
 fn resolve(p: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
-    Ok(bpins_core::internal::capture::resolve_path(p)?)
+    Ok(bpins_core::tool::capture::resolve_path(p)?)
 }
 
 /// What `fit` and `diagnose` read: a capture, the model's effects, where to write.
@@ -268,18 +268,18 @@ pub struct FitInput {
 
 /// Why a fit read more pixels than its first sample, in words (`FitResult::raised`):
 /// `what` was done on them.
-pub fn raised_line(x: &bpins_core::internal::fit::input::resolution::Raised, what: &str) -> String {
+pub fn raised_line(x: &bpins_core::Raised, what: &str) -> String {
     format!(
         "{} not told from neutral at {} px per frame (< {}σ), but every pixel would tell them: {what} on {}",
         x.params.join(", "),
         x.from_budget_px,
-        bpins_core::internal::fit::input::resolution::TOLD_SIGMA,
+        bpins_core::tool::fit::TOLD_SIGMA,
         x.to_budget_px.map_or("every pixel".to_string(), |b| format!("a budget of {b} px per frame"))
     )
 }
 
 /// What of each frame a fit read, in words (`FitResult::sample`).
-pub fn sample_line(s: &bpins_core::internal::fit::Sample) -> String {
+pub fn sample_line(s: &bpins_core::Sample) -> String {
     let budget = s.budget_px.map_or("none (--full)".to_string(), |b| format!("{b} px per frame"));
     if s.pixels_per_frame >= s.frame_px {
         format!("every pixel of each frame ({} px; sample budget {budget})", s.frame_px)
@@ -301,29 +301,24 @@ impl FitInput {
     /// there), then the capture with its frames as the fit reads them (whole, or
     /// sampled within the budget; a progress bar while reading). `out` must lie
     /// outside the capture.
-    pub fn load(&self) -> anyhow::Result<bpins_core::internal::fit::Loaded> {
+    pub fn load(&self) -> anyhow::Result<bpins_core::tool::fit::Loaded> {
         self.load_request().map(|(_, loaded)| loaded)
     }
 
     /// [`FitInput::load`], with the request it read (to read the capture again).
-    pub fn load_request(
-        &self,
-    ) -> anyhow::Result<(bpins_core::internal::fit::FitRequest, bpins_core::internal::fit::Loaded)> {
+    pub fn load_request(&self) -> anyhow::Result<(bpins_core::tool::fit::FitRequest, bpins_core::tool::fit::Loaded)> {
         use anyhow::Context;
         if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
             anyhow::bail!("--fixed-dmax {d} must lie in [0, 1]");
         }
-        let min = bpins_core::internal::fit::input::frames::MIN_BUDGET_PX;
+        let min = bpins_core::tool::fit::MIN_BUDGET_PX;
         if let Some(b) = self.sample_budget.filter(|&b| b < min) {
             anyhow::bail!("--sample-budget {b} is below the smallest budget, {min} pixels (16 blocks of 8 × 8)");
         }
-        let budget = if self.full {
-            None
-        } else {
-            Some(self.sample_budget.unwrap_or(bpins_core::internal::fit::DEFAULT_BUDGET_PX))
-        };
+        let budget =
+            if self.full { None } else { Some(self.sample_budget.unwrap_or(bpins_core::tool::fit::DEFAULT_BUDGET_PX)) };
         ensure_not_in_capture(&self.out)?;
-        let request = bpins_core::internal::fit::FitRequest {
+        let request = bpins_core::tool::fit::FitRequest {
             capture: self.capture.clone(),
             effects: self.effects.clone(),
             trust_reference: self.trust_reference,

@@ -4,7 +4,7 @@
 //! AoP residual and DoLP residual against that axis, each strip on its own symmetric
 //! scale, zero dashed). A missing effect shows as a trend along its own axis.
 
-use bpins_core::internal::fit::output::profiles::{Profile, ProfileBin};
+use bpins_core::{Profile, ProfileBin};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -124,7 +124,7 @@ fn short(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use bpins_core::internal::fit::output::profiles::Axis;
+    use bpins_core::Axis;
 
     #[test]
     fn the_svg_has_a_panel_per_axis_and_a_line_per_strip() {

@@ -7,8 +7,8 @@
 
 use crate::effect_sizes::{candidate_verdict, size_cells, sized};
 use crate::residuals::{Figures, Written};
-use bpins_core::internal::diagnose::{Candidate, Diagnosis};
-use bpins_core::internal::fit::Param;
+use bpins_core::Param;
+use bpins_core::{Candidate, Diagnosis};
 use serde::Serialize;
 
 const TEMPLATE: &str = include_str!("templates/diagnosis.html");
@@ -20,7 +20,7 @@ struct Page {
     answer: Answer,
     steps: Vec<StepView>,
     remains: Verdict,
-    confusable: Vec<bpins_core::internal::diagnose::pairs::Confusable>,
+    confusable: Vec<bpins_core::Confusable>,
     negligible: String,
     rankings: Vec<RankingView>,
     bic_threshold: f64,
@@ -155,7 +155,7 @@ pub fn diagnosis(
         frames: d.steps.last().map_or(Vec::new(), |s| frame_rows(&s.fit)),
         sample: d.steps.first().map_or(String::new(), |s| crate::sample_line(&s.fit.sample)),
     };
-    Ok(bpins_core::internal::output::render_html("diagnosis.html", TEMPLATE, &page)?)
+    Ok(bpins_core::tool::output::render_html("diagnosis.html", TEMPLATE, &page)?)
 }
 
 /// A radiance coefficient: 3 decimals, a small one in scientific notation rather
@@ -295,7 +295,7 @@ fn figure(k: usize, w: &Written, alt: String, caption: String) -> Figure {
     Figure { src: format!("step{k}/{}", w.png), alt, caption }
 }
 
-fn step(k: usize, s: &bpins_core::internal::diagnose::Step, f: &Figures) -> StepView {
+fn step(k: usize, s: &bpins_core::Step, f: &Figures) -> StepView {
     let maps = f
         .maps
         .iter()
@@ -368,7 +368,7 @@ fn ranking(d: &Diagnosis, step: usize, r: &[Candidate]) -> RankingView {
     RankingView { step, rows }
 }
 
-fn frame_rows(fit: &bpins_core::internal::fit::FitResult) -> Vec<FrameRow> {
+fn frame_rows(fit: &bpins_core::FitResult) -> Vec<FrameRow> {
     fit.frames
         .iter()
         .enumerate()
@@ -396,7 +396,7 @@ mod tests {
         struct P {
             capture: &'static str,
         }
-        let html = bpins_core::internal::output::render_html(
+        let html = bpins_core::tool::output::render_html(
             "t.html",
             "<p title=\"{{ capture }}\">{{ capture }}</p>",
             &P { capture: "a\"<b>&'c/d" },
@@ -411,7 +411,7 @@ mod tests {
         struct P {
             why: &'static str,
         }
-        let html = bpins_core::internal::output::render_html(
+        let html = bpins_core::tool::output::render_html(
             "t.html",
             "{{ why | code }}",
             &P { why: "a lab flat field (then `--calibration FILE` holds it) <b> `odd" },

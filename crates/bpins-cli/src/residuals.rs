@@ -4,8 +4,8 @@
 //! profiles in sky space (`crate::profiles`).
 
 use anyhow::Context;
-use bpins_core::internal::capture::write_exr_layers;
-use bpins_core::internal::fit::{FrameMaps, ResidualMaps};
+use bpins_core::tool::capture::write_exr_layers;
+use bpins_core::tool::fit::{FrameMaps, ResidualMaps};
 use rayon::prelude::*;
 use std::path::Path;
 
@@ -119,10 +119,10 @@ pub fn write_frame(dir: &Path, k: usize, size: &ResidualMaps, f: &FrameMaps) -> 
 /// ([`write`]): one frame's maps in memory at a time.
 pub fn compute_and_write(
     dir: &Path,
-    c: &bpins_core::internal::capture::Capture,
-    frames: &bpins_core::internal::fit::FitFrames,
-    opts: &bpins_core::internal::fit::FitOptions,
-    fit: &bpins_core::internal::fit::FitResult,
+    c: &bpins_core::Capture,
+    frames: &bpins_core::tool::fit::FitFrames,
+    opts: &bpins_core::FitOptions,
+    fit: &bpins_core::FitResult,
 ) -> anyhow::Result<(Figures, ResidualMaps)> {
     // The map sizes, for the frames written before the stacked maps exist.
     let g = &c.sensor.geometry;
@@ -142,7 +142,7 @@ pub fn compute_and_write(
     };
     let mut written = Vec::new();
     let mut failed = None;
-    let maps = bpins_core::internal::fit::residual_maps_of(c, frames, opts, &fit.state, fit.noise, &mut |k, f| {
+    let maps = bpins_core::tool::fit::residual_maps_of(c, frames, opts, &fit.state, fit.noise, &mut |k, f| {
         if failed.is_none() {
             match write_frame(dir, k, &size, &f) {
                 Ok(w) => written.push(w),

@@ -23,8 +23,12 @@
 //! errors are typed ([`Error`], [`compass::CompassError`], [`LocateError`], [`render::RenderError`]).
 //! Adding an effect or a scene element is one module and one registry line
 //! (`docs/adding-an-effect.md`); everything else in the crate is the house behind the
-//! front door, private (the workspace's own crates reach it through a hidden
-//! `internal` module, with no stability promise).
+//! front door, private. Two narrower doors are named for the workspace's own clients:
+//! [`twin`], what a GPU twin of the chain is built on (`bpins-gpu`: the per-pixel
+//! kernels, their parameter blocks, the reference drivers), and [`tool`], what the
+//! command line and the Python binding are built on (requests, JSON files, writers).
+//! The crate's own tests reach the rest through a hidden `internal` module, which no
+//! other crate uses and nothing promises.
 //!
 //! The per-pixel physics are pure functions (the CPU reference of the GPU shaders);
 //! rayon appears only in the drivers that map them over pixels and trials. Libraries
@@ -65,11 +69,14 @@ pub mod error;
 pub mod render;
 pub mod scene;
 pub mod sensor;
+#[cfg(feature = "io")]
+pub mod tool;
+pub mod twin;
 
-// The house: every implementation module, private. The C binding and the ROS 2 reader
-// use only the front door; the CLI, the GPU twin and its parity tests, the Python
-// binding's fit and diagnosis, and the end-to-end tests reach the house through
-// [`internal`].
+// The house: every implementation module, private. The C binding, the ROS 2 reader and
+// the Python binding use only the front door and `tool`; the CLI `tool` and `twin`; the
+// GPU twin `twin`. Only tests, benches and examples reach the house through
+// [`internal`] (`tests/public_api.rs` keeps it so).
 mod backend;
 #[cfg(feature = "io")]
 mod capture;
@@ -195,7 +202,7 @@ pub use sweep::{
     SweepExtractor, Target,
 };
 
-/// The house behind the front door, for the workspace's own crates and tests: the
+/// The house behind the front door, for bpins' own tests, benches and examples: the
 /// per-pixel chain and its kernels (the CPU reference the GPU twin's parity tests call),
 /// the fit's and the diagnosis's rooms, the capture format's readers and writers, the
 /// sweep's shards. Hidden from the documentation and free to change in any release:

@@ -15,11 +15,11 @@
 
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::effects::Model;
-use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
-use bpins_core::internal::heading::{Extractor, HeadingContext};
-use bpins_core::internal::montecarlo::{Source, SweepConfig};
-use bpins_core::internal::recon::Reconstructor;
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
+use bpins_core::twin::Reconstructor;
+use bpins_core::twin::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::twin::{Extractor, HeadingContext};
+use bpins_core::twin::{Source, SweepConfig};
 use bpins_gpu::{Gpu, SampleLayout, SumsJob};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;

@@ -23,14 +23,12 @@ use crate::{Gpu, Result};
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::conventions::{image_angle_rad, wrap_deg_90};
 use bpins_core::effects::{EffectSet, REGISTRY};
-use bpins_core::internal::chain::{ray_stokes, site_signal_dn, ChainFrame, NoiseIndex, Scene};
-use bpins_core::internal::heading::{Extractor, HeadingContext, HeadingSums};
-use bpins_core::internal::noise::{stream, FrameKey};
-use bpins_core::internal::recon::Reconstructor;
-use bpins_core::internal::simulate::{
-    colocated_heading_sums, mosaic_heading_sums, peak_intensity, render_colocated, render_mosaic,
-};
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
+use bpins_core::twin::Reconstructor;
+use bpins_core::twin::{colocated_heading_sums, mosaic_heading_sums, peak_intensity, render_colocated, render_mosaic};
+use bpins_core::twin::{ray_stokes, site_signal_dn, ChainFrame, NoiseIndex, Scene};
+use bpins_core::twin::{stream, FrameKey};
+use bpins_core::twin::{Extractor, HeadingContext, HeadingSums};
 use rayon::prelude::*;
 
 /// One stage's largest difference over every case and trial.
@@ -143,14 +141,13 @@ pub fn trial_frame(case: &Case, trial: u32, seed: u64) -> Result<TrialFrame> {
     let frame = ChainFrame::new(&model, &nominal, &scene, &response, NoiseIndex { seed, trial, frame: 0 });
     let rec = Reconstructor::new(&Default::default(), response.black_level_dn, &Channel::ALL)?;
     let ctx = HeadingContext::new(nominal, WIDTH_PX, HEIGHT_PX, scene.sun_az_deg, scene.sun_el_deg);
-    let contexts =
-        vec![ctx, HeadingContext { lens_rho2: bpins_core::internal::effects::lens_diattenuation::rho2(&model), ..ctx }];
-    let rho2 = bpins_core::internal::effects::lens_diattenuation::rho2(&model);
+    let contexts = vec![ctx, HeadingContext { lens_rho2: bpins_core::twin::rho2(&model), ..ctx }];
+    let rho2 = bpins_core::twin::rho2(&model);
     let max_r2 = [(0.0, 0.0), (WIDTH_PX as f64, 0.0), (0.0, HEIGHT_PX as f64), (WIDTH_PX as f64, HEIGHT_PX as f64)]
         .map(|(u, v)| frame.intr.geometry(u, v).r2)
         .into_iter()
         .fold(0.0, f64::max);
-    let rho = bpins_core::internal::effects::lens_diattenuation::rho_at(rho2, max_r2);
+    let rho = bpins_core::twin::rho_at(rho2, max_r2);
     let conditioning = 1.0 / (1.0 - rho * rho);
     Ok(TrialFrame {
         frame,

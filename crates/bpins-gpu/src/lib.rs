@@ -75,16 +75,16 @@ fn into_core(e: GpuError) -> bpins_core::Error {
     }
 }
 
-/// The WGSL twin as a [`bpins_core::internal::backend::Backend`]: what the core's rayon
+/// The WGSL twin as a [`bpins_core::twin::Backend`]: what the core's rayon
 /// reference does, on the device.
-impl bpins_core::internal::backend::Backend for Gpu {
+impl bpins_core::twin::Backend for Gpu {
     fn name(&self) -> &str {
         "gpu"
     }
 
     fn render_mosaic(
         &self,
-        frames: &[bpins_core::internal::chain::ChainFrame],
+        frames: &[bpins_core::twin::ChainFrame],
         w: usize,
         h: usize,
         mosaic: &[[bpins_core::sensor::Channel; 2]; 2],
@@ -94,7 +94,7 @@ impl bpins_core::internal::backend::Backend for Gpu {
 
     fn render_colocated(
         &self,
-        frames: &[bpins_core::internal::chain::ChainFrame],
+        frames: &[bpins_core::twin::ChainFrame],
         w: usize,
         h: usize,
         channels: &[bpins_core::sensor::Channel],
@@ -104,19 +104,19 @@ impl bpins_core::internal::backend::Backend for Gpu {
 
     fn sky_maps(
         &self,
-        frames: &[bpins_core::internal::chain::ChainFrame],
+        frames: &[bpins_core::twin::ChainFrame],
         w: usize,
         h: usize,
-    ) -> bpins_core::Result<Vec<bpins_core::internal::simulate::SkyMaps>> {
+    ) -> bpins_core::Result<Vec<bpins_core::twin::SkyMaps>> {
         Gpu::sky_maps(self, frames, w, h).map_err(into_core)
     }
 
     fn run_sweep(
         &self,
-        cfg: &bpins_core::internal::montecarlo::SweepConfig,
-        sources: &[bpins_core::internal::montecarlo::Source],
+        cfg: &bpins_core::twin::SweepConfig,
+        sources: &[bpins_core::twin::Source],
         progress: &(dyn Fn(usize, usize) + Sync),
-    ) -> bpins_core::Result<Vec<bpins_core::internal::montecarlo::TrialResult>> {
+    ) -> bpins_core::Result<Vec<bpins_core::twin::TrialResult>> {
         montecarlo::run_sweep(self, cfg, sources, progress).map_err(into_core)
     }
 }

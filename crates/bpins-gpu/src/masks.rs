@@ -3,7 +3,7 @@
 //! neutral vector. They are the pipeline constants `SKY_ON`, `RAY_ON`, … of the
 //! generated dispatch (`ray_dispatch.rs`), so the driver leaves a neutral effect's
 //! call out at compile time: the ideal chain does no per-pixel work for the 21
-//! effects it does not have. The GPU twin of `bpins_core::internal::chain::ActiveEffects`.
+//! effects it does not have. The GPU twin of `bpins_core::twin::ActiveEffects`.
 //!
 //! Each effect is the identity at its neutral vector, bitwise
 //! (`every_registered_effect_at_neutral_gives_bitwise_the_ideal_chain` in bpins-core;
@@ -76,8 +76,8 @@ mod tests {
     use bpins_core::effects::{
         EffectSet, Model, ANALYZER_EFFECTS, MOSAIC_EFFECTS, RAY_EFFECTS, REGISTRY, SENSOR_EFFECTS, SKY_EFFECTS,
     };
-    use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
     use bpins_core::sensor::Response;
+    use bpins_core::twin::{ChainFrame, NoiseIndex, Scene};
 
     fn frame(model: &Model) -> FrameParams {
         let intr =

@@ -5,13 +5,13 @@
 use crate::device::Gpu;
 use crate::sums::{SampleLayout, SumsJob};
 use crate::Result;
-use bpins_core::internal::montecarlo::{draw, sweep_peak, Source, SweepConfig, TrialResult, TrialSetup};
+use bpins_core::twin::{draw, sweep_peak, Source, SweepConfig, TrialResult, TrialSetup};
 
 /// Trials per call of [`Gpu::heading_sums`] (each call then splits further if the
 /// device's buffers require it); progress is reported between calls.
 const TRIALS_PER_CALL: usize = 64;
 
-/// Runs the sweep of [`bpins_core::internal::montecarlo::run_sweep`] on `gpu`: every source,
+/// Runs the sweep of [`bpins_core::twin::run_sweep`] on `gpu`: every source,
 /// `trials_per_source` trials each, in the same order, calling `progress(done, total)`.
 pub fn run_sweep(
     gpu: &Gpu,

@@ -12,10 +12,10 @@ use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::effects::{
     AnalyzerParams, SkyParams, ANALYZER_COUNT, MOSAIC_COUNT, RAY_COUNT, SENSOR_COUNT, SKY_COUNT, SKY_WIDTH,
 };
-use bpins_core::internal::chain::ChainFrame;
-use bpins_core::internal::heading::HeadingContext;
-use bpins_core::internal::recon::Reconstructor;
 use bpins_core::sensor::Channel;
+use bpins_core::twin::ChainFrame;
+use bpins_core::twin::HeadingContext;
+use bpins_core::twin::Reconstructor;
 use bytemuck::{Pod, Zeroable};
 
 /// Four f64 values as f32 (hi, lo) pairs; WGSL `Wide4` in `common/math.wgsl`.
@@ -202,7 +202,7 @@ pub struct HeadingParams {
 
 impl HeadingParams {
     pub fn new(ctx: &HeadingContext, grid: SampleGrid) -> Self {
-        let cos_2band = bpins_core::internal::heading::HeadingSums::cos_2band(ctx);
+        let cos_2band = bpins_core::twin::HeadingSums::cos_2band(ctx);
         HeadingParams {
             camera: camera(&ctx.intr),
             distortion: distortion(&ctx.intr),
@@ -292,8 +292,8 @@ mod tests {
     #[test]
     fn frames_with_scene_elements_are_refused_with_a_typed_error() {
         use bpins_core::camera::{Intrinsics, Projection};
-        use bpins_core::internal::chain::{NoiseIndex, Scene};
         use bpins_core::scene::FieldScene;
+        use bpins_core::twin::{NoiseIndex, Scene};
         let intr = Intrinsics::new(Projection::Equidistant, 160.0, 63.5, 63.5);
         let scene =
             Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 0.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };

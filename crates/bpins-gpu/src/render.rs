@@ -5,9 +5,9 @@ use crate::device::{Gpu, RenderEntry};
 use crate::masks::EffectMasks;
 use crate::params::{mosaic_positions, FrameParams, RenderDims};
 use crate::{GpuError, Result};
-use bpins_core::internal::chain::ChainFrame;
-use bpins_core::internal::simulate::SkyMaps;
 use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+use bpins_core::twin::ChainFrame;
+use bpins_core::twin::SkyMaps;
 
 /// Workgroup edge of the 2-D kernels (`@workgroup_size(16, 16, 1)`).
 pub(crate) const WG_EDGE: u32 = 16;
@@ -67,7 +67,7 @@ impl Gpu {
     }
 
     /// DoFP mosaics (`w × h`, row-major DN), bitwise-comparable to
-    /// `bpins_core::internal::simulate::render_mosaic` of each frame (tolerances: TOLERANCES.md).
+    /// `bpins_core::twin::render_mosaic` of each frame (tolerances: TOLERANCES.md).
     pub fn render_mosaic(
         &self,
         frames: &[ChainFrame],
@@ -79,7 +79,7 @@ impl Gpu {
     }
 
     /// Colocated frames: per frame, one `w × h` plane per channel of `channels` (as
-    /// `bpins_core::internal::simulate::render_colocated`).
+    /// `bpins_core::twin::render_colocated`).
     pub fn render_colocated(
         &self,
         frames: &[ChainFrame],
@@ -96,7 +96,7 @@ impl Gpu {
 
     /// The noise-free chain of every pixel of each frame (`w × h`, row-major).
     /// The sky's AoP, DoLP and AoE maps of `frames` (`w × h`), no DN rendered: the WGSL
-    /// twin of `bpins_core::internal::simulate::sky_maps`.
+    /// twin of `bpins_core::twin::sky_maps`.
     pub fn sky_maps(&self, frames: &[ChainFrame], w: usize, h: usize) -> Result<Vec<SkyMaps>> {
         let all = self.render(RenderEntry::SkyMaps, frames, w, h, &DEFAULT_MOSAIC, 3)?;
         Ok(all

@@ -1,17 +1,17 @@
 //! Driver of `shaders/kernels/sums.wgsl` and `reduce.wgsl`: heading sums of whole
 //! frames reduced on the device; only 119 numbers per (frame, context) come back.
-//! CPU twins: `bpins_core::internal::simulate::mosaic_heading_sums` (DoFP superpixels) and the
-//! per-trial loop of `bpins_core::internal::montecarlo::run_trial` (colocated pixels).
+//! CPU twins: `bpins_core::twin::mosaic_heading_sums` (DoFP superpixels) and the
+//! per-trial loop of `bpins_core::twin::run_trial` (colocated pixels).
 
 use crate::device::Gpu;
 use crate::masks::EffectMasks;
 use crate::params::{FrameParams, HeadingParams, ReconParams, ReduceDims, SampleGrid, SumsDims};
 use crate::precision::Precision;
 use crate::{GpuError, Result};
-use bpins_core::internal::chain::ChainFrame;
-use bpins_core::internal::heading::{HeadingContext, HeadingSums, SECTORS};
-use bpins_core::internal::recon::Reconstructor;
 use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+use bpins_core::twin::ChainFrame;
+use bpins_core::twin::Reconstructor;
+use bpins_core::twin::{HeadingContext, HeadingSums, SECTORS};
 
 /// Values per (frame, context): 6 scatter terms, n, then 7 band sums per sector
 /// (`SUMS_LEN` in `common/heading.wgsl`).

@@ -1,12 +1,12 @@
-//! `bpins sweep` on the GPU: the core's [`bpins_core::internal::sweep::SumsEngine`] with the
+//! `bpins sweep` on the GPU: the core's [`bpins_core::twin::SumsEngine`] with the
 //! WGSL twin. The trials are set up on the host exactly as for the CPU (same draws,
 //! same frames, same noise); only their pixels are reduced on the device.
 
 use crate::device::Gpu;
 use crate::sums::{SampleLayout, SumsJob};
-use bpins_core::internal::heading::HeadingSums;
-use bpins_core::internal::sweep::{SumsEngine, SumsJob as CoreJob, MAX_CONTEXTS};
 use bpins_core::sensor::Layout;
+use bpins_core::twin::HeadingSums;
+use bpins_core::twin::{SumsEngine, SumsJob as CoreJob, MAX_CONTEXTS};
 
 impl SumsEngine for Gpu {
     fn name(&self) -> &str {

@@ -5,9 +5,10 @@
 //! ([`FitJson`], [`DiagnosisJson`]; README, "fit.json and diagnosis.json").
 
 use crate::{finite, py_err, whole};
-use bpins_core::internal::diagnose::DiagnosisJson;
-use bpins_core::internal::diagnose::{diagnose_frames, DiagnoseOptions};
-use bpins_core::internal::fit::{fit_from, FitJson, FitRequest};
+use bpins_core::tool::diagnose::diagnose_frames;
+use bpins_core::tool::diagnose::DiagnosisJson;
+use bpins_core::tool::fit::{fit_from, FitJson, FitRequest};
+use bpins_core::DiagnoseOptions;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -23,7 +24,7 @@ fn request(
     all_pixels: bool,
     sample_budget_px: Option<usize>,
 ) -> PyResult<FitRequest> {
-    let min = bpins_core::internal::fit::input::frames::MIN_BUDGET_PX;
+    let min = bpins_core::tool::fit::MIN_BUDGET_PX;
     if let Some(b) = sample_budget_px.filter(|&b| b < min) {
         return Err(PyValueError::new_err(format!(
             "sample_budget_px = {b}: expected at least {min} (or None: every pixel)"
@@ -75,7 +76,7 @@ fn to_dict<'py>(py: Python<'py>, json: serde_json::Result<String>) -> PyResult<B
 /// error, scale_dn, dmax, radiance, chi2_per_dof), ... The GIL is released while it fits.
 #[pyfunction]
 #[pyo3(signature = (capture, effects=None, *, calibration=None, fixed_dmax=None, trust_reference=false,
-    rayleigh_radiance=false, all_pixels=false, sample_budget_px=Some(bpins_core::internal::fit::DEFAULT_BUDGET_PX as i64)))]
+    rayleigh_radiance=false, all_pixels=false, sample_budget_px=Some(bpins_core::tool::fit::DEFAULT_BUDGET_PX as i64)))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit<'py>(
     py: Python<'py>,
@@ -130,7 +131,7 @@ pub fn fit<'py>(
 #[pyfunction]
 #[pyo3(signature = (capture, effects=None, *, max_added=3, calibration=None, fixed_dmax=None,
     trust_reference=false, rayleigh_radiance=false, all_pixels=false,
-    sample_budget_px=Some(bpins_core::internal::fit::DEFAULT_BUDGET_PX as i64)))]
+    sample_budget_px=Some(bpins_core::tool::fit::DEFAULT_BUDGET_PX as i64)))]
 #[allow(clippy::too_many_arguments)]
 pub fn diagnose<'py>(
     py: Python<'py>,
