@@ -239,10 +239,10 @@ pub struct SkyMaps {
 ///
 /// ```
 /// use bpins_core::camera::{Intrinsics, Projection};
-/// use bpins_core::internal::chain::{ChainFrame, Scene};
+/// use bpins_core::twin::{ChainFrame, Scene};
 /// let intr = Intrinsics::new(Projection::Equidistant, 40.0, 31.5, 31.5);
 /// let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 0.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
-/// let maps = bpins_core::internal::simulate::sky_maps(&ChainFrame::noise_free(&Default::default(), &intr, &scene), 64, 64);
+/// let maps = bpins_core::twin::sky_maps(&ChainFrame::noise_free(&Default::default(), &intr, &scene), 64, 64);
 /// // Rayleigh: the DoLP peaks (at d_max) 90° from the sun.
 /// let peak = maps.dolp.iter().cloned().fold(0.0f32, f32::max);
 /// assert!((peak - 0.6).abs() < 0.01);

@@ -14,11 +14,11 @@ use crate::sensor::{Channel, DEFAULT_MOSAIC};
 /// ```
 /// # use bpins_core::camera::{Intrinsics, Projection};
 /// # use bpins_core::compass::{Attitude, Compass, CompassConfig, CompassError, Sun};
-/// # use bpins_core::internal::heading::field::RawImage;
+/// # use bpins_core::compass::RawImage;
 /// # let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
-/// # let scene = bpins_core::internal::chain::Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
-/// # let f = bpins_core::internal::chain::ChainFrame::new(&Default::default(), &lens, &scene, &bpins_core::sensor::Response::samples(2400.0), bpins_core::internal::chain::NoiseIndex { seed: 1, trial: 0, frame: 0 });
-/// # let raw: Vec<u16> = bpins_core::internal::simulate::render_mosaic(&f, 306, 256, &bpins_core::sensor::DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+/// # let scene = bpins_core::twin::Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+/// # let f = bpins_core::twin::ChainFrame::new(&Default::default(), &lens, &scene, &bpins_core::sensor::Response::samples(2400.0), bpins_core::twin::NoiseIndex { seed: 1, trial: 0, frame: 0 });
+/// # let raw: Vec<u16> = bpins_core::twin::render_mosaic(&f, 306, 256, &bpins_core::sensor::DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
 /// let mut compass = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0))?;
 /// let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
 /// // A buffer cut short (a dropped packet) is refused with its sizes, not read past.
@@ -127,7 +127,7 @@ pub struct Attitude {
 /// ```
 /// use bpins_core::camera::{Intrinsics, Projection};
 /// use bpins_core::compass::{Compass, CompassConfig};
-/// use bpins_core::internal::heading::Extractor;
+/// use bpins_core::compass::Extractor;
 /// use bpins_core::sensor::Channel::*;
 /// // A 2448 × 2048 IMX250MZR (3.45 µm pixels, 12 bit, black level 64 DN) behind a
 /// // 4 mm lens, principal point at the image centre.

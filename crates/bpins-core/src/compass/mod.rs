@@ -9,13 +9,13 @@
 //! use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
 //! use bpins_core::camera::{Intrinsics, Projection};
 //! use bpins_core::compass::RawImage;
-//! # use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+//! # use bpins_core::twin::{ChainFrame, NoiseIndex, Scene};
 //! # use bpins_core::sensor::{Response, DEFAULT_MOSAIC};
 //! # let (w, h) = (306, 256);
 //! # let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
 //! # let scene = Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 2.0, tilt_y_deg: -1.0, dmax: 0.6 };
 //! # let f = ChainFrame::new(&Default::default(), &lens, &scene, &Response::samples(2400.0), NoiseIndex { seed: 1, trial: 0, frame: 0 });
-//! # let raw: Vec<u16> = bpins_core::internal::simulate::render_mosaic(&f, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+//! # let raw: Vec<u16> = bpins_core::twin::render_mosaic(&f, w, h, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
 //! // Once: the camera (an IMX250MZR-like DoFP sensor behind an 8 mm lens, binned) and
 //! // its calibration (here none: `Calibration::load("calibration.toml")` for a real one).
 //! let mut compass = Compass::new(CompassConfig::dofp(
@@ -77,11 +77,11 @@ struct Colocated {
 /// ```
 /// # use bpins_core::camera::{Intrinsics, Projection};
 /// # use bpins_core::compass::{Attitude, Compass, CompassConfig, CompassError, Sun};
-/// # use bpins_core::internal::heading::field::RawImage;
+/// # use bpins_core::compass::RawImage;
 /// # let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
-/// # let scene = bpins_core::internal::chain::Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
-/// # let f = bpins_core::internal::chain::ChainFrame::new(&Default::default(), &lens, &scene, &bpins_core::sensor::Response::samples(2400.0), bpins_core::internal::chain::NoiseIndex { seed: 1, trial: 0, frame: 0 });
-/// # let raw: Vec<u16> = bpins_core::internal::simulate::render_mosaic(&f, 306, 256, &bpins_core::sensor::DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
+/// # let scene = bpins_core::twin::Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+/// # let f = bpins_core::twin::ChainFrame::new(&Default::default(), &lens, &scene, &bpins_core::sensor::Response::samples(2400.0), bpins_core::twin::NoiseIndex { seed: 1, trial: 0, frame: 0 });
+/// # let raw: Vec<u16> = bpins_core::twin::render_mosaic(&f, 306, 256, &bpins_core::sensor::DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect();
 /// let mut compass = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0))?;
 /// let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
 /// let fix = compass.heading(RawImage::packed(&raw, 306, 256), sun, Attitude::default())?;
