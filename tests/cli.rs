@@ -342,7 +342,7 @@ fn combinations_that_would_ignore_a_flag_are_refused_naming_both() {
             ["--tilt-sigma-deg", "--estimator"],
         ),
         (vec!["heading", "--bag", &bag, "--estimator", "plain"], ["--estimator", "--bag"]),
-        (vec!["heading", "--bag", &bag, "--extractor", "all"], ["--extractor", "--bag"]),
+        (vec!["heading", "--bag", &bag, "--bag-out", &out, "--extractor", "all"], ["--extractor", "--bag-out"]),
         (vec!["heading", "--bag", &bag, "--heading-topic", "/h"], ["--heading-topic", "--bag-out"]),
         (vec!["heading", "--bag", &bag, "--diagnostics-topic", "/d"], ["--diagnostics-topic", "--bag-out"]),
         (vec!["heading", "--bag", &bag, "--heading-frame-id", "cam"], ["--heading-frame-id", "--bag-out"]),

@@ -2,14 +2,13 @@
 //! with the field estimator (the default) also how much of the image it used, how well
 //! the used sky fits, and the reason for any frame without a heading.
 
+use crate::frames::{self, FrameId, FrameSource, FrameSun, FrameTilt, Pixels, Row, SourceFrame};
 use crate::{ensure_not_in_capture, write_json};
 use anyhow::{bail, Context};
 use bpins_core::calibration::Calibration;
 use bpins_core::compass::Compass;
 use bpins_core::compass::Extractor;
 use bpins_core::compass::FieldOptions;
-use bpins_core::conventions::wrap_deg_180;
-use bpins_core::effects::EffectSet;
 use bpins_core::tool::pipeline::{apply_pixel_maps, frame_headings_of, ReconMode};
 use bpins_core::Capture;
 use serde_json::json;
@@ -48,7 +47,8 @@ pub struct Args {
     /// axis: docs/ros2.md); name a TF frame that is it.
     #[arg(long, value_name = "FRAME", requires = "bag_out")]
     heading_frame_id: Option<String>,
-    /// Heading extractor (`all`: each in turn; a capture only, --bag reads one).
+    /// Heading extractor (`all`: each in turn, on one robust fit; not with --bag-out,
+    /// which writes one heading per frame).
     #[arg(long, value_enum, default_value = "sun_vector")]
     extractor: ExtractorArg,
     /// Estimator: `field` (robust to clouds, trees, the sun in view, tilt; a 1σ that
@@ -133,8 +133,8 @@ impl Args {
         } else if self.recon.is_some() {
             return pair("--recon <RECON>", "--estimator field (the default)");
         }
-        if self.extractor == ExtractorArg::All && self.bag.bag.is_some() {
-            return pair("--extractor all", "--bag <DIR>");
+        if self.extractor == ExtractorArg::All && self.bag_out.is_some() {
+            return pair("--extractor all", "--bag-out <DIR>");
         }
         None
     }
@@ -145,16 +145,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ExtractorArg::All => Extractor::ALL.to_vec(),
         ExtractorArg::One(e) => vec![e],
     };
-    let cal = match &a.calibration {
-        Some(p) => Some(Calibration::load(p)?),
-        None => None,
+    let mut calibration = match &a.calibration {
+        Some(p) => Calibration::load(p)?,
+        None => Calibration::default(),
     };
-    let pixels = cal.as_ref().and_then(|c| c.pixels.clone());
-    let mut known_set = cal.map(|c| c.effects).unwrap_or_else(EffectSet::new);
     for spec in &a.effects {
-        known_set.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
+        calibration.effects.parse_assignment(spec).with_context(|| format!("--effect {spec}"))?;
     }
-    let known = known_set.model();
+    let known = calibration.effects.model();
     let mode = a.recon.unwrap_or(ReconMode::Demosaic);
     if let Some(c) = a.cell_px {
         if c < 2 {
@@ -202,126 +200,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     let field = a.estimator == Estimator::Field;
-    // The field estimator reads every frame through the compass, as a robot does (the
-    // calibration's per-pixel maps applied to each frame first, below).
-    let mut compass = if field {
-        let effects_only = Calibration { effects: known_set, ..Calibration::default() };
-        let c = Compass::for_capture(&capture, effects_only, opts, extractors[0])
-            .with_context(|| format!("{}", capture.toml_path().display()))?;
-        Some(c)
+    let mut source = CaptureSource { capture: &capture, from_site };
+    let rows = if field {
+        // The field estimator reads every frame through the compass, as a robot does:
+        // the calibration whole (its effects and its per-pixel maps, read per cell),
+        // as the bag route and the live node read theirs.
+        let mut compass =
+            Compass::for_capture(&capture, calibration.clone(), opts, extractors[0]).with_context(|| {
+                match &a.calibration {
+                    Some(c) => format!("{} with --calibration {}", capture.toml_path().display(), c.display()),
+                    None => capture.toml_path().display().to_string(),
+                }
+            })?;
+        frames::read_frames(&mut source, &mut compass, &extractors, &mut |_, _| Ok(()))
+            .with_context(|| capture.toml_path().display().to_string())?
     } else {
-        None
+        plain_rows(&mut source, &known, mode, calibration.pixels.as_deref(), a.calibration.as_deref(), &extractors)?
     };
-    // The header goes out with the first frame's rows: a frame that cannot be read
-    // (truncated, the wrong size) ends the command before any table.
-    let mut header = true;
-    let pb = crate::progress::bar(capture.frames.len() as u64, "frames");
-    let mut rows: Vec<Row> = Vec::new();
-    for (i, f) in capture.frames.iter().enumerate() {
-        let file = f.file.display().to_string();
-        let sun = sun_text(f, from_site[i]);
-        let mut frame_rows: Vec<Row> = Vec::new();
-        let mut data = capture.read_frame(i)?;
-        if let Some(m) = &pixels {
-            data = apply_pixel_maps(&capture, data, m)
-                .with_context(|| format!("--calibration {}", a.calibration.as_ref().unwrap().display()))?;
-        }
-        if let Some(compass) = &mut compass {
-            let headings = compass
-                .capture_frame(&data, f, &extractors)
-                .with_context(|| format!("{}: frame {}", capture.toml_path().display(), f.file.display()))?;
-            for h in headings {
-                let q = h.quality;
-                let (heading, parts, why) = match &h.result {
-                    Ok((hd, p)) => (Some(*hd), Some(*p), None),
-                    Err(r) => (None, None, Some(r.to_string())),
-                };
-                frame_rows.push(Row {
-                    file: file.clone(),
-                    extractor: h.extractor,
-                    heading_deg: heading,
-                    sigma_deg: parts.map(|p| p.total_deg()),
-                    reference_deg: f.heading_deg,
-                    why,
-                    extra: json!({
-                        "sigma_parts_deg": parts,
-                        "cells_total": q.cells_total, "cells_valid": q.cells_valid, "cells_used": q.cells_used,
-                        "used_fraction": q.used_fraction, "cloud_fraction": q.cloud_fraction,
-                        "residual_rms_deg": finite(q.residual_rms_deg),
-                        "misfit_deg": finite(q.misfit_deg), "iterations": q.iterations,
-                        "sun_elevation_offset_deg": finite(q.sun_elevation_offset_deg),
-                    }),
-                    used_fraction: Some(q.used_fraction),
-                    cloud_fraction: Some(q.cloud_fraction),
-                    residual_deg: Some(q.residual_rms_deg),
-                    sun: sun.clone(),
-                    sun_sigma_deg: f.sun_sigma_deg,
-                });
-            }
-        } else {
-            for (e, r) in frame_headings_of(&capture, i, &data, &known, mode, &extractors)? {
-                let (heading, sigma, samples, why) = match r {
-                    Ok(est) => (Some(est.heading_deg), Some(est.sigma_deg), Some(est.samples), None),
-                    Err(err) => (None, None, None, Some(err.to_string())),
-                };
-                frame_rows.push(Row {
-                    file: file.clone(),
-                    extractor: e,
-                    heading_deg: heading,
-                    sigma_deg: sigma,
-                    reference_deg: f.heading_deg,
-                    why,
-                    extra: json!({ "samples": samples }),
-                    used_fraction: None,
-                    cloud_fraction: None,
-                    residual_deg: None,
-                    sun: sun.clone(),
-                    sun_sigma_deg: f.sun_sigma_deg,
-                });
-            }
-        }
-        pb.inc(1);
-        pb.suspend(|| -> anyhow::Result<()> {
-            if std::mem::take(&mut header) {
-                print_header()?;
-            }
-            frame_rows.iter().try_for_each(Row::print)
-        })?;
-        rows.extend(frame_rows);
-    }
-    pb.finish_and_clear();
-    let mut summary = Vec::new();
-    for e in &extractors {
-        let mine: Vec<&Row> = rows.iter().filter(|r| r.extractor == *e).collect();
-        let errs: Vec<(f64, f64)> = mine.iter().filter_map(|r| Some((r.error_deg()?, r.sigma_deg?))).collect();
-        let none = mine.iter().filter(|r| r.heading_deg.is_none()).count();
-        let mut line = format!("{}: ", e.name());
-        let mut s = json!({"extractor": e.name(), "frames": mine.len(), "frames_without_heading": none});
-        if !errs.is_empty() {
-            let n = errs.len() as f64;
-            let rms = (errs.iter().map(|x| x.0 * x.0).sum::<f64>() / n).sqrt();
-            let max = errs.iter().fold(0f64, |m, x| m.max(x.0.abs()));
-            let z: Vec<f64> = errs.iter().map(|(x, s)| (x / s).abs()).collect();
-            let within = z.iter().filter(|&&z| z <= 2.0).count() as f64 / n;
-            let zmax = z.iter().fold(0f64, |m, &x| m.max(x));
-            line += &format!(
-                "RMS error {rms:.4}°, largest |error| {max:.4}° over {} frames; {:.0} % within 2σ, largest |error|/σ {zmax:.1}",
-                errs.len(),
-                100.0 * within
-            );
-            s["rms_error_deg"] = json!(rms);
-            s["max_abs_error_deg"] = json!(max);
-            s["within_2sigma_fraction"] = json!(within);
-            s["max_abs_error_over_sigma"] = json!(zmax);
-        } else {
-            line += "no reference headings to compare";
-        }
-        if none > 0 {
-            line += &format!("; {none} frame(s) without a heading");
-        }
-        out!("{line}");
-        summary.push(s);
-    }
+    let summary = frames::summary(&rows, &extractors)?;
     if let Some(p) = &a.json {
         let v = json!({
             "capture": capture.dir.display().to_string(),
@@ -329,7 +225,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "recon": if field { "cells" } else { mode.name() },
             "compensated_effects": a.effects,
             "calibration": a.calibration.as_ref().map(|p| p.display().to_string()),
-            "frames": rows.iter().map(Row::to_json).collect::<Vec<_>>(),
+            "frames": rows,
             "summary": summary,
         });
         write_json(p, &v)?;
@@ -342,54 +238,116 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The table's header.
-fn print_header() -> anyhow::Result<()> {
-    out!(
-        "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10}  sun az/el (°) [± its 1σ], source; or why no heading",
-        "frame",
-        "extractor",
-        "heading (°)",
-        "1σ (°)",
-        "reference (°)",
-        "error (°)",
-        "err/1σ",
-        "used (%)",
-        "cloud (%)",
-        "resid (°)"
-    );
-    Ok(())
+/// A capture's frames as a frame source: each frame's pixels as `read_frame` gives
+/// them, its sun and reference tilt (level where it has no tilt keys) with their 1σ
+/// from its `[[frames]]` entry, its reference heading.
+struct CaptureSource<'c> {
+    capture: &'c Capture,
+    /// Which frames took their sun (and its 1σ) from --site.
+    from_site: Vec<bool>,
 }
 
-/// The sun of frame `f` as the heading uses it: azimuth/elevation, the 1σ it carries
-/// into the heading where it has one (`sun_sigma_deg`, or the site's propagated where
-/// `from_site`), and where it came from.
-fn sun_text(f: &bpins_core::FrameSpec, from_site: bool) -> String {
-    use bpins_core::SunSource;
-    let (az, el) = (f.sun.azimuth_deg, f.sun.elevation_deg);
-    let Some(sigma) = f.sun_sigma_deg else {
-        return format!("{az:.4}/{el:.4}, {}", f.sun.source.describe());
-    };
-    let source = match &f.sun.source {
-        SunSource::Spa { time_utc, latitude_deg, longitude_deg } => {
-            let ns = if *latitude_deg < 0.0 { 'S' } else { 'N' };
-            let ew = if *longitude_deg < 0.0 { 'W' } else { 'E' };
-            let place = format!("{:.4}°{ns} {:.4}°{ew}", latitude_deg.abs(), longitude_deg.abs());
-            if from_site {
-                format!("NREL SPA from {time_utc} at the located site {place} (--site), 1σ its place's propagated")
-            } else {
-                format!("NREL SPA from {time_utc} at {place}, 1σ sun_sigma_deg")
-            }
+impl FrameSource for CaptureSource<'_> {
+    fn len(&self) -> u64 {
+        self.capture.frames.len() as u64
+    }
+
+    fn each(&mut self, visit: &mut dyn FnMut(SourceFrame<'_>) -> anyhow::Result<()>) -> anyhow::Result<()> {
+        for (i, f) in self.capture.frames.iter().enumerate() {
+            let data = self.capture.read_frame(i)?;
+            let sigma_from = match (f.sun_sigma_deg, self.from_site[i]) {
+                (None, _) => None,
+                (Some(_), true) => Some("the located site's latitude and longitude 1σ propagated (--site)"),
+                (Some(_), false) => Some("sun_sigma_deg"),
+            };
+            let tilt_sigma_deg = f.tilt_sigma_deg.unwrap_or(0.0);
+            let var_rad2 = tilt_sigma_deg.to_radians().powi(2);
+            visit(SourceFrame {
+                id: FrameId { file: Some(f.file.display().to_string()), ..FrameId::default() },
+                pixels: Pixels::Capture(&data),
+                sun: Ok(FrameSun {
+                    azimuth_deg: f.sun.azimuth_deg,
+                    elevation_deg: f.sun.elevation_deg,
+                    sigma_deg: f.sun_sigma_deg,
+                    source: frames::sun_source(&f.sun.source, sigma_from),
+                }),
+                tilt: Ok(FrameTilt {
+                    tilt_x_deg: f.tilt_x_deg.unwrap_or(0.0),
+                    tilt_y_deg: f.tilt_y_deg.unwrap_or(0.0),
+                    sigma_deg: tilt_sigma_deg,
+                    roll_var_rad2: var_rad2,
+                    pitch_var_rad2: var_rad2,
+                }),
+                reference_heading_deg: f.heading_deg,
+            })?;
         }
-        other => other.describe(),
-    };
-    format!("{az:.4}/{el:.4} ± {sigma:.4}, {source}")
+        Ok(())
+    }
+}
+
+/// `--estimator plain`: every sample of each frame, least squares, statistical 1σ (the
+/// Monte Carlo's extractors), a calibration's per-pixel maps applied to the mosaic
+/// first (per tile: the plain reconstruction reads nominal analyzers). Rows as the
+/// compass loop's, printed as it goes.
+fn plain_rows(
+    source: &mut CaptureSource<'_>,
+    known: &bpins_core::effects::Model,
+    mode: ReconMode,
+    pixels: Option<&bpins_core::PixelMaps>,
+    calibration: Option<&std::path::Path>,
+    extractors: &[Extractor],
+) -> anyhow::Result<Vec<Row>> {
+    let capture = source.capture;
+    let pb = crate::progress::bar(source.len(), "frames");
+    let mut rows = Vec::new();
+    let mut i = 0;
+    source.each(&mut |f| {
+        let Pixels::Capture(data) = &f.pixels else { unreachable!("a capture's frames") };
+        let mapped;
+        let data = match pixels {
+            Some(m) => {
+                mapped = apply_pixel_maps(capture, (*data).clone(), m).with_context(|| {
+                    format!("--calibration {}", calibration.map(|p| p.display().to_string()).unwrap_or_default())
+                })?;
+                &mapped
+            }
+            None => *data,
+        };
+        let mut frame_rows = Vec::new();
+        for (e, r) in frame_headings_of(capture, i, data, known, mode, extractors)? {
+            let mut row = Row::of(&f, e);
+            match r {
+                Ok(est) => {
+                    row.set_heading(est.heading_deg, est.sigma_deg);
+                    row.samples = Some(est.samples);
+                }
+                Err(err) => row.no_heading_reason = Some(err.to_string()),
+            }
+            frame_rows.push(row);
+        }
+        i += 1;
+        pb.inc(1);
+        pb.suspend(|| -> anyhow::Result<()> {
+            if i == 1 {
+                out!("{}", frames::header_line());
+            }
+            for r in &frame_rows {
+                out!("{}", r.line());
+            }
+            Ok(())
+        })?;
+        rows.extend(frame_rows);
+        Ok(())
+    })?;
+    pb.finish_and_clear();
+    Ok(rows)
 }
 
 /// `--bag`: the front door over a ROS 2 bag (cmd_heading_bag.rs).
 fn run_bag(a: &Args, extractors: &[Extractor], opts: FieldOptions) -> anyhow::Result<()> {
-    let [extractor] = extractors else {
-        bail!("--bag reads one extractor per run: --extractor sun_vector or meridian_line, not all");
-    };
+    if extractors.len() > 1 && a.bag_out.is_some() {
+        bail!("--bag-out writes one heading per frame: --extractor sun_vector or meridian_line, not all");
+    }
     if a.estimator != Estimator::Field {
         bail!("--bag reads through the field estimator (the compass): --estimator plain is for captures");
     }
@@ -406,71 +364,8 @@ fn run_bag(a: &Args, extractors: &[Extractor], opts: FieldOptions) -> anyhow::Re
         heading_topic: &a.heading_topic,
         diagnostics_topic: &a.diagnostics_topic,
         heading_frame_id: a.heading_frame_id.as_deref(),
+        compensated_effects: &a.effects,
+        calibration: a.calibration.as_deref(),
     };
-    crate::cmd_heading_bag::run(&a.bag, *extractor, calibration, opts, out)
-}
-
-/// One extractor's result on one frame.
-struct Row {
-    file: String,
-    extractor: Extractor,
-    heading_deg: Option<f64>,
-    sigma_deg: Option<f64>,
-    reference_deg: Option<f64>,
-    /// Why there is no heading.
-    why: Option<String>,
-    extra: serde_json::Value,
-    used_fraction: Option<f64>,
-    /// Fraction of the observed sky taken for cloud (field estimator).
-    cloud_fraction: Option<f64>,
-    residual_deg: Option<f64>,
-    sun: String,
-    /// The sun's 1σ the heading carries, degrees (`None`: taken as exact).
-    sun_sigma_deg: Option<f64>,
-}
-
-impl Row {
-    fn error_deg(&self) -> Option<f64> {
-        Some(wrap_deg_180(self.heading_deg? - self.reference_deg?))
-    }
-
-    fn print(&self) -> anyhow::Result<()> {
-        let opt = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map(f).unwrap_or_else(|| "—".into());
-        let err = self.error_deg();
-        out!(
-            "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10}  {}",
-            self.file,
-            self.extractor.name(),
-            opt(self.heading_deg, &|x| format!("{x:.4}")),
-            opt(self.sigma_deg, &|x| format!("{x:.4}")),
-            opt(self.reference_deg, &|x| format!("{x:.4}")),
-            opt(err, &|x| format!("{x:+.4}")),
-            opt(err.zip(self.sigma_deg).map(|(e, s)| e / s), &|x| format!("{x:+.1}")),
-            opt(self.used_fraction, &|x| format!("{:.1}", 100.0 * x)),
-            opt(self.cloud_fraction, &|x| format!("{:.1}", 100.0 * x)),
-            opt(self.residual_deg.filter(|x| x.is_finite()), &|x| format!("{x:.3}")),
-            match &self.why {
-                Some(w) => format!("no heading: {w}"),
-                None => self.sun.clone(),
-            }
-        );
-        Ok(())
-    }
-
-    fn to_json(&self) -> serde_json::Value {
-        let mut v = json!({
-            "file": self.file, "extractor": self.extractor.name(), "heading_deg": self.heading_deg,
-            "sigma_deg": self.sigma_deg, "reference_heading_deg": self.reference_deg, "error_deg": self.error_deg(),
-            "no_heading_reason": self.why, "sun": self.sun, "sun_sigma_deg": self.sun_sigma_deg,
-        });
-        if let (Some(o), Some(extra)) = (v.as_object_mut(), self.extra.as_object()) {
-            o.extend(extra.clone());
-        }
-        v
-    }
-}
-
-/// JSON has no NaN: `null` instead.
-fn finite(x: f64) -> Option<f64> {
-    x.is_finite().then_some(x)
+    crate::cmd_heading_bag::run(&a.bag, extractors, calibration, opts, out)
 }

@@ -1,20 +1,22 @@
-//! `bpins heading --bag DIR`: the heading of every image of a ROS 2 bag through the
-//! front door (`bpins_core::compass::Compass`, the field estimator), with a table,
-//! `--json`, and with `--bag-out` a new MCAP bag holding per frame a sensor_msgs/Imu
-//! (REP 103 orientation, REP 145 covariance) or a diagnostic_msgs/DiagnosticArray
-//! saying why the frame has no heading (docs/ros2.md).
+//! `bpins heading --bag DIR`: the images of a ROS 2 bag as a frame source
+//! ([`crate::frames`]) for the compass loop every route shares, with `--json` and,
+//! with `--bag-out`, a new MCAP bag holding per frame a sensor_msgs/Imu (REP 103
+//! orientation, REP 145 covariance) or a diagnostic_msgs/DiagnosticArray saying why
+//! the frame has no heading (docs/ros2.md).
 
-use crate::bag::{bag_at, BagArgs};
+use crate::bag::{bag_at, BagArgs, BagInput};
+use crate::frames::{self, FrameId, FrameSource, FrameSun, FrameTilt, Pixels, Row, SourceFrame, Stamp};
 use crate::write_json;
 use anyhow::{anyhow, bail, Context};
 use bpins_core::calibration::Calibration;
 use bpins_core::compass::Extractor;
 use bpins_core::compass::FieldOptions;
-use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
+use bpins_core::compass::{Compass, CompassConfig};
 use bpins_core::sensor::Layout;
+use bpins_core::SunSource;
 use bpins_ros::cdr::{decode, encode};
 use bpins_ros::convert::{mosaic, Mosaic};
-use bpins_ros::msgs::{types, Header, Image};
+use bpins_ros::msgs::{types, Header, Image, Time};
 use bpins_ros::rep103;
 use bpins_ros::writer::BagWriter;
 use serde_json::json;
@@ -28,12 +30,15 @@ pub struct BagOut<'a> {
     pub diagnostics_topic: &'a str,
     /// The Imu headings' frame_id instead of the image's.
     pub heading_frame_id: Option<&'a str>,
+    /// For the JSON: the `--effect` assignments and the `--calibration` file.
+    pub compensated_effects: &'a [String],
+    pub calibration: Option<&'a Path>,
 }
 
 /// Runs the compass over the bag; `calibration` and `options` as `bpins heading`.
 pub fn run(
     args: &BagArgs,
-    extractor: Extractor,
+    extractors: &[Extractor],
     calibration: Calibration,
     options: FieldOptions,
     out: BagOut,
@@ -51,7 +56,7 @@ pub fn run(
         mosaic: tiles,
         calibration,
         options,
-        extractor,
+        extractor: extractors[0],
         ..CompassConfig::dofp(
             input.intrinsics,
             g.width_px as usize,
@@ -77,142 +82,12 @@ pub fn run(
             (None, None) => "nowhere".to_string(),
         }
     );
-    out!(
-        "{:>8} {:>21} {:>12} {:>9} {:>10} {:>9} {:>9} {:>15}  sun az/el (°); or why no heading",
-        "message",
-        "stamp (s)",
-        "heading (°)",
-        "1σ (°)",
-        "yaw (°)",
-        "used (%)",
-        "cloud (%)",
-        "tilt x/y (°)"
-    );
-    let pb = crate::progress::bar(input.frames, "frames");
-    let mut frames = input.frames(args)?;
-    let mut scratch: Vec<u16> = Vec::new();
-    let mut rows = Vec::new();
-    let (mut with, mut without) = (0usize, 0usize);
-    while let Some(f) = frames.next_frame()? {
-        let im: Image = decode(&f.message.data).map_err(|e| anyhow!("{e}"))?;
-        let header = im.header.clone();
-        let at = || bag_at(&input.bag, &input.image_topic, f.message.index);
-        let fix = match (&f.sun, &f.tilt) {
-            (Ok(sun), Ok(t)) => {
-                let sun_arg = Sun::Angles {
-                    azimuth_deg: sun.azimuth_deg,
-                    elevation_deg: sun.elevation_deg,
-                    sigma_deg: args.sun_sigma_deg,
-                };
-                let att = Attitude { tilt_x_deg: t.tilt_x_deg, tilt_y_deg: t.tilt_y_deg, sigma_deg: t.sigma_deg() };
-                let m = mosaic(&im, &mut scratch).map_err(|e| anyhow!("{}: {e}", at()))?;
-                if matches!(m, Mosaic::U8(_)) && s.bit_depth > 8 {
-                    bail!("{}: a mono8 image for a {}-bit sensor (--bit-depth, or the sensor file)", at(), s.bit_depth);
-                }
-                let r = match m {
-                    Mosaic::U8(r) => compass.heading(r, sun_arg, att),
-                    Mosaic::U16(r) => compass.heading(r, sun_arg, att),
-                };
-                Ok(r.with_context(at)?)
-            }
-            (Err(w), _) | (_, Err(w)) => Err(w.clone()),
-        };
-        let (heading, sigma, why, quality) = match &fix {
-            Ok(h) => match &h.result {
-                Ok((hd, p)) => (Some(*hd), Some(p.total_deg()), None, Some(h.quality)),
-                Err(r) => (None, None, Some(r.to_string()), Some(h.quality)),
-            },
-            Err(w) => (None, None, Some(w.clone()), None),
-        };
-        let yaw = heading.map(|h| rep103::yaw_deg(rep103::enu_quaternion(h, 0.0, 0.0)));
-        if let Some(w) = writer.as_mut() {
-            match (heading, sigma, &f.tilt) {
-                (Some(h), Some(sg), Ok(t)) => {
-                    let mut header = header.clone();
-                    if let Some(id) = out.heading_frame_id {
-                        header.frame_id = id.to_string();
-                    }
-                    let msg = rep103::heading_imu(
-                        header,
-                        h,
-                        sg,
-                        t.tilt_x_deg,
-                        t.tilt_y_deg,
-                        t.roll_var_rad2,
-                        t.pitch_var_rad2,
-                    );
-                    w.write(out.heading_topic, types::IMU, f.stamp_ns, &encode(&msg))?;
-                }
-                _ => {
-                    let reason = why.clone().unwrap_or_default();
-                    let msg = rep103::no_heading(
-                        Header { stamp: header.stamp, frame_id: header.frame_id.clone() },
-                        &header.frame_id,
-                        &reason,
-                        &[("image_topic", input.image_topic.clone()), ("image_message", f.message.index.to_string())],
-                    );
-                    w.write(out.diagnostics_topic, types::DIAGNOSTIC_ARRAY, f.stamp_ns, &encode(&msg))?;
-                }
-            }
-        }
-        if heading.is_some() {
-            with += 1;
-        } else {
-            without += 1;
-        }
-        let opt = |x: Option<f64>, p: usize| x.map(|x| format!("{x:.p$}")).unwrap_or_else(|| "—".into());
-        let tilt_txt = f
-            .tilt
-            .as_ref()
-            .map(|t| format!("{:+.2}/{:+.2}", t.tilt_x_deg, t.tilt_y_deg))
-            .unwrap_or_else(|_| "—".into());
-        let tail = match (&why, &f.sun) {
-            (Some(w), _) => format!("no heading: {w}"),
-            (None, Ok(s)) => format!("{:.4}/{:.4}", s.azimuth_deg, s.elevation_deg),
-            (None, Err(e)) => e.clone(),
-        };
-        let line = format!(
-            "{:>8} {:>21} {:>12} {:>9} {:>10} {:>9} {:>9} {:>15}  {}",
-            f.message.index,
-            format!("{}.{:09}", header.stamp.sec, header.stamp.nanosec),
-            opt(heading, 4),
-            opt(sigma, 4),
-            opt(yaw, 4),
-            opt(quality.map(|q| 100.0 * q.used_fraction), 1),
-            opt(quality.map(|q| 100.0 * q.cloud_fraction), 1),
-            tilt_txt,
-            tail
-        );
-        pb.inc(1);
-        pb.suspend(|| -> anyhow::Result<()> {
-            out!("{line}");
-            Ok(())
-        })?;
-        if out.json.is_some() {
-            rows.push(json!({
-                "message_index": f.message.index,
-                "stamp": {"sec": header.stamp.sec, "nanosec": header.stamp.nanosec},
-                "stamp_ns": f.stamp_ns,
-                "frame_id": header.frame_id,
-                "extractor": extractor.name(),
-                "heading_deg": heading,
-                "sigma_deg": sigma,
-                "yaw_enu_deg": yaw,
-                "yaw_variance_rad2": sigma.map(|s| s.to_radians().powi(2)),
-                "tilt_x_deg": f.tilt.as_ref().ok().map(|t| t.tilt_x_deg),
-                "tilt_y_deg": f.tilt.as_ref().ok().map(|t| t.tilt_y_deg),
-                "tilt_sigma_deg": f.tilt.as_ref().ok().map(|t| t.sigma_deg()),
-                "sun_azimuth_deg": f.sun.as_ref().ok().map(|s| s.azimuth_deg),
-                "sun_elevation_deg": f.sun.as_ref().ok().map(|s| s.elevation_deg),
-                "sun": f.sun.as_ref().map(|s| s.source.describe()).unwrap_or_default(),
-                "used_fraction": quality.map(|q| q.used_fraction),
-                "cloud_fraction": quality.map(|q| q.cloud_fraction),
-                "no_heading_reason": why,
-            }));
-        }
-    }
-    pb.finish_and_clear();
-    out!("{}: {with} frame(s) with a heading, {without} without", extractor.name());
+    let mut source = BagSource { input: &input, args, scratch: Vec::new() };
+    let rows = frames::read_frames(&mut source, &mut compass, extractors, &mut |f, rows| match writer.as_mut() {
+        Some(w) => write_out(w, &out, &input, f, &rows[0]),
+        None => Ok(()),
+    })?;
+    let summary = frames::summary(&rows, extractors)?;
     if let Some(w) = writer {
         let dir = w.finish()?;
         say!("wrote {}", dir.display());
@@ -226,11 +101,107 @@ pub fn run(
             "fix_topic": input.fix_topic,
             "intrinsics": input.intrinsics_source,
             "estimator": "field",
+            "recon": "cells",
+            "compensated_effects": out.compensated_effects,
+            "calibration": out.calibration.map(|p| p.display().to_string()),
             "frames": rows,
-            "summary": [{"extractor": extractor.name(), "frames": with + without, "frames_without_heading": without}],
+            "summary": summary,
         });
         write_json(p, &v)?;
         say!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// A bag's images as a frame source: each image's raw rows (mono8 or mono16, any
+/// stride, never copied unless their byte order is not the machine's), its origin
+/// (message index, stamp, frame_id), the sun at its stamp (the flags', or SPA at the
+/// fix) and the tilt (the IMU's, slerped or nearest, or level), each or why not.
+struct BagSource<'a> {
+    input: &'a BagInput,
+    args: &'a BagArgs,
+    /// mono16 rows in the other byte order, swapped.
+    scratch: Vec<u16>,
+}
+
+impl FrameSource for BagSource<'_> {
+    fn len(&self) -> u64 {
+        self.input.frames
+    }
+
+    fn each(&mut self, visit: &mut dyn FnMut(SourceFrame<'_>) -> anyhow::Result<()>) -> anyhow::Result<()> {
+        let (input, args) = (self.input, self.args);
+        let mut frames = input.frames(args)?;
+        while let Some(f) = frames.next_frame()? {
+            let at = || bag_at(&input.bag, &input.image_topic, f.message.index);
+            let im: Image = decode(&f.message.data).map_err(|e| anyhow!("{}: {e}", at()))?;
+            let pixels = match mosaic(&im, &mut self.scratch).map_err(|e| anyhow!("{}: {e}", at()))? {
+                Mosaic::U8(_) if input.sensor.bit_depth > 8 => bail!(
+                    "{}: a mono8 image for a {}-bit sensor (--bit-depth, or the sensor file)",
+                    at(),
+                    input.sensor.bit_depth
+                ),
+                Mosaic::U8(r) => Pixels::Dn8(r),
+                Mosaic::U16(r) => Pixels::Dn16(r),
+            };
+            let sigma_deg = (args.sun_sigma_deg > 0.0).then_some(args.sun_sigma_deg);
+            let sun = f.sun.as_ref().map_err(Clone::clone).map(|s| FrameSun {
+                azimuth_deg: s.azimuth_deg,
+                elevation_deg: s.elevation_deg,
+                sigma_deg,
+                source: match &s.source {
+                    SunSource::Given => "given by --sun-azimuth-deg and --sun-elevation-deg".to_string(),
+                    other => frames::sun_source(other, sigma_deg.map(|_| "--sun-sigma-deg")),
+                },
+            });
+            let tilt = f.tilt.as_ref().map_err(Clone::clone).map(|t| FrameTilt {
+                tilt_x_deg: t.tilt_x_deg,
+                tilt_y_deg: t.tilt_y_deg,
+                sigma_deg: t.sigma_deg(),
+                roll_var_rad2: t.roll_var_rad2,
+                pitch_var_rad2: t.pitch_var_rad2,
+            });
+            let id = FrameId {
+                message_index: Some(f.message.index),
+                stamp: Some(Stamp { sec: im.header.stamp.sec, nanosec: im.header.stamp.nanosec }),
+                stamp_ns: Some(f.stamp_ns),
+                frame_id: Some(im.header.frame_id.clone()),
+                ..FrameId::default()
+            };
+            visit(SourceFrame { id, pixels, sun, tilt, reference_heading_deg: None })?;
+        }
+        Ok(())
+    }
+}
+
+/// `--bag-out`: frame `f`'s heading as a sensor_msgs/Imu, or a DiagnosticArray saying
+/// why it has none (`row`: the one extractor's result).
+fn write_out(w: &mut BagWriter, out: &BagOut, input: &BagInput, f: &SourceFrame<'_>, row: &Row) -> anyhow::Result<()> {
+    let (Some(stamp), Some(stamp_ns)) = (f.id.stamp, f.id.stamp_ns) else {
+        bail!("--bag-out: frame {} has no stamp", row.id.file.as_deref().unwrap_or("?"))
+    };
+    let frame_id = f.id.frame_id.clone().unwrap_or_default();
+    let header = Header { stamp: Time { sec: stamp.sec, nanosec: stamp.nanosec }, frame_id: frame_id.clone() };
+    match (row.heading_deg, row.sigma_deg, &f.tilt) {
+        (Some(h), Some(sg), Ok(t)) => {
+            let mut header = header;
+            if let Some(id) = out.heading_frame_id {
+                header.frame_id = id.to_string();
+            }
+            let msg = rep103::heading_imu(header, h, sg, t.tilt_x_deg, t.tilt_y_deg, t.roll_var_rad2, t.pitch_var_rad2);
+            w.write(out.heading_topic, types::IMU, stamp_ns, &encode(&msg))?;
+        }
+        _ => {
+            let reason = row.no_heading_reason.clone().unwrap_or_default();
+            let index = f.id.message_index.map(|i| i.to_string()).unwrap_or_default();
+            let msg = rep103::no_heading(
+                header,
+                &frame_id,
+                &reason,
+                &[("image_topic", input.image_topic.clone()), ("image_message", index)],
+            );
+            w.write(out.diagnostics_topic, types::DIAGNOSTIC_ARRAY, stamp_ns, &encode(&msg))?;
+        }
     }
     Ok(())
 }

@@ -40,6 +40,7 @@ mod cmd_run;
 mod cmd_simulate;
 mod cmd_sweep;
 mod effect_sizes;
+mod frames;
 mod names;
 mod profiles;
 mod progress;

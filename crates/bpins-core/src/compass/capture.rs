@@ -76,13 +76,31 @@ impl Compass {
         f: &FrameSpec,
         extractors: &[Extractor],
     ) -> Result<Vec<FieldHeading>, CompassError> {
-        let sun = (f.sun.azimuth_deg, f.sun.elevation_deg, f.sun_sigma_deg.unwrap_or(0.0));
-        check_sun(sun.0, sun.1, sun.2)?;
+        let sun = Sun::Angles {
+            azimuth_deg: f.sun.azimuth_deg,
+            elevation_deg: f.sun.elevation_deg,
+            sigma_deg: f.sun_sigma_deg.unwrap_or(0.0),
+        };
         let attitude = Attitude {
             tilt_x_deg: f.tilt_x_deg.unwrap_or(0.0),
             tilt_y_deg: f.tilt_y_deg.unwrap_or(0.0),
             sigma_deg: f.tilt_sigma_deg.unwrap_or(0.0),
         };
+        self.capture_headings(data, sun, attitude, extractors)
+    }
+
+    /// The field headings of a capture's frame `data` (a DoFP mosaic or colocated
+    /// planes, as [`Capture::read_frame`] gives them) under `sun` at `attitude`, with
+    /// each of `extractors`: [`Compass::headings`] for the frames of a capture, whose
+    /// sun and attitude the caller took from the frame's entry or elsewhere.
+    pub fn capture_headings(
+        &mut self,
+        data: &FrameData,
+        sun: Sun,
+        attitude: Attitude,
+        extractors: &[Extractor],
+    ) -> Result<Vec<FieldHeading>, CompassError> {
+        let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
         self.fill_capture_cells(data)?;
         let ctx = field_context(self.intr, &self.known, sun, &attitude);

@@ -181,20 +181,29 @@ impl Compass {
         attitude: Attitude,
     ) -> Result<FieldHeading, CompassError> {
         self.check_size(&frame)?;
-        let (az, el, sun_sigma) = match sun {
-            Sun::Angles { azimuth_deg, elevation_deg, sigma_deg } => (azimuth_deg, elevation_deg, sigma_deg),
-            #[cfg(feature = "spa")]
-            Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg } => {
-                let s = sun_from_unix_time(time_s, latitude_deg, longitude_deg)
-                    .map_err(|e| CompassError::Sun(e.to_string()))?;
-                (s.azimuth_deg, s.elevation_deg, sigma_deg)
-            }
-        };
-        check_sun(az, el, sun_sigma)?;
+        let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
         self.fill_mosaic_cells(&frame);
-        let ctx = field_context(self.intr, &self.known, (az, el, sun_sigma), &attitude);
+        let ctx = field_context(self.intr, &self.known, sun, &attitude);
         Ok(field::estimate_with(&self.cells, &ctx, &self.cfg.options, self.cfg.extractor, &mut self.scratch))
+    }
+
+    /// [`Compass::heading`] with each of `extractors` (the robust loop runs once; each
+    /// extractor solves on its final weights), in their order: `bpins heading
+    /// --extractor all` on any frame source.
+    pub fn headings<T: RawDn>(
+        &mut self,
+        frame: RawImage<T>,
+        sun: Sun,
+        attitude: Attitude,
+        extractors: &[Extractor],
+    ) -> Result<Vec<FieldHeading>, CompassError> {
+        self.check_size(&frame)?;
+        let sun = resolve_sun(sun)?;
+        check_attitude(&attitude)?;
+        self.fill_mosaic_cells(&frame);
+        let ctx = field_context(self.intr, &self.known, sun, &attitude);
+        Ok(field::estimate_many_with(&self.cells, &ctx, &self.cfg.options, extractors, &mut self.scratch))
     }
 
     /// Whether `frame` is a buffer of the sensor's size: refused with its sizes if not.
@@ -233,6 +242,22 @@ impl Compass {
             ),
         }
     }
+}
+
+/// `sun` as (azimuth, elevation, 1σ) in degrees, SPA run where it is a time and place,
+/// and checked.
+pub(super) fn resolve_sun(sun: Sun) -> Result<(f64, f64, f64), CompassError> {
+    let (az, el, sun_sigma) = match sun {
+        Sun::Angles { azimuth_deg, elevation_deg, sigma_deg } => (azimuth_deg, elevation_deg, sigma_deg),
+        #[cfg(feature = "spa")]
+        Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg } => {
+            let s = sun_from_unix_time(time_s, latitude_deg, longitude_deg)
+                .map_err(|e| CompassError::Sun(e.to_string()))?;
+            (s.azimuth_deg, s.elevation_deg, sigma_deg)
+        }
+    };
+    check_sun(az, el, sun_sigma)?;
+    Ok((az, el, sun_sigma))
 }
 
 /// What the field estimator knows about a frame: the camera `intr` as calibrated, the
