@@ -385,6 +385,13 @@ fn combinations_that_would_ignore_a_flag_are_refused_naming_both() {
             vec!["simulate", "--out", &out, "--latitude-deg", "36", "--longitude-deg", "120"],
             ["--latitude-deg", "--time-utc"],
         ),
+        (vec!["simulate", "--out", &out, "--channels-deg", "0,45,90"], ["--channels-deg", "--layout dofp"]),
+        (vec!["simulate", "--exr", &out, "--channels-deg", "0,45,90"], ["--exr", "--channels-deg"]),
+        (vec!["simulate", "--exr", &out, "--layout", "colocated"], ["--exr", "--layout"]),
+        (vec!["simulate", "--exr", &out, "--imu-sigma-deg", "0.1"], ["--exr", "--imu-sigma-deg"]),
+        (vec!["simulate", "--exr", &out, "--headings-deg", "0,30"], ["--headings-deg", "--exr"]),
+        (vec!["simulate", "--out", &out, "--scene-seed", "3"], ["--scene-seed", "--scene, --tilt-random-deg"]),
+        (vec!["locate", CLEAN, "--pole", "--max-longitude-sigma-deg", "1"], ["--pole", "--max-longitude-sigma-deg"]),
     ];
     for (args, [a, b]) in &cases {
         let r = bpins(args);
@@ -1435,5 +1442,23 @@ fn heading_under_a_located_site_shows_the_suns_propagated_sigma() {
     bpins(&["heading", &s(&cap), "--site", &s(&site(0.0, 0.0)), "--json", &s(&json)]).ok();
     for f in read_json(&json)["frames"].as_array().unwrap() {
         assert_eq!(f64_of(f, "sun_sigma_deg"), 0.0, "{f}");
+    }
+}
+
+/// Issue 50 item 4: `simulate --bag-out` into the capture the same run writes (or the
+/// capture into the bag) is refused before anything is written.
+#[test]
+fn simulate_refuses_a_bag_and_a_capture_one_inside_the_other() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cap = tmp.path().join("cap");
+    let size = ["--width-px", "64", "--height-px", "48", "--headings-deg", "0"];
+    for (out, bag) in [(cap.clone(), cap.join("bag")), (cap.join("inner"), cap.clone())] {
+        let mut args = vec!["simulate".to_string(), "--out".into(), s(&out), "--bag-out".into(), s(&bag)];
+        args.extend(size.iter().map(|x| x.to_string()));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let r = bpins(&args);
+        assert_eq!(r.code, Some(2), "{}{}", r.stdout, r.stderr);
+        r.stderr_has("one inside the other");
+        assert!(!cap.exists(), "`bpins {}` wrote {}", r.args, cap.display());
     }
 }

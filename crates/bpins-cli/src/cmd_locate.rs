@@ -33,7 +33,7 @@ pub struct Args {
     #[arg(long)]
     cell_px: Option<usize>,
     /// The pole alone (north and latitude), even where the frames have stamps.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "max_longitude_sigma_deg")]
     pole: bool,
     /// Refuse ("not yet") an answer whose north 1σ exceeds this, degrees.
     #[arg(long, default_value_t = LocateOptions::default().max_heading_sigma_deg)]

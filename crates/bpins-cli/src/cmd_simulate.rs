@@ -26,7 +26,9 @@ pub struct Args {
     out: Option<PathBuf>,
     /// Instead of a capture, write the first frame as one EXR with channels
     /// I0, I45, I90, I135 (DN, every channel at every pixel), AoP (°), DoLP, AoE (°).
-    #[arg(long, conflicts_with = "out")]
+    /// Not with the flags that only a capture writes (a series, the IMU's reference
+    /// tilt, the colocated layout's channels): they would be ignored.
+    #[arg(long, conflicts_with_all = ["out", "every_min", "imu_sigma_deg", "layout", "channels_deg"])]
     exr: Option<PathBuf>,
     /// Also write the capture as a ROS 2 bag (MCAP) to this new folder: images,
     /// CameraInfo, the IMU's tilt, GNSS fixes (time-and-place suns) and the true
@@ -64,9 +66,10 @@ pub struct Args {
     /// Sensor layout.
     #[arg(long, value_enum, default_value_t = LayoutArg::Dofp)]
     layout: LayoutArg,
-    /// Colocated channels, degrees (0,45,90 or 0,45,90,135).
-    #[arg(long, value_delimiter = ',', default_value = "0,45,90,135")]
-    channels_deg: Vec<f64>,
+    /// Colocated channels, degrees (0,45,90 or 0,45,90,135; default all four). With
+    /// --layout colocated only (a DoFP mosaic's channels are its tiles').
+    #[arg(long, value_delimiter = ',')]
+    channels_deg: Option<Vec<f64>>,
     /// Sensor width, pixels.
     #[arg(long, default_value_t = 612)]
     width_px: u32,
@@ -106,9 +109,9 @@ pub struct Args {
     /// Longitude, degrees east.
     #[arg(long, requires = "time_utc", allow_negative_numbers = true)]
     longitude_deg: Option<f64>,
-    /// One frame per heading, degrees (a turntable).
-    #[arg(long, value_delimiter = ',', default_value = "0,45,90,135,180,225,270,315", allow_hyphen_values = true)]
-    headings_deg: Vec<f64>,
+    /// One frame per heading, degrees (a turntable; default 0,45,90,135,180,225,270,315).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    headings_deg: Option<Vec<f64>>,
     /// A time series for `bpins locate`: a frame every N minutes from --time-utc at
     /// --latitude-deg/--longitude-deg (the sun by NREL SPA) over --span-min; the frames
     /// are written with their `time_utc` alone (no place, no heading) and the truth
@@ -192,6 +195,42 @@ enum LayoutArg {
     Dofp,
     /// Every pixel measures every channel (the seed paper's idealisation).
     Colocated,
+}
+
+impl Args {
+    /// `--headings-deg`, or the turntable's eight (0°, 45°, …, 315°).
+    fn headings(&self) -> Vec<f64> {
+        self.headings_deg.clone().unwrap_or_else(|| (0..8).map(|k| 45.0 * k as f64).collect())
+    }
+
+    /// A combination of flags clap cannot see (it turns on a flag's value): the two
+    /// flags as a clap conflict names them, for `main` to refuse as clap does.
+    pub fn refused(&self) -> Option<(String, String)> {
+        let pair = |a: &str, b: &str| Some((a.to_string(), b.to_string()));
+        if self.channels_deg.is_some() && !matches!(self.layout, LayoutArg::Colocated) {
+            return pair("--channels-deg <CHANNELS_DEG>", "--layout dofp (the default)");
+        }
+        if self.exr.is_some() && self.headings_deg.as_ref().is_some_and(|h| h.len() > 1) {
+            return pair("--headings-deg with more than one heading", "--exr <EXR> (one frame)");
+        }
+        None
+    }
+
+    /// A flag that acts only beside another, given without it: the flag and what it
+    /// needs, for `main` to refuse as clap refuses a missing argument.
+    pub fn lacking(&self) -> Option<(String, String)> {
+        let seeded = !self.scene.is_empty()
+            || self.tilt_random_deg != 0.0
+            || self.imu_sigma_deg.is_some()
+            || self.sun_sigma_deg.is_some();
+        if self.scene_seed.is_some() && !seeded {
+            return Some((
+                "--scene-seed <SCENE_SEED>".into(),
+                "--scene, --tilt-random-deg, --imu-sigma-deg or --sun-sigma-deg (what it seeds)".into(),
+            ));
+        }
+        None
+    }
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -309,6 +348,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     if let Some(b) = &a.bag_out {
         crate::ensure_not_in_capture(b).context("--bag-out")?;
+        // The bag and the new capture apart: neither inside the other.
+        crate::ensure_apart(b, out).context("--bag-out and --out")?;
     }
     // Each frame is written as it is made (memory: one batch of frames), capture.toml
     // last: a run killed part-way leaves whole frames and no capture.
@@ -371,7 +412,7 @@ fn series_of(a: &Args) -> anyhow::Result<Option<bpins_core::tool::locate::Series
         start_utc: t.clone(),
         every_s: every * 60.0,
         span_s: a.span_min.unwrap_or(0.0) * 60.0,
-        heading_deg: a.headings_deg.first().copied().unwrap_or(0.0),
+        heading_deg: a.headings().first().copied().unwrap_or(0.0),
         yaw_step_deg: a.yaw_step_deg,
         yaw_sigma_deg: a.yaw_sigma_deg,
         seed: a.scene_seed.unwrap_or(a.seed),
@@ -452,7 +493,7 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
         LayoutArg::Dofp => Layout::Dofp { mosaic: DEFAULT_MOSAIC },
         LayoutArg::Colocated => {
             let mut ch = Vec::new();
-            for &d in &a.channels_deg {
+            for &d in a.channels_deg.as_deref().unwrap_or(&[0.0, 45.0, 90.0, 135.0]) {
                 ch.push(
                     Channel::from_angle_deg(d)
                         .with_context(|| format!("--channels-deg: {d}° is not 0, 45, 90 or 135"))?,
@@ -468,7 +509,7 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
     };
     let tilt = |t: f64| (t != 0.0).then_some(t);
     let frames = a
-        .headings_deg
+        .headings()
         .iter()
         .enumerate()
         .map(|(i, &h)| FrameSpec {

@@ -114,7 +114,15 @@ fn main() -> ExitCode {
     backend::set_gpu_precision(cli.gpu_precision);
     let result = match cli.command {
         Command::Run(a) => cmd_run::run(a),
-        Command::Simulate(a) => cmd_simulate::run(*a),
+        Command::Simulate(a) => {
+            if let Some((x, y)) = a.refused() {
+                refuse("simulate", &x, &y);
+            }
+            if let Some((x, y)) = a.lacking() {
+                refuse_lacking("simulate", &x, &y);
+            }
+            cmd_simulate::run(*a)
+        }
         Command::Heading(a) => {
             if let Some((x, y)) = a.refused() {
                 refuse("heading", &x, &y);
@@ -152,6 +160,19 @@ fn refuse(subcommand: &str, a: &str, b: &str) -> ! {
     cli.build();
     let sub = cli.find_subcommand_mut(subcommand).expect("a subcommand of bpins");
     sub.error(clap::error::ErrorKind::ArgumentConflict, format!("the argument '{a}' cannot be used with '{b}'")).exit()
+}
+
+/// Refuses flag `a` given without what it acts with (`needs`), as clap refuses a
+/// missing required argument: its message, the usage, exit status 2.
+fn refuse_lacking(subcommand: &str, a: &str, needs: &str) -> ! {
+    let mut cli = Cli::command();
+    cli.build();
+    let sub = cli.find_subcommand_mut(subcommand).expect("a subcommand of bpins");
+    sub.error(
+        clap::error::ErrorKind::MissingRequiredArgument,
+        format!("the argument '{a}' acts only with {needs}, and none was given"),
+    )
+    .exit()
 }
 
 /// Standard output was closed by its reader (a broken pipe): the command stops there.
@@ -214,6 +235,20 @@ pub fn ensure_not_in_input(out: &std::path::Path, bags: &[&std::path::Path]) -> 
         if o.starts_with(&b) {
             anyhow::bail!("{}: is inside the bag {}; bpins never writes into a bag", out.display(), b.display());
         }
+    }
+    Ok(())
+}
+
+/// Refuses two outputs of one run of which one is or lies in the other (a bag written
+/// into the capture written beside it), compared resolved as [`ensure_not_in_input`].
+pub fn ensure_apart(a: &std::path::Path, b: &std::path::Path) -> anyhow::Result<()> {
+    let (ra, rb) = (resolve(a)?, resolve(b)?);
+    if ra.starts_with(&rb) || rb.starts_with(&ra) {
+        anyhow::bail!(
+            "{} and {} are one inside the other; each output needs a folder of its own",
+            a.display(),
+            b.display()
+        );
     }
     Ok(())
 }
