@@ -215,6 +215,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         frames::read_frames(&mut source, &mut compass, &extractors, &mut |_, _| Ok(()))
             .with_context(|| capture.toml_path().display().to_string())?
     } else {
+        if capture.sensor.colour.is_some() {
+            bail!(
+                "{}: --estimator plain reads every pixel as one band; a colour-polarization capture is read band by \
+                 band by the field estimator (the default)",
+                capture.toml_path().display()
+            );
+        }
         plain_rows(&mut source, &known, mode, calibration.pixels.as_deref(), a.calibration.as_deref(), &extractors)?
     };
     let summary = frames::summary(&rows, &extractors)?;

@@ -57,6 +57,7 @@ pub fn run(
         calibration,
         options,
         extractor: extractors[0],
+        colour: s.colour.clone(),
         ..CompassConfig::dofp(
             input.intrinsics,
             g.width_px as usize,

@@ -35,6 +35,7 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let c = Capture::load(&a.capture).with_context(|| format!("reading {}", a.capture.display()))?;
+    c.refuse_colour("`bpins maps`")?;
     let mosaic = match &c.sensor.layout {
         Layout::Dofp { mosaic } => *mosaic,
         Layout::Colocated { .. } => bail!(

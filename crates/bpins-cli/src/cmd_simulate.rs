@@ -532,6 +532,7 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
     Ok(Capture {
         dir: PathBuf::new(),
         sensor: SensorSpec {
+            colour: None,
             layout,
             geometry: Geometry { width_px: a.width_px, height_px: a.height_px, pixel_pitch_um: a.pixel_pitch_um },
             bit_depth: a.bit_depth,

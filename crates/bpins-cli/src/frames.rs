@@ -140,6 +140,10 @@ pub struct Row {
     #[serde(flatten)]
     pub id: FrameId,
     pub extractor: &'static str,
+    /// A colour-polarization sensor's band (`R`, `G`, `B`), or `fused` for the bands'
+    /// inverse-variance heading; absent for a monochrome sensor.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub band: Option<&'static str>,
     pub heading_deg: Option<f64>,
     /// The heading's 1σ, degrees (the parts' root sum of squares).
     pub sigma_deg: Option<f64>,
@@ -181,6 +185,7 @@ impl Row {
         Row {
             id: f.id.clone(),
             extractor: extractor.name(),
+            band: None,
             heading_deg: None,
             sigma_deg: None,
             reference_heading_deg: f.reference_heading_deg,
@@ -250,9 +255,12 @@ impl Row {
             _ => "—".into(),
         };
         format!(
-            "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10} {:>13}  {}",
+            "{:<22} {:<20} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10} {:>13}  {}",
             self.id.label(),
-            self.extractor,
+            match self.band {
+                Some(b) => format!("{} {b}", self.extractor),
+                None => self.extractor.to_string(),
+            },
             opt(self.heading_deg, &|x| format!("{x:.4}")),
             opt(self.sigma_deg, &|x| format!("{x:.4}")),
             opt(self.reference_heading_deg, &|x| format!("{x:.4}")),
@@ -273,7 +281,7 @@ impl Row {
 /// The table's header.
 pub fn header_line() -> String {
     format!(
-        "{:<22} {:<14} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10} {:>13}  sun az/el (°) [± its 1σ], source; or why no heading",
+        "{:<22} {:<20} {:>12} {:>9} {:>14} {:>10} {:>8} {:>9} {:>9} {:>10} {:>13}  sun az/el (°) [± its 1σ], source; or why no heading",
         "frame",
         "extractor",
         "heading (°)",
@@ -304,7 +312,7 @@ pub fn read_frames(
     let mut rows: Vec<Row> = Vec::new();
     let mut header = true;
     source.each(&mut |f| {
-        let mut frame_rows: Vec<Row> = extractors.iter().map(|&e| Row::of(&f, e)).collect();
+        let mut frame_rows: Vec<Row> = Vec::new();
         match (&f.sun, &f.tilt) {
             (Ok(sun), Ok(tilt)) => {
                 let sun_arg = Sun::Angles {
@@ -314,19 +322,42 @@ pub fn read_frames(
                 };
                 let att =
                     Attitude { tilt_x_deg: tilt.tilt_x_deg, tilt_y_deg: tilt.tilt_y_deg, sigma_deg: tilt.sigma_deg };
-                let headings = match &f.pixels {
-                    Pixels::Capture(data) => compass.capture_headings(data, sun_arg, att, extractors),
-                    Pixels::Dn8(r) => compass.headings(*r, sun_arg, att, extractors),
-                    Pixels::Dn16(r) => compass.headings(*r, sun_arg, att, extractors),
-                }
-                .with_context(|| f.id.label())?;
-                for (row, h) in frame_rows.iter_mut().zip(&headings) {
-                    row.set_field(h);
+                // Per band (a colour sensor: the fused heading first, then each band's),
+                // each extractor's heading.
+                let sets: Vec<(Option<&'static str>, Vec<FieldHeading>)> = if compass.is_colour() {
+                    let fix = match &f.pixels {
+                        Pixels::Capture(data) => compass.capture_colour_headings(data, sun_arg, att, extractors),
+                        Pixels::Dn8(r) => compass.colour_headings(*r, sun_arg, att, extractors),
+                        Pixels::Dn16(r) => compass.colour_headings(*r, sun_arg, att, extractors),
+                    }
+                    .with_context(|| f.id.label())?;
+                    std::iter::once((Some("fused"), fix.fused))
+                        .chain(fix.bands.into_iter().map(|(b, hs)| (Some(b.name()), hs)))
+                        .collect()
+                } else {
+                    let hs = match &f.pixels {
+                        Pixels::Capture(data) => compass.capture_headings(data, sun_arg, att, extractors),
+                        Pixels::Dn8(r) => compass.headings(*r, sun_arg, att, extractors),
+                        Pixels::Dn16(r) => compass.headings(*r, sun_arg, att, extractors),
+                    }
+                    .with_context(|| f.id.label())?;
+                    vec![(None, hs)]
+                };
+                for (band, hs) in sets {
+                    for h in &hs {
+                        let mut row = Row::of(&f, h.extractor);
+                        row.band = band;
+                        row.set_field(h);
+                        frame_rows.push(row);
+                    }
                 }
             }
             (Err(why), _) | (_, Err(why)) => {
-                for row in &mut frame_rows {
+                for &e in extractors {
+                    let mut row = Row::of(&f, e);
+                    row.band = compass.is_colour().then_some("fused");
                     row.no_heading_reason = Some(why.clone());
+                    frame_rows.push(row);
                 }
             }
         }
@@ -353,33 +384,51 @@ pub fn read_frames(
 /// each; returned for the JSON's `summary`.
 pub fn summary(rows: &[Row], extractors: &[Extractor]) -> anyhow::Result<Vec<serde_json::Value>> {
     let mut summary = Vec::new();
-    for e in extractors {
-        let mine: Vec<&Row> = rows.iter().filter(|r| r.extractor == e.name()).collect();
-        let errs: Vec<(f64, f64)> = mine.iter().filter_map(|r| Some((r.error_deg?, r.sigma_deg?))).collect();
-        let none = mine.iter().filter(|r| r.heading_deg.is_none()).count();
-        let mut line = format!("{}: {} frame(s) with a heading, {none} without", e.name(), mine.len() - none);
-        let mut s = json!({"extractor": e.name(), "frames": mine.len(), "frames_without_heading": none});
-        if !errs.is_empty() {
-            let n = errs.len() as f64;
-            let rms = (errs.iter().map(|x| x.0 * x.0).sum::<f64>() / n).sqrt();
-            let max = errs.iter().fold(0f64, |m, x| m.max(x.0.abs()));
-            let z: Vec<f64> = errs.iter().map(|(x, s)| (x / s).abs()).collect();
-            let within = z.iter().filter(|&&z| z <= 2.0).count() as f64 / n;
-            let zmax = z.iter().fold(0f64, |m, &x| m.max(x));
-            line += &format!(
-                "; RMS error {rms:.4}°, largest |error| {max:.4}° over {} frames; {:.0} % within 2σ, largest |error|/σ {zmax:.1}",
-                errs.len(),
-                100.0 * within
-            );
-            s["rms_error_deg"] = json!(rms);
-            s["max_abs_error_deg"] = json!(max);
-            s["within_2sigma_fraction"] = json!(within);
-            s["max_abs_error_over_sigma"] = json!(zmax);
-        } else {
-            line += "; no reference headings to compare";
+    let mut bands: Vec<Option<&'static str>> = Vec::new();
+    for r in rows {
+        if !bands.contains(&r.band) {
+            bands.push(r.band);
         }
-        out!("{line}");
-        summary.push(s);
+    }
+    if bands.is_empty() {
+        bands.push(None);
+    }
+    for e in extractors {
+        for &band in &bands {
+            let mine: Vec<&Row> = rows.iter().filter(|r| r.extractor == e.name() && r.band == band).collect();
+            let errs: Vec<(f64, f64)> = mine.iter().filter_map(|r| Some((r.error_deg?, r.sigma_deg?))).collect();
+            let none = mine.iter().filter(|r| r.heading_deg.is_none()).count();
+            let name = match band {
+                Some(b) => format!("{} {b}", e.name()),
+                None => e.name().to_string(),
+            };
+            let mut line = format!("{name}: {} frame(s) with a heading, {none} without", mine.len() - none);
+            let mut s = json!({"extractor": e.name(), "frames": mine.len(), "frames_without_heading": none});
+            if let Some(b) = band {
+                s["band"] = json!(b);
+            }
+            if !errs.is_empty() {
+                let n = errs.len() as f64;
+                let rms = (errs.iter().map(|x| x.0 * x.0).sum::<f64>() / n).sqrt();
+                let max = errs.iter().fold(0f64, |m, x| m.max(x.0.abs()));
+                let z: Vec<f64> = errs.iter().map(|(x, s)| (x / s).abs()).collect();
+                let within = z.iter().filter(|&&z| z <= 2.0).count() as f64 / n;
+                let zmax = z.iter().fold(0f64, |m, &x| m.max(x));
+                line += &format!(
+                    "; RMS error {rms:.4}°, largest |error| {max:.4}° over {} frames; {:.0} % within 2σ, largest |error|/σ {zmax:.1}",
+                    errs.len(),
+                    100.0 * within
+                );
+                s["rms_error_deg"] = json!(rms);
+                s["max_abs_error_deg"] = json!(max);
+                s["within_2sigma_fraction"] = json!(within);
+                s["max_abs_error_over_sigma"] = json!(zmax);
+            } else {
+                line += "; no reference headings to compare";
+            }
+            out!("{line}");
+            summary.push(s);
+        }
     }
     Ok(summary)
 }

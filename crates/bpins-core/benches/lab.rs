@@ -37,6 +37,7 @@ fn lab(c: &mut Criterion) {
     let capture = LabCapture {
         dir: tmp.path().join("lab"),
         sensor: SensorSpec {
+            colour: None,
             layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
             geometry: Geometry { width_px: w, height_px: h, pixel_pitch_um: 3.45 },
             bit_depth: 12,

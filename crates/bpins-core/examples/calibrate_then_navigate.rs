@@ -25,6 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let capture = |headings: &[f64]| Capture {
         dir: Default::default(),
         sensor: SensorSpec {
+            colour: None,
             layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
             geometry: Geometry { width_px: 306, height_px: 256, pixel_pitch_um: 27.6 },
             bit_depth: 12,

@@ -99,6 +99,7 @@ fn base() -> Capture {
     Capture {
         dir: PathBuf::new(),
         sensor: SensorSpec {
+            colour: None,
             layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
             geometry: Geometry { width_px: w, height_px: h, pixel_pitch_um: 27.6 },
             bit_depth: 12,

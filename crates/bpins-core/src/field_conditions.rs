@@ -285,6 +285,7 @@ fn camera(p: Projection, w: u32, h: u32, pitch_um: f64, f_mm: f64, sun_el_deg: f
     Capture {
         dir: PathBuf::new(),
         sensor: SensorSpec {
+            colour: None,
             layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
             geometry: Geometry { width_px: w, height_px: h, pixel_pitch_um: pitch_um },
             bit_depth: 12,

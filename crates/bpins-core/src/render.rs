@@ -601,6 +601,7 @@ mod tests {
         let capture = Capture {
             dir: ".".into(),
             sensor: SensorSpec {
+                colour: None,
                 layout: Layout::Dofp { mosaic: crate::sensor::DEFAULT_MOSAIC },
                 geometry: Geometry { width_px: 306, height_px: 256, pixel_pitch_um: 27.6 },
                 bit_depth: 12,

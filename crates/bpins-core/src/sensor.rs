@@ -59,6 +59,76 @@ impl Channel {
 /// Default mosaic of the Sony IMX250MZR: row 0 = [90, 45], row 1 = [135, 0].
 pub const DEFAULT_MOSAIC: [[Channel; 2]; 2] = [[Channel::C90, Channel::C45], [Channel::C135, Channel::C0]];
 
+/// A colour filter's band over an analyzer tile of a colour-polarization sensor
+/// (CONVENTIONS.md: `colour_tiles`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub enum Band {
+    R,
+    G,
+    B,
+}
+
+impl Band {
+    pub const ALL: [Band; 3] = [Band::R, Band::G, Band::B];
+
+    /// `R`, `G` or `B`, as `colour_tiles` names it.
+    pub fn name(self) -> &'static str {
+        ["R", "G", "B"][self.index()]
+    }
+
+    /// 0, 1, 2 for R, G, B.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The band named `R`, `G` or `B`.
+    pub fn from_name(name: &str) -> Option<Band> {
+        Band::ALL.into_iter().find(|b| b.name() == name)
+    }
+
+    /// CAPTURE.md's default centre wavelength of the band's filter, nm.
+    pub fn default_centre_nm(self) -> f64 {
+        [615.0, 530.0, 465.0][self.index()]
+    }
+}
+
+/// The colour filters of a colour-polarization DoFP sensor (Sony IMX250MYR: `[[R, G],
+/// [G, B]]`): pixel (u, v) lies under `tiles[(v / 2) % 2][(u / 2) % 2]`, each filter
+/// over one whole 2 × 2 analyzer tile, a 4 × 4 superpixel (CONVENTIONS.md).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ColourTiles {
+    /// The band over each analyzer tile, by tile row and column of the superpixel.
+    pub tiles: [[Band; 2]; 2],
+    /// Each band's filter centre wavelength, nm, by [`Band::index`].
+    pub centre_nm: [f64; 3],
+}
+
+impl ColourTiles {
+    /// The IMX250MYR's order, `[[R, G], [G, B]]`, with CAPTURE.md's default wavelengths.
+    pub fn imx250myr() -> ColourTiles {
+        ColourTiles {
+            tiles: [[Band::R, Band::G], [Band::G, Band::B]],
+            centre_nm: Band::ALL.map(Band::default_centre_nm),
+        }
+    }
+
+    /// The band over pixel `(u, v)`.
+    #[inline]
+    pub fn band_at(&self, u: usize, v: usize) -> Band {
+        self.tiles[(v >> 1) & 1][(u >> 1) & 1]
+    }
+
+    /// The bands the superpixel holds, in R, G, B order.
+    pub fn bands(&self) -> Vec<Band> {
+        Band::ALL.into_iter().filter(|b| self.tiles.iter().flatten().any(|t| t == b)).collect()
+    }
+
+    /// Which tiles of the superpixel band `b` covers, by tile row and column.
+    pub fn classes(&self, b: Band) -> [[bool; 2]; 2] {
+        self.tiles.map(|row| row.map(|t| t == b))
+    }
+}
+
 /// How analyzer channels are laid out on the pixels.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Layout {

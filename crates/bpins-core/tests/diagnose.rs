@@ -101,6 +101,7 @@ fn skyline_and_clouds() -> (Capture, Vec<FrameData>) {
     let c = Capture {
         dir: Default::default(),
         sensor: SensorSpec {
+            colour: None,
             layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
             geometry: Geometry { width_px: 256, height_px: 256, pixel_pitch_um: 13.8 },
             bit_depth: 12,

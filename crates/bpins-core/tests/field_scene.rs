@@ -35,6 +35,7 @@ fn capture(sun_el_deg: f64) -> Capture {
     Capture {
         dir: PathBuf::new(),
         sensor: SensorSpec {
+            colour: None,
             layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
             geometry: Geometry { width_px: W as u32, height_px: W as u32, pixel_pitch_um: 13.8 },
             bit_depth: 12,

@@ -127,6 +127,7 @@ fn sim_lab(
     let lab = LabCapture {
         dir: dir.path().join("lab"),
         sensor: SensorSpec {
+            colour: None,
             layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
             geometry: Geometry { width_px: w, height_px: h, pixel_pitch_um: 27.6 },
             bit_depth: 12,

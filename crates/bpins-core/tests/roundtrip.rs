@@ -40,6 +40,7 @@ fn capture(layout: Layout, width_px: u32, height_px: u32, projection: Projection
     Capture {
         dir: PathBuf::new(),
         sensor: SensorSpec {
+            colour: None,
             layout,
             geometry: Geometry { width_px, height_px, pixel_pitch_um: 13.8 * 612.0 / width_px as f64 },
             bit_depth: 12,

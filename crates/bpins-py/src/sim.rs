@@ -80,6 +80,7 @@ pub fn simulate<'py>(
     let capture = Capture {
         dir: ".".into(),
         sensor: SensorSpec {
+            colour: None,
             layout: Layout::Dofp { mosaic: mosaic_of(mosaic)? },
             geometry: Geometry { width_px, height_px, pixel_pitch_um: finite("pixel_pitch_um", pixel_pitch_um)? },
             bit_depth,

@@ -50,7 +50,7 @@ pub(crate) use validate::validate_sensor_lens;
 pub use writer::CaptureWriter;
 
 use crate::camera::{Intrinsics, Projection};
-use crate::sensor::{Channel, Geometry, Layout};
+use crate::sensor::{Channel, ColourTiles, Geometry, Layout};
 use crate::sky::sun::SunPosition;
 use crate::{Error, Result};
 use images::err;
@@ -75,6 +75,9 @@ pub struct SensorSpec {
     pub bit_depth: u32,
     /// Default 0.
     pub black_level_dn: f64,
+    /// The colour filters of a colour-polarization DoFP sensor (`colour_tiles`,
+    /// `band_centre_nm`); `None`: monochrome.
+    pub colour: Option<ColourTiles>,
 }
 
 impl SensorSpec {
@@ -217,6 +220,23 @@ impl Capture {
         validate::validate(self, &self.toml_path())
     }
 
+    /// Refuses a colour-polarization capture (`colour_tiles`) for `what`, a reader
+    /// that takes every pixel as one band: its bands would be mixed. `bpins heading`
+    /// and the compass read such captures band by band.
+    pub fn refuse_colour(&self, what: &str) -> Result<()> {
+        if self.sensor.colour.is_some() {
+            return Err(err(
+                &self.toml_path(),
+                format!(
+                    "[sensor] colour_tiles: a colour-polarization capture; {what} does not read one band by band yet, \
+                     and reading it as monochrome mixes the bands' polarization (`bpins heading` and the compass \
+                     read each band from its own pixels)"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// `capture.toml` of this capture.
     pub fn toml_path(&self) -> PathBuf {
         self.dir.join("capture.toml")
@@ -239,8 +259,12 @@ impl Capture {
             Layout::Dofp { .. } => {
                 let dn = images::read_dofp(&path, &label, size, self.sensor.bit_depth, full)?;
                 let (w, h) = (g.width_px as usize, g.height_px as usize);
-                if let Some(period) = colour::colour_period(&dn, w, h, self.sensor.black_level_dn, full) {
-                    bail!(&path, "{label}: {period}");
+                // A monochrome sensor's frame that looks like a colour mosaic: refused,
+                // as reading it would mix the bands (capture/colour.rs).
+                if self.sensor.colour.is_none() {
+                    if let Some(period) = colour::colour_period(&dn, w, h, self.sensor.black_level_dn, full) {
+                        bail!(&path, "{label}: {period}");
+                    }
                 }
                 Ok(FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn })
             }

@@ -16,7 +16,7 @@ use super::images::err;
 use super::{Capture, FrameSpec, LensSpec, SensorSpec};
 use crate::camera::Projection;
 use crate::conventions::image_centre_px;
-use crate::sensor::{Channel, Geometry, Layout, DEFAULT_MOSAIC};
+use crate::sensor::{Band, Channel, ColourTiles, Geometry, Layout, DEFAULT_MOSAIC};
 use crate::sky::sun::{sun_from_time_place, SunPosition};
 use crate::Result;
 
@@ -44,7 +44,7 @@ struct RawSensor {
     black_level_dn: Option<f64>,
     mosaic: Option<Vec<Vec<f64>>>,
     channels: Option<Vec<f64>>,
-    /// CAPTURE.md's colour-polarization keys: recognised, to be refused by name.
+    /// CAPTURE.md's colour-polarization keys (`parse_colour`).
     colour_tiles: Option<toml::Value>,
     band_centre_nm: Option<toml::Value>,
 }
@@ -155,18 +155,7 @@ pub(crate) fn parse_sensor_lens(
     let p = toml_path;
     let s: RawSensor = section(p, "sensor", sensor)?;
     let l: RawLens = section(p, "lens", lens)?;
-    if let Some(tiles) = &s.colour_tiles {
-        bail!(
-            p,
-            "[sensor] colour_tiles = {tiles}: a colour-polarization sensor (each 2×2 analyzer tile under one colour \
-             filter, CONVENTIONS.md); bpins does not read colour-polarization captures yet. Do not delete the key to \
-             read the frames as monochrome: that mixes the bands' polarization (bpins refuses such frames too)"
-        );
-    }
-    if s.band_centre_nm.is_some() {
-        bail!(p, "[sensor] band_centre_nm is for a colour-polarization sensor, with colour_tiles (CAPTURE.md)");
-    }
-
+    let colour = parse_colour(p, &s)?;
     let layout = match s.layout.as_str() {
         "dofp" => {
             if s.channels.is_some() {
@@ -208,6 +197,7 @@ pub(crate) fn parse_sensor_lens(
         geometry: Geometry { width_px: s.width_px, height_px: s.height_px, pixel_pitch_um: s.pixel_pitch_um },
         bit_depth: s.bit_depth.unwrap_or(16),
         black_level_dn: s.black_level_dn.unwrap_or(0.0),
+        colour,
     };
 
     let projection = Projection::ALL.into_iter().find(|q| q.name() == l.projection).ok_or_else(|| {
@@ -224,6 +214,54 @@ pub(crate) fn parse_sensor_lens(
     let lens = LensSpec { projection, focal_length_mm: l.focal_length_mm, principal_point_px };
 
     Ok((sensor, lens))
+}
+
+/// `[sensor] colour_tiles` (2 rows of 2 of "R", "G", "B", each band at least once; a
+/// dofp sensor only) and `band_centre_nm` (a table of the bands' centre wavelengths in
+/// nm, CAPTURE.md's defaults for those not given), or `None` for a monochrome sensor.
+fn parse_colour(p: &Path, s: &RawSensor) -> Result<Option<ColourTiles>> {
+    let Some(tiles) = &s.colour_tiles else {
+        if s.band_centre_nm.is_some() {
+            bail!(p, "[sensor] band_centre_nm is for a colour-polarization sensor, with colour_tiles (CAPTURE.md)");
+        }
+        return Ok(None);
+    };
+    if s.layout != "dofp" {
+        bail!(p, "[sensor] colour_tiles is for layout = \"dofp\" (a filter over each 2×2 analyzer tile)");
+    }
+    let shape = || {
+        err(
+            p,
+            format!(
+                "[sensor] colour_tiles = {tiles}: expected 2 rows of 2 bands, like [[\"R\", \"G\"], [\"G\", \"B\"]]"
+            ),
+        )
+    };
+    let rows = tiles.as_array().filter(|r| r.len() == 2).ok_or_else(shape)?;
+    let mut out = ColourTiles::imx250myr();
+    for (r, row) in rows.iter().enumerate() {
+        let row = row.as_array().filter(|c| c.len() == 2).ok_or_else(shape)?;
+        for (c, name) in row.iter().enumerate() {
+            let name = name.as_str().ok_or_else(shape)?;
+            out.tiles[r][c] = Band::from_name(name).ok_or_else(|| {
+                err(p, format!("[sensor] colour_tiles: band \"{name}\" is unknown; use \"R\", \"G\" or \"B\""))
+            })?;
+        }
+    }
+    if let Some(t) = &s.band_centre_nm {
+        let table = t.as_table().ok_or_else(|| {
+            err(p, "[sensor] band_centre_nm must be a table like { R = 615.0, G = 530.0, B = 465.0 }".to_string())
+        })?;
+        for (name, v) in table {
+            let b = Band::from_name(name)
+                .ok_or_else(|| err(p, format!("[sensor] band_centre_nm: band \"{name}\" is unknown; use R, G or B")))?;
+            let nm = v.as_float().or_else(|| v.as_integer().map(|i| i as f64)).filter(|x| x.is_finite() && *x > 0.0);
+            out.centre_nm[b.index()] = nm.ok_or_else(|| {
+                err(p, format!("[sensor] band_centre_nm.{name} = {v}: expected a wavelength in nm above 0"))
+            })?;
+        }
+    }
+    Ok(Some(out))
 }
 
 /// Parses `text` (the contents of `toml_path`) into a capture rooted at `dir`.

@@ -40,6 +40,12 @@ struct OutSensor {
     /// Analyzer angles, degrees, in plane order (colocated).
     #[serde(skip_serializing_if = "Option::is_none")]
     channels: Option<Vec<u32>>,
+    /// A colour-polarization sensor's filter over each analyzer tile (dofp).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    colour_tiles: Option<[[&'static str; 2]; 2]>,
+    /// Its bands' centre wavelengths, nm, with `colour_tiles`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    band_centre_nm: Option<std::collections::BTreeMap<&'static str, f64>>,
 }
 
 #[derive(Serialize)]
@@ -150,6 +156,11 @@ pub(crate) fn write<F: Serialize>(kind: Option<&str>, s: &SensorSpec, l: &LensSp
             black_level_dn: s.black_level_dn,
             mosaic,
             channels,
+            colour_tiles: s.colour.as_ref().map(|c| c.tiles.map(|row| row.map(|b| b.name()))),
+            band_centre_nm: s
+                .colour
+                .as_ref()
+                .map(|c| c.bands().into_iter().map(|b| (b.name(), c.centre_nm[b.index()])).collect()),
         },
         lens: OutLens {
             projection: l.projection.name(),

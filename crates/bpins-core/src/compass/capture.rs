@@ -49,6 +49,7 @@ impl Compass {
             calibration,
             options,
             extractor,
+            colour: s.colour.clone(),
         };
         let mut compass = Compass::with_known(cfg, known)?;
         if let Layout::Colocated { channels } = &s.layout {
@@ -100,11 +101,31 @@ impl Compass {
         attitude: Attitude,
         extractors: &[Extractor],
     ) -> Result<Vec<FieldHeading>, CompassError> {
+        if self.cfg.colour.is_some() {
+            return Ok(self.capture_colour_headings(data, sun, attitude, extractors)?.fused);
+        }
         let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
         self.fill_capture_cells(data)?;
         let ctx = field_context(self.intr, &self.known, sun, &attitude);
         Ok(field::estimate_many_with(&self.cells, &ctx, &self.cfg.options, extractors, &mut self.scratch))
+    }
+
+    /// [`Compass::colour_headings`] of a colour capture's frame `data` (its DoFP mosaic).
+    pub fn capture_colour_headings(
+        &mut self,
+        data: &FrameData,
+        sun: Sun,
+        attitude: Attitude,
+        extractors: &[Extractor],
+    ) -> Result<ColourFix, CompassError> {
+        let (w, h) = data.size_px();
+        match data {
+            FrameData::Mosaic { dn, .. } => {
+                self.colour_headings(RawImage::packed(dn.as_slice(), w as usize, h as usize), sun, attitude, extractors)
+            }
+            _ => Err(CompassError::Config("a colour-polarization frame is a DoFP mosaic".into())),
+        }
     }
 
     /// The cells of a capture's frame `data`, the known effects undone, as the
@@ -164,6 +185,7 @@ mod tests {
         let capture = Capture {
             dir: "/nowhere".into(),
             sensor: SensorSpec {
+                colour: None,
                 layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
                 geometry: Geometry { width_px: 306, height_px: 256, pixel_pitch_um: 27.6 },
                 bit_depth: 12,

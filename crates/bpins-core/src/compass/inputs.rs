@@ -6,7 +6,7 @@ use super::{Compass, FieldHeading};
 use super::{Extractor, FieldOptions};
 use crate::calibration::Calibration;
 use crate::camera::Intrinsics;
-use crate::sensor::{Channel, DEFAULT_MOSAIC};
+use crate::sensor::{Channel, ColourTiles, DEFAULT_MOSAIC};
 
 /// Why the compass cannot read a frame (a frame that it reads but whose sky gives no
 /// heading is not an error: [`FieldHeading::result`] says why).
@@ -157,6 +157,13 @@ pub struct CompassConfig {
     pub calibration: Calibration,
     pub options: FieldOptions,
     pub extractor: Extractor,
+    /// A colour-polarization sensor's filters over the analyzer tiles (`None`:
+    /// monochrome): each band is read from its own pixels, and [`Compass::heading`]
+    /// returns the bands' fused heading ([`Compass::colour_headings`] each band's).
+    ///
+    /// [`Compass::heading`]: crate::compass::Compass::heading
+    /// [`Compass::colour_headings`]: crate::compass::Compass::colour_headings
+    pub colour: Option<ColourTiles>,
 }
 
 impl CompassConfig {
@@ -173,6 +180,7 @@ impl CompassConfig {
             calibration: Calibration::default(),
             options: FieldOptions::default(),
             extractor: Extractor::SunVector,
+            colour: None,
         }
     }
 }

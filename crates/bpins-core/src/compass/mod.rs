@@ -49,6 +49,7 @@
 pub use crate::heading::field::SkySun;
 pub use crate::heading::field::{FieldHeading, FieldOptions, FieldQuality, NoHeading, RawDn, RawImage, SigmaParts};
 pub use crate::heading::Extractor;
+pub use colour::ColourFix;
 pub use inputs::{Attitude, CompassConfig, CompassError, Sun};
 
 use crate::camera::Intrinsics;
@@ -61,6 +62,7 @@ use crate::sensor::Channel;
 use crate::sky::sun::sun_from_unix_time;
 use inputs::{check_attitude, check_sun};
 
+mod colour;
 mod inputs;
 
 /// A colocated capture's planes: their inversion and the cell size (`capture.rs`).
@@ -149,6 +151,13 @@ impl Compass {
         let rec = Reconstructor::new(&known, cfg.black_level_dn, &Channel::ALL)?;
         let cell_px = cfg.options.cell_px.unwrap_or_else(|| Cells::default_cell_px(cfg.width_px, cfg.height_px));
         let cell_px = (cell_px.max(2) + 1) & !1;
+        // A colour sensor's cells are whole 4 × 4 superpixels, so that each holds every band.
+        let cell_px = if cfg.colour.is_some() { cell_px.div_ceil(4) * 4 } else { cell_px };
+        if cfg.colour.is_some() && cfg.calibration.pixels.is_some() {
+            return bad("per-pixel maps of a colour-polarization sensor are not applied yet: use a calibration \
+                        without them (effects only)"
+                .into());
+        }
         let cell_analyzers = match &cfg.calibration.pixels {
             None => None,
             Some(px) => {
@@ -183,8 +192,11 @@ impl Compass {
         self.check_size(&frame)?;
         let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
-        self.fill_mosaic_cells(&frame);
         let ctx = field_context(self.intr, &self.known, sun, &attitude);
+        if self.cfg.colour.is_some() {
+            return Ok(self.bands(&frame, &ctx, &[self.cfg.extractor]).fused.remove(0));
+        }
+        self.fill_mosaic_cells(&frame);
         Ok(field::estimate_with(&self.cells, &ctx, &self.cfg.options, self.cfg.extractor, &mut self.scratch))
     }
 
@@ -201,9 +213,65 @@ impl Compass {
         self.check_size(&frame)?;
         let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
-        self.fill_mosaic_cells(&frame);
         let ctx = field_context(self.intr, &self.known, sun, &attitude);
+        if self.cfg.colour.is_some() {
+            return Ok(self.bands(&frame, &ctx, extractors).fused);
+        }
+        self.fill_mosaic_cells(&frame);
         Ok(field::estimate_many_with(&self.cells, &ctx, &self.cfg.options, extractors, &mut self.scratch))
+    }
+
+    /// A colour-polarization frame's headings: each band's from its own pixels, with
+    /// each of `extractors`, and their fused heading ([`ColourFix`]; `colour.rs`). A
+    /// monochrome compass (`CompassConfig::colour` `None`) refuses.
+    pub fn colour_headings<T: RawDn>(
+        &mut self,
+        frame: RawImage<T>,
+        sun: Sun,
+        attitude: Attitude,
+        extractors: &[Extractor],
+    ) -> Result<ColourFix, CompassError> {
+        if self.cfg.colour.is_none() {
+            return Err(CompassError::Config(
+                "colour headings of a monochrome sensor: give CompassConfig::colour (the sensor's colour_tiles)".into(),
+            ));
+        }
+        self.check_size(&frame)?;
+        let sun = resolve_sun(sun)?;
+        check_attitude(&attitude)?;
+        let ctx = field_context(self.intr, &self.known, sun, &attitude);
+        Ok(self.bands(&frame, &ctx, extractors))
+    }
+
+    /// Whether the sensor is a colour-polarization one (bands read apart and fused).
+    pub fn is_colour(&self) -> bool {
+        self.cfg.colour.is_some()
+    }
+
+    /// Each band's cells and headings, and the fused headings (a colour compass).
+    fn bands<T: RawDn>(&mut self, frame: &RawImage<T>, ctx: &FieldContext, extractors: &[Extractor]) -> ColourFix {
+        let colour = self.cfg.colour.clone().expect("a colour compass");
+        let mut bands = Vec::new();
+        for b in colour.bands() {
+            self.cells.fill_from_mosaic_band(
+                frame,
+                &self.cfg.mosaic,
+                colour.classes(b),
+                &self.rec,
+                self.full_scale_dn,
+                self.cell_px,
+                &mut self.scratch.cells,
+            );
+            let hs = field::estimate_many_with(&self.cells, ctx, &self.cfg.options, extractors, &mut self.scratch);
+            bands.push((b, hs));
+        }
+        let fused = (0..extractors.len())
+            .map(|i| {
+                let hs: Vec<&FieldHeading> = bands.iter().map(|(_, hs)| &hs[i]).collect();
+                colour::fuse(extractors[i], &hs)
+            })
+            .collect();
+        ColourFix { bands, fused }
     }
 
     /// Whether `frame` is a buffer of the sensor's size: refused with its sizes if not.

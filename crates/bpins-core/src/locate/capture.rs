@@ -105,6 +105,7 @@ fn measure_with(
     read: impl Fn(usize) -> crate::Result<FrameData>,
     progress: &mut dyn FnMut(usize),
 ) -> Result<Vec<FrameSun>, LocateError> {
+    c.refuse_colour("locate")?;
     let yaw = relative_yaw(c)?;
     let mut scratch = FieldScratch::default();
     let mut out = Vec::with_capacity(c.frames.len());

@@ -216,6 +216,7 @@ impl<'a> FitFrames<'a> {
         opts: &FitOptions,
         progress: &dyn Fn(usize),
     ) -> Result<FitFrames<'static>> {
+        c.refuse_colour("the fit (and the diagnosis)")?;
         let (w, h, _) = dims(c);
         let read = |k: usize| read_frame(c, k, maps.as_deref());
         if blocks_per_stratum(w, h, budget) == 1 {

@@ -223,7 +223,7 @@ impl Cells {
                 place[k] = Some((du as f64, dv as f64));
             }
         }
-        self.build(img.width_px, img.height_px, cell_px, rec, Some(place), scratch, |cj, acc| {
+        self.build(img.width_px, img.height_px, cell_px, rec, Finish::Mosaic(place), scratch, |cj, acc| {
             for (dv, v) in (cj * cell_px..(cj + 1) * cell_px).enumerate() {
                 let row = img.row(v);
                 let ch = chan[v & 1];
@@ -250,7 +250,7 @@ impl Cells {
             first.height_px,
             cell_px,
             CellRecon::Frame(rec),
-            None,
+            Finish::Colocated,
             &mut CellScratch::default(),
             |cj, acc| {
                 for (ch, plane) in planes {
@@ -317,8 +317,8 @@ impl Cells {
     }
 
     /// The grid of whole cells into `self`; `fill(cell_row, accumulators)` adds the
-    /// pixels of one row of cells; `place`: each DoFP channel's place in the tile
-    /// (None: colocated, every channel at every pixel). Rows of cells in parallel,
+    /// pixels of one row of cells; `finish`: how each channel's value is moved to the
+    /// cell centre (each DoFP channel's place in the tile, or a colour band's geometry). Rows of cells in parallel,
     /// kept in row order; `scratch`'s buffers are reused (no allocation once grown).
     #[allow(clippy::too_many_arguments)]
     fn build(
@@ -327,7 +327,7 @@ impl Cells {
         height_px: usize,
         cell_px: usize,
         rec: CellRecon,
-        place: Option<[Option<(f64, f64)>; 4]>,
+        finish: Finish<'_>,
         scratch: &mut CellScratch,
         fill: impl Fn(usize, &mut [Acc]) + Sync,
     ) {
@@ -350,7 +350,12 @@ impl Cells {
             acc.par_chunks_mut(cols).zip(slots.par_chunks_mut(cols)).enumerate().for_each(|(cj, (acc, slots))| {
                 fill(cj, acc);
                 for (ci, (a, slot)) in acc.iter().zip(slots.iter_mut()).enumerate() {
-                    let Some((mean, mut var)) = a.finish(cell_px, place) else { continue };
+                    let done = match finish {
+                        Finish::Colocated => a.finish(cell_px, None),
+                        Finish::Mosaic(place) => a.finish(cell_px, Some(place)),
+                        Finish::Band(g) => a.finish_band(g),
+                    };
+                    let Some((mean, mut var)) = done else { continue };
                     let (stokes, r, inv_gain) = match rec {
                         CellRecon::Frame(rec) => {
                             let (r, inv_gain, _) = rec.parts();
@@ -364,7 +369,7 @@ impl Cells {
                             let x: [f64; 4] = std::array::from_fn(|k| mean[k] - c.offset_dn[k]);
                             let dot = |row: &[f64; 4]| (0..4).map(|k| row[k] * x[k]).sum::<f64>();
                             let s = Stokes::new(dot(&c.rows[0]), dot(&c.rows[1]), dot(&c.rows[2]), 0.0);
-                            if a.bad == 0.0 && place.is_some() {
+                            if a.bad == 0.0 && matches!(finish, Finish::Mosaic(_)) {
                                 remove_fixed_pattern(&mut var, &a.n, &c.pattern, &s);
                             }
                             (s, c.rows, [1.0; 4])
@@ -388,6 +393,17 @@ impl Cells {
         self.cells.extend(slots.iter().flatten());
         (self.cell_px, self.cols, self.rows) = (cell_px, cols, rows);
     }
+}
+
+/// How a cell's channel means are moved to its centre: by each DoFP channel's place in
+/// the 2 × 2 tile (every tile of the cell read), or by a colour band's own pixels'
+/// geometry (`cells_band.rs`).
+#[derive(Clone, Copy)]
+enum Finish<'a> {
+    /// Every channel at every pixel: plain means.
+    Colocated,
+    Mosaic([Option<(f64, f64)>; 4]),
+    Band(&'a BandGeom),
 }
 
 /// How a cell's channel values become Stokes: one reconstructor for the frame, or
@@ -527,6 +543,10 @@ impl Acc {
         Some((mean, var))
     }
 }
+
+#[path = "cells_band.rs"]
+mod band;
+use band::BandGeom;
 
 #[cfg(test)]
 #[path = "cells_tests.rs"]
