@@ -4,7 +4,7 @@
 //! `bag-to-capture` turns the bag back into a capture with the same headings.
 
 use serde_json::Value;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn bpins(args: &[&str]) -> Output {
@@ -358,6 +358,119 @@ fn two_imus_are_an_error_naming_both_and_the_topic_left_out() {
     let mut args = vec!["heading", "--bag", &two, "--imu-topic", "/imu/second"];
     args.extend_from_slice(&sun);
     bpins(&args);
+}
+
+/// Issue 50 item 3: rows padded beyond their pixels (`step` > row bytes, by an odd
+/// number of bytes too), in mono16 of either byte order and in mono8, give
+/// `bag-to-capture` the unpadded bag's capture, file for file and bit for bit, and
+/// `heading --bag` its frames. (`bag-to-capture` stopped on padded little-endian
+/// mono16 rows, "mosaic has 317432 values, expected 313344": it copied the padding.)
+#[test]
+fn padded_rows_give_the_unpadded_bags_capture_and_headings() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    let sun = ["--sun-azimuth-deg", "40", "--sun-elevation-deg", "25"];
+    // A 12-bit camera (DN above 255: both bytes of mono16 matter), and an 8-bit one
+    // whose DN fit mono8.
+    for (name, bits, black, layouts) in [
+        (
+            "b12",
+            "12",
+            "64",
+            &[("mono16", false, 2), ("mono16", false, 3), ("mono16", true, 0), ("mono16", true, 5)][..],
+        ),
+        ("b8", "8", "4", &[("mono8", false, 0), ("mono8", false, 3), ("mono8", false, 4), ("mono16", true, 1)][..]),
+    ] {
+        let (cap, bag) = (p(&format!("{name}_cap")), p(&format!("{name}_bag")));
+        let mut args = vec!["simulate", "--out", &cap, "--bag-out", &bag, "--width-px", "306", "--height-px", "256"];
+        args.extend_from_slice(&["--pixel-pitch-um", "27.6", "--headings-deg", "30,250", "--tilt-x-deg", "1"]);
+        args.extend_from_slice(&["--imu-sigma-deg", "0.1", "--bit-depth", bits, "--black-level-dn", black]);
+        args.extend_from_slice(&sun);
+        bpins(&args);
+        let mut read = vec!["--imu-topic", "/imu/data", "--bit-depth", bits, "--black-level-dn", black];
+        read.extend_from_slice(&sun);
+        // The simulated bag: mono16, little-endian, rows unpadded.
+        let want = bag_route(Path::new(&bag), &p(&format!("{name}_out")), &read);
+        assert!(want.0.as_array().unwrap().iter().all(|f| f["heading_deg"].is_f64()), "{}", want.0);
+        assert_eq!(
+            want.1.len(),
+            3,
+            "capture.toml and two frames: {:?}",
+            want.1.iter().map(|f| &f.0).collect::<Vec<_>>()
+        );
+        for &(encoding, big, pad) in layouts {
+            let tag = format!("{name}_{encoding}_{}_pad{pad}", if big { "be" } else { "le" });
+            let b = p(&tag);
+            relayout(Path::new(&bag), Path::new(&b), encoding, big, pad);
+            let got = bag_route(Path::new(&b), &p(&format!("{tag}_out")), &read);
+            assert_eq!(got.0, want.0, "{tag}: heading --bag's frames differ from the unpadded bag's");
+            for (g, w) in got.1.iter().zip(&want.1) {
+                assert!(g == w, "{tag}: bag-to-capture's {} differs from the unpadded bag's {}", g.0, w.0);
+            }
+            assert_eq!(got.1.len(), want.1.len(), "{tag}");
+        }
+    }
+}
+
+/// `heading --bag` (its JSON's frames) and `bag-to-capture` (every file of the
+/// capture written at `out`: name and bytes) of the bag at `bag`, with `args`.
+fn bag_route(bag: &Path, out: &str, args: &[&str]) -> (Value, Vec<(String, Vec<u8>)>) {
+    let (b, j) = (bag.to_str().unwrap(), format!("{out}.json"));
+    bpins(&[&["heading", "--bag", b, "--json", &j][..], args].concat());
+    bpins(&[&["bag-to-capture", "--bag", b, "--out", out, "--pixel-pitch-um", "27.6"][..], args].concat());
+    let mut files = Vec::new();
+    let mut dirs = vec![PathBuf::from(out)];
+    while let Some(d) = dirs.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                dirs.push(p);
+            } else {
+                files.push((p.strip_prefix(out).unwrap().display().to_string(), std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    files.sort();
+    (json(Path::new(&j))["frames"].clone(), files)
+}
+
+/// The bag at `src` written again at `dst`, each image's DN (mono16, little-endian,
+/// unpadded) rewritten as `encoding` (`mono8` or `mono16`), big-endian if `big`, and
+/// `pad` bytes (0xAB) after each row; every other message as it was.
+fn relayout(src: &Path, dst: &Path, encoding: &str, big: bool, pad: usize) {
+    use bpins_ros::msgs::{types, Image};
+    let mut w = bpins_ros::writer::BagWriter::create(dst).unwrap();
+    for (t, topic, ty, data) in messages(src) {
+        let data = if ty == types::IMAGE {
+            let im: Image = bpins_ros::cdr::decode(&data).unwrap();
+            assert_eq!((im.encoding.as_str(), im.is_bigendian, im.step), ("mono16", 0, 2 * im.width));
+            let mut rows = Vec::new();
+            for row in im.data.chunks_exact(im.step as usize) {
+                for px in row.chunks_exact(2) {
+                    let dn = u16::from_le_bytes([px[0], px[1]]);
+                    match (encoding, big) {
+                        ("mono8", _) => rows.push(u8::try_from(dn).expect("8-bit DN")),
+                        (_, true) => rows.extend(dn.to_be_bytes()),
+                        (_, false) => rows.extend(dn.to_le_bytes()),
+                    }
+                }
+                rows.extend(std::iter::repeat_n(0xABu8, pad));
+            }
+            let step = (rows.len() / im.height as usize) as u32;
+            let padded = Image {
+                encoding: encoding.into(),
+                is_bigendian: big as u8,
+                step,
+                data: std::borrow::Cow::Owned(rows),
+                ..im.clone()
+            };
+            bpins_ros::cdr::encode(&padded)
+        } else {
+            data
+        };
+        w.write(&topic, &ty, t, &data).unwrap();
+    }
+    w.finish().unwrap();
 }
 
 /// Every message of the bag at `dir`: (log time ns, topic, type, CDR bytes), in log-time

@@ -64,6 +64,18 @@ fn main() -> std::process::ExitCode {
             ("mono8_frames_give_the_8_bit_captures_headings", mono8_frames_give_the_8_bit_captures_headings),
             ("a_split_bag_reads_as_one_bag", a_split_bag_reads_as_one_bag),
             ("heading_frame_id_reaches_the_imu_header", heading_frame_id_reaches_the_imu_header),
+            (
+                "padded_rows_through_bag_to_capture_give_the_unpadded_bags_files",
+                padded_rows_through_bag_to_capture_give_the_unpadded_bags_files,
+            ),
+            (
+                "a_calibrated_capture_and_its_bag_give_the_same_rows_bit_for_bit",
+                a_calibrated_capture_and_its_bag_give_the_same_rows_bit_for_bit,
+            ),
+            (
+                "a_colour_capture_and_its_bag_give_the_same_band_rows",
+                a_colour_capture_and_its_bag_give_the_same_band_rows,
+            ),
         ],
     )])
 }
@@ -462,5 +474,201 @@ fn heading_frame_id_reaches_the_imu_header() {
         assert_eq!(m["frame_id"], "polcam_optical", "message {i}: the image's frame id `cam` written instead");
         assert_eq!(m["stamp_ns"].as_i64().unwrap(), T0_NS + i as i64 * DT_NS);
         assert!(mine["frames"][i]["heading_deg"].is_f64());
+    }
+}
+
+/// Issue 50 item 1, one frame source: the lab-flawed sample's sky frames with the
+/// calibration `bpins calibrate` fits from its lab frames, read as a capture and as a
+/// rosbags bag of the same frames (padded rows, the same sun and sensor), give the
+/// same JSON row, bit for bit, but for the fields that say where the frame came from
+/// (a capture's file and reference heading, a bag's message and stamp, the sun's
+/// source in words). A turn ago the capture route resampled the calibration's
+/// per-pixel maps onto each frame and the bag route read them per cell, and the two
+/// differed by up to 0.0038°.
+fn a_calibrated_capture_and_its_bag_give_the_same_rows_bit_for_bit() {
+    let root = Path::new(REPO).join("samples/lab-flawed-sensor");
+    let (lab, sky) = (root.join("lab"), root.join("sky"));
+    let cal = tmp().join("lab_cal");
+    ok(bpins(&["calibrate", lab.to_str().unwrap(), "--out", cal.to_str().unwrap()]));
+    let calibration = cal.join("calibration.toml");
+    let calibration = calibration.to_str().unwrap();
+    let sensor = tmp().join("lab_sensor.toml");
+    let text = std::fs::read_to_string(sky.join("capture.toml")).unwrap();
+    std::fs::write(&sensor, text.split("[[frames]]").next().unwrap().replace("format = \"bpins-capture/1\"", ""))
+        .unwrap();
+    let b = tmp().join("lab_sky_bag");
+    ok(py(&["write", sky.to_str().unwrap(), b.to_str().unwrap(), "--storage", "mcap", "--pad", "3"]));
+    let cap_json = tmp().join("lab_sky.json");
+    ok(bpins(&[
+        "heading",
+        sky.to_str().unwrap(),
+        "--calibration",
+        calibration,
+        "--extractor",
+        "all",
+        "--json",
+        cap_json.to_str().unwrap(),
+    ]));
+    let cap = json(&cap_json);
+    let origin =
+        ["file", "message_index", "stamp", "stamp_ns", "frame_id", "sun", "reference_heading_deg", "error_deg"];
+    for extractor in ["sun_vector", "meridian_line"] {
+        let mut args: Vec<&str> = SUN.to_vec();
+        args.extend_from_slice(&["--sensor", sensor.to_str().unwrap(), "--calibration", calibration]);
+        args.extend_from_slice(&["--extractor", extractor]);
+        let bag = heading_bag(&b, &args);
+        let want: Vec<&Value> =
+            cap["frames"].as_array().unwrap().iter().filter(|r| r["extractor"] == extractor).collect();
+        let got = bag["frames"].as_array().unwrap();
+        assert_eq!(want.len(), 8, "{cap}");
+        assert_eq!(got.len(), 8, "{bag}");
+        for (i, (w, g)) in want.iter().zip(got).enumerate() {
+            let strip = |v: &Value| {
+                let mut m = v.as_object().unwrap().clone();
+                m.retain(|k, _| !origin.contains(&k.as_str()));
+                m
+            };
+            assert!(w["heading_deg"].is_f64(), "frame {i}: {w}");
+            assert_eq!(strip(w), strip(g), "{extractor}, frame {i}: capture row and bag row differ");
+        }
+        // The calibrated capture reads to the noise (sun_vector: ~0.01°), each error within 3σ.
+        for w in &want {
+            let (e, s) = (w["error_deg"].as_f64().unwrap(), w["sigma_deg"].as_f64().unwrap());
+            assert!(e.abs() < 3.0 * s, "{extractor}: error {e}°, 1σ {s}°");
+            assert!(extractor != "sun_vector" || e.abs() < 0.03, "{extractor}: error {e}°");
+        }
+    }
+}
+
+/// Issue 50 item 3: rosbags' bags of one capture with rows padded by any number of
+/// bytes (odd too), mono16 of either byte order and mono8, in MCAP and sqlite3,
+/// give `bag-to-capture` the same capture as the unpadded bag, file for file and bit
+/// for bit (the frames those of the capture the bag was written from), and `heading
+/// --bag` the same frames. (`bag-to-capture` stopped on padded little-endian mono16
+/// rows, "mosaic has 317432 values, expected 313344", which `heading --bag` read.)
+fn padded_rows_through_bag_to_capture_give_the_unpadded_bags_files() {
+    // A 12-bit capture (DN above 255) for mono16, an 8-bit one for mono8.
+    let cap8 = tmp().join("cap8_padded");
+    ok(bpins(&[
+        "simulate",
+        "--out",
+        cap8.to_str().unwrap(),
+        "--width-px",
+        "306",
+        "--height-px",
+        "256",
+        "--pixel-pitch-um",
+        "27.6",
+        "--bit-depth",
+        "8",
+        "--black-level-dn",
+        "4",
+        "--headings-deg",
+        "20,160",
+        "--tilt-x-deg",
+        "1",
+        "--imu-sigma-deg",
+        "0.1",
+    ]));
+    let mono16: &[&[&str]] = &[
+        &["--pad", "2"],
+        &["--pad", "3"],
+        &["--pad", "5", "--big-endian-pixels"],
+        &["--storage", "sqlite3", "--pad", "1"],
+        &["--storage", "sqlite3", "--pad", "4", "--big-endian-pixels", "--cdr-big-endian"],
+    ];
+    let mono8: &[&[&str]] = &[&["--mono8", "--pad", "3"], &["--mono8", "--storage", "sqlite3", "--pad", "1"]];
+    for (name, cap, read, layouts) in
+        [("pad16", &capture().0, SENSOR, mono16), ("pad8", &cap8, ["--bit-depth", "8", "--black-level-dn", "4"], mono8)]
+    {
+        let c = cap.to_str().unwrap();
+        let mut args: Vec<&str> = SUN.to_vec();
+        args.extend_from_slice(&read);
+        let write = |tag: &str, extra: &[&str]| {
+            let b = tmp().join(format!("{name}_{tag}"));
+            let mut w = vec!["write", c, b.to_str().unwrap(), "--camera-info", "--imu"];
+            w.extend_from_slice(extra);
+            ok(py(&w));
+            b
+        };
+        let unpadded = write("unpadded", if name == "pad8" { &["--mono8"] } else { &[] });
+        let want = (heading_bag(&unpadded, &args)["frames"].clone(), bag_to_capture(&unpadded, &args));
+        assert!(want.0.as_array().unwrap().iter().all(|f| f["heading_deg"].is_f64()), "{name}: {}", want.0);
+        // The frames are the capture's own, bit for bit.
+        let spec = std::fs::read_to_string(cap.join("capture.toml")).unwrap();
+        let frames: Vec<Vec<u8>> = spec
+            .lines()
+            .filter_map(|l| l.strip_prefix("file = "))
+            .map(|f| std::fs::read(cap.join(f.trim().trim_matches('"'))).unwrap())
+            .collect();
+        let written: Vec<&Vec<u8>> = want.1.iter().filter(|f| f.0.ends_with(".png")).map(|f| &f.1).collect();
+        assert!(frames.len() >= 2 && written == frames.iter().collect::<Vec<_>>(), "{name}: frames differ");
+        for (k, extra) in layouts.iter().enumerate() {
+            let b = write(&k.to_string(), extra);
+            let got = (heading_bag(&b, &args)["frames"].clone(), bag_to_capture(&b, &args));
+            assert_eq!(got.0, want.0, "{name} {extra:?}: heading --bag's frames differ from the unpadded bag's");
+            assert_eq!(got.1.len(), want.1.len(), "{name} {extra:?}");
+            for (g, w) in got.1.iter().zip(&want.1) {
+                assert!(g == w, "{name} {extra:?}: {} differs from the unpadded bag's {}", g.0, w.0);
+            }
+        }
+    }
+}
+
+/// `bpins bag-to-capture` of `bag` with `extra` into a new folder beside it: every
+/// file it wrote (its path in the capture and its bytes), sorted.
+fn bag_to_capture(bag: &Path, extra: &[&str]) -> Vec<(String, Vec<u8>)> {
+    let out = bag.with_extension("capture");
+    let mut args = vec!["bag-to-capture", "--bag", bag.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    args.extend_from_slice(&["--pixel-pitch-um", "27.6"]);
+    args.extend_from_slice(extra);
+    ok(bpins(&args));
+    let mut files = Vec::new();
+    let mut dirs = vec![out.clone()];
+    while let Some(d) = dirs.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                dirs.push(p);
+            } else {
+                files.push((p.strip_prefix(&out).unwrap().display().to_string(), std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+/// Issue 45 item 2: a colour-polarization capture (the colour sample) written as a
+/// rosbags bag of raw mono16 mosaics, read with a sensor file that gives its
+/// `colour_tiles`, gives the capture's rows band by band, bit for bit.
+fn a_colour_capture_and_its_bag_give_the_same_band_rows() {
+    let sky = Path::new(REPO).join("samples/colour-clear");
+    let sensor = tmp().join("colour_sensor.toml");
+    let text = std::fs::read_to_string(sky.join("capture.toml")).unwrap();
+    std::fs::write(&sensor, text.split("[[frames]]").next().unwrap().replace("format = \"bpins-capture/1\"", ""))
+        .unwrap();
+    assert!(std::fs::read_to_string(&sensor).unwrap().contains("colour_tiles"));
+    let b = tmp().join("colour_bag");
+    ok(py(&["write", sky.to_str().unwrap(), b.to_str().unwrap(), "--storage", "mcap", "--pad", "5"]));
+    let cap_json = tmp().join("colour_cap.json");
+    ok(bpins(&["heading", sky.to_str().unwrap(), "--json", cap_json.to_str().unwrap()]));
+    let cap = json(&cap_json);
+    let bag = heading_bag(
+        &b,
+        &["--sun-azimuth-deg", "200", "--sun-elevation-deg", "45", "--sensor", sensor.to_str().unwrap()],
+    );
+    let (want, got) = (cap["frames"].as_array().unwrap(), bag["frames"].as_array().unwrap());
+    assert_eq!(want.len(), 16, "4 frames × (fused, R, G, B): {cap}");
+    assert_eq!(got.len(), want.len(), "{bag}");
+    let origin =
+        ["file", "message_index", "stamp", "stamp_ns", "frame_id", "sun", "reference_heading_deg", "error_deg"];
+    for (i, (w, g)) in want.iter().zip(got).enumerate() {
+        let strip = |v: &Value| {
+            let mut m = v.as_object().unwrap().clone();
+            m.retain(|k, _| !origin.contains(&k.as_str()));
+            m
+        };
+        assert_eq!(strip(w), strip(g), "row {i} ({}): capture and bag differ", w["band"]);
     }
 }

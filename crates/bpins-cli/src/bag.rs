@@ -170,8 +170,18 @@ impl BagArgs {
             );
         }
         let frames = bag.topic(&image_topic, types::IMAGE)?.message_count;
-        // The first image: its size and encoding, where nothing else gives them.
-        let first = bag.cursor(&image_topic)?.next().transpose()?;
+        // The first image (its size and encoding, where nothing else gives them) and
+        // the first CameraInfo, from one walk of the bag's start (the image's cursor
+        // dropped once read, so that the walk on to the CameraInfo holds no images).
+        let mut wanted = vec![image_topic.as_str()];
+        wanted.extend(info_topic.as_deref());
+        let mut cursors = bag.cursors(&wanted)?.into_iter();
+        let first = cursors.next().expect("one cursor per topic").next().transpose()?;
+        let first_info = match cursors.next() {
+            Some(mut c) => c.next().transpose()?,
+            None => None,
+        };
+        drop(cursors);
         let first_image = match &first {
             Some(m) => {
                 Some(decode::<Image>(&m.data).map_err(|e| anyhow!("{}: {e}", bag_at(&bag, &image_topic, m.index)))?)
@@ -192,7 +202,7 @@ impl BagArgs {
         }
         let info = match &info_topic {
             None => None,
-            Some(t) => match bag.cursor(t)?.next().transpose()? {
+            Some(t) => match first_info {
                 None => None,
                 Some(m) => {
                     let ci: CameraInfo = decode(&m.data).map_err(|e| anyhow!("{}: {e}", bag_at(&bag, t, m.index)))?;
@@ -223,6 +233,7 @@ impl BagArgs {
         let mut sensor = match &file {
             Some((s, _)) => s.clone(),
             None => SensorSpec {
+                colour: None,
                 layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
                 geometry: bpins_core::sensor::Geometry { width_px: size.0, height_px: size.1, pixel_pitch_um: 0.0 },
                 bit_depth: match first_image.as_ref().map(|i| i.encoding.as_str()) {
@@ -316,17 +327,22 @@ pub struct Frames<'a> {
 }
 
 impl BagInput {
-    /// Walks the images (with cursors of their own for the IMU and GNSS topics).
+    /// Walks the images, with the IMU and GNSS topics in step: cursors of all three
+    /// served by one walk of the bag's storage.
     pub fn frames<'a>(&'a self, args: &'a BagArgs) -> anyhow::Result<Frames<'a>> {
-        let imu = match &self.imu_topic {
-            Some(t) => Some(Track::new(self.bag.cursor(t)?, decode_imu)),
-            None => None,
+        let fix_topic = match args.sun_azimuth_deg {
+            None => self.fix_topic.as_deref(),
+            Some(_) => None,
         };
-        let fix = match (&self.fix_topic, args.sun_azimuth_deg) {
-            (Some(t), None) => Some(Track::new(self.bag.cursor(t)?, decode_fix)),
-            _ => None,
-        };
-        Ok(Frames { input: self, args, images: self.bag.cursor(&self.image_topic)?, imu, fix })
+        let mut topics = vec![self.image_topic.as_str()];
+        topics.extend(self.imu_topic.as_deref());
+        topics.extend(fix_topic);
+        let mut cursors = self.bag.cursors(&topics)?.into_iter();
+        let images = cursors.next().expect("one cursor per topic");
+        let imu =
+            self.imu_topic.as_ref().map(|_| Track::new(cursors.next().expect("one cursor per topic"), decode_imu));
+        let fix = fix_topic.map(|_| Track::new(cursors.next().expect("one cursor per topic"), decode_fix));
+        Ok(Frames { input: self, args, images, imu, fix })
     }
 }
 

@@ -3,14 +3,14 @@
 //! `calibrate`) and `bpins simulate --bag-out` (a capture as a ROS 2 bag, for a
 //! robot's stack on a sky whose truth is known). Both hold one frame in memory.
 
-use crate::bag::BagArgs;
+use crate::bag::{bag_at, BagArgs};
 use anyhow::{anyhow, bail, Context};
 use bpins_core::camera::Projection;
 use bpins_core::sensor::Layout;
 use bpins_core::SunSource;
 use bpins_core::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
 use bpins_ros::cdr::{decode, encode};
-use bpins_ros::convert::{mosaic, Mosaic};
+use bpins_ros::convert::mosaic;
 use bpins_ros::msgs::{types, CameraInfo, Header, Image, NavSatFix, NavSatStatus, Time};
 use bpins_ros::writer::BagWriter;
 use bpins_ros::{rep103, topics};
@@ -86,25 +86,35 @@ pub fn bag_to_capture(a: Args) -> anyhow::Result<()> {
     }
     let capture = Capture { dir: input.bag.dir.clone(), sensor, lens, frames: specs };
     capture.validate()?;
-    // Pass 2: the pixels, frame by frame.
+    // Pass 2: the pixels of the frames kept, frame by frame. The capture's frames are
+    // listed in capture.toml, which is written first (bpins-capture/1), so the pixels
+    // come in a second walk; it reads the image topic alone (the sun and tilt are
+    // known) and stops after the last frame kept.
     let mut w = capture.writer(&a.out)?;
     let pb = crate::progress::bar(kept.len() as u64, "frames");
     let mut scratch = Vec::new();
-    let mut frames = input.frames(&a.bag)?;
     let g = capture.sensor.geometry;
-    while let Some(f) = frames.next_frame()? {
-        if !kept.contains(&f.message.index) {
+    let mut wanted = kept.iter().copied().peekable();
+    for m in input.bag.cursor(&input.image_topic)? {
+        let Some(&next) = wanted.peek() else { break };
+        let m = m?;
+        if m.index != next {
             continue;
         }
-        let im: Image = decode(&f.message.data).map_err(|e| anyhow!("{e}"))?;
-        let dn: Vec<f32> = match mosaic(&im, &mut scratch).map_err(|e| anyhow!("message {}: {e}", f.message.index))? {
-            Mosaic::U8(r) => {
-                (0..r.height_px).flat_map(|v| r.data[v * r.stride..][..r.width_px].iter().map(|&x| x as f32)).collect()
-            }
-            Mosaic::U16(r) => r.data.iter().map(|&x| x as f32).collect(),
-        };
+        wanted.next();
+        let at = || bag_at(&input.bag, &input.image_topic, m.index);
+        let im: Image = decode(&m.data).map_err(|e| anyhow!("{}: {e}", at()))?;
+        // Row by row, each row's padding (step beyond the pixels) left out, in
+        // whichever encoding and byte order the bag has.
+        let dn = mosaic(&im, &mut scratch).map_err(|e| anyhow!("{}: {e}", at()))?.packed_dn_f32();
         w.write_frame(&FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn })?;
         pb.inc(1);
+    }
+    if let Some(missing) = wanted.next() {
+        bail!(
+            "{}: not found when read again (the bag changed while it was read?)",
+            bag_at(&input.bag, &input.image_topic, missing)
+        );
     }
     pb.finish_and_clear();
     w.finish()?;

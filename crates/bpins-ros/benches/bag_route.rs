@@ -5,7 +5,8 @@
 //!   (`Compass::heading`) on a u16 mosaic in memory, as `bpins-core`'s field bench.
 //! * `bag_route/dofp_*_mcap`, `…_sqlite3`: the same frame read from a bag, per
 //!   frame what `crates/bpins-cli/src/cmd_heading_bag.rs` does: the image topic's
-//!   next message (MCAP mapped; sqlite3 row), CDR decoded, its mono16 pixels into a
+//!   next message (MCAP mapped; sqlite3 row; the image and IMU cursors served by one
+//!   walk of the storage, `Bag::cursors`), CDR decoded, its mono16 pixels into a
 //!   reused buffer, the IMU samples around its stamp slerped, then the compass.
 //!   Target (issue 32): ≤ 1.5 × the front door's time per frame.
 //! * `bag_route/dofp_*_mcap_read_only`, `…_sqlite3_read_only`: the same without the
@@ -19,11 +20,11 @@ use bpins_core::sensor::Response;
 use bpins_core::NoiseIndex;
 use bpins_ros::cdr::{decode, encode};
 use bpins_ros::convert::{mosaic, Mosaic};
-use bpins_ros::matching::{decode_imu, tilt_at, ImuMatch, Track};
+use bpins_ros::matching::{decode_imu, tilt_at, ImuMatch, ImuSample, Track};
 use bpins_ros::msgs::{types, Header, Image, Imu, Time};
 use bpins_ros::rep103::enu_quaternion;
 use bpins_ros::writer::BagWriter;
-use bpins_ros::Bag;
+use bpins_ros::{Bag, TopicCursor};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::borrow::Cow;
 use std::hint::black_box;
@@ -95,6 +96,13 @@ fn write_sqlite(mcap_dir: &Path, dir: &Path) {
     std::fs::write(dir.join("metadata.yaml"), meta.to_yaml()).unwrap();
 }
 
+/// The image cursor and the IMU track, served by one walk of the bag (as the CLI reads).
+fn cursors(bag: &Bag) -> (TopicCursor<'_>, Track<'_, ImuSample>) {
+    let mut c = bag.cursors(&["/cam/image_raw", "/imu"]).unwrap();
+    let imu = Track::new(c.pop().unwrap(), decode_imu);
+    (c.pop().unwrap(), imu)
+}
+
 fn route(c: &mut Criterion) {
     let tmp = tempfile::tempdir().unwrap();
     let mut g = c.benchmark_group("bag_route");
@@ -123,8 +131,7 @@ fn route(c: &mut Criterion) {
         for (storage, dir) in [("mcap", &mcap_dir), ("sqlite3", &sqlite_dir)] {
             let bag = Bag::open(dir).unwrap();
             let mut scratch: Vec<u16> = Vec::new();
-            let mut images = bag.cursor("/cam/image_raw").unwrap();
-            let mut imu = Track::new(bag.cursor("/imu").unwrap(), decode_imu);
+            let (mut images, mut imu) = cursors(&bag);
             g.bench_function(format!("{name}_{storage}"), |b| {
                 b.iter(|| {
                     let m = match images.next() {
@@ -132,8 +139,7 @@ fn route(c: &mut Criterion) {
                         None => {
                             // The bag replayed from its start (outside no timing: a
                             // cursor's start is part of a long bag's cost too).
-                            images = bag.cursor("/cam/image_raw").unwrap();
-                            imu = Track::new(bag.cursor("/imu").unwrap(), decode_imu);
+                            (images, imu) = cursors(&bag);
                             images.next().unwrap().unwrap()
                         }
                     };
@@ -149,15 +155,13 @@ fn route(c: &mut Criterion) {
             });
             // The reading alone (everything above but the compass): what the route
             // adds to the front door, on one core.
-            let mut images = bag.cursor("/cam/image_raw").unwrap();
-            let mut imu = Track::new(bag.cursor("/imu").unwrap(), decode_imu);
+            let (mut images, mut imu) = cursors(&bag);
             g.bench_function(format!("{name}_{storage}_read_only"), |b| {
                 b.iter(|| {
                     let m = match images.next() {
                         Some(m) => m.unwrap(),
                         None => {
-                            images = bag.cursor("/cam/image_raw").unwrap();
-                            imu = Track::new(bag.cursor("/imu").unwrap(), decode_imu);
+                            (images, imu) = cursors(&bag);
                             images.next().unwrap().unwrap()
                         }
                     };

@@ -19,6 +19,26 @@ pub enum Mosaic<'a> {
     U16(RawImage<'a, u16>),
 }
 
+impl Mosaic<'_> {
+    /// The DN row by row, `width × height` of them, each row's padding (the `step`
+    /// beyond its pixels) left out: what a capture's frame holds. Every route that
+    /// copies a bag's pixels goes through this, so that a padded row reads as the
+    /// unpadded one whatever the encoding.
+    pub fn packed_dn_f32(&self) -> Vec<f32> {
+        fn rows<T: Copy + Into<f32>>(r: &RawImage<'_, T>) -> Vec<f32> {
+            let mut out = Vec::with_capacity(r.width_px * r.height_px);
+            for v in 0..r.height_px {
+                out.extend(r.data[v * r.stride..][..r.width_px].iter().map(|&x| x.into()));
+            }
+            out
+        }
+        match self {
+            Mosaic::U8(r) => rows(r),
+            Mosaic::U16(r) => rows(r),
+        }
+    }
+}
+
 /// The pixels of `im`, checked against its own size and `step`; `u16` pixels go
 /// into `scratch` (one frame, reused).
 pub fn mosaic<'a>(im: &'a Image<'_>, scratch: &'a mut Vec<u16>) -> Result<Mosaic<'a>, String> {

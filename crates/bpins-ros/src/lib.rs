@@ -9,14 +9,18 @@
 //!     (rep103.rs) → a new MCAP bag folder (writer.rs)
 //! ```
 //!
-//! Memory is bounded by one frame: an MCAP file is memory-mapped and walked record by
-//! record, a message of an uncompressed chunk handed on as a slice of the map (no
-//! copy; [`BagMessage::data`] borrows) and a zstd chunk decompressed as it is walked;
-//! a sqlite3 file is read one row at a time, each message's bytes by SQLite's blob
-//! API into one buffer; the image,
-//! IMU and GNSS topics are read by cursors of their own that walk forward in step
-//! ([`reader::TopicCursor`]). Nothing is ever written into a bag being read.
-//! Every error names the bag, the topic and the message index ([`BagError`]).
+//! Memory is bounded by one frame (and what cursors read ahead for one another, at
+//! most [`reader::READ_AHEAD_BYTES`]): an MCAP file is memory-mapped and walked
+//! record by record, a message of an uncompressed chunk handed on as a slice of the
+//! map (no copy; [`BagMessage::data`] borrows) and a zstd chunk decompressed as it is
+//! walked; a sqlite3 file is read one row at a time, each message's bytes by SQLite's
+//! blob API into one buffer. The image, IMU and GNSS topics are read by cursors that
+//! walk forward in step ([`reader::TopicCursor`]), all served by one walk of the
+//! storage ([`Bag::cursors`]: each zstd chunk decompressed once, each row visited
+//! once), a message met early held for its cursor. Nothing is ever written into a bag
+//! being read. Every error names the bag, the topic and the message index
+//! ([`BagError`]), and keeps the file system's, SQLite's or `mcap`'s error as its
+//! source.
 //!
 //! Storage support: MCAP with uncompressed or zstd chunks (rosbag2's MCAP plugin
 //! writes zstd by default; lz4 chunks are refused by name), ROS 2 `cdr` message
@@ -36,5 +40,5 @@ mod storage_sqlite;
 pub mod topics;
 pub mod writer;
 
-pub use error::{BagError, Where};
-pub use reader::{Bag, BagMessage, TopicCursor, TopicInfo};
+pub use error::{BagError, Failure, Where};
+pub use reader::{Bag, BagMessage, Messages, TopicCursor, TopicInfo};

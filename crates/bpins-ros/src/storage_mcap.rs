@@ -7,28 +7,38 @@
 //! is not built). At most one message (and, for a zstd chunk, the decoder's window of
 //! it) is held in memory, whatever the file's length.
 //!
+//! A [`Stream`] walks the files once for a set of topics, handing on each message with
+//! the slot of its topic in that set: one walk (each zstd chunk decompressed once)
+//! serves every topic a run reads.
+//!
 //! The walk: the file's magic, then records `opcode u8, length u64 LE, body`
 //! (MCAP specification, "Records"); each body parsed by [`mcap::parse_record`], which
 //! borrows. Chunk records hold records of the same framing. The data section ends at
 //! the footer, which the file's closing magic follows: a file that ends before them is
 //! reported truncated (after the messages before the cut).
 
-use crate::error::{BagError, Where};
+use crate::error::{BagError, Fault, Where};
 use mcap::records::Record;
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use mcap::McapError;
 use std::borrow::Cow;
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Maps `path` read-only.
 pub(crate) fn map(at: &Where, path: PathBuf) -> Result<(PathBuf, memmap2::Mmap), BagError> {
-    let io = |e: std::io::Error| BagError::Io { at: at.clone(), message: format!("{}: {e}", path.display()) };
-    let f = std::fs::File::open(&path).map_err(io)?;
+    let io = |what: &str| {
+        let path = path.clone();
+        let message = what.to_string();
+        move |source: std::io::Error| BagError::Io { at: at.clone(), path, message, source }
+    };
+    let f = std::fs::File::open(&path).map_err(io("cannot be opened"))?;
     // SAFETY: the map is read-only and private to this process; a file changed by
     // another process while it is read would give wrong bytes (checked by the MCAP
     // records' lengths and CRCs, and by CDR decoding), not undefined behaviour in
     // the safe code that reads it, which never trusts a length without bounds checks.
-    let m = unsafe { memmap2::Mmap::map(&f) }.map_err(io)?;
+    let m = unsafe { memmap2::Mmap::map(&f) }.map_err(io("cannot be memory-mapped"))?;
     // A hint (the walk is forward): read ahead more. Failing to advise changes nothing.
     #[cfg(unix)]
     let _ = m.advise(memmap2::Advice::Sequential);
@@ -44,15 +54,21 @@ enum Chunk<'a> {
     Compressed { reader: Box<LinearReader>, input: &'a [u8] },
 }
 
-/// One topic's messages across the bag's MCAP files.
-pub(crate) struct Cursor<'a> {
+/// The messages of a set of topics across the bag's MCAP files, in storage order, in
+/// one walk.
+pub(crate) struct Stream<'a> {
     files: &'a [(PathBuf, memmap2::Mmap)],
+    /// The topics read; a message is handed on with its topic's slot here.
+    topics: Vec<String>,
     file: usize,
     /// Offset of the next top-level record in the current file; `None` before its magic.
     pos: Option<usize>,
     chunk: Option<Chunk<'a>>,
-    /// Channel id → whether it is the topic, its encoding checked.
-    wanted: HashMap<u16, bool>,
+    /// Channel id → the slot of its topic, `None` for a topic not read; its encoding
+    /// checked when it is read.
+    wanted: HashMap<u16, Option<usize>>,
+    /// Compressed chunks entered, counted for the bag ([`crate::Bag::chunks_decompressed`]).
+    decompressed: &'a AtomicU64,
 }
 
 /// The record at `*pos` of `buf`: (opcode, body), `pos` moved past it; `None` at the
@@ -79,39 +95,60 @@ fn record<'a>(buf: &'a [u8], pos: &mut usize) -> Result<Option<(u8, &'a [u8])>, 
     Ok(Some((rest[0], body)))
 }
 
-/// A message of the topic: (log time ns, its bytes).
-type Found<'a> = (i64, Cow<'a, [u8]>);
+/// A message of a topic read: (its topic's slot, log time ns, its bytes).
+pub(crate) type Found<'a> = (usize, i64, Cow<'a, [u8]>);
 
-/// What one record means for the cursor.
+/// What one record means for the stream.
 enum Step<'a> {
-    Message(i64, Cow<'a, [u8]>),
+    Message(usize, i64, Cow<'a, [u8]>),
     Chunk(Chunk<'a>),
     Footer,
     Other,
 }
 
-impl<'a> Cursor<'a> {
-    pub(crate) fn new(files: &'a [(PathBuf, memmap2::Mmap)], _topic: &str) -> Self {
-        Cursor { files, file: 0, pos: None, chunk: None, wanted: HashMap::new() }
+/// A failure of `mcap` on the file `path` while reading `what`, its meaning said by
+/// the error's kind (the error itself is kept as the source).
+fn mcap_fault(path: &Path, what: String, e: McapError) -> Fault {
+    let meaning = match &e {
+        McapError::UnsupportedCompression(name) => format!(
+            "a chunk compressed with `{name}` (bpins reads uncompressed and zstd MCAP chunks; `mcap convert` or \
+             `ros2 bag convert` the bag to one of them)"
+        ),
+        _ => "the file is truncated or damaged".to_string(),
+    };
+    Fault::Mcap { path: path.to_path_buf(), message: format!("{what}: {meaning}"), source: e }
+}
+
+impl<'a> Stream<'a> {
+    pub(crate) fn new(files: &'a [(PathBuf, memmap2::Mmap)], topics: &[&str], decompressed: &'a AtomicU64) -> Self {
+        Stream {
+            files,
+            topics: topics.iter().map(|t| t.to_string()).collect(),
+            file: 0,
+            pos: None,
+            chunk: None,
+            wanted: HashMap::new(),
+            decompressed,
+        }
     }
 
-    /// Reads one parsed record: channels are noted, messages of the topic returned.
+    /// Reads one parsed record: channels are noted, messages of the topics returned.
     /// `whole` is the record's bytes with its opcode and length (top-level records).
-    fn step(&mut self, topic: &str, record: Record<'a>, whole: Option<&'a [u8]>) -> Result<Step<'a>, String> {
+    fn step(&mut self, record: Record<'a>, whole: Option<&'a [u8]>) -> Result<Step<'a>, String> {
         let in_chunk = whole.is_none();
         match record {
             Record::Channel(ch) => {
-                let w = ch.topic == topic;
-                if w && ch.message_encoding != "cdr" {
+                let slot = self.topics.iter().position(|t| *t == ch.topic);
+                if slot.is_some() && ch.message_encoding != "cdr" {
                     return Err(format!("message encoding `{}`: only `cdr` (ROS 2's) is read", ch.message_encoding));
                 }
-                self.wanted.insert(ch.id, w);
+                self.wanted.insert(ch.id, slot);
                 Ok(Step::Other)
             }
             Record::Message { header, data } => match self.wanted.get(&header.channel_id) {
                 None => Err(format!("a message on channel {}, which no channel record declares", header.channel_id)),
-                Some(false) => Ok(Step::Other),
-                Some(true) => Ok(Step::Message(i64::try_from(header.log_time).unwrap_or(i64::MAX), data)),
+                Some(None) => Ok(Step::Other),
+                Some(&Some(slot)) => Ok(Step::Message(slot, i64::try_from(header.log_time).unwrap_or(i64::MAX), data)),
             },
             Record::Chunk { header, data } if !in_chunk => match (header.compression.as_str(), data) {
                 ("", Cow::Borrowed(records)) => {
@@ -143,6 +180,7 @@ impl<'a> Cursor<'a> {
                         .with_validate_chunk_crcs(true)
                         .with_record_length_limit(limit);
                     let reader = Box::new(LinearReader::new_with_options(options));
+                    self.decompressed.fetch_add(1, Ordering::Relaxed);
                     Ok(Step::Chunk(Chunk::Compressed { reader, input: whole }))
                 }
                 // parse_record borrows its body: never owned here.
@@ -154,13 +192,13 @@ impl<'a> Cursor<'a> {
         }
     }
 
-    /// The next message of `topic`: (log time ns, bytes), `None` at the end. The bytes
-    /// are borrowed from the map unless they come out of a compressed chunk. After an
-    /// error the cursor is not used again ([`crate::TopicCursor`] ends).
-    pub(crate) fn next(&mut self, topic: &str) -> Result<Option<Found<'a>>, String> {
+    /// The next message of the topics: (slot, log time ns, bytes), `None` at the end.
+    /// The bytes are borrowed from the map unless they come out of a compressed
+    /// chunk. After an error the stream is not used again.
+    pub(crate) fn next(&mut self) -> Result<Option<Found<'a>>, Fault> {
         loop {
             let Some((path, map)) = self.files.get(self.file) else { return Ok(None) };
-            let here = |e: String| format!("{}: {e}", path.display());
+            let here = |e: String| Fault::Damaged(format!("{}: {e}", path.display()));
             let buf: &'a [u8] = &map[..];
             // Inside a chunk: its next record.
             if let Some(chunk) = self.chunk.as_mut() {
@@ -173,7 +211,7 @@ impl<'a> Cursor<'a> {
                             None => None,
                             Some((opcode, body)) => Some(
                                 mcap::parse_record(opcode, body)
-                                    .map_err(|e| here(format!("record at byte {at} of a chunk: {}", words(e))))?,
+                                    .map_err(|e| mcap_fault(path, format!("record at byte {at} of a chunk"), e))?,
                             ),
                         }
                     }
@@ -185,15 +223,15 @@ impl<'a> Cursor<'a> {
                             std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| next_in_chunk(reader, input)));
                         match next {
                             Err(_) => return Err(here("a record overruns its chunk (the file is damaged)".into())),
-                            Ok(r) => r.map_err(|e| here(format!("in a compressed chunk: {}", words(e))))?,
+                            Ok(r) => r.map_err(|e| mcap_fault(path, "in a compressed chunk".into(), e))?,
                         }
                     }
                 };
                 match rec {
                     None => self.chunk = None,
                     Some(r) => {
-                        if let Step::Message(t, data) = self.step(topic, r, None).map_err(here)? {
-                            return Ok(Some((t, data)));
+                        if let Step::Message(slot, t, data) = self.step(r, None).map_err(here)? {
+                            return Ok(Some((slot, t, data)));
                         }
                     }
                 }
@@ -217,9 +255,9 @@ impl<'a> Cursor<'a> {
             };
             self.pos = Some(next_pos);
             let parsed =
-                mcap::parse_record(opcode, body).map_err(|e| here(format!("record at byte {pos}: {}", words(e))))?;
-            match self.step(topic, parsed, Some(&buf[pos..next_pos])).map_err(here)? {
-                Step::Message(t, data) => return Ok(Some((t, data))),
+                mcap::parse_record(opcode, body).map_err(|e| mcap_fault(path, format!("record at byte {pos}"), e))?;
+            match self.step(parsed, Some(&buf[pos..next_pos])).map_err(here)? {
+                Step::Message(slot, t, data) => return Ok(Some((slot, t, data))),
                 Step::Chunk(c) => self.chunk = Some(c),
                 Step::Footer => {
                     if !buf[next_pos..].starts_with(mcap::MAGIC) {
@@ -255,17 +293,5 @@ fn next_in_chunk(reader: &mut LinearReader, input: &mut &[u8]) -> mcap::McapResu
                 *input = &input[k..];
             }
         }
-    }
-}
-
-/// An MCAP error in words a user can act on.
-fn words(e: mcap::McapError) -> String {
-    let s = e.to_string();
-    if s.contains("lz4") || s.contains("Lz4") || s.contains("compression") {
-        format!("{s} (bpins reads uncompressed and zstd MCAP chunks; `mcap convert` or `ros2 bag convert` an lz4 bag)")
-    } else if s.contains("EOF") || s.contains("eof") || s.contains("end of") || s.contains("Unexpected") {
-        format!("{s} (the file is truncated or damaged)")
-    } else {
-        s
     }
 }

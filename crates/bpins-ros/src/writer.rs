@@ -4,7 +4,7 @@
 //! (version 9), written last. The folder must not exist yet: bpins never writes
 //! into an existing bag.
 
-use crate::error::{BagError, Where};
+use crate::error::{BagError, Failure, Where};
 use crate::metadata::{Duration, FileInfo, Metadata, StartingTime, TopicWithCount};
 use crate::msgs;
 use std::collections::BTreeMap;
@@ -51,21 +51,22 @@ impl BagWriter {
     /// as `chunks` says.
     pub fn create_with(dir: &Path, chunks: Chunks) -> Result<BagWriter, BagError> {
         let at = Where { bag: dir.to_path_buf(), ..Default::default() };
-        let fail = |message: String| BagError::Write { at: at.clone(), message };
         if dir.exists() {
-            return Err(fail("already exists: bpins writes a new bag folder, never into an existing one".into()));
+            let message = "already exists: bpins writes a new bag folder, never into an existing one".into();
+            return Err(BagError::Write { at, message });
         }
-        std::fs::create_dir_all(dir).map_err(|e| fail(format!("cannot create the folder: {e}")))?;
+        std::fs::create_dir_all(dir).map_err(io_error(&at, dir, "the folder cannot be created"))?;
         let stem = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "bag".into());
         let file_name = format!("{stem}_0.mcap");
-        let f = File::create(dir.join(&file_name)).map_err(|e| fail(format!("{file_name}: {e}")))?;
+        let path = dir.join(&file_name);
+        let f = File::create(&path).map_err(io_error(&at, &path, "cannot be created"))?;
         let mcap = mcap::WriteOptions::new()
             .compression(chunks.zstd.then_some(mcap::Compression::Zstd))
             .chunk_size(Some(chunks.size_bytes))
             .profile("ros2")
             .library("bpins")
             .create(BufWriter::new(f))
-            .map_err(|e| fail(format!("{file_name}: {e}")))?;
+            .map_err(mcap_error(&at, &path, "its header cannot be written"))?;
         Ok(BagWriter {
             dir: dir.to_path_buf(),
             file_name,
@@ -77,8 +78,17 @@ impl BagWriter {
         })
     }
 
+    fn at(&self, topic: &str) -> Where {
+        Where { bag: self.dir.clone(), topic: Some(topic.into()), index: None }
+    }
+
     fn fail(&self, topic: &str, message: String) -> BagError {
-        BagError::Write { at: Where { bag: self.dir.clone(), topic: Some(topic.into()), index: None }, message }
+        BagError::Write { at: self.at(topic), message }
+    }
+
+    /// `mcap`'s failure writing `what` of `topic`.
+    fn mcap_fail(&self, topic: &str, what: &str) -> impl FnOnce(mcap::McapError) -> BagError {
+        mcap_error(&self.at(topic), &self.dir.join(&self.file_name), what)
     }
 
     /// Writes one serialized message of `type_name` (one of [`msgs::types`]) on
@@ -100,15 +110,15 @@ impl BagWriter {
                         let Some(def) = msgs::definition(type_name) else {
                             return Err(self.fail(topic, format!("no definition of {type_name}")));
                         };
-                        let s = w.add_schema(type_name, "ros2msg", def.as_bytes()).map_err(|e| e.to_string());
-                        let s = s.map_err(|e| self.fail(topic, e))?;
+                        let s = w.add_schema(type_name, "ros2msg", def.as_bytes());
+                        let s = s.map_err(self.mcap_fail(topic, "its schema cannot be written"))?;
                         self.schemas.insert(type_name.into(), s);
                         s
                     }
                 };
                 let w = self.mcap.as_mut().expect("checked above");
-                let id = w.add_channel(schema, topic, "cdr", &BTreeMap::new()).map_err(|e| e.to_string());
-                let id = id.map_err(|e| self.fail(topic, e))?;
+                let id = w.add_channel(schema, topic, "cdr", &BTreeMap::new());
+                let id = id.map_err(self.mcap_fail(topic, "its channel cannot be written"))?;
                 self.channels.push((topic.into(), id, type_name.into(), 0));
                 self.channels.len() - 1
             }
@@ -121,17 +131,18 @@ impl BagWriter {
         self.first_ns = Some(self.first_ns.map_or(time_ns, |f| f.min(time_ns)));
         self.last_ns = self.last_ns.max(time_ns);
         let w = self.mcap.as_mut().expect("checked above");
-        w.write_to_known_channel(&header, cdr).map_err(|e| e.to_string()).map_err(|e| self.fail(topic, e))
+        let r = w.write_to_known_channel(&header, cdr);
+        r.map_err(self.mcap_fail(topic, "a message cannot be written"))
     }
 
     /// Finishes the MCAP file and writes `metadata.yaml`.
     pub fn finish(mut self) -> Result<PathBuf, BagError> {
         let at = Where { bag: self.dir.clone(), ..Default::default() };
-        let fail = |message: String| BagError::Write { at: at.clone(), message };
+        let path = self.dir.join(&self.file_name);
         if let Some(mut w) = self.mcap.take() {
-            w.finish().map_err(|e| fail(format!("{}: {e}", self.file_name)))?;
+            w.finish().map_err(mcap_error(&at, &path, "its summary cannot be written"))?;
             use std::io::Write;
-            w.into_inner().flush().map_err(|e| fail(format!("{}: {e}", self.file_name)))?;
+            w.into_inner().flush().map_err(io_error(&at, &path, "cannot be written"))?;
         }
         let start = self.first_ns.unwrap_or(0);
         let duration = Duration { nanoseconds: (self.last_ns - start).max(0) as u64 };
@@ -156,7 +167,19 @@ impl BagWriter {
             ros_distro: Some("bpins".into()),
         };
         let yaml = self.dir.join("metadata.yaml");
-        std::fs::write(&yaml, m.to_yaml()).map_err(|e| fail(format!("metadata.yaml: {e}")))?;
+        std::fs::write(&yaml, m.to_yaml()).map_err(io_error(&at, &yaml, "cannot be written"))?;
         Ok(self.dir.clone())
     }
+}
+
+/// The file system's failure on `path` while doing `what`, as the source.
+fn io_error(at: &Where, path: &Path, what: &str) -> impl FnOnce(std::io::Error) -> BagError {
+    let (at, path, message) = (at.clone(), path.to_path_buf(), what.to_string());
+    move |source| BagError::Io { at, path, message, source }
+}
+
+/// `mcap`'s failure on `path` while doing `what`, as the source.
+fn mcap_error(at: &Where, path: &Path, what: &str) -> impl FnOnce(mcap::McapError) -> BagError {
+    let (at, path, message) = (at.clone(), path.to_path_buf(), what.to_string());
+    move |source| BagError::Mcap(Box::new(Failure { at, path, message, source }))
 }

@@ -177,3 +177,168 @@ fn lz4_chunks_are_refused_by_name() {
     assert!(e.contains("lz4") && e.contains("bpins reads uncompressed and zstd MCAP chunks"), "{e}");
     assert!(e.contains("topic /imu, message 0"), "{e}");
 }
+
+/// Every message of `topic` through a cursor of its own: (index, log time, bytes).
+fn alone(bag: &Bag, topic: &str) -> Vec<(u64, i64, Vec<u8>)> {
+    bag.cursor(topic).unwrap().map(|m| m.unwrap()).map(|m| (m.index, m.log_time_ns, m.data.into_owned())).collect()
+}
+
+/// The same bag in sqlite3 storage: the MCAP bag's messages copied into rosbag2's
+/// tables, in the MCAP file's order.
+fn as_sqlite(mcap_dir: &Path, dir: &Path) {
+    let bag = Bag::open(mcap_dir).unwrap();
+    std::fs::create_dir_all(dir).unwrap();
+    let name = dir.file_name().unwrap().to_str().unwrap();
+    let db = rusqlite::Connection::open(dir.join(format!("{name}_0.db3"))).unwrap();
+    db.execute_batch(
+        "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL, \
+         serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL); \
+         CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, timestamp INTEGER NOT NULL, \
+         data BLOB NOT NULL);",
+    )
+    .unwrap();
+    let names: Vec<&str> = bag.topics.iter().map(|t| t.name.as_str()).collect();
+    for (k, t) in bag.topics.iter().enumerate() {
+        db.execute(
+            "INSERT INTO topics VALUES (?1, ?2, ?3, 'cdr', '')",
+            rusqlite::params![k as i64 + 1, t.name, t.type_name],
+        )
+        .unwrap();
+    }
+    for m in bag.messages(&names) {
+        let (k, m) = m.unwrap();
+        db.execute(
+            "INSERT INTO messages (topic_id, timestamp, data) VALUES (?1, ?2, ?3)",
+            rusqlite::params![k as i64 + 1, m.log_time_ns, &m.data[..]],
+        )
+        .unwrap();
+    }
+    let mut meta = bag.metadata.clone();
+    meta.storage_identifier = "sqlite3".into();
+    meta.relative_file_paths = vec![format!("{name}_0.db3")];
+    meta.files.clear();
+    std::fs::write(dir.join("metadata.yaml"), meta.to_yaml()).unwrap();
+}
+
+/// Issue 50 item 3: the topics a run reads come from one walk of the storage. The
+/// cursors of [`Bag::cursors`], read in step as the image route reads them (each
+/// image, then the IMU samples up to its time), or one drained before the other,
+/// give each topic's messages exactly as a cursor of its own does, and a zstd bag's
+/// chunks are each decompressed once, where cursors of their own decompress each
+/// chunk once per topic.
+#[test]
+fn cursors_of_several_topics_share_one_walk_and_read_what_cursors_of_their_own_read() {
+    let tmp = tempfile::tempdir().unwrap();
+    let msgs = messages();
+    let zstd = tmp.path().join("zstd");
+    write(&zstd, Chunks { zstd: true, size_bytes: 16 << 10 }, &msgs);
+    let sqlite = tmp.path().join("sqlite");
+    as_sqlite(&zstd, &sqlite);
+    let plain = tmp.path().join("plain");
+    write(&plain, Chunks { zstd: false, size_bytes: 16 << 10 }, &msgs);
+    let topics = ["/cam/image_raw", "/imu"];
+    for dir in [&zstd, &sqlite, &plain] {
+        let bag = Bag::open(dir).unwrap();
+        let want: Vec<_> = topics.iter().map(|t| alone(&bag, t)).collect();
+        assert_eq!(want[0], self::want(&msgs, topics[0]));
+        let own_walks = bag.chunks_decompressed();
+        // In step: an image, then the IMU up to and including the first sample after it.
+        let before = bag.chunks_decompressed();
+        let mut c = bag.cursors(&topics).unwrap().into_iter();
+        let (mut images, mut imu) = (c.next().unwrap(), c.next().unwrap());
+        let mut got = [Vec::new(), Vec::new()];
+        for m in images.by_ref() {
+            let m = m.unwrap();
+            let t = m.log_time_ns;
+            got[0].push((m.index, m.log_time_ns, m.data.into_owned()));
+            while got[1].last().is_none_or(|s: &(u64, i64, Vec<u8>)| s.1 <= t) {
+                match imu.next() {
+                    Some(s) => {
+                        let s = s.unwrap();
+                        got[1].push((s.index, s.log_time_ns, s.data.into_owned()));
+                    }
+                    None => break,
+                }
+            }
+        }
+        got[1].extend(imu.map(|s| s.unwrap()).map(|s| (s.index, s.log_time_ns, s.data.into_owned())));
+        assert!(got[0] == want[0] && got[1] == want[1], "{}: in step", dir.display());
+        let shared_walk = bag.chunks_decompressed() - before;
+        // One cursor drained first: the other's messages wait for it.
+        let mut c = bag.cursors(&topics).unwrap();
+        let imu: Vec<_> =
+            c.pop().unwrap().map(|m| m.unwrap()).map(|m| (m.index, m.log_time_ns, m.data.into_owned())).collect();
+        let images: Vec<_> =
+            c.pop().unwrap().map(|m| m.unwrap()).map(|m| (m.index, m.log_time_ns, m.data.into_owned())).collect();
+        assert!(images == want[0] && imu == want[1], "{}: one after the other", dir.display());
+        // The one walk over both topics, message by message, in storage order.
+        let mut by_walk = [Vec::new(), Vec::new()];
+        for m in bag.messages(&topics) {
+            let (k, m) = m.unwrap();
+            by_walk[k].push((m.index, m.log_time_ns, m.data.into_owned()));
+        }
+        assert!(by_walk[0] == want[0] && by_walk[1] == want[1], "{}: messages()", dir.display());
+        if dir == &zstd {
+            assert!(shared_walk >= 4, "{shared_walk} chunks");
+            assert_eq!(own_walks, 2 * shared_walk, "cursors of their own decompress each chunk once per topic");
+        } else {
+            assert_eq!(bag.chunks_decompressed(), 0);
+        }
+    }
+}
+
+/// Issue 50 item 3: storage errors keep the error they come from as their source,
+/// typed, and name the file.
+#[test]
+fn storage_errors_keep_their_source() {
+    use std::error::Error;
+    let tmp = tempfile::tempdir().unwrap();
+    // No bag at all: metadata.yaml missing, the OS's NotFound the source.
+    let e = Bag::open(&tmp.path().join("nowhere")).err().expect("refused");
+    let io = e.source().and_then(|s| s.downcast_ref::<std::io::Error>()).expect("an io::Error source");
+    assert_eq!(io.kind(), std::io::ErrorKind::NotFound);
+    assert!(matches!(e, bpins_ros::BagError::Io { .. }) && e.to_string().contains("metadata.yaml"), "{e}");
+    // A storage file listed but missing, MCAP and sqlite3.
+    let mcap = tmp.path().join("m");
+    write(&mcap, Chunks::default(), &messages());
+    let sqlite = tmp.path().join("s");
+    as_sqlite(&mcap, &sqlite);
+    for (dir, file) in [(&mcap, "m_0.mcap"), (&sqlite, "s_0.db3")] {
+        let gone = tmp.path().join(format!("{file}_gone"));
+        std::fs::create_dir(&gone).unwrap();
+        std::fs::copy(dir.join("metadata.yaml"), gone.join("metadata.yaml")).unwrap();
+        let e = Bag::open(&gone).err().expect("refused");
+        let io = e.source().and_then(|s| s.downcast_ref::<std::io::Error>()).expect("an io::Error source");
+        assert_eq!(io.kind(), std::io::ErrorKind::NotFound, "{file}");
+        assert!(e.to_string().contains(file), "{e}");
+    }
+    // A sqlite3 file that is not a database: SQLite's error the source.
+    let bad = tmp.path().join("bad");
+    std::fs::create_dir(&bad).unwrap();
+    std::fs::copy(sqlite.join("metadata.yaml"), bad.join("metadata.yaml")).unwrap();
+    std::fs::write(bad.join("s_0.db3"), vec![0x5a; 8192]).unwrap();
+    let bag = Bag::open(&bad).unwrap();
+    let e = bag.cursor("/imu").unwrap().find_map(|r| r.err()).expect("refused");
+    let sq = e.source().and_then(|s| s.downcast_ref::<rusqlite::Error>()).expect("a rusqlite::Error source");
+    assert_eq!(sq.sqlite_error_code(), Some(rusqlite::ErrorCode::NotADatabase), "{sq}");
+    assert!(matches!(e, bpins_ros::BagError::Sqlite(_)), "{e:?}");
+    assert!(e.to_string().contains("s_0.db3") && e.to_string().contains("topic /imu, message 0"), "{e}");
+    // An MCAP chunk of a compression bpins does not read (a zstd chunk relabelled
+    // `lz4`, as in lz4_chunks_are_refused_by_name): told by the type of mcap's error.
+    let z = tmp.path().join("z");
+    write(&z, Chunks { zstd: true, size_bytes: 4096 }, &messages());
+    let b = std::fs::read(z.join("z_0.mcap")).unwrap();
+    let i = b.windows(8).position(|w| w == b"\x04\x00\x00\x00zstd").unwrap();
+    let chunk = i - (1 + 8 + 8 + 8 + 8 + 4);
+    let len = u64::from_le_bytes(b[chunk + 1..chunk + 9].try_into().unwrap()) - 1;
+    let mut out = b[..i].to_vec();
+    out[chunk + 1..chunk + 9].copy_from_slice(&len.to_le_bytes());
+    out.extend_from_slice(b"\x03\x00\x00\x00lz4");
+    out.extend_from_slice(&b[i + 8..]);
+    std::fs::write(z.join("z_0.mcap"), &out).unwrap();
+    let bag = Bag::open(&z).unwrap();
+    let e = bag.cursor("/imu").unwrap().find_map(|r| r.err()).expect("refused");
+    let source = e.source().and_then(|s| s.downcast_ref::<mcap::McapError>());
+    assert!(matches!(source, Some(mcap::McapError::UnsupportedCompression(c)) if c == "lz4"), "{e:?}");
+    assert!(matches!(e, bpins_ros::BagError::Mcap(_)) && e.to_string().contains("z_0.mcap"), "{e}");
+}
