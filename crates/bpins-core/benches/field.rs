@@ -79,6 +79,17 @@ fn field(c: &mut Criterion) {
         g.bench_function(format!("{name}_compass_calibrated"), |b| {
             b.iter(|| black_box(calibrated.heading(RawImage::packed(&dn, w, h), sun, att).expect("a valid frame")))
         });
+        // The same frame read as a colour-polarization sensor's (IMX250MYR order): each
+        // band's cells from its own pixels, a heading per band, the fused heading
+        // (issue 45's target: within 1.5× the monochrome compass).
+        let mut colour = Compass::new(CompassConfig {
+            colour: Some(bpins_core::sensor::ColourTiles::imx250myr()),
+            ..CompassConfig::dofp(ctx.intr, w, h, 12, 64.0)
+        })
+        .expect("a valid sensor");
+        g.bench_function(format!("{name}_compass_colour"), |b| {
+            b.iter(|| black_box(colour.heading(RawImage::packed(&dn, w, h), sun, att).expect("a valid frame")))
+        });
         if w == 2448 {
             let cell = Cells::default_cell_px(w, h);
             let img = RawImage::packed(dn.as_slice(), w, h);
