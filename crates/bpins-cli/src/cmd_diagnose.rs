@@ -10,7 +10,7 @@ use bpins_core::tool::diagnose::diagnose_frames;
 use bpins_core::tool::diagnose::DiagnosisJson;
 use bpins_core::FitOptions;
 use bpins_core::MinSize;
-use bpins_core::{DiagnoseOptions, Diagnosis};
+use bpins_core::{DiagnoseOptions, Diagnosis, Evidence};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -162,14 +162,15 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
                 if verdict.is_empty() { String::new() } else { format!("{verdict}; ") },
                 if !c.identifiable {
                     "(cannot be told from the nuisances)"
-                } else if c.bounded {
-                    "(refitted on 1/9 of the pixels; its score test on every pixel stays below the threshold)"
-                } else if c.refitted && c.every_pixel {
-                    "(refitted)"
-                } else if c.refitted {
-                    "(refitted on 1/9 of the pixels, clearly behind)"
                 } else {
-                    "(score test, 1/9 of the pixels fitted)"
+                    match c.evidence {
+                        Evidence::EveryPixelScore => {
+                            "(refitted on 1/9 of the pixels; its score test on every pixel stays below the threshold)"
+                        }
+                        Evidence::EveryPixelRefit => "(refitted)",
+                        Evidence::SubsampleRefit => "(refitted on 1/9 of the pixels, clearly behind)",
+                        Evidence::Score => "(score test, 1/9 of the pixels fitted)",
+                    }
                 }
             );
         }
@@ -185,7 +186,7 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
         out!("detected, negligible (not named): {}", crate::effect_sizes::sized(d, &d.negligible));
     }
     for e in d.selected.iter().filter(|e| d.possibly_compensating(e)) {
-        let unphysical: Vec<String> = d.outside_physical(e).collect();
+        let unphysical: Vec<String> = d.outside_physical(e).map(|x| x.words).collect();
         out!(
             "possibly compensating: {e}{}",
             if unphysical.is_empty() {

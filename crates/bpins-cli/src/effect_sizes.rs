@@ -73,7 +73,7 @@ pub fn candidate_verdict(d: &Diagnosis, step: usize, c: &Candidate) -> (String, 
     } else if let Some(p) = d.confusable.iter().find(|p| p.second == c.effect) {
         words.push(format!("confusable with {}", p.first));
     }
-    if let Some(s) = c.size.filter(|_| c.refitted) {
+    if let Some(s) = c.size.filter(|_| c.evidence.refitted()) {
         let what = s.what_matters();
         words.push(if what.is_empty() {
             "below every size threshold".into()

@@ -8,7 +8,7 @@
 use crate::effect_sizes::{candidate_verdict, size_cells, sized};
 use crate::residuals::{Figures, Written};
 use bpins_core::Param;
-use bpins_core::{Candidate, Diagnosis};
+use bpins_core::{Candidate, Diagnosis, Evidence};
 use serde::Serialize;
 
 const TEMPLATE: &str = include_str!("templates/diagnosis.html");
@@ -348,14 +348,13 @@ fn ranking(d: &Diagnosis, step: usize, r: &[Candidate]) -> RankingView {
             class: if c.delta_bic > threshold { "yes" } else { "no" },
             how: if !c.identifiable {
                 "cannot be told from the nuisances"
-            } else if c.bounded {
-                "refitted on every third row and column; scored on every pixel, below the threshold even at twice that Δχ² (not converged)"
-            } else if c.refitted && c.every_pixel {
-                "refitted on every pixel"
-            } else if c.refitted {
-                "refitted on every third row and column (clearly behind the leader)"
             } else {
-                "score test on every third row and column"
+                match c.evidence {
+                    Evidence::EveryPixelScore => "refitted on every third row and column; scored on every pixel, below the threshold even at twice that Δχ² (not converged)",
+                    Evidence::EveryPixelRefit => "refitted on every pixel",
+                    Evidence::SubsampleRefit => "refitted on every third row and column (clearly behind the leader)",
+                    Evidence::Score => "score test on every third row and column",
+                }
             },
             params: c
                 .params

@@ -92,6 +92,7 @@ mod heading;
 mod lab;
 #[cfg(feature = "io")]
 mod locate;
+mod lsq;
 mod maps;
 mod math;
 mod montecarlo;
@@ -164,8 +165,8 @@ pub use capture::{CaptureWriter, LabFrame, LensSpec, SensorSpec};
 pub use diagnose::{
     pairs::Confusable,
     remains::{Remains, Unexplained},
-    sizes::{EffectSize, MinSize, Thresholds},
-    Candidate, Step,
+    sizes::{EffectSize, MinSize, OutsidePhysical, Thresholds},
+    Candidate, Evidence, Step,
 };
 /// The parts of a [`FitResult`] and of [`FitOptions`]: parameters, per-frame fits, profiles, trends.
 #[cfg(feature = "io")]

@@ -19,7 +19,7 @@ fn clean_sample_needs_no_effect_and_nothing_remains() {
     let d = run("clean", 1);
     assert!(d.selected.is_empty(), "selected {:?}", d.selected);
     assert!(!d.unexplained(), "{}", d.summary());
-    assert!(d.rankings[0].iter().filter(|c| c.refitted).all(|c| c.delta_bic < 10.0), "{:?}", d.rankings[0]);
+    assert!(d.rankings[0].iter().filter(|c| c.evidence.refitted()).all(|c| c.delta_bic < 10.0), "{:?}", d.rankings[0]);
 }
 
 #[test]

@@ -140,7 +140,7 @@ fn partial_only(d: &Diagnosis) -> Vec<String> {
 fn negative_offsets_flagged(d: &Diagnosis, effect: &str) -> bool {
     d.rankings.iter().flatten().filter(|c| c.effect == effect).any(|c| {
         let negative = c.params.iter().filter(|p| p.name.contains("offset") && p.value < -50.0).count();
-        negative == 4 && c.outside_physical.iter().filter(|w| w.contains("offset")).count() == 4
+        negative == 4 && c.outside_physical.iter().filter(|w| w.name.contains("offset")).count() == 4
     })
 }
 
@@ -172,7 +172,7 @@ fn a_veil_brought_to_the_noise_only_by_unphysical_offsets_is_unexplained() {
     let last = &d.steps.last().unwrap().fit;
     assert!(last.chi2_per_dof <= d.remains.noise_limit, "not at the noise: χ²/dof {}", last.chi2_per_dof);
     assert!(d.remains.unexplained.is_none(), "a structured residual remains: {}", d.summary());
-    assert!(d.remains.unphysical.iter().any(|w| w.starts_with("channel_response.offset")), "{:?}", d.remains);
+    assert!(d.remains.unphysical.iter().any(|w| w.name.starts_with("channel_response.offset")), "{:?}", d.remains);
     let problems = partial_only(&d);
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }

@@ -124,9 +124,13 @@ pub fn fit<'py>(
 /// `max_added`, the most effects added. Returns the dict `bpins diagnose` writes as
 /// diagnosis.json: "selected" (effect names named, in order), "negligible" (effects
 /// detected but too small to matter), "steps" (each "model" beside a fit.json's
-/// fields), "rankings" (the candidates of each step with delta_chi2, delta_bic and
-/// "size": heading, AoP, DoLP and DN change), "inseparable" ([effect, reason] pairs),
-/// "confusable" (pairs: first, second, what separates them),
+/// fields), "rankings" (the candidates of each step with delta_chi2, delta_bic,
+/// "evidence" ("score", "subsample_refit", "every_pixel_score" or "every_pixel_refit":
+/// what those figures rest on), "size" (heading, AoP, DoLP and DN change) and
+/// "outside_physical" (each fitted value outside its physical range as numbers: name,
+/// value, sigma, min, max, unit, and the same in "words")), "remains" (what the final
+/// model leaves; its "unphysical" as "outside_physical"), "inseparable" ([effect,
+/// reason] pairs), "confusable" (pairs: first, second, what separates them),
 /// "unexplained" (bool) and "unexplained_summary" (words). The GIL is released.
 #[pyfunction]
 #[pyo3(signature = (capture, effects=None, *, max_added=3, calibration=None, fixed_dmax=None,

@@ -42,6 +42,7 @@
 //! may stand in for something outside the catalog, and every named effect is then
 //! possibly compensating.
 
+mod evidence;
 mod json;
 pub mod pairs;
 mod raise;
@@ -55,12 +56,14 @@ use crate::error::Result;
 use crate::fit::uncertainty::score::score_candidates;
 use crate::fit::{fit_from, residual_maps_of, FitFrames, FitOptions, FitResult, Param};
 use crate::sensor::Layout;
+pub use evidence::Evidence;
+use evidence::{beyond_noise, Share};
 pub use json::DiagnosisJson;
 use pairs::{confusable, Confusable};
 pub use refits::CLOSE_MARGIN;
-use refits::{base_on_subsample, bound_on_every_pixel, converge, next_to_converge, refit_on_subsample};
+use refits::{base_on_subsample, bound_on_every_pixel, converge, next_to_converge, refit_on_subsample, Refit, Stage};
 use remains::Remains;
-use sizes::{EffectSize, MinSize};
+use sizes::{EffectSize, MinSize, OutsidePhysical};
 
 /// How the search runs.
 #[derive(Clone, Debug)]
@@ -128,23 +131,15 @@ pub struct Candidate {
     /// Predicted (score test) Δχ².
     #[serde(rename = "score_delta_chi2")]
     pub score: f64,
-    /// Real Δχ² where refitted (on every pixel, or on the scoring subsample where
-    /// `every_pixel` is false), else the prediction.
+    /// Real Δχ² where refitted (on every pixel, or on the scoring subsample: its
+    /// `evidence` says which), else the prediction.
     pub delta_chi2: f64,
     pub delta_bic: f64,
-    pub refitted: bool,
-    /// Whether its figures are from every pixel (converged there: the leader of its
-    /// step and any close to it) or from the scoring subsample (a score, or a refit
-    /// ranked there, clearly behind the leader; on the score's scale, 1/9 of the
-    /// pixels).
-    pub every_pixel: bool,
-    /// Its every-pixel figures are its score test's there (one Gauss–Newton step from
-    /// the model, not a converged refit): refitted on the subsample, where that could
-    /// not tell whether it passes on every pixel, it was scored on every pixel and stays
-    /// below the threshold even at twice that Δχ² (`diagnose::refits`), so it was not
-    /// converged.
-    #[serde(rename = "bounded_by_every_pixel_score")]
-    pub bounded: bool,
+    /// What its figures rest on: its score test on the scoring subsample, a refit ranked
+    /// there (on the score's scale, 1/9 of the pixels), or every pixel — the score test
+    /// there bounding it below the threshold, or a refit converged there (the leader of
+    /// its step and any close to it).
+    pub evidence: Evidence,
     /// False where the data cannot tell it from the model's other parameters.
     pub identifiable: bool,
     /// Independent combinations of its parameters the data constrain beside the
@@ -155,8 +150,9 @@ pub struct Candidate {
     pub params: Vec<Param>,
     /// What it changes in the user's units (`sizes`); `None` where unidentifiable.
     pub size: Option<EffectSize>,
-    /// Its fitted values outside the range a real instrument or sky has, in words.
-    pub outside_physical: Vec<String>,
+    /// Its fitted values outside the range a real instrument or sky has, as numbers
+    /// (value, 1σ, range, unit) with the words.
+    pub outside_physical: Vec<OutsidePhysical>,
 }
 
 impl Candidate {
@@ -218,8 +214,8 @@ impl Diagnosis {
         named && (self.unexplained() || self.outside_physical(effect).next().is_some())
     }
 
-    /// The final model's fitted values of `effect` outside the physical range, in words.
-    pub fn outside_physical(&self, effect: &str) -> impl Iterator<Item = String> + '_ {
+    /// The final model's fitted values of `effect` outside the physical range.
+    pub fn outside_physical(&self, effect: &str) -> impl Iterator<Item = OutsidePhysical> + '_ {
         let params = self.steps.last().map_or(&[][..], |s| &s.fit.params[..]);
         let own: Vec<Param> = params.iter().filter(|p| p.id.effect == effect).cloned().collect();
         sizes::outside_physical(&own).into_iter()
@@ -234,16 +230,6 @@ fn effects_with_why<S: serde::Serializer>(v: &[(&'static str, String)], s: S) ->
         why: &'a str,
     }
     s.collect_seq(v.iter().map(|(effect, why)| EffectWhy { effect, why }))
-}
-
-/// ΔBIC of a refit that lowered χ² by `delta_chi2` with `k` more constrained
-/// combinations, at the effective sample count of the model it adds to (`base`):
-/// where that model's residual is smooth, Δχ² counts for n_eff/n of itself (the same
-/// factor for every candidate of a step, so it does not reorder them by noise in n_eff).
-fn delta_bic(delta_chi2: f64, k: usize, base: &FitResult) -> f64 {
-    let n = base.samples.max(2) as f64;
-    let n_eff = base.n_eff.clamp(2.0, n);
-    delta_chi2 * n_eff / n - k as f64 * n_eff.ln()
 }
 
 /// Runs the diagnosis on every pixel of `frames`; `progress(what)` as it goes.
@@ -295,6 +281,10 @@ pub fn diagnose_frames(
         // so it is compared with k·ln n of that subsample.
         progress(&format!("scoring {} candidates", candidates.len()));
         let scores = score_candidates(c, frames, &model, &current, &candidates, opts.score_stride, SCORE_PROBE)?;
+        // ΔBIC at the effective sample count of the model a candidate adds to: where its
+        // residual is smooth, Δχ² counts for n_eff/n of itself (the same factor for every
+        // candidate of a step, so it does not reorder them by noise in n_eff).
+        let share = Share::of(&current);
         let mut ranking = Vec::new();
         for (e, s) in candidates.iter().zip(scores) {
             ranking.push(Candidate {
@@ -302,13 +292,8 @@ pub fn diagnose_frames(
                 score: s.delta_chi2,
                 delta_chi2: s.delta_chi2,
                 // At the subsample's share of the model's effective sample count.
-                delta_bic: {
-                    let f = (current.n_eff / current.samples.max(1) as f64).clamp(0.0, 1.0);
-                    s.delta_chi2 * f - s.added_rank as f64 * (f * s.samples as f64).max(2.0).ln()
-                },
-                refitted: false,
-                every_pixel: false,
-                bounded: false,
+                delta_bic: share.sub_delta_bic(s.delta_chi2, s.added_rank, s.samples as f64),
+                evidence: Evidence::Score,
                 identifiable: s.identifiable,
                 added_rank: s.added_rank,
                 params: s.params,
@@ -324,13 +309,9 @@ pub fn diagnose_frames(
         let mut refits = Vec::new();
         let worth: Vec<&'static str> = ranking
             .iter()
-            .filter(|c| {
-                // The strongest by predicted ΔBIC (a candidate with more parameters
-                // than an equal rival pays for them) where the score is beyond noise:
-                // under the null it is χ²_k (mean k, σ √(2k)); a refit needs it 3σ above.
-                let k = c.added_rank.max(1) as f64;
-                c.identifiable && c.score > k + 3.0 * (2.0 * k).sqrt()
-            })
+            // The strongest by predicted ΔBIC (a candidate with more parameters than an
+            // equal rival pays for them) where the score is beyond its noise.
+            .filter(|c| c.identifiable && beyond_noise(c.score, c.added_rank))
             .take(opts.refit_top)
             .map(|c| c.effect)
             .collect();
@@ -350,14 +331,13 @@ pub fn diagnose_frames(
         let by_evidence = |ranking: &mut Vec<Candidate>| {
             // Every pixel first, then refitted on the subsample, then the rest by score.
             ranking.sort_by(|a, b| {
-                (b.refitted && b.every_pixel)
-                    .cmp(&(a.refitted && a.every_pixel))
-                    .then(b.refitted.cmp(&a.refitted))
+                b.evidence
+                    .tier()
+                    .cmp(&a.evidence.tier())
                     .then(b.identifiable.cmp(&a.identifiable))
                     .then(b.delta_bic.total_cmp(&a.delta_bic))
             })
         };
-        let full_bic = |dc: f64, k: usize| delta_bic(dc, k, &current);
         if let Some((_, scale)) = &base_sub {
             // Where the subsample cannot tell whether its leader passes on every pixel,
             // the refits' score tests there bound them first (one pass for all).
@@ -365,32 +345,37 @@ pub fn diagnose_frames(
                 .filter(|&i| !scale.clearly_passes(refits[i].sub_delta_chi2, refits[i].sub_rank));
             if unsettled.is_some() {
                 progress("scoring the refits on every pixel");
-                bound_on_every_pixel(c, frames, &model, &current, &mut refits, &mut ranking, full_bic)?;
+                bound_on_every_pixel(c, frames, &model, &current, &mut refits, &mut ranking)?;
             }
             while let Some(i) = next_to_converge(&refits, &ranking, scale) {
                 progress(&format!("refitting with {} on every pixel", refits[i].effect));
                 let cand = ranking.iter_mut().find(|c| c.effect == refits[i].effect).expect("ranked");
-                converge(c, frames, &current, &mut refits[i], cand, full_bic)?;
+                converge(c, frames, &current, &mut refits[i], cand)?;
             }
         }
         by_evidence(&mut ranking);
         let excess = (current.chi2 - current.dof).max(0.0);
-        let evident = |c: &Candidate| c.refitted && c.every_pixel && c.delta_bic > BIC_THRESHOLD;
+        // Decided on every pixel: converged there (a candidate bounded by its every-pixel
+        // score is below the threshold by construction).
+        let evident = |c: &Candidate| c.evidence.converged() && c.delta_bic > BIC_THRESHOLD;
         let explains = |c: &Candidate| evident(c) && c.delta_chi2 >= EXCESS_FRACTION * excess;
         // Where the leader is evident but does not explain half alone, the runner-up
         // is converged on every pixel too (the two together are tried on every-pixel
         // evidence).
         loop {
             let pending = match (ranking.first(), ranking.get(1)) {
-                (Some(b), Some(r)) if evident(b) && !explains(b) && r.refitted && !r.every_pixel && r.identifiable => {
-                    r.effect
+                (Some(b), Some(r))
+                    if evident(b) && !explains(b) && r.evidence == Evidence::SubsampleRefit && r.identifiable =>
+                {
+                    refits.iter().position(|x| x.effect == r.effect)
                 }
-                _ => break,
+                _ => None,
             };
+            let Some(i) = pending else { break };
+            let pending = refits[i].effect;
             progress(&format!("refitting with {pending} on every pixel"));
-            let i = refits.iter().position(|r| r.effect == pending).expect("refitted");
             let cand = ranking.iter_mut().find(|c| c.effect == pending).expect("ranked");
-            converge(c, frames, &current, &mut refits[i], cand, full_bic)?;
+            converge(c, frames, &current, &mut refits[i], cand)?;
             by_evidence(&mut ranking);
         }
         progress("sizing the candidates");
@@ -399,7 +384,7 @@ pub fn diagnose_frames(
         let best = ranking.first().cloned();
         let runner = ranking.get(1).cloned();
         d.rankings.push(ranking);
-        for cand in d.rankings.last().expect("pushed").iter().filter(|c| !c.identifiable && !c.refitted) {
+        for cand in d.rankings.last().expect("pushed").iter().filter(|c| !c.identifiable && !c.evidence.refitted()) {
             if !d.inseparable.iter().any(|(n, _)| *n == cand.effect) {
                 let why =
                     "the data cannot tell it from the fit's other parameters (it adds no constrained combination)";
@@ -410,9 +395,14 @@ pub fn diagnose_frames(
         if explains(&best) {
             let f = current.n_eff / current.samples.max(1) as f64;
             let pair = runner.filter(|r| explains(r) && confusable(&best, r, f));
-            let refit = refits.into_iter().find(|r| r.effect == best.effect).expect("refitted");
-            model = refit.model;
-            current = refit.full.expect("converged on every pixel");
+            // Evident: converged on every pixel, so its refit holds that fit.
+            let Some(Refit { model: m, stage: Stage::Converged(full), .. }) =
+                refits.into_iter().find(|r| r.effect == best.effect)
+            else {
+                break;
+            };
+            model = m;
+            current = *full;
             match pair {
                 Some(r) => d.confusable.push(Confusable::new(best.effect, r.effect)),
                 None if best.matters() => d.selected.push(best.effect),
@@ -431,7 +421,7 @@ pub fn diagnose_frames(
             let r = fit_from(c, frames, &m, Some(&start), &|_, _| {})?;
             let dc = current.chi2 - r.chi2;
             let k = r.rank.saturating_sub(current.rank);
-            if dc < EXCESS_FRACTION * excess || delta_bic(dc, k, &current) < 2.0 * BIC_THRESHOLD {
+            if dc < EXCESS_FRACTION * excess || share.delta_bic(dc, k) < 2.0 * BIC_THRESHOLD {
                 break;
             }
             model = m;
@@ -500,8 +490,10 @@ mod tests {
         assert_eq!(d.outside_physical("focal_length").count(), 0);
         let d = named_focal_length(0.2);
         assert!(d.possibly_compensating("focal_length"));
-        let words: Vec<String> = d.outside_physical("focal_length").collect();
-        assert_eq!(words, vec!["focal_length.scale = 0.2000 1 outside the physical -0.05…0.05".to_string()]);
+        let out: Vec<OutsidePhysical> = d.outside_physical("focal_length").collect();
+        assert_eq!(out.len(), 1);
+        assert_eq!((out[0].value, out[0].min, out[0].max, out[0].unit), (0.2, -0.05, 0.05, "1"));
+        assert_eq!(out[0].words, "focal_length.scale = 0.2000 1 outside the physical -0.05…0.05");
         // Only what was named is marked.
         assert!(!d.possibly_compensating("mount_tilt"));
     }

@@ -36,6 +36,7 @@
 //! Units: χ² and ΔBIC have none.
 
 use crate::capture::Capture;
+use crate::diagnose::evidence::{delta_bic, Evidence, Share};
 use crate::diagnose::{Candidate, BIC_THRESHOLD, SCORE_PROBE};
 use crate::error::Result;
 use crate::fit::input::frames::FitFrames;
@@ -51,33 +52,30 @@ pub const CLOSE_MARGIN: f64 = 5.0;
 /// How subsample figures scale to every pixel, from the base model of a step: its
 /// every-pixel fit and its subsampled optimum.
 pub(crate) struct Scale {
-    /// n_eff/n of the base model's every-pixel residual.
-    f: f64,
+    /// n_eff/n of the base model's every-pixel residual, and n_eff.
+    share: Share,
     /// Samples of every pixel over samples of the subsample.
     ratio: f64,
     /// Samples of the subsample.
     n_sub: f64,
-    /// Effective samples of every pixel.
-    n_eff: f64,
 }
 
 impl Scale {
     pub fn of(base: &FitResult, sub: &SubFit) -> Scale {
         let n = base.samples.max(2) as f64;
-        let n_eff = base.n_eff.clamp(2.0, n);
-        Scale { f: n_eff / n, ratio: n / sub.samples.max(1) as f64, n_sub: sub.samples.max(1) as f64, n_eff }
+        Scale { share: Share::of(base), ratio: n / sub.samples.max(1) as f64, n_sub: sub.samples.max(1) as f64 }
     }
 
     /// ΔBIC on the subsample (the score's scale, `diagnose`'s ranking of scores).
     pub fn sub_bic(&self, delta_chi2: f64, k: usize) -> f64 {
-        delta_chi2 * self.f - k as f64 * (self.f * self.n_sub).max(2.0).ln()
+        self.share.sub_delta_bic(delta_chi2, k, self.n_sub)
     }
 
     /// The every-pixel ΔBIC a subsampled Δχ² projects, and its 3σ spread.
     fn projected(&self, delta_chi2: f64, k: usize) -> (f64, f64) {
-        let fr = self.f * self.ratio;
+        let fr = self.share.f * self.ratio;
         let spread = 3.0 * fr * (2.0 * delta_chi2.max(0.0).sqrt() + (2.0 * k as f64).sqrt());
-        (delta_chi2 * fr - k as f64 * self.n_eff.ln(), spread)
+        (delta_bic(delta_chi2, k, fr, self.share.n_eff), spread)
     }
 
     /// Whether a subsampled refit (Δχ²_sub, k) passes [`BIC_THRESHOLD`] on every pixel
@@ -96,8 +94,8 @@ impl Scale {
     }
 }
 
-/// One candidate's refit: its model, its subsampled optimum and, where converged,
-/// its every-pixel fit.
+/// One candidate's refit: its model, its subsampled optimum and how far it went since
+/// ([`Stage`]: its candidate's [`Evidence`], with the every-pixel fit where converged).
 pub(crate) struct Refit {
     pub effect: &'static str,
     pub model: FitOptions,
@@ -106,9 +104,33 @@ pub(crate) struct Refit {
     pub sub_delta_chi2: f64,
     /// Constrained combinations it adds on the subsample.
     pub sub_rank: usize,
-    pub full: Option<FitResult>,
-    /// Bounded below the threshold by its every-pixel score test (not converged).
-    pub bounded: bool,
+    pub stage: Stage,
+}
+
+/// How far a refit went beyond the subsample.
+pub(crate) enum Stage {
+    /// Only on the subsample ([`Evidence::SubsampleRefit`]).
+    Subsample,
+    /// Bounded below the threshold by its every-pixel score test, not converged
+    /// ([`Evidence::EveryPixelScore`]).
+    Bounded,
+    /// Converged on every pixel, with that fit ([`Evidence::EveryPixelRefit`]).
+    Converged(Box<FitResult>),
+}
+
+impl Refit {
+    /// Its every-pixel fit, where converged.
+    pub fn full(&self) -> Option<&FitResult> {
+        match &self.stage {
+            Stage::Converged(full) => Some(full),
+            _ => None,
+        }
+    }
+
+    /// Neither converged nor bounded on every pixel.
+    fn open(&self) -> bool {
+        matches!(self.stage, Stage::Subsample)
+    }
 }
 
 /// The base model of a step on the subsample, and how its figures scale.
@@ -147,37 +169,35 @@ pub(crate) fn refit_on_subsample(
     cand.identifiable = sub_rank > 0;
     cand.delta_chi2 = sub_delta_chi2;
     cand.delta_bic = scale.sub_bic(sub_delta_chi2, sub_rank);
-    cand.refitted = true;
-    cand.every_pixel = false;
+    cand.evidence = Evidence::SubsampleRefit;
     cand.params = sub.params.iter().filter(|p| p.id.effect == cand.effect).cloned().collect();
-    Ok(Refit { effect: cand.effect, model: m, sub, sub_delta_chi2, sub_rank, full: None, bounded: false })
+    Ok(Refit { effect: cand.effect, model: m, sub, sub_delta_chi2, sub_rank, stage: Stage::Subsample })
 }
 
 /// Converges `refit` on every pixel from its subsampled optimum and fills its
-/// candidate's figures from that fit (`delta_bic(Δχ², k)`: the every-pixel ΔBIC).
+/// candidate's figures from that fit (the every-pixel ΔBIC against `current`).
 pub(crate) fn converge(
     c: &Capture,
     frames: &FitFrames,
     current: &FitResult,
     refit: &mut Refit,
     cand: &mut Candidate,
-    delta_bic: impl Fn(f64, usize) -> f64,
 ) -> Result<()> {
     let r = fit_from(c, frames, &refit.model, Some(&refit.sub.state), &|_, _| {})?;
     cand.added_rank = r.rank.saturating_sub(current.rank);
     cand.identifiable = cand.added_rank > 0;
     cand.delta_chi2 = current.chi2 - r.chi2;
-    cand.delta_bic = delta_bic(cand.delta_chi2, cand.added_rank);
-    cand.every_pixel = true;
+    cand.delta_bic = Share::of(current).delta_bic(cand.delta_chi2, cand.added_rank);
+    cand.evidence = Evidence::EveryPixelRefit;
     cand.params = r.params.iter().filter(|p| p.id.effect == cand.effect).cloned().collect();
-    refit.full = Some(r);
+    refit.stage = Stage::Converged(Box::new(r));
     Ok(())
 }
 
 /// Scores the refits not yet converged or bounded on every pixel (one pass, at the
-/// model's every-pixel optimum `current`) and bounds each whose ΔBIC (`delta_bic(Δχ²,
-/// k)`, every pixel) stays below [`BIC_THRESHOLD`] at twice its one-step Δχ²: its
-/// candidate then carries the score's every-pixel figures and `bounded`.
+/// model's every-pixel optimum `current`) and bounds each whose every-pixel ΔBIC stays
+/// below [`BIC_THRESHOLD`] at twice its one-step Δχ²: its candidate then carries the
+/// score's every-pixel figures ([`Evidence::EveryPixelScore`]).
 pub(crate) fn bound_on_every_pixel(
     c: &Capture,
     frames: &FitFrames,
@@ -185,26 +205,25 @@ pub(crate) fn bound_on_every_pixel(
     current: &FitResult,
     refits: &mut [Refit],
     ranking: &mut [Candidate],
-    delta_bic: impl Fn(f64, usize) -> f64,
 ) -> Result<()> {
-    let open: Vec<usize> = (0..refits.len()).filter(|&i| refits[i].full.is_none() && !refits[i].bounded).collect();
+    let share = Share::of(current);
+    let open: Vec<usize> = (0..refits.len()).filter(|&i| refits[i].open()).collect();
     let effects = open.iter().map(|&i| crate::effects::find(refits[i].effect)).collect::<Result<Vec<_>>>()?;
     if effects.is_empty() {
         return Ok(());
     }
     let scores = score_candidates(c, frames, model, current, &effects, 1, SCORE_PROBE)?;
     for (&i, s) in open.iter().zip(scores) {
-        if s.added_rank == 0 || delta_bic(2.0 * s.delta_chi2, s.added_rank) >= BIC_THRESHOLD {
+        if s.added_rank == 0 || share.delta_bic(2.0 * s.delta_chi2, s.added_rank) >= BIC_THRESHOLD {
             continue;
         }
         let r = &mut refits[i];
-        r.bounded = true;
+        r.stage = Stage::Bounded;
         let cand = ranking.iter_mut().find(|c| c.effect == r.effect).expect("a ranked candidate");
         cand.delta_chi2 = s.delta_chi2;
         cand.added_rank = s.added_rank;
-        cand.delta_bic = delta_bic(s.delta_chi2, s.added_rank);
-        cand.every_pixel = true;
-        cand.bounded = true;
+        cand.delta_bic = share.delta_bic(s.delta_chi2, s.added_rank);
+        cand.evidence = Evidence::EveryPixelScore;
         cand.params = s.params;
     }
     Ok(())
@@ -217,15 +236,11 @@ pub(crate) fn next_to_converge(refits: &[Refit], ranking: &[Candidate], scale: &
     let cand = |r: &Refit| ranking.iter().find(|c| c.effect == r.effect).expect("a ranked candidate");
     let best_full = refits
         .iter()
-        .filter(|r| r.full.is_some() && cand(r).identifiable)
+        .filter(|r| r.full().is_some() && cand(r).identifiable)
         .max_by(|a, b| cand(a).delta_bic.total_cmp(&cand(b).delta_bic));
-    let (i, next) = refits
-        .iter()
-        .enumerate()
-        .filter(|(_, r)| r.full.is_none() && !r.bounded && r.sub_rank > 0)
-        .max_by(|a, b| {
-            scale.sub_bic(a.1.sub_delta_chi2, a.1.sub_rank).total_cmp(&scale.sub_bic(b.1.sub_delta_chi2, b.1.sub_rank))
-        })?;
+    let (i, next) = refits.iter().enumerate().filter(|(_, r)| r.open() && r.sub_rank > 0).max_by(|a, b| {
+        scale.sub_bic(a.1.sub_delta_chi2, a.1.sub_rank).total_cmp(&scale.sub_bic(b.1.sub_delta_chi2, b.1.sub_rank))
+    })?;
     match best_full {
         None => Some(i),
         Some(b) => scale.close((b.sub_delta_chi2, b.sub_rank), (next.sub_delta_chi2, next.sub_rank)).then_some(i),
@@ -240,7 +255,7 @@ mod tests {
     /// effective share `f`.
     fn scale(f: f64) -> Scale {
         let n = 2.5e6;
-        Scale { f, ratio: n / 2.8e5, n_sub: 2.8e5, n_eff: f * n }
+        Scale { share: Share { f, n_eff: f * n }, ratio: n / 2.8e5, n_sub: 2.8e5 }
     }
 
     #[test]

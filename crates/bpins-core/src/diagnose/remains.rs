@@ -10,6 +10,7 @@
 //! as a clean finding. Such a capture is unexplained too ([`Remains::is_unexplained`]),
 //! and everything the search named is possibly compensating.
 
+use crate::diagnose::sizes::OutsidePhysical;
 use crate::diagnose::{BIC_THRESHOLD, EXCESS_FRACTION};
 use crate::fit::output::profiles::{trends, Axis, Profile, ProfileBin, Trend};
 
@@ -27,9 +28,10 @@ pub struct Remains {
     pub named: Vec<String>,
     pub negligible: Vec<&'static str>,
     /// The final model's fitted values of the effects the search added that lie
-    /// outside their physical range by more than 3σ (`sizes::excluded_physical`), in
-    /// words: where any is, the capture is unexplained whatever its χ²/dof.
-    pub unphysical: Vec<String>,
+    /// outside their physical range by more than 3σ (`sizes::excluded_physical`): each
+    /// value, 1σ and range as numbers, with the words. Where any is, the capture is
+    /// unexplained whatever its χ²/dof.
+    pub unphysical: Vec<OutsidePhysical>,
 }
 
 /// Where an unexplained residual lies.
@@ -101,7 +103,7 @@ impl Remains {
 
     /// The same, with the fitted values no real instrument or sky has
     /// ([`Remains::unphysical`]).
-    pub fn with_unphysical(self, unphysical: Vec<String>) -> Remains {
+    pub fn with_unphysical(self, unphysical: Vec<OutsidePhysical>) -> Remains {
         Remains { unphysical, ..self }
     }
 
@@ -143,7 +145,7 @@ impl std::fmt::Display for Remains {
                      3σ): the catalog does not explain this capture, and {named} may stand in for an effect outside \
                      it; nothing named is a finding.",
                     if self.named.len() > 1 { "are" } else { "is" },
-                    self.unphysical.join("; ")
+                    words(&self.unphysical)
                 );
             }
             if self.named.is_empty() {
@@ -214,11 +216,16 @@ impl std::fmt::Display for Remains {
             write!(
                 f,
                 " Values no real instrument or sky has (each beyond 3σ of its physical range): {}.",
-                self.unphysical.join("; ")
+                words(&self.unphysical)
             )?;
         }
         Ok(())
     }
+}
+
+/// Values outside their physical range, in words, `; `-separated.
+fn words(v: &[OutsidePhysical]) -> String {
+    v.iter().map(|x| x.words.as_str()).collect::<Vec<_>>().join("; ")
 }
 
 #[cfg(test)]
@@ -273,7 +280,7 @@ mod tests {
         assert!(pair.to_string().contains("once window or lens_diattenuation is modelled"), "{pair}");
         assert!(!pair.is_unexplained());
         // At the noise only with a value no real sensor has: unexplained, and no finding.
-        let offsets = "channel_response.offset0_dn = 466.5387 DN outside the physical -50…50".to_string();
+        let offsets = OutsidePhysical::new("channel_response.offset0_dn", 466.538_71, 1.2, "DN", (-50.0, 50.0));
         let glare = Remains::within_noise(0.970, 1.02, &["channel_response", "principal_point"], &[], &[])
             .with_unphysical(vec![offsets]);
         assert!(glare.is_unexplained());

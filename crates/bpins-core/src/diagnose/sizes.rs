@@ -40,6 +40,8 @@
 
 use crate::capture::Capture;
 use crate::conventions::wrap_deg_180;
+use crate::diagnose::evidence::beyond_noise;
+use crate::diagnose::refits::{Refit, Stage};
 use crate::error::Result;
 use crate::fit::input::frames::FitFrames;
 use crate::fit::output::contrast::effect_change;
@@ -215,9 +217,11 @@ mod tests {
                         continue;
                     }
                     narrower += 1;
-                    let words = outside_physical(&[param(e, p, beyond)]);
-                    assert_eq!(words.len(), 1, "{}.{} = {beyond}", e.name, p.name);
-                    assert!(words[0].starts_with(&format!("{}.{} = ", e.name, p.name)), "{}", words[0]);
+                    let out = outside_physical(&[param(e, p, beyond)]);
+                    assert_eq!(out.len(), 1, "{}.{} = {beyond}", e.name, p.name);
+                    assert_eq!(out[0].name, format!("{}.{}", e.name, p.name));
+                    assert!(out[0].words.starts_with(&format!("{}.{} = ", e.name, p.name)), "{}", out[0]);
+                    assert_eq!((out[0].value, out[0].min, out[0].max, out[0].unit), (beyond, lo, hi, p.unit));
                 }
             }
         }
@@ -227,7 +231,15 @@ mod tests {
         // E.g. a focal length 20 % off its nominal one: beyond ±5 %.
         let f = crate::effects::find("focal_length").unwrap();
         let w = outside_physical(&[param(f, &f.params[0], 0.2)]);
-        assert_eq!(w, vec!["focal_length.scale = 0.2000 1 outside the physical -0.05…0.05".to_string()]);
+        assert_eq!(w.len(), 1);
+        assert_eq!(w[0].to_string(), "focal_length.scale = 0.2000 1 outside the physical -0.05…0.05");
+        // As numbers in JSON, the words beside them.
+        let json = serde_json::to_value(&w[0]).unwrap();
+        assert_eq!(
+            json,
+            serde_json::json!({"name": "focal_length.scale", "value": 0.2, "sigma": 0.0, "min": -0.05, "max": 0.05,
+                "unit": "1", "words": "focal_length.scale = 0.2000 1 outside the physical -0.05…0.05"})
+        );
     }
 
     #[test]
@@ -267,7 +279,7 @@ pub(crate) fn fill(
     frames: &FitFrames,
     model: &FitOptions,
     current: &FitResult,
-    refits: &[crate::diagnose::refits::Refit],
+    refits: &[Refit],
     base_sub: Option<&FitState>,
     ranking: &mut [crate::diagnose::Candidate],
     given: &MinSize,
@@ -277,16 +289,14 @@ pub(crate) fn fill(
     for cand in ranking.iter_mut() {
         cand.outside_physical = outside_physical(&cand.params);
         let refit = refits.iter().find(|r| r.effect == cand.effect);
-        // A score within its noise (χ²_k: below k + 3√(2k), the refit's bar) shows no
-        // effect to size: its one-step parameters are noise, and for an effect that
-        // enters at second order the linear step is far off besides.
-        let k = cand.added_rank.max(1) as f64;
-        if !cand.identifiable || (refit.is_none() && cand.score <= k + 3.0 * (2.0 * k).sqrt()) {
+        // A score within its noise (the refit's bar) shows no effect to size: its
+        // one-step parameters are noise, and for an effect that enters at second order
+        // the linear step is far off besides.
+        if !cand.identifiable || (refit.is_none() && !beyond_noise(cand.score, cand.added_rank)) {
             continue;
         }
         cand.size = Some(match refit {
-            Some(r) if r.full.is_some() => {
-                let full = r.full.as_ref().expect("converged");
+            Some(r @ Refit { stage: Stage::Converged(full), .. }) => {
                 let t = Thresholds::of(full, given);
                 size_of(c, frames, &r.model, cand.effect, &full.state, Some(&current.state), current.noise, 1, t)?
             }
@@ -306,11 +316,43 @@ pub(crate) fn fill(
     Ok(())
 }
 
+/// A fitted value outside the range a real instrument or sky has
+/// (`effects::ParamSpec::physical_range`), as numbers, and the same in words.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct OutsidePhysical {
+    /// The parameter, `effect.param`.
+    pub name: String,
+    /// Its fitted value and 1σ (`Param::sigma`: infinite, `null` in JSON, where the data
+    /// cannot tell it from others), in `unit`.
+    pub value: f64,
+    pub sigma: f64,
+    /// The physical range, in `unit`.
+    pub min: f64,
+    pub max: f64,
+    pub unit: &'static str,
+    /// The same in words: "`name` = value unit outside the physical min…max".
+    pub words: String,
+}
+
+impl OutsidePhysical {
+    /// `name` = `value` ± `sigma` (`unit`) against the physical range `(min, max)`.
+    pub fn new(name: &str, value: f64, sigma: f64, unit: &'static str, (min, max): (f64, f64)) -> OutsidePhysical {
+        let words = format!("{name} = {value:.4} {unit} outside the physical {min}…{max}");
+        OutsidePhysical { name: name.to_string(), value, sigma, min, max, unit, words }
+    }
+}
+
+impl std::fmt::Display for OutsidePhysical {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.words)
+    }
+}
+
 /// Each fitted value beyond its parameter's physical range by more than 3σ (its own
 /// 1σ, `Param::sigma`): no physical value fits the data, so the parameter stands in for
-/// something else. In words, as [`outside_physical`]. A value outside the range but
-/// within 3σ of it (a poorly constrained one) is flagged by [`outside_physical`] only.
-pub fn excluded_physical(params: &[crate::fit::Param]) -> Vec<String> {
+/// something else. As [`outside_physical`]. A value outside the range but within 3σ of
+/// it (a poorly constrained one) is flagged by [`outside_physical`] only.
+pub fn excluded_physical(params: &[crate::fit::Param]) -> Vec<OutsidePhysical> {
     let excluded: Vec<crate::fit::Param> = params
         .iter()
         .filter(|p| {
@@ -328,15 +370,14 @@ pub fn excluded_physical(params: &[crate::fit::Param]) -> Vec<String> {
 }
 
 /// Each fitted value outside its parameter's physical range
-/// (`effects::ParamSpec::physical_range`), in words.
-pub fn outside_physical(params: &[crate::fit::Param]) -> Vec<String> {
+/// (`effects::ParamSpec::physical_range`).
+pub fn outside_physical(params: &[crate::fit::Param]) -> Vec<OutsidePhysical> {
     params
         .iter()
         .filter_map(|p| {
             let spec = crate::effects::find(p.id.effect).ok()?.params.iter().find(|s| s.name == p.id.param)?;
             let (lo, hi) = spec.physical_range();
-            (p.value < lo || p.value > hi)
-                .then(|| format!("{} = {:.4} {} outside the physical {lo}…{hi}", p.name, p.value, p.unit))
+            (p.value < lo || p.value > hi).then(|| OutsidePhysical::new(&p.name, p.value, p.sigma, p.unit, (lo, hi)))
         })
         .collect()
 }

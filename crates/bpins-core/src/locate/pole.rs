@@ -15,7 +15,7 @@
 //! order, which must be time order.
 
 use super::model::bearing_sigma;
-use super::{add_shared_bias, covariance, levenberg_marquardt, LocateError, Located, Route, SunObs};
+use super::{lm, LocateError, Located, Route, SunObs};
 use crate::conventions::{enu_from_az_el_deg, wrap_deg_360};
 use glam::DVec3;
 
@@ -77,10 +77,11 @@ pub(crate) fn solve_pole(obs: &[SunObs]) -> Result<Located, LocateError> {
                 .collect(),
         )
     };
-    let (q, chi2, j) = levenberg_marquardt([b0, e0, c0], [1e-3, 1e-3, 1e-6], &f)
+    let fit = lm([1e-3, 1e-3, 1e-6])
+        .solve([b0, e0, c0], &f)
         .ok_or_else(|| LocateError::Solver("the cone fit failed".into()))?;
-    let (mut cov, chi2_per_dof) =
-        covariance(&j, chi2).ok_or_else(|| LocateError::Solver("the frames do not determine the pole".into()))?;
+    let q = fit.p;
+    let mut cov = fit.covariance().ok_or_else(|| LocateError::Solver("the frames do not determine the pole".into()))?;
     // Two errors every frame shares, which χ² cannot see: an elevation bias of about
     // one frame's 1σ (the median), and the declination's drift over the span, up to
     // 23.44°·2π/365.25 ≈ 0.40° a day, i.e. 0.40°/360° = 0.0011° per degree of hour
@@ -104,7 +105,7 @@ pub(crate) fn solve_pole(obs: &[SunObs]) -> Result<Located, LocateError> {
                 DVec3::new(-sb * sh, -cb * sh, ch).dot(p) * 1f64.to_radians() / si
             })
             .collect();
-        add_shared_bias(&mut cov, &j, &v_el, el_sigma[el_sigma.len() / 2]);
+        fit.add_shared_bias(&mut cov, &v_el, el_sigma[el_sigma.len() / 2]);
         let u0 = s[0] - p * s[0].dot(p);
         let cos_dec = (1.0 - q[2] * q[2]).max(0.0).sqrt();
         let v_drift: Vec<f64> = s
@@ -116,7 +117,7 @@ pub(crate) fn solve_pole(obs: &[SunObs]) -> Result<Located, LocateError> {
                 cos_dec * tau_deg * 1f64.to_radians() / si
             })
             .collect();
-        add_shared_bias(&mut cov, &j, &v_drift, DECLINATION_DRIFT_PER_HOUR_ANGLE);
+        fit.add_shared_bias(&mut cov, &v_drift, DECLINATION_DRIFT_PER_HOUR_ANGLE);
     }
     Ok(Located {
         route: Route::Pole,
@@ -128,7 +129,7 @@ pub(crate) fn solve_pole(obs: &[SunObs]) -> Result<Located, LocateError> {
         longitude_sigma_deg: None,
         frames_used: obs.len(),
         span_s: None,
-        chi2_per_dof,
+        chi2_per_dof: fit.chi2_per_dof(),
     })
 }
 

@@ -7,7 +7,7 @@
 //! matched by a mirror place, which the bearings' rate then tells apart).
 
 use super::model::{best_heading, residuals};
-use super::{add_shared_bias, covariance, levenberg_marquardt, LocateError, Located, Route, SunObs};
+use super::{lm, LocateError, Located, Route, SunObs};
 use crate::conventions::{wrap_deg_180, wrap_deg_360};
 
 /// Starts from the grid that the fit refines.
@@ -39,14 +39,14 @@ pub(crate) fn solve_stamped(obs: &[SunObs]) -> Result<Located, LocateError> {
         }
     }
     let f = |p: &[f64; 3]| residuals(obs, p);
-    let best = starts
+    let fit = starts
         .into_iter()
-        .filter_map(|p| levenberg_marquardt(p, [1e-3, 1e-3, 1e-3], &f))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .filter_map(|p| lm([1e-3, 1e-3, 1e-3]).solve(p, &f))
+        .min_by(|a, b| a.chi2.total_cmp(&b.chi2))
         .ok_or_else(|| LocateError::Solver("no start of the grid could be fitted".into()))?;
-    let (p, c, j) = best;
-    let (mut cov, chi2_per_dof) =
-        covariance(&j, c).ok_or_else(|| LocateError::Solver("the frames do not determine the place".into()))?;
+    let p = fit.p;
+    let mut cov =
+        fit.covariance().ok_or_else(|| LocateError::Solver("the frames do not determine the place".into()))?;
     // The elevations may share a bias (the estimator's own, a lens or sky error that
     // every frame sees alike) of about one frame's 1σ with the sky's unknown
     // neutral-point separation's part: the median's.
@@ -54,7 +54,7 @@ pub(crate) fn solve_stamped(obs: &[SunObs]) -> Result<Located, LocateError> {
     el_sigma.sort_by(f64::total_cmp);
     let shared = el_sigma[el_sigma.len() / 2];
     let v: Vec<f64> = obs.iter().flat_map(|o| [0.0, 1.0 / o.elevation_sigma_deg.max(1e-6)]).collect();
-    add_shared_bias(&mut cov, &j, &v, shared);
+    fit.add_shared_bias(&mut cov, &v, shared);
     let times: Vec<f64> = obs.iter().filter_map(|o| o.time_unix_s).collect();
     let span =
         times.iter().copied().fold(f64::NEG_INFINITY, f64::max) - times.iter().copied().fold(f64::INFINITY, f64::min);
@@ -68,6 +68,6 @@ pub(crate) fn solve_stamped(obs: &[SunObs]) -> Result<Located, LocateError> {
         longitude_sigma_deg: Some(cov[2][2].sqrt()),
         frames_used: obs.len(),
         span_s: Some(span),
-        chi2_per_dof,
+        chi2_per_dof: fit.chi2_per_dof(),
     })
 }

@@ -62,8 +62,9 @@ use super::sigma::{self, block_sums, sum_blocks, BLOCKS};
 use super::{Cells, FieldContext, FieldOptions, FieldQuality, FieldScratch, NoHeading};
 use crate::conventions::{wrap_deg_180, wrap_deg_360};
 use crate::heading::{sun_vector, Extractor, HeadingSums};
+use crate::lsq::{jackknife_sigma, Lm};
 use glam::DVec3;
-use nalgebra::{Complex, Matrix3, Vector3};
+use nalgebra::Complex;
 
 /// Rounds of step 2 at most, and the elevation step that ends them, degrees.
 const ROUNDS: usize = 6;
@@ -239,17 +240,19 @@ fn quartic_fit(sc: &Scratch, psi_deg: f64, h_deg: f64) -> Option<QuarticFit> {
         let (a, z, q) = (p[0].to_radians(), (90.0 - p[1]).to_radians(), p[2] / Q_SCALE);
         Some(cells.iter().map(|&(d, chi, sw, ..)| wrap_rad_90(chi - quartic_angle(d, a, z, q)) * sw).collect())
     };
-    let (p, chi2, jtj) = levenberg_marquardt([alpha0, h_deg, 0.0], &f)?;
+    let fit = LM.solve([alpha0, h_deg, 0.0], &f)?;
+    let p = fit.p;
     let q = p[2] / Q_SCALE;
     if !(p[1] > 0.0 && p[1] < 90.0 && q.abs() < Q_MAX) {
         return None;
     }
-    let k = (chi2 / (cells.len() as f64 - 3.0).max(1.0)).max(1.0);
-    let cov = jtj.try_inverse()? * k;
+    let k = fit.chi2_per_dof().max(1.0);
+    let cov = fit.covariance()?;
+    let jtj = fit.jtj();
     let cond = k / (jtj[(1, 1)] - jtj[(0, 1)].powi(2) / jtj[(0, 0)]);
-    let nuisance = (cov[(1, 1)] - cond).max(0.0).sqrt();
+    let nuisance = (cov[1][1] - cond).max(0.0).sqrt();
     // s = 4·asin √|q|, signed; its 1σ the step of s that q's 1σ makes beyond |q|.
-    let sigma_q = cov[(2, 2)].sqrt() / Q_SCALE;
+    let sigma_q = cov[2][2].sqrt() / Q_SCALE;
     let sep = |q: f64| 4.0 * q.abs().sqrt().min(1.0).asin().to_degrees() * q.signum();
     let separation_deg = sep(q);
     let separation_sigma_deg = sep(q.abs() + sigma_q) - sep(q.abs());
@@ -270,64 +273,10 @@ fn quartic_fit(sc: &Scratch, psi_deg: f64, h_deg: f64) -> Option<QuarticFit> {
     })
 }
 
-/// Levenberg–Marquardt on three parameters: `f(p)` the whitened residuals, a central-
-/// difference Jacobian (steps of 10⁻³). Returns the parameters, χ² and JᵀJ there.
-fn levenberg_marquardt(
-    mut p: [f64; 3],
-    f: &dyn Fn(&[f64; 3]) -> Option<Vec<f64>>,
-) -> Option<([f64; 3], f64, Matrix3<f64>)> {
-    const STEP: f64 = 1e-3;
-    let normal = |p: &[f64; 3], r: &[f64]| -> Option<(Matrix3<f64>, Vector3<f64>)> {
-        let mut cols = Vec::with_capacity(3);
-        for k in 0..3 {
-            let (mut a, mut b) = (*p, *p);
-            a[k] += STEP;
-            b[k] -= STEP;
-            let (ra, rb) = (f(&a)?, f(&b)?);
-            cols.push(ra.iter().zip(&rb).map(|(x, y)| (x - y) / (2.0 * STEP)).collect::<Vec<_>>());
-        }
-        let (mut jtj, mut g) = (Matrix3::zeros(), Vector3::zeros());
-        for (i, ri) in r.iter().enumerate() {
-            let row = [cols[0][i], cols[1][i], cols[2][i]];
-            for x in 0..3 {
-                g[x] += row[x] * ri;
-                for y in 0..3 {
-                    jtj[(x, y)] += row[x] * row[y];
-                }
-            }
-        }
-        Some((jtj, g))
-    };
-    let chi2 = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
-    let mut r = f(&p)?;
-    let mut c = chi2(&r);
-    let mut lambda = 1e-3;
-    for _ in 0..50 {
-        let (jtj, g) = normal(&p, &r)?;
-        let mut improved = false;
-        for _ in 0..10 {
-            let mut m = jtj;
-            for x in 0..3 {
-                m[(x, x)] *= 1.0 + lambda;
-            }
-            let Some(d) = m.lu().solve(&(-g)) else { break };
-            let q = [p[0] + d[0], p[1] + d[1], p[2] + d[2]];
-            if let Some(rq) = f(&q).filter(|rq| chi2(rq) < c) {
-                let small = c - chi2(&rq) < 1e-9 * c.max(1e-30);
-                (p, c, r) = (q, chi2(&rq), rq);
-                lambda = (lambda * 0.3).max(1e-9);
-                improved = !small;
-                break;
-            }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    let (jtj, _) = normal(&p, &r)?;
-    Some((p, c, jtj))
-}
+/// Step 5's Levenberg–Marquardt search ([`crate::lsq`]): central differences of 10⁻³
+/// on (α°, h°, 100·q), up to 50 Jacobians of 10 damping tries each, until a step lowers
+/// χ² by less than 10⁻⁹ of it.
+const LM: Lm<3> = Lm { step: [1e-3; 3], iterations: 50, tries: 10, rel_tol: 1e-9, ridge: 0.0 };
 
 /// Wraps an axial angle in radians to (−π/2, π/2].
 fn wrap_rad_90(a: f64) -> f64 {
@@ -380,13 +329,7 @@ fn elevation(
             dev.push(wrap_deg_180(hb - h));
         }
     }
-    let k = used.len() as f64;
-    let jack = if dev.len() >= 2 && dev.len() == used.len() {
-        let mean = dev.iter().sum::<f64>() / k;
-        ((k - 1.0) / k * dev.iter().map(|d| (d - mean).powi(2)).sum::<f64>()).sqrt()
-    } else {
-        2.0 * fit
-    };
+    let jack = if dev.len() == used.len() { jackknife_sigma(&dev) } else { None }.unwrap_or(2.0 * fit);
     let coherent = if coherent_deg.is_finite() { coherent_deg * h.to_radians().cos() } else { 0.0 };
     let data = fit.max(jack).max(coherent);
     let sigma = (data * data + misfit.powi(2) + tilt_sigma_deg.powi(2) + floor_deg.powi(2)).sqrt();
