@@ -1462,3 +1462,39 @@ fn simulate_refuses_a_bag_and_a_capture_one_inside_the_other() {
         assert!(!cap.exists(), "`bpins {}` wrote {}", r.args, cap.display());
     }
 }
+
+/// Issue 48 item 1: frames stamped with a time and place at night are read under the
+/// moon where it is up (the reader decides, and says so in every row), and refused
+/// with both bodies' elevations where neither lights the sky. (The photons are the
+/// day's here: `simulate` does not yet scale the sky to moonlight, item 2.)
+#[test]
+fn a_moonlit_frame_is_read_under_the_moon_and_a_moonless_night_is_refused_naming_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let place = ["--latitude-deg", "36.07", "--longitude-deg", "120.38"];
+    let size = ["--width-px", "306", "--height-px", "256", "--pixel-pitch-um", "27.6", "--headings-deg", "20,200"];
+    for (name, time, moon) in [("full", "2026-06-29T16:00:00Z", true), ("new", "2026-07-14T16:00:00Z", false)] {
+        let cap = s(&tmp.path().join(name));
+        let json = s(&tmp.path().join(format!("{name}.json")));
+        let mut args = vec!["simulate", "--out", &cap, "--time-utc", time];
+        args.extend_from_slice(&place);
+        args.extend_from_slice(&size);
+        bpins(&args).ok();
+        let r = bpins(&["heading", &cap, "--json", &json]).ok();
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+        for row in v["frames"].as_array().unwrap() {
+            if moon {
+                let (e, sg) = (row["error_deg"].as_f64().unwrap(), row["sigma_deg"].as_f64().unwrap());
+                assert!(e.abs() < 3.0 * sg, "{row}");
+                assert!(
+                    row["sun"].as_str().unwrap().contains("the moon (night: the sun at -30.7°), 100 % lit"),
+                    "{row}"
+                );
+            } else {
+                assert!(row["heading_deg"].is_null(), "{row}");
+                let why = row["no_heading_reason"].as_str().unwrap();
+                assert!(why.starts_with("not yet: the moon is at -") && why.contains("the sun at -"), "{why}");
+            }
+        }
+        assert!(r.stdout.contains(if moon { "the moon" } else { "not yet" }), "{}", r.stdout);
+    }
+}

@@ -6,7 +6,7 @@ use anyhow::{anyhow, bail, Context};
 use bpins_core::camera::Intrinsics;
 use bpins_core::sensor::{Channel, Layout, DEFAULT_MOSAIC};
 use bpins_core::tool::capture::load_sensor_file;
-use bpins_core::tool::sun::sun_from_unix_time;
+use bpins_core::tool::sun::source_from_unix_time;
 use bpins_core::SunPosition;
 use bpins_core::{LensSpec, SensorSpec};
 use bpins_ros::cdr::decode;
@@ -369,7 +369,7 @@ impl<'a> Frames<'a> {
         let sun = match (a.sun_azimuth_deg, a.sun_elevation_deg, self.fix.as_mut()) {
             (Some(az), Some(el), _) => Ok(SunPosition::given(az, el)),
             (_, _, Some(track)) => match place_at(track, stamp_ns, a.fix_max_age_s)? {
-                Ok((lat, lon)) => sun_from_unix_time(stamp_ns as f64 * 1e-9, lat, lon).map_err(|e| e.to_string()),
+                Ok((lat, lon)) => source_from_unix_time(stamp_ns as f64 * 1e-9, lat, lon).map_err(|e| e.to_string()),
                 Err(why) => Err(why),
             },
             _ => Err("no sun".into()),

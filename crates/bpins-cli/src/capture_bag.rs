@@ -146,7 +146,8 @@ pub fn capture_to_bag(c: &Capture, out: &Path) -> anyhow::Result<()> {
     let mut last_ns = i64::MIN;
     for (i, f) in c.frames.iter().enumerate() {
         let (t_ns, place) = match &f.sun.source {
-            SunSource::Spa { time_utc, latitude_deg, longitude_deg } => {
+            SunSource::Spa { time_utc, latitude_deg, longitude_deg }
+            | SunSource::Moon { time_utc, latitude_deg, longitude_deg, .. } => {
                 let t = chrono::DateTime::parse_from_rfc3339(time_utc)
                     .with_context(|| format!("frame {i}: time_utc {time_utc}"))?;
                 let ns = t.timestamp_nanos_opt().ok_or_else(|| anyhow!("frame {i}: {time_utc} out of range"))?;

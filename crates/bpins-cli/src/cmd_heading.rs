@@ -272,12 +272,15 @@ impl FrameSource for CaptureSource<'_> {
             visit(SourceFrame {
                 id: FrameId { file: Some(f.file.display().to_string()), ..FrameId::default() },
                 pixels: Pixels::Capture(&data),
-                sun: Ok(FrameSun {
-                    azimuth_deg: f.sun.azimuth_deg,
-                    elevation_deg: f.sun.elevation_deg,
-                    sigma_deg: f.sun_sigma_deg,
-                    source: frames::sun_source(&f.sun.source, sigma_from),
-                }),
+                sun: match frames::dark_night(&f.sun) {
+                    Some(why) => Err(why),
+                    None => Ok(FrameSun {
+                        azimuth_deg: f.sun.azimuth_deg,
+                        elevation_deg: f.sun.elevation_deg,
+                        sigma_deg: f.sun_sigma_deg,
+                        source: frames::sun_source(&f.sun.source, sigma_from),
+                    }),
+                },
                 tilt: Ok(FrameTilt {
                     tilt_x_deg: f.tilt_x_deg.unwrap_or(0.0),
                     tilt_y_deg: f.tilt_y_deg.unwrap_or(0.0),

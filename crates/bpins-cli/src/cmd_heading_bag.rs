@@ -146,7 +146,11 @@ impl FrameSource for BagSource<'_> {
                 Mosaic::U16(r) => Pixels::Dn16(r),
             };
             let sigma_deg = (args.sun_sigma_deg > 0.0).then_some(args.sun_sigma_deg);
-            let sun = f.sun.as_ref().map_err(Clone::clone).map(|s| FrameSun {
+            let sun = f.sun.as_ref().map_err(Clone::clone).and_then(|s| match frames::dark_night(s) {
+                Some(why) => Err(why),
+                None => Ok(s),
+            });
+            let sun = sun.map(|s| FrameSun {
                 azimuth_deg: s.azimuth_deg,
                 elevation_deg: s.elevation_deg,
                 sigma_deg,

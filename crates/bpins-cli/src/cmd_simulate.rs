@@ -13,7 +13,7 @@ use bpins_core::sensor::{Channel, Geometry, Layout, DEFAULT_MOSAIC};
 use bpins_core::tool::capture::write_exr_layers;
 use bpins_core::tool::pipeline::angle_maps;
 use bpins_core::tool::pipeline::{reconstruct_frame, sim_chain_frame, sim_response, ReconMode, SimSensor};
-use bpins_core::tool::sun::sun_from_time_place;
+use bpins_core::tool::sun::source_from_time_place;
 use bpins_core::ChainFrame;
 use bpins_core::SunPosition;
 use bpins_core::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
@@ -504,7 +504,7 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
     };
     let ext = if matches!(a.layout, LayoutArg::Dofp) { "png" } else { "exr" };
     let sun = match &a.time_utc {
-        Some(t) => sun_from_time_place(t, a.latitude_deg.unwrap_or(f64::NAN), a.longitude_deg.unwrap_or(f64::NAN))?,
+        Some(t) => source_from_time_place(t, a.latitude_deg.unwrap_or(f64::NAN), a.longitude_deg.unwrap_or(f64::NAN))?,
         None => SunPosition::given(a.sun_azimuth_deg, a.sun_elevation_deg),
     };
     let tilt = |t: f64| (t != 0.0).then_some(t);

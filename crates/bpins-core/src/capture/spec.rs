@@ -17,7 +17,7 @@ use super::{Capture, FrameSpec, LensSpec, SensorSpec};
 use crate::camera::Projection;
 use crate::conventions::image_centre_px;
 use crate::sensor::{Band, Channel, ColourTiles, Geometry, Layout, DEFAULT_MOSAIC};
-use crate::sky::sun::{sun_from_time_place, SunPosition};
+use crate::sky::sun::SunPosition;
 use crate::Result;
 
 /// The value of the `format` key this reader and writer implement.
@@ -351,7 +351,7 @@ fn parse_frame(p: &Path, label: &str, f: RawFrame, unplaced: bool) -> Result<Fra
             }
             let time = time_string(p, label, f.time_utc.clone())?;
             let (lat, lon) = (f.latitude_deg.unwrap_or(f64::NAN), f.longitude_deg.unwrap_or(f64::NAN));
-            sun_from_time_place(&time, lat, lon).map_err(|e| err(p, format!("{label}: {e}")))?
+            crate::sky::source_from_time_place(&time, lat, lon).map_err(|e| err(p, format!("{label}: {e}")))?
         }
     };
     Ok(frame_spec(f, sun))

@@ -117,7 +117,8 @@ pub(crate) fn to_toml(c: &Capture) -> String {
                     o.sun_azimuth_deg = Some(f.sun.azimuth_deg);
                     o.sun_elevation_deg = Some(f.sun.elevation_deg);
                 }
-                SunSource::Spa { time_utc, latitude_deg, longitude_deg } => {
+                SunSource::Spa { time_utc, latitude_deg, longitude_deg }
+                | SunSource::Moon { time_utc, latitude_deg, longitude_deg, .. } => {
                     o.time_utc = Some(time_utc.clone());
                     o.latitude_deg = Some(*latitude_deg);
                     o.longitude_deg = Some(*longitude_deg);

@@ -119,7 +119,7 @@ fn validate_sun(p: &Path, label: &str, f: &FrameSpec) -> Result<()> {
             ranges::SUN_AZIMUTH_DEG.check(p, label, f.sun.azimuth_deg)?;
             ranges::SUN_ELEVATION_DEG.check(p, label, f.sun.elevation_deg)?;
         }
-        SunSource::Spa { latitude_deg, longitude_deg, .. } => {
+        SunSource::Spa { latitude_deg, longitude_deg, .. } | SunSource::Moon { latitude_deg, longitude_deg, .. } => {
             ranges::LATITUDE_DEG.check(p, label, *latitude_deg)?;
             ranges::LONGITUDE_DEG.check(p, label, *longitude_deg)?;
         }

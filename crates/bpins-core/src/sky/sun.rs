@@ -41,6 +41,20 @@ pub enum SunSource {
         latitude_deg: f64,
         longitude_deg: f64,
     },
+    /// Night: the sun more than [`crate::sky::NIGHT_SUN_ELEVATION_DEG`] below the
+    /// horizon and the moon up, so the moonlit sky's pattern (the day's, about the
+    /// moon) is the one read: the angles are the moon's (Meeus ch. 47, `sky::moon`), from
+    /// the same time and place.
+    Moon {
+        /// RFC 3339 timestamp in UTC (`Z`).
+        time_utc: String,
+        latitude_deg: f64,
+        longitude_deg: f64,
+        /// Fraction of the moon's disc lit, in [0, 1].
+        illuminated_fraction: f64,
+        /// The sun's elevation at that time and place, degrees (below the horizon).
+        sun_elevation_deg: f64,
+    },
     /// A UTC stamp and no place (a robot without GNSS): the sun's angles are unknown
     /// (NaN) until a place is found (`bpins locate`) or given. Only
     /// [`crate::capture::Capture::load_unplaced`] reads such frames; every reader that
@@ -66,6 +80,17 @@ impl SunSource {
                     longitude_deg.abs()
                 )
             }
+            SunSource::Moon { time_utc, latitude_deg, longitude_deg, illuminated_fraction, sun_elevation_deg } => {
+                let ns = if *latitude_deg < 0.0 { 'S' } else { 'N' };
+                let ew = if *longitude_deg < 0.0 { 'W' } else { 'E' };
+                format!(
+                    "the moon (night: the sun at {sun_elevation_deg:.1}°), {:.0} % lit, from {time_utc} at {}°{ns} {}°{ew} \
+                     (Meeus ch. 47, topocentric, standard refraction, 0 m)",
+                    100.0 * illuminated_fraction,
+                    latitude_deg.abs(),
+                    longitude_deg.abs()
+                )
+            }
             SunSource::Unplaced { time_utc } => format!("unknown: {time_utc} without a place"),
         }
     }
@@ -74,7 +99,9 @@ impl SunSource {
     pub fn time_utc(&self) -> Option<&str> {
         match self {
             SunSource::Given => None,
-            SunSource::Spa { time_utc, .. } | SunSource::Unplaced { time_utc } => Some(time_utc),
+            SunSource::Spa { time_utc, .. } | SunSource::Moon { time_utc, .. } | SunSource::Unplaced { time_utc } => {
+                Some(time_utc)
+            }
         }
     }
 }
