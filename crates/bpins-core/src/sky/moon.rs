@@ -114,14 +114,7 @@ pub fn moon_from_time_place(time_utc: &str, latitude_deg: f64, longitude_deg: f6
 /// [`moon_from_time_place`] at `time_unix_s` seconds since 1970-01-01T00:00:00Z (UTC,
 /// leap seconds not counted).
 pub fn moon_from_unix_time(time_unix_s: f64, latitude_deg: f64, longitude_deg: f64) -> Result<MoonPosition> {
-    let bad =
-        || Error::Time { time: format!("time {time_unix_s} s since 1970"), message: "not a representable time".into() };
-    if !time_unix_s.is_finite() {
-        return Err(bad());
-    }
-    let (secs, frac) = (time_unix_s.floor(), time_unix_s - time_unix_s.floor());
-    let time = DateTime::<Utc>::from_timestamp(secs as i64, (frac * 1e9) as u32).ok_or_else(bad)?;
-    moon_at(&time, latitude_deg, longitude_deg)
+    moon_at(&super::sun::unix_time(time_unix_s)?, latitude_deg, longitude_deg)
 }
 
 fn moon_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Result<MoonPosition> {

@@ -154,14 +154,19 @@ pub fn sun_from_time_place(time_utc: &str, latitude_deg: f64, longitude_deg: f64
 /// [`sun_from_time_place`] at `time_unix_s` seconds since 1970-01-01T00:00:00Z (UTC,
 /// leap seconds not counted, as every Unix clock and ROS time).
 pub fn sun_from_unix_time(time_unix_s: f64, latitude_deg: f64, longitude_deg: f64) -> Result<SunPosition> {
+    sun_at(&unix_time(time_unix_s)?, latitude_deg, longitude_deg)
+}
+
+/// `time_unix_s` seconds since 1970-01-01T00:00:00Z as a UTC time (nanoseconds kept);
+/// [`Error::Time`] where it is not finite or not representable.
+pub(crate) fn unix_time(time_unix_s: f64) -> Result<DateTime<Utc>> {
     let bad =
         || Error::Time { time: format!("time {time_unix_s} s since 1970"), message: "not a representable time".into() };
     if !time_unix_s.is_finite() {
         return Err(bad());
     }
     let (secs, frac) = (time_unix_s.floor(), time_unix_s - time_unix_s.floor());
-    let time = DateTime::<Utc>::from_timestamp(secs as i64, (frac * 1e9) as u32).ok_or_else(bad)?;
-    sun_at(&time, latitude_deg, longitude_deg)
+    DateTime::<Utc>::from_timestamp(secs as i64, (frac * 1e9) as u32).ok_or_else(bad)
 }
 
 fn sun_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Result<SunPosition> {

@@ -532,15 +532,19 @@ impl Acc {
             // ~1/(2 sxx) of a pixel's variance: negligible).
             var[k] = if dof > 0.0 { (ss / dof).max(0.0) / n } else { f64::NAN };
         }
-        // A channel too small to measure its scatter borrows the largest per-pixel
-        // variance of the others.
+        self.borrow_scatter(&mut var);
+        Some((mean, var))
+    }
+
+    /// A channel too small to measure its scatter (`var` NaN) borrows the largest
+    /// per-pixel variance of the others.
+    fn borrow_scatter(&self, var: &mut [f64; 4]) {
         let per_px = (0..4).filter(|&k| var[k].is_finite()).map(|k| var[k] * self.n[k]).fold(0.0, f64::max);
         for (v, n) in var.iter_mut().zip(self.n) {
             if v.is_nan() {
                 *v = per_px / n;
             }
         }
-        Some((mean, var))
     }
 }
 

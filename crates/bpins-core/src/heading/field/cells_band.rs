@@ -103,12 +103,7 @@ impl Acc {
             }
             var[k] = if dof > 0.0 { (ss / dof).max(0.0) / n } else { f64::NAN };
         }
-        let per_px = (0..4).filter(|&k| var[k].is_finite()).map(|k| var[k] * self.n[k]).fold(0.0, f64::max);
-        for (v, n) in var.iter_mut().zip(self.n) {
-            if v.is_nan() {
-                *v = per_px / n;
-            }
-        }
+        self.borrow_scatter(&mut var);
         Some((mean, var))
     }
 }
