@@ -10,7 +10,7 @@ use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::compass::{
     self as core, Attitude, CompassConfig, CompassError, Extractor, FieldHeading, RawImage, Sun,
 };
-use bpins_core::sensor::{Channel, Layout};
+use bpins_core::sensor::{Band, Channel, ColourTiles, Layout};
 use bpins_core::Capture;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -157,7 +157,7 @@ impl Compass {
     #[new]
     #[pyo3(signature = (width_px, height_px, focal_length_px, *, principal_point_px=None, projection="pinhole",
         bit_depth=12, black_level_dn=0.0, mosaic=[[90.0, 45.0], [135.0, 0.0]], calibration=None,
-        extractor="sun_vector", horizon_margin_deg=None))]
+        extractor="sun_vector", horizon_margin_deg=None, colour_tiles=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         width_px: i64,
@@ -171,6 +171,7 @@ impl Compass {
         calibration: Option<PathBuf>,
         extractor: &str,
         horizon_margin_deg: Option<f64>,
+        colour_tiles: Option<[[String; 2]; 2]>,
     ) -> PyResult<Self> {
         let (width_px, height_px): (usize, usize) = (whole("width_px", width_px)?, whole("height_px", height_px)?);
         let bit_depth: u32 = whole("bit_depth", bit_depth)?;
@@ -189,6 +190,19 @@ impl Compass {
         cfg.extractor = self::extractor(extractor)?;
         if let Some(m) = horizon_margin_deg {
             cfg.options.horizon_margin_deg = finite("horizon_margin_deg", m)?;
+        }
+        if let Some(t) = colour_tiles {
+            let mut c = ColourTiles::imx250myr();
+            for (r, row) in t.iter().enumerate() {
+                for (k, name) in row.iter().enumerate() {
+                    c.tiles[r][k] = Band::from_name(name).ok_or_else(|| {
+                        PyValueError::new_err(format!(
+                            "colour_tiles: band {name:?} is unknown; use \"R\", \"G\" or \"B\""
+                        ))
+                    })?;
+                }
+            }
+            cfg.colour = Some(c);
         }
         let inner = Mutex::new(core::Compass::new(cfg).map_err(compass_err)?);
         Ok(Compass { inner, width_px, height_px })
@@ -256,28 +270,20 @@ impl Compass {
         tilt_y_deg: f64,
         tilt_sigma_deg: f64,
     ) -> PyResult<Heading> {
-        let sun = match &site {
-            None => sun_of(sun_azimuth_deg, sun_elevation_deg, time_utc, latitude_deg, longitude_deg, sun_sigma_deg)?,
-            Some(p) => {
-                site_sun(p, sun_azimuth_deg, sun_elevation_deg, time_utc, latitude_deg, longitude_deg, sun_sigma_deg)?
-            }
-        };
-        let attitude = Attitude {
-            tilt_x_deg: finite("tilt_x_deg", tilt_x_deg)?,
-            tilt_y_deg: finite("tilt_y_deg", tilt_y_deg)?,
-            sigma_deg: finite("tilt_sigma_deg", tilt_sigma_deg)?,
-        };
-        if attitude.sigma_deg < 0.0 {
-            return Err(PyValueError::new_err(format!("tilt_sigma_deg = {tilt_sigma_deg}: expected a 1σ ≥ 0")));
-        }
+        let (sun, attitude) = frame_sun_attitude(
+            sun_azimuth_deg,
+            sun_elevation_deg,
+            time_utc,
+            latitude_deg,
+            longitude_deg,
+            site.as_deref(),
+            sun_sigma_deg,
+            tilt_x_deg,
+            tilt_y_deg,
+            tilt_sigma_deg,
+        )?;
         let borrowed = Borrowed::new("mosaic", mosaic)?;
-        let (h, w) = crate::array::shape2("mosaic", mosaic)?;
-        if (h, w) != (self.height_px, self.width_px) {
-            return Err(PyValueError::new_err(format!(
-                "mosaic: shape ({h}, {w}); expected the sensor's (height_px, width_px) = ({}, {})",
-                self.height_px, self.width_px
-            )));
-        }
+        let (h, w) = self.check_shape(mosaic)?;
         let m = borrowed.mosaic();
         let zero_copy = m.borrowed();
         let fix = py.detach(|| {
@@ -299,6 +305,124 @@ impl Compass {
         });
         Ok(heading_of(&fix.map_err(compass_err)?, zero_copy))
     }
+
+    /// A colour-polarization compass's headings of one raw mosaic: each band's from its
+    /// own pixels and the fused one, as a dict {"fused": Heading, "R": …, "G": …, "B": …}
+    /// (the bands the sensor has). The arguments are `heading`'s; a monochrome compass
+    /// (no `colour_tiles`) raises ValueError.
+    #[pyo3(signature = (mosaic, *, sun_azimuth_deg=None, sun_elevation_deg=None, time_utc=None,
+        latitude_deg=None, longitude_deg=None, site=None, sun_sigma_deg=0.0, tilt_x_deg=0.0, tilt_y_deg=0.0,
+        tilt_sigma_deg=0.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn band_headings(
+        &self,
+        py: Python<'_>,
+        mosaic: &Bound<'_, PyAny>,
+        sun_azimuth_deg: Option<f64>,
+        sun_elevation_deg: Option<f64>,
+        time_utc: Option<&Bound<'_, PyAny>>,
+        latitude_deg: Option<f64>,
+        longitude_deg: Option<f64>,
+        site: Option<std::path::PathBuf>,
+        sun_sigma_deg: f64,
+        tilt_x_deg: f64,
+        tilt_y_deg: f64,
+        tilt_sigma_deg: f64,
+    ) -> PyResult<std::collections::BTreeMap<String, Heading>> {
+        let (sun, attitude) = frame_sun_attitude(
+            sun_azimuth_deg,
+            sun_elevation_deg,
+            time_utc,
+            latitude_deg,
+            longitude_deg,
+            site.as_deref(),
+            sun_sigma_deg,
+            tilt_x_deg,
+            tilt_y_deg,
+            tilt_sigma_deg,
+        )?;
+        let borrowed = Borrowed::new("mosaic", mosaic)?;
+        let (h, w) = self.check_shape(mosaic)?;
+        let m = borrowed.mosaic();
+        let zero_copy = m.borrowed();
+        let fix = py.detach(|| {
+            let mut compass = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+            let e = [compass.extractor()];
+            match &m {
+                Mosaic::U8(d, s) => compass.colour_headings(
+                    RawImage { data: d, width_px: w, height_px: h, stride: *s },
+                    sun,
+                    attitude,
+                    &e,
+                ),
+                Mosaic::U16(d, s) => compass.colour_headings(
+                    RawImage { data: d, width_px: w, height_px: h, stride: *s },
+                    sun,
+                    attitude,
+                    &e,
+                ),
+                Mosaic::F32(d, s) => compass.colour_headings(
+                    RawImage { data: d, width_px: w, height_px: h, stride: *s },
+                    sun,
+                    attitude,
+                    &e,
+                ),
+            }
+        });
+        let fix = fix.map_err(compass_err)?;
+        let mut out = std::collections::BTreeMap::new();
+        out.insert("fused".to_string(), heading_of(&fix.fused[0], zero_copy));
+        for (b, hs) in &fix.bands {
+            out.insert(b.name().to_string(), heading_of(&hs[0], zero_copy));
+        }
+        Ok(out)
+    }
+}
+
+impl Compass {
+    /// The mosaic's shape, (height, width), refused unless it is the sensor's.
+    fn check_shape(&self, mosaic: &Bound<'_, PyAny>) -> PyResult<(usize, usize)> {
+        let (h, w) = crate::array::shape2("mosaic", mosaic)?;
+        if (h, w) != (self.height_px, self.width_px) {
+            return Err(PyValueError::new_err(format!(
+                "mosaic: shape ({h}, {w}); expected the sensor's (height_px, width_px) = ({}, {})",
+                self.height_px, self.width_px
+            )));
+        }
+        Ok((h, w))
+    }
+}
+
+/// A frame's sun (angles, a datetime and a place, or a datetime and a site) and
+/// attitude, each number checked with its argument's name.
+#[allow(clippy::too_many_arguments)]
+fn frame_sun_attitude(
+    sun_azimuth_deg: Option<f64>,
+    sun_elevation_deg: Option<f64>,
+    time_utc: Option<&Bound<'_, PyAny>>,
+    latitude_deg: Option<f64>,
+    longitude_deg: Option<f64>,
+    site: Option<&std::path::Path>,
+    sun_sigma_deg: f64,
+    tilt_x_deg: f64,
+    tilt_y_deg: f64,
+    tilt_sigma_deg: f64,
+) -> PyResult<(Sun, Attitude)> {
+    let sun = match site {
+        None => sun_of(sun_azimuth_deg, sun_elevation_deg, time_utc, latitude_deg, longitude_deg, sun_sigma_deg)?,
+        Some(p) => {
+            site_sun(p, sun_azimuth_deg, sun_elevation_deg, time_utc, latitude_deg, longitude_deg, sun_sigma_deg)?
+        }
+    };
+    let attitude = Attitude {
+        tilt_x_deg: finite("tilt_x_deg", tilt_x_deg)?,
+        tilt_y_deg: finite("tilt_y_deg", tilt_y_deg)?,
+        sigma_deg: finite("tilt_sigma_deg", tilt_sigma_deg)?,
+    };
+    if attitude.sigma_deg < 0.0 {
+        return Err(PyValueError::new_err(format!("tilt_sigma_deg = {tilt_sigma_deg}: expected a 1σ ≥ 0")));
+    }
+    Ok((sun, attitude))
 }
 
 /// The sun at `time_utc` from a located site file, its 1σ the site's ⊕ `sigma`.

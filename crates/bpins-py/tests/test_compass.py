@@ -165,3 +165,35 @@ def test_threads_sharing_one_compass_read_what_one_thread_reads():
     assert errors == []
     assert len(results) == 24
     assert all(h == alone[s] for s, h in results), (alone, results)
+
+
+def test_a_colour_capture_reads_band_by_band_as_the_cli(samples, cli, tmp_path):
+    """Issue 45: each band's heading from its own pixels and the fused one, the same
+    numbers as `bpins heading` on the colour sample; `heading` is the fused one."""
+    cap = samples / "colour-clear"
+    out = tmp_path / "c.json"
+    subprocess.run([cli, "heading", str(cap), "--json", str(out)], check=True, capture_output=True)
+    rows = json.loads(out.read_text())["frames"]
+    meta, mosaics = bpins.read_capture(cap)
+    compass = bpins.Compass.from_capture(cap)
+    for f, m in zip(meta["frames"], mosaics):
+        bands = compass.band_headings(m.astype(np.uint16), **frame_kwargs(f))
+        assert sorted(bands) == ["B", "G", "R", "fused"]
+        want = {r["band"]: r for r in rows if r["file"] == f["file"] and r["extractor"] == "sun_vector"}
+        for b, h in bands.items():
+            assert abs(h.heading_deg - want[b]["heading_deg"]) < 1e-9, (b, h, want[b])
+            assert abs(h.sigma_deg - want[b]["sigma_deg"]) < 1e-9
+        assert compass.heading(m.astype(np.uint16), **frame_kwargs(f)).heading_deg == bands["fused"].heading_deg
+    # The same sensor described by hand.
+    s = meta["sensor"]
+    by_hand = bpins.Compass(s["width_px"], s["height_px"], meta["lens"]["focal_length_mm"] * 1000.0 / s["pixel_pitch_um"],
+                            bit_depth=s["bit_depth"], black_level_dn=s["black_level_dn"], mosaic=s["mosaic"],
+                            colour_tiles=s["colour_tiles"])
+    f, m = meta["frames"][0], mosaics[0]
+    assert by_hand.band_headings(m.astype(np.uint16), **frame_kwargs(f))["G"].heading_deg == pytest.approx(
+        compass.band_headings(m.astype(np.uint16), **frame_kwargs(f))["G"].heading_deg, abs=1e-9)
+    with pytest.raises(ValueError, match="colour"):
+        bpins.Compass.from_capture(samples / "clean").band_headings(np.zeros((512, 612), np.uint16),
+                                                                   **frame_kwargs(f))
+    with pytest.raises(ValueError, match="colour_tiles"):
+        bpins.Compass(64, 64, 100.0, colour_tiles=[["R", "G"], ["G", "X"]])

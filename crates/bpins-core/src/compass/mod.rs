@@ -248,6 +248,11 @@ impl Compass {
         self.cfg.colour.is_some()
     }
 
+    /// The extractor [`Compass::heading`] reads with.
+    pub fn extractor(&self) -> Extractor {
+        self.cfg.extractor
+    }
+
     /// Each band's cells and headings, and the fused headings (a colour compass).
     fn bands<T: RawDn>(&mut self, frame: &RawImage<T>, ctx: &FieldContext, extractors: &[Extractor]) -> ColourFix {
         let colour = self.cfg.colour.clone().expect("a colour compass");

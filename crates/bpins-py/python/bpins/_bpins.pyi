@@ -55,7 +55,10 @@ class Compass:
         calibration: Optional[_Path] = None,
         extractor: str = "sun_vector",
         horizon_margin_deg: Optional[float] = None,
-    ) -> None: ...
+        colour_tiles: Optional[Sequence[Sequence[str]]] = None,
+    ) -> None:
+        """`colour_tiles` (e.g. [["R", "G"], ["G", "B"]], the IMX250MYR's): a colour-polarization
+        sensor, each band read from its own pixels; `heading` is then the bands' fused heading."""
     @staticmethod
     def from_capture(path: _Path, *, calibration: Optional[_Path] = None, extractor: str = "sun_vector") -> "Compass": ...
     @property
@@ -81,6 +84,23 @@ class Compass:
         The sun as angles (degrees) or as a timezone-aware datetime and a place (NREL SPA).
         The GIL is released while it computes; the mosaic is not copied.
         """
+    def band_headings(
+        self,
+        mosaic: _Mosaic,
+        *,
+        sun_azimuth_deg: Optional[float] = None,
+        sun_elevation_deg: Optional[float] = None,
+        time_utc: Optional[datetime.datetime] = None,
+        latitude_deg: Optional[float] = None,
+        longitude_deg: Optional[float] = None,
+        site: Optional[_Path] = None,
+        sun_sigma_deg: float = 0.0,
+        tilt_x_deg: float = 0.0,
+        tilt_y_deg: float = 0.0,
+        tilt_sigma_deg: float = 0.0,
+    ) -> Dict[str, Heading]:
+        """A colour-polarization compass's headings: {"fused": …, "R": …, "G": …, "B": …}, each
+        band's from its own pixels. The arguments are `heading`'s; a monochrome compass raises ValueError."""
 
 def simulate(
     width_px: int = 612,
