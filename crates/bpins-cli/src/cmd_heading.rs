@@ -272,7 +272,7 @@ impl FrameSource for CaptureSource<'_> {
             visit(SourceFrame {
                 id: FrameId { file: Some(f.file.display().to_string()), ..FrameId::default() },
                 pixels: Pixels::Capture(&data),
-                sun: match frames::dark_night(&f.sun) {
+                sun: match bpins_core::tool::sun::dark_night(&f.sun) {
                     Some(why) => Err(why),
                     None => Ok(FrameSun {
                         azimuth_deg: f.sun.azimuth_deg,

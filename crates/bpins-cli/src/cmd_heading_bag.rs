@@ -146,7 +146,7 @@ impl FrameSource for BagSource<'_> {
                 Mosaic::U16(r) => Pixels::Dn16(r),
             };
             let sigma_deg = (args.sun_sigma_deg > 0.0).then_some(args.sun_sigma_deg);
-            let sun = f.sun.as_ref().map_err(Clone::clone).and_then(|s| match frames::dark_night(s) {
+            let sun = f.sun.as_ref().map_err(Clone::clone).and_then(|s| match bpins_core::tool::sun::dark_night(s) {
                 Some(why) => Err(why),
                 None => Ok(s),
             });

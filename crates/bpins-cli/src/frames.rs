@@ -10,8 +10,7 @@
 use anyhow::Context;
 use bpins_core::compass::{Attitude, Compass, Extractor, FieldHeading, RawImage, SigmaParts, Sun};
 use bpins_core::conventions::wrap_deg_180;
-use bpins_core::tool::sun::{moon_from_time_place, NIGHT_SUN_ELEVATION_DEG};
-use bpins_core::{FrameData, SunPosition, SunSource};
+use bpins_core::{FrameData, SunSource};
 use bpins_ros::rep103;
 use serde::Serialize;
 use serde_json::json;
@@ -100,22 +99,6 @@ pub fn sun_source(source: &SunSource, sigma_from: Option<&str>) -> String {
         }
         (other, _) => other.describe(),
     }
-}
-
-/// Why a night frame has no source: the sun past [`NIGHT_SUN_ELEVATION_DEG`] and the
-/// moon below the horizon at the frame's time and place (a sun from SPA); `None` where
-/// the sun is up enough or the moon lights the sky (the reader then took the moon).
-pub fn dark_night(sun: &SunPosition) -> Option<String> {
-    let SunSource::Spa { time_utc, latitude_deg, longitude_deg } = &sun.source else { return None };
-    if sun.elevation_deg >= NIGHT_SUN_ELEVATION_DEG {
-        return None;
-    }
-    let moon = moon_from_time_place(time_utc, *latitude_deg, *longitude_deg).ok()?;
-    Some(format!(
-        "not yet: the moon is at {:.1}° and the sun at {:.1}°: neither lights the sky (the moon is read from \
-         the time and place once it rises)",
-        moon.elevation_deg, sun.elevation_deg
-    ))
 }
 
 /// The reference tilt a frame is read at, degrees, with its 1σ; the roll and pitch

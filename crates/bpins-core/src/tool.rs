@@ -73,12 +73,12 @@ pub mod pipeline {
 }
 
 /// The sun's place from a time and place (SPA), as a frame's stamp and a site give it;
-/// and the sky's source at a time and place (the sun, or at night a moon that is up).
+/// and the sky's source at a time and place (the sun, or at night a moon that is up, or
+/// why neither lights the sky).
 #[cfg(feature = "spa")]
 pub mod sun {
-    pub use crate::sky::moon::{moon_from_time_place, MoonPosition};
     pub use crate::sky::sun::{sun_from_time_place, sun_from_unix_time};
-    pub use crate::sky::{source_from_time_place, source_from_unix_time, NIGHT_SUN_ELEVATION_DEG};
+    pub use crate::sky::{dark_night, source_from_time_place, source_from_unix_time, NIGHT_SUN_ELEVATION_DEG};
 }
 
 /// A sweep run unit by unit (`bpins bench`, `bpins run`), its trial records, the

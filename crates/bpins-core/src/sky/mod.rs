@@ -38,6 +38,24 @@ pub fn source_from_unix_time(
     night_source(sun, moon::moon_from_unix_time(time_unix_s, latitude_deg, longitude_deg)?)
 }
 
+/// Why a frame has no source at night: the sun (from SPA) past
+/// [`NIGHT_SUN_ELEVATION_DEG`] and the moon below the horizon at its time and place;
+/// `None` where the sun is high enough or the sun's angles are not SPA's (a moon that is
+/// up was already taken as the source by [`source_from_time_place`]).
+#[cfg(feature = "spa")]
+pub fn dark_night(sun: &sun::SunPosition) -> Option<String> {
+    let sun::SunSource::Spa { time_utc, latitude_deg, longitude_deg } = &sun.source else { return None };
+    if sun.elevation_deg >= NIGHT_SUN_ELEVATION_DEG {
+        return None;
+    }
+    let moon = moon::moon_from_time_place(time_utc, *latitude_deg, *longitude_deg).ok()?;
+    Some(format!(
+        "not yet: the moon is at {:.1}° and the sun at {:.1}°: neither lights the sky (the moon is read from \
+         the time and place once it rises)",
+        moon.elevation_deg, sun.elevation_deg
+    ))
+}
+
 #[cfg(feature = "spa")]
 fn night_source(sun: sun::SunPosition, moon: moon::MoonPosition) -> crate::Result<sun::SunPosition> {
     if sun.elevation_deg >= NIGHT_SUN_ELEVATION_DEG || moon.elevation_deg <= 0.0 {

@@ -50,7 +50,7 @@ use chrono::{DateTime, Utc};
 use glam::DVec3;
 use solar_positioning::{delta_t, time::JulianDate, SolarPositions};
 
-use super::sun::parse_time_utc;
+use super::sun::{check_place, parse_time_utc};
 use crate::conventions::{az_el_deg_from_enu, wrap_deg_360};
 use crate::{Error, Result};
 
@@ -124,16 +124,6 @@ fn moon_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Resul
     let jd = JulianDate::from_datetime(time, dt_s).map_err(|e| time_err(e.to_string()))?;
     let d = moon_detail(jd, latitude_deg, longitude_deg, 0.0, true)?;
     Ok(d.position(KS91_EXTINCTION_MAG_PER_AIRMASS))
-}
-
-fn check_place(latitude_deg: f64, longitude_deg: f64) -> Result<()> {
-    if !(-90.0..=90.0).contains(&latitude_deg) {
-        return Err(Error::Place(format!("latitude_deg = {latitude_deg} is outside [−90°, 90°]")));
-    }
-    if !(-180.0..=180.0).contains(&longitude_deg) {
-        return Err(Error::Place(format!("longitude_deg = {longitude_deg} is outside [−180°, 180°]")));
-    }
-    Ok(())
 }
 
 /// Direct moonlight on a horizontal surface at the ground, lux, by Krisciunas &

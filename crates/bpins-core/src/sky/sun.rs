@@ -70,25 +70,16 @@ impl SunSource {
     pub fn describe(&self) -> String {
         match self {
             SunSource::Given => "given in capture.toml".to_string(),
-            SunSource::Spa { time_utc, latitude_deg, longitude_deg } => {
-                let ns = if *latitude_deg < 0.0 { 'S' } else { 'N' };
-                let ew = if *longitude_deg < 0.0 { 'W' } else { 'E' };
-                format!(
-                    "NREL SPA from {time_utc} at {}°{ns} {}°{ew}, ±0.0003° \
-                     (apparent sun, standard refraction, 0 m)",
-                    latitude_deg.abs(),
-                    longitude_deg.abs()
-                )
-            }
+            SunSource::Spa { time_utc, latitude_deg, longitude_deg } => format!(
+                "NREL SPA from {time_utc} at {}, ±0.0003° (apparent sun, standard refraction, 0 m)",
+                place_text(*latitude_deg, *longitude_deg)
+            ),
             SunSource::Moon { time_utc, latitude_deg, longitude_deg, illuminated_fraction, sun_elevation_deg } => {
-                let ns = if *latitude_deg < 0.0 { 'S' } else { 'N' };
-                let ew = if *longitude_deg < 0.0 { 'W' } else { 'E' };
                 format!(
-                    "the moon (night: the sun at {sun_elevation_deg:.1}°), {:.0} % lit, from {time_utc} at {}°{ns} {}°{ew} \
+                    "the moon (night: the sun at {sun_elevation_deg:.1}°), {:.0} % lit, from {time_utc} at {} \
                      (Meeus ch. 47, topocentric, standard refraction, 0 m)",
                     100.0 * illuminated_fraction,
-                    latitude_deg.abs(),
-                    longitude_deg.abs()
+                    place_text(*latitude_deg, *longitude_deg)
                 )
             }
             SunSource::Unplaced { time_utc } => format!("unknown: {time_utc} without a place"),
@@ -104,6 +95,13 @@ impl SunSource {
             }
         }
     }
+}
+
+/// A place as the sources describe it: `36.07°N 120.38°E`.
+fn place_text(latitude_deg: f64, longitude_deg: f64) -> String {
+    let ns = if latitude_deg < 0.0 { 'S' } else { 'N' };
+    let ew = if longitude_deg < 0.0 { 'W' } else { 'E' };
+    format!("{}°{ns} {}°{ew}", latitude_deg.abs(), longitude_deg.abs())
 }
 
 /// The sun's direction for one frame, and where it came from.
@@ -197,7 +195,8 @@ pub fn parse_time_utc(s: &str) -> Result<DateTime<Utc>> {
     Ok(t.with_timezone(&Utc))
 }
 
-fn check_place(latitude_deg: f64, longitude_deg: f64) -> Result<()> {
+/// Refuses a latitude outside [−90°, 90°] or a longitude outside [−180°, 180°] (NaN too).
+pub(crate) fn check_place(latitude_deg: f64, longitude_deg: f64) -> Result<()> {
     if !(-90.0..=90.0).contains(&latitude_deg) {
         return Err(Error::Place(format!("latitude_deg = {latitude_deg} is outside [−90°, 90°]")));
     }
