@@ -273,3 +273,32 @@ fn a_stamp_without_a_place_is_for_locate_only() {
     let m = validate(&bad.unwrap(), &toml_path()).unwrap_err().to_string();
     assert!(m.contains("yaw_sigma_deg"), "{m}");
 }
+
+/// `colour_tiles` and `band_centre_nm` (CAPTURE.md): read, written back, and every bad
+/// form refused naming the key.
+#[test]
+fn colour_tiles_are_read_written_back_and_refused_when_malformed() {
+    let key = |extra: &str| edit("pixel_pitch_um = 13.8", &format!("pixel_pitch_um = 13.8\n{extra}"));
+    let c = load_str(&key("colour_tiles = [[\"R\", \"G\"], [\"G\", \"B\"]]\nband_centre_nm = { B = 450.0 }")).unwrap();
+    let colour = c.sensor.colour.clone().expect("a colour sensor");
+    assert_eq!(colour.tiles, crate::sensor::ColourTiles::imx250myr().tiles);
+    assert_eq!(colour.centre_nm, [615.0, 530.0, 450.0], "defaults for the bands not given");
+    let text = to_toml(&c);
+    assert!(text.contains("colour_tiles") && text.contains("450"), "{text}");
+    assert_eq!(load_str(&text).unwrap().sensor.colour, Some(colour));
+    assert_eq!(load_str(MIN).unwrap().sensor.colour, None);
+    for (extra, want) in [
+        ("colour_tiles = [[\"R\", \"G\"], [\"G\", \"X\"]]", "band \"X\" is unknown"),
+        ("colour_tiles = [[\"R\", \"G\", \"B\"], [\"G\", \"B\"]]", "expected 2 rows of 2 bands"),
+        ("colour_tiles = \"RGGB\"", "expected 2 rows of 2 bands"),
+        ("band_centre_nm = { R = 615.0 }", "band_centre_nm is for a colour-polarization sensor"),
+        ("colour_tiles = [[\"R\", \"G\"], [\"G\", \"B\"]]\nband_centre_nm = { R = -1.0 }", "band_centre_nm.R = -1"),
+        ("colour_tiles = [[\"R\", \"G\"], [\"G\", \"B\"]]\nband_centre_nm = { V = 400.0 }", "band \"V\" is unknown"),
+    ] {
+        let m = message(&key(extra));
+        assert!(m.contains("[sensor]") && m.contains(want), "{extra}: {m}");
+    }
+    let m =
+        message(&edit("layout = \"dofp\"", "layout = \"colocated\"\ncolour_tiles = [[\"R\", \"G\"], [\"G\", \"B\"]]"));
+    assert!(m.contains("colour_tiles is for layout = \"dofp\""), "{m}");
+}
