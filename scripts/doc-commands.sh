@@ -87,6 +87,12 @@ exception 'ros2 bag record /cam/image_raw /cam/camera_info /imu/data /gnss/fix -
     "needs ROS 2 and a camera; docs/ros2.md's simulated bag has the same topics"
 exception 'ros2 bag play run1 run1_bpins' '' \
     'needs ROS 2 (tests/ros.rs reads the bags bpins writes with rosbags)'
+exception 'ros2 run rmw_zenoh_cpp rmw_zenohd' '' \
+    "needs ROS 2's rmw_zenoh router; tests/ros_node.rs starts a Zenoh router from eclipse-zenoh instead"
+exception 'bpins node --bit-depth 12 --black-level-dn 64' '' \
+    "runs until stopped, on a robot's graph; tests/ros_node.rs runs it against a router and zenoh-ros2-sdk's publishers and subscriber"
+exception 'bpins node --connect tcp/192.168.1.10:7447 --domain-id 3 --sensor sensor.toml --sun-azimuth-deg 140 --sun-elevation-deg 35 --calibration calibration.toml' '' \
+    "needs a router at that address and the user's sensor and calibration files; tests/ros_node.rs runs the node on CameraInfo from the graph"
 exception 'examples/slurm/submit.sh examples/sweeps/paper-table3.toml /scratch/table3 8' '' \
     "needs a Slurm cluster; tests/slurm.rs and newcomer-walk.sh's Slurm step run submit.sh on a local one-node cluster"
 exception 'examples/slurm/submit.sh examples/sweeps/paper-table3.toml /scratch/table3 8 3' '' \

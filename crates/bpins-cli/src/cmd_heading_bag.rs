@@ -136,36 +136,9 @@ impl FrameSource for BagSource<'_> {
         while let Some(f) = frames.next_frame()? {
             let at = || bag_at(&input.bag, &input.image_topic, f.message.index);
             let im: Image = decode(&f.message.data).map_err(|e| anyhow!("{}: {e}", at()))?;
-            let pixels = match mosaic(&im, &mut self.scratch).map_err(|e| anyhow!("{}: {e}", at()))? {
-                Mosaic::U8(_) if input.sensor.bit_depth > 8 => bail!(
-                    "{}: a mono8 image for a {}-bit sensor (--bit-depth, or the sensor file)",
-                    at(),
-                    input.sensor.bit_depth
-                ),
-                Mosaic::U8(r) => Pixels::Dn8(r),
-                Mosaic::U16(r) => Pixels::Dn16(r),
-            };
-            let sigma_deg = (args.sun_sigma_deg > 0.0).then_some(args.sun_sigma_deg);
-            let sun = f.sun.as_ref().map_err(Clone::clone).and_then(|s| match bpins_core::tool::sun::dark_night(s) {
-                Some(why) => Err(why),
-                None => Ok(s),
-            });
-            let sun = sun.map(|s| FrameSun {
-                azimuth_deg: s.azimuth_deg,
-                elevation_deg: s.elevation_deg,
-                sigma_deg,
-                source: match &s.source {
-                    SunSource::Given => "given by --sun-azimuth-deg and --sun-elevation-deg".to_string(),
-                    other => frames::sun_source(other, sigma_deg.map(|_| "--sun-sigma-deg")),
-                },
-            });
-            let tilt = f.tilt.as_ref().map_err(Clone::clone).map(|t| FrameTilt {
-                tilt_x_deg: t.tilt_x_deg,
-                tilt_y_deg: t.tilt_y_deg,
-                sigma_deg: t.sigma_deg(),
-                roll_var_rad2: t.roll_var_rad2,
-                pitch_var_rad2: t.pitch_var_rad2,
-            });
+            let (pixels, sun, tilt) =
+                frame_parts(&im, &mut self.scratch, input.sensor.bit_depth, &f.sun, &f.tilt, args.sun_sigma_deg)
+                    .map_err(|e| anyhow!("{}: {e}", at()))?;
             let id = FrameId {
                 message_index: Some(f.message.index),
                 stamp: Some(Stamp { sec: im.header.stamp.sec, nanosec: im.header.stamp.nanosec }),
@@ -179,34 +152,90 @@ impl FrameSource for BagSource<'_> {
     }
 }
 
+/// The compass's view of one image message, shared by the bag and the live node
+/// (`bpins node`): its raw rows (mono8 or mono16, any stride, swapped only where
+/// their byte order is not the machine's), the sun (the flags' or SPA's, a dark
+/// night refused) and the tilt (the IMU's or level), each or why not.
+pub fn frame_parts<'a>(
+    im: &'a Image<'_>,
+    scratch: &'a mut Vec<u16>,
+    bit_depth: u32,
+    sun: &Result<bpins_core::SunPosition, String>,
+    tilt: &Result<bpins_ros::convert::Tilt, String>,
+    sun_sigma_deg: f64,
+) -> anyhow::Result<(Pixels<'a>, Result<FrameSun, String>, Result<FrameTilt, String>)> {
+    let pixels = match mosaic(im, scratch).map_err(|e| anyhow!("{e}"))? {
+        Mosaic::U8(_) if bit_depth > 8 => {
+            bail!("a mono8 image for a {bit_depth}-bit sensor (--bit-depth, or the sensor file)")
+        }
+        Mosaic::U8(r) => Pixels::Dn8(r),
+        Mosaic::U16(r) => Pixels::Dn16(r),
+    };
+    let sigma_deg = (sun_sigma_deg > 0.0).then_some(sun_sigma_deg);
+    let sun = sun.as_ref().map_err(Clone::clone).and_then(|s| match bpins_core::tool::sun::dark_night(s) {
+        Some(why) => Err(why),
+        None => Ok(s),
+    });
+    let sun = sun.map(|s| FrameSun {
+        azimuth_deg: s.azimuth_deg,
+        elevation_deg: s.elevation_deg,
+        sigma_deg,
+        source: match &s.source {
+            SunSource::Given => "given by --sun-azimuth-deg and --sun-elevation-deg".to_string(),
+            other => frames::sun_source(other, sigma_deg.map(|_| "--sun-sigma-deg")),
+        },
+    });
+    let tilt = tilt.as_ref().map_err(Clone::clone).map(|t| FrameTilt {
+        tilt_x_deg: t.tilt_x_deg,
+        tilt_y_deg: t.tilt_y_deg,
+        sigma_deg: t.sigma_deg(),
+        roll_var_rad2: t.roll_var_rad2,
+        pitch_var_rad2: t.pitch_var_rad2,
+    });
+    Ok((pixels, sun, tilt))
+}
+
 /// `--bag-out`: frame `f`'s heading as a sensor_msgs/Imu, or a DiagnosticArray saying
 /// why it has none (`row`: the one extractor's result).
 fn write_out(w: &mut BagWriter, out: &BagOut, input: &BagInput, f: &SourceFrame<'_>, row: &Row) -> anyhow::Result<()> {
-    let (Some(stamp), Some(stamp_ns)) = (f.id.stamp, f.id.stamp_ns) else {
+    let Some(stamp_ns) = f.id.stamp_ns else {
         bail!("--bag-out: frame {} has no stamp", row.id.file.as_deref().unwrap_or("?"))
     };
+    let index = f.id.message_index.map(|i| i.to_string()).unwrap_or_default();
+    let values = [("image_topic", input.image_topic.clone()), ("image_message", index)];
+    let (heading, type_name, bytes) = out_message(f, row, out.heading_frame_id, &values)?;
+    let topic = if heading { out.heading_topic } else { out.diagnostics_topic };
+    w.write(topic, type_name, stamp_ns, &bytes)?;
+    Ok(())
+}
+
+/// Frame `f`'s output message, one code path for the bag and the live node: a
+/// sensor_msgs/Imu with the heading (REP 103 orientation, REP 145 covariance: the
+/// tilt's variances and the heading's 1σ²), stamped with the image's stamp, or a
+/// DiagnosticArray with the reason and `values`. Returns whether it is the heading,
+/// the type name and the CDR bytes.
+pub fn out_message(
+    f: &SourceFrame<'_>,
+    row: &Row,
+    heading_frame_id: Option<&str>,
+    values: &[(&str, String)],
+) -> anyhow::Result<(bool, &'static str, Vec<u8>)> {
+    let Some(stamp) = f.id.stamp else { bail!("frame {} has no stamp", row.id.file.as_deref().unwrap_or("?")) };
     let frame_id = f.id.frame_id.clone().unwrap_or_default();
     let header = Header { stamp: Time { sec: stamp.sec, nanosec: stamp.nanosec }, frame_id: frame_id.clone() };
-    match (row.heading_deg, row.sigma_deg, &f.tilt) {
+    Ok(match (row.heading_deg, row.sigma_deg, &f.tilt) {
         (Some(h), Some(sg), Ok(t)) => {
             let mut header = header;
-            if let Some(id) = out.heading_frame_id {
+            if let Some(id) = heading_frame_id {
                 header.frame_id = id.to_string();
             }
             let msg = rep103::heading_imu(header, h, sg, t.tilt_x_deg, t.tilt_y_deg, t.roll_var_rad2, t.pitch_var_rad2);
-            w.write(out.heading_topic, types::IMU, stamp_ns, &encode(&msg))?;
+            (true, types::IMU, encode(&msg))
         }
         _ => {
             let reason = row.no_heading_reason.clone().unwrap_or_default();
-            let index = f.id.message_index.map(|i| i.to_string()).unwrap_or_default();
-            let msg = rep103::no_heading(
-                header,
-                &frame_id,
-                &reason,
-                &[("image_topic", input.image_topic.clone()), ("image_message", index)],
-            );
-            w.write(out.diagnostics_topic, types::DIAGNOSTIC_ARRAY, stamp_ns, &encode(&msg))?;
+            let msg = rep103::no_heading(header, &frame_id, &reason, values);
+            (false, types::DIAGNOSTIC_ARRAY, encode(&msg))
         }
-    }
-    Ok(())
+    })
 }

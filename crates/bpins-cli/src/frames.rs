@@ -1,5 +1,5 @@
 //! One frame source for `bpins heading` (issue 50 item 1): a capture folder, a ROS 2
-//! bag and (to come) a live ROS 2 graph each hand the same [`SourceFrame`] (pixels,
+//! bag and a live ROS 2 graph (`bpins node`) each hand the same [`SourceFrame`] (pixels,
 //! where it came from, the sun and the reference tilt with their 1σ, the reference
 //! heading where known) to one compass loop ([`read_frames`]), whose results are one
 //! serde type ([`Row`]) for the table, `--json` and the output bag. The same pixels
@@ -312,55 +312,7 @@ pub fn read_frames(
     let mut rows: Vec<Row> = Vec::new();
     let mut header = true;
     source.each(&mut |f| {
-        let mut frame_rows: Vec<Row> = Vec::new();
-        match (&f.sun, &f.tilt) {
-            (Ok(sun), Ok(tilt)) => {
-                let sun_arg = Sun::Angles {
-                    azimuth_deg: sun.azimuth_deg,
-                    elevation_deg: sun.elevation_deg,
-                    sigma_deg: sun.sigma_deg.unwrap_or(0.0),
-                };
-                let att =
-                    Attitude { tilt_x_deg: tilt.tilt_x_deg, tilt_y_deg: tilt.tilt_y_deg, sigma_deg: tilt.sigma_deg };
-                // Per band (a colour sensor: the fused heading first, then each band's),
-                // each extractor's heading.
-                let sets: Vec<(Option<&'static str>, Vec<FieldHeading>)> = if compass.is_colour() {
-                    let fix = match &f.pixels {
-                        Pixels::Capture(data) => compass.capture_colour_headings(data, sun_arg, att, extractors),
-                        Pixels::Dn8(r) => compass.colour_headings(*r, sun_arg, att, extractors),
-                        Pixels::Dn16(r) => compass.colour_headings(*r, sun_arg, att, extractors),
-                    }
-                    .with_context(|| f.id.label())?;
-                    std::iter::once((Some("fused"), fix.fused))
-                        .chain(fix.bands.into_iter().map(|(b, hs)| (Some(b.name()), hs)))
-                        .collect()
-                } else {
-                    let hs = match &f.pixels {
-                        Pixels::Capture(data) => compass.capture_headings(data, sun_arg, att, extractors),
-                        Pixels::Dn8(r) => compass.headings(*r, sun_arg, att, extractors),
-                        Pixels::Dn16(r) => compass.headings(*r, sun_arg, att, extractors),
-                    }
-                    .with_context(|| f.id.label())?;
-                    vec![(None, hs)]
-                };
-                for (band, hs) in sets {
-                    for h in &hs {
-                        let mut row = Row::of(&f, h.extractor);
-                        row.band = band;
-                        row.set_field(h);
-                        frame_rows.push(row);
-                    }
-                }
-            }
-            (Err(why), _) | (_, Err(why)) => {
-                for &e in extractors {
-                    let mut row = Row::of(&f, e);
-                    row.band = compass.is_colour().then_some("fused");
-                    row.no_heading_reason = Some(why.clone());
-                    frame_rows.push(row);
-                }
-            }
-        }
+        let frame_rows = frame_rows(compass, extractors, &f)?;
         pb.inc(1);
         pb.suspend(|| -> anyhow::Result<()> {
             if std::mem::take(&mut header) {
@@ -377,6 +329,62 @@ pub fn read_frames(
     })?;
     pb.finish_and_clear();
     Ok(rows)
+}
+
+/// One frame's rows, one per extractor (and per band of a colour sensor): the
+/// compass's heading, or why there is none (no sun, no tilt, the fit's reason). Every
+/// route's frames go through it (capture, bag, live node). An error is a frame the
+/// compass refuses (the wrong size), named by its label.
+pub fn frame_rows(compass: &mut Compass, extractors: &[Extractor], f: &SourceFrame<'_>) -> anyhow::Result<Vec<Row>> {
+    let mut frame_rows: Vec<Row> = Vec::new();
+    match (&f.sun, &f.tilt) {
+        (Ok(sun), Ok(tilt)) => {
+            let sun_arg = Sun::Angles {
+                azimuth_deg: sun.azimuth_deg,
+                elevation_deg: sun.elevation_deg,
+                sigma_deg: sun.sigma_deg.unwrap_or(0.0),
+            };
+            let att = Attitude { tilt_x_deg: tilt.tilt_x_deg, tilt_y_deg: tilt.tilt_y_deg, sigma_deg: tilt.sigma_deg };
+            // Per band (a colour sensor: the fused heading first, then each band's),
+            // each extractor's heading.
+            let sets: Vec<(Option<&'static str>, Vec<FieldHeading>)> = if compass.is_colour() {
+                let fix = match &f.pixels {
+                    Pixels::Capture(data) => compass.capture_colour_headings(data, sun_arg, att, extractors),
+                    Pixels::Dn8(r) => compass.colour_headings(*r, sun_arg, att, extractors),
+                    Pixels::Dn16(r) => compass.colour_headings(*r, sun_arg, att, extractors),
+                }
+                .with_context(|| f.id.label())?;
+                std::iter::once((Some("fused"), fix.fused))
+                    .chain(fix.bands.into_iter().map(|(b, hs)| (Some(b.name()), hs)))
+                    .collect()
+            } else {
+                let hs = match &f.pixels {
+                    Pixels::Capture(data) => compass.capture_headings(data, sun_arg, att, extractors),
+                    Pixels::Dn8(r) => compass.headings(*r, sun_arg, att, extractors),
+                    Pixels::Dn16(r) => compass.headings(*r, sun_arg, att, extractors),
+                }
+                .with_context(|| f.id.label())?;
+                vec![(None, hs)]
+            };
+            for (band, hs) in sets {
+                for h in &hs {
+                    let mut row = Row::of(&f, h.extractor);
+                    row.band = band;
+                    row.set_field(h);
+                    frame_rows.push(row);
+                }
+            }
+        }
+        (Err(why), _) | (_, Err(why)) => {
+            for &e in extractors {
+                let mut row = Row::of(&f, e);
+                row.band = compass.is_colour().then_some("fused");
+                row.no_heading_reason = Some(why.clone());
+                frame_rows.push(row);
+            }
+        }
+    }
+    Ok(frame_rows)
 }
 
 /// Per extractor: frames, frames without a heading, and against the reference where

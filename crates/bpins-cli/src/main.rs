@@ -36,12 +36,14 @@ mod cmd_heading;
 mod cmd_heading_bag;
 mod cmd_locate;
 mod cmd_maps;
+mod cmd_node;
 mod cmd_run;
 mod cmd_simulate;
 mod cmd_sweep;
 mod effect_sizes;
 mod frames;
 mod names;
+mod node_graph;
 mod profiles;
 mod progress;
 mod report;
@@ -87,6 +89,9 @@ enum Command {
     /// A ROS 2 bag's DoFP frames, with their sun and tilt, as a new capture
     /// (bpins-capture/1), for fit, diagnose and calibrate.
     BagToCapture(capture_bag::Args),
+    /// The compass as a live ROS 2 node over Zenoh (rmw_zenoh): images, CameraInfo,
+    /// Imu and NavSatFix in; a heading Imu (REP 103/145) or a diagnostic per frame out.
+    Node(Box<cmd_node::Args>),
     /// List the effects bpins models, with their parameters.
     Effects(cmd_effects::Args),
     /// Run seeded trials over every effect on the CPU and the GPU and compare them.
@@ -132,6 +137,7 @@ fn main() -> ExitCode {
         Command::Maps(a) => cmd_maps::run(a),
         Command::Locate(a) => cmd_locate::run(a),
         Command::BagToCapture(a) => capture_bag::bag_to_capture(a),
+        Command::Node(a) => cmd_node::run(*a),
         Command::Effects(a) => cmd_effects::run(a),
         Command::Agree(a) => cmd_agree::run(a),
         Command::Bench(a) => cmd_bench::run(a),

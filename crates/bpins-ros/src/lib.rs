@@ -35,6 +35,7 @@ pub mod metadata;
 pub mod msgs;
 pub mod reader;
 pub mod rep103;
+pub mod rmw_zenoh;
 mod storage_mcap;
 mod storage_sqlite;
 pub mod topics;

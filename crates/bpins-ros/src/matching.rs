@@ -124,17 +124,32 @@ pub fn tilt_at(
     let topic = track.topic().to_string();
     let (prev, next) = track.around(t_ns)?;
     let (prev, next) = (prev.cloned(), next.cloned());
+    Ok(tilt_between(&topic, prev.as_ref(), next.as_ref(), &|s| track.why(s), t_ns, how, max_gap_s))
+}
+
+/// The tilt at `t_ns` from the samples around it (the last at or before, the first
+/// after: a [`Track`]'s, or a live node's newest), or why there is none; `why` says
+/// why a sample cannot be used, naming where it came from.
+pub fn tilt_between(
+    topic: &str,
+    prev: Option<&Stamped<ImuSample>>,
+    next: Option<&Stamped<ImuSample>>,
+    why: &dyn Fn(&Stamped<ImuSample>) -> Option<String>,
+    t_ns: i64,
+    how: ImuMatch,
+    max_gap_s: f64,
+) -> Result<Tilt, String> {
     let gap_s = |s: &Stamped<ImuSample>| (s.stamp_ns - t_ns).abs() as f64 * 1e-9;
-    let usable = |s: &Option<Stamped<ImuSample>>| s.as_ref().filter(|s| gap_s(s) <= max_gap_s).cloned();
-    let (a, b) = (usable(&prev), usable(&next));
+    let usable = |s: Option<&Stamped<ImuSample>>| s.filter(|s| gap_s(s) <= max_gap_s).cloned();
+    let (a, b) = (usable(prev), usable(next));
     let pick = match (&a, &b, how) {
         (None, None, _) => {
-            return Ok(Err(format!("no IMU sample on {topic} within {max_gap_s} s of the image's stamp")));
+            return Err(format!("no IMU sample on {topic} within {max_gap_s} s of the image's stamp"));
         }
         (Some(a), Some(b), ImuMatch::Interpolate) => {
             for s in [a, b] {
-                if let Some(w) = track.why(s) {
-                    return Ok(Err(w));
+                if let Some(w) = why(s) {
+                    return Err(w);
                 }
             }
             let (qa, ra, pa) = a.value.clone().expect("checked");
@@ -142,7 +157,7 @@ pub fn tilt_at(
             let span = (b.stamp_ns - a.stamp_ns) as f64;
             let w = if span > 0.0 { ((t_ns - a.stamp_ns) as f64 / span).clamp(0.0, 1.0) } else { 0.0 };
             let q = DQuat::from_slice(&qa).slerp(DQuat::from_slice(&qb), w);
-            return Ok(tilt_of([q.x, q.y, q.z, q.w], ra + w * (rb - ra), pa + w * (pb - pa)));
+            return tilt_of([q.x, q.y, q.z, q.w], ra + w * (rb - ra), pa + w * (pb - pa));
         }
         (Some(a), Some(b), ImuMatch::Nearest) => {
             if gap_s(a) <= gap_s(b) {
@@ -153,11 +168,11 @@ pub fn tilt_at(
         }
         (Some(s), None, _) | (None, Some(s), _) => s.clone(),
     };
-    if let Some(w) = track.why(&pick) {
-        return Ok(Err(w));
+    if let Some(w) = why(&pick) {
+        return Err(w);
     }
     let (q, r, p) = pick.value.expect("checked");
-    Ok(tilt_of(q, r, p))
+    tilt_of(q, r, p)
 }
 
 /// The place (latitude, longitude) at `t_ns` from the nearest usable fix within
@@ -169,17 +184,30 @@ pub fn place_at(
 ) -> Result<Result<(f64, f64), String>, BagError> {
     let topic = track.topic().to_string();
     let (prev, next) = track.around(t_ns)?;
-    let mut cands: Vec<Stamped<(f64, f64)>> = prev.into_iter().chain(next).cloned().collect();
+    let (prev, next) = (prev.cloned(), next.cloned());
+    Ok(place_between(&topic, prev.as_ref(), next.as_ref(), &|s| track.why(s), t_ns, max_age_s))
+}
+
+/// The place at `t_ns` from the fixes around it, as [`tilt_between`] the tilt.
+pub fn place_between(
+    topic: &str,
+    prev: Option<&Stamped<(f64, f64)>>,
+    next: Option<&Stamped<(f64, f64)>>,
+    why: &dyn Fn(&Stamped<(f64, f64)>) -> Option<String>,
+    t_ns: i64,
+    max_age_s: f64,
+) -> Result<(f64, f64), String> {
+    let mut cands: Vec<&Stamped<(f64, f64)>> = prev.into_iter().chain(next).collect();
     cands.sort_by_key(|s| (s.stamp_ns - t_ns).abs());
-    let mut why = format!("no GNSS fix on {topic} within {max_age_s} s of the image's stamp");
+    let mut reason = format!("no GNSS fix on {topic} within {max_age_s} s of the image's stamp");
     for s in cands {
         if (s.stamp_ns - t_ns).abs() as f64 * 1e-9 > max_age_s {
             continue;
         }
         match &s.value {
-            Ok(p) => return Ok(Ok(*p)),
-            Err(_) => why = track.why(&s).unwrap_or_default(),
+            Ok(p) => return Ok(*p),
+            Err(_) => reason = why(s).unwrap_or_default(),
         }
     }
-    Ok(Err(why))
+    Err(reason)
 }
