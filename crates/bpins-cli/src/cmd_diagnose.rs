@@ -38,10 +38,16 @@ pub struct Args {
     /// pixel's noise at the frames' radiance scale.
     #[arg(long, value_name = "DN")]
     min_dn: Option<f64>,
+    /// Print where the run spent its time, stage by stage, to stderr (diagnosis.json's
+    /// `timings` holds the same, in seconds, always).
+    #[arg(long)]
+    timings: bool,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let max_added = a.max_added;
+    let show_timings = a.timings;
+    let t_run = std::time::Instant::now();
     for (flag, v) in [
         ("--min-heading-deg", a.min_heading_deg),
         ("--min-aop-deg", a.min_aop_deg),
@@ -55,6 +61,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let min_size = MinSize { heading_deg: a.min_heading_deg, aop_deg: a.min_aop_deg, dolp: a.min_dolp, dn: a.min_dn };
     let a = a.input;
     let (request, loaded) = a.load_request()?;
+    let load_s = t_run.elapsed().as_secs_f64();
     let opts = DiagnoseOptions { base: loaded.options.clone(), max_added, min_size, ..Default::default() };
     let spinner = crate::progress::spinner("diagnose");
     let t0 = std::time::Instant::now();
@@ -62,9 +69,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .context("diagnosing")?;
     // The final model's parameters on more pixels where the sample cannot decide them
     // but every pixel could (`fit::resolution`).
-    let (bpins_core::tool::fit::Loaded { capture: c, frames, .. }, d) = request
+    let t_raise = std::time::Instant::now();
+    let (bpins_core::tool::fit::Loaded { capture: c, frames, .. }, mut d) = request
         .raise_diagnosis_where_needed(loaded, d, &|_, it| spinner.set_message(format!("final model, iteration {it}")))
         .context("fitting the final model on more pixels")?;
+    d.timings.load_s = load_s;
+    d.timings.final_fit_s = t_raise.elapsed().as_secs_f64();
+    let t_report = std::time::Instant::now();
     spinner.finish_and_clear();
     if let Some(x) = d.steps.last().and_then(|s| s.fit.raised.as_ref()) {
         say!("{}", crate::raised_line(x, "the final model fitted again"));
@@ -72,8 +83,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     print_steps(&d)?;
     say!("diagnosed in {:.1} s", t0.elapsed().as_secs_f64());
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
-    let json = DiagnosisJson::new(&a.capture, &d);
-    write_json(&a.out.join("diagnosis.json"), &json)?;
     // Residual maps of every step, side by side in the report.
     let mut maps = Vec::new();
     let mut ends = Vec::new();
@@ -96,8 +105,28 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let html = crate::report::diagnosis(&d, &a.capture.display().to_string(), &maps, &pair)?;
     let page = a.out.join("report.html");
     crate::write_output(&page, html.as_bytes())?;
+    // The JSON last, with the time the maps and the report took.
+    d.timings.report_s = t_report.elapsed().as_secs_f64();
+    d.timings.total_s = t_run.elapsed().as_secs_f64();
+    let json = DiagnosisJson::new(&a.capture, &d);
+    write_json(&a.out.join("diagnosis.json"), &json)?;
     say!("wrote {} and {}", a.out.join("diagnosis.json").display(), page.display());
+    if show_timings {
+        print_timings(&d.timings);
+    }
     Ok(())
+}
+
+/// Where the run spent its time, stage by stage, to stderr (`--timings`).
+fn print_timings(t: &bpins_core::Timings) {
+    say!("{:<20}  {:>9}  {:>6}", "stage", "seconds", "share");
+    let total = t.total_s.max(f64::MIN_POSITIVE);
+    for (stage, s) in t.stages() {
+        say!("{stage:<20}  {s:>9.2}  {:>5.1}%", 100.0 * s / total);
+    }
+    let between = (t.total_s - t.sum_of_stages()).max(0.0);
+    say!("{:<20}  {between:>9.2}  {:>5.1}%", "between stages", 100.0 * between / total);
+    say!("{:<20}  {:>9.2}", "total", t.total_s);
 }
 
 /// A left-aligned column's width: its header's or its widest entry's, in characters

@@ -49,6 +49,7 @@ mod raise;
 mod refits;
 pub mod remains;
 pub mod sizes;
+mod timings;
 
 use crate::capture::{Capture, FrameData};
 use crate::effects::{EffectDef, SkyBlindness, REGISTRY};
@@ -64,6 +65,8 @@ pub use refits::CLOSE_MARGIN;
 use refits::{base_on_subsample, bound_on_every_pixel, converge, next_to_converge, refit_on_subsample, Refit, Stage};
 use remains::Remains;
 use sizes::{EffectSize, MinSize, OutsidePhysical};
+use timings::timed;
+pub use timings::Timings;
 
 /// How the search runs.
 #[derive(Clone, Debug)]
@@ -192,6 +195,8 @@ pub struct Diagnosis {
     pub inseparable: Vec<(&'static str, String)>,
     /// ΔBIC an effect must bring to be added ([`BIC_THRESHOLD`]).
     pub bic_threshold: f64,
+    /// Wall seconds per stage of the search (a caller adds its own stages).
+    pub timings: Timings,
 }
 
 impl Diagnosis {
@@ -250,15 +255,17 @@ pub fn diagnose_frames(
     opts: &DiagnoseOptions,
     progress: &dyn Fn(&str),
 ) -> Result<Diagnosis> {
+    let t0 = std::time::Instant::now();
+    let mut t = Timings::default();
     let mut model = opts.base.clone();
     if model.sky_masks.is_none() && !model.all_pixels {
         // Once for every fit of the search.
         progress("finding the sky in each frame");
-        model.sky_masks = Some(frames.sky_masks(c, &model)?);
+        model.sky_masks = Some(timed(&mut t.sky_masks_s, || frames.sky_masks(c, &model))?);
     }
     let insep = inseparable(c, &model);
     progress("fitting the starting model");
-    let mut current = fit_from(c, frames, &model, None, &|_, _| {})?;
+    let mut current = timed(&mut t.baseline_fit_s, || fit_from(c, frames, &model, None, &|_, _| {}))?;
     let mut d = Diagnosis {
         steps: vec![Step { model: model.effects.iter().map(|e| e.name).collect(), fit: current.clone() }],
         rankings: Vec::new(),
@@ -268,6 +275,7 @@ pub fn diagnose_frames(
         remains: Remains::within_noise(current.chi2_per_dof, f64::NAN, &[], &[], &[]),
         inseparable: insep.clone(),
         bic_threshold: BIC_THRESHOLD,
+        timings: Timings::default(),
     };
     for _ in 0..opts.max_added {
         let candidates: Vec<&'static EffectDef> = REGISTRY
@@ -280,7 +288,9 @@ pub fn diagnose_frames(
         // columns once): under the null the score is χ²_k whatever the sample size,
         // so it is compared with k·ln n of that subsample.
         progress(&format!("scoring {} candidates", candidates.len()));
-        let scores = score_candidates(c, frames, &model, &current, &candidates, opts.score_stride, SCORE_PROBE)?;
+        let scores = timed(&mut t.scoring_s, || {
+            score_candidates(c, frames, &model, &current, &candidates, opts.score_stride, SCORE_PROBE)
+        })?;
         // ΔBIC at the effective sample count of the model a candidate adds to: where its
         // residual is smooth, Δχ² counts for n_eff/n of itself (the same factor for every
         // candidate of a step, so it does not reorder them by noise in n_eff).
@@ -319,13 +329,15 @@ pub fn diagnose_frames(
             None
         } else {
             progress("fitting the model on the subsample");
-            Some(base_on_subsample(c, frames, &model, &current)?)
+            Some(timed(&mut t.subsample_refits_s, || base_on_subsample(c, frames, &model, &current))?)
         };
         if let Some((sub, scale)) = &base_sub {
             for e in &worth {
                 progress(&format!("refitting with {e} on the subsample"));
                 let cand = ranking.iter_mut().find(|c| c.effect == *e).expect("ranked");
-                refits.push(refit_on_subsample(c, frames, &model, &current, (sub, scale), cand)?);
+                refits.push(timed(&mut t.subsample_refits_s, || {
+                    refit_on_subsample(c, frames, &model, &current, (sub, scale), cand)
+                })?);
             }
         }
         let by_evidence = |ranking: &mut Vec<Candidate>| {
@@ -345,12 +357,14 @@ pub fn diagnose_frames(
                 .filter(|&i| !scale.clearly_passes(refits[i].sub_delta_chi2, refits[i].sub_rank));
             if unsettled.is_some() {
                 progress("scoring the refits on every pixel");
-                bound_on_every_pixel(c, frames, &model, &current, &mut refits, &mut ranking)?;
+                timed(&mut t.every_pixel_scores_s, || {
+                    bound_on_every_pixel(c, frames, &model, &current, &mut refits, &mut ranking)
+                })?;
             }
             while let Some(i) = next_to_converge(&refits, &ranking, scale) {
                 progress(&format!("refitting with {} on every pixel", refits[i].effect));
                 let cand = ranking.iter_mut().find(|c| c.effect == refits[i].effect).expect("ranked");
-                converge(c, frames, &current, &mut refits[i], cand)?;
+                timed(&mut t.every_pixel_refits_s, || converge(c, frames, &current, &mut refits[i], cand))?;
             }
         }
         by_evidence(&mut ranking);
@@ -375,12 +389,24 @@ pub fn diagnose_frames(
             let pending = refits[i].effect;
             progress(&format!("refitting with {pending} on every pixel"));
             let cand = ranking.iter_mut().find(|c| c.effect == pending).expect("ranked");
-            converge(c, frames, &current, &mut refits[i], cand)?;
+            timed(&mut t.pair_refits_s, || converge(c, frames, &current, &mut refits[i], cand))?;
             by_evidence(&mut ranking);
         }
         progress("sizing the candidates");
         let sub_state = base_sub.as_ref().map(|(s, _)| &s.state);
-        sizes::fill(c, frames, &model, &current, &refits, sub_state, &mut ranking, &opts.min_size, opts.score_stride)?;
+        timed(&mut t.sizes_s, || {
+            sizes::fill(
+                c,
+                frames,
+                &model,
+                &current,
+                &refits,
+                sub_state,
+                &mut ranking,
+                &opts.min_size,
+                opts.score_stride,
+            )
+        })?;
         let best = ranking.first().cloned();
         let runner = ranking.get(1).cloned();
         d.rankings.push(ranking);
@@ -412,13 +438,21 @@ pub fn diagnose_frames(
             // Neither explains half alone: the best two together, each evident alone.
             let Some(second) = runner.filter(|r| evident(r)) else { break };
             progress(&format!("refitting with {} and {}", best.effect, second.effect));
+            // From the leader's every-pixel optimum (its values and every frame's
+            // nuisances converged with it) with the runner-up's values from its own: the
+            // same least-squares problem as from the base model's optimum, started
+            // nearer its optimum (samples/clean with `benches/diagnose.rs`'s glare: 7
+            // iterations instead of 24, the same χ²/dof to 10⁻⁴; BENCHMARKS.md).
             let mut m = model.clone();
-            let mut start = current.state.clone();
+            let lead = refits.iter().find(|r| r.effect == best.effect).and_then(|r| r.full());
+            let mut start = lead.map_or_else(|| current.state.clone(), |f| f.state.clone());
             for cand in [&best, &second] {
                 m.effects.push(crate::effects::find(cand.effect)?);
-                start.effect_values.extend(cand.params.iter().map(|p| (p.id, p.value)));
+                if lead.is_none() || cand.effect != best.effect {
+                    start.effect_values.extend(cand.params.iter().map(|p| (p.id, p.value)));
+                }
             }
-            let r = fit_from(c, frames, &m, Some(&start), &|_, _| {})?;
+            let r = timed(&mut t.pair_refits_s, || fit_from(c, frames, &m, Some(&start), &|_, _| {}))?;
             let dc = current.chi2 - r.chi2;
             let k = r.rank.saturating_sub(current.rank);
             if dc < EXCESS_FRACTION * excess || share.delta_bic(dc, k) < 2.0 * BIC_THRESHOLD {
@@ -444,7 +478,9 @@ pub fn diagnose_frames(
     let pairs: Vec<String> = d.confusable.iter().map(|p| format!("{} or {}", p.first, p.second)).collect();
     d.remains = if current.chi2_per_dof > limit {
         progress("describing the residual");
-        let maps = residual_maps_of(c, frames, &model, &current.state, current.noise, &mut |_, _| {})?;
+        let maps = timed(&mut t.residual_s, || {
+            residual_maps_of(c, frames, &model, &current.state, current.noise, &mut |_, _| {})
+        })?;
         let mut partial = d.selected.clone();
         partial.extend(d.confusable.iter().flat_map(|p| [p.first, p.second]));
         Remains::unexplained(current.chi2_per_dof, limit, partial, &maps.profiles)
@@ -456,6 +492,8 @@ pub fn diagnose_frames(
         d.selected.iter().chain(&d.negligible).copied().chain(d.confusable.iter().map(|p| p.first)).collect();
     let own: Vec<Param> = current.params.iter().filter(|p| added.contains(&p.id.effect)).cloned().collect();
     d.remains = d.remains.with_unphysical(sizes::excluded_physical(&own));
+    t.total_s = t0.elapsed().as_secs_f64();
+    d.timings = t;
     Ok(d)
 }
 
@@ -477,6 +515,7 @@ mod tests {
             remains: Remains::within_noise(1.0, 1.02, &["focal_length"], &[], &[]),
             inseparable: Vec::new(),
             bic_threshold: BIC_THRESHOLD,
+            timings: Timings::default(),
         }
     }
 
