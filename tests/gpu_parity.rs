@@ -39,6 +39,7 @@ fn main() -> std::process::ExitCode {
                     "a_neutral_effect_left_out_of_a_dispatch_changes_no_output_bit",
                     a_neutral_effect_left_out_of_a_dispatch_changes_no_output_bit,
                 ),
+                ("a_colour_sensor_agrees_on_both_backends", a_colour_sensor_agrees_on_both_backends),
             ],
         ),
         (
@@ -179,6 +180,69 @@ fn the_gpu_is_a_library_backend_like_the_cpu() {
     // A device error comes back in the core's words.
     let e = Backend::render_mosaic(gpu, frames, 1 << 20, 1 << 20, &bpins_core::sensor::DEFAULT_MOSAIC).unwrap_err();
     assert!(matches!(e, bpins_core::Error::Backend { .. }), "{e}");
+}
+
+/// A colour-polarization sensor (IMX250MYR tiles): the band model's effects
+/// (`sky_spectrum`, `band_response`) at typical strength beside a lens effect, each
+/// pixel in its band, with noise; the GPU's DN within its tolerance of the CPU's, and
+/// crosstalk across bands refused by the GPU's one-band-at-a-time path.
+fn a_colour_sensor_agrees_on_both_backends() {
+    use bpins_core::camera::{Intrinsics, Projection};
+    use bpins_core::effects::{find, EffectSet};
+    use bpins_core::internal::backend::{Backend, Cpu};
+    use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+    use bpins_core::sensor::{ColourTiles, Response, DEFAULT_MOSAIC};
+    let (w, h) = (96, 64);
+    let intr = Intrinsics::new(Projection::Pinhole, 120.0, 47.5, 31.5);
+    let resp = Response {
+        black_level_dn: 64.0,
+        read_noise_dn: 1.0,
+        system_gain_dn_per_e: 0.1,
+        quantize: true,
+        bit_depth: 12,
+        ..Response::ideal(2500.0)
+    };
+    let tiles = ColourTiles::imx250myr();
+    let mut set = EffectSet::new();
+    for name in ["sky_spectrum", "band_response"] {
+        for p in find(name).unwrap().params {
+            set.set(name, p.name, p.typical).unwrap();
+        }
+    }
+    set.set("lens_diattenuation", "rho2", 0.2).unwrap();
+    let frames = |set: &EffectSet| -> Vec<[ChainFrame; 3]> {
+        let model = set.model();
+        (0..2u32)
+            .map(|i| {
+                let sc = Scene {
+                    sun_az_deg: 200.0,
+                    sun_el_deg: 45.0,
+                    heading_deg: 7.0 + 90.0 * i as f64,
+                    tilt_x_deg: 0.0,
+                    tilt_y_deg: 0.0,
+                    dmax: 0.7,
+                };
+                ChainFrame::new(&model, &intr, &sc, &resp, NoiseIndex { seed: 9, trial: 0, frame: i })
+                    .bands(&model, &sc)
+            })
+            .collect()
+    };
+    let fr = frames(&set);
+    let cpu = Cpu.render_colour_mosaic(&fr, w, h, &DEFAULT_MOSAIC, &tiles).unwrap();
+    for gpu in gpus() {
+        let g = Backend::render_colour_mosaic(gpu, &fr, w, h, &DEFAULT_MOSAIC, &tiles).unwrap();
+        for (c, g) in cpu.iter().zip(&g) {
+            let off =
+                c.iter().zip(g).filter(|(a, b)| (**a - **b).abs() > bpins_gpu::tolerance::DN_MAX_ABS as f32).count();
+            assert_eq!(off, 0, "{}: colour DN beyond tolerance", gpu.precision().name());
+        }
+        // The bands differ (red darker than green by its radiance and QE).
+        assert!(g[0][0] < g[0][2], "a red pixel {} is darker than the green one beside it {}", g[0][0], g[0][2]);
+        let mut xt = EffectSet::new();
+        xt.set("crosstalk", "c", 0.01).unwrap();
+        let e = Backend::render_colour_mosaic(gpu, &frames(&xt), w, h, &DEFAULT_MOSAIC, &tiles).unwrap_err();
+        assert!(e.to_string().contains("crosstalk"), "{e}");
+    }
 }
 
 fn sky_maps_agree_on_both_backends_for_every_effect() {

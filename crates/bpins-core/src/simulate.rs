@@ -11,7 +11,7 @@ use crate::chain::{
 use crate::effects::Model;
 use crate::heading::{HeadingContext, HeadingSums, RowScratch};
 use crate::recon::{superpixel_stokes_row, Reconstructor};
-use crate::sensor::{Channel, Layout};
+use crate::sensor::{Channel, ColourTiles, Layout};
 use crate::stokes::Stokes;
 use rayon::prelude::*;
 
@@ -36,6 +36,81 @@ pub fn render_mosaic_into(f: &ChainFrame, w: usize, h: usize, mosaic: &[[Channel
             sensor_dn_row(f, (v * w) as u32, chans, &signal[..row.len()], scratch, row);
         },
     );
+}
+
+/// Renders a colour-polarization DoFP mosaic (`w × h`, row-major DN;
+/// CONVENTIONS.md `colour_tiles`): each pixel its own ray and analyzer through the frame
+/// of the band over it (`frames` by [`Band::index`](crate::sensor::Band::index),
+/// [`ChainFrame::bands`]), the mosaic effects with its neighbours as their bands see
+/// them; bitwise `chain::colour_pixel_signal_dn` then the sensor (tested). The bands'
+/// frames share their sensor, offsets and noise keys, so the sensor stage is theirs.
+pub fn render_colour_mosaic(
+    frames: &[ChainFrame; 3],
+    w: usize,
+    h: usize,
+    mosaic: &[[Channel; 2]; 2],
+    tiles: &ColourTiles,
+) -> Vec<f32> {
+    let mut out = vec![0f32; w * h];
+    out.par_chunks_mut(w.max(1)).enumerate().for_each_init(
+        || (vec![0.0; w], NoiseRows::default(), CrosstalkRows::default()),
+        |(signal, scratch, xt), (v, row)| {
+            let chans = [0, 1].map(|u| Layout::dofp_channel(mosaic, u, v).index());
+            // Sky → lens → analyzer → photo-signal, each pixel in its band (and crosstalk).
+            colour_signal_row(frames, tiles, v, h, mosaic, xt, &mut signal[..row.len()]);
+            // Sensor: non-uniformities, offsets, noise, rounding (the same in every band).
+            sensor_dn_row(&frames[0], (v * w) as u32, chans, &signal[..row.len()], scratch, row);
+        },
+    );
+    out
+}
+
+/// Row `v` of a colour sensor's photo-signal (DN), `out[u] =
+/// chain::colour_pixel_signal_dn(frames, tiles, u, v, out.len(), h, mosaic)` bitwise.
+fn colour_signal_row(
+    frames: &[ChainFrame; 3],
+    tiles: &ColourTiles,
+    v: usize,
+    h: usize,
+    mosaic: &[[Channel; 2]; 2],
+    xt: &mut CrosstalkRows,
+    out: &mut [f64],
+) {
+    let w = out.len();
+    // Every pixel of row r through its band's frame: the row kernel of the row's first
+    // tile's band, then, where the row's other tile has another band, that band's row
+    // kernel for its pixels (each pixel's signal is its own: bitwise per pixel).
+    let band_row = |r: usize, other: &mut Vec<f64>, out: &mut [f64]| {
+        let chans = [0, 1].map(|u| Layout::dofp_channel(mosaic, u, r).index());
+        let [b0, b1] = tiles.tiles[(r >> 1) & 1];
+        signal_row(&frames[b0.index()], r as f64, chans, out);
+        if b1 != b0 {
+            other.clear();
+            other.resize(out.len(), 0.0);
+            signal_row(&frames[b1.index()], r as f64, chans, other);
+            for (u, o) in out.iter_mut().enumerate().filter(|(u, _)| (u >> 1) & 1 == 1) {
+                *o = other[u];
+            }
+        }
+    };
+    let f = &frames[0];
+    if !f.has_mosaic_effects() {
+        band_row(v, &mut xt.other, out);
+        return;
+    }
+    let CrosstalkRows { own, up, down, other } = xt;
+    for (buf, row) in [(own, Some(v)), (up, v.checked_sub(1)), (down, Some(v + 1).filter(|&r| r < h))] {
+        buf.clear();
+        buf.resize(w, 0.0);
+        if let Some(r) = row {
+            band_row(r, other, buf);
+        }
+    }
+    for (u, o) in out.iter_mut().enumerate() {
+        let left = if u > 0 { xt.own[u - 1] } else { 0.0 };
+        let right = if u + 1 < w { xt.own[u + 1] } else { 0.0 };
+        *o = crate::chain::mosaic_effects(&f.mosaic, &f.active.mosaic, xt.own[u], [xt.up[u], xt.down[u], left, right]);
+    }
 }
 
 /// Heading sums of a DoFP frame (`w × h`) reconstructed as 2 × 2 superpixels, fused:
@@ -96,6 +171,8 @@ struct CrosstalkRows {
     own: Vec<f64>,
     up: Vec<f64>,
     down: Vec<f64>,
+    /// A colour row's second band ([`colour_signal_row`]).
+    other: Vec<f64>,
 }
 
 /// Row `v` of a DoFP frame's photo-signal (DN), `out[u] = chain::mosaic_pixel_signal_dn(f,
@@ -321,6 +398,62 @@ mod tests {
             assert!(d.abs() < 1e-4, "AoE at ({u}, {v}) off the rule by {d} deg");
         }
         assert_eq!(sky_maps(&f, 0, 5).aop_deg.len(), 0);
+    }
+
+    /// Every band effect at its typical value, a lens effect and (where `crosstalk`)
+    /// crosstalk: the colour model with work in each stage.
+    fn colour_model(crosstalk: bool) -> Model {
+        let mut set = crate::effects::EffectSet::new();
+        for name in ["sky_spectrum", "band_response"] {
+            for p in crate::effects::find(name).unwrap().params {
+                set.set(name, p.name, p.typical).unwrap();
+            }
+        }
+        set.set("lens_diattenuation", "rho2", 0.3).unwrap();
+        if crosstalk {
+            set.set("crosstalk", "c", 0.02).unwrap();
+        }
+        set.model()
+    }
+
+    #[test]
+    fn colour_mosaic_is_each_pixel_through_its_band_with_crosstalk_across_bands() {
+        let tiles = ColourTiles::imx250myr();
+        let sc = scene();
+        let (w, h) = (37, 23);
+        for crosstalk in [false, true] {
+            let model = colour_model(crosstalk);
+            let frames = ChainFrame::noise_free(&model, &intrinsics(), &sc).bands(&model, &sc);
+            let dn = render_colour_mosaic(&frames, w, h, &DEFAULT_MOSAIC, &tiles);
+            for v in 0..h {
+                for u in 0..w {
+                    let want = crate::chain::colour_pixel_signal_dn(&frames, &tiles, u, v, w, h, &DEFAULT_MOSAIC);
+                    assert_eq!(dn[v * w + u], want as f32, "({u}, {v}), crosstalk {crosstalk}");
+                }
+            }
+            // The bands differ: a red pixel's signal is not the green frame's.
+            let g = crate::chain::mosaic_pixel_signal_dn(&frames[1], 0, 0, w, h, &DEFAULT_MOSAIC);
+            assert!((dn[0] as f64 / g - 0.625 * 0.8).abs() < 0.05, "{} vs {g}", dn[0]);
+        }
+    }
+
+    #[test]
+    fn a_colour_mosaic_at_neutral_bands_is_the_monochrome_mosaic_bitwise() {
+        let resp = Response {
+            read_noise_dn: 1.0,
+            system_gain_dn_per_e: 0.1,
+            quantize: true,
+            bit_depth: 12,
+            ..Response::ideal(3000.0)
+        };
+        let mut set = crate::effects::EffectSet::new();
+        set.set("crosstalk", "c", 0.02).unwrap();
+        let (model, sc) = (set.model(), scene());
+        let f = ChainFrame::new(&model, &intrinsics(), &sc, &resp, NoiseIndex { seed: 3, trial: 0, frame: 1 });
+        let frames = f.bands(&model, &sc);
+        assert!(frames.iter().all(|b| *b == f));
+        let colour = render_colour_mosaic(&frames, 64, 40, &DEFAULT_MOSAIC, &ColourTiles::imx250myr());
+        assert_eq!(colour, render_mosaic(&f, 64, 40, &DEFAULT_MOSAIC));
     }
 
     #[test]

@@ -65,6 +65,11 @@ fn every_separable_effect_hidden_under_a_cie_sky_is_named_first_and_recovered() 
     for e in REGISTRY.iter() {
         let mut set = EffectSet::new();
         typical(&mut set, e.name);
+        if set.model().bands != Default::default() {
+            // A colour band's sky or response (sky_spectrum, band_response): nothing on this
+            // monochrome capture; a colour capture's bands measure it (tests/colour.rs).
+            continue;
+        }
         let frames = simulate_in(&c, &set, 200 + seed_of(e.name), &sky, PRNU);
         let t0 = std::time::Instant::now();
         let mut d = run(&c, &frames, 1, None);

@@ -126,6 +126,38 @@ impl ChainFrame {
         f
     }
 
+    /// The frame as the pixels under colour band `b` of a colour-polarization sensor
+    /// see it (`model.bands`, [`BandBlock`](crate::effects::BandBlock)): the sky's
+    /// d_max times the band's factor, every channel's gain times the band's sky
+    /// radiance and response (the chain is linear up to the photo-signal, so a radiance
+    /// scale is a gain), each analyzer's ε plus the band's. Everything else (the
+    /// camera, the effects, the offsets, the noise keys) is the frame's, so the bands'
+    /// frames draw the same noise at a pixel. At a neutral band block, bitwise `self`.
+    pub fn in_band(mut self, model: &Model, scene: &Scene, b: crate::sensor::Band) -> Self {
+        let k = b.index();
+        let bands = &model.bands;
+        // The band's peak DoLP, at most 1 (as ChainFrame::new's).
+        self.dmax = (scene.dmax * model.sky_block.dmax_factor * bands.dmax_factor[k]).min(1.0);
+        // Radiance × response of the band: DN per unit (green) radiance.
+        let scale = bands.radiance[k] * bands.gain[k];
+        self.gain_dn = self.gain_dn.map(|g| g * scale);
+        // Each channel's analyzer with the band's ε added.
+        self.analyzers = Channel::ALL.map(|c| {
+            Analyzer::at(
+                c.angle_deg(),
+                model.channels.analyzer_delta_deg[c.index()],
+                model.channels.analyzer_eps[c.index()] + bands.eps[k],
+            )
+        });
+        self
+    }
+
+    /// The three band frames of a colour-polarization sensor, by
+    /// [`Band::index`](crate::sensor::Band::index) ([`ChainFrame::in_band`]).
+    pub fn bands(&self, model: &Model, scene: &Scene) -> [ChainFrame; 3] {
+        crate::sensor::Band::ALL.map(|b| self.clone().in_band(model, scene, b))
+    }
+
     /// Whether any per-pixel step is on: a sky effect, scene elements, or a per-pixel
     /// effect off its neutral vector (the row kernels skip them otherwise).
     pub fn has_pixel_effects(&self) -> bool {

@@ -273,12 +273,44 @@ pub fn mosaic_pixel_signal_dn(
     h: usize,
     mosaic: &[[crate::sensor::Channel; 2]; 2],
 ) -> f64 {
+    mosaic_signal_through(|_, _| f, u, v, w, h, mosaic)
+}
+
+/// [`mosaic_pixel_signal_dn`] on a colour-polarization sensor: each pixel, and each of
+/// its neighbours, through the frame of the band over it (`frames` by
+/// [`Band::index`](crate::sensor::Band::index), [`ChainFrame::bands`]; CONVENTIONS.md
+/// `colour_tiles`), so crosstalk between neighbouring tiles mixes bands as they are.
+/// The mosaic effects' vectors are the frames' (the same in every band).
+pub fn colour_pixel_signal_dn(
+    frames: &[ChainFrame; 3],
+    tiles: &crate::sensor::ColourTiles,
+    u: usize,
+    v: usize,
+    w: usize,
+    h: usize,
+    mosaic: &[[crate::sensor::Channel; 2]; 2],
+) -> f64 {
+    mosaic_signal_through(|u, v| &frames[tiles.band_at(u, v).index()], u, v, w, h, mosaic)
+}
+
+/// The photo-signal of DoFP pixel `(u, v)`, each pixel through the frame `frame_of(u, v)`.
+#[inline(always)]
+fn mosaic_signal_through<'a>(
+    frame_of: impl Fn(usize, usize) -> &'a ChainFrame,
+    u: usize,
+    v: usize,
+    w: usize,
+    h: usize,
+    mosaic: &[[crate::sensor::Channel; 2]; 2],
+) -> f64 {
     let signal = |u: usize, v: usize| {
+        let f = frame_of(u, v);
         let ch = crate::sensor::Layout::dofp_channel(mosaic, u, v).index();
         let g = f.intr.geometry(u as f64, v as f64);
         site_signal_dn(f, ray_stokes(f, &g), &g, u as u32, v as u32, ch)
     };
     let own = signal(u, v);
+    let f = frame_of(u, v);
     if !f.has_mosaic_effects() {
         return own;
     }

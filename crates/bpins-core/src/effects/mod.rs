@@ -6,8 +6,9 @@
 //! it ([`EffectDef::derivatives`], [`EffectDef::inseparable`]). Every effect is a hook
 //! of one stage of the chain:
 //! - [`Apply::Frame`] folds its values into its stage's parameter block of [`Model`]
-//!   ([`GeometryBlock`], [`SkyBlock`], [`ChannelBlock`]), which both backends read
-//!   alike (the camera, the sky's d_max, each channel's analyzer, gain and offset);
+//!   ([`GeometryBlock`], [`SkyBlock`], [`ChannelBlock`], [`BandBlock`]), which both
+//!   backends read alike (the camera, the sky's d_max, each channel's analyzer, gain
+//!   and offset, each colour band's sky and response);
 //! - [`Apply::Sky`] acts on the sky's Stokes vector along each ray, [`Apply::Ray`] on
 //!   each ray's Stokes vector after the sky (the lens), [`Apply::Analyzer`] on each
 //!   pixel's analyzer, [`Apply::Mosaic`] on a DoFP pixel's signal with its neighbours',
@@ -45,6 +46,7 @@
 pub(crate) mod analyzer_angles;
 pub(crate) mod analyzer_incidence;
 pub(crate) mod array_rotation;
+pub(crate) mod band_response;
 pub(crate) mod channel_response;
 pub(crate) mod crosstalk;
 pub(crate) mod dark_signal;
@@ -61,6 +63,7 @@ pub(crate) mod sensor_nonlinearity;
 pub(crate) mod sky_depolarization;
 pub(crate) mod sky_dolp_shape;
 pub(crate) mod sky_neutral_points;
+pub(crate) mod sky_spectrum;
 pub(crate) mod stray_light;
 pub(crate) mod vignetting;
 pub(crate) mod window;
@@ -76,7 +79,7 @@ pub use hooks::{
     AnalyzerFn, AnalyzerParams, Apply, FrameContext, MosaicFn, PixelAnalyzer, PixelSite, RayFn, RayParams, SensorFn,
     SensorParams, SkyFn, SkyParams, SKY_WIDTH,
 };
-pub use model::{ChannelBlock, EffectSet, GeometryBlock, Model, SkyBlock};
+pub use model::{BandBlock, ChannelBlock, EffectSet, GeometryBlock, Model, SkyBlock};
 pub use slots::{
     analyzer_slot, frame_ray_params, frame_sky_params, neutral_analyzer_params, neutral_mosaic_params,
     neutral_ray_params, neutral_sensor_params, neutral_sky_params, ray_slot, stage_slot, ANALYZER_COUNT,
@@ -204,6 +207,7 @@ const ALL: &[&EffectDef] = &[
     &sky_depolarization::EFFECT,
     &sky_neutral_points::EFFECT,
     &sky_dolp_shape::EFFECT,
+    &sky_spectrum::EFFECT,
     &window::EFFECT,
     &lens_diattenuation::EFFECT,
     &lens_retardance::EFFECT,
@@ -216,6 +220,7 @@ const ALL: &[&EffectDef] = &[
     &polarimetric_nonuniformity::EFFECT,
     &analyzer_incidence::EFFECT,
     &channel_response::EFFECT,
+    &band_response::EFFECT,
     &crosstalk::EFFECT,
     &dark_signal::EFFECT,
     &sensor_nonlinearity::EFFECT,

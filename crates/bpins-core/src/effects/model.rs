@@ -71,6 +71,30 @@ impl Default for ChannelBlock {
     }
 }
 
+/// The colour bands' parameter block of a colour-polarization sensor (CONVENTIONS.md
+/// `colour_tiles`), by [`Band::index`](crate::sensor::Band::index) (R, G, B): what each
+/// band's pixels see of the sky and how their filter, photodiode and analyzer respond.
+/// `sky_spectrum` and `band_response` fold into it; the chain reads it where a frame
+/// is made for one band (`ChainFrame::in_band`), so a monochrome sensor never does.
+/// Green is the reference band: the scene's radiance and d_max are green's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BandBlock {
+    /// The sky's radiance in each band relative to green's (clear sky: blue brighter).
+    pub radiance: [f64; 3],
+    /// Factor on the scene's d_max in each band (clear sky: blue less polarized).
+    pub dmax_factor: [f64; 3],
+    /// Each band's quantum efficiency × filter transmittance × gain relative to green's.
+    pub gain: [f64; 3],
+    /// ε = 1/ER each band's analyzers add to their channel's.
+    pub eps: [f64; 3],
+}
+
+impl Default for BandBlock {
+    fn default() -> Self {
+        BandBlock { radiance: [1.0; 3], dmax_factor: [1.0; 3], gain: [1.0; 3], eps: [0.0; 3] }
+    }
+}
+
 /// The chain's parameters: one block per stage (what `Apply::Frame` effects fold
 /// into) and one array per kind of hook (each effect's vector in its slot), the ideal
 /// chain plus what enabled effects put in. `Model::default()` is the ideal chain. No
@@ -97,6 +121,8 @@ pub struct Model {
     pub sensor: [SensorParams; SENSOR_COUNT],
     /// Each mosaic effect's vector, slot `k` for [`MOSAIC_EFFECTS`]`[k]`.
     pub mosaic: [SensorParams; MOSAIC_COUNT],
+    /// The colour bands' block (read only for a colour sensor's band frames).
+    pub bands: BandBlock,
 }
 
 impl Default for Model {
@@ -110,6 +136,7 @@ impl Default for Model {
             channels: ChannelBlock::default(),
             sensor: *neutral_sensor_params(),
             mosaic: *neutral_mosaic_params(),
+            bands: BandBlock::default(),
         }
     }
 }
