@@ -78,6 +78,8 @@ typedef enum BpinsNoHeading {
   // The sky contradicts the given sun, attitude or mosaic layout beyond their 1σ
   // (a wrong clock or place, a wrong tilt, a flipped mosaic).
   BPINS_NO_HEADING_CONTRADICTS = 7,
+  // The frame is too dark to tell: its polarized signal is below the noise.
+  BPINS_NO_HEADING_TOO_DARK = 8,
 } BpinsNoHeading;
 
 // A compass: the camera, the sensor and its calibration, with the estimator's
@@ -138,6 +140,12 @@ typedef struct BpinsCompassConfig {
   double sigma_floor_deg;
   // Half-width of the meridian line's AoE band, degrees (default 5).
   double band_deg;
+  // A colour-polarization sensor's colour filters over the 2 × 2 analyzer tiles,
+  // row-major: {'R', 'G', 'G', 'B'} for the Sony IMX250MYR (each of R, G, B at
+  // least once). All zero (the default): a monochrome sensor. A colour compass reads
+  // each band from its own pixels; `bpins_compass_heading_*` gives the bands' fused
+  // heading, `bpins_compass_band_headings_*` each band's.
+  char colour_tiles[4];
 } BpinsCompassConfig;
 
 // How a `BpinsSun` gives the sun (`BPINS_SUN_*`).
@@ -230,6 +238,20 @@ typedef struct BpinsMapsConfig {
   double aoe_centre_y_px;
 } BpinsMapsConfig;
 
+// One band's maps for `bpins_colour_maps_*`, each NULL or (maps' size) writable
+// floats; `aoe_deg` may be NULL (no AoE map), and a band whose `aop_deg` is NULL is
+// not made.
+typedef struct BpinsBandMaps {
+  float *aop_deg;
+  float *dolp;
+  float *intensity_dn;
+  float *aoe_deg;
+} BpinsBandMaps;
+
+// The colour bands, as indices of `bpins_compass_band_headings_*`'s output and of
+// `bpins_colour_maps_*`'s (`BPINS_BAND_*`).
+typedef uint32_t BpinsBand;
+
 // r = f·tan θ: an ordinary (rectilinear) lens.
 #define BPINS_PROJECTION_PINHOLE 0
 
@@ -253,6 +275,12 @@ typedef struct BpinsMapsConfig {
 
 // `unix_time_s`, `latitude_deg` and `longitude_deg` give it, through NREL SPA.
 #define BPINS_SUN_UNIX_TIME 1
+
+#define BPINS_BAND_R 0
+
+#define BPINS_BAND_G 1
+
+#define BPINS_BAND_B 2
 
 #ifdef __cplusplus
 extern "C" {
@@ -351,6 +379,49 @@ enum BpinsStatus bpins_compass_heading_f32(struct BpinsCompass *compass,
                                            const struct BpinsAttitude *attitude,
                                            struct BpinsHeading *out);
 
+// A colour compass's (config `colour_tiles` set) headings of one raw frame of 16-bit
+// samples, each band's from its own pixels: `out` holds three headings, written at
+// `BPINS_BAND_R`, `BPINS_BAND_G`, `BPINS_BAND_B` (their fused heading is
+// `bpins_compass_heading_u16`'s). Otherwise as `bpins_compass_heading_u16`; a
+// monochrome compass is `BPINS_ERR_CONFIG`.
+//
+// # Safety
+// As `bpins_compass_heading_u16`, with `out` NULL or three writable headings.
+enum BpinsStatus bpins_compass_band_headings_u16(struct BpinsCompass *compass,
+                                                 const uint16_t *data,
+                                                 size_t width_px,
+                                                 size_t height_px,
+                                                 size_t stride,
+                                                 const struct BpinsSun *sun,
+                                                 const struct BpinsAttitude *attitude,
+                                                 struct BpinsHeading *out);
+
+// As `bpins_compass_band_headings_u16`, for 8-bit samples.
+//
+// # Safety
+// As `bpins_compass_band_headings_u16`.
+enum BpinsStatus bpins_compass_band_headings_u8(struct BpinsCompass *compass,
+                                                const uint8_t *data,
+                                                size_t width_px,
+                                                size_t height_px,
+                                                size_t stride,
+                                                const struct BpinsSun *sun,
+                                                const struct BpinsAttitude *attitude,
+                                                struct BpinsHeading *out);
+
+// As `bpins_compass_band_headings_u16`, for `float` samples in DN.
+//
+// # Safety
+// As `bpins_compass_band_headings_u16`.
+enum BpinsStatus bpins_compass_band_headings_f32(struct BpinsCompass *compass,
+                                                 const float *data,
+                                                 size_t width_px,
+                                                 size_t height_px,
+                                                 size_t stride,
+                                                 const struct BpinsSun *sun,
+                                                 const struct BpinsAttitude *attitude,
+                                                 struct BpinsHeading *out);
+
 // Fills `*out` with the defaults: bilinear, the IMX250MZR mosaic {{90, 45}, {135, 0}},
 // black level 0 DN, no saturation check, AoE about (0, 0): set the centre.
 //
@@ -405,6 +476,51 @@ enum BpinsStatus bpins_stokes_maps_f32(const float *data,
                                        float *dolp,
                                        float *intensity_dn,
                                        float *aoe_deg);
+
+// Each band's AoP, DoLP, intensity and (where `aoe_deg` is not NULL) AoE maps of one
+// raw colour-polarization frame of 16-bit samples, every band from its own pixels:
+// `colour_tiles` points to the four colour filters over the 2 × 2 analyzer tiles,
+// row-major ("RGGB" for the Sony IMX250MYR); `out` to three `BpinsBandMaps`, at
+// `BPINS_BAND_R`, `BPINS_BAND_G`, `BPINS_BAND_B`. Maps of (width × height) floats, or
+// (width / 4) × (height / 4) for `BPINS_MAPS_SUPERPIXEL` (one value per 4 × 4
+// superpixel); `BPINS_MAPS_OPENCV` is polanalyser's `COLOR_PolarRGB` demosaic,
+// exactly (docs/colour.md). Otherwise as `bpins_stokes_maps_u16`.
+//
+// # Safety
+// As `bpins_stokes_maps_u16`; `colour_tiles` NULL or four readable chars; `out` NULL
+// or three readable `BpinsBandMaps` whose non-NULL maps hold the maps' size of
+// writable floats, no two overlapping.
+enum BpinsStatus bpins_colour_maps_u16(const uint16_t *data,
+                                       size_t width_px,
+                                       size_t height_px,
+                                       size_t stride,
+                                       const struct BpinsMapsConfig *config,
+                                       const char *colour_tiles,
+                                       const struct BpinsBandMaps *out);
+
+// As `bpins_colour_maps_u16`, for 8-bit samples.
+//
+// # Safety
+// As `bpins_colour_maps_u16`.
+enum BpinsStatus bpins_colour_maps_u8(const uint8_t *data,
+                                      size_t width_px,
+                                      size_t height_px,
+                                      size_t stride,
+                                      const struct BpinsMapsConfig *config,
+                                      const char *colour_tiles,
+                                      const struct BpinsBandMaps *out);
+
+// As `bpins_colour_maps_u16`, for `float` samples in DN.
+//
+// # Safety
+// As `bpins_colour_maps_u16`.
+enum BpinsStatus bpins_colour_maps_f32(const float *data,
+                                       size_t width_px,
+                                       size_t height_px,
+                                       size_t stride,
+                                       const struct BpinsMapsConfig *config,
+                                       const char *colour_tiles,
+                                       const struct BpinsBandMaps *out);
 
 #ifdef __cplusplus
 }  // extern "C"

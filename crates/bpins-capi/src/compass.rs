@@ -169,6 +169,7 @@ unsafe fn heading<T: RawDn>(
     sun: *const BpinsSun,
     attitude: *const BpinsAttitude,
     out: *mut BpinsHeading,
+    bands: bool,
 ) -> BpinsStatus {
     guard(|| {
         let null = |name: &str| Failure::new(BpinsStatus::BPINS_ERR_NULL, format!("`{name}` is NULL"));
@@ -223,6 +224,16 @@ unsafe fn heading<T: RawDn>(
         // rows 0…height−1 of `width` samples each, `stride` samples apart.
         let samples = unsafe { std::slice::from_raw_parts(data, len) };
         let frame = RawImage { data: samples, width_px, height_px, stride };
+        if bands {
+            let extractor = c.compass.extractor();
+            let fix = c.compass.colour_headings(frame, sun, attitude, &[extractor]).map_err(failure)?;
+            for (b, hs) in &fix.bands {
+                // SAFETY: non-NULL and three writable headings by the caller's contract;
+                // a band's index is 0, 1 or 2.
+                unsafe { out.add(b.index()).write(BpinsHeading::from(&hs[0])) };
+            }
+            return Ok(());
+        }
         let fix = c.compass.heading(frame, sun, attitude).map_err(failure)?;
         // SAFETY: non-NULL and writable by the caller's contract; `write` reads nothing.
         unsafe { out.write(BpinsHeading::from(&fix)) };
@@ -254,7 +265,7 @@ pub unsafe extern "C" fn bpins_compass_heading_u16(
     out: *mut BpinsHeading,
 ) -> BpinsStatus {
     // SAFETY: the same contract.
-    unsafe { heading(compass, data, width_px, height_px, stride, sun, attitude, out) }
+    unsafe { heading(compass, data, width_px, height_px, stride, sun, attitude, out, false) }
 }
 
 /// As `bpins_compass_heading_u16`, for 8-bit samples (an 8-bit camera: DN 0…255; set
@@ -275,7 +286,7 @@ pub unsafe extern "C" fn bpins_compass_heading_u8(
     out: *mut BpinsHeading,
 ) -> BpinsStatus {
     // SAFETY: the same contract.
-    unsafe { heading(compass, data, width_px, height_px, stride, sun, attitude, out) }
+    unsafe { heading(compass, data, width_px, height_px, stride, sun, attitude, out, false) }
 }
 
 /// As `bpins_compass_heading_u16`, for `float` samples in DN (the same scale as the
@@ -296,5 +307,69 @@ pub unsafe extern "C" fn bpins_compass_heading_f32(
     out: *mut BpinsHeading,
 ) -> BpinsStatus {
     // SAFETY: the same contract.
-    unsafe { heading(compass, data, width_px, height_px, stride, sun, attitude, out) }
+    unsafe { heading(compass, data, width_px, height_px, stride, sun, attitude, out, false) }
+}
+
+/// A colour compass's (config `colour_tiles` set) headings of one raw frame of 16-bit
+/// samples, each band's from its own pixels: `out` holds three headings, written at
+/// `BPINS_BAND_R`, `BPINS_BAND_G`, `BPINS_BAND_B` (their fused heading is
+/// `bpins_compass_heading_u16`'s). Otherwise as `bpins_compass_heading_u16`; a
+/// monochrome compass is `BPINS_ERR_CONFIG`.
+///
+/// # Safety
+/// As `bpins_compass_heading_u16`, with `out` NULL or three writable headings.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn bpins_compass_band_headings_u16(
+    compass: *mut BpinsCompass,
+    data: *const u16,
+    width_px: usize,
+    height_px: usize,
+    stride: usize,
+    sun: *const BpinsSun,
+    attitude: *const BpinsAttitude,
+    out: *mut BpinsHeading,
+) -> BpinsStatus {
+    // SAFETY: the same contract.
+    unsafe { heading(compass, data, width_px, height_px, stride, sun, attitude, out, true) }
+}
+
+/// As `bpins_compass_band_headings_u16`, for 8-bit samples.
+///
+/// # Safety
+/// As `bpins_compass_band_headings_u16`.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn bpins_compass_band_headings_u8(
+    compass: *mut BpinsCompass,
+    data: *const u8,
+    width_px: usize,
+    height_px: usize,
+    stride: usize,
+    sun: *const BpinsSun,
+    attitude: *const BpinsAttitude,
+    out: *mut BpinsHeading,
+) -> BpinsStatus {
+    // SAFETY: the same contract.
+    unsafe { heading(compass, data, width_px, height_px, stride, sun, attitude, out, true) }
+}
+
+/// As `bpins_compass_band_headings_u16`, for `float` samples in DN.
+///
+/// # Safety
+/// As `bpins_compass_band_headings_u16`.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn bpins_compass_band_headings_f32(
+    compass: *mut BpinsCompass,
+    data: *const f32,
+    width_px: usize,
+    height_px: usize,
+    stride: usize,
+    sun: *const BpinsSun,
+    attitude: *const BpinsAttitude,
+    out: *mut BpinsHeading,
+) -> BpinsStatus {
+    // SAFETY: the same contract.
+    unsafe { heading(compass, data, width_px, height_px, stride, sun, attitude, out, true) }
 }

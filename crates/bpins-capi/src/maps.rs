@@ -1,12 +1,17 @@
 //! `bpins_stokes_maps_*`: AoP, DoLP, intensity (and AoE) of a raw DoFP frame into the
 //! caller's float buffers, through `bpins_core::maps` (the kernel of Python's
 //! `stokes_maps` and `bpins maps`). No handle: a frame in, four maps out.
+//! `bpins_colour_maps_*`: the same of a colour-polarization frame, per band
+//! (`bpins_core::colour_maps_into`).
 
-use crate::types::mosaic_of_deg;
+use crate::types::{colour_tiles_of, mosaic_of_deg};
 use crate::{guard, BpinsStatus, Failure};
 use bpins_core::compass::{RawDn, RawImage};
+use bpins_core::sensor::Band;
 use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+use bpins_core::{colour_maps_into, colour_maps_size, ColourScratch};
 use bpins_core::{stokes_maps_into, Interpolation, MapsConfig, MapsOut, Reconstructor};
+use std::ffi::c_char;
 
 /// Each channel interpolated bilinearly on its own lattice (the default).
 pub const BPINS_MAPS_BILINEAR: u32 = 0;
@@ -101,16 +106,62 @@ unsafe fn maps<T: RawDn>(
     intensity_dn: *mut f32,
     aoe_deg: *mut f32,
 ) -> BpinsStatus {
+    let band = BpinsBandMaps { aop_deg, dolp, intensity_dn, aoe_deg };
+    // SAFETY: the same contract.
+    unsafe { maps_of(data, width_px, height_px, stride, config, None, &band) }
+}
+
+/// # Safety
+/// As the exported functions below; `colour`: None (mono, `out` one band's maps) or
+/// the tiles' four chars (colour, `out` three bands' maps).
+#[allow(clippy::too_many_arguments)]
+unsafe fn maps_of<T: RawDn>(
+    data: *const T,
+    width_px: usize,
+    height_px: usize,
+    stride: usize,
+    config: *const BpinsMapsConfig,
+    colour: Option<*const c_char>,
+    out: *const BpinsBandMaps,
+) -> BpinsStatus {
     guard(|| {
         let null = |name: &str| Failure::new(BpinsStatus::BPINS_ERR_NULL, format!("`{name}` is NULL"));
-        for (p, name) in [(data as *const u8, "data"), (config as *const u8, "config")] {
+        for (p, name) in [
+            (data as *const u8, "data"),
+            (config as *const u8, "config"),
+            (colour.unwrap_or(config as *const c_char) as *const u8, "colour_tiles"),
+            (out as *const u8, "out"),
+        ] {
             if p.is_null() {
                 return Err(null(name));
             }
         }
-        for (p, name) in [(aop_deg, "aop_deg"), (dolp, "dolp"), (intensity_dn, "intensity_dn")] {
-            if p.is_null() {
-                return Err(null(name));
+        let tiles = match colour {
+            // SAFETY: non-NULL; four readable chars by the caller's contract.
+            Some(t) => Some(
+                colour_tiles_of(unsafe { *(t as *const [c_char; 4]) })
+                    .map_err(config_error)?
+                    .ok_or_else(|| config_error("colour_tiles: four zero chars; give 'R', 'G', 'B'".into()))?,
+            ),
+            None => None,
+        };
+        // SAFETY: non-NULL; one or three band maps by the caller's contract.
+        let bands: Vec<(Band, BpinsBandMaps)> = match &tiles {
+            None => vec![(Band::G, unsafe { *out })],
+            Some(_) => Band::ALL
+                .iter()
+                .map(|&b| (b, unsafe { *out.add(b.index()) }))
+                .filter(|(_, m)| !m.aop_deg.is_null())
+                .collect(),
+        };
+        if bands.is_empty() {
+            return Err(null("out[R].aop_deg, out[G].aop_deg and out[B].aop_deg"));
+        }
+        for (_, m) in &bands {
+            for (p, name) in [(m.aop_deg, "aop_deg"), (m.dolp, "dolp"), (m.intensity_dn, "intensity_dn")] {
+                if p.is_null() {
+                    return Err(null(name));
+                }
             }
         }
         // SAFETY: non-NULL; a valid config by the caller's contract.
@@ -131,26 +182,58 @@ unsafe fn maps<T: RawDn>(
         if !(data as usize).is_multiple_of(std::mem::align_of::<T>()) {
             return Err(size(format!("`data` at {data:p} is not aligned to {} bytes", std::mem::align_of::<T>())));
         }
-        let (mw, mh) = cfg.interpolation.maps_size(width_px, height_px);
+        let (mw, mh) = match tiles {
+            Some(_) => colour_maps_size(cfg.interpolation, width_px, height_px),
+            None => cfg.interpolation.maps_size(width_px, height_px),
+        };
         let n = mw * mh;
-        for p in [aop_deg, dolp, intensity_dn, aoe_deg] {
-            if !p.is_null() && !(p as usize).is_multiple_of(std::mem::align_of::<f32>()) {
-                return Err(size(format!("an output buffer at {p:p} is not aligned to 4 bytes")));
+        for (_, m) in &bands {
+            for p in [m.aop_deg, m.dolp, m.intensity_dn, m.aoe_deg] {
+                if !p.is_null() && !(p as usize).is_multiple_of(std::mem::align_of::<f32>()) {
+                    return Err(size(format!("an output buffer at {p:p} is not aligned to 4 bytes")));
+                }
             }
         }
         // SAFETY: non-NULL, aligned, `len` readable samples and `n` writable floats per
         // map by the caller's contract; the maps do not overlap.
         let raw = RawImage { data: unsafe { std::slice::from_raw_parts(data, len) }, width_px, height_px, stride };
-        let out = unsafe {
-            MapsOut {
-                aop_deg: std::slice::from_raw_parts_mut(aop_deg, n),
-                dolp: std::slice::from_raw_parts_mut(dolp, n),
-                intensity_dn: std::slice::from_raw_parts_mut(intensity_dn, n),
-                aoe_deg: if aoe_deg.is_null() { None } else { Some(std::slice::from_raw_parts_mut(aoe_deg, n)) },
-            }
-        };
-        stokes_maps_into(&raw, &rec, &cfg, out).map_err(|e| size(e.to_string()))
+        let mut outs: Vec<(Band, MapsOut)> = bands
+            .iter()
+            .map(|(b, m)| unsafe {
+                let o = MapsOut {
+                    aop_deg: std::slice::from_raw_parts_mut(m.aop_deg, n),
+                    dolp: std::slice::from_raw_parts_mut(m.dolp, n),
+                    intensity_dn: std::slice::from_raw_parts_mut(m.intensity_dn, n),
+                    aoe_deg: if m.aoe_deg.is_null() {
+                        None
+                    } else {
+                        Some(std::slice::from_raw_parts_mut(m.aoe_deg, n))
+                    },
+                };
+                (*b, o)
+            })
+            .collect();
+        match &tiles {
+            Some(t) => colour_maps_into(&raw, &rec, &cfg, t, &mut ColourScratch::default(), &mut outs),
+            None => stokes_maps_into(&raw, &rec, &cfg, outs.pop().expect("one band").1),
+        }
+        .map_err(|e| match e {
+            bpins_core::MapsError::NotBayer { .. } => config_error(e.to_string()),
+            e => size(e.to_string()),
+        })
     })
+}
+
+/// One band's maps for `bpins_colour_maps_*`, each NULL or (maps' size) writable
+/// floats; `aoe_deg` may be NULL (no AoE map), and a band whose `aop_deg` is NULL is
+/// not made.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct BpinsBandMaps {
+    pub aop_deg: *mut f32,
+    pub dolp: *mut f32,
+    pub intensity_dn: *mut f32,
+    pub aoe_deg: *mut f32,
 }
 
 /// AoP (degrees, image frame, (−90°, 90°]), DoLP, intensity (DN above the black level)
@@ -220,4 +303,67 @@ pub unsafe extern "C" fn bpins_stokes_maps_f32(
 ) -> BpinsStatus {
     // SAFETY: the same contract.
     unsafe { maps(data, width_px, height_px, stride, config, aop_deg, dolp, intensity_dn, aoe_deg) }
+}
+
+/// Each band's AoP, DoLP, intensity and (where `aoe_deg` is not NULL) AoE maps of one
+/// raw colour-polarization frame of 16-bit samples, every band from its own pixels:
+/// `colour_tiles` points to the four colour filters over the 2 × 2 analyzer tiles,
+/// row-major ("RGGB" for the Sony IMX250MYR); `out` to three `BpinsBandMaps`, at
+/// `BPINS_BAND_R`, `BPINS_BAND_G`, `BPINS_BAND_B`. Maps of (width × height) floats, or
+/// (width / 4) × (height / 4) for `BPINS_MAPS_SUPERPIXEL` (one value per 4 × 4
+/// superpixel); `BPINS_MAPS_OPENCV` is polanalyser's `COLOR_PolarRGB` demosaic,
+/// exactly (docs/colour.md). Otherwise as `bpins_stokes_maps_u16`.
+///
+/// # Safety
+/// As `bpins_stokes_maps_u16`; `colour_tiles` NULL or four readable chars; `out` NULL
+/// or three readable `BpinsBandMaps` whose non-NULL maps hold the maps' size of
+/// writable floats, no two overlapping.
+#[no_mangle]
+pub unsafe extern "C" fn bpins_colour_maps_u16(
+    data: *const u16,
+    width_px: usize,
+    height_px: usize,
+    stride: usize,
+    config: *const BpinsMapsConfig,
+    colour_tiles: *const c_char,
+    out: *const BpinsBandMaps,
+) -> BpinsStatus {
+    // SAFETY: the same contract.
+    unsafe { maps_of(data, width_px, height_px, stride, config, Some(colour_tiles), out) }
+}
+
+/// As `bpins_colour_maps_u16`, for 8-bit samples.
+///
+/// # Safety
+/// As `bpins_colour_maps_u16`.
+#[no_mangle]
+pub unsafe extern "C" fn bpins_colour_maps_u8(
+    data: *const u8,
+    width_px: usize,
+    height_px: usize,
+    stride: usize,
+    config: *const BpinsMapsConfig,
+    colour_tiles: *const c_char,
+    out: *const BpinsBandMaps,
+) -> BpinsStatus {
+    // SAFETY: the same contract.
+    unsafe { maps_of(data, width_px, height_px, stride, config, Some(colour_tiles), out) }
+}
+
+/// As `bpins_colour_maps_u16`, for `float` samples in DN.
+///
+/// # Safety
+/// As `bpins_colour_maps_u16`.
+#[no_mangle]
+pub unsafe extern "C" fn bpins_colour_maps_f32(
+    data: *const f32,
+    width_px: usize,
+    height_px: usize,
+    stride: usize,
+    config: *const BpinsMapsConfig,
+    colour_tiles: *const c_char,
+    out: *const BpinsBandMaps,
+) -> BpinsStatus {
+    // SAFETY: the same contract.
+    unsafe { maps_of(data, width_px, height_px, stride, config, Some(colour_tiles), out) }
 }

@@ -7,7 +7,7 @@
 use crate::{BpinsStatus, Failure};
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::compass::{Attitude, CompassConfig, Extractor, FieldHeading, FieldOptions, NoHeading, Sun};
-use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+use bpins_core::sensor::{Band, Channel, ColourTiles, DEFAULT_MOSAIC};
 use std::ffi::c_char;
 
 /// A lens projection (`BPINS_PROJECTION_*`; CONVENTIONS.md, Camera).
@@ -88,6 +88,38 @@ pub struct BpinsCompassConfig {
     pub sigma_floor_deg: f64,
     /// Half-width of the meridian line's AoE band, degrees (default 5).
     pub band_deg: f64,
+    /// A colour-polarization sensor's colour filters over the 2 × 2 analyzer tiles,
+    /// row-major: {'R', 'G', 'G', 'B'} for the Sony IMX250MYR (each of R, G, B at
+    /// least once). All zero (the default): a monochrome sensor. A colour compass reads
+    /// each band from its own pixels; `bpins_compass_heading_*` gives the bands' fused
+    /// heading, `bpins_compass_band_headings_*` each band's.
+    pub colour_tiles: [c_char; 4],
+}
+
+/// The colour bands, as indices of `bpins_compass_band_headings_*`'s output and of
+/// `bpins_colour_maps_*`'s (`BPINS_BAND_*`).
+pub type BpinsBand = u32;
+pub const BPINS_BAND_R: BpinsBand = 0;
+pub const BPINS_BAND_G: BpinsBand = 1;
+pub const BPINS_BAND_B: BpinsBand = 2;
+
+/// `colour_tiles` as the core's tiles: None when all zero; each of R, G, B at least
+/// once (the compass's and the maps' configs alike).
+pub(crate) fn colour_tiles_of(tiles: [c_char; 4]) -> Result<Option<ColourTiles>, String> {
+    if tiles.iter().all(|&c| c == 0) {
+        return Ok(None);
+    }
+    let mut t = ColourTiles::imx250myr();
+    for (k, &c) in tiles.iter().enumerate() {
+        let name = (c as u8 as char).to_string();
+        t.tiles[k / 2][k % 2] = Band::from_name(&name).ok_or_else(|| {
+            format!("colour_tiles[{k}] = {c}: 'R', 'G' or 'B' (all four zero for a monochrome sensor)")
+        })?;
+    }
+    if t.bands().len() < 3 {
+        return Err(format!("colour_tiles {:?}: each of R, G, B at least once", t.tiles));
+    }
+    Ok(Some(t))
 }
 
 /// The sun of one frame.
@@ -143,6 +175,8 @@ pub enum BpinsNoHeading {
     /// The sky contradicts the given sun, attitude or mosaic layout beyond their 1σ
     /// (a wrong clock or place, a wrong tilt, a flipped mosaic).
     BPINS_NO_HEADING_CONTRADICTS = 7,
+    /// The frame is too dark to tell: its polarized signal is below the noise.
+    BPINS_NO_HEADING_TOO_DARK = 8,
 }
 
 /// One frame's result. Without a heading (`has_heading` false) the heading and its
@@ -240,6 +274,7 @@ impl BpinsCompassConfig {
             max_residual_deg: o.max_residual_deg,
             sigma_floor_deg: o.sigma_floor_deg,
             band_deg: o.band_deg,
+            colour_tiles: [0; 4],
         }
     }
 
@@ -286,6 +321,7 @@ impl BpinsCompassConfig {
         );
         cfg.mosaic = mosaic;
         cfg.extractor = extractor;
+        cfg.colour = colour_tiles_of(self.colour_tiles).map_err(config_error)?;
         cfg.options = FieldOptions {
             cell_px: (o.cell_px > 0).then_some(o.cell_px as usize),
             horizon_margin_deg: o.horizon_margin_deg,
@@ -377,6 +413,7 @@ impl From<&FieldHeading> for BpinsHeading {
                     NoHeading::PoorFit { .. } => BPINS_NO_HEADING_POOR_FIT,
                     NoHeading::Solver(_) => BPINS_NO_HEADING_SOLVER,
                     NoHeading::Contradicts { .. } => BPINS_NO_HEADING_CONTRADICTS,
+                    NoHeading::TooDark { .. } => BPINS_NO_HEADING_TOO_DARK,
                 };
                 write_message(&mut out.message, &why.to_string());
             }

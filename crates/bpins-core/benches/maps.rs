@@ -9,7 +9,10 @@
 //! * `maps/2448x2048_demosaic_angle_maps`: the route the maps replaced
 //!   (`recon::demosaic` to f64 Stokes, then `recon::angle_maps`), for comparison;
 //! * `maps/2448x2048_copy`: reading the mosaic and writing three float32 maps, the
-//!   memory-traffic floor on this machine.
+//!   memory-traffic floor on this machine;
+//! * `maps/2448x2048_colour_{bilinear,superpixel,opencv}`: `colour_maps_into` of the
+//!   same mosaic read as an IMX250MYR colour mosaic, the three bands' maps, no AoE
+//!   (issue 45: target ≤ 1.5× the mono route of the same name).
 
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::effects::Model;
@@ -18,7 +21,8 @@ use bpins_core::internal::heading::field::RawImage;
 use bpins_core::internal::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
 use bpins_core::internal::recon::{angle_maps, demosaic, Reconstructor};
 use bpins_core::internal::simulate::render_mosaic;
-use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
+use bpins_core::sensor::{Channel, ColourTiles, Response, DEFAULT_MOSAIC};
+use bpins_core::{colour_maps_into, colour_maps_size, ColourScratch};
 use criterion::{criterion_group, criterion_main, Criterion};
 use rayon::prelude::*;
 use std::hint::black_box;
@@ -103,6 +107,40 @@ fn maps(c: &mut Criterion) {
             black_box(&aop);
         })
     });
+    let tiles = ColourTiles::imx250myr();
+    let mut scratch = ColourScratch::default();
+    let mut bufs: Vec<[Vec<f32>; 3]> = tiles.bands().iter().map(|_| [(); 3].map(|_| vec![0f32; W * H])).collect();
+    for interp in Interpolation::ALL {
+        let cfg = MapsConfig {
+            interpolation: interp,
+            mosaic: DEFAULT_MOSAIC,
+            full_scale_dn: 4095.0,
+            aoe_centre_px: [(W as f64 - 1.0) / 2.0, (H as f64 - 1.0) / 2.0],
+        };
+        let n = {
+            let (mw, mh) = colour_maps_size(interp, W, H);
+            mw * mh
+        };
+        g.bench_function(format!("2448x2048_colour_{}", interp.name()), |b| {
+            b.iter(|| {
+                let mut outs: Vec<_> = tiles
+                    .bands()
+                    .into_iter()
+                    .zip(bufs.iter_mut())
+                    .map(|(band, [a, d, i])| {
+                        let o = MapsOut {
+                            aop_deg: &mut a[..n],
+                            dolp: &mut d[..n],
+                            intensity_dn: &mut i[..n],
+                            aoe_deg: None,
+                        };
+                        (band, o)
+                    })
+                    .collect();
+                colour_maps_into(black_box(&raw), &rec, &cfg, &tiles, &mut scratch, &mut outs).unwrap();
+            })
+        });
+    }
     g.finish();
 }
 

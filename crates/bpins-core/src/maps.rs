@@ -35,14 +35,19 @@
 //! vectorizes: the two vertical interpolations of the mosaic's row parities, the four
 //! channels' horizontal ones, then the per-pixel Stokes and angles (branch-free
 //! `atan2`, `math.rs`), in single precision (whole-DN sums and their halves are
-//! exact there; the angles carry float32 rounding, as their output does). Cannot do: colour-polarization mosaics (2 × 2 colour blocks of
-//! 2 × 2 analyzers), per-pixel calibration maps (see `pixel_analyzers`).
+//! exact there; the angles carry float32 rounding, as their output does). Colour-polarization
+//! mosaics (2 × 2 colour blocks of 2 × 2 analyzers): `maps_colour`, through these
+//! kernels. Cannot do: per-pixel calibration maps (see `pixel_analyzers`).
 
 use crate::heading::field::{RawDn, RawImage};
 use crate::math::atan2_f32;
 use crate::recon::Reconstructor;
 use crate::sensor::Channel;
 use rayon::prelude::*;
+
+#[path = "maps_colour.rs"]
+pub mod colour;
+pub use colour::{colour_maps, colour_maps_into, colour_maps_size, BandMaps, ColourScratch};
 
 /// How each channel's DN is found at a pixel (module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -123,10 +128,17 @@ pub enum MapsError {
     TooSmall { width_px: usize, height_px: usize, interpolation: &'static str, min: usize },
     #[error("output `{name}` holds {got} values; {want} needed ({width_px} × {height_px} maps)")]
     Output { name: &'static str, got: usize, want: usize, width_px: usize, height_px: usize },
+    #[error(
+        "band {band}: the {interpolation} colour route needs each band on one tile or on two diagonal tiles \
+         of the 2 × 2 colour tiles (a Bayer arrangement); superpixel maps take any"
+    )]
+    NotBayer { band: &'static str, interpolation: &'static str },
+    #[error("band {band}: none of the colour tiles carries it")]
+    NoSuchBand { band: &'static str },
 }
 
 /// One channel's lattice: its column and row offsets in the 2 × 2 mosaic.
-fn lattices(mosaic: &[[Channel; 2]; 2]) -> [Option<(usize, usize)>; 4] {
+pub(crate) fn lattices(mosaic: &[[Channel; 2]; 2]) -> [Option<(usize, usize)>; 4] {
     let mut at = [None; 4];
     for (dv, row) in mosaic.iter().enumerate() {
         for (du, c) in row.iter().enumerate() {
@@ -138,7 +150,7 @@ fn lattices(mosaic: &[[Channel; 2]; 2]) -> [Option<(usize, usize)>; 4] {
 
 /// A sample as the maps read it: NaN where it is invalid (bilinear, superpixel).
 #[inline(always)]
-fn checked(x: f32, full_scale_dn: f32) -> f32 {
+pub(crate) fn checked(x: f32, full_scale_dn: f32) -> f32 {
     if x > 0.0 && x < full_scale_dn {
         x
     } else {
@@ -176,14 +188,8 @@ pub fn stokes_maps_into<T: RawDn>(
     if let Some(a) = &out.aoe_deg {
         check("aoe_deg", a.len())?;
     }
-    let (rows, inv_gain, offset_dn) = rec.parts();
-    let px = PixelMap {
-        rows: rows.map(|r| r.map(|x| x as f32)),
-        inv_gain: inv_gain.map(|x| x as f32),
-        offset_dn: offset_dn.map(|x| x as f32),
-        centre: cfg.aoe_centre_px.map(|x| x as f32),
-        superpixel: mw < w,
-    };
+    // Superpixel maps: pixel (m, n) sits at the tile centre (2m + ½, 2n + ½).
+    let px = if mw < w { PixelMap::new(rec, cfg, 2.0, [0.5; 2]) } else { PixelMap::new(rec, cfg, 1.0, [0.0; 2]) };
     let fs = cfg.full_scale_dn as f32;
     let lat = lattices(&cfg.mosaic);
     // Each row of the maps with its own scratch rows (one set per rayon job).
@@ -192,7 +198,7 @@ pub fn stokes_maps_into<T: RawDn>(
             match cfg.interpolation {
                 Interpolation::Bilinear => s.bilinear_row(raw, v, &lat, fs),
                 Interpolation::Superpixel => s.superpixel_row(raw, v, &lat, fs),
-                Interpolation::OpenCv => s.opencv_row(raw, v, &lat),
+                Interpolation::OpenCv => s.opencv_row(raw, v, &lat, T::INTEGER),
             }
             px.row(&s.ch, v, aop, dolp, int, aoe);
         };
@@ -233,13 +239,13 @@ pub fn stokes_maps<T: RawDn>(raw: &RawImage<T>, rec: &Reconstructor, cfg: &MapsC
 
 /// One job's rows: the two row parities' vertical interpolations and the four
 /// channels' DN along the output row.
-struct Scratch {
+pub(crate) struct Scratch {
     vert: [Vec<f32>; 2],
-    ch: [Vec<f32>; 4],
+    pub(crate) ch: [Vec<f32>; 4],
 }
 
 impl Scratch {
-    fn new(w: usize) -> Self {
+    pub(crate) fn new(w: usize) -> Self {
         Scratch { vert: [vec![0.0; w], vec![0.0; w]], ch: std::array::from_fn(|_| vec![0.0; w]) }
     }
 
@@ -287,14 +293,20 @@ impl Scratch {
     /// the border row or column a copy of the next one inwards. Step 1: for each row
     /// parity, the mosaic's row itself (a channel's own row) or the sum of the rows
     /// above and below; step 2: along the channel's columns, its own column or the
-    /// pair of neighbours, each sum divided (and rounded) once, as OpenCV does.
-    fn opencv_row<T: RawDn>(&mut self, raw: &RawImage<T>, v: usize, lat: &[Option<(usize, usize)>; 4]) {
+    /// pair of neighbours, each sum divided (and rounded, if `integer`) once, as OpenCV does.
+    pub(crate) fn opencv_row<T: RawDn>(
+        &mut self,
+        raw: &RawImage<T>,
+        v: usize,
+        lat: &[Option<(usize, usize)>; 4],
+        integer: bool,
+    ) {
         let (w, h) = (raw.width_px, raw.height_px);
         let vs = v.clamp(1, h - 2);
         let row = |r: usize| &raw.data[r * raw.stride..][..w];
         let (up, mid, down) = (row(vs - 1), row(vs), row(vs + 1));
         // Whole-DN sums below 2^24 are exact in f32, and so are their halves and quarters.
-        let round = |s: f32, n: f32| if T::INTEGER { ((s + 0.5 * n) / n).floor() } else { s / n };
+        let round = |s: f32, n: f32| if integer { ((s + 0.5 * n) / n).floor() } else { s / n };
         let mut on_row = [false; 2];
         for p in 0..2 {
             on_row[p] = (vs + p) % 2 == 0;
@@ -346,17 +358,30 @@ fn horizontal(src: &[f32], ou: usize, out: &mut [f32]) {
 }
 
 /// Step 3: the reconstruction's linear map and the angles, per pixel of a row.
-struct PixelMap {
+pub(crate) struct PixelMap {
     rows: [[f32; 4]; 3],
     inv_gain: [f32; 4],
     offset_dn: [f32; 4],
     centre: [f32; 2],
-    /// Superpixel maps: pixel (m, n) sits at the tile centre (2m + ½, 2n + ½).
-    superpixel: bool,
+    /// Map pixel (m, n) sits at mosaic pixel (scale·m + shift[0], scale·n + shift[1]).
+    scale: f32,
+    shift: [f32; 2],
 }
 
 impl PixelMap {
-    fn row(
+    pub(crate) fn new(rec: &Reconstructor, cfg: &MapsConfig, scale: f32, shift: [f32; 2]) -> Self {
+        let (rows, inv_gain, offset_dn) = rec.parts();
+        PixelMap {
+            rows: rows.map(|r| r.map(|x| x as f32)),
+            inv_gain: inv_gain.map(|x| x as f32),
+            offset_dn: offset_dn.map(|x| x as f32),
+            centre: cfg.aoe_centre_px.map(|x| x as f32),
+            scale,
+            shift,
+        }
+    }
+
+    pub(crate) fn row(
         &self,
         ch: &[Vec<f32>; 4],
         v: usize,
@@ -389,8 +414,8 @@ impl PixelMap {
         let (c0, c1, c2, c3) = (&ch[0][..n], &ch[1][..n], &ch[2][..n], &ch[3][..n]);
         let [r0, r1, r2] = self.rows;
         let (g, o) = (self.inv_gain, self.offset_dn);
-        let (scale, shift) = if self.superpixel { (2.0, 0.5) } else { (1.0, 0.0) };
-        let dy = v as f32 * scale + shift - self.centre[1];
+        let (scale, shift) = (self.scale, self.shift);
+        let dy = v as f32 * scale + shift[1] - self.centre[1];
         for u in 0..n {
             let xs = [(c0[u] - o[0]) * g[0], (c1[u] - o[1]) * g[1], (c2[u] - o[2]) * g[2], (c3[u] - o[3]) * g[3]];
             let dot = |r: [f32; 4]| r[0] * xs[0] + r[1] * xs[1] + r[2] * xs[2] + r[3] * xs[3];
@@ -404,7 +429,7 @@ impl PixelMap {
             dolp[u] = if ok { d } else { f32::NAN };
             int[u] = if ok { i } else { f32::NAN };
             if AOE {
-                let dx = u as f32 * scale + shift - self.centre[0];
+                let dx = u as f32 * scale + shift[0] - self.centre[0];
                 // α − β ∈ (−270°, 270°) wrapped into (−90°, 90°] with selects.
                 let e = a - atan2_f32(-dy, dx).to_degrees();
                 let e = if e > 90.0 { e - 180.0 } else { e };

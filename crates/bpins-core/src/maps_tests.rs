@@ -129,7 +129,7 @@ fn opencv_rounds_each_average_half_up_and_copies_the_border() {
     let lat = lattices(&DEFAULT_MOSAIC);
     let mut s = Scratch::new(w);
     for (v, row) in got.iter_mut().enumerate() {
-        s.opencv_row(&RawImage::packed(&dn, w, h), v, &lat);
+        s.opencv_row(&RawImage::packed(&dn, w, h), v, &lat, true);
         row.copy_from_slice(&s.ch[Channel::C0.index()][..w]);
     }
     // Interior: own site, horizontal pair, vertical pair, four diagonals, each rounded.
@@ -145,7 +145,7 @@ fn opencv_rounds_each_average_half_up_and_copies_the_border() {
     assert_eq!(got[0][0], got[1][1]);
     // Float samples are averaged without rounding.
     let f: Vec<f32> = dn.iter().map(|&x| x as f32).collect();
-    s.opencv_row(&RawImage::packed(&f, w, h), 2, &lat);
+    s.opencv_row(&RawImage::packed(&f, w, h), 2, &lat, false);
     assert_eq!(s.ch[Channel::C0.index()][2], (at(1, 1) + at(3, 1) + at(1, 3) + at(3, 3)) / 4.0);
 }
 

@@ -2,13 +2,15 @@
 //! `bpins_core::maps`, the kernel behind `bpins maps` and the C ABI. The mosaic is read
 //! in place (uint8, uint16 or float32, any row stride); the maps are written straight
 //! into numpy arrays, new ones or those the caller passes in `out` (no allocation per
-//! frame in a loop); the GIL is released while the kernel runs.
+//! frame in a loop); the GIL is released while the kernel runs. A colour-polarization
+//! mosaic (`colour_tiles`) gives one such dict per band.
 
 use crate::array::{Borrowed, Mosaic};
 use crate::compass::mosaic_of;
 use crate::{finite, py_err};
-use bpins_core::compass::RawImage;
-use bpins_core::sensor::Channel;
+use bpins_core::compass::{RawDn, RawImage};
+use bpins_core::sensor::{Band, Channel, ColourTiles};
+use bpins_core::{colour_maps_into, colour_maps_size, ColourScratch};
 use bpins_core::{stokes_maps_into, Interpolation, MapsConfig, MapsOut, Reconstructor};
 use numpy::{PyArray2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -51,7 +53,7 @@ fn output<'py>(
 ///
 /// stokes_maps(mosaic, *, black_level_dn=0.0, mosaic_layout=((90, 45), (135, 0)),
 ///             interpolation="bilinear", full_scale_dn=None, aoe=False,
-///             aoe_centre_px=None, out=None) -> dict
+///             aoe_centre_px=None, colour_tiles=None, out=None) -> dict
 ///
 /// Returns "aop_deg" (image frame, counter-clockwise as displayed, (−90°, 90°]),
 /// "dolp", "intensity_dn" (DN above the black level) and, with `aoe`, "aoe_deg" (about
@@ -61,8 +63,14 @@ fn output<'py>(
 /// "opencv" reproduces polanalyser's `demosaicing` (OpenCV's Bayer bilinear) exactly
 /// for uint8 and uint16 mosaics. `out`: a dict of preallocated float32 arrays, filled
 /// in place and returned (a loop over frames then allocates nothing).
+///
+/// With `colour_tiles` (a colour-polarization mosaic, e.g. the IMX250MYR's
+/// (("R", "G"), ("G", "B"))): a dict by band ("R", "G", "B") of such dicts, each band
+/// from its own pixels (docs/colour.md); "opencv" is polanalyser's
+/// `demosaicing(raw, COLOR_PolarRGB)` exactly, "superpixel" a quarter of the size;
+/// `out` then holds one dict per band.
 #[pyfunction]
-#[pyo3(signature = (mosaic, *, black_level_dn=0.0, mosaic_layout=[[90.0, 45.0], [135.0, 0.0]], interpolation="bilinear", full_scale_dn=None, aoe=false, aoe_centre_px=None, out=None))]
+#[pyo3(signature = (mosaic, *, black_level_dn=0.0, mosaic_layout=[[90.0, 45.0], [135.0, 0.0]], interpolation="bilinear", full_scale_dn=None, aoe=false, aoe_centre_px=None, colour_tiles=None, out=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn stokes_maps<'py>(
     py: Python<'py>,
@@ -73,6 +81,7 @@ pub fn stokes_maps<'py>(
     full_scale_dn: Option<f64>,
     aoe: bool,
     aoe_centre_px: Option<[f64; 2]>,
+    colour_tiles: Option<[[String; 2]; 2]>,
     out: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let interp = Interpolation::from_name(interpolation).ok_or_else(|| {
@@ -97,41 +106,107 @@ pub fn stokes_maps<'py>(
     };
     let rec = Reconstructor::new(&Default::default(), finite("black_level_dn", black_level_dn)?, &Channel::ALL)
         .map_err(py_err)?;
-    let (mw, mh) = interp.maps_size(w, h);
     let names = if aoe { &NAMES[..] } else { &NAMES[..3] };
-    let arrays: Vec<Bound<'py, PyArray2<f32>>> =
-        names.iter().map(|n| output(py, out, n, mh, mw)).collect::<PyResult<_>>()?;
-    let mut guards = Vec::with_capacity(arrays.len());
-    for (a, n) in arrays.iter().zip(names) {
-        guards.push(a.try_readwrite().map_err(|e| PyValueError::new_err(format!("out[\"{n}\"]: {e}")))?);
+    let tiles = colour_tiles.map(tiles_of).transpose()?;
+    // The bands' output dicts (one, unnamed, for a mono mosaic).
+    let (bands, (mw, mh)): (Vec<Option<Band>>, _) = match &tiles {
+        Some(t) => (t.bands().into_iter().map(Some).collect(), colour_maps_size(interp, w, h)),
+        None => (vec![None], interp.maps_size(w, h)),
+    };
+    let mut arrays: Vec<Vec<Bound<'py, PyArray2<f32>>>> = Vec::new();
+    for b in &bands {
+        let d = match (b, out) {
+            (Some(b), Some(o)) => Some(
+                o.get_item(b.name())?
+                    .ok_or_else(|| PyValueError::new_err(format!("out: no \"{}\" dict of arrays", b.name())))?
+                    .cast_into::<PyDict>()
+                    .map_err(|_| PyTypeError::new_err(format!("out[\"{}\"]: expected a dict of arrays", b.name())))?,
+            ),
+            (None, o) => o.cloned(),
+            (Some(_), None) => None,
+        };
+        arrays.push(names.iter().map(|n| output(py, d.as_ref(), n, mh, mw)).collect::<PyResult<_>>()?);
+    }
+    let mut guards = Vec::new();
+    for band in &arrays {
+        for (a, n) in band.iter().zip(names) {
+            guards.push(a.try_readwrite().map_err(|e| PyValueError::new_err(format!("out[\"{n}\"]: {e}")))?);
+        }
     }
     let mut slices: Vec<&mut [f32]> = guards.iter_mut().map(|g| g.as_slice_mut().expect("C-contiguous")).collect();
-    let m = borrowed.mosaic();
-    let result = {
-        let mut it = slices.iter_mut();
+    let mut maps: Vec<(Band, MapsOut)> = Vec::new();
+    let mut it = slices.iter_mut();
+    for b in &bands {
         let (a, d, i) = (it.next().unwrap(), it.next().unwrap(), it.next().unwrap());
-        let e = it.next();
-        let maps = MapsOut { aop_deg: a, dolp: d, intensity_dn: i, aoe_deg: e.map(|e| &mut **e) };
-        py.detach(|| match &m {
+        let e = if aoe { it.next().map(|e| &mut **e) } else { None };
+        maps.push((b.unwrap_or(Band::G), MapsOut { aop_deg: a, dolp: d, intensity_dn: i, aoe_deg: e }));
+    }
+    let m = borrowed.mosaic();
+    let result = py.detach(|| {
+        fn run<T: RawDn>(
+            raw: &RawImage<T>,
+            rec: &Reconstructor,
+            cfg: &MapsConfig,
+            tiles: &Option<ColourTiles>,
+            mut maps: Vec<(Band, MapsOut)>,
+        ) -> Result<(), bpins_core::MapsError> {
+            match tiles {
+                Some(t) => colour_maps_into(raw, rec, cfg, t, &mut ColourScratch::default(), &mut maps),
+                None => stokes_maps_into(raw, rec, cfg, maps.pop().expect("one").1),
+            }
+        }
+        match &m {
             Mosaic::U8(d, s) => {
-                stokes_maps_into(&RawImage { data: d, width_px: w, height_px: h, stride: *s }, &rec, &cfg, maps)
+                run(&RawImage { data: d, width_px: w, height_px: h, stride: *s }, &rec, &cfg, &tiles, maps)
             }
             Mosaic::U16(d, s) => {
-                stokes_maps_into(&RawImage { data: d, width_px: w, height_px: h, stride: *s }, &rec, &cfg, maps)
+                run(&RawImage { data: d, width_px: w, height_px: h, stride: *s }, &rec, &cfg, &tiles, maps)
             }
             Mosaic::F32(d, s) => {
-                stokes_maps_into(&RawImage { data: d, width_px: w, height_px: h, stride: *s }, &rec, &cfg, maps)
+                run(&RawImage { data: d, width_px: w, height_px: h, stride: *s }, &rec, &cfg, &tiles, maps)
             }
-        })
-    };
+        }
+    });
     result.map_err(|e| PyValueError::new_err(format!("mosaic: {e}")))?;
     drop(guards);
+    let fill = |dict: &Bound<'py, PyDict>, band: Vec<Bound<'py, PyArray2<f32>>>| -> PyResult<()> {
+        for (a, n) in band.into_iter().zip(names) {
+            dict.set_item(n, a)?;
+        }
+        Ok(())
+    };
     let dict = match out {
         Some(d) => d.clone(),
         None => PyDict::new(py),
     };
-    for (a, n) in arrays.into_iter().zip(names) {
-        dict.set_item(n, a)?;
+    for (b, band) in bands.into_iter().zip(arrays) {
+        match b {
+            None => fill(&dict, band)?,
+            Some(b) => {
+                let sub = match dict.get_item(b.name())? {
+                    Some(s) => s.cast_into::<PyDict>()?,
+                    None => {
+                        let s = PyDict::new(py);
+                        dict.set_item(b.name(), &s)?;
+                        s
+                    }
+                };
+                fill(&sub, band)?;
+            }
+        }
     }
     Ok(dict)
+}
+
+/// `colour_tiles` as the bands' names, by tile row and column.
+fn tiles_of(t: [[String; 2]; 2]) -> PyResult<ColourTiles> {
+    let mut c = ColourTiles::imx250myr();
+    for (r, row) in t.iter().enumerate() {
+        for (k, name) in row.iter().enumerate() {
+            c.tiles[r][k] = Band::from_name(name).ok_or_else(|| {
+                PyValueError::new_err(format!("colour_tiles: band {name:?} is unknown; use \"R\", \"G\" or \"B\""))
+            })?;
+        }
+    }
+    Ok(c)
 }

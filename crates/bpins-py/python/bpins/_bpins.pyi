@@ -137,12 +137,16 @@ def stokes_maps(
     full_scale_dn: Optional[float] = None,
     aoe: bool = False,
     aoe_centre_px: Optional[Tuple[float, float]] = None,
-    out: Optional[Dict[str, npt.NDArray[np.float32]]] = None,
-) -> Dict[str, npt.NDArray[np.float32]]:
+    colour_tiles: Optional[Tuple[Tuple[str, str], Tuple[str, str]]] = None,
+    out: Optional[Dict[str, Any]] = None,
+) -> Dict[str, Any]:
     """AoP (degrees, image frame), DoLP, intensity (DN) and, with `aoe`, AoE of a raw
     mosaic read in place. `interpolation`: "bilinear", "superpixel" (half size) or
     "opencv" (polanalyser's demosaicing, exactly). `out`: preallocated float32 arrays,
-    filled in place and returned."""
+    filled in place and returned. With `colour_tiles` (a colour-polarization mosaic,
+    e.g. (("R", "G"), ("G", "B"))): one such dict per band, keyed "R", "G", "B", each
+    band from its own pixels ("opencv": polanalyser's COLOR_PolarRGB, exactly;
+    "superpixel": a quarter of the size)."""
 
 def locate(
     capture: _Path,
