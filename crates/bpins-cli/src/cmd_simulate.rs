@@ -12,7 +12,10 @@ use bpins_core::scene::{FieldAttitude, FieldScene};
 use bpins_core::sensor::{Channel, Geometry, Layout, DEFAULT_MOSAIC};
 use bpins_core::tool::capture::write_exr_layers;
 use bpins_core::tool::pipeline::angle_maps;
-use bpins_core::tool::pipeline::{reconstruct_frame, sim_chain_frame, sim_response, ReconMode, SimSensor};
+use bpins_core::tool::pipeline::{
+    reconstruct_frame, sim_band_frames, sim_chain_frame, sim_response, ReconMode, SimSensor,
+};
+use bpins_core::tool::radiometry::{exposed_response, Exposure};
 use bpins_core::tool::sun::source_from_time_place;
 use bpins_core::ChainFrame;
 use bpins_core::SunPosition;
@@ -66,6 +69,14 @@ pub struct Args {
     /// Sensor layout.
     #[arg(long, value_enum, default_value_t = LayoutArg::Dofp)]
     layout: LayoutArg,
+    /// A colour-polarization sensor (Sony IMX250MYR order: RGGB): the colour filter
+    /// over each 2×2 analyzer tile of the 4×4 superpixel, four letters R, G, B by tile
+    /// row then column (RGGB: colour_tiles = [["R", "G"], ["G", "B"]]), written with
+    /// CAPTURE.md's default band_centre_nm. Each band sees the sky and responds as
+    /// the effects sky_spectrum and band_response say (green: the scene's radiance,
+    /// --dmax and --peak-fraction). --layout dofp only.
+    #[arg(long, value_name = "TILES")]
+    colour_tiles: Option<String>,
     /// Colocated channels, degrees (0,45,90 or 0,45,90,135; default all four). With
     /// --layout colocated only (a DoFP mosaic's channels are its tiles').
     #[arg(long, value_delimiter = ',')]
@@ -142,6 +153,37 @@ pub struct Args {
     /// --scene: of its field sky without the sun's disc and aureole, which saturate).
     #[arg(long, default_value_t = 0.7)]
     peak_fraction: f64,
+    /// A physical exposure instead of --peak-fraction's auto-exposure: the exposure
+    /// time, seconds. The gain follows from the sky's luminance under the frame's
+    /// source (the sun, or at night the moon: docs/night.md), the lens (--f-number,
+    /// --lens-transmittance), the sensor (--qe, --full-well-e, --read-noise-e,
+    /// --gain-db, --dark-current-e-per-s; the Sony IMX250MZR's by default) and
+    /// --pixel-pitch-um.
+    #[arg(long, conflicts_with_all = ["peak_fraction", "read_noise_dn", "system_gain_dn_per_e", "lab"])]
+    exposure_s: Option<f64>,
+    /// With --exposure-s: the lens's f-number.
+    #[arg(long, default_value_t = 1.4, requires = "exposure_s")]
+    f_number: f64,
+    /// With --exposure-s: the lens's transmittance.
+    #[arg(long, default_value_t = 0.9, requires = "exposure_s")]
+    lens_transmittance: f64,
+    /// With --exposure-s: quantum efficiency for light along an analyzer's pass axis
+    /// (twice an EMVA 1288 QE measured with unpolarized light through the polarizers).
+    #[arg(long, default_value_t = 0.6, requires = "exposure_s")]
+    qe: f64,
+    /// With --exposure-s: full-well capacity, e⁻ (full scale at 0 dB gain).
+    #[arg(long, default_value_t = 10_500.0, requires = "exposure_s")]
+    full_well_e: f64,
+    /// With --exposure-s: read noise (temporal dark noise), e⁻.
+    #[arg(long, default_value_t = 2.3, requires = "exposure_s")]
+    read_noise_e: f64,
+    /// With --exposure-s: analog gain, dB (the system gain K grows by 10^(dB/20)).
+    #[arg(long, default_value_t = 0.0, requires = "exposure_s", allow_negative_numbers = true)]
+    gain_db: f64,
+    /// With --exposure-s: dark current, e⁻ per second per pixel (the `dark_signal`
+    /// effect's dark_dn = K·current·time).
+    #[arg(long, default_value_t = 0.0, requires = "exposure_s")]
+    dark_current_e_per_s: f64,
     /// Read noise σ, DN.
     #[arg(long, default_value_t = 1.0)]
     read_noise_dn: f64,
@@ -209,6 +251,18 @@ impl Args {
         let pair = |a: &str, b: &str| Some((a.to_string(), b.to_string()));
         if self.channels_deg.is_some() && !matches!(self.layout, LayoutArg::Colocated) {
             return pair("--channels-deg <CHANNELS_DEG>", "--layout dofp (the default)");
+        }
+        if self.colour_tiles.is_some() && !matches!(self.layout, LayoutArg::Dofp) {
+            return pair(
+                "--colour-tiles <TILES>",
+                "--layout colocated (colour filters sit over a dofp mosaic's tiles)",
+            );
+        }
+        if self.colour_tiles.is_some() && self.lab {
+            return pair("--colour-tiles <TILES>", "--lab (a colour lab capture: not yet)");
+        }
+        if self.colour_tiles.is_some() && self.exr.is_some() {
+            return pair("--colour-tiles <TILES>", "--exr <EXR> (a colour dump: not yet)");
         }
         if self.exr.is_some() && self.headings_deg.as_ref().is_some_and(|h| h.len() > 1) {
             return pair("--headings-deg with more than one heading", "--exr <EXR> (one frame)");
@@ -307,7 +361,40 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             bail!("{name} {v} must be a finite number ≥ 0");
         }
     }
-    let resp = sim_response(&capture, &sim, field.as_ref())?;
+    // A physical exposure (docs/night.md): each frame's gain from its source's sky, the
+    // dark signal as the `dark_signal` effect; otherwise the first frame's auto-exposure.
+    let (resp, resps, model) = match exposure_of(&a) {
+        Some(e) => {
+            let exposed = (0..capture.frames.len())
+                .map(|i| exposed_response(&capture, i, &sim, &e))
+                .collect::<Result<Vec<_>, _>>()
+                .context("--exposure-s")?;
+            let first = exposed[0];
+            let k = first.response.system_gain_dn_per_e;
+            say!(
+                "exposure {} s at f/{} (K {:.3} DN/e⁻, read noise {:.2} DN): {}; {:.1} e⁻ per pixel behind an analyzer at the zenith",
+                e.exposure_s,
+                e.f_number,
+                k,
+                first.response.read_noise_dn,
+                first.sky.describe(),
+                first.zenith_e
+            );
+            let model = if first.dark_dn > 0.0 {
+                effects
+                    .parse_assignment(&format!("dark_signal.dark_dn={}", first.dark_dn))
+                    .context("--dark-current-e-per-s: the dark signal K·current·time")?;
+                effects.model()
+            } else {
+                model
+            };
+            (first.response, exposed.iter().map(|x| x.response).collect::<Vec<_>>(), model)
+        }
+        None => {
+            let resp = sim_response(&capture, &sim, field.as_ref())?;
+            (resp, vec![resp; capture.frames.len()], model)
+        }
+    };
     let effects_text: Vec<String> = effects
         .iter()
         .flat_map(|(d, v)| d.params.iter().zip(v).map(move |(p, x)| format!("{}.{}={} {}", d.name, p.name, x, p.unit)))
@@ -361,9 +448,18 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     // A few frames per call: the GPU batches them, the bar moves.
     for first in (0..capture.frames.len()).step_by(8) {
         let chain: Vec<ChainFrame> = (first..capture.frames.len().min(first + 8))
-            .map(|i| sim_chain_frame(&capture, i, &model, &resp, &sim, field.as_ref()))
+            .map(|i| sim_chain_frame(&capture, i, &model, &resps[i], &sim, field.as_ref()))
             .collect();
         match &capture.sensor.layout {
+            Layout::Dofp { mosaic } if capture.sensor.colour.is_some() => {
+                let tiles = capture.sensor.colour.as_ref().expect("matched");
+                let bands: Vec<[ChainFrame; 3]> = (first..capture.frames.len().min(first + 8))
+                    .map(|i| sim_band_frames(&capture, i, &model, &resps[i], &sim, field.as_ref()))
+                    .collect();
+                for dn in engine.render_colour_mosaic(&bands, w, h, mosaic, tiles)? {
+                    writer.write_frame(&FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn })?;
+                }
+            }
             Layout::Dofp { mosaic } => {
                 for dn in engine.render_mosaic(&chain, w, h, mosaic)? {
                     writer.write_frame(&FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn })?;
@@ -395,6 +491,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         crate::capture_bag::capture_to_bag(&Capture::load(out)?, b)?;
     }
     Ok(())
+}
+
+/// `--exposure-s` and the camera flags beside it, if asked.
+fn exposure_of(a: &Args) -> Option<Exposure> {
+    Some(Exposure {
+        exposure_s: a.exposure_s?,
+        f_number: a.f_number,
+        lens_transmittance: a.lens_transmittance,
+        qe: a.qe,
+        full_well_e: a.full_well_e,
+        read_noise_e: a.read_noise_e,
+        gain_db: a.gain_db,
+        dark_current_e_per_s: a.dark_current_e_per_s,
+    })
 }
 
 /// The time series of `--every-min`, if asked.
@@ -532,7 +642,7 @@ fn build_capture(a: &Args) -> anyhow::Result<Capture> {
     Ok(Capture {
         dir: PathBuf::new(),
         sensor: SensorSpec {
-            colour: None,
+            colour: a.colour_tiles.as_deref().map(colour_tiles).transpose()?,
             layout,
             geometry: Geometry { width_px: a.width_px, height_px: a.height_px, pixel_pitch_um: a.pixel_pitch_um },
             bit_depth: a.bit_depth,
@@ -597,4 +707,21 @@ fn ensure_allocatable(width_px: u32, height_px: u32) -> anyhow::Result<()> {
         bail!("--width-px {width_px} × --height-px {height_px}: a frame needs {gib:.1} GiB, which cannot be allocated here");
     }
     Ok(())
+}
+
+/// `--colour-tiles`: four letters R, G, B, by tile row then column (`RGGB`: the
+/// IMX250MYR's `[["R", "G"], ["G", "B"]]`), with CAPTURE.md's default wavelengths.
+fn colour_tiles(text: &str) -> anyhow::Result<bpins_core::sensor::ColourTiles> {
+    use bpins_core::sensor::{Band, ColourTiles};
+    let bands: Vec<Band> = text
+        .chars()
+        .map(|c| Band::from_name(&c.to_ascii_uppercase().to_string()))
+        .collect::<Option<_>>()
+        .filter(|b: &Vec<Band>| b.len() == 4)
+        .with_context(|| format!("--colour-tiles {text}: expected four letters R, G, B by tile row, e.g. RGGB"))?;
+    let tiles = [[bands[0], bands[1]], [bands[2], bands[3]]];
+    if Band::ALL.iter().any(|b| !bands.contains(b)) {
+        bail!("--colour-tiles {text}: each band R, G and B must cover at least one tile (CAPTURE.md)");
+    }
+    Ok(ColourTiles { tiles, ..ColourTiles::imx250myr() })
 }

@@ -243,7 +243,8 @@ pub fn sim_response(c: &Capture, s: &SimSensor, field: Option<&FieldScene>) -> R
     let peak = match field.filter(|f| !f.is_empty()) {
         None => peak_intensity(&Model::default(), &c.intrinsics(), &scene, w, h, 8),
         Some(field) => {
-            let sky = field.without(crate::scene::sun_disc::ELEMENT.name);
+            let sky =
+                crate::sensor_exposure::field_under(&field.without(crate::scene::sun_disc::ELEMENT.name), &first.sun);
             let idx = NoiseIndex { seed: 0, trial: 0, frame: 0 };
             let f = ChainFrame::new_in_field(
                 &Model::default(),
@@ -294,7 +295,23 @@ pub fn sim_chain_frame(
 ) -> ChainFrame {
     let scene = scene_of(&c.frames[index], s.dmax);
     let noise = NoiseIndex { seed: s.seed, trial: 0, frame: index as u32 };
-    ChainFrame::new_in_field(model, &c.intrinsics(), &scene, resp, noise, field)
+    let field = field.map(|f| crate::sensor_exposure::field_under(f, &c.frames[index].sun));
+    ChainFrame::new_in_field(model, &c.intrinsics(), &scene, resp, noise, field.as_ref())
+}
+
+/// The three band frames of frame `index` of a colour-polarization capture `c`
+/// ([`sim_chain_frame`], then [`ChainFrame::bands`]: `model`'s band block, the green
+/// band the scene's radiance and d_max), by [`Band::index`](crate::sensor::Band::index).
+pub fn sim_band_frames(
+    c: &Capture,
+    index: usize,
+    model: &Model,
+    resp: &Response,
+    s: &SimSensor,
+    field: Option<&FieldScene>,
+) -> [ChainFrame; 3] {
+    let scene = scene_of(&c.frames[index], s.dmax);
+    sim_chain_frame(c, index, model, resp, s, field).bands(model, &scene)
 }
 
 /// Simulates frame `index` of capture `c` under `model` (the truth) and `field`.
@@ -310,6 +327,12 @@ pub fn simulate_frame(
     let (w, h) = (g.width_px as usize, g.height_px as usize);
     let f = sim_chain_frame(c, index, model, resp, s, field);
     match &c.sensor.layout {
+        Layout::Dofp { mosaic } if c.sensor.colour.is_some() => {
+            let tiles = c.sensor.colour.as_ref().expect("matched");
+            let frames = sim_band_frames(c, index, model, resp, s, field);
+            let dn = crate::simulate::render_colour_mosaic(&frames, w, h, mosaic, tiles);
+            FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn }
+        }
         Layout::Dofp { mosaic } => {
             FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn: render_mosaic(&f, w, h, mosaic) }
         }

@@ -5,7 +5,8 @@ use super::*;
 use crate::effects::EffectDef;
 use crate::scene::ElementDef;
 
-/// Names are unique snake case; each parameter's name carries its unit and its
+/// Names are unique snake case; each parameter's name carries its unit (a sky
+/// brightness's: `mag_arcsec2`) and its
 /// neutral and typical values lie in its range (a count's are whole numbers).
 fn check_registry<E: Entry>() {
     let mut names: Vec<_> = E::registry().iter().map(|e| e.name()).collect();
@@ -21,8 +22,13 @@ fn check_registry<E: Entry>() {
         pnames.dedup();
         assert_eq!(pnames.len(), e.params().len(), "{n}: duplicate parameter");
         for p in e.params() {
-            assert!(["px", "deg", "DN", "1", "count"].contains(&p.unit), "{n}.{}: unit {}", p.name, p.unit);
-            for (unit, suffix) in [("px", "_px"), ("deg", "_deg"), ("DN", "_dn")] {
+            assert!(
+                ["px", "deg", "DN", "1", "count", "mag/arcsec²"].contains(&p.unit),
+                "{n}.{}: unit {}",
+                p.name,
+                p.unit
+            );
+            for (unit, suffix) in [("px", "_px"), ("deg", "_deg"), ("DN", "_dn"), ("mag/arcsec²", "mag_arcsec2")] {
                 assert_eq!(p.unit == unit, p.name.ends_with(suffix), "{n}.{}: unit suffix", p.name);
             }
             assert!(p.min <= p.neutral && p.neutral <= p.max, "{n}.{}: neutral out of range", p.name);

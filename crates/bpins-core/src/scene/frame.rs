@@ -53,6 +53,11 @@ pub struct ElementContext {
     pub sun_world: DVec3,
     /// The Rayleigh sky's radiance at the zenith, ½(1 + sin²h_sun).
     pub zenith_radiance: f64,
+    /// cd/m² per unit of the chain's sky radiance under the frame's source
+    /// ([`crate::sky::radiometry::SkyLight::unit_cd_m2`]): the scene's where set
+    /// ([`FieldScene::with_sky_unit_cd_m2`]), else the sun's at the source's elevation
+    /// (at least 1°).
+    pub sky_unit_cd_m2: f64,
 }
 
 /// One element folded for one frame: its constants and draws, and what it does to a ray.
@@ -104,7 +109,11 @@ impl FieldFrame {
     /// (columns, ENU) under the unit sun `sun_world` (ENU).
     pub fn new(scene: &FieldScene, world_from_cam: DMat3, sun_world: DVec3, frame: u32) -> Self {
         let zenith_radiance = 0.5 * (1.0 + sun_world.z * sun_world.z);
-        let cx = ElementContext { seed: scene.seed, frame, sun_world, zenith_radiance };
+        let sky_unit_cd_m2 = scene.sky_unit_cd_m2().unwrap_or_else(|| {
+            let el_deg = sun_world.z.clamp(-1.0, 1.0).asin().to_degrees().max(1.0);
+            crate::sky::radiometry::SkyLight::sun(el_deg).map_or(f64::NAN, |l| l.unit_cd_m2)
+        });
+        let cx = ElementContext { seed: scene.seed, frame, sun_world, zenith_radiance, sky_unit_cd_m2 };
         let mut enabled: Vec<(&ElementDef, &[f64])> = scene.iter().collect();
         enabled.sort_by_key(|(d, _)| (d.layer, element_index(d)));
         FieldFrame {
@@ -220,18 +229,19 @@ mod tests {
     #[test]
     fn elements_apply_back_to_front_by_layer_then_registry_order() {
         use crate::scene::{clouds::Clouds, overcast::Overcast, sky_radiance::SkyRadiance};
-        use crate::scene::{skyline::Skyline, sun_disc::SunDisc};
+        use crate::scene::{night_background::NightBackground, skyline::Skyline, sun_disc::SunDisc};
         let f =
             FieldFrame::new(&FieldScene::all(3), world_from_camera(0.0, 0.0, 0.0), enu_from_az_el_deg(40.0, 25.0), 0);
         let at = |is: fn(&dyn Any) -> bool| f.elements.iter().position(|e| is(e.as_ref() as &dyn Any));
         let order = [
             at(|e| e.is::<SkyRadiance>()),
+            at(|e| e.is::<NightBackground>()),
             at(|e| e.is::<Clouds>()),
             at(|e| e.is::<Overcast>()),
             at(|e| e.is::<SunDisc>()),
             at(|e| e.is::<Skyline>()),
         ];
-        assert_eq!(order, [0, 1, 2, 3, 4].map(Some), "the sky, clouds, the deck, the sun, the skyline");
+        assert_eq!(order, [0, 1, 2, 3, 4, 5].map(Some), "the sky and its glow, clouds, the deck, the sun, the skyline");
         // Overcast is registered after the sun's disc (its draws keyed by its place) yet
         // applies before it: its layer, not its place, orders it.
         let place = |name| ELEMENTS.iter().position(|e| e.name == name);

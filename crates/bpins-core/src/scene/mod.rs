@@ -22,6 +22,7 @@
 pub(crate) mod attitude;
 pub(crate) mod clouds;
 pub(crate) mod frame;
+pub(crate) mod night_background;
 pub(crate) mod overcast;
 pub(crate) mod sky_radiance;
 pub(crate) mod skyline;
@@ -83,8 +84,14 @@ impl Entry for ElementDef {
 /// Every scene element. [`field_stokes`] applies them back to front by [`Layer`]: the
 /// sky's radiance, clouds and the overcast deck, the sun's disc, the skyline. (The
 /// registry's order keys each element's seeded draws, so a new element goes last here.)
-pub static ELEMENTS: &[&ElementDef] =
-    &[&sky_radiance::ELEMENT, &clouds::ELEMENT, &sun_disc::ELEMENT, &skyline::ELEMENT, &overcast::ELEMENT];
+pub static ELEMENTS: &[&ElementDef] = &[
+    &sky_radiance::ELEMENT,
+    &clouds::ELEMENT,
+    &sun_disc::ELEMENT,
+    &skyline::ELEMENT,
+    &overcast::ELEMENT,
+    &night_background::ELEMENT,
+];
 
 /// Looks an element up by name.
 pub fn find_element(name: &str) -> Result<&'static ElementDef> {
@@ -98,12 +105,14 @@ pub fn find_element(name: &str) -> Result<&'static ElementDef> {
 pub struct FieldScene {
     pub seed: u64,
     elements: Selection<ElementDef>,
+    /// cd/m² per unit sky radiance of the frame's source, where known (`night_background`).
+    sky_unit_cd_m2: Option<f64>,
 }
 
 impl FieldScene {
     /// No element enabled, draws keyed by `seed`.
     pub fn new(seed: u64) -> Self {
-        FieldScene { seed, elements: Selection::new() }
+        FieldScene { seed, elements: Selection::new(), sky_unit_cd_m2: None }
     }
 
     /// Every element at its defaults.
@@ -137,7 +146,25 @@ impl FieldScene {
 
     /// The same scene without the element named `name` (unchanged where it is not enabled).
     pub fn without(&self, name: &str) -> FieldScene {
-        FieldScene { seed: self.seed, elements: self.elements.without(|d| d.name == name) }
+        FieldScene {
+            seed: self.seed,
+            elements: self.elements.without(|d| d.name == name),
+            sky_unit_cd_m2: self.sky_unit_cd_m2,
+        }
+    }
+
+    /// The same scene under a source whose sky has `unit_cd_m2` cd/m² per unit of the
+    /// chain's sky radiance ([`crate::sky::radiometry::SkyLight`]): what sets the
+    /// `night_background`'s glow against the moonlit or sunlit sky. Unset, the sun's at
+    /// the frame's source elevation is taken.
+    pub fn with_sky_unit_cd_m2(mut self, unit_cd_m2: f64) -> FieldScene {
+        self.sky_unit_cd_m2 = Some(unit_cd_m2);
+        self
+    }
+
+    /// The unit set by [`FieldScene::with_sky_unit_cd_m2`].
+    pub fn sky_unit_cd_m2(&self) -> Option<f64> {
+        self.sky_unit_cd_m2
     }
 
     /// Enabled elements with their values, in the order they were enabled.
@@ -169,7 +196,7 @@ mod tests {
             pnames.dedup();
             assert_eq!(pnames.len(), e.params.len(), "{}: duplicate parameter", e.name);
             for p in e.params {
-                assert!(["deg", "1", "count"].contains(&p.unit), "{}.{}", e.name, p.name);
+                assert!(["deg", "1", "count", "mag/arcsec²"].contains(&p.unit), "{}.{}", e.name, p.name);
             }
             // Its file opens with the doc block: equation, source, units, frame, limits.
             let text = std::fs::read_to_string(dir.join(format!("{}.rs", e.name))).unwrap();

@@ -2,6 +2,7 @@
 
 #[cfg(feature = "spa")]
 pub mod moon;
+pub mod radiometry;
 pub mod rayleigh;
 #[cfg(feature = "spa")]
 pub mod sun;
