@@ -1,9 +1,9 @@
 //! Colour-polarization captures (samples/colour-clear, an IMX250MYR-like RGGB layout
 //! made by an independent implementation of the spec): `heading` reads each band from
-//! its own pixels and fuses the bands; the readers that do not read bands yet (fit,
-//! diagnose, maps, the plain estimator) say so by name; and the frames are never read
-//! as monochrome when the `colour_tiles` key is deleted (read as mono the plain
-//! estimator is off by 0.24° RMS at up to 8σ on this capture).
+//! its own pixels and fuses the bands; `maps` writes each band's maps; the readers
+//! that do not read bands yet (fit, diagnose, the plain estimator) say so by name;
+//! and the frames are never read as monochrome when the `colour_tiles` key is deleted
+//! (read as mono the plain estimator is off by 0.24° RMS at up to 8σ on this capture).
 
 mod common;
 use common::*;
@@ -53,10 +53,51 @@ fn readers_that_do_not_read_bands_yet_refuse_a_colour_capture_by_name() {
     for cmd in [
         &["fit", COLOUR, "--out", "/nonexistent/never-written"][..],
         &["diagnose", COLOUR, "--out", "/nonexistent/never-written"][..],
-        &["maps", COLOUR, "--out", "/nonexistent/never-written"][..],
         &["heading", COLOUR, "--estimator", "plain"][..],
     ] {
         bpins(cmd).fails().stderr_has("colour");
+    }
+}
+
+/// `bpins maps` on a colour capture: each band's four maps as layers named with the
+/// band, the same numbers as `bpins_core::colour_maps` on the frame's mosaic.
+#[test]
+fn maps_of_a_colour_capture_are_each_bands_kernel_maps() {
+    use bpins_core::internal::capture::{read_exr_layers, Capture, FrameData};
+    use bpins_core::internal::heading::field::RawImage;
+    use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+    use bpins_core::{colour_maps, Interpolation, MapsConfig, Reconstructor};
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("maps");
+    for (route, size) in [("opencv", (408, 340)), ("superpixel", (102, 85))] {
+        bpins(&["maps", COLOUR, "--out", &s(&out), "--frames", "1", "--interpolation", route])
+            .ok()
+            .stderr_has(&format!("({} × {} px", size.0, size.1))
+            .stderr_has("bands R, G, B");
+        let c = Capture::load(COLOUR.as_ref()).unwrap();
+        let FrameData::Mosaic { dn, width_px, height_px } = c.read_frame(1).unwrap() else { panic!("a DoFP sample") };
+        let rec = Reconstructor::new(&Default::default(), c.sensor.black_level_dn, &Channel::ALL).unwrap();
+        let cfg = MapsConfig {
+            interpolation: Interpolation::from_name(route).unwrap(),
+            mosaic: DEFAULT_MOSAIC,
+            full_scale_dn: c.sensor.full_scale_dn(),
+            aoe_centre_px: [c.lens.principal_point_px.0, c.lens.principal_point_px.1],
+        };
+        let tiles = c.sensor.colour.clone().unwrap();
+        let raw = RawImage::packed(&dn, width_px as usize, height_px as usize);
+        let want = colour_maps(&raw, &rec, &cfg, &tiles).unwrap();
+        let (gw, gh, got) = read_exr_layers(&out.join("f1_maps.exr")).unwrap();
+        assert_eq!((gw as usize, gh as usize), size);
+        assert_eq!(got.len(), 12, "four maps of three bands");
+        let layer = |name: &str| &got.iter().find(|(n, _)| n == name).unwrap_or_else(|| panic!("{name}")).1;
+        let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| x == y || (x.is_nan() && y.is_nan()));
+        for m in &want {
+            let b = m.band.name();
+            assert!(same(layer(&format!("AoP_deg_{b}")), &m.maps.aop_deg), "{route} {b}");
+            assert!(same(layer(&format!("DoLP_{b}")), &m.maps.dolp), "{route} {b}");
+            assert!(same(layer(&format!("I_dn_{b}")), &m.maps.intensity_dn), "{route} {b}");
+            assert!(same(layer(&format!("AoE_deg_{b}")), &m.maps.aoe_deg), "{route} {b}");
+        }
     }
 }
 
@@ -82,4 +123,133 @@ fn a_colour_mosaic_read_as_monochrome_is_refused_and_names_the_frame() {
     }
     // A monochrome capture of the same spec passes the same test.
     bpins(&["heading", concat!(env!("CARGO_MANIFEST_DIR"), "/samples/clean")]).ok();
+}
+
+/// Per band (R, G, B) of a colour mosaic (IMX250MYR tiles, the default mosaic [[90, 45],
+/// [135, 0]]): its mean DN above black, and its DoLP relative to green's, free of the
+/// noise's bias: each band's normalised (Q, U)/I projected on each of green's two tiles
+/// of the same 4 × 4 superpixel, over green's one tile on its other (independent noise).
+fn band_means(dn: &[f32], w: usize, h: usize, black: f64) -> ([f64; 3], [f64; 3]) {
+    let tile = |u0: usize, v0: usize| {
+        let px = |du: usize, dv: usize| dn[(v0 + dv) * w + u0 + du] as f64 - black;
+        let (i90, i45, i135, i0) = (px(0, 0), px(1, 0), px(0, 1), px(1, 1));
+        let i = 0.5 * (i0 + i45 + i90 + i135);
+        (0.5 * i, [(i0 - i90) / i, (i45 - i135) / i])
+    };
+    let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
+    let (mut mean, mut proj, mut n) = ([0.0; 3], [0.0; 3], 0.0);
+    for v0 in (0..h - 3).step_by(4) {
+        for u0 in (0..w - 3).step_by(4) {
+            let (r, g1, g2, b) = (tile(u0, v0), tile(u0 + 2, v0), tile(u0, v0 + 2), tile(u0 + 2, v0 + 2));
+            for (k, m) in [r.0, 0.5 * (g1.0 + g2.0), b.0].into_iter().enumerate() {
+                mean[k] += m;
+            }
+            proj[0] += 0.5 * (dot(r.1, g1.1) + dot(r.1, g2.1));
+            proj[1] += dot(g1.1, g2.1);
+            proj[2] += 0.5 * (dot(b.1, g1.1) + dot(b.1, g2.1));
+            n += 1.0;
+        }
+    }
+    (mean.map(|m| m / n), proj.map(|p| p / proj[1]))
+}
+
+#[test]
+fn simulate_writes_a_colour_capture_whose_bands_read_their_headings_and_differ_as_the_model_says() {
+    let tmp = tempfile::tempdir().unwrap();
+    // The colour sample's sky and sensor (samples/README.md), two of its headings; on
+    // its pixel count and on a quarter of it at twice the pitch (the same field of
+    // view): there the default cells are a single 4 × 4 superpixel wide, too few places
+    // per channel of one band to move its mean to the cell's centre, so a colour
+    // compass's cells are at least 8 px (0.2–0.4° off, 12σ, before).
+    for (w, h, pitch, name) in [("408", "340", "20.7", "colour"), ("204", "170", "41.4", "small")] {
+        let out = tmp.path().join(name);
+        let mut args: Vec<String> = [
+            "simulate",
+            "--out",
+            &s(&out),
+            "--colour-tiles",
+            "RGGB",
+            "--width-px",
+            w,
+            "--height-px",
+            h,
+            "--pixel-pitch-um",
+            pitch,
+            "--sun-azimuth-deg",
+            "200",
+            "--sun-elevation-deg",
+            "45",
+            "--headings-deg",
+            "7,187",
+            "--dmax",
+            "0.7",
+            "--read-noise-dn",
+            "1",
+            "--system-gain-dn-per-e",
+            "0.1",
+        ]
+        .map(String::from)
+        .to_vec();
+        for e in [
+            "sky_spectrum.radiance_r=0.625",
+            "sky_spectrum.radiance_b=1.25",
+            "sky_spectrum.dmax_r=1.0571",
+            "sky_spectrum.dmax_b=0.8857",
+            "band_response.qe_r=0.8",
+            "band_response.qe_b=0.6667",
+            "band_response.eps_r=0.005",
+            "band_response.eps_g=0.004",
+            "band_response.eps_b=0.0083",
+        ] {
+            args.extend(["--effect".to_string(), e.to_string()]);
+        }
+        bpins(&args).ok();
+        let toml = fs::read_to_string(out.join("capture.toml")).unwrap();
+        assert!(toml.contains(r#"colour_tiles = [["R", "G"], ["G", "B"]]"#), "{toml}");
+        assert!(toml.contains("band_centre_nm"), "{toml}");
+        // Every band's heading within 3σ of the truth, and the fused one.
+        let json = tmp.path().join(format!("{name}.json"));
+        bpins(&["heading", &s(&out), "--json", &s(&json)]).ok();
+        let v = read_json(&json);
+        let rows = v["frames"].as_array().unwrap();
+        for band in ["fused", "R", "G", "B"] {
+            let e: Vec<_> = rows.iter().filter(|r| r["band"] == band).collect();
+            assert_eq!(e.len(), 2, "{name}, {band}: {v}");
+            for r in e {
+                let (err, sigma) = (r["error_deg"].as_f64().unwrap(), r["sigma_deg"].as_f64().unwrap());
+                assert!(err.abs() < 3.0 * sigma, "{name}, {band}: error {err}°, 1σ {sigma}°");
+            }
+        }
+    }
+    let out = tmp.path().join("colour");
+    // The bands as the model says: R = 0.625 × 0.8 (1 + ε_R)/(1 + ε_G) ≈ 0.5 of green's
+    // signal, B = 1.25 × 0.667 (1 + ε_B)/(1 + ε_G) ≈ 0.837; red the most polarized, blue
+    // the least: the ratio of their d_max times each band's analyzer efficiency
+    // (1 − ε)/(1 + ε) over green's.
+    let c = bpins_core::internal::capture::Capture::load(&out).unwrap();
+    let bpins_core::internal::capture::FrameData::Mosaic { dn, .. } = c.read_frame(0).unwrap() else {
+        panic!("a dofp capture has mosaic frames")
+    };
+    let (mean, dolp) = band_means(&dn, 408, 340, 64.0);
+    let (r, b) = (mean[0] / mean[1], mean[2] / mean[1]);
+    assert!((r - 0.5).abs() < 0.01 && (b - 0.837).abs() < 0.01, "mean DN {mean:?}");
+    let eff = |e: f64| (1.0 - e) / (1.0 + e);
+    let (want_r, want_b) = (1.0571 * eff(0.005) / eff(0.004), 0.8857 * eff(0.0083) / eff(0.004));
+    // Within 0.01: a tile's four analyzers sit on four rays, and the part of its (Q, U)/I
+    // that the radiance's gradient makes does not scale with d_max (here +0.005 on R,
+    // −0.005 on B, noise-free alike).
+    assert!((dolp[0] - want_r).abs() < 0.01 && (dolp[2] - want_b).abs() < 0.01, "DoLP / green's {dolp:?}");
+}
+
+#[test]
+fn simulate_refuses_colour_tiles_it_cannot_write() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = s(&tmp.path().join("never"));
+    // Not four bands of R, G, B; a band missing; a colocated sensor (no tiles to cover).
+    bpins(&["simulate", "--out", &out, "--colour-tiles", "RGBX"]).fails().stderr_has("--colour-tiles");
+    bpins(&["simulate", "--out", &out, "--colour-tiles", "RGGR"]).fails().stderr_has("each band");
+    bpins(&["simulate", "--out", &out, "--colour-tiles", "RGGB", "--layout", "colocated"])
+        .fails()
+        .stderr_has("--colour-tiles");
+    assert!(!tmp.path().join("never").exists());
 }

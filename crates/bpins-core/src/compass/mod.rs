@@ -151,8 +151,11 @@ impl Compass {
         let rec = Reconstructor::new(&known, cfg.black_level_dn, &Channel::ALL)?;
         let cell_px = cfg.options.cell_px.unwrap_or_else(|| Cells::default_cell_px(cfg.width_px, cfg.height_px));
         let cell_px = (cell_px.max(2) + 1) & !1;
-        // A colour sensor's cells are whole 4 × 4 superpixels, so that each holds every band.
-        let cell_px = if cfg.colour.is_some() { cell_px.div_ceil(4) * 4 } else { cell_px };
+        // A colour sensor's cells are whole 4 × 4 superpixels, so that each holds every
+        // band, and at least two of them each way, so that each channel of a band has
+        // the places to fit the plane that moves its mean to the cell's centre (in one
+        // superpixel R's and B's channels have one pixel each, a pixel off the centre).
+        let cell_px = if cfg.colour.is_some() { cell_px.div_ceil(4).max(2) * 4 } else { cell_px };
         if cfg.colour.is_some() && cfg.calibration.pixels.is_some() {
             return bad("per-pixel maps of a colour-polarization sensor are not applied yet: use a calibration \
                         without them (effects only)"

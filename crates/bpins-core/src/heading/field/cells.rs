@@ -528,8 +528,11 @@ impl Acc {
                     dof -= 2.0;
                 }
             }
-            // Variance of the centre value ≈ that of the mean (the gradient terms add
-            // ~1/(2 sxx) of a pixel's variance: negligible).
+            // Variance of the centre value ≈ that of the mean. The gradient terms add
+            // ½/sxx of a pixel's variance: ×1.5 the mean's on 4 px cells (2 × 2 pixels per
+            // channel), ×1.1 on 8 px, under 3 % from 16 px. Not counted here (counting it
+            // moves day frames' robust fit: a flipped mosaic in tests/contradictions.rs
+            // is then believed); dim frames count it (coarse.rs, `noise_factor`).
             var[k] = if dof > 0.0 { (ss / dof).max(0.0) / n } else { f64::NAN };
         }
         self.borrow_scatter(&mut var);

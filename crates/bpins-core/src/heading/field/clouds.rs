@@ -5,10 +5,12 @@
 //!               d_ref = max(median r, UPPER_SHARE · upper r, CLEAR_DMAX_MIN)
 //!               r = DoLP/D(γ) over the cells that fit the sun; `upper`: the ratio that
 //!               the most polarized max(min_cells, 3 %) of them reach
-//! brighter:     ln I − m(γ, z) > max(ln BRIGHT_FACTOR, 5 · 1.4826 · MAD)
+//! brighter:     ln I − m(γ, z) > med + max(ln BRIGHT_FACTOR, 5 · 1.4826 · MAD₋)
 //!               m a smooth radiance (ln I on 1, cos γ, z and their squares and product,
-//!               centred and scaled)
-//!               fitted by least squares to the clear cells that fit the sun
+//!               centred and scaled) fitted by least squares to the clear cells that
+//!               fit the sun, refitted without those above it by 2σ (up to 6 rounds:
+//!               the clear cells' lower envelope); med the residuals' median, MAD₋
+//!               their spread below it (clouds are brighter, never darker)
 //! ```
 //!
 //! Why: a cloud adds multiply-scattered, nearly unpolarized light, so its DoLP falls
@@ -101,13 +103,57 @@ const VERIFIABLE: f64 = 0.08;
 /// Into `out`: whether each cell is brighter than the smooth sky fitted to the clear
 /// cells (`clear`: fits, verifiable and not depolarized); only verifiable cells are
 /// marked (closer to the sun the smooth sky is an extrapolation). Nothing is marked
-/// when fewer than 20 cells are clear. `r` is a buffer.
-pub(super) fn brighter(cells: &[CellSky], clear: &[bool], r: &mut Vec<f64>, out: &mut Vec<bool>) {
+/// when fewer than 20 cells are clear. `clear` loses the cells the envelope's fit
+/// trims; `r` is a buffer.
+pub(super) fn brighter(cells: &[CellSky], clear: &mut [bool], r: &mut Vec<f64>, out: &mut Vec<bool>) {
     out.clear();
     out.resize(cells.len(), false);
+    // The smooth sky as the clear cells' lower envelope: each round drops from the
+    // fit the cells above it by more than TRIM_SIGMA of the lower half's spread, so
+    // clouds that passed the DoLP test (bright, still polarized: rims, thin decks)
+    // stop lifting it however many there are; the cut is read from the last round.
+    let mut fitted = None;
+    for _ in 0..BRIGHT_ROUNDS {
+        let Some((coef, basis_at, med, sigma)) = smooth_sky(cells, clear, r) else { break };
+        let mut dropped = false;
+        for (c, k) in cells.iter().zip(clear.iter_mut()) {
+            if *k && c.ln_i - basis_at(c).dot(&coef) > med + TRIM_SIGMA * sigma {
+                *k = false;
+                dropped = true;
+            }
+        }
+        fitted = Some((coef, basis_at, med, sigma));
+        if !dropped {
+            break;
+        }
+    }
+    let Some((coef, basis_at, med, sigma)) = fitted else { return };
+    let cut = med + BRIGHT_FACTOR.ln().max(5.0 * sigma);
+    for (o, c) in out.iter_mut().zip(cells) {
+        *o = c.verifiable() && c.ln_i - basis_at(c).dot(&coef) > cut;
+    }
+}
+
+/// Rounds of the smooth sky's fit, each without the cells the last one found above
+/// the envelope.
+const BRIGHT_ROUNDS: usize = 6;
+/// Cells above the envelope by more than this many σ leave its next fit.
+const TRIM_SIGMA: f64 = 2.0;
+
+type Basis = SVector<f64, 6>;
+
+/// The smooth sky's ln radiance fitted to the `clear` cells: its coefficients, the
+/// basis (ln I on 1, cos γ, z and their squares and product, centred and scaled on
+/// the clear cells), the residuals' median and their robust σ from the lower half;
+/// `None` when fewer than 20 cells are clear.
+fn smooth_sky(
+    cells: &[CellSky],
+    clear: &[bool],
+    r: &mut Vec<f64>,
+) -> Option<(Basis, impl Fn(&CellSky) -> Basis, f64, f64)> {
     let n = clear.iter().filter(|&&c| c).count();
     if n < 20 {
-        return;
+        return None;
     }
     // Features centred and scaled on the clear cells, so the normal equations are
     // well conditioned whatever the field of view.
@@ -123,13 +169,13 @@ pub(super) fn brighter(cells: &[CellSky], clear: &[bool], r: &mut Vec<f64>, out:
         sz += (c.z - mz).powi(2);
     }
     let (sg, sz) = ((sg / n as f64).sqrt().max(1e-3), (sz / n as f64).sqrt().max(1e-3));
-    let basis = |c: &CellSky| {
+    let basis = move |c: &CellSky| {
         let g = (c.cg - mg) / sg;
         let z = (c.z - mz) / sz;
-        SVector::<f64, 6>::from([1.0, g, z, g * g, z * z, g * z])
+        Basis::from([1.0, g, z, g * g, z * z, g * z])
     };
     let mut a = SMatrix::<f64, 6, 6>::zeros();
-    let mut b = SVector::<f64, 6>::zeros();
+    let mut b = Basis::zeros();
     for (c, _) in cells.iter().zip(clear).filter(|x| *x.1) {
         let x = basis(c);
         a += x * x.transpose();
@@ -140,19 +186,19 @@ pub(super) fn brighter(cells: &[CellSky], clear: &[bool], r: &mut Vec<f64>, out:
     for k in 0..6 {
         a[(k, k)] += ridge;
     }
-    let Some(ch) = a.cholesky() else { return };
-    let coef = ch.solve(&b);
+    let coef = a.cholesky()?.solve(&b);
     r.clear();
     r.extend(cells.iter().zip(clear).filter(|x| *x.1).map(|(c, _)| c.ln_i - basis(c).dot(&coef)));
+    // The spread from the residuals below the median only: clouds are brighter, never
+    // darker, so the lower half is the sky's own scatter however many clouds the
+    // clear cells still hold (for a clean sky, the usual MAD).
     let med = median(r);
+    r.retain(|&x| x <= med);
     for x in r.iter_mut() {
-        *x = (*x - med).abs();
+        *x = med - *x;
     }
     let mad = 1.4826 * median(r);
-    let cut = BRIGHT_FACTOR.ln().max(5.0 * mad);
-    for (o, c) in out.iter_mut().zip(cells) {
-        *o = c.verifiable() && c.ln_i - basis(c).dot(&coef) - med > cut;
-    }
+    Some((coef, basis, med, mad))
 }
 
 /// Cells within this many cells of an unverifiable one vote on its label.
@@ -237,7 +283,7 @@ mod tests {
         assert!((d - 0.6).abs() < 1e-9, "{d}");
         let (mut dep, mut br) = (Vec::new(), Vec::new());
         depolarized(&cells, d, &mut dep);
-        brighter(&cells, &vec![true; cells.len()], &mut buf, &mut br);
+        brighter(&cells, &mut vec![true; cells.len()], &mut buf, &mut br);
         assert!(!dep.iter().any(|&x| x) && !br.iter().any(|&x| x));
     }
 
@@ -299,9 +345,9 @@ mod tests {
                 c.ln_i += 1.6f64.ln(); // a cloud 1.6× brighter
             }
         }
-        let clear: Vec<bool> = (0..cells.len()).map(|i| !(300..340).contains(&i)).collect();
+        let mut clear: Vec<bool> = (0..cells.len()).map(|i| !(300..340).contains(&i)).collect();
         let (mut buf, mut br) = (Vec::new(), Vec::new());
-        brighter(&cells, &clear, &mut buf, &mut br);
+        brighter(&cells, &mut clear, &mut buf, &mut br);
         for (i, x) in br.iter().enumerate() {
             assert_eq!(*x, (300..340).contains(&i), "cell {i}");
         }

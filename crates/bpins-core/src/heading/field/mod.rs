@@ -19,12 +19,17 @@
 //!    is one unknown: a search of ψ ∈ [0°, 360°) in 1° steps on the bounded cost
 //!    Σ min(δ², c²)/(σ_α² + 0.3°²), c = 2°, δ = the angle of each E-vector off
 //!    ⊥(sun, ray): the heading the most cells agree on tightly; a second minimum as
-//!    good as the first is an ambiguous frame (no heading)
+//!    good as the first is an ambiguous frame (no heading); then sharpened: the same
+//!    bounded cost with its cap shrunk 0.3° → 0.15° around that minimum, the heading
+//!    the most cells agree on *tightly* (the clear sky's, where clouds that turn
+//!    together lean every partly covered cell one way; observe.rs `sharpen`)
 //! 4. iterate: δ_i against the current sun; clouds per cell (clouds.rs: DoLP under
 //!    0.6 × an absolute, upper-share clear-sky expectation; brighter than the smooth
 //!    sky; near the sun the nearest verifiable cells' label), weight 0, grown by 2
 //!    cells where they cluster; a model-misfit scale τ with the lower quartile of
-//!    δ²/(σ_α² + τ²) at χ²₁'s (0.1015) over the clear cells away from clouds;
+//!    δ²/(σ_α² + τ²) at χ²₁'s (0.1015) over the clear cells away from clouds (where
+//!    the start's τ is within 1°, a clear sky's: the lower 15 % at χ²₁'s 15 % point,
+//!    bounded by the start's τ, so cells that lean together cannot widen it);
 //!    Tukey's biweight on δ/σ (σ² = σ_α² + τ²); cells within `sun_exclusion_deg` of
 //!    the sun or anti-sun get weight 0, and so does every cell within 2 cells of a
 //!    cluster of rejected ones (soft cloud edges); the extractor solves from the
@@ -47,7 +52,8 @@
 //! contradicts the given one (a wrong clock, place or tilt, a flipped mosaic), when
 //! the used cells still misfit by degrees, or when the sun is out of the range where
 //! the pattern holds (below −10°, the end of nautical twilight, or within 1° of the
-//! zenith).
+//! zenith), or when the frame is too dark to tell (`dark.rs`: its polarized signal
+//! below the noise of its cells).
 //!
 //! # Example: a tilted frame, its IMU's attitude, a heading with its 1σ
 //!
@@ -91,6 +97,8 @@
 
 pub mod cells;
 mod clouds;
+mod coarse;
+mod dark;
 mod observe;
 mod robust;
 mod sigma;
@@ -223,6 +231,12 @@ pub enum NoHeading {
          mosaic layout that is not the sensor's)"
     )]
     Contradicts { offset_deg: f64, limit_deg: f64 },
+    #[error(
+        "too dark: the polarized signal is below the noise: {signal_dn:.3} DN of polarized light against \
+         {noise_dn:.3} DN of noise per cell (signal/noise {snr:.2}; a longer exposure, a wider aperture, more \
+         gain or a brighter sky)"
+    )]
+    TooDark { signal_dn: f64, noise_dn: f64, snr: f64 },
     #[error("{0}")]
     Solver(String),
 }
@@ -348,9 +362,13 @@ pub fn estimate_many_with(
     extractors: &[Extractor],
     scratch: &mut FieldScratch,
 ) -> Vec<FieldHeading> {
+    // A dim frame on larger cells (coarse.rs).
+    let coarse = coarse::coarsened(cells);
+    let cells = coarse.as_ref().unwrap_or(cells);
     match robust::fitted(cells, ctx, opts, &mut scratch.robust) {
         Ok(r) => extractors.iter().map(|&e| sigma::heading(&r, e, cells, ctx, opts, &scratch.robust)).collect(),
         Err((quality, why)) => {
+            let why = coarse::explain_dim(cells, why);
             extractors.iter().map(|&e| FieldHeading { extractor: e, result: Err(why.clone()), quality }).collect()
         }
     }
@@ -366,9 +384,11 @@ pub fn estimate_with(
     extractor: Extractor,
     scratch: &mut FieldScratch,
 ) -> FieldHeading {
+    let coarse = coarse::coarsened(cells);
+    let cells = coarse.as_ref().unwrap_or(cells);
     match robust::fitted(cells, ctx, opts, &mut scratch.robust) {
         Ok(r) => sigma::heading(&r, extractor, cells, ctx, opts, &scratch.robust),
-        Err((quality, why)) => FieldHeading { extractor, result: Err(why), quality },
+        Err((quality, why)) => FieldHeading { extractor, result: Err(coarse::explain_dim(cells, why)), quality },
     }
 }
 

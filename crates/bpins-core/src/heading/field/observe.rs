@@ -179,6 +179,60 @@ pub(super) fn search(obs: &[Obs], ctx: &FieldContext, sub: &mut Vec<[f64; 7]>) -
     Ok(best.0)
 }
 
+/// Cells the sharpening reads at most (evenly strided).
+const SHARPEN_CELLS: usize = 2000;
+/// The sharpening's stages: (cost cap, step, steps either side), degrees.
+const SHARPEN_STAGES: [(f64, f64, i32); 3] = [(0.3, 0.05, 40), (0.15, 0.01, 10), (0.15, 0.002, 5)];
+/// Per-cell model error the sharpening assumes beside a cell's noise, radians.
+const SHARPEN_SIGMA_RAD: f64 = 0.05 * PI / 180.0;
+
+/// Step 3b: the search's heading `psi_deg` moved to the sharpest agreement near it.
+/// The search's 2° cap lets a cloud's soft edge pull its minimum: where the clouds of
+/// a frame turn their E-vectors the same way (one deck lit from one side), every
+/// partly covered cell leans the same way and the minimum with them, by up to about
+/// a degree. The clear cells agree to their noise, the leaning ones spread, so the
+/// heading most cells agree on *tightly* is the clear sky's: the same bounded cost,
+/// its cap shrunk 1° → 0.4° → 0.15° around the last stage's minimum (graduated
+/// non-convexity: each stage starts inside the next one's basin). A clear sky's cells
+/// agree either way and the robust loop that follows ends where it did.
+pub(super) fn sharpen(obs: &[Obs], ctx: &FieldContext, psi_deg: f64, sub: &mut Vec<[f64; 7]>) -> f64 {
+    let strong = obs.iter().filter(|o| o.dolp > 0.02).count();
+    if strong < 3 {
+        return psi_deg;
+    }
+    let stride = strong.div_ceil(SHARPEN_CELLS).max(1);
+    let (sh, ch) = ctx.sun_el_deg.to_radians().sin_cos();
+    let (sa, ca) = ctx.sun_az_deg.to_radians().sin_cos();
+    let coef = |v: DVec3| [-ch * (sa * v.x + ca * v.y), ch * (ca * v.x - sa * v.y), sh * v.z];
+    sub.clear();
+    // At its largest from the first frame on, so a live loop allocates nothing.
+    sub.reserve(SHARPEN_CELLS);
+    sub.extend(obs.iter().filter(|o| o.dolp > 0.02).step_by(stride).map(|o| {
+        let (e, d) = (coef(o.e), coef(o.d));
+        [e[0], e[1], e[2], d[0], d[1], d[2], 1.0 / (o.var_aop + SHARPEN_SIGMA_RAD * SHARPEN_SIGMA_RAD)]
+    }));
+    let cost = |p: f64, cap_deg: f64| {
+        let cap = cap_deg.to_radians().sin().powi(2);
+        let (sp, cp) = p.to_radians().sin_cos();
+        sub.iter()
+            .map(|k| {
+                let (es, ds) = (k[0] * cp + k[1] * sp + k[2], k[3] * cp + k[4] * sp + k[5]);
+                k[6] * (es * es / (1.0 - ds * ds).max(1e-12)).min(cap)
+            })
+            .sum::<f64>()
+    };
+    let mut best = psi_deg;
+    for (cap_deg, step, n) in SHARPEN_STAGES {
+        let centre = best;
+        best = (-n..=n)
+            .map(|k| centre + step * k as f64)
+            .map(|p| (p, cost(p, cap_deg)))
+            .fold((centre, f64::INFINITY), min_by_cost)
+            .0;
+    }
+    best
+}
+
 fn min_by_cost(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
     if b.1 < a.1 {
         b

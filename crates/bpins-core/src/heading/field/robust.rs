@@ -5,7 +5,8 @@
 //! statistics, `stats.rs`.
 
 use super::clouds::{brighter, clear_dmax, depolarized, propagate, CellSky};
-use super::observe::{cone_sun, observe, residual, search, Obs};
+use super::dark::Polarized;
+use super::observe::{cone_sun, observe, residual, search, sharpen, Obs};
 use super::sigma::{block_sums, meridian_band, solve, sum_blocks};
 use super::spatial::coherent_sigma_deg;
 use super::stats::{grown_clusters, quantile, tukey};
@@ -23,11 +24,23 @@ const DILATE_CELLS: isize = 2;
 /// their noise (a Berry sky, the aureole, a tilted fisheye's skyline: ≤ 1.2° RMS in
 /// the field table), degrees.
 const CLEAR_RESIDUAL_DEG: f64 = 0.5;
+/// A start whose misfit scale τ is within this is taken as a tight clear sky, and τ
+/// stays bounded by it through the loop, degrees.
+const TAU_BOUND_DEG: f64 = 1.0;
 
 /// Step 4's weights for the sun at `s` into `b.w`: (robust weight, σ² = σ_α² + τ²,
 /// sin²γ, δ) per cell; `b.cloud` marks the cells taken for cloud (`clouds.rs`).
 /// Returns τ.
-fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: usize, b: &mut Bufs) -> f64 {
+#[allow(clippy::too_many_arguments)]
+fn weights(
+    obs: &[Obs],
+    s: DVec3,
+    tau_cap: f64,
+    opts: &FieldOptions,
+    cols: usize,
+    grid_len: usize,
+    b: &mut Bufs,
+) -> f64 {
     let cos_excl = opts.sun_exclusion_deg.to_radians().cos();
     b.res.clear();
     b.res.extend(obs.iter().map(|o| residual(o, s)));
@@ -48,7 +61,10 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
     // found at the last sun stand.
     let settled = b.clouds_at.is_some_and(|at| at.dot(s) > CLOUDS_SETTLED_DEG.to_radians().cos());
     if !settled {
-        clouds(obs, tau2_all, opts.min_cells, cols, grid_len / cols.max(1), b);
+        // Which cells fit: at the misfit scale of every cell, bounded like τ (a deck
+        // whose rims all lean one way would otherwise call them fitting, and the
+        // smooth sky they lift would hide them).
+        clouds(obs, tau2_all.min(tau_cap * tau_cap), opts.min_cells, cols, grid_len / cols.max(1), b);
         let cloud = obs.iter().zip(&b.cloud).map(|(o, &c)| (o.grid, c));
         let (mask, kept, tmp) = (&mut b.mask, &mut b.clustered, &mut b.tmp);
         grown_clusters(cloud, grid_len, cols, DILATE_CELLS as usize, mask, kept, tmp, &mut b.cloud_grown);
@@ -62,15 +78,19 @@ fn weights(obs: &[Obs], s: DVec3, opts: &FieldOptions, cols: usize, grid_len: us
     // clouds, every cell that is not cloud counts.
     let away = obs.iter().zip(&b.res).filter(|(o, r)| r.2.abs() < cos_excl && !b.cloud_grown[o.grid]).count();
     let min_away = opts.min_cells.min(obs.len());
+    // A tight start (τ bounded, below) reads τ from the lower 15 % with χ²₁'s 15 %
+    // point instead: the clear sky's own misfit wherever at least 30 % of the sky in
+    // view is clear, however the rest leans (clouds that turn together).
+    let (q, c) = if tau_cap.is_finite() { (TIGHT_Q, TIGHT_CHI2) } else { (TAU_Q, TAU_CHI2) };
     b.t.clear();
     b.t.extend(
         obs.iter()
             .zip(&b.res)
             .zip(&b.cloud)
             .filter(|((o, r), &cloud)| r.2.abs() < cos_excl && !cloud && (away < min_away || !b.cloud_grown[o.grid]))
-            .map(|((o, r), _)| (r.0.powi(2) - TAU_CHI2 * o.var_aop) / TAU_CHI2),
+            .map(|((o, r), _)| (r.0.powi(2) - c * o.var_aop) / c),
     );
-    let tau2 = quantile(&mut b.t, TAU_Q).max(0.0);
+    let tau2 = quantile(&mut b.t, q).max(0.0).min(tau_cap * tau_cap);
     let tau2 = if tau2.is_finite() { tau2 } else { 0.0 };
     b.w.clear();
     b.w.extend(obs.iter().zip(&b.res).zip(&b.cloud).map(|((o, &(delta, sg2, cg)), &cloud)| {
@@ -108,7 +128,7 @@ fn clouds(obs: &[Obs], tau2: f64, min_cells: usize, cols: usize, rows: usize, b:
     depolarized(&b.sky, dmax, &mut b.depol);
     b.clear.clear();
     b.clear.extend(b.sky.iter().zip(&b.depol).map(|(c, &d)| c.fits && c.verifiable() && !d));
-    brighter(&b.sky, &b.clear, &mut b.t, &mut b.bright);
+    brighter(&b.sky, &mut b.clear, &mut b.t, &mut b.bright);
     b.cloud.clear();
     b.cloud.extend(b.depol.iter().zip(&b.bright).map(|(&d, &br)| d || br));
     propagate(&b.sky, cols, rows, &mut b.cloud, &mut b.votes);
@@ -123,6 +143,9 @@ fn cg_of(sg2: f64) -> f64 {
 const CHI2_1_Q25: f64 = 0.1015;
 const TAU_Q: f64 = 0.25;
 const TAU_CHI2: f64 = CHI2_1_Q25;
+/// τ's quantile after a tight start, and χ²₁'s value there.
+const TIGHT_Q: f64 = 0.15;
+const TIGHT_CHI2: f64 = 0.035_766;
 
 /// The buffers of the robust loop, kept between frames so that a live loop allocates
 /// nothing once they have grown to the frame's grid.
@@ -194,22 +217,39 @@ pub(super) fn robust(
     let obs = &sc.obs;
     quality.cells_valid = obs.len();
     let min_used = opts.min_cells.max((opts.min_used_fraction * quality.cells_total as f64).ceil() as usize);
-    if obs.len() < min_used {
-        return Err((quality, NoHeading::TooLittleSky { used: obs.len(), total: quality.cells_total }));
+    // A frame too dark to tell (dark.rs): refused before the fit; a dim one's failure
+    // named for the dark.
+    let polarized = Polarized::of(obs);
+    if let Some(why) = polarized.too_dark() {
+        return Err((quality, why));
     }
-    let mut psi = search(obs, ctx, &mut sc.sub).map_err(|r| (quality, r))?;
+    if obs.len() < min_used {
+        return Err((
+            quality,
+            polarized.explain(NoHeading::TooLittleSky { used: obs.len(), total: quality.cells_total }),
+        ));
+    }
+    let psi = search(obs, ctx, &mut sc.sub).map_err(|r| (quality, polarized.explain(r)))?;
+    let mut psi = sharpen(obs, ctx, psi, &mut sc.sub);
     // Step 4: reweight around the sun vector's heading until it settles.
     let band = meridian_band(ctx, opts, level, cells);
     let b = &mut sc.b;
     b.clouds_at = None;
-    let mut tau = weights(obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len(), b);
+    // τ at the sharpened start bounds it from here on where that start found a sky
+    // as tight as a clear one (τ within TAU_BOUND_DEG): the loop may settle the misfit
+    // scale lower, never let cells that lean together (the rims of a deck that turns
+    // one way) widen it and walk off with the heading. A start that found no tight
+    // sky (a mosaic read with the wrong layout, a sky no model here describes) leaves
+    // τ free, so the misfit is seen whole and the checks below can refuse it.
+    let mut tau = weights(obs, cone_sun(ctx, psi), f64::INFINITY, opts, cells.cols, cells.grid_len(), b);
+    let tau_start = if tau <= TAU_BOUND_DEG.to_radians() { tau } else { f64::INFINITY };
     for it in 1..=MAX_ITERATIONS {
         quality.iterations = it;
         let total = sum_blocks(&block_sums(obs, &b.w, Extractor::SunVector, band));
         let Ok((next, _)) = solve(&total, Extractor::SunVector, ctx, cone_sun(ctx, psi)) else { break };
         let step = wrap_deg_180(next - psi);
         psi = next;
-        tau = weights(obs, cone_sun(ctx, psi), opts, cells.cols, cells.grid_len(), b);
+        tau = weights(obs, cone_sun(ctx, psi), tau_start, opts, cells.cols, cells.grid_len(), b);
         if step.abs() < 1e-3 {
             break;
         }
@@ -290,6 +330,12 @@ pub(super) fn fitted(
     sc: &mut Scratch,
 ) -> Result<Robust, (FieldQuality, NoHeading)> {
     let r = robust(cells, ctx, opts, sc)?;
+    let dim = Polarized::of(&sc.obs);
+    fitted_checks(r, ctx, opts).map_err(|(q, why)| (q, dim.explain(why)))
+}
+
+/// [`fitted`]'s checks on the robust fit `r`.
+fn fitted_checks(r: Robust, ctx: &FieldContext, opts: &FieldOptions) -> Result<Robust, (FieldQuality, NoHeading)> {
     let quality = r.quality;
     let min_used = opts.min_cells.max((opts.min_used_fraction * quality.cells_total as f64).ceil() as usize);
     if quality.cells_used < min_used {
