@@ -103,6 +103,8 @@ mod output;
 mod pipeline;
 mod pixel_analyzers;
 mod recon;
+#[cfg(feature = "io")]
+mod sensor_exposure;
 mod simulate;
 mod sky;
 mod stokes;
@@ -122,6 +124,8 @@ pub use fit::{fit, FitOptions, FitResult};
 pub use lab::{calibrate, LabCalibration};
 #[cfg(feature = "io")]
 pub use locate::{locate, LocateError, LocateOptions, Located, SunObs};
+/// The maps of a colour-polarization mosaic, per band (`docs/colour.md`).
+pub use maps::{colour_maps, colour_maps_into, colour_maps_size, BandMaps, ColourScratch};
 pub use maps::{stokes_maps, Maps, MapsConfig};
 /// [`stokes_maps`] into the caller's buffers (no allocation per frame), as the C ABI
 /// and the Python binding call it.
@@ -166,7 +170,7 @@ pub use diagnose::{
     pairs::Confusable,
     remains::{Remains, Unexplained},
     sizes::{EffectSize, MinSize, OutsidePhysical, Thresholds},
-    Candidate, Evidence, Step,
+    Candidate, Evidence, Step, Timings,
 };
 /// The parts of a [`FitResult`] and of [`FitOptions`]: parameters, per-frame fits, profiles, trends.
 #[cfg(feature = "io")]
@@ -278,6 +282,10 @@ pub mod internal {
         pub mod clouds {
             pub use crate::scene::clouds::*;
         }
+    }
+    #[cfg(feature = "io")]
+    pub mod sensor_exposure {
+        pub use crate::sensor_exposure::*;
     }
     pub mod simulate {
         pub use crate::simulate::*;

@@ -65,11 +65,19 @@ pub mod output {
 /// maps applied to a frame, and a frame's headings.
 pub mod pipeline {
     pub use crate::pipeline::{
-        apply_pixel_maps, frame_headings_of, reconstruct_frame, sim_chain_frame, sim_response, simulate_capture,
-        ReconMode, SimSensor,
+        apply_pixel_maps, frame_headings_of, reconstruct_frame, sim_band_frames, sim_chain_frame, sim_response,
+        simulate_capture, ReconMode, SimSensor,
     };
     /// AoP and DoLP of reconstructed Stokes maps, per pixel.
     pub use crate::recon::angle_maps;
+}
+
+/// The sky in physical units (cd/m² under the sun or the moon, a night sky's
+/// mag/arcsec²) and a camera, lens and exposure in physical units
+/// (`bpins simulate --exposure-s`): docs/night.md.
+pub mod radiometry {
+    pub use crate::sensor_exposure::{exposed_response, Exposed, Exposure, PHOTONS_PER_LUX_S_M2};
+    pub use crate::sky::radiometry::*;
 }
 
 /// The sun's place from a time and place (SPA), as a frame's stamp and a site give it;
