@@ -127,28 +127,9 @@ pub(super) fn search(obs: &[Obs], ctx: &FieldContext, sub: &mut Vec<[f64; 7]>) -
     let strong = obs.iter().filter(|o| o.dolp > 0.02).count();
     let min_dolp = if strong >= 3 { 0.02 } else { f64::NEG_INFINITY };
     let stride = (if strong >= 3 { strong } else { obs.len() }).div_ceil(SEARCH_CELLS).max(1);
-    // On the cone s(ψ) = cos ψ·a + sin ψ·b + c (cone_sun expanded), so each cell's e·s
-    // and d·s are two trigonometric polynomials in ψ: their coefficients once, then
-    // each heading costs a few multiplications per cell.
-    let (sh, ch) = ctx.sun_el_deg.to_radians().sin_cos();
-    let (sa, ca) = ctx.sun_az_deg.to_radians().sin_cos();
-    let coef = |v: DVec3| [-ch * (sa * v.x + ca * v.y), ch * (ca * v.x - sa * v.y), sh * v.z];
-    sub.clear();
-    sub.extend(obs.iter().filter(|o| o.dolp > min_dolp).step_by(stride).map(|o| {
-        let (e, d) = (coef(o.e), coef(o.d));
-        [e[0], e[1], e[2], d[0], d[1], d[2], 1.0 / (o.var_aop + SEARCH_SIGMA_RAD * SEARCH_SIGMA_RAD)]
-    }));
-    // sin²δ = (e·s)²/sin²γ, capped (no arcsine: the cost is bounded anyway).
+    cone_terms(obs, ctx, min_dolp, stride, SEARCH_SIGMA_RAD, sub);
     let cap = SEARCH_CAP_RAD.sin().powi(2);
-    let cost = |psi_deg: f64| {
-        let (sp, cp) = psi_deg.to_radians().sin_cos();
-        sub.iter()
-            .map(|k| {
-                let (es, ds) = (k[0] * cp + k[1] * sp + k[2], k[3] * cp + k[4] * sp + k[5]);
-                k[6] * (es * es / (1.0 - ds * ds).max(1e-12)).min(cap)
-            })
-            .sum::<f64>()
-    };
+    let cost = |psi_deg: f64| capped_cost(sub, psi_deg, cap);
     // 1° steps: the cap is tight (a basin about 2° wide), so a coarser grid could
     // step over the sky's own minimum.
     let grid: [(f64, f64); 360] = std::array::from_fn(|k| (k as f64, cost(k as f64)));
@@ -179,6 +160,34 @@ pub(super) fn search(obs: &[Obs], ctx: &FieldContext, sub: &mut Vec<[f64; 7]>) -
     Ok(best.0)
 }
 
+/// Into `sub`: the cells with DoLP above `min_dolp`, every `stride`-th, as the terms
+/// of their e·s and d·s on the sun's cone and their weight 1/(σ_α² + σ²). On the cone
+/// s(ψ) = cos ψ·a + sin ψ·b + c (cone_sun expanded), so each cell's e·s and d·s are
+/// two trigonometric polynomials in ψ: their coefficients once, then each heading
+/// costs a few multiplications per cell.
+fn cone_terms(obs: &[Obs], ctx: &FieldContext, min_dolp: f64, stride: usize, sigma_rad: f64, sub: &mut Vec<[f64; 7]>) {
+    let (sh, ch) = ctx.sun_el_deg.to_radians().sin_cos();
+    let (sa, ca) = ctx.sun_az_deg.to_radians().sin_cos();
+    let coef = |v: DVec3| [-ch * (sa * v.x + ca * v.y), ch * (ca * v.x - sa * v.y), sh * v.z];
+    sub.clear();
+    sub.extend(obs.iter().filter(|o| o.dolp > min_dolp).step_by(stride).map(|o| {
+        let (e, d) = (coef(o.e), coef(o.d));
+        [e[0], e[1], e[2], d[0], d[1], d[2], 1.0 / (o.var_aop + sigma_rad * sigma_rad)]
+    }));
+}
+
+/// The bounded cost at heading `psi_deg` of the terms in `sub`: Σ w·min(sin²δ, cap),
+/// sin²δ = (e·s)²/sin²γ (no arcsine: the cost is bounded anyway).
+fn capped_cost(sub: &[[f64; 7]], psi_deg: f64, cap: f64) -> f64 {
+    let (sp, cp) = psi_deg.to_radians().sin_cos();
+    sub.iter()
+        .map(|k| {
+            let (es, ds) = (k[0] * cp + k[1] * sp + k[2], k[3] * cp + k[4] * sp + k[5]);
+            k[6] * (es * es / (1.0 - ds * ds).max(1e-12)).min(cap)
+        })
+        .sum::<f64>()
+}
+
 /// Cells the sharpening reads at most (evenly strided).
 const SHARPEN_CELLS: usize = 2000;
 /// The sharpening's stages: (cost cap, step, steps either side), degrees.
@@ -201,26 +210,11 @@ pub(super) fn sharpen(obs: &[Obs], ctx: &FieldContext, psi_deg: f64, sub: &mut V
         return psi_deg;
     }
     let stride = strong.div_ceil(SHARPEN_CELLS).max(1);
-    let (sh, ch) = ctx.sun_el_deg.to_radians().sin_cos();
-    let (sa, ca) = ctx.sun_az_deg.to_radians().sin_cos();
-    let coef = |v: DVec3| [-ch * (sa * v.x + ca * v.y), ch * (ca * v.x - sa * v.y), sh * v.z];
-    sub.clear();
     // At its largest from the first frame on, so a live loop allocates nothing.
+    sub.clear();
     sub.reserve(SHARPEN_CELLS);
-    sub.extend(obs.iter().filter(|o| o.dolp > 0.02).step_by(stride).map(|o| {
-        let (e, d) = (coef(o.e), coef(o.d));
-        [e[0], e[1], e[2], d[0], d[1], d[2], 1.0 / (o.var_aop + SHARPEN_SIGMA_RAD * SHARPEN_SIGMA_RAD)]
-    }));
-    let cost = |p: f64, cap_deg: f64| {
-        let cap = cap_deg.to_radians().sin().powi(2);
-        let (sp, cp) = p.to_radians().sin_cos();
-        sub.iter()
-            .map(|k| {
-                let (es, ds) = (k[0] * cp + k[1] * sp + k[2], k[3] * cp + k[4] * sp + k[5]);
-                k[6] * (es * es / (1.0 - ds * ds).max(1e-12)).min(cap)
-            })
-            .sum::<f64>()
-    };
+    cone_terms(obs, ctx, 0.02, stride, SHARPEN_SIGMA_RAD, sub);
+    let cost = |p: f64, cap_deg: f64| capped_cost(sub, p, cap_deg.to_radians().sin().powi(2));
     let mut best = psi_deg;
     for (cap_deg, step, n) in SHARPEN_STAGES {
         let centre = best;

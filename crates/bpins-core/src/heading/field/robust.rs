@@ -196,6 +196,8 @@ pub(super) struct Robust {
     /// Step 5's misfit part: the bias the used cells beside clouds may carry, degrees.
     pub(super) misfit_deg: f64,
     pub(super) quality: FieldQuality,
+    /// The frame's polarized signal and noise (dark.rs), for naming a failed check.
+    pub(super) polarized: Polarized,
 }
 
 /// Steps 1–4 on one frame's cells.
@@ -303,7 +305,7 @@ pub(super) fn robust(
     } else {
         0.0
     };
-    Ok(Robust { heading_deg: psi, coherent_deg, misfit_rms_deg, misfit_deg, quality })
+    Ok(Robust { heading_deg: psi, coherent_deg, misfit_rms_deg, misfit_deg, quality, polarized })
 }
 
 impl Scratch {
@@ -330,7 +332,7 @@ pub(super) fn fitted(
     sc: &mut Scratch,
 ) -> Result<Robust, (FieldQuality, NoHeading)> {
     let r = robust(cells, ctx, opts, sc)?;
-    let dim = Polarized::of(&sc.obs);
+    let dim = r.polarized;
     fitted_checks(r, ctx, opts).map_err(|(q, why)| (q, dim.explain(why)))
 }
 
