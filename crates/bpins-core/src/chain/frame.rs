@@ -130,7 +130,8 @@ impl ChainFrame {
     /// see it (`model.bands`, [`BandBlock`](crate::effects::BandBlock)): the sky's
     /// d_max times the band's factor, every channel's gain times the band's sky
     /// radiance and response (the chain is linear up to the photo-signal, so a radiance
-    /// scale is a gain), each analyzer's ε plus the band's. Everything else (the
+    /// scale is a gain), each analyzer's ε plus the band's; the scene's white light
+    /// (clouds, the sun's disc) over the band's sky by 1/r_b. Everything else (the
     /// camera, the effects, the offsets, the noise keys) is the frame's, so the bands'
     /// frames draw the same noise at a pixel. At a neutral band block, bitwise `self`.
     pub fn in_band(mut self, model: &Model, scene: &Scene, b: crate::sensor::Band) -> Self {
@@ -141,6 +142,11 @@ impl ChainFrame {
         // Radiance × response of the band: DN per unit (green) radiance.
         let scale = bands.radiance[k] * bands.gain[k];
         self.gain_dn = self.gain_dn.map(|g| g * scale);
+        // White light (clouds, the sun's disc) is not the sky's colour: the scene's
+        // elements scale what they add by 1/r_b, so the band's gain leaves it white.
+        if let Some(f) = self.field.as_mut() {
+            f.white_over_sky = 1.0 / bands.radiance[k];
+        }
         // Each channel's analyzer with the band's ε added.
         self.analyzers = Channel::ALL.map(|c| {
             Analyzer::at(

@@ -110,6 +110,9 @@ pub struct Compass {
     /// The last frame's cells and the estimator's buffers, reused: no allocation per
     /// frame once they have grown to the sensor's grid.
     cells: Cells,
+    /// A colour frame's cells per band (by `Band::index`) and their band ratio.
+    band_cells: [Cells; 3],
+    tint: Vec<f64>,
     scratch: FieldScratch,
 }
 
@@ -181,6 +184,8 @@ impl Compass {
             cell_analyzers,
             colocated: None,
             cells: Cells::default(),
+            band_cells: Default::default(),
+            tint: Vec::new(),
             scratch: FieldScratch::default(),
         })
     }
@@ -259,9 +264,8 @@ impl Compass {
     /// Each band's cells and headings, and the fused headings (a colour compass).
     fn bands<T: RawDn>(&mut self, frame: &RawImage<T>, ctx: &FieldContext, extractors: &[Extractor]) -> ColourFix {
         let colour = self.cfg.colour.clone().expect("a colour compass");
-        let mut bands = Vec::new();
         for b in colour.bands() {
-            self.cells.fill_from_mosaic_band(
+            self.band_cells[b.index()].fill_from_mosaic_band(
                 frame,
                 &self.cfg.mosaic,
                 colour.classes(b),
@@ -270,7 +274,15 @@ impl Compass {
                 self.cell_px,
                 &mut self.scratch.cells,
             );
-            let hs = field::estimate_many_with(&self.cells, ctx, &self.cfg.options, extractors, &mut self.scratch);
+        }
+        // Every band's cloud tests see the frame's red-to-blue ratio (white clouds).
+        let [r, _, bl] = &self.band_cells;
+        Cells::tint_of(r, bl, &mut self.tint);
+        let mut bands = Vec::new();
+        for b in colour.bands() {
+            let cells = &mut self.band_cells[b.index()];
+            cells.tint.clone_from(&self.tint);
+            let hs = field::estimate_many_with(cells, ctx, &self.cfg.options, extractors, &mut self.scratch);
             bands.push((b, hs));
         }
         let fused = (0..extractors.len())

@@ -11,7 +11,8 @@
 //! ρ²  ← ρ²·(1 − ½·texture·n(d))            ragged edge, n ∈ [−1, 1] seeded value noise
 //! τ   = (1 − ρ²)² inside (ρ² < 1), else 0   soft profile: 1 at the core, 0 at the edge
 //! ω   = rim·4ρ²(1 − ρ²) inside, else 0      the rim: 0 at the core and the edge, `rim` at ρ² = ½
-//! I   ← I·(1 + (b_k − 1)·max(τ, ω))         rims lit like the core
+//! I   ← I·(1 + (b_k·w − 1)·max(τ, ω))       rims lit like the core; w = 1/r_band (white light,
+//!                                           `FieldFrame::white_over_sky`; 1 for mono)
 //! DoLP ← DoLP·(1 − (1 − dolp_factor)·τ)     rims stay polarized (only the core depolarizes)
 //! AoE ← AoE + max(τ, ω)·θ_k                 (Q, U) rotated by 2·max(τ, ω)·θ_k
 //! ```
@@ -49,7 +50,10 @@
 //!
 //! Cannot: cloud shadows or the sun dimmed behind a cloud (the sun's disc is added
 //! after the clouds), motion during a capture, layered or overcast skies, the
-//! E-vector turn varying inside a cloud beyond the profile τ, spectral effects.
+//! E-vector turn varying inside a cloud beyond the profile τ, a cloud's colour other
+//! than white (its added light is spectrally flat in every band: on a colour sensor a
+//! cloud is whiter than the blue sky, as all-sky imagers see it; Long et al., J. Atmos.
+//! Oceanic Technol. 23, 633 (2006)), a band-dependent DoLP factor.
 
 use super::frame::element_index;
 use super::texture::Texture;
@@ -204,7 +208,9 @@ impl FieldElement for Clouds {
             // Brighter, less polarized at the core, E-vector turned by τθ (Q, U rotated
             // by 2τθ); a rim (ω) lit and turned like the core but still polarized.
             let lit = tau.max(omega);
-            let ki = 1.0 + (c.brightness - 1.0) * lit;
+            // The cloud's light is white: in a band frame its brightness over the band's
+            // sky is b_k·w (w = white_over_sky; 1 for a monochrome sensor).
+            let ki = 1.0 + (c.brightness * ray.white_over_sky - 1.0) * lit;
             let kp = ki * (1.0 - (1.0 - self.dolp_factor) * tau);
             let (s2, c2) = (2.0 * lit * c.turn_rad).sin_cos();
             s = Stokes::new(ki * s.i, kp * (c2 * s.q - s2 * s.u), kp * (s2 * s.q + c2 * s.u), kp * s.v);
@@ -225,7 +231,7 @@ mod tests {
 
     fn through(c: &Clouds, d: DVec3, s: Stokes) -> Stokes {
         let b = meridional_basis(d);
-        c.apply(&FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY }, s)
+        c.apply(&FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY, white_over_sky: 1.0 }, s)
     }
 
     const SKY: Stokes = Stokes::new(0.8, 0.25, -0.15, 0.0);
@@ -260,6 +266,33 @@ mod tests {
             c.profile(k, k.centre_world * a.cos() + side * a.sin())
         };
         assert!(at(0.0) > at(0.5) && at(0.5) > at(0.9) && at(0.9) > 0.0 && at(1.01) == 0.0);
+    }
+
+    #[test]
+    fn a_cloud_core_is_white_in_every_band_frame() {
+        // A blue sky (r_R 0.625, r_B 1.25 against green): each band frame's gain
+        // multiplies by r_b, the element adds its light over the sky by 1/r_b.
+        let c = Clouds::new(&values(2.0, 0.0), 11, 2);
+        let k = &c.clouds[0];
+        let b = meridional_basis(k.centre_world);
+        let seen = |r: f64| {
+            let ray = FieldRay {
+                d_cam: k.centre_world,
+                d_world: k.centre_world,
+                basis: &b,
+                cam_from_world: &DMat3::IDENTITY,
+                white_over_sky: 1.0 / r,
+            };
+            r * c.apply(&ray, SKY).i
+        };
+        // At the core: the white cloud's radiance, b_k times the green sky, in each band.
+        for r in [0.625, 1.0, 1.25] {
+            assert!((seen(r) / SKY.i - k.brightness).abs() < 1e-9, "r {r}: {}", seen(r) / SKY.i);
+        }
+        // So its red/blue ratio is 1 where the sky's is 0.5, and the green frame is
+        // bitwise the monochrome one.
+        assert!((seen(0.625) / seen(1.25) - 1.0).abs() < 1e-12);
+        assert_eq!(seen(1.0), through(&c, k.centre_world, SKY).i);
     }
 
     #[test]

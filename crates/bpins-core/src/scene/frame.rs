@@ -93,12 +93,17 @@ pub struct FieldFrame {
     pub zenith_radiance: f64,
     /// The enabled elements, folded for this frame, in the order they apply.
     pub elements: Vec<Arc<dyn FieldElement>>,
+    /// A white light's radiance over the sky's in the band this frame is seen in: 1/r_b
+    /// of `sky_spectrum` for a colour sensor's band frame (`ChainFrame::in_band`), 1
+    /// otherwise. The band's gain carries the sky's colour r_b, so elements that add
+    /// white light (a cloud, a deck, the sun's disc) scale it by this to stay white.
+    pub white_over_sky: f64,
 }
 
 impl PartialEq for FieldFrame {
     fn eq(&self, o: &Self) -> bool {
-        (self.world_from_cam, self.cam_from_world, self.sun_world, self.zenith_radiance)
-            == (o.world_from_cam, o.cam_from_world, o.sun_world, o.zenith_radiance)
+        (self.world_from_cam, self.cam_from_world, self.sun_world, self.zenith_radiance, self.white_over_sky)
+            == (o.world_from_cam, o.cam_from_world, o.sun_world, o.zenith_radiance, o.white_over_sky)
             && self.elements.len() == o.elements.len()
             && self.elements.iter().zip(&o.elements).all(|(a, b)| a.same_as(b.as_ref() as &dyn Any))
     }
@@ -122,6 +127,7 @@ impl FieldFrame {
             sun_world,
             zenith_radiance,
             elements: enabled.into_iter().map(|(d, v)| (d.prepare)(v, &cx)).collect(),
+            white_over_sky: 1.0,
         }
     }
 
@@ -141,6 +147,9 @@ pub struct FieldRay<'a> {
     /// The ray's meridional basis (camera frame): the frame of the Stokes vector.
     pub basis: &'a MeridionalBasis,
     pub cam_from_world: &'a DMat3,
+    /// A white (spectrally flat) light's radiance over the sky's in the frame's band
+    /// ([`FieldFrame::white_over_sky`]; 1 for a monochrome sensor).
+    pub white_over_sky: f64,
 }
 
 /// The sky's Stokes vector `sky` along the unit camera-frame ray `d_cam` (meridional
@@ -148,7 +157,13 @@ pub struct FieldRay<'a> {
 #[inline]
 pub fn field_stokes(f: &FieldFrame, d_cam: DVec3, basis: &MeridionalBasis, sky: Stokes) -> Stokes {
     // The ray in the world, where the scene is fixed.
-    let ray = FieldRay { d_cam, d_world: f.world_from_cam * d_cam, basis, cam_from_world: &f.cam_from_world };
+    let ray = FieldRay {
+        d_cam,
+        d_world: f.world_from_cam * d_cam,
+        basis,
+        cam_from_world: &f.cam_from_world,
+        white_over_sky: f.white_over_sky,
+    };
     // Each element, back to front.
     f.elements.iter().fold(sky, |s, e| e.apply(&ray, s))
 }
@@ -265,7 +280,7 @@ mod tests {
         let dw = enu_from_az_el_deg(100.0, 30.0);
         let d = r.transpose() * dw;
         let b = meridional_basis(d);
-        let ray = FieldRay { d_cam: d, d_world: dw, basis: &b, cam_from_world: &r.transpose() };
+        let ray = FieldRay { d_cam: d, d_world: dw, basis: &b, cam_from_world: &r.transpose(), white_over_sky: 1.0 };
         let horizontal = DVec3::Z.cross(dw);
         let s = linear_stokes(2.0, 0.3, horizontal, &ray);
         assert!((s.dolp() - 0.3).abs() < 1e-12 && s.i == 2.0);

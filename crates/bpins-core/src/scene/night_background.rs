@@ -123,7 +123,10 @@ mod tests {
     fn apply_at(b: &NightBackground, az: f64, el: f64, sky: Stokes) -> Stokes {
         let d = enu_from_az_el_deg(az, el);
         let basis = meridional_basis(d);
-        b.apply(&FieldRay { d_cam: d, d_world: d, basis: &basis, cam_from_world: &DMat3::IDENTITY }, sky)
+        b.apply(
+            &FieldRay { d_cam: d, d_world: d, basis: &basis, cam_from_world: &DMat3::IDENTITY, white_over_sky: 1.0 },
+            sky,
+        )
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! c(d)  = smoothstep(t − edge, t + edge, n(d))   the deck's cover along d: 1 under it, 0 in a hole
 //! θ(d)  = σ·(n_f + 2·m(d))                    the deck's E-vector turn: n_f ~ N(0, 1) per frame,
 //!                                              m a second world-fixed fbm (amplitude ~0.3)
-//! I    ← I·(1 + (brightness − 1)·c)
+//! I    ← I·(1 + (brightness·w − 1)·c)        w = 1/r_band: the deck is white (1 for mono)
 //! DoLP ← DoLP·(1 − (1 − dolp_factor)·c)
 //! AoE  ← AoE + c·θ(d)                          (Q, U) rotated by 2cθ
 //! ```
@@ -166,7 +166,8 @@ impl FieldElement for Overcast {
         }
         // Brighter, nearly unpolarized, E-vector turned by cθ (Q, U rotated by 2cθ).
         let theta = self.sigma_rad * (self.frame_turn + 2.0 * self.turns.fbm(ray.d_world * self.per_rad, 2));
-        let ki = 1.0 + (self.brightness - 1.0) * c;
+        // The deck's light is white (w = white_over_sky: 1/r_band, 1 for mono).
+        let ki = 1.0 + (self.brightness * ray.white_over_sky - 1.0) * c;
         let kp = ki * (1.0 - (1.0 - self.dolp_factor) * c);
         let (s2, c2) = (2.0 * c * theta).sin_cos();
         Stokes::new(ki * s.i, kp * (c2 * s.q - s2 * s.u), kp * (s2 * s.q + c2 * s.u), kp * s.v)
@@ -185,7 +186,7 @@ mod tests {
 
     fn through(o: &Overcast, d: DVec3, s: Stokes) -> Stokes {
         let b = meridional_basis(d);
-        o.apply(&FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY }, s)
+        o.apply(&FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY, white_over_sky: 1.0 }, s)
     }
 
     const SKY: Stokes = Stokes::new(0.8, 0.25, -0.15, 0.0);

@@ -135,7 +135,10 @@ mod tests {
     fn apply_at(s: &SkyRadiance, az: f64, el: f64, sky: Stokes) -> Stokes {
         let d = enu_from_az_el_deg(az, el);
         let b = meridional_basis(d);
-        s.apply(&FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY }, sky)
+        s.apply(
+            &FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY, white_over_sky: 1.0 },
+            sky,
+        )
     }
 
     #[test]

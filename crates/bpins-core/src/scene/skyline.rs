@@ -216,7 +216,10 @@ mod tests {
     fn seen(s: &Skyline, az: f64, el: f64) -> Stokes {
         let d = enu_from_az_el_deg(az, el);
         let b = meridional_basis(d);
-        s.apply(&FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY }, SKY)
+        s.apply(
+            &FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY, white_over_sky: 1.0 },
+            SKY,
+        )
     }
 
     fn top_deg(s: &Skyline, az: f64) -> f64 {

@@ -5,7 +5,8 @@
 //! φ(θ) = cos(0.326 θ)/cos(0.308 θ)           θ ≤ 4.65 mrad: the limb-darkened disc
 //! φ(θ) = e^κ · θ^γ                           θ > 4.65 mrad: the aureole (∝ θ^−2 … θ^−2.6)
 //! κ = 0.9 ln(13.5 χ) χ^−0.3,  γ = 2.2 ln(0.52 χ) χ^0.43 − 0.1     χ: circumsolar ratio
-//! I ← I + disc_radiance · L_z · φ(θ)         unpolarized: Q, U, V unchanged
+//! I ← I + disc_radiance · L_z · w · φ(θ)     unpolarized: Q, U, V unchanged; w = 1/r_band
+//!                                           (white light in a colour band frame; 1 for mono)
 //! ```
 //!
 //! L_z is the Rayleigh sky's zenith radiance of the frame, so `disc_radiance` is the
@@ -121,7 +122,8 @@ impl FieldElement for SunDisc {
         if self.scale == 0.0 {
             return s;
         }
-        let add = self.scale * self.sunshape(self.angle_mrad(ray.d_world));
+        // The sun's light is white: over the band's sky by w = white_over_sky (1 for mono).
+        let add = self.scale * ray.white_over_sky * self.sunshape(self.angle_mrad(ray.d_world));
         Stokes::new(s.i + add, s.q, s.u, s.v)
     }
 }
@@ -140,7 +142,10 @@ mod tests {
     fn add_at(s: &SunDisc, d: DVec3) -> Stokes {
         let b = meridional_basis(d);
         let sky = Stokes::new(0.7, 0.2, -0.1, 0.0);
-        s.apply(&FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY }, sky)
+        s.apply(
+            &FieldRay { d_cam: d, d_world: d, basis: &b, cam_from_world: &DMat3::IDENTITY, white_over_sky: 1.0 },
+            sky,
+        )
     }
 
     /// The direction `deg` from the sun toward the zenith.

@@ -149,6 +149,11 @@ pub struct Cells {
     pub cols: usize,
     pub rows: usize,
     pub cells: Vec<Cell>,
+    /// Per grid cell (row-major), a colour sensor's band ratio ln(I_R/I_B) of the
+    /// cell (NaN where either band has no cell): the colour cloud test's signal
+    /// (`clouds.rs`, white clouds in a blue sky). Empty for a monochrome sensor; set by
+    /// the colour compass once every band's cells are filled ([`Cells::tint_of`]).
+    pub tint: Vec<f64>,
 }
 
 impl Cells {
@@ -313,7 +318,7 @@ impl Cells {
                 })
             })
             .collect();
-        Cells { cell_px: (k as f64 * img.step_px).round() as usize, cols, rows, cells }
+        Cells { cell_px: (k as f64 * img.step_px).round() as usize, cols, rows, cells, tint: Vec::new() }
     }
 
     /// The grid of whole cells into `self`; `fill(cell_row, accumulators)` adds the
@@ -391,7 +396,35 @@ impl Cells {
         }
         self.cells.clear();
         self.cells.extend(slots.iter().flatten());
+        self.tint.clear();
         (self.cell_px, self.cols, self.rows) = (cell_px, cols, rows);
+    }
+
+    /// Into `out`: the band ratio of a colour frame's red and blue cells (same frame
+    /// and grid) for [`Cells::tint`]: ln(I_R/I_B) per grid cell, NaN where either has
+    /// no cell or a radiance at or below zero (DN above black), empty when the grids
+    /// differ. Keeps its buffer between frames.
+    pub fn tint_of(red: &Cells, blue: &Cells, out: &mut Vec<f64>) {
+        out.clear();
+        if (red.cols, red.rows) != (blue.cols, blue.rows) {
+            return;
+        }
+        out.resize(red.grid_len(), f64::NAN);
+        // Both lists are in grid order (row-major): a merge join.
+        let cols = red.cols;
+        let key = |c: &Cell| c.row as usize * cols + c.col as usize;
+        let mut blue_cells = blue.cells.iter().peekable();
+        for r in &red.cells {
+            let k = key(r);
+            while blue_cells.peek().is_some_and(|b| key(b) < k) {
+                blue_cells.next();
+            }
+            if let Some(b) = blue_cells.peek().filter(|b| key(b) == k) {
+                if r.stokes.i > 0.0 && b.stokes.i > 0.0 {
+                    out[k] = (r.stokes.i / b.stokes.i).ln();
+                }
+            }
+        }
     }
 }
 

@@ -11,6 +11,9 @@
 //!               fit the sun, refitted without those above it by 2σ (up to 6 rounds:
 //!               the clear cells' lower envelope); med the residuals' median, MAD₋
 //!               their spread below it (clouds are brighter, never darker)
+//! whiter:       t − m_t(γ, z) > med + max(ln WHITE_FACTOR, 5 · 1.4826 · MAD₋)   colour frames only
+//!               t = ln(I_R/I_B) of the cell, m_t fitted as m is (the clear cells'
+//!               lower envelope): a cloud's white light in a blue sky raises t
 //! ```
 //!
 //! Why: a cloud adds multiply-scattered, nearly unpolarized light, so its DoLP falls
@@ -22,7 +25,10 @@
 //! scattering angle of 90° gives less than 20 % DoLP outside dust storms and smoke;
 //! Horváth & Varjú, *Polarized Light in Animal Vision* (2004), ch. 11) keep the
 //! clear patches as the reference. A bright rim that stays polarized fails the DoLP
-//! test and passes the brightness test.
+//! test and passes the brightness test. On a colour sensor a cloud is also whiter
+//! than the sky around it, dim or bright, polarized or not: the red-to-blue ratio that
+//! all-sky cloud imagers have thresholded for decades (Long et al. 2006) joins the two
+//! tests (the colour compass gives every band's cells the frame's ratio).
 //!
 //! Frame: the level camera frame (γ from the sun on its cone, z the ray's elevation
 //! sine). Cannot: tell a cloud from haze that depolarizes the whole sky evenly (that
@@ -53,6 +59,8 @@ pub(super) struct CellSky {
     pub dolp: f64,
     /// ln of the cell's mean radiance (DN above black).
     pub ln_i: f64,
+    /// A colour frame's band ratio ln(I_R/I_B); NaN for a monochrome frame.
+    pub tint: f64,
     /// cos γ from the current sun, and the ray's elevation sine (level frame).
     pub cg: f64,
     pub z: f64,
@@ -106,6 +114,89 @@ const VERIFIABLE: f64 = 0.08;
 /// when fewer than 20 cells are clear. `clear` loses the cells the envelope's fit
 /// trims; `r` is a buffer.
 pub(super) fn brighter(cells: &[CellSky], clear: &mut [bool], r: &mut Vec<f64>, out: &mut Vec<bool>) {
+    above_envelope(cells, clear, r, |c| c.ln_i, BRIGHT_FACTOR.ln(), out);
+}
+
+/// Into `out`: whether each cell of a colour frame is whiter than the clear sky, its
+/// band ratio t = ln(I_R/I_B) above a smooth ratio by more than ln WHITE_FACTOR and 5
+/// robust σ. A cloud's light is white and the clear sky's blue, so a cloud raises t
+/// however dim or polarized it is: the red-to-blue ratio of all-sky cloud imagers
+/// (Long, Sabburg, Calbó & Pagès, J. Atmos. Oceanic Technol. 23, 633 (2006)). Two
+/// references; a cell whiter than either is marked:
+/// - the sky's bluest cells, no sun or pattern needed (clouds are whiter, never
+///   bluer): the smooth ratio refitted WHITE_ROUNDS times to the WHITE_KEEP share of
+///   the verifiable cells lowest against the last fit; it holds while clouds cover
+///   less than 1 − WHITE_KEEP of the sky, even where the current sun is wrong and the
+///   cells that "fit" are a deck's turned rims;
+/// - the clear cells (`clear`: fit the sun, not depolarized, not brighter; their
+///   lower envelope as [`brighter`] fits it): the wider reference, so the finer cut
+///   at a thin cloud's edge.
+///
+/// Cells without a ratio are never marked; nothing is marked on a monochrome frame (no
+/// ratio anywhere). `clear` is trimmed as [`brighter`] trims it; `keep`, `r` and
+/// `more` are buffers.
+pub(super) fn whiter(
+    cells: &[CellSky],
+    clear: &mut [bool],
+    keep: &mut Vec<bool>,
+    r: &mut Vec<f64>,
+    more: &mut Vec<bool>,
+    out: &mut Vec<bool>,
+) {
+    out.clear();
+    out.resize(cells.len(), false);
+    let candidate = |c: &CellSky| c.tint.is_finite() && c.verifiable();
+    keep.clear();
+    keep.extend(cells.iter().map(candidate));
+    if keep.iter().filter(|&&k| k).count() < 20 {
+        return;
+    }
+    // The bluest cells' envelope.
+    for _ in 0..WHITE_ROUNDS {
+        let Some((coef, basis_at, _, _)) = smooth_sky(cells, keep, r, |c| c.tint) else { return };
+        r.clear();
+        r.extend(cells.iter().filter(|c| candidate(c)).map(|c| c.tint - basis_at(c).dot(&coef)));
+        let q = quantile(r, WHITE_KEEP);
+        for (k, c) in keep.iter_mut().zip(cells) {
+            *k = candidate(c) && c.tint - basis_at(c).dot(&coef) <= q;
+        }
+    }
+    if let Some((coef, basis_at, med, sigma)) = smooth_sky(cells, keep, r, |c| c.tint) {
+        let cut = med + WHITE_FACTOR.ln().max(5.0 * sigma);
+        for (o, c) in out.iter_mut().zip(cells) {
+            *o = candidate(c) && c.tint - basis_at(c).dot(&coef) > cut;
+        }
+    }
+    // The clear cells' envelope.
+    for (k, c) in clear.iter_mut().zip(cells) {
+        *k &= c.tint.is_finite();
+    }
+    above_envelope(cells, clear, r, |c| c.tint, WHITE_FACTOR.ln(), more);
+    for ((o, &m), c) in out.iter_mut().zip(more.iter()).zip(cells) {
+        *o |= m && c.tint.is_finite();
+    }
+}
+
+/// Cells whose red-to-blue ratio exceeds the clear sky's by this factor (and by 5
+/// robust σ) are cloud: a white cloud covering a tenth of a cell of a blue sky
+/// (r_R/r_B = ½) raises it by ~1.1.
+const WHITE_FACTOR: f64 = 1.1;
+/// The lower envelope of the ratio: refits, each on this share of the cells.
+const WHITE_ROUNDS: usize = 4;
+const WHITE_KEEP: f64 = 0.4;
+
+/// Into `out`: whether each cell's `value` lies above the smooth sky's fitted to the
+/// clear cells' lower envelope by more than `min_step` and 5 robust σ (verifiable
+/// cells only); nothing marked when fewer than 20 cells are clear. `clear` loses the
+/// cells the envelope's fit trims.
+fn above_envelope(
+    cells: &[CellSky],
+    clear: &mut [bool],
+    r: &mut Vec<f64>,
+    value: fn(&CellSky) -> f64,
+    min_step: f64,
+    out: &mut Vec<bool>,
+) {
     out.clear();
     out.resize(cells.len(), false);
     // The smooth sky as the clear cells' lower envelope: each round drops from the
@@ -114,10 +205,10 @@ pub(super) fn brighter(cells: &[CellSky], clear: &mut [bool], r: &mut Vec<f64>, 
     // stop lifting it however many there are; the cut is read from the last round.
     let mut fitted = None;
     for _ in 0..BRIGHT_ROUNDS {
-        let Some((coef, basis_at, med, sigma)) = smooth_sky(cells, clear, r) else { break };
+        let Some((coef, basis_at, med, sigma)) = smooth_sky(cells, clear, r, value) else { break };
         let mut dropped = false;
         for (c, k) in cells.iter().zip(clear.iter_mut()) {
-            if *k && c.ln_i - basis_at(c).dot(&coef) > med + TRIM_SIGMA * sigma {
+            if *k && value(c) - basis_at(c).dot(&coef) > med + TRIM_SIGMA * sigma {
                 *k = false;
                 dropped = true;
             }
@@ -128,9 +219,9 @@ pub(super) fn brighter(cells: &[CellSky], clear: &mut [bool], r: &mut Vec<f64>, 
         }
     }
     let Some((coef, basis_at, med, sigma)) = fitted else { return };
-    let cut = med + BRIGHT_FACTOR.ln().max(5.0 * sigma);
+    let cut = med + min_step.max(5.0 * sigma);
     for (o, c) in out.iter_mut().zip(cells) {
-        *o = c.verifiable() && c.ln_i - basis_at(c).dot(&coef) > cut;
+        *o = c.verifiable() && value(c) - basis_at(c).dot(&coef) > cut;
     }
 }
 
@@ -142,14 +233,15 @@ const TRIM_SIGMA: f64 = 2.0;
 
 type Basis = SVector<f64, 6>;
 
-/// The smooth sky's ln radiance fitted to the `clear` cells: its coefficients, the
-/// basis (ln I on 1, cos γ, z and their squares and product, centred and scaled on
-/// the clear cells), the residuals' median and their robust σ from the lower half;
-/// `None` when fewer than 20 cells are clear.
+/// The smooth sky's `value` (ln radiance, or band ratio) fitted to the `clear` cells:
+/// its coefficients, the basis (on 1, cos γ, z and their squares and product, centred
+/// and scaled on the clear cells), the residuals' median and their robust σ from the
+/// lower half; `None` when fewer than 20 cells are clear.
 fn smooth_sky(
     cells: &[CellSky],
     clear: &[bool],
     r: &mut Vec<f64>,
+    value: fn(&CellSky) -> f64,
 ) -> Option<(Basis, impl Fn(&CellSky) -> Basis, f64, f64)> {
     let n = clear.iter().filter(|&&c| c).count();
     if n < 20 {
@@ -179,7 +271,7 @@ fn smooth_sky(
     for (c, _) in cells.iter().zip(clear).filter(|x| *x.1) {
         let x = basis(c);
         a += x * x.transpose();
-        b += x * c.ln_i;
+        b += x * value(c);
     }
     // A little ridge: a narrow field of view leaves the quadratic terms weak.
     let ridge = 1e-6 * a.trace().max(1e-12);
@@ -188,7 +280,7 @@ fn smooth_sky(
     }
     let coef = a.cholesky()?.solve(&b);
     r.clear();
-    r.extend(cells.iter().zip(clear).filter(|x| *x.1).map(|(c, _)| c.ln_i - basis(c).dot(&coef)));
+    r.extend(cells.iter().zip(clear).filter(|x| *x.1).map(|(c, _)| value(c) - basis(c).dot(&coef)));
     // The spread from the residuals below the median only: clouds are brighter, never
     // darker, so the lower half is the sky's own scatter however many clouds the
     // clear cells still hold (for a clean sky, the usual MAD).
@@ -266,6 +358,7 @@ mod tests {
                 CellSky {
                     dolp: dmax * rayleigh_dolp(cg),
                     ln_i: (1.0 + cg * cg).ln() + 0.3 * z,
+                    tint: -0.7 + 0.05 * z,
                     cg,
                     z,
                     fits: true,
@@ -324,7 +417,7 @@ mod tests {
                 let (r, k) = (g / cols, g % cols);
                 let near_sun = (8..12).contains(&r) && ((2..6).contains(&k) || (14..18).contains(&k));
                 let cg = if near_sun { sun_cg } else { 0.0 };
-                CellSky { dolp: 0.5, ln_i: 0.0, cg, z: 0.5, fits: true, grid: g }
+                CellSky { dolp: 0.5, ln_i: 0.0, tint: f64::NAN, cg, z: 0.5, fits: true, grid: g }
             })
             .collect();
         let mut cloud: Vec<bool> = cells.iter().map(|c| c.verifiable() && c.grid % cols < 10).collect();
@@ -351,5 +444,34 @@ mod tests {
         for (i, x) in br.iter().enumerate() {
             assert_eq!(*x, (300..340).contains(&i), "cell {i}");
         }
+    }
+
+    #[test]
+    fn white_patches_are_found_on_a_colour_frame_and_nothing_on_a_mono_one() {
+        // A blue sky whose ratio whitens smoothly toward the horizon (no cloud), and a
+        // dim cloud (no brighter, still polarized: the other tests pass it) whose white
+        // light lifts ln(I_R/I_B) by 0.25 over 40 cells.
+        let mut cells = sky(0.6, 800);
+        for (i, c) in cells.iter_mut().enumerate() {
+            c.tint += 0.3 * (1.0 - c.z).powi(2);
+            if (300..340).contains(&i) {
+                c.tint += 0.25;
+            }
+        }
+        let (mut buf, mut wh) = (Vec::new(), Vec::new());
+        whiter(&cells, &mut vec![true; cells.len()], &mut Vec::new(), &mut buf, &mut Vec::new(), &mut wh);
+        for (i, x) in wh.iter().enumerate() {
+            assert_eq!(*x, (300..340).contains(&i), "cell {i}");
+        }
+        // A cell without a ratio (a band without its cell) is never marked.
+        cells[310].tint = f64::NAN;
+        whiter(&cells, &mut vec![true; cells.len()], &mut Vec::new(), &mut buf, &mut Vec::new(), &mut wh);
+        assert!(!wh[310] && wh[311]);
+        // A monochrome frame has no ratio: nothing.
+        for c in &mut cells {
+            c.tint = f64::NAN;
+        }
+        whiter(&cells, &mut vec![true; cells.len()], &mut Vec::new(), &mut buf, &mut Vec::new(), &mut wh);
+        assert!(wh.iter().all(|&x| !x) && wh.len() == cells.len());
     }
 }

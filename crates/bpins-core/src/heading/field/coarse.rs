@@ -168,7 +168,22 @@ fn merged(c: &Cells) -> Cells {
             })
         })
         .collect();
-    Cells { cell_px: 2 * c.cell_px, cols, rows, cells }
+    // A colour frame's band ratio: the mean of the four cells' (NaN unless all four have one).
+    let tint = if c.tint.is_empty() {
+        Vec::new()
+    } else {
+        (0..cols * rows)
+            .map(|k| {
+                let (i, j) = (2 * (k % cols), 2 * (k / cols));
+                [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)]
+                    .iter()
+                    .map(|&(i, j)| c.tint[j * c.cols + i])
+                    .sum::<f64>()
+                    / 4.0
+            })
+            .collect()
+    };
+    Cells { cell_px: 2 * c.cell_px, cols, rows, cells, tint }
 }
 
 #[cfg(test)]
@@ -187,7 +202,7 @@ mod tests {
                 row: (k / n) as u32,
             })
             .collect();
-        Cells { cell_px: 4, cols: n, rows: n, cells }
+        Cells { cell_px: 4, cols: n, rows: n, cells, tint: Vec::new() }
     }
 
     #[test]

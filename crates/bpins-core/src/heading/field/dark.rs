@@ -97,6 +97,7 @@ mod tests {
             e: DVec3::X,
             dolp,
             ln_i: i.ln(),
+            tint: f64::NAN,
             var_aop: sigma_dn * sigma_dn / (4.0 * p * p),
             block: 0,
             grid: 0,

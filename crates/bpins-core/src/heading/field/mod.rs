@@ -25,7 +25,8 @@
 //!    together lean every partly covered cell one way; observe.rs `sharpen`)
 //! 4. iterate: δ_i against the current sun; clouds per cell (clouds.rs: DoLP under
 //!    0.6 × an absolute, upper-share clear-sky expectation; brighter than the smooth
-//!    sky; near the sun the nearest verifiable cells' label), weight 0, grown by 2
+//!    sky; on a colour sensor, whiter than the blue sky by the red-to-blue ratio
+//!    (`Cells::tint`); near the sun the nearest verifiable cells' label), weight 0, grown by 2
 //!    cells where they cluster; a model-misfit scale τ with the lower quartile of
 //!    δ²/(σ_α² + τ²) at χ²₁'s (0.1015) over the clear cells away from clouds (where
 //!    the start's τ is within 1°, a clear sky's: the lower 15 % at χ²₁'s 15 % point,

@@ -32,6 +32,9 @@ pub(super) struct Obs {
     pub(super) dolp: f64,
     /// ln of the cell's mean radiance, DN above black.
     pub(super) ln_i: f64,
+    /// A colour frame's band ratio ln(I_R/I_B) at the cell ([`Cells::tint`]); NaN
+    /// for a monochrome one.
+    pub(super) tint: f64,
     /// Noise variance of the cell's AoP, rad².
     pub(super) var_aop: f64,
     pub(super) block: usize,
@@ -89,6 +92,7 @@ pub(super) fn observe(
                 e,
                 dolp: pol / sm.i,
                 ln_i: c.stokes.i.max(1e-9).ln(),
+                tint: cells.tint.get(c.row as usize * cells.cols + c.col as usize).copied().unwrap_or(f64::NAN),
                 var_aop,
                 block: block_of(c.col, cells.cols) + BLOCKS * block_of(c.row, cells.rows),
                 grid: c.row as usize * cells.cols + c.col as usize,

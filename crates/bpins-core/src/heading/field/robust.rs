@@ -4,7 +4,7 @@
 //! left. The heading and its 1σ (step 5) are `sigma.rs`; the loop's masks and order
 //! statistics, `stats.rs`.
 
-use super::clouds::{brighter, clear_dmax, depolarized, propagate, CellSky};
+use super::clouds::{brighter, clear_dmax, depolarized, propagate, whiter, CellSky};
 use super::dark::Polarized;
 use super::observe::{cone_sun, observe, residual, search, sharpen, Obs};
 use super::sigma::{block_sums, meridian_band, solve, sum_blocks};
@@ -119,6 +119,7 @@ fn clouds(obs: &[Obs], tau2: f64, min_cells: usize, cols: usize, rows: usize, b:
     b.sky.extend(obs.iter().zip(&b.res).map(|(o, r)| CellSky {
         dolp: o.dolp,
         ln_i: o.ln_i,
+        tint: o.tint,
         cg: r.2,
         z: o.d.z,
         fits: r.0.powi(2) < 9.0 * (o.var_aop + tau2),
@@ -129,8 +130,10 @@ fn clouds(obs: &[Obs], tau2: f64, min_cells: usize, cols: usize, rows: usize, b:
     b.clear.clear();
     b.clear.extend(b.sky.iter().zip(&b.depol).map(|(c, &d)| c.fits && c.verifiable() && !d));
     brighter(&b.sky, &mut b.clear, &mut b.t, &mut b.bright);
+    // A colour frame's third test: whiter than the blue sky (clouds.rs `whiter`).
+    whiter(&b.sky, &mut b.clear, &mut b.keep, &mut b.t, &mut b.more, &mut b.white);
     b.cloud.clear();
-    b.cloud.extend(b.depol.iter().zip(&b.bright).map(|(&d, &br)| d || br));
+    b.cloud.extend(b.depol.iter().zip(&b.bright).zip(&b.white).map(|((&d, &br), &wh)| d || br || wh));
     propagate(&b.sky, cols, rows, &mut b.cloud, &mut b.votes);
 }
 
@@ -171,7 +174,10 @@ pub(super) struct Bufs {
     sky: Vec<CellSky>,
     depol: Vec<bool>,
     bright: Vec<bool>,
+    white: Vec<bool>,
     clear: Vec<bool>,
+    keep: Vec<bool>,
+    more: Vec<bool>,
     cloud: Vec<bool>,
     votes: Vec<[u32; 2]>,
     /// The cloud cells grown by their soft edges, and the sun they were found at
