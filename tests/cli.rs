@@ -1579,6 +1579,58 @@ fn a_full_moon_through_a_real_exposure_is_read_with_an_honest_sigma_and_a_short_
     assert!(r.stdout.contains("too dark"), "{}", r.stdout);
 }
 
+/// The diagnosis by moonlight (issue 48 item 5): a full moon at 41.6°, a dark site's
+/// glow, the IMX250MZR at f/1.4, 256 × 256 px, six frames hiding the analyzers' typical
+/// angle errors. At 2 s (about 100 e⁻ per pixel) the diagnosis names `analyzer_angles`
+/// (before the noise estimate read the level from the three pixels' mean it took the
+/// shot noise for PRNU, χ²/dof 0.21, and named nothing); at 0.25 s (13 e⁻) the same
+/// effect is below what the photons show and the diagnosis says it is beyond reach,
+/// with the numbers. Both name the moon as the sky's source.
+#[test]
+fn a_moonlit_capture_s_hidden_effect_is_named_and_a_dim_one_is_beyond_reach() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut verdicts = Vec::new();
+    for exposure in ["2", "0.25"] {
+        let cap = s(&tmp.path().join(format!("moon{exposure}")));
+        let out = s(&tmp.path().join(format!("moon{exposure}-d")));
+        #[rustfmt::skip]
+        bpins(&[
+            "simulate", "--out", &cap, "--exposure-s", exposure, "--headings-deg", "0,60,120,180,240,300",
+            "--time-utc", "2026-06-29T16:00:00Z", "--latitude-deg", "20", "--longitude-deg", "120.38",
+            "--width-px", "256", "--height-px", "256", "--pixel-pitch-um", "3.45", "--focal-length-mm", "1.0",
+            "--f-number", "1.4", "--scene", "night_background",
+            "--effect", "analyzer_angles.d0_deg=0.3", "--effect", "analyzer_angles.d45_deg=1.0",
+            "--effect", "analyzer_angles.d90_deg=-0.4", "--effect", "analyzer_angles.d135_deg=-0.6",
+        ])
+        .ok();
+        let r = bpins(&["diagnose", &cap, "--out", &out]).ok();
+        assert!(r.stdout.contains("the sky's source: the moon"), "{}", r.stdout);
+        let v: serde_json::Value =
+            serde_json::from_slice(&fs::read(Path::new(&out).join("diagnosis.json")).unwrap()).unwrap();
+        let night = &v["night"];
+        assert!(night["source"].as_str().unwrap().starts_with("the moon"), "{night}");
+        // The noise is the photons': χ²/dof at 1 whatever the exposure.
+        let chi2 = v["steps"][0]["chi2_per_dof"].as_f64().unwrap();
+        assert!((0.97..1.03).contains(&chi2), "χ²/dof {chi2} at {exposure} s");
+        verdicts.push((v, r.stdout));
+    }
+    let (bright, dim) = (&verdicts[0], &verdicts[1]);
+    assert_eq!(bright.0["selected"], serde_json::json!(["analyzer_angles"]), "{}", bright.1);
+    assert_eq!(bright.0["night"]["beyond_reach"], false);
+    assert_eq!(dim.0["selected"], serde_json::json!([]), "{}", dim.1);
+    assert_eq!(dim.0["night"]["beyond_reach"], true);
+    // Fewer photons, a reach further out, and the words with the numbers.
+    let reach = |v: &Value| v["night"]["aop_reach_deg"].as_f64().unwrap();
+    assert!(reach(&dim.0) > 2.0 * reach(&bright.0), "{} vs {}", reach(&dim.0), reach(&bright.0));
+    let e = |v: &Value| v["night"]["equivalent_electrons_per_px"].as_f64().unwrap();
+    assert!((60.0..150.0).contains(&e(&bright.0)) && e(&dim.0) < 20.0, "{} and {} e⁻", e(&bright.0), e(&dim.0));
+    let words = &dim.1;
+    assert!(
+        words.contains("By moonlight: beyond reach at this signal (") && words.contains(" e⁻ of shot noise"),
+        "{words}"
+    );
+}
+
 /// Clouds that turn the E-vector together (issue 46 item 1): six clouds of 8–20°
 /// radius above 45° over a pinhole's sky, dimly depolarized (DoLP × 0.6 at the core,
 /// so the DoLP test passes most of them), their E-vector turns fully shared across the

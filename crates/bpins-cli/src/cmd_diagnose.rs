@@ -149,6 +149,9 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
         .map(|s| if s.model.is_empty() { "(no effect)".to_string() } else { s.model.join(" + ") })
         .collect();
     let mw = column_width("model", models.iter().map(String::as_str));
+    if let Some(n) = &d.night {
+        out!("the sky's source: {} ({} of {} frames moonlit)", n.source, n.moonlit_frames, n.frames);
+    }
     out!("{:<mw$}  {:>9}  {:>10}  {:>9}  {:>14}", "model", "χ²/dof", "AoP RMS °", "DoLP RMS", "heading RMS °");
     for (s, m) in d.steps.iter().zip(&models) {
         out!(

@@ -73,6 +73,10 @@ pub fn candidate_verdict(d: &Diagnosis, step: usize, c: &Candidate) -> (String, 
     } else if let Some(p) = d.confusable.iter().find(|p| p.second == c.effect) {
         words.push(format!("confusable with {}", p.first));
     }
+    // A colour band's effect: the bands it changes (`Candidate::bands_named`).
+    if let Some(b) = c.bands_named().filter(|_| c.evidence.refitted()) {
+        words.push(format!("bands {b}"));
+    }
     if let Some(s) = c.size.filter(|_| c.evidence.refitted()) {
         let what = s.what_matters();
         words.push(if what.is_empty() {

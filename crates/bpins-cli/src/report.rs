@@ -210,6 +210,9 @@ fn answer(d: &Diagnosis, pair: &[Written; 2]) -> Answer {
             sized(d, &d.selected),
             if d.selected.len() == 1 { "s" } else { "" }
         ),
+        (true, false) if d.confusable.is_empty() && d.night.as_ref().is_some_and(|n| n.beyond_reach) => {
+            "Nothing named: the model explains the data to the noise of this signal.".into()
+        }
         (true, false) if d.confusable.is_empty() => {
             "Nothing that matters is missing: the model explains the data to the noise.".into()
         }
@@ -226,6 +229,9 @@ fn answer(d: &Diagnosis, pair: &[Written; 2]) -> Answer {
     }
     if !d.negligible.is_empty() {
         verdict.push_str(&format!(" Detected but negligible (not named): {}.", sized(d, &d.negligible)));
+    }
+    if let Some(n) = &d.night {
+        verdict.push_str(&format!(" The sky's source: {}. {n}", n.source));
     }
     for e in &d.selected {
         for x in d.outside_physical(e) {

@@ -42,8 +42,11 @@
 //! may stand in for something outside the catalog, and every named effect is then
 //! possibly compensating.
 
+pub mod bands;
 mod evidence;
 mod json;
+pub mod margin;
+pub mod night;
 pub mod pairs;
 mod raise;
 mod refits;
@@ -119,6 +122,7 @@ pub fn inseparable(c: &Capture, opts: &FitOptions) -> Vec<(&'static str, String)
         SkyBlindness::FreeRadiance => !opts.rayleigh_radiance,
         SkyBlindness::FreeDmax => opts.fixed_dmax.is_none(),
         SkyBlindness::Dofp => matches!(c.sensor.layout, Layout::Dofp { .. }),
+        SkyBlindness::Monochrome => c.sensor.colour.is_none(),
         SkyBlindness::Always => true,
     };
     REGISTRY
@@ -197,6 +201,13 @@ pub struct Diagnosis {
     pub bic_threshold: f64,
     /// Wall seconds per stage of the search (a caller adds its own stages).
     pub timings: Timings,
+    /// Per frame of the final fit: how far its heading's 1σ was widened for the
+    /// candidates the data cannot rule out, and by which (`margin`).
+    pub heading_margin: Vec<margin::HeadingMargin>,
+    /// By moonlight: the source and what its photons let the search see (`night`);
+    /// absent by day.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub night: Option<night::Night>,
 }
 
 impl Diagnosis {
@@ -207,9 +218,13 @@ impl Diagnosis {
         self.remains.is_unexplained()
     }
 
-    /// What remains, in words (rendered from [`Diagnosis::remains`]).
+    /// What remains, in words (rendered from [`Diagnosis::remains`]), and by moonlight
+    /// what the photons allow ([`Diagnosis::night`]).
     pub fn summary(&self) -> String {
-        self.remains.to_string()
+        match &self.night {
+            Some(n) => format!("{} {n}", self.remains),
+            None => self.remains.to_string(),
+        }
     }
 
     /// Whether a named effect may only stand in for a misfit it does not describe: the
@@ -276,14 +291,22 @@ pub fn diagnose_frames(
         inseparable: insep.clone(),
         bic_threshold: BIC_THRESHOLD,
         timings: Timings::default(),
+        night: None,
+        heading_margin: Vec::new(),
     };
-    for _ in 0..opts.max_added {
-        let candidates: Vec<&'static EffectDef> = REGISTRY
+    let candidates_of = |model: &FitOptions| -> Vec<&'static EffectDef> {
+        REGISTRY
             .iter()
             .copied()
             .filter(|e| !model.effects.iter().any(|m| m.name == e.name) && !opts.exclude.contains(&e.name))
             .filter(|e| !insep.iter().any(|(n, _)| *n == e.name))
-            .collect();
+            .collect()
+    };
+    // Each candidate's widening of every frame's heading 1σ, scored against the
+    // current model (`None` once the model has moved on).
+    let mut widen: Option<Vec<(&'static str, Vec<f64>)>> = None;
+    for _ in 0..opts.max_added {
+        let candidates = candidates_of(&model);
         // On the scoring subsample, every candidate from one pass (the base model's
         // columns once): under the null the score is χ²_k whatever the sample size,
         // so it is compared with k·ln n of that subsample.
@@ -294,6 +317,7 @@ pub fn diagnose_frames(
         // ΔBIC at the effective sample count of the model a candidate adds to: where its
         // residual is smooth, Δχ² counts for n_eff/n of itself (the same factor for every
         // candidate of a step, so it does not reorder them by noise in n_eff).
+        widen = Some(candidates.iter().zip(&scores).map(|(e, s)| (e.name, s.heading_widen.clone())).collect());
         let share = Share::of(&current);
         let mut ranking = Vec::new();
         for (e, s) in candidates.iter().zip(scores) {
@@ -429,6 +453,7 @@ pub fn diagnose_frames(
             };
             model = m;
             current = *full;
+            widen = None;
             match pair {
                 Some(r) => d.confusable.push(Confusable::new(best.effect, r.effect)),
                 None if best.matters() => d.selected.push(best.effect),
@@ -460,6 +485,7 @@ pub fn diagnose_frames(
             }
             model = m;
             current = r;
+            widen = None;
             for cand in [&best, &second] {
                 if cand.matters() {
                     d.selected.push(cand.effect);
@@ -473,6 +499,20 @@ pub fn diagnose_frames(
             break;
         }
     }
+    // The final headings' 1σ with what the data cannot rule out (margin.rs).
+    let widen = match widen {
+        Some(w) => w,
+        None => {
+            let candidates = candidates_of(&model);
+            progress(&format!("scoring {} candidates against the final model", candidates.len()));
+            let scores = timed(&mut t.scoring_s, || {
+                score_candidates(c, frames, &model, &current, &candidates, opts.score_stride, SCORE_PROBE)
+            })?;
+            candidates.iter().zip(scores).map(|(e, s)| (e.name, s.heading_widen)).collect()
+        }
+    };
+    let last = &mut d.steps.last_mut().expect("the starting model's step").fit;
+    d.heading_margin = margin::widen_headings(last, &widen);
     // Whatever remains: is it noise?
     let limit = Remains::noise_limit(current.dof);
     let pairs: Vec<String> = d.confusable.iter().map(|p| format!("{} or {}", p.first, p.second)).collect();
@@ -492,6 +532,7 @@ pub fn diagnose_frames(
         d.selected.iter().chain(&d.negligible).copied().chain(d.confusable.iter().map(|p| p.first)).collect();
     let own: Vec<Param> = current.params.iter().filter(|p| added.contains(&p.id.effect)).cloned().collect();
     d.remains = d.remains.with_unphysical(sizes::excluded_physical(&own));
+    d.night = night::Night::of(c, frames, &current, &d);
     t.total_s = t0.elapsed().as_secs_f64();
     d.timings = t;
     Ok(d)
@@ -516,6 +557,8 @@ mod tests {
             inseparable: Vec::new(),
             bic_threshold: BIC_THRESHOLD,
             timings: Timings::default(),
+            night: None,
+            heading_margin: Vec::new(),
         }
     }
 

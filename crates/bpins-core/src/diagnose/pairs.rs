@@ -20,7 +20,7 @@
 //! χ² and ΔBIC have none.
 
 use crate::diagnose::{Candidate, BIC_THRESHOLD};
-use crate::effects::{find, Stage};
+use crate::effects::{find, SkyBlindness, Stage};
 
 /// A pair the data cannot tell apart, with what would.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -52,9 +52,23 @@ fn measured_by(stage: Stage) -> &'static str {
     }
 }
 
+/// What separates two effects on a colour sensor's bands alone (`sky_spectrum`,
+/// `band_response`): a band's d_max factor f_b and its analyzers' ε_b are one number on
+/// any sky, I_k = ½(1 + ε_b)[I + (1 − ε_b)/(1 + ε_b)·(Q cos 2θ_k + U sin 2θ_k)] (the
+/// level's (1 + ε_b) taken by a band gain), at every pixel and every sun.
+const BANDS_APART: &str = "both act on one colour band alike at every pixel of any sky (a band's sky d_max \
+     factor and its analyzers' ε scale its modulation alike, a band's sky radiance and its response its level); a lab \
+     capture of the colour sensor through a rotating polarizer measures the sensor's part (band_response), or a sky \
+     of known spectrum and polarization the sky's (sky_spectrum)";
+
 impl Confusable {
     pub fn new(first: &'static str, second: &'static str) -> Confusable {
         let stage = |e: &str| find(e).map(|d| d.stage).ok();
+        let band_only =
+            |e: &str| find(e).is_ok_and(|d| d.inseparable.is_some_and(|i| i.when == SkyBlindness::Monochrome));
+        if band_only(first) && band_only(second) {
+            return Confusable { first, second, separates: BANDS_APART.to_string() };
+        }
         let separates = match (stage(first), stage(second)) {
             (Some(a), Some(b)) if a == b => format!(
                 "both act at the {} stage; {} measures them, or fit both together with a capture that moves one \
@@ -116,6 +130,12 @@ mod tests {
         let (a, b) =
             (cand("sky_depolarization", 1e6, 1e6 - 14.7), cand_k("extinction_ratio", 1e6 + 6.0, 1e6 + 6.0 - 44.1, 3));
         assert!(!confusable(&a, &b, 1.0));
+    }
+
+    #[test]
+    fn a_colour_band_pair_says_no_sky_separates_it() {
+        let p = Confusable::new("sky_spectrum", "band_response");
+        assert!(p.separates.contains("any sky") && !p.separates.contains("sun elevation"), "{}", p.separates);
     }
 
     #[test]

@@ -62,7 +62,7 @@ pub const EFFECT: EffectDef = EffectDef {
     wgsl: None,
     derivatives: &[],
     inseparable: Some(Inseparable {
-        when: SkyBlindness::Always,
+        when: SkyBlindness::Monochrome,
         why: |_| super::sky_spectrum::COLOUR_ONLY.to_string(),
     }),
 };

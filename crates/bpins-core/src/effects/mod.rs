@@ -168,6 +168,9 @@ pub enum SkyBlindness {
     FreeDmax,
     /// On a DoFP sensor.
     Dofp,
+    /// On a monochrome sensor: the effect acts on a colour-polarization sensor's bands
+    /// alone (`colour_tiles`), which a colour capture's fit reads apart.
+    Monochrome,
     /// On any sky capture: only another kind of capture (or a fit of it alone with
     /// the sky's d_max given) measures it.
     Always,

@@ -26,9 +26,10 @@
 //! Typical values are those of `samples/colour-clear` (radiance R 0.5, G 0.8, B 1.0;
 //! d_max R 0.74, G 0.70, B 0.62), a clear blue sky of the kind the sources describe.
 //! Cannot: a band's sky shape that differs from green's (the CIE gradation per band),
-//! neutral points that move with wavelength, a band finer than a filter's, or white
-//! clouds: the radiance scale is applied as a gain of the band's frame, so a field
-//! scene's clouds and sun disc take the band's sky colour too.
+//! neutral points that move with wavelength, or a band finer than a filter's. The
+//! radiance scale is applied as a gain of the band's frame; a field scene's clouds,
+//! deck and sun disc add white light (r = 1 in every band), scaled by 1/r_b before
+//! that gain (`FieldFrame::white_over_sky`), so they are whiter than the sky.
 
 use super::{Apply, EffectDef, Inseparable, Model, ParamSpec, SkyBlindness, Stage};
 
@@ -90,13 +91,13 @@ pub const EFFECT: EffectDef = EffectDef {
     apply: Apply::Frame(apply),
     wgsl: None,
     derivatives: &[],
-    inseparable: Some(Inseparable { when: SkyBlindness::Always, why: |_| COLOUR_ONLY.to_string() }),
+    inseparable: Some(Inseparable { when: SkyBlindness::Monochrome, why: |_| COLOUR_ONLY.to_string() }),
 };
 
-/// Why a (monochrome) sky capture's fit cannot measure a band parameter.
-pub(crate) const COLOUR_ONLY: &str = "it acts only on a colour sensor's bands (colour_tiles), and the fit reads a \
-     capture as one band; a colour capture's per-band headings (`bpins heading`) and its per-band mean DN and DoLP \
-     measure it";
+/// Why a monochrome sky capture's fit cannot measure a band parameter.
+pub(crate) const COLOUR_ONLY: &str = "it acts only on a colour sensor's bands (colour_tiles), and a monochrome \
+     capture has one band; the fit and the diagnosis of a colour capture, which model each pixel through its own \
+     band, measure it";
 
 fn apply(v: &[f64], m: &mut Model) {
     // Green (index 1) is the reference: only red (0) and blue (2) are parameters.

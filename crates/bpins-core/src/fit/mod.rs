@@ -93,7 +93,7 @@ pub fn fit(c: &Capture, frames: &[FrameData], opts: &FitOptions, progress: &dyn 
 
 /// The sensor noise of a capture (photon transfer over its frames).
 pub fn capture_noise(c: &Capture, frames: &[FrameData]) -> Result<NoiseModel> {
-    input::noise::estimate(frames, c.sensor.black_level_dn, c.sensor.full_scale_dn())
+    input::frames::noise_of(c, frames)
         .ok_or_else(|| Error::TooFewSamples("too few usable pixels to estimate the sensor noise".into()))
 }
 

@@ -450,6 +450,15 @@ mod tests {
         assert!(e.contains("my-sweep.toml") && e.contains("pixel_pitch_um"), "{e}");
         let e = err_of(&TINY.replacen("[lens]", "[lens]\nfocal = 3", 1));
         assert!(e.contains("my-sweep.toml") && e.contains("focal"), "{e}");
+        // A colour sensor is refused by name, not swept as a monochrome one.
+        let colour = TINY.replacen("layout = \"colocated\"", "layout = \"dofp\"", 1).replacen(
+            "channels = [0, 45, 90]",
+            "colour_tiles = [[\"R\", \"G\"], [\"G\", \"B\"]]",
+            1,
+        );
+        let e = err_of(&colour);
+        assert!(e.contains("sensor.colour_tiles") && e.contains("band by band"), "{e}");
+        assert!(parse(&colour.replacen("colour_tiles = [[\"R\", \"G\"], [\"G\", \"B\"]]", "", 1)).is_ok());
     }
 
     #[test]

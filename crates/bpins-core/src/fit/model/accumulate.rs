@@ -224,7 +224,7 @@ impl Problem<'_> {
             };
             let (plus, minus) = (side(hi)?, side(lo)?);
             let keeps_factor = [&plus, &minus].iter().all(|f| f.as_ref().is_none_or(|f| same_factor(f, base)));
-            let reuse = [&plus, &minus].map(|f| f.as_ref().map_or(Reuse::Image, |f| Reuse::between(f, base)));
+            let reuse = [&plus, &minus].map(|f| f.as_ref().map_or(Reuse::Image, |f| f.reuse_from(base)));
             out.push(Column::Difference { plus, minus, dh: hi - lo, keeps_factor, reuse });
         }
         Ok(out)

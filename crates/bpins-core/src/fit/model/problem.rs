@@ -1,11 +1,17 @@
 //! The problem a fit solves: the capture's frames (every pixel or a sample), the typed parameter
 //! slots, the noise and each frame's sky mask and radiance basis; and the model it
 //! evaluates — one frame's chain under a parameter vector, one pixel's model DN.
+//!
+//! A colour-polarization sensor (`colour_tiles`, CONVENTIONS.md) is modelled as
+//! `bpins simulate` renders it (`simulate::render_colour_mosaic`): each pixel through
+//! the frame of the band over it ([`ChainFrame::bands`]: the band's d_max, gain and
+//! analyzer ε; `chain::colour_pixel_signal_dn` under crosstalk), so the band block's
+//! parameters (`sky_spectrum`, `band_response`) are fitted like any other.
 
 use crate::camera::Intrinsics;
 use crate::capture::Capture;
 use crate::capture::FrameData as Whole;
-use crate::chain::{mosaic_pixel_signal_dn, ChainFrame, NoiseIndex, Scene};
+use crate::chain::{colour_pixel_signal_dn, mosaic_pixel_signal_dn, ChainFrame, NoiseIndex, Scene};
 use crate::error::Result;
 use crate::fit::input::frames::{value_of, FitFrames};
 use crate::fit::input::noise::NoiseModel;
@@ -15,7 +21,7 @@ use crate::fit::model::stages::{Reuse, Stages};
 use crate::fit::model::start;
 use crate::fit::{FitOptions, FitState, BORDER_PX};
 use crate::heading::field::SkyMask;
-use crate::sensor::{Layout, Response};
+use crate::sensor::{ColourTiles, Layout, Response};
 use std::sync::Arc;
 
 /// The problem: the capture's frames and the parameter slots.
@@ -36,9 +42,42 @@ pub(crate) struct Problem<'a> {
 /// One frame's chain and its radiance nuisance.
 pub(crate) struct FitFrame {
     pub chain: ChainFrame,
+    /// A colour sensor's band frames and filter layout; `None` on a monochrome sensor.
+    pub bands: Option<Box<Bands>>,
     pub radiance: [f64; radiance::N],
     /// The same as weights of the raw functions (`radiance::Basis::weights`).
     pub radiance_weights: [f64; radiance::N + 1],
+}
+
+/// A colour-polarization frame's three band frames ([`ChainFrame::bands`], by
+/// [`Band::index`](crate::sensor::Band::index)) and the filter over each tile.
+pub(crate) struct Bands {
+    pub frames: [ChainFrame; 3],
+    pub tiles: ColourTiles,
+}
+
+impl FitFrame {
+    /// The frame pixel (u, v) is rendered through: its band's on a colour sensor, the
+    /// frame's own on a monochrome one.
+    #[inline(always)]
+    pub fn at(&self, u: usize, v: usize) -> &ChainFrame {
+        match &self.bands {
+            None => &self.chain,
+            Some(b) => &b.frames[b.tiles.band_at(u, v).index()],
+        }
+    }
+
+    /// What this frame's chain can reuse of `base`'s at the same pixel
+    /// ([`Reuse::between`]; a colour frame: the least over its bands, as a pixel of
+    /// any band may be asked).
+    pub fn reuse_from(&self, base: &FitFrame) -> Reuse {
+        match (&self.bands, &base.bands) {
+            (Some(a), Some(b)) => {
+                a.frames.iter().zip(&b.frames).map(|(f, g)| Reuse::between(f, g)).min().unwrap_or(Reuse::Nothing)
+            }
+            _ => Reuse::between(&self.chain, &base.chain),
+        }
+    }
 }
 
 impl std::ops::Deref for FitFrame {
@@ -129,11 +168,18 @@ impl Problem<'_> {
             bit_depth: self.capture.sensor.bit_depth,
             ..Response::ideal(at(Nuisance::Scale))
         };
-        let chain =
-            ChainFrame::new(&set.model(), &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
+        let model = set.model();
+        let chain = ChainFrame::new(&model, &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
+        // A colour sensor: each band's frame, as `simulate` renders the mosaic.
+        let bands = self
+            .capture
+            .sensor
+            .colour
+            .as_ref()
+            .map(|tiles| Box::new(Bands { frames: chain.bands(&model, &scene), tiles: tiles.clone() }));
         let radiance: [f64; radiance::N] = std::array::from_fn(|i| at(Nuisance::Radiance(i)));
         let radiance_weights = self.basis.get(k).map_or([0.0; radiance::N + 1], |b| b.weights(&radiance));
-        Ok(FitFrame { chain, radiance, radiance_weights })
+        Ok(FitFrame { chain, bands, radiance, radiance_weights })
     }
 
     /// The raw radiance functions φ of pixel (u, v) under frame `f`'s camera and sun
@@ -217,15 +263,22 @@ impl Problem<'_> {
         out.clear();
         let (w, h) = (self.w(), self.h());
         match &self.capture.sensor.layout {
-            // A mosaic effect (crosstalk): the pixel's own chain and its four neighbours'.
+            // A mosaic effect (crosstalk): the pixel's own chain and its four neighbours'
+            // (on a colour sensor each through its band's frame).
             Layout::Dofp { mosaic } if f.has_mosaic_effects() => {
                 let ch = Layout::dofp_channel(mosaic, u, v).index();
-                let m = nonlinear(f, r * mosaic_pixel_signal_dn(f, u, v, w, h, mosaic)) + f.offset_dn[ch];
+                let signal = match &f.bands {
+                    None => mosaic_pixel_signal_dn(f, u, v, w, h, mosaic),
+                    Some(b) => colour_pixel_signal_dn(&b.frames, &b.tiles, u, v, w, h, mosaic),
+                };
+                let m = nonlinear(f, r * signal) + f.offset_dn[ch];
                 out.push((measured(0) as f64, m));
                 None
             }
             Layout::Dofp { mosaic } => {
-                // mosaic_pixel_signal_dn without crosstalk: the pixel's own chain.
+                // mosaic_pixel_signal_dn without crosstalk: the pixel's own chain, through
+                // its band's frame on a colour sensor (the sensor stage is every band's).
+                let f = f.at(u, v);
                 let st = stages_of(f, (u, v), from);
                 let ch = Layout::dofp_channel(mosaic, u, v).index();
                 let m = nonlinear(f, r * st.signal_dn(f, (u, v), ch)) + f.offset_dn[ch];
@@ -295,4 +348,110 @@ fn stages_of(f: &ChainFrame, uv: (usize, usize), from: Option<(Stages, Reuse)>) 
 #[inline(always)]
 fn nonlinear(f: &ChainFrame, signal_dn: f64) -> f64 {
     crate::chain::sensor_effects(&f.sensor, signal_dn, f.response.full_scale_dn())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Projection;
+    use crate::capture::{FrameSpec, LensSpec, SensorSpec};
+    use crate::effects::EffectSet;
+    use crate::sensor::{Geometry, DEFAULT_MOSAIC};
+    use crate::sky::sun::SunPosition;
+
+    /// A 64 × 48 colour capture (RGGB), one frame.
+    fn colour_capture() -> Capture {
+        Capture {
+            dir: "/nowhere".into(),
+            sensor: SensorSpec {
+                colour: Some(ColourTiles::imx250myr()),
+                layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
+                geometry: Geometry { width_px: 64, height_px: 48, pixel_pitch_um: 130.0 },
+                bit_depth: 12,
+                black_level_dn: 64.0,
+            },
+            lens: LensSpec { projection: Projection::Pinhole, focal_length_mm: 8.0, principal_point_px: (31.5, 23.5) },
+            frames: vec![FrameSpec {
+                heading_deg: Some(30.0),
+                ..FrameSpec::new("f.png", SunPosition::given(40.0, 25.0))
+            }],
+        }
+    }
+
+    /// The fit's model of a colour frame is the mosaic `simulate` renders (noise off):
+    /// each pixel through its band, crosstalk across bands; its difference columns
+    /// reuse a base's stages only where every band allows.
+    #[test]
+    fn a_colour_frames_model_is_the_simulated_mosaic() {
+        let c = colour_capture();
+        let (w, h) = (64, 48);
+        for crosstalk in [false, true] {
+            let mut set = EffectSet::new();
+            for e in ["sky_spectrum", "band_response"] {
+                for p in crate::effects::find(e).unwrap().params {
+                    set.set(e, p.name, p.typical).unwrap();
+                }
+            }
+            if crosstalk {
+                set.set("crosstalk", "c", 0.02).unwrap();
+            }
+            let model = set.model();
+            // The truth, rendered as `simulate` does.
+            let resp = Response { black_level_dn: 64.0, bit_depth: 12, ..Response::ideal(1000.0) };
+            let scene = Scene {
+                sun_az_deg: 40.0,
+                sun_el_deg: 25.0,
+                heading_deg: 30.0,
+                tilt_x_deg: 0.0,
+                tilt_y_deg: 0.0,
+                dmax: 0.6,
+            };
+            let truth =
+                ChainFrame::new(&model, &c.intrinsics(), &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
+            let tiles = ColourTiles::imx250myr();
+            let dn = crate::simulate::render_colour_mosaic(&truth.bands(&model, &scene), w, h, &DEFAULT_MOSAIC, &tiles);
+            let data = [Whole::Mosaic { width_px: w as u32, height_px: h as u32, dn: dn.clone() }];
+            // The fit at the truth: the known effects are the model's.
+            let opts = FitOptions { known: set.clone(), rayleigh_radiance: true, ..Default::default() };
+            let frames = FitFrames::all(&c, &data).unwrap();
+            let pb = Problem {
+                capture: &c,
+                frames: &frames,
+                nominal: c.intrinsics(),
+                opts: &opts,
+                slots: Slots::new(&opts, &[true]),
+                noise: NoiseModel::default(),
+                full_scale_dn: c.sensor.full_scale_dn(),
+                sky: Arc::new(vec![None]),
+                basis: vec![Default::default()],
+            };
+            let mut theta = vec![0.0; pb.slots.all.len()];
+            for (n, x) in [(Nuisance::Heading, 30.0), (Nuisance::Scale, 1000.0), (Nuisance::Dmax, 0.6)] {
+                theta[pb.slots.at(0, n)] = x;
+            }
+            let f = pb.chain(&theta, 0).unwrap();
+            let mut buf = Vec::new();
+            for v in 0..h {
+                for u in 0..w {
+                    pb.pixel(&f, 0, u, v, &mut buf);
+                    let (y, m) = buf[0];
+                    assert_eq!(y, dn[v * w + u] as f64);
+                    assert!((m - y).abs() < 1e-3, "({u}, {v}), crosstalk {crosstalk}: model {m}, simulated {y}");
+                }
+            }
+            // A blue d_max factor moves the blue band's sky: its side reuses the ray only.
+            let mut set2 = set.clone();
+            set2.set("sky_spectrum", "dmax_b", 0.8).unwrap();
+            let opts2 = FitOptions { known: set2, ..opts.clone() };
+            let side = Problem {
+                opts: &opts2,
+                slots: Slots::new(&opts2, &[true]),
+                sky: pb.sky.clone(),
+                basis: vec![Default::default()],
+                ..pb
+            };
+            let want = if crosstalk { Reuse::Nothing } else { Reuse::Ray };
+            assert_eq!(side.chain(&theta, 0).unwrap().reuse_from(&f), want);
+        }
+    }
 }

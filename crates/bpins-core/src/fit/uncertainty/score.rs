@@ -6,7 +6,7 @@ use crate::effects::EffectDef;
 use crate::error::Result;
 use crate::fit::input::frames::FitFrames;
 use crate::fit::model::problem::problem;
-use crate::fit::model::slots::{Derivative, SlotId};
+use crate::fit::model::slots::{Derivative, Nuisance, SlotId};
 use crate::fit::solver::schur::BlockInverse;
 use crate::fit::{FitOptions, FitResult, Param};
 
@@ -72,6 +72,11 @@ pub fn score_candidates(
     let (a0, b0) = block(&base_keep);
     let own_cov = BlockInverse::new(&a0);
     let own = own_cov.solve(&b0).iter().zip(&b0).map(|(a, b)| a * b).sum::<f64>();
+    // Each frame's heading among the free slots (after every effect's: `p − all` in
+    // the base system, `p − all + k` in a candidate's joint one).
+    let free = pb.slots.free();
+    let headings: Vec<Option<usize>> =
+        (0..frames.len()).map(|k| free.binary_search(&pb.slots.at(k, Nuisance::Heading)).ok()).collect();
     let mut out = Vec::with_capacity(candidates.len());
     let mut at = first;
     for candidate in candidates {
@@ -93,6 +98,18 @@ pub fn score_candidates(
             samples: acc.n,
             added_rank: added,
             identifiable: added > 0,
+            heading_widen: headings
+                .iter()
+                .map(|p| {
+                    let Some(p) = p.filter(|&p| p >= first + all) else { return 1.0 };
+                    let (joint, base) = (cov.sigma(p - all + k), own_cov.sigma(p - all));
+                    if joint.is_finite() && base > 0.0 && base.is_finite() {
+                        (joint / base).max(1.0)
+                    } else {
+                        1.0
+                    }
+                })
+                .collect(),
         };
         for (j, p) in candidate.params.iter().enumerate() {
             let (i, l) = (at + j, first + j);
@@ -119,4 +136,8 @@ pub struct Score {
     /// False where the candidate cannot be told from the model's other parameters (the
     /// joint system is singular): e.g. a global d_max factor beside per-frame d_max.
     pub identifiable: bool,
+    /// Per frame, the heading's 1σ with the candidate freed over the base model's, on
+    /// the same samples (≥ 1): how much wider the heading is where the candidate may
+    /// take any value the data allow (1 where it adds no constrained direction).
+    pub heading_widen: Vec<f64>,
 }
