@@ -64,6 +64,16 @@ pub fn widen_headings(fit: &mut FitResult, widen: &[(&'static str, Vec<f64>)]) -
         .collect()
 }
 
+/// The same widenings on a refit of the final model (`raise.rs`: the final model
+/// fitted again on more pixels replaces the last step's fit): each frame's new 1σ
+/// times its factor, `fit_sigma_deg` the new fit's.
+pub fn carry_over(fit: &mut FitResult, margins: &mut [HeadingMargin]) {
+    for (f, m) in fit.frames.iter_mut().zip(margins.iter_mut()) {
+        m.fit_sigma_deg = f.heading_sigma_deg;
+        f.heading_sigma_deg *= m.widen;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -100,5 +110,11 @@ mod tests {
         assert_eq!(m[2].by, None);
         // The statistical part is the fit's own.
         assert_eq!(f.frames[0].heading_sigma_stat_deg, 0.01);
+        // A refit of the final model keeps each frame's factor.
+        let mut m = m;
+        let mut raised = fit(&[0.004, 0.01, 0.02]);
+        carry_over(&mut raised, &mut m);
+        assert_eq!(raised.frames[0].heading_sigma_deg, 0.004 * 1.5);
+        assert_eq!((raised.frames[1].heading_sigma_deg, m[0].fit_sigma_deg), (0.01, 0.004));
     }
 }

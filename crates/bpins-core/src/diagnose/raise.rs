@@ -1,7 +1,8 @@
 //! Full resolution for a diagnosis's final model: the diagnosis's half of
 //! `fit::input::resolution` (which decides, for any fit, which parameters need more
 //! pixels and how many). The search — which effects are named — runs on the first
-//! sample; only the final model's fit is raised, and it replaces the last step's.
+//! sample; only the final model's fit is raised, and it replaces the last step's
+//! (with the same heading margins, `margin.rs`).
 
 use super::Diagnosis;
 use crate::error::Result;
@@ -30,6 +31,8 @@ impl FitRequest {
         let mut r = fit_from(&l.capture, &l.frames, &opts, Some(&last.fit.state), progress)?;
         r.raised = Some(Raised { from_budget_px: last.fit.sample.pixels_per_frame, to_budget_px: budget, params });
         last.fit = r;
+        // The headings' margin for what the data cannot rule out, on the new fit.
+        super::margin::carry_over(&mut last.fit, &mut d.heading_margin);
         Ok((l, d))
     }
 }
