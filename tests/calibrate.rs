@@ -139,3 +139,75 @@ fn a_simulated_lab_capture_is_calibrated_and_partial_ones_say_what_they_lack() {
     assert!(r.stdout.contains("not determined: analyzer_deg, eps") && r.stdout.contains("has 1 (30°)"), "{}", r.stdout);
     assert!(r.stdout.contains("2 or more exposures") || r.stdout.contains("no unsaturated"), "{}", r.stdout);
 }
+
+/// A colour-polarization sensor (RGGB, issue 45) calibrated band by band: a simulated
+/// lab capture with known per-band gain (`band_response.qe_*`) and extinction ratio
+/// (channel ε_k + band ε_b) is read back per band, its calibration file holds effects
+/// (no per-pixel maps: the colour compass does not apply them per band) and the colour
+/// compass reads a sky of the same sensor through it.
+#[test]
+fn a_colour_sensor_is_calibrated_band_by_band_and_its_sky_read_through_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (lab, sky, out) = (tmp.path().join("lab"), tmp.path().join("sky"), tmp.path().join("cal"));
+    let eps_k = [0.010, 0.020, 0.005, 0.015];
+    let (qe, eps_b) = ([0.8, 1.0, 0.6], [0.004, 0.0, 0.012]);
+    let fx = [
+        "--colour-tiles",
+        "RGGB",
+        "--effect",
+        "band_response.qe_r=0.8",
+        "--effect",
+        "band_response.qe_b=0.6",
+        "--effect",
+        "band_response.eps_r=0.004",
+        "--effect",
+        "band_response.eps_b=0.012",
+        "--effect",
+        "extinction_ratio.eps0=0.010",
+        "--effect",
+        "extinction_ratio.eps45=0.020",
+        "--effect",
+        "extinction_ratio.eps90=0.005",
+        "--effect",
+        "extinction_ratio.eps135=0.015",
+    ];
+    let size = ["--width-px", "96", "--height-px", "64"];
+    ok(&[&["simulate", "--lab", "--lab-darks", "2", "--out", &s(&lab)][..], &size, &fx].concat());
+    let r = ok(&["calibrate", &s(&lab), "--out", &s(&out)]);
+    assert!(r.stdout.contains("extinction ratio ε [B]") && r.stdout.contains("band B (465 nm"), "{}", r.stdout);
+    let summary: Value = serde_json::from_str(&fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let bands = summary["bands"].as_array().unwrap();
+    assert_eq!(bands.len(), 3);
+    for (b, want) in bands.iter().zip(["R", "G", "B"].iter().enumerate()) {
+        let (k, name) = want;
+        assert_eq!(b["band"], *name);
+        // Gain ratio: 1σ ≈ 5e-5 at this size; the band's own, not the others'.
+        let q = b["qe"].as_f64().unwrap();
+        assert!((q - qe[k]).abs() < 0.002, "band {name}: qe {q} vs {}", qe[k]);
+        for c in 0..4 {
+            let e = b["eps_by_channel"][c].as_f64().unwrap();
+            let sigma = b["eps_sigma_by_channel"][c].as_f64().unwrap();
+            let truth = eps_k[c] + eps_b[k];
+            assert!((e - truth).abs() < 5.0 * sigma + 2e-4, "band {name} channel {c}: ε {e} ± {sigma} vs {truth}");
+        }
+        let k_dn = b["photon_transfer"]["conversion_gain_dn_per_e"].as_f64().unwrap();
+        assert!((k_dn - 0.1).abs() < 0.02, "band {name}: K {k_dn}");
+    }
+    // The file: effects only, band_response as simulated (ε_b relative to green's, 0).
+    let toml = fs::read_to_string(out.join("calibration.toml")).unwrap();
+    assert!(!toml.contains("[pixels]") && !out.join("pixels.exr").exists(), "{toml}");
+    let section: Vec<&str> =
+        toml.split("[effects.band_response]").nth(1).unwrap().lines().take_while(|l| !l.starts_with('[')).collect();
+    for (p, want) in [("qe_r", 0.8), ("qe_b", 0.6), ("eps_r", 0.004), ("eps_g", 0.0), ("eps_b", 0.012)] {
+        let line = section.iter().find(|l| l.starts_with(&format!("{p} = "))).unwrap();
+        let v: f64 = line.split(" = ").nth(1).unwrap().parse().unwrap();
+        assert!((v - want).abs() < 5e-4, "band_response.{p} {v} vs {want}");
+    }
+    // The colour compass applies it: a sky of the same sensor, bias gone.
+    ok(&[&["simulate", "--out", &s(&sky), "--width-px", "192", "--height-px", "128"][..], &fx].concat());
+    let (raw, fixed) = (tmp.path().join("raw.json"), tmp.path().join("cal.json"));
+    ok(&["heading", &s(&sky), "--json", &s(&raw)]);
+    ok(&["heading", &s(&sky), "--calibration", &s(&out.join("calibration.toml")), "--json", &s(&fixed)]);
+    let (before, after) = (heading_rms(&raw), heading_rms(&fixed));
+    assert!(before > 0.1 && after < 0.03, "heading RMS {before}° → {after}°");
+}

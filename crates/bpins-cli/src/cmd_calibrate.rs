@@ -2,7 +2,10 @@
 //! (`kind = "lab"`, CAPTURE.md) per pixel (`bpins_core::lab`). Writes
 //! DIR/calibration.toml with DIR/pixels.exr beside it (for `heading`, `fit`,
 //! `diagnose --calibration` and the library's Compass), every map as
-//! DIR/maps.exr and DIR/png/*.png, DIR/summary.json and DIR/report.html.
+//! DIR/maps.exr and DIR/png/*.png, DIR/summary.json and DIR/report.html. A colour
+//! sensor (`colour_tiles`) is calibrated band by band and its calibration.toml holds
+//! effects only (`lab/bands.rs`), no pixels.exr: the colour compass does not apply
+//! per-pixel maps per band yet.
 
 use crate::{ensure_not_in_capture, write_json, write_output};
 use anyhow::Context;
@@ -84,21 +87,53 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             f.prnu_pct
         );
     }
+    for b in cal.bands.iter().flatten() {
+        out!(
+            "band {} ({:.0} nm, {} px): gain {:.4} ± {:.4} of green's, ε 0°/45°/90°/135° {}, PRNU {:.3} %{}",
+            b.band,
+            b.centre_nm,
+            b.pixels,
+            b.qe,
+            b.qe_sigma,
+            (0..4)
+                .map(|c| format!("{:.5} ± {:.5}", b.eps_by_channel[c], b.eps_sigma_by_channel[c]))
+                .collect::<Vec<_>>()
+                .join(" / "),
+            b.prnu_pct,
+            b.photon_transfer.as_ref().map_or(String::new(), |p| format!(
+                ", K {:.5} ± {:.5} DN/e⁻, read noise {:.3} DN",
+                p.conversion_gain_dn_per_e, p.conversion_gain_sigma, p.read_noise_dn
+            ))
+        );
+    }
     for l in &cal.left_out {
         out!("not determined: {}: {}", l.quantity, l.reason);
     }
 
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let maps = write_maps(&cal, &a.out).context("writing the maps")?;
-    let calibration = Calibration {
-        source: format!("bpins calibrate {}", a.lab.display()),
-        pixels: Some(Arc::new(cal.maps.clone())),
-        ..Default::default()
+    let source = format!("bpins calibrate {}", a.lab.display());
+    // A colour sensor's per-pixel maps are not applied band by band yet (the colour
+    // compass refuses them): its calibration is the effects each band's means give.
+    let calibration = match &cal.bands {
+        Some(bands) => {
+            let (effects, sigmas) =
+                bpins_core::tool::lab::bands::effects(bands).context("the colour sensor's calibration effects")?;
+            say!(
+                "colour sensor: calibration.toml holds effects (analyzer_angles, extinction_ratio, band_response, \
+                 channel_response), not per-pixel maps (not applied per band yet; they are in maps.exr)"
+            );
+            Calibration { source, effects, sigmas, ..Default::default() }
+        }
+        None => {
+            let c = Calibration { source, pixels: Some(Arc::new(cal.maps.clone())), ..Default::default() };
+            c.write_pixels(&a.out).context("writing pixels.exr")?;
+            c
+        }
     };
-    calibration.write_pixels(&a.out).context("writing pixels.exr")?;
     let cal_path = a.out.join("calibration.toml");
     write_output(&cal_path, calibration.to_toml().as_bytes())?;
-    let summary = json!({
+    let mut summary = json!({
         "lab": a.lab.display().to_string(),
         "width_px": g.width_px, "height_px": g.height_px,
         "offset_source": cal.offset_source,
@@ -110,11 +145,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "left_out": cal.left_out,
         "maps": maps,
     });
+    if let Some(bands) = &cal.bands {
+        summary["bands"] = json!(bands);
+    }
     write_json(&a.out.join("summary.json"), &summary)?;
     write_output(&a.out.join("report.html"), report_html(&cal, &a.lab.display().to_string(), &maps)?.as_bytes())?;
     let t_all = t0.elapsed().as_secs_f64();
+    let pixels_note = if cal.bands.is_some() { "" } else { " (+ pixels.exr)" };
     say!(
-        "wrote {} (+ pixels.exr), maps.exr, png/, summary.json, report.html to {} in {t_all:.1} s \
+        "wrote {}{pixels_note}, maps.exr, png/, summary.json, report.html to {} in {t_all:.1} s \
          (reading and fitting {t_fit:.1} s, writing {:.1} s)",
         cal_path.display(),
         a.out.display(),

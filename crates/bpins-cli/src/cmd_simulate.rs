@@ -204,7 +204,8 @@ pub struct Args {
     /// unpolarized flats at --lab-exposures, --lab-darks dark frames. The sensor's
     /// per-channel flaws come from --effect (analyzer_angles, extinction_ratio,
     /// channel_response, array_rotation, vignetting), per-pixel ones from --prnu,
-    /// --dsnu-dn and --pixel-*; --peak-fraction sets a polarized flat's peak.
+    /// --dsnu-dn and --pixel-*; --peak-fraction sets a polarized flat's peak. With
+    /// --colour-tiles, each band's gain and ε from band_response (a white source).
     #[arg(long, conflicts_with_all = ["scene", "scene_seed", "tilt_random_deg", "imu_sigma_deg", "sun_sigma_deg", "time_utc", "every_min", "headings_deg", "sun_azimuth_deg", "sun_elevation_deg", "tilt_x_deg", "tilt_y_deg", "dmax", "backend"], requires = "out")]
     lab: bool,
     /// Lab: polarizer angles, degrees (image frame).
@@ -257,9 +258,6 @@ impl Args {
                 "--colour-tiles <TILES>",
                 "--layout colocated (colour filters sit over a dofp mosaic's tiles)",
             );
-        }
-        if self.colour_tiles.is_some() && self.lab {
-            return pair("--colour-tiles <TILES>", "--lab (a colour lab capture: not yet)");
         }
         if self.colour_tiles.is_some() && self.exr.is_some() {
             return pair("--colour-tiles <TILES>", "--exr <EXR> (a colour dump: not yet)");
@@ -572,7 +570,11 @@ fn run_lab(a: &Args, model: &bpins_core::effects::Model) -> anyhow::Result<()> {
         exposures: a.lab_exposures.clone(),
         darks: a.lab_darks,
     };
-    let truth = truth_maps(model, &c.intrinsics(), w, h, DEFAULT_MOSAIC, a.black_level_dn, &flaws);
+    let mut truth = truth_maps(model, &c.intrinsics(), w, h, DEFAULT_MOSAIC, a.black_level_dn, &flaws);
+    // A colour sensor: each pixel through its band's response under the lab's white source.
+    if let Some(colour) = &c.sensor.colour {
+        bpins_core::tool::lab::colour_truth(&mut truth, model, colour);
+    }
     let full = c.sensor.full_scale_dn();
     let sensor = LabSensor {
         signal_dn: a.peak_fraction * (full - a.black_level_dn),

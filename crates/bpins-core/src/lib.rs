@@ -183,6 +183,7 @@ pub use fit::{
 /// The parts of a [`LabCalibration`]: darks, photon transfer, flat field, per-channel summaries.
 #[cfg(feature = "io")]
 pub use lab::{
+    bands::BandCalibration,
     flat::FlatField,
     photon_transfer::{Dark, PhotonTransfer, PtcPoint},
     summary::ChannelSummary,

@@ -38,9 +38,10 @@ pub mod fit {
 /// A lab calibration's maps written to EXR, its HTML report, and the lab simulator
 /// (`bpins simulate --lab`): a sensor's flaws, the plan of lab frames, the truth maps.
 pub mod lab {
+    pub use crate::lab::bands;
     pub use crate::lab::output::{maps_of, write_maps, MapFile};
     pub use crate::lab::report::report_html;
-    pub use crate::lab::simulate::{lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
+    pub use crate::lab::simulate::{colour_truth, lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
 }
 
 /// A series of frames simulated over time at a place (`bpins simulate --series`), its

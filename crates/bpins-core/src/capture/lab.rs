@@ -210,13 +210,6 @@ fn validate(c: &LabCapture, p: &Path) -> Result<()> {
     if !matches!(c.sensor.layout, Layout::Dofp { .. }) {
         bail!(p, "[sensor] layout: a lab capture is calibrated per pixel of a dofp mosaic; use layout = \"dofp\"");
     }
-    if c.sensor.colour.is_some() {
-        bail!(
-            p,
-            "[sensor] colour_tiles: a colour-polarization lab capture; `bpins calibrate` does not calibrate one band \
-             by band yet, and reading it as monochrome mixes the bands"
-        );
-    }
     if c.frames.is_empty() {
         bail!(p, "no frames: at least one [[frames]] table is required");
     }

@@ -9,11 +9,19 @@
 //! | photon transfer | unpolarized flats, 2+ exposures, a dark | K (DN/e⁻), read noise, linearity error (3+) | [`photon_transfer`] |
 //! | flat field | the gain map (else the brightest unsaturated unpolarized flat) | vignetting v2, v4, PRNU | [`flat`] |
 //! | summary | the maps | per channel mean, spread, gradient across the die | [`summary`] |
+//! | bands (colour sensor) | the maps, flats, darks | per band: gain q_b, ε per channel, PRNU, photon transfer | [`bands`] |
+//!
+//! On a colour-polarization sensor (`colour_tiles`) every summary is per band and
+//! channel (the quantity named with its band, e.g. `extinction ratio ε [B]`) and the
+//! flat field is fitted to the gain over each (band, channel) mean: no figure mixes
+//! the bands.
 //!
 //! A quantity the capture cannot determine is left out with the reason
 //! ([`LabCalibration::left_out`]); nothing is guessed. A pixel saturated or at zero in
-//! any frame it needs takes its channel's mean (counted in `left_out`).
+//! any frame it needs takes its channel's mean (on a colour sensor, its band's
+//! channel's; counted in `left_out`).
 
+pub mod bands;
 pub mod flat;
 pub mod malus;
 pub mod output;
@@ -60,6 +68,8 @@ pub struct LabCalibration {
     pub malus_residual_dn: Option<[f64; 4]>,
     /// Where the offsets came from.
     pub offset_source: String,
+    /// A colour-polarization sensor's results per band (`None`: monochrome).
+    pub bands: Option<Vec<bands::BandCalibration>>,
     pub left_out: Vec<LeftOut>,
 }
 
@@ -164,6 +174,8 @@ pub fn calibrate(lab: &LabCapture, progress: &dyn Fn(usize, usize)) -> Result<La
     };
 
     let chan = |i: usize| Layout::dofp_channel(&mosaic, i % w, i / w).index();
+    // A bad pixel's stand-in class: its channel, and on a colour sensor its band too.
+    let class = |i: usize| chan(i) + 4 * lab.sensor.colour.as_ref().map_or(0, |c| c.band_at(i % w, i / w).index());
     match fit {
         Ok(fit) => {
             // Pooled residual variance per channel (good pixels).
@@ -207,18 +219,19 @@ pub fn calibrate(lab: &LabCapture, progress: &dyn Fn(usize, usize)) -> Result<La
                 .map(|i| malus::analyzer_of(fit.coef[i], &fit.coef_cov(i, &noise_k[chan(i)])))
                 .collect();
             let mean_g = mean_good(&bad, |i| per_px[i].0[0]);
-            let ch_means: Vec<[f64; 3]> = (0..4)
+            let classes = if lab.sensor.colour.is_some() { 12 } else { 4 };
+            let ch_means: Vec<[f64; 3]> = (0..classes)
                 .map(|k| {
                     let pick = |j: usize| {
                         let (cnt, s) = (0..n)
-                            .filter(|&i| !bad[i] && chan(i) == k)
+                            .filter(|&i| !bad[i] && class(i) == k)
                             .fold((0.0, 0.0), |(c, s), i| (c + 1.0, s + per_px[i].0[j]));
                         s / cnt
                     };
                     [pick(0), pick(1), pick(2)]
                 })
                 .collect();
-            let val = |i: usize, j: usize| if bad[i] { ch_means[chan(i)][j] } else { per_px[i].0[j] };
+            let val = |i: usize, j: usize| if bad[i] { ch_means[class(i)][j] } else { per_px[i].0[j] };
             maps.gain = Some((0..n).map(|i| (val(i, 0) / mean_g) as f32).collect());
             maps.eps = Some((0..n).map(|i| val(i, 1).clamp(0.0, 0.999) as f32).collect());
             maps.analyzer_deg = Some(
@@ -275,57 +288,89 @@ pub fn calibrate(lab: &LabCapture, progress: &dyn Fn(usize, usize)) -> Result<La
         cy_px: lab.lens.principal_point_px.1,
         distortion: [0.0; 2],
     };
+    let colour = lab.sensor.colour.as_ref();
     let flat = maps.gain.as_ref().map(|gm| {
-        flat::flat_field(gm, w, h, intr.f_px, intr.cx_px, intr.cy_px, |u, v| {
+        let unbanded = colour.map(|c| bands::unband_gain(gm, c, &mosaic, w, &bad));
+        flat::flat_field(unbanded.as_deref().unwrap_or(gm), w, h, intr.f_px, intr.cx_px, intr.cy_px, |u, v| {
             Layout::dofp_channel(&mosaic, u, v).index()
         })
     });
 
     // Summaries.
     let mut summ = Vec::new();
-    if let Some(a) = &maps.analyzer_deg {
-        summ.extend(summary::summarize(
-            "analyzer angle offset",
-            "deg",
-            w,
-            h,
-            &mosaic,
-            |u, v, i| {
-                let nominal = Layout::dofp_channel(&mosaic, u, v).angle_deg();
-                if bad[i] {
-                    f64::NAN
-                } else {
-                    a[i] as f64 - nominal
-                }
-            },
-            sigma.as_ref().map(|s| s.analyzer_deg.as_slice()),
-        ));
+    // On a colour sensor, each band's pixels apart (`out`: the pixel is not in it).
+    let band_list: Vec<Option<crate::sensor::Band>> = match colour {
+        Some(c) => c.bands().into_iter().map(Some).collect(),
+        None => vec![None],
+    };
+    for band in band_list {
+        let named = |q: &str| match band {
+            Some(b) => format!("{q} [{}]", b.name()),
+            None => q.to_string(),
+        };
+        let out = |u: usize, v: usize| match (band, colour) {
+            (Some(b), Some(c)) => c.band_at(u, v) != b,
+            _ => false,
+        };
+        if let Some(a) = &maps.analyzer_deg {
+            summ.extend(summary::summarize(
+                &named("analyzer angle offset"),
+                "deg",
+                w,
+                h,
+                &mosaic,
+                |u, v, i| {
+                    let nominal = Layout::dofp_channel(&mosaic, u, v).angle_deg();
+                    if bad[i] || out(u, v) {
+                        f64::NAN
+                    } else {
+                        a[i] as f64 - nominal
+                    }
+                },
+                sigma.as_ref().map(|s| s.analyzer_deg.as_slice()),
+            ));
+        }
+        if let Some(e) = &maps.eps {
+            summ.extend(summary::summarize(
+                &named("extinction ratio ε"),
+                "1",
+                w,
+                h,
+                &mosaic,
+                |u, v, i| if bad[i] || out(u, v) { f64::NAN } else { e[i] as f64 },
+                sigma.as_ref().map(|s| s.eps.as_slice()),
+            ));
+        }
+        if let Some(gm) = &maps.gain {
+            summ.extend(summary::summarize(
+                &named("gain"),
+                "1",
+                w,
+                h,
+                &mosaic,
+                |u, v, i| if bad[i] || out(u, v) { f64::NAN } else { gm[i] as f64 },
+                sigma.as_ref().map(|s| s.gain.as_slice()),
+            ));
+        }
+        if let Some(o) = &maps.offset_dn {
+            summ.extend(summary::summarize(
+                &named("offset"),
+                "DN",
+                w,
+                h,
+                &mosaic,
+                |u, v, i| if out(u, v) { f64::NAN } else { o[i] as f64 },
+                None,
+            ));
+        }
     }
-    if let Some(e) = &maps.eps {
-        summ.extend(summary::summarize(
-            "extinction ratio ε",
-            "1",
-            w,
-            h,
-            &mosaic,
-            |_, _, i| if bad[i] { f64::NAN } else { e[i] as f64 },
-            sigma.as_ref().map(|s| s.eps.as_slice()),
-        ));
-    }
-    if let Some(gm) = &maps.gain {
-        summ.extend(summary::summarize(
-            "gain",
-            "1",
-            w,
-            h,
-            &mosaic,
-            |_, _, i| if bad[i] { f64::NAN } else { gm[i] as f64 },
-            sigma.as_ref().map(|s| s.gain.as_slice()),
-        ));
-    }
-    if let Some(o) = &maps.offset_dn {
-        summ.extend(summary::summarize("offset", "DN", w, h, &mosaic, |_, _, i| o[i] as f64, None));
-    }
+    let bands = colour.map(|c| {
+        let falloff = |u: usize, v: usize| {
+            let r2 = ((u as f64 - intr.cx_px).powi(2) + (v as f64 - intr.cy_px).powi(2)) / (intr.f_px * intr.f_px);
+            flat.as_ref().map_or(1.0, |f| 1.0 + f.v2 * r2 + f.v4 * r2 * r2)
+        };
+        bands::band_calibration(c, &maps, &bad, &unpol_frames, dark.as_ref(), full, falloff)
+    });
     maps.check()
         .map_err(|m| crate::Error::Capture { path: lab.toml_path(), message: format!("calibration result: {m}") })?;
     Ok(LabCalibration {
@@ -337,6 +382,7 @@ pub fn calibrate(lab: &LabCapture, progress: &dyn Fn(usize, usize)) -> Result<La
         summary: summ,
         malus_residual_dn,
         offset_source,
+        bands,
         left_out,
     })
 }

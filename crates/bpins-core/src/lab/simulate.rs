@@ -215,3 +215,25 @@ pub fn lab_frames(truth: &PixelMaps, plan: &LabPlan, sensor: &LabSensor) -> Vec<
         })
         .collect()
 }
+
+/// A colour-polarization sensor's truth from the monochrome `truth` of the same die
+/// (`truth_maps`): each pixel through its band's response (`band_response`, the
+/// model's [`crate::effects::BandBlock`]): `ε_p += ε_b`, `g_p ×= q_b`, the gain
+/// scaled back to mean 1. The lab source is white (each band sees the same radiance:
+/// no `sky_spectrum`), so a band's mean gain over green's is its `q_b`.
+pub fn colour_truth(truth: &mut PixelMaps, model: &Model, colour: &crate::sensor::ColourTiles) {
+    let w = truth.width_px;
+    let band = |i: usize| colour.band_at(i % w, i / w).index();
+    if let Some(e) = truth.eps.as_mut() {
+        for (i, x) in e.iter_mut().enumerate() {
+            *x += model.bands.eps[band(i)] as f32;
+        }
+    }
+    if let Some(g) = truth.gain.as_mut() {
+        let scaled: Vec<f64> = g.iter().enumerate().map(|(i, &x)| x as f64 * model.bands.gain[band(i)]).collect();
+        let mean = scaled.iter().sum::<f64>() / scaled.len() as f64;
+        for (x, s) in g.iter_mut().zip(scaled) {
+            *x = (s / mean) as f32;
+        }
+    }
+}
