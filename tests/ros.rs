@@ -641,23 +641,50 @@ fn bag_to_capture(bag: &Path, extra: &[&str]) -> Vec<(String, Vec<u8>)> {
 
 /// Issue 45 item 2: a colour-polarization capture (the colour sample) written as a
 /// rosbags bag of raw mono16 mosaics, read with a sensor file that gives its
-/// `colour_tiles`, gives the capture's rows band by band, bit for bit.
+/// `colour_tiles`, gives the capture's rows band by band, bit for bit; so does the
+/// bag of the same mosaics as `bayer_rggb16` read with a sensor file without them
+/// (the encoding names the tiles), and one whose tiles are not the encoding's is
+/// refused naming both.
 fn a_colour_capture_and_its_bag_give_the_same_band_rows() {
     let sky = Path::new(REPO).join("samples/colour-clear");
     let sensor = tmp().join("colour_sensor.toml");
     let text = std::fs::read_to_string(sky.join("capture.toml")).unwrap();
-    std::fs::write(&sensor, text.split("[[frames]]").next().unwrap().replace("format = \"bpins-capture/1\"", ""))
-        .unwrap();
-    assert!(std::fs::read_to_string(&sensor).unwrap().contains("colour_tiles"));
+    let header = text.split("[[frames]]").next().unwrap().replace("format = \"bpins-capture/1\"", "");
+    std::fs::write(&sensor, &header).unwrap();
+    assert!(header.contains("colour_tiles"));
+    let sun = ["--sun-azimuth-deg", "200", "--sun-elevation-deg", "45", "--sensor"];
     let b = tmp().join("colour_bag");
     ok(py(&["write", sky.to_str().unwrap(), b.to_str().unwrap(), "--storage", "mcap", "--pad", "5"]));
     let cap_json = tmp().join("colour_cap.json");
     ok(bpins(&["heading", sky.to_str().unwrap(), "--json", cap_json.to_str().unwrap()]));
     let cap = json(&cap_json);
-    let bag = heading_bag(
-        &b,
-        &["--sun-azimuth-deg", "200", "--sun-elevation-deg", "45", "--sensor", sensor.to_str().unwrap()],
-    );
+    let bag = heading_bag(&b, &[&sun[..], &[sensor.to_str().unwrap()]].concat());
+    same_band_rows(&cap, &bag);
+    // bayer_rggb16: the tiles from the encoding.
+    let bayer = tmp().join("colour_bag_bayer");
+    ok(py(&["write", sky.to_str().unwrap(), bayer.to_str().unwrap(), "--encoding", "bayer_rggb16"]));
+    let mono_sensor = tmp().join("colour_sensor_without_tiles.toml");
+    let without: String = header.lines().filter(|l| !l.starts_with("colour_tiles")).map(|l| format!("{l}\n")).collect();
+    std::fs::write(&mono_sensor, &without).unwrap();
+    same_band_rows(&cap, &heading_bag(&bayer, &[&sun[..], &[mono_sensor.to_str().unwrap()]].concat()));
+    // Tiles that are not the encoding's.
+    let grbg = tmp().join("colour_sensor_grbg.toml");
+    std::fs::write(
+        &grbg,
+        header.replace(r#"colour_tiles = [["R", "G"], ["G", "B"]]"#, r#"colour_tiles = [["G", "R"], ["B", "G"]]"#),
+    )
+    .unwrap();
+    let mut args = vec!["heading", "--bag", bayer.to_str().unwrap()];
+    args.extend_from_slice(&sun);
+    args.push(grbg.to_str().unwrap());
+    let o = bpins(&args);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("bayer_rggb16") && e.contains("GRBG"), "{e}");
+}
+
+/// The capture's and the bag's rows, band by band, bit for bit (where they came from
+/// aside).
+fn same_band_rows(cap: &Value, bag: &Value) {
     let (want, got) = (cap["frames"].as_array().unwrap(), bag["frames"].as_array().unwrap());
     assert_eq!(want.len(), 16, "4 frames × (fused, R, G, B): {cap}");
     assert_eq!(got.len(), want.len(), "{bag}");

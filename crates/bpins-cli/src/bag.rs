@@ -236,13 +236,21 @@ impl BagArgs {
                 colour: None,
                 layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
                 geometry: bpins_core::sensor::Geometry { width_px: size.0, height_px: size.1, pixel_pitch_um: 0.0 },
-                bit_depth: match first_image.as_ref().map(|i| i.encoding.as_str()) {
-                    Some("mono8" | "8UC1") => 8,
-                    _ => 16,
-                },
+                bit_depth: first_image
+                    .as_ref()
+                    .and_then(|i| bpins_ros::convert::encoding_bits(&i.encoding))
+                    .unwrap_or(16),
                 black_level_dn: 0.0,
             },
         };
+        // `bayer_*` images name their colour tiles: a sensor file without
+        // `colour_tiles` takes them (one with other tiles is refused frame by frame).
+        if let (None, Some(tiles)) =
+            (&sensor.colour, first_image.as_ref().and_then(|i| bpins_ros::convert::encoding_tiles(&i.encoding)))
+        {
+            sensor.colour =
+                Some(bpins_core::sensor::ColourTiles { tiles, ..bpins_core::sensor::ColourTiles::imx250myr() });
+        }
         if let Some(m) = &self.mosaic_deg {
             let mut mosaic = DEFAULT_MOSAIC;
             for (i, &deg) in m.iter().enumerate() {

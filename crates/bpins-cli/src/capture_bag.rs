@@ -106,7 +106,9 @@ pub fn bag_to_capture(a: Args) -> anyhow::Result<()> {
         let im: Image = decode(&m.data).map_err(|e| anyhow!("{}: {e}", at()))?;
         // Row by row, each row's padding (step beyond the pixels) left out, in
         // whichever encoding and byte order the bag has.
-        let dn = mosaic(&im, &mut scratch).map_err(|e| anyhow!("{}: {e}", at()))?.packed_dn_f32();
+        let dn = mosaic(&im, capture.sensor.colour.as_ref(), &mut scratch)
+            .map_err(|e| anyhow!("{}: {e}", at()))?
+            .packed_dn_f32();
         w.write_frame(&FrameData::Mosaic { width_px: g.width_px, height_px: g.height_px, dn })?;
         pb.inc(1);
     }

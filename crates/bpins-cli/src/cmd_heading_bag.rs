@@ -136,9 +136,16 @@ impl FrameSource for BagSource<'_> {
         while let Some(f) = frames.next_frame()? {
             let at = || bag_at(&input.bag, &input.image_topic, f.message.index);
             let im: Image = decode(&f.message.data).map_err(|e| anyhow!("{}: {e}", at()))?;
-            let (pixels, sun, tilt) =
-                frame_parts(&im, &mut self.scratch, input.sensor.bit_depth, &f.sun, &f.tilt, args.sun_sigma_deg)
-                    .map_err(|e| anyhow!("{}: {e}", at()))?;
+            let (pixels, sun, tilt) = frame_parts(
+                &im,
+                input.sensor.colour.as_ref(),
+                &mut self.scratch,
+                input.sensor.bit_depth,
+                &f.sun,
+                &f.tilt,
+                args.sun_sigma_deg,
+            )
+            .map_err(|e| anyhow!("{}: {e}", at()))?;
             let id = FrameId {
                 message_index: Some(f.message.index),
                 stamp: Some(Stamp { sec: im.header.stamp.sec, nanosec: im.header.stamp.nanosec }),
@@ -158,13 +165,14 @@ impl FrameSource for BagSource<'_> {
 /// night refused) and the tilt (the IMU's or level), each or why not.
 pub fn frame_parts<'a>(
     im: &'a Image<'_>,
+    colour: Option<&bpins_core::sensor::ColourTiles>,
     scratch: &'a mut Vec<u16>,
     bit_depth: u32,
     sun: &Result<bpins_core::SunPosition, String>,
     tilt: &Result<bpins_ros::convert::Tilt, String>,
     sun_sigma_deg: f64,
 ) -> anyhow::Result<(Pixels<'a>, Result<FrameSun, String>, Result<FrameTilt, String>)> {
-    let pixels = match mosaic(im, scratch).map_err(|e| anyhow!("{e}"))? {
+    let pixels = match mosaic(im, colour, scratch).map_err(|e| anyhow!("{e}"))? {
         Mosaic::U8(_) if bit_depth > 8 => {
             bail!("a mono8 image for a {bit_depth}-bit sensor (--bit-depth, or the sensor file)")
         }

@@ -399,9 +399,14 @@ impl NodeSource<'_> {
             colour: None,
             layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
             geometry: bpins_core::sensor::Geometry { width_px: size.0, height_px: size.1, pixel_pitch_um: 0.0 },
-            bit_depth: if matches!(im.encoding.as_str(), "mono8" | "8UC1") { 8 } else { 16 },
+            bit_depth: bpins_ros::convert::encoding_bits(&im.encoding).unwrap_or(16),
             black_level_dn: 0.0,
         });
+        // `bayer_*` images name their colour tiles: a sensor without `colour_tiles`
+        // takes them (one with other tiles is refused frame by frame).
+        if let (None, Some(tiles)) = (&s.colour, bpins_ros::convert::encoding_tiles(&im.encoding)) {
+            s.colour = Some(bpins_core::sensor::ColourTiles { tiles, ..bpins_core::sensor::ColourTiles::imx250myr() });
+        }
         if let Some(m) = &a.mosaic_deg {
             let mut mosaic = DEFAULT_MOSAIC;
             for (i, &deg) in m.iter().enumerate() {
@@ -545,14 +550,21 @@ impl FrameSource for NodeSource<'_> {
                 Err(why) => (Err(why), a.sun_sigma_deg),
             };
             let tilt = self.tilt_at(stamp_ns);
-            let (pixels, mut sun, tilt) =
-                match frame_parts(&im, &mut scratch, cam.sensor.bit_depth, &sun, &tilt, sun_sigma_deg) {
-                    Ok(p) => p,
-                    Err(e) => {
-                        self.diagnose(header, &format!("{e:#}"))?;
-                        continue;
-                    }
-                };
+            let (pixels, mut sun, tilt) = match frame_parts(
+                &im,
+                cam.sensor.colour.as_ref(),
+                &mut scratch,
+                cam.sensor.bit_depth,
+                &sun,
+                &tilt,
+                sun_sigma_deg,
+            ) {
+                Ok(p) => p,
+                Err(e) => {
+                    self.diagnose(header, &format!("{e:#}"))?;
+                    continue;
+                }
+            };
             if let (Some(p), Ok(s)) = (&a.site, sun.as_mut()) {
                 s.source = s.source.replace("1σ --sun-sigma-deg", &format!("1σ the site {}'s", p.display()));
             }

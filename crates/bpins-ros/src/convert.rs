@@ -7,6 +7,7 @@ use crate::msgs::{CameraInfo, Image, Imu};
 use crate::rep103;
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::compass::RawImage;
+use bpins_core::sensor::{Band, ColourTiles};
 
 /// An image's pixels as the compass reads them: `u8` borrowed from the message
 /// (`mono8`, rows `step` bytes apart), `u16` borrowed where the message's byte
@@ -39,20 +40,77 @@ impl Mosaic<'_> {
     }
 }
 
+/// The colour filters a `bayer_*` encoding names, by analyzer tile: on a
+/// colour-polarization sensor (Sony IMX250MYR) each letter of the 2 × 2 Bayer pattern
+/// lies over one 2 × 2 analyzer tile of the 4 × 4 superpixel (CONVENTIONS.md), so
+/// `bayer_rggb8` is `colour_tiles = [["R", "G"], ["G", "B"]]`: the raw mosaic, never
+/// demosaiced. `None` for any other encoding.
+pub fn encoding_tiles(encoding: &str) -> Option<[[Band; 2]; 2]> {
+    use Band::{B, G, R};
+    let rest = encoding.strip_prefix("bayer_")?;
+    let pattern = rest.strip_suffix("16").or_else(|| rest.strip_suffix('8'))?;
+    Some(match pattern {
+        "rggb" => [[R, G], [G, B]],
+        "bggr" => [[B, G], [G, R]],
+        "gbrg" => [[G, B], [R, G]],
+        "grbg" => [[G, R], [B, G]],
+        _ => return None,
+    })
+}
+
+/// The bits per pixel of an encoding [`mosaic`] reads: 8 or 16.
+pub fn encoding_bits(encoding: &str) -> Option<u32> {
+    match encoding {
+        "mono8" | "8UC1" => Some(8),
+        "mono16" | "16UC1" => Some(16),
+        e if encoding_tiles(e).is_some() => Some(if e.ends_with("16") { 16 } else { 8 }),
+        _ => None,
+    }
+}
+
 /// The pixels of `im`, checked against its own size and `step`; `u16` pixels go
-/// into `scratch` (one frame, reused).
-pub fn mosaic<'a>(im: &'a Image<'_>, scratch: &'a mut Vec<u16>) -> Result<Mosaic<'a>, String> {
+/// into `scratch` (one frame, reused). `colour` is the sensor's colour layout (`None`:
+/// monochrome): a `bayer_*` image is read as the raw colour-polarization mosaic it is
+/// where its pattern is the sensor's ([`encoding_tiles`]) and refused otherwise, so a
+/// colour mosaic is never read as a monochrome one; a `mono*` image is read with the
+/// sensor's layout whatever it is.
+pub fn mosaic<'a>(
+    im: &'a Image<'_>,
+    colour: Option<&ColourTiles>,
+    scratch: &'a mut Vec<u16>,
+) -> Result<Mosaic<'a>, String> {
     let (w, h, step) = (im.width as usize, im.height as usize, im.step as usize);
-    let bytes_px = match im.encoding.as_str() {
-        "mono8" | "8UC1" => 1,
-        "mono16" | "16UC1" => 2,
-        other => {
-            return Err(format!(
-                "encoding `{other}`: a DoFP mosaic is read from `mono8` or `mono16` (also `8UC1`, `16UC1`); a \
-                 colour or debayered image has lost the analyzer channels"
-            ))
-        }
+    let Some(bits) = encoding_bits(&im.encoding) else {
+        return Err(format!(
+            "encoding `{}`: a DoFP mosaic is read from `mono8` or `mono16` (also `8UC1`, `16UC1`), a \
+             colour-polarization mosaic also from `bayer_rggb8` … `bayer_grbg16`; a colour or debayered image has \
+             lost the analyzer channels",
+            im.encoding
+        ));
     };
+    if let Some(tiles) = encoding_tiles(&im.encoding) {
+        let name = |t: [[Band; 2]; 2]| t.iter().flatten().map(|b| b.name()).collect::<String>();
+        match colour {
+            None => {
+                return Err(format!(
+                    "encoding `{}`: a colour-polarization mosaic ({} tiles), but the sensor is monochrome: give it \
+                     `colour_tiles` (a sensor file) or send `mono8`/`mono16`",
+                    im.encoding,
+                    name(tiles)
+                ))
+            }
+            Some(c) if c.tiles != tiles => {
+                return Err(format!(
+                    "encoding `{}` says {} tiles, the sensor's colour_tiles are {}",
+                    im.encoding,
+                    name(tiles),
+                    name(c.tiles)
+                ))
+            }
+            Some(_) => {}
+        }
+    }
+    let bytes_px = (bits / 8) as usize;
     if w == 0 || h == 0 {
         return Err(format!("an empty image ({w} × {h} px)"));
     }
@@ -284,7 +342,7 @@ mod tests {
             im_odd.data = Cow::Borrowed(&odd[1..]);
             assert_eq!(im_odd.data.as_ptr() as usize % 2, 1);
             for im in [&im, &im_odd] {
-                match mosaic(im, &mut scratch).unwrap() {
+                match mosaic(im, None, &mut scratch).unwrap() {
                     Mosaic::U16(r) => {
                         let packed: Vec<u16> = (0..3).flat_map(|v| r.data[v * r.stride..][..4].to_vec()).collect();
                         assert_eq!(packed, dn, "big-endian {big}, step {step}");
@@ -294,7 +352,7 @@ mod tests {
             }
         }
         let im = image("mono8", 0, 4, 3, 5, (0..15).collect());
-        match mosaic(&im, &mut scratch).unwrap() {
+        match mosaic(&im, None, &mut scratch).unwrap() {
             Mosaic::U8(r) => assert_eq!((r.stride, r.data[5], r.data[13]), (5, 5, 13)),
             Mosaic::U16(_) => panic!("u16"),
         }
@@ -305,9 +363,42 @@ mod tests {
             (image("mono16", 2, 4, 3, 8, vec![0; 24]), "is_bigendian = 2"),
             (image("mono8", 0, 0, 3, 8, vec![]), "empty image"),
         ] {
-            let e = mosaic(&im, &mut scratch).err().expect("refused");
+            let e = mosaic(&im, None, &mut scratch).err().expect("refused");
             assert!(e.contains(want), "{e}");
         }
+    }
+
+    #[test]
+    fn bayer_images_are_the_raw_colour_mosaic_of_a_colour_sensor_only() {
+        use bpins_core::sensor::Band::{B, G, R};
+        assert_eq!(encoding_tiles("bayer_rggb8"), Some([[R, G], [G, B]]));
+        assert_eq!(encoding_tiles("bayer_grbg16"), Some([[G, R], [B, G]]));
+        assert_eq!(encoding_tiles("bayer_gbrg8"), Some([[G, B], [R, G]]));
+        assert_eq!(encoding_tiles("bayer_bggr16"), Some([[B, G], [G, R]]));
+        assert_eq!(
+            (encoding_tiles("bayer_xyzw8"), encoding_tiles("mono8"), encoding_tiles("bayer_")),
+            (None, None, None)
+        );
+        assert_eq!(
+            (encoding_bits("bayer_rggb16"), encoding_bits("bayer_rggb8"), encoding_bits("rgb8")),
+            (Some(16), Some(8), None)
+        );
+        let mut scratch = Vec::new();
+        let rggb = ColourTiles::imx250myr();
+        // Read as it is, byte for byte the mono8 image's pixels, for the sensor it names.
+        let im = image("bayer_rggb8", 0, 4, 3, 4, (0..12).collect());
+        match mosaic(&im, Some(&rggb), &mut scratch).unwrap() {
+            Mosaic::U8(r) => assert_eq!((r.data[5], r.data[11]), (5, 11)),
+            Mosaic::U16(_) => panic!("u16"),
+        }
+        // Never as a monochrome sensor's, nor another colour layout's.
+        let e = mosaic(&im, None, &mut scratch).err().expect("refused");
+        assert!(e.contains("monochrome") && e.contains("RGGB"), "{e}");
+        let grbg = ColourTiles { tiles: encoding_tiles("bayer_grbg8").unwrap(), ..rggb.clone() };
+        let e = mosaic(&im, Some(&grbg), &mut scratch).err().expect("refused");
+        assert!(e.contains("RGGB") && e.contains("GRBG"), "{e}");
+        // A mono image of a colour sensor is read with the layout the sensor gives.
+        assert!(mosaic(&image("mono8", 0, 4, 3, 4, vec![0; 12]), Some(&rggb), &mut scratch).is_ok());
     }
 
     #[test]
