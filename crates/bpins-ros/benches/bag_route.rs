@@ -146,7 +146,7 @@ fn route(c: &mut Criterion) {
                     let im: Image = decode(&m.data).unwrap();
                     let t = tilt_at(&mut imu, im.header.stamp.ns(), ImuMatch::Interpolate, 0.05).unwrap().unwrap();
                     let att = Attitude { tilt_x_deg: t.tilt_x_deg, tilt_y_deg: t.tilt_y_deg, sigma_deg: t.sigma_deg() };
-                    let r = match mosaic(&im, &mut scratch).unwrap() {
+                    let r = match mosaic(&im, None, &mut scratch).unwrap() {
                         Mosaic::U16(r) => compass.heading(r, sun, att),
                         Mosaic::U8(r) => compass.heading(r, sun, att),
                     };
@@ -167,7 +167,7 @@ fn route(c: &mut Criterion) {
                     };
                     let im: Image = decode(&m.data).unwrap();
                     let t = tilt_at(&mut imu, im.header.stamp.ns(), ImuMatch::Interpolate, 0.05).unwrap().unwrap();
-                    let sum = match mosaic(&im, &mut scratch).unwrap() {
+                    let sum = match mosaic(&im, None, &mut scratch).unwrap() {
                         Mosaic::U16(r) => r.data[r.data.len() / 2] as u64,
                         Mosaic::U8(r) => r.data[r.data.len() / 2] as u64,
                     };

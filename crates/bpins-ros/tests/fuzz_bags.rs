@@ -9,6 +9,7 @@
 //! 64 cases per property in the test command; longer on demand:
 //! `BPINS_FUZZ_CASES=20000 cargo test --release -p bpins-ros --test fuzz_bags`.
 
+use bpins_core::sensor::ColourTiles;
 use bpins_ros::cdr::{decode, encode};
 use bpins_ros::convert::{camera_size_px, imu_orientation, intrinsics, mosaic, tilt_of};
 use bpins_ros::matching::{decode_fix, decode_imu};
@@ -163,7 +164,7 @@ fn read_all(dir: &Path) -> Result<usize, String> {
         for m in bag.cursor(&t.name).map_err(|e| e.to_string())? {
             let m = m.map_err(|e| e.to_string())?;
             let mapped = match t.type_name.as_str() {
-                types::IMAGE => decode::<Image>(&m.data).and_then(|im| mosaic(&im, &mut scratch).map(|_| ())),
+                types::IMAGE => decode::<Image>(&m.data).and_then(|im| mosaic(&im, None, &mut scratch).map(|_| ())),
                 types::CAMERA_INFO => decode::<CameraInfo>(&m.data).and_then(|ci| {
                     let _ = camera_size_px(&ci);
                     intrinsics(&ci).map(|_| ())
@@ -308,7 +309,7 @@ proptest! {
     fn random_cdr(bytes in prop::collection::vec(any::<u8>(), 0..400)) {
         let mut scratch = Vec::new();
         let r = catch_unwind(AssertUnwindSafe(|| {
-            if let Ok(im) = decode::<Image>(&bytes) { let _ = mosaic(&im, &mut scratch); }
+            if let Ok(im) = decode::<Image>(&bytes) { let _ = mosaic(&im, None, &mut scratch); let _ = mosaic(&im, Some(&ColourTiles::imx250myr()), &mut scratch); }
             if let Ok(ci) = decode::<CameraInfo>(&bytes) { let _ = intrinsics(&ci); }
             let _ = decode_imu(&bytes);
             let _ = decode_fix(&bytes);
