@@ -37,6 +37,10 @@
 //!    weighted sums (weights 1/(σ² sin²γ) for the sun vector, 1/σ² for the line;
 //!    the meridian line is fitted on its whole length through the zenith, both
 //!    halves, and its sun's half taken from the sun's cone)
+//! 4′. where step 4 leaves too little sky (or, under an overcast, a few cells that misfit
+//!    or contradict the sun): the holes' clear cores instead (holes.rs: cells whose DoLP
+//!    is the clear sky's own, grouped into holes; the jackknife deletes one hole at a
+//!    time, by Student's t; the cores' residual cover times the deck's turn joins σ_misfit)
 //! 5. 1σ² = max(σ_fit, σ_jack, σ_coherent)² + σ_misfit² + σ_cross² + σ_tilt² + σ_sun²
 //!    + σ_floor²: σ_fit from the extractor's own residuals (χ²-scaled); σ_jack a
 //!    delete-one-block jackknife over 4 × 4 blocks of the image; σ_coherent a spatial
@@ -100,6 +104,7 @@ pub mod cells;
 mod clouds;
 mod coarse;
 mod dark;
+mod holes;
 mod observe;
 mod robust;
 mod sigma;

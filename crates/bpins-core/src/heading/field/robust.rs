@@ -6,6 +6,7 @@
 
 use super::clouds::{brighter, clear_dmax, depolarized, propagate, whiter, CellSky};
 use super::dark::Polarized;
+use super::holes;
 use super::observe::{cone_sun, observe, residual, search, sharpen, Obs};
 use super::sigma::{block_sums, meridian_band, solve, sum_blocks};
 use super::spatial::coherent_sigma_deg;
@@ -27,6 +28,9 @@ const CLEAR_RESIDUAL_DEG: f64 = 0.5;
 /// A start whose misfit scale τ is within this is taken as a tight clear sky, and τ
 /// stays bounded by it through the loop, degrees.
 const TAU_BOUND_DEG: f64 = 1.0;
+/// A frame whose cloud fraction is above this is an overcast: where the cells step 4
+/// kept misfit or contradict the sun, its holes are read instead (`holes.rs`).
+const OVERCAST_FRACTION: f64 = 0.9;
 
 /// Step 4's weights for the sun at `s` into `b.w`: (robust weight, σ² = σ_α² + τ²,
 /// sin²γ, δ) per cell; `b.cloud` marks the cells taken for cloud (`clouds.rs`).
@@ -158,7 +162,7 @@ pub struct Scratch {
     /// The cells that passed the masks (steps 1–2), level frame.
     pub(super) obs: Vec<Obs>,
     /// The start search's cells: e·s and d·s as cos ψ, sin ψ, 1 coefficients, weight.
-    sub: Vec<[f64; 7]>,
+    pub(super) sub: Vec<[f64; 7]>,
     pub(super) b: Bufs,
     /// Per cell of the grid: whether it was seen as non-sky (a cluster of depolarized
     /// cells, grown), for the sky mask.
@@ -204,6 +208,12 @@ pub(super) struct Robust {
     pub(super) quality: FieldQuality,
     /// The frame's polarized signal and noise (dark.rs), for naming a failed check.
     pub(super) polarized: Polarized,
+    /// Factor on the jackknife's 1σ: Student's t over the normal's for the few
+    /// independent groups an overcast's holes are (`holes.rs`); 1 otherwise.
+    pub(super) jackknife_t: f64,
+    /// 1σ of the sky's own sun elevation where few groups of cells set it (the holes'
+    /// jackknife, `holes.rs`), degrees; 0 where the sky in view sets it well.
+    pub(super) sun_offset_sigma_deg: f64,
 }
 
 /// Steps 1–4 on one frame's cells.
@@ -262,7 +272,47 @@ pub(super) fn robust(
             break;
         }
     }
-    let w = &b.w;
+    let (mut quality, coherent_deg, misfit_rms_deg, misfit_deg) =
+        summary(obs, &b.w, ctx, cells, band, psi, tau, quality, &mut b.t);
+    let hint = cone_sun(ctx, psi);
+    // The sky mask's non-sky: clusters of cloud cells (clouds.rs), grown (w is final,
+    // so step 4's other buffers are free).
+    b.res.clear();
+    b.res.extend(obs.iter().map(|o| residual(o, hint)));
+    clouds(obs, tau * tau, opts.min_cells, cells.cols, cells.rows, b);
+    let cloud = obs.iter().zip(&b.cloud).map(|(o, &c)| (o.grid, c));
+    let (mask, kept, tmp) = (&mut b.mask, &mut b.clustered, &mut b.tmp);
+    grown_clusters(cloud, cells.grid_len(), cells.cols, DILATE_CELLS as usize, mask, kept, tmp, &mut sc.sky_grown);
+    let clouded = obs.iter().filter(|o| sc.sky_grown[o.grid]).count();
+    quality.cloud_fraction = clouded as f64 / obs.len().max(1) as f64;
+    Ok(Robust {
+        heading_deg: psi,
+        coherent_deg,
+        misfit_rms_deg,
+        misfit_deg,
+        quality,
+        polarized,
+        jackknife_t: 1.0,
+        sun_offset_sigma_deg: 0.0,
+    })
+}
+
+/// What step 4 left, for the checks and step 5: the used cells (robust weight ≥ ½) and
+/// their residual beyond noise, the sky's own sun, σ_coherent and the misfit part.
+/// Returns (quality, σ_coherent, misfit RMS beyond noise, misfit part), degrees; `t`
+/// is a buffer.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn summary(
+    obs: &[Obs],
+    w: &[(f64, f64, f64, f64)],
+    ctx: &FieldContext,
+    cells: &Cells,
+    band: (f64, f64, f64),
+    psi: f64,
+    tau: f64,
+    mut quality: FieldQuality,
+    t: &mut Vec<f64>,
+) -> (FieldQuality, f64, f64, f64) {
     quality.misfit_deg = tau.to_degrees();
     quality.cells_used = w.iter().filter(|x| x.0 >= 0.5).count();
     quality.used_fraction = quality.cells_used as f64 / quality.cells_total.max(1) as f64;
@@ -290,18 +340,8 @@ pub(super) fn robust(
         }),
         cells.cols,
         cells.rows,
-        &mut b.t,
+        t,
     );
-    // The sky mask's non-sky: clusters of cloud cells (clouds.rs), grown (w is final,
-    // so step 4's other buffers are free).
-    b.res.clear();
-    b.res.extend(obs.iter().map(|o| residual(o, hint)));
-    clouds(obs, tau * tau, opts.min_cells, cells.cols, cells.rows, b);
-    let cloud = obs.iter().zip(&b.cloud).map(|(o, &c)| (o.grid, c));
-    let (mask, kept, tmp) = (&mut b.mask, &mut b.clustered, &mut b.tmp);
-    grown_clusters(cloud, cells.grid_len(), cells.cols, DILATE_CELLS as usize, mask, kept, tmp, &mut sc.sky_grown);
-    let clouded = obs.iter().filter(|o| sc.sky_grown[o.grid]).count();
-    quality.cloud_fraction = clouded as f64 / obs.len().max(1) as f64;
     // The misfit part: what the used sky misfits beyond its noise and beyond what a
     // clear sky leaves. A turn shared by the used cells (rims of clouds that turn
     // together, rims of clouds whose cores lie outside the view) biases the heading by
@@ -311,7 +351,7 @@ pub(super) fn robust(
     } else {
         0.0
     };
-    Ok(Robust { heading_deg: psi, coherent_deg, misfit_rms_deg, misfit_deg, quality, polarized })
+    (quality, coherent_deg, misfit_rms_deg, misfit_deg)
 }
 
 impl Scratch {
@@ -337,9 +377,27 @@ pub(super) fn fitted(
     opts: &FieldOptions,
     sc: &mut Scratch,
 ) -> Result<Robust, (FieldQuality, NoHeading)> {
-    let r = robust(cells, ctx, opts, sc)?;
-    let dim = r.polarized;
-    fitted_checks(r, ctx, opts).map_err(|(q, why)| (q, dim.explain(why)))
+    let first = robust(cells, ctx, opts, sc).and_then(|r| {
+        let dim = r.polarized;
+        fitted_checks(r, ctx, opts).map_err(|(q, why)| (q, dim.explain(why)))
+    });
+    // Too little sky where step 4 grew the clouds over a deck's few holes, or an
+    // overcast's few cells it kept that misfit or set their own sun poorly: the holes'
+    // clear cores, if enough (holes.rs), else the first reason.
+    let overcast = |q: &FieldQuality, why: &NoHeading| match why {
+        NoHeading::TooLittleSky { .. } => true,
+        NoHeading::Contradicts { .. } | NoHeading::PoorFit { .. } => q.cloud_fraction > OVERCAST_FRACTION,
+        _ => false,
+    };
+    match first {
+        Err((q, why)) if overcast(&q, &why) && !sc.obs.is_empty() && q.cells_valid > 0 => {
+            let holes_opts = FieldOptions { min_cells: holes::MIN_CORE_CELLS, min_used_fraction: 0.0, ..*opts };
+            holes::fitted(cells, ctx, opts, sc, q)
+                .and_then(|r| fitted_checks(r, ctx, &holes_opts))
+                .map_err(|_| (q, why))
+        }
+        r => r,
+    }
 }
 
 /// [`fitted`]'s checks on the robust fit `r`.
@@ -352,7 +410,10 @@ fn fitted_checks(r: Robust, ctx: &FieldContext, opts: &FieldOptions) -> Result<R
     // The sky's own sun against the given one: a clock or place that is wrong, a tilt
     // that is wrong about the axis across the sun, or a mosaic read with the wrong
     // layout all move it by more than the inputs' 1σ can.
-    let limit_deg = opts.max_sun_offset_deg.hypot(4.0 * ctx.sun_sigma_deg.hypot(ctx.tilt_sigma_deg));
+    let limit_deg = opts
+        .max_sun_offset_deg
+        .hypot(4.0 * ctx.sun_sigma_deg.hypot(ctx.tilt_sigma_deg))
+        .hypot(3.0 * r.sun_offset_sigma_deg);
     if quality.sun_elevation_offset_deg.abs() > limit_deg {
         return Err((quality, NoHeading::Contradicts { offset_deg: quality.sun_elevation_offset_deg, limit_deg }));
     }

@@ -91,8 +91,10 @@ pub(super) fn heading(
     let hint = cone_sun(ctx, r.heading_deg);
     let coherent_deg = if r.coherent_deg.is_finite() { r.coherent_deg } else { 0.0 };
     let read = |e: Extractor| {
-        finish(&block_sums(&sc.obs, &sc.b.w, e, band), e, ctx, opts, hint, level)
-            .map(|(h, parts)| (h, SigmaParts { coherent_deg, misfit_deg: r.misfit_deg, ..parts }))
+        finish(&block_sums(&sc.obs, &sc.b.w, e, band), e, ctx, opts, hint, level).map(|(h, parts)| {
+            let jackknife_deg = parts.jackknife_deg * r.jackknife_t;
+            (h, SigmaParts { coherent_deg, misfit_deg: r.misfit_deg, jackknife_deg, ..parts })
+        })
     };
     let result = read(e).map_err(NoHeading::Solver).map(|(h, parts)| {
         // The other extractor reads the same cells another way (the E-vectors' common
