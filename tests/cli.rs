@@ -1511,6 +1511,49 @@ fn a_moonlit_frame_is_read_under_the_moon_and_a_moonless_night_is_refused_naming
     }
 }
 
+/// Issue 48 item 1, twilight (docs/night.md "Twilight"): a frame whose time and place
+/// put the sun at −4.4° with the moon set (civil twilight) is read about the sun below
+/// the horizon within 2σ, its row naming the shares; one where the sun at −12.4° and a
+/// 75 % moon each give half the sky's light is rendered with both skies (the `twilight`
+/// scene element changes its pixels) and refused, naming both shares.
+#[test]
+fn a_civil_twilight_frame_is_read_under_the_sun_below_the_horizon_and_a_mixed_one_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let place = ["--latitude-deg", "36.07", "--longitude-deg", "120.38"];
+    let size = ["--width-px", "128", "--height-px", "128", "--pixel-pitch-um", "27.6", "--headings-deg", "20,200"];
+    let run = |name: &str, time: &str, scene: &[&str]| {
+        let cap = s(&tmp.path().join(name));
+        let json = s(&tmp.path().join(format!("{name}.json")));
+        let mut args = vec!["simulate", "--out", &cap, "--time-utc", time];
+        args.extend_from_slice(&place);
+        args.extend_from_slice(&size);
+        args.extend_from_slice(scene);
+        bpins(&args).ok();
+        bpins(&["heading", &cap, "--json", &json]).ok();
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+        (cap, v["frames"].as_array().unwrap().clone())
+    };
+    let (_, civil) = run("civil", "2026-07-02T11:40:00Z", &["--scene", "twilight"]);
+    for row in &civil {
+        let (e, sg) = (row["error_deg"].as_f64().unwrap(), row["sigma_deg"].as_f64().unwrap());
+        assert!(e.abs() <= 2.0 * sg, "{row}");
+        let sun = row["sun"].as_str().unwrap();
+        assert!(sun.contains("twilight: the sun at -4.4° gives 100 % of the sky's light"), "{sun}");
+        assert!(sun.contains("below the horizon) 0 %"), "{sun}");
+    }
+    let (both, mixed) = run("mixed", "2026-06-24T12:30:00Z", &["--scene", "twilight"]);
+    for row in &mixed {
+        assert!(row["heading_deg"].is_null(), "{row}");
+        let why = row["no_heading_reason"].as_str().unwrap();
+        assert!(why.contains("the sun at -12.4° gives 50 % of the sky's light"), "{why}");
+        assert!(why.contains("the moon (at 35.5°, 75 % lit) 50 %") && why.contains("no single source"), "{why}");
+    }
+    // The moon's sky is in the mixed frame: without the element its pixels differ.
+    let (one, _) = run("sun_only", "2026-06-24T12:30:00Z", &[]);
+    let frame = |cap: &str| std::fs::read(std::path::Path::new(cap).join("frames/f000.png")).unwrap();
+    assert_ne!(frame(&both), frame(&one));
+}
+
 /// By moonlight through a real camera (docs/night.md): the full moon over a dark
 /// site's glow, the IMX250MZR at f/1.4 for 0.5 s, its 3.45 µm pixels behind a 1 mm
 /// lens (a 47° field on 256 px). `heading` reads every frame under the moon with a

@@ -43,6 +43,9 @@ for phase in $PHASES; do
                     --pixel-pitch-um 3.45 --focal-length-mm 1.0 --exposure-s "$exposure" --f-number 1.4 \
                     --scene night_background --scene "night_background.mag_arcsec2=$glow" \
                     >/dev/null 2>"$work/simulate.txt" || { refused=1; break; }
+                # Twilight is modelled now (docs/night.md "Twilight"): a sky the sun lights is no moonlit row.
+                grep -q 'sky lit by the moon' "$work/simulate.txt" ||
+                    { echo "error: not a moonlit sky ($(grep -m1 -o 'sky lit by [^(]*' "$work/simulate.txt"))" >>"$work/simulate.txt"; refused=1; break; }
                 "$B" heading "$work/cap" --json "$work/h$seed.json" >/dev/null 2>"$work/heading.txt" ||
                     { cat "$work/heading.txt" >&2; exit 1; }
             done

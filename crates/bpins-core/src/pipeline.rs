@@ -243,8 +243,11 @@ pub fn sim_response(c: &Capture, s: &SimSensor, field: Option<&FieldScene>) -> R
     let peak = match field.filter(|f| !f.is_empty()) {
         None => peak_intensity(&Model::default(), &c.intrinsics(), &scene, w, h, 8),
         Some(field) => {
-            let sky =
-                crate::sensor_exposure::field_under(&field.without(crate::scene::sun_disc::ELEMENT.name), &first.sun);
+            let sky = crate::sensor_exposure::field_under(
+                &field.without(crate::scene::sun_disc::ELEMENT.name),
+                &first.sun,
+                s.dmax,
+            );
             let idx = NoiseIndex { seed: 0, trial: 0, frame: 0 };
             let f = ChainFrame::new_in_field(
                 &Model::default(),
@@ -295,7 +298,7 @@ pub fn sim_chain_frame(
 ) -> ChainFrame {
     let scene = scene_of(&c.frames[index], s.dmax);
     let noise = NoiseIndex { seed: s.seed, trial: 0, frame: index as u32 };
-    let field = field.map(|f| crate::sensor_exposure::field_under(f, &c.frames[index].sun));
+    let field = field.map(|f| crate::sensor_exposure::field_under(f, &c.frames[index].sun, s.dmax));
     ChainFrame::new_in_field(model, &c.intrinsics(), &scene, resp, noise, field.as_ref())
 }
 

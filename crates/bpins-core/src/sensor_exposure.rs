@@ -167,17 +167,16 @@ pub fn exposed_response(c: &Capture, index: usize, s: &SimSensor, e: &Exposure) 
 }
 
 /// `field` under the sky of the source `sun` (its cd/m² per unit radiance, what the
-/// `night_background` glow is measured against); unchanged where the source has no
-/// modelled sky (twilight) or no element needs it.
-pub(crate) fn field_under(field: &FieldScene, sun: &SunPosition) -> FieldScene {
+/// `night_background` glow is measured against) and with the other source's sky of its
+/// time and place (the `twilight` element, at the frame's `dmax`); unchanged where the
+/// source has no modelled sky or no element needs it.
+pub(crate) fn field_under(field: &FieldScene, sun: &SunPosition, dmax: f64) -> FieldScene {
     let needs = field.iter().any(|(d, _)| d.name == crate::scene::night_background::ELEMENT.name);
-    if !needs {
-        return field.clone();
-    }
-    match sky_light(sun) {
-        Ok(l) => field.clone().with_sky_unit_cd_m2(l.unit_cd_m2),
-        Err(_) => field.clone(),
-    }
+    let field = match sky_light(sun) {
+        Ok(l) if needs => field.clone().with_sky_unit_cd_m2(l.unit_cd_m2),
+        _ => field.clone(),
+    };
+    crate::scene::twilight::under(field, sun, dmax)
 }
 
 #[cfg(test)]

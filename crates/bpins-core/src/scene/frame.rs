@@ -58,6 +58,9 @@ pub struct ElementContext {
     /// ([`FieldScene::with_sky_unit_cd_m2`]), else the sun's at the source's elevation
     /// (at least 1°).
     pub sky_unit_cd_m2: f64,
+    /// The other source's sky (the `twilight` element), where the frame's time and place
+    /// give one ([`FieldScene::with_other_sky`](super::FieldScene)).
+    pub other_sky: Option<super::twilight::OtherSky>,
 }
 
 /// One element folded for one frame: its constants and draws, and what it does to a ray.
@@ -118,7 +121,14 @@ impl FieldFrame {
             let el_deg = sun_world.z.clamp(-1.0, 1.0).asin().to_degrees().max(1.0);
             crate::sky::radiometry::SkyLight::sun(el_deg).map_or(f64::NAN, |l| l.unit_cd_m2)
         });
-        let cx = ElementContext { seed: scene.seed, frame, sun_world, zenith_radiance, sky_unit_cd_m2 };
+        let cx = ElementContext {
+            seed: scene.seed,
+            frame,
+            sun_world,
+            zenith_radiance,
+            sky_unit_cd_m2,
+            other_sky: scene.other_sky(),
+        };
         let mut enabled: Vec<(&ElementDef, &[f64])> = scene.iter().collect();
         enabled.sort_by_key(|(d, _)| (d.layer, element_index(d)));
         FieldFrame {
@@ -244,19 +254,26 @@ mod tests {
     #[test]
     fn elements_apply_back_to_front_by_layer_then_registry_order() {
         use crate::scene::{clouds::Clouds, overcast::Overcast, sky_radiance::SkyRadiance};
-        use crate::scene::{night_background::NightBackground, skyline::Skyline, sun_disc::SunDisc};
+        use crate::scene::{
+            night_background::NightBackground, skyline::Skyline, sun_disc::SunDisc, twilight::Twilight,
+        };
         let f =
             FieldFrame::new(&FieldScene::all(3), world_from_camera(0.0, 0.0, 0.0), enu_from_az_el_deg(40.0, 25.0), 0);
         let at = |is: fn(&dyn Any) -> bool| f.elements.iter().position(|e| is(e.as_ref() as &dyn Any));
         let order = [
             at(|e| e.is::<SkyRadiance>()),
             at(|e| e.is::<NightBackground>()),
+            at(|e| e.is::<Twilight>()),
             at(|e| e.is::<Clouds>()),
             at(|e| e.is::<Overcast>()),
             at(|e| e.is::<SunDisc>()),
             at(|e| e.is::<Skyline>()),
         ];
-        assert_eq!(order, [0, 1, 2, 3, 4, 5].map(Some), "the sky and its glow, clouds, the deck, the sun, the skyline");
+        assert_eq!(
+            order,
+            [0, 1, 2, 3, 4, 5, 6].map(Some),
+            "the sky, its glow and the other source's, clouds, the deck, the sun, the skyline"
+        );
         // Overcast is registered after the sun's disc (its draws keyed by its place) yet
         // applies before it: its layer, not its place, orders it.
         let place = |name| ELEMENTS.iter().position(|e| e.name == name);

@@ -28,6 +28,7 @@ pub(crate) mod sky_radiance;
 pub(crate) mod skyline;
 pub(crate) mod sun_disc;
 pub(crate) mod texture;
+pub(crate) mod twilight;
 
 #[cfg(feature = "io")]
 pub use attitude::FieldAttitude;
@@ -91,6 +92,7 @@ pub static ELEMENTS: &[&ElementDef] = &[
     &skyline::ELEMENT,
     &overcast::ELEMENT,
     &night_background::ELEMENT,
+    &twilight::ELEMENT,
 ];
 
 /// Looks an element up by name.
@@ -107,12 +109,14 @@ pub struct FieldScene {
     elements: Selection<ElementDef>,
     /// cd/m² per unit sky radiance of the frame's source, where known (`night_background`).
     sky_unit_cd_m2: Option<f64>,
+    /// The other source's sky of the frame's time and place, where known (`twilight`).
+    other_sky: Option<twilight::OtherSky>,
 }
 
 impl FieldScene {
     /// No element enabled, draws keyed by `seed`.
     pub fn new(seed: u64) -> Self {
-        FieldScene { seed, elements: Selection::new(), sky_unit_cd_m2: None }
+        FieldScene { seed, elements: Selection::new(), sky_unit_cd_m2: None, other_sky: None }
     }
 
     /// Every element at its defaults.
@@ -150,6 +154,7 @@ impl FieldScene {
             seed: self.seed,
             elements: self.elements.without(|d| d.name == name),
             sky_unit_cd_m2: self.sky_unit_cd_m2,
+            other_sky: self.other_sky,
         }
     }
 
@@ -165,6 +170,19 @@ impl FieldScene {
     /// The unit set by [`FieldScene::with_sky_unit_cd_m2`].
     pub fn sky_unit_cd_m2(&self) -> Option<f64> {
         self.sky_unit_cd_m2
+    }
+
+    /// The same scene with the other source's sky of the frame set (`twilight`: the
+    /// capture pipeline sets it from the frame's time and place).
+    #[cfg(feature = "spa")]
+    pub(crate) fn with_other_sky(mut self, other: twilight::OtherSky) -> FieldScene {
+        self.other_sky = Some(other);
+        self
+    }
+
+    /// The other source's sky set by [`FieldScene::with_other_sky`].
+    pub(crate) fn other_sky(&self) -> Option<twilight::OtherSky> {
+        self.other_sky
     }
 
     /// Enabled elements with their values, in the order they were enabled.

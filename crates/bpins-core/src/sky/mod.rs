@@ -6,18 +6,22 @@ pub mod radiometry;
 pub mod rayleigh;
 #[cfg(feature = "spa")]
 pub mod sun;
+pub mod twilight;
 
 pub use rayleigh::sky_stokes;
 
 /// Below this solar elevation, degrees (nautical twilight's middle), the sun's own
-/// pattern has faded (the field estimator refuses it: `NoHeading::SunTooLow`) and a
-/// moon that is up lights the sky instead.
+/// pattern has faded (the field estimator refuses it: `NoHeading::SunTooLow`); whether
+/// a moon that is up lights the sky instead is [`twilight`]'s shares.
 pub const NIGHT_SUN_ELEVATION_DEG: f64 = -10.0;
 
-/// The source that lights the sky at `time_utc` and a place: the sun (NREL SPA) while
-/// it is above [`NIGHT_SUN_ELEVATION_DEG`]; below it the moon (`moon.rs`) where the
-/// moon is above the horizon ([`sun::SunSource::Moon`]); otherwise the sun, which the
-/// readers then refuse as too low, naming it. Frames need only the time and place.
+/// The source that lights the sky at `time_utc` and a place: of the sun (NREL SPA) and
+/// the moon (`moon.rs`), the one whose sky is the brighter at the zenith
+/// ([`twilight::Shares`]: K&S above the horizon, the sun's twilight below it); the sun
+/// where neither lights it, which the readers then refuse as too low, naming it. The
+/// moon's is [`sun::SunSource::Moon`]. Whether the frame may be read (one source giving
+/// [`twilight::DOMINANT_SHARE`] of the light, the sun above [`NIGHT_SUN_ELEVATION_DEG`])
+/// is [`dark_night`]'s. Frames need only the time and place.
 #[cfg(feature = "spa")]
 pub fn source_from_time_place(
     time_utc: &str,
@@ -39,27 +43,44 @@ pub fn source_from_unix_time(
     night_source(sun, moon::moon_from_unix_time(time_unix_s, latitude_deg, longitude_deg)?)
 }
 
-/// Why a frame has no source at night: the sun (from SPA) past
-/// [`NIGHT_SUN_ELEVATION_DEG`] and the moon below the horizon at its time and place;
-/// `None` where the sun is high enough or the sun's angles are not SPA's (a moon that is
-/// up was already taken as the source by [`source_from_time_place`]).
+/// Why a frame's sky from its time and place cannot be read, or `None`: where the sun
+/// and the moon both light it and neither gives [`twilight::DOMINANT_SHARE`] of the
+/// light (naming both shares: a mixed sky has no single source's pattern); where the
+/// sun is the source past [`NIGHT_SUN_ELEVATION_DEG`] (its pattern faded) and the moon
+/// is below the horizon or too faint to be read alone. `None` also where the angles are
+/// not from a time and place (given, unplaced).
 #[cfg(feature = "spa")]
 pub fn dark_night(sun: &sun::SunPosition) -> Option<String> {
-    let sun::SunSource::Spa { time_utc, latitude_deg, longitude_deg } = &sun.source else { return None };
-    if sun.elevation_deg >= NIGHT_SUN_ELEVATION_DEG {
+    let (sun::SunSource::Spa { time_utc, latitude_deg, longitude_deg }
+    | sun::SunSource::Moon { time_utc, latitude_deg, longitude_deg, .. }) = &sun.source
+    else {
+        return None;
+    };
+    let shares = twilight::shares_at(time_utc, *latitude_deg, *longitude_deg).ok()?;
+    if shares.dominant() == twilight::Dominant::Mixed {
+        return Some(shares.mixed_reason());
+    }
+    if !matches!(sun.source, sun::SunSource::Spa { .. }) || sun.elevation_deg >= NIGHT_SUN_ELEVATION_DEG {
         return None;
     }
-    let moon = moon::moon_from_time_place(time_utc, *latitude_deg, *longitude_deg).ok()?;
+    if shares.moon_elevation_deg > 0.0 {
+        return Some(format!(
+            "{}: the sun's pattern has faded past {NIGHT_SUN_ELEVATION_DEG:.0}° and the moon's sky is too faint \
+             to be read alone (refused)",
+            shares.describe()
+        ));
+    }
     Some(format!(
         "not yet: the moon is at {:.1}° and the sun at {:.1}°: neither lights the sky (the moon is read from \
          the time and place once it rises)",
-        moon.elevation_deg, sun.elevation_deg
+        shares.moon_elevation_deg, sun.elevation_deg
     ))
 }
 
 #[cfg(feature = "spa")]
 fn night_source(sun: sun::SunPosition, moon: moon::MoonPosition) -> crate::Result<sun::SunPosition> {
-    if sun.elevation_deg >= NIGHT_SUN_ELEVATION_DEG || moon.elevation_deg <= 0.0 {
+    let shares = twilight::shares_of(sun.elevation_deg, &moon);
+    if moon.elevation_deg <= 0.0 || shares.moon_share() <= shares.sun_share() {
         return Ok(sun);
     }
     let sun::SunSource::Spa { time_utc, latitude_deg, longitude_deg } = sun.source else {
@@ -87,32 +108,67 @@ mod tests {
         // Qingdao, 2026-06-21: 04:00 UTC is noon; 16:00 UTC is midnight.
         let day = source_from_time_place("2026-06-21T04:00:00Z", 36.07, 120.38).unwrap();
         assert!(matches!(day.source, sun::SunSource::Spa { .. }), "{day:?}");
-        // Every hour of a night and a month of nights: where the sun is below −10° and
-        // the moon up, the moon; never the moon by day or below the horizon.
-        let (mut moonlit, mut dark) = (0, 0);
+        assert_eq!(dark_night(&day), None);
+        // Every hour of a month of days and nights: the moon where it is up and its sky
+        // the brighter (twilight.rs), never by day or below the horizon; the frames the
+        // readers refuse (dark_night) are those with the sun past −10° and no moon to
+        // read alone, and the mixed twilight ones, naming both shares.
+        let (mut moonlit, mut dark, mut mixed) = (0, 0, 0);
         for hour in 0..(30 * 24) {
             let t = 1_782_000_000.0 + 3600.0 * hour as f64;
             let s = source_from_unix_time(t, 36.07, 120.38).unwrap();
             let sun = sun::sun_from_unix_time(t, 36.07, 120.38).unwrap();
             let moon = moon::moon_from_unix_time(t, 36.07, 120.38).unwrap();
+            let shares = twilight::shares_of(sun.elevation_deg, &moon);
+            let why = dark_night(&s);
             match &s.source {
                 sun::SunSource::Moon { sun_elevation_deg, illuminated_fraction, .. } => {
                     moonlit += 1;
-                    assert!(*sun_elevation_deg < NIGHT_SUN_ELEVATION_DEG && moon.elevation_deg > 0.0);
+                    assert!(*sun_elevation_deg < 0.0 && moon.elevation_deg > 0.0);
+                    assert!(shares.moon_share() > 0.5, "{}", shares.describe());
                     assert_eq!((s.azimuth_deg, s.elevation_deg), (moon.azimuth_deg, moon.elevation_deg));
                     assert_eq!(*illuminated_fraction, moon.illuminated_fraction);
                     assert!(s.source.describe().contains("the moon"), "{}", s.source.describe());
+                    assert_eq!(why.is_some(), shares.moon_share() < twilight::DOMINANT_SHARE, "{why:?}");
                 }
                 _ => {
                     assert_eq!(s, sun);
-                    if sun.elevation_deg < NIGHT_SUN_ELEVATION_DEG {
+                    assert!(moon.elevation_deg <= 0.0 || shares.sun_share() >= 0.5, "{}", shares.describe());
+                    if shares.dominant() == twilight::Dominant::Mixed {
+                        mixed += 1;
+                        assert!(why.as_deref().unwrap().contains("no single source"), "{why:?}");
+                    } else if sun.elevation_deg < NIGHT_SUN_ELEVATION_DEG {
                         dark += 1;
-                        assert!(moon.elevation_deg <= 0.0);
+                        assert!(why.is_some());
+                    } else {
+                        assert_eq!(why, None, "{}", shares.describe());
                     }
                 }
             }
         }
-        // About half the night hours have the moon up over a lunar month.
+        // About half the night hours have the moon up over a lunar month; a mixed sky
+        // lasts minutes a day, so few whole hours fall in it.
         assert!(moonlit > 60 && dark > 60, "{moonlit} moonlit hours, {dark} dark ones");
+        assert!(mixed > 0 && mixed < 60, "{mixed} mixed hours");
+    }
+
+    #[test]
+    fn a_civil_twilight_is_the_sun_s_and_a_mixed_one_is_refused_naming_both() {
+        // Shares at a time and place agree with the rule's source and refusal.
+        let t = "2026-06-21T11:40:00Z"; // Qingdao after sunset
+        let s = source_from_time_place(t, 36.07, 120.38).unwrap();
+        let sh = twilight::shares_at(t, 36.07, 120.38).unwrap();
+        assert!(sh.sun_elevation_deg < 0.0 && sh.sun_elevation_deg > -10.0, "{}", sh.describe());
+        assert!(matches!(s.source, sun::SunSource::Spa { .. }) && sh.dominant() == twilight::Dominant::Sun);
+        assert_eq!(dark_night(&s), None);
+        assert!(s.source.describe().contains("twilight: the sun at"), "{}", s.source.describe());
+        // 2026-06-24T12:30Z: the sun at −12.4° and a 75 % moon at 35.5° give about half each.
+        let t = "2026-06-24T12:30:00Z";
+        let sh = twilight::shares_at(t, 36.07, 120.38).unwrap();
+        assert_eq!(sh.dominant(), twilight::Dominant::Mixed, "{}", sh.describe());
+        let why = dark_night(&source_from_time_place(t, 36.07, 120.38).unwrap()).unwrap();
+        let (p, q) = (format!("{:.0} %", 100.0 * sh.sun_share()), format!("{:.0} %", 100.0 * sh.moon_share()));
+        assert!(why.contains(&format!("the sun at -12.4° gives {p}")) && why.contains(&q), "{why}");
+        assert!(why.contains("no single source") && why.contains("refused"), "{why}");
     }
 }

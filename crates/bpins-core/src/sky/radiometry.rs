@@ -23,8 +23,9 @@
 //! airmass, Mauna Kea). Check: the full moon at 40° gives 4.5 mcd/m² (18.5
 //! mag/arcsec²), the sun at 40° 1.8 kcd/m² at the zenith.
 //!
-//! Units: cd/m², lux, degrees. Frame: world ENU. Cannot: twilight (a source below the
-//! horizon: refused, [`Error::OutOfRange`]); aerosols beyond K&S's single k; the
+//! Units: cd/m², lux, degrees. Frame: world ENU. Below the horizon the sun's sky is
+//! twilight's (`sky/twilight.rs`: Patat et al. 2006's zenith, to about −16°). Cannot:
+//! a moon below the horizon (refused, [`Error::OutOfRange`]); aerosols beyond K&S's single k; the
 //! sky's own glow (airglow, starlight, light pollution: the `night_background` scene
 //! element); spectral differences between sunlight and moonlight (both treated as V).
 
@@ -78,7 +79,7 @@ impl SkyLight {
             return Err(Error::OutOfRange {
                 what: format!("{}'s elevation for the sky's absolute brightness", light.name()),
                 value: format!("{elevation_deg:.1}°"),
-                range: "(0°, 90°] (twilight, a source below the horizon, is not modelled)".into(),
+                range: "(0°, 90°] (a source above the horizon; the sun's twilight: `SkyLight::sun`)".into(),
             });
         }
         let zs = 90.0 - elevation_deg;
@@ -88,9 +89,25 @@ impl SkyLight {
         Ok(SkyLight { light, elevation_deg, outside_lux, zenith_cd_m2, unit_cd_m2 })
     }
 
-    /// The sunlit sky with the sun at `elevation_deg`.
+    /// The sunlit sky with the sun at `elevation_deg`: K&S above the horizon; below it
+    /// the twilight sky (`sky/twilight.rs`: Patat et al. 2006) down to
+    /// [`crate::sky::twilight::TWILIGHT_END_DEG`], refused past it (the sun's light is gone).
     pub fn sun(elevation_deg: f64) -> Result<SkyLight> {
-        SkyLight::new(Light::Sun, SUN_OUTSIDE_LUX, elevation_deg)
+        if elevation_deg > 0.0 || !elevation_deg.is_finite() {
+            return SkyLight::new(Light::Sun, SUN_OUTSIDE_LUX, elevation_deg);
+        }
+        let zenith_cd_m2 = crate::sky::twilight::sun_zenith_cd_m2(elevation_deg);
+        if !(elevation_deg > crate::sky::twilight::TWILIGHT_END_DEG && zenith_cd_m2 > 0.0) {
+            return Err(Error::OutOfRange {
+                what: "the sun's elevation for the sky's absolute brightness".into(),
+                value: format!("{elevation_deg:.1}°"),
+                range: "above the end of the sun's twilight (≈ −16°: Patat et al. 2006)".into(),
+            });
+        }
+        // Rayleigh's zenith radiance about a sun below the horizon is ½(1 + sin²h) as above it.
+        let h = elevation_deg.to_radians();
+        let unit_cd_m2 = zenith_cd_m2 / (0.5 * (1.0 + h.sin().powi(2)));
+        Ok(SkyLight { light: Light::Sun, elevation_deg, outside_lux: SUN_OUTSIDE_LUX, zenith_cd_m2, unit_cd_m2 })
     }
 
     /// One line for outputs: which source, its light, the zenith's luminance.
@@ -170,9 +187,11 @@ mod tests {
         assert!((half.zenith_cd_m2 * 2.0 - s.zenith_cd_m2).abs() < 1e-9 * s.zenith_cd_m2);
         let h = 40f64.to_radians();
         assert!((s.unit_cd_m2 * 0.5 * (1.0 + h.sin().powi(2)) - s.zenith_cd_m2).abs() < 1e-9);
-        // Twilight is refused, naming the elevation.
-        let e = SkyLight::sun(-3.0).unwrap_err().to_string();
-        assert!(e.contains("-3.0°") && e.contains("twilight"), "{e}");
+        // Twilight (sky/twilight.rs) down to the sun's last light; past it refused, naming it.
+        let civil = SkyLight::sun(-3.0).unwrap();
+        assert!(civil.zenith_cd_m2 > 1.0 && civil.zenith_cd_m2 < s.zenith_cd_m2, "{}", civil.zenith_cd_m2);
+        let e = SkyLight::sun(-17.0).unwrap_err().to_string();
+        assert!(e.contains("-17.0°") && e.contains("twilight"), "{e}");
     }
 
     #[test]

@@ -71,12 +71,15 @@ impl SunSource {
         match self {
             SunSource::Given => "given in capture.toml".to_string(),
             SunSource::Spa { time_utc, latitude_deg, longitude_deg } => format!(
-                "NREL SPA from {time_utc} at {}, ±0.0003° (apparent sun, standard refraction, 0 m)",
-                place_text(*latitude_deg, *longitude_deg)
+                "NREL SPA from {time_utc} at {}, ±0.0003° (apparent sun, standard refraction, 0 m){}",
+                place_text(*latitude_deg, *longitude_deg),
+                twilight_clause(time_utc, *latitude_deg, *longitude_deg).map_or(String::new(), |t| format!("; {t}"))
             ),
             SunSource::Moon { time_utc, latitude_deg, longitude_deg, illuminated_fraction, sun_elevation_deg } => {
+                let when = twilight_clause(time_utc, *latitude_deg, *longitude_deg)
+                    .unwrap_or_else(|| format!("night: the sun at {sun_elevation_deg:.1}°"));
                 format!(
-                    "the moon (night: the sun at {sun_elevation_deg:.1}°), {:.0} % lit, from {time_utc} at {} \
+                    "the moon ({when}), {:.0} % lit, from {time_utc} at {} \
                      (Meeus ch. 47, topocentric, standard refraction, 0 m)",
                     100.0 * illuminated_fraction,
                     place_text(*latitude_deg, *longitude_deg)
@@ -95,6 +98,18 @@ impl SunSource {
             }
         }
     }
+}
+
+/// The sources' shares where the sun is in twilight (below the horizon, above
+/// [`crate::sky::twilight::TWILIGHT_END_DEG`]): "twilight: the sun at −4.0° gives > 99 % of
+/// the sky's light, the moon (…) < 1 %" (`sky/twilight.rs`); `None` by day and at night.
+fn twilight_clause(time_utc: &str, latitude_deg: f64, longitude_deg: f64) -> Option<String> {
+    let sun = sun_from_time_place(time_utc, latitude_deg, longitude_deg).ok()?;
+    if sun.elevation_deg > 0.0 || sun.elevation_deg <= crate::sky::twilight::TWILIGHT_END_DEG {
+        return None; // day or night: no moon to place
+    }
+    let moon = crate::sky::moon::moon_from_time_place(time_utc, latitude_deg, longitude_deg).ok()?;
+    Some(crate::sky::twilight::shares_of(sun.elevation_deg, &moon).describe())
 }
 
 /// A place as the sources describe it: `36.07°N 120.38°E`.
