@@ -10,10 +10,11 @@
 //!   unexplained after adding sky_dolp_shape, then channel_response and principal_point
 //!   together, with `channel_response`'s offsets flagged unphysical (−990 to −1000 DN).
 //!
-//! Before measuring, one run prints its verdict, each step's iterations and where it
-//! spent its time (`Diagnosis::timings`) to stderr; `BPINS_BENCH_CAPTURE=DIR` runs that
-//! probe on a capture on disk instead (`cargo bench … -- nomatch` to skip the
-//! measurement).
+//! Before measuring, one run prints its verdict, each step's iterations and effect
+//! parameters (value ± 1σ), the top of each step's ranking and where it spent its time
+//! (`Diagnosis::timings`) to stderr (what a speed-up must leave as it was);
+//! `BPINS_BENCH_CAPTURE=DIR` runs that probe on a capture on disk instead
+//! (`cargo bench … -- nomatch` to skip the measurement).
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -86,6 +87,14 @@ fn bench(cr: &mut Criterion) {
     let d = diagnose(&c, &frames, &opts, &say).expect("a diagnosis");
     for s in &d.steps {
         eprintln!("  step {:?}: {} iterations, χ²/dof {:.4}", s.model, s.fit.iterations, s.fit.chi2_per_dof);
+        for p in &s.fit.params {
+            eprintln!("    {} = {:.6} ± {:.6} {}", p.name, p.value, p.sigma, p.unit);
+        }
+    }
+    for (i, r) in d.rankings.iter().enumerate() {
+        let top: Vec<String> =
+            r.iter().take(3).map(|c| format!("{} Δχ² {:.1} ({:?})", c.effect, c.delta_chi2, c.evidence)).collect();
+        eprintln!("  ranking {i}: {}", top.join(", "));
     }
     eprintln!(
         "glare 612×512: unexplained {}, named {:?}, steps {:?}\n  {}",

@@ -1,5 +1,6 @@
 //! Diagnosis: which catalog effect the model lacks. A sibling of [`crate::fit`] that
-//! uses it through a narrow interface: `fit_from` (a fit from a starting state),
+//! uses it through a narrow interface: `fit_from` (a fit from a starting state;
+//! `fit_every_pixel_from`, the same without the subsampled stage, from a subsampled optimum),
 //! `fit::solver::subfit` (the same on a subsample), `fit::uncertainty::score` (the
 //! score test of a candidate), the frames and the residual's maps and profiles.
 //!

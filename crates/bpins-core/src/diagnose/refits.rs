@@ -42,7 +42,7 @@ use crate::error::Result;
 use crate::fit::input::frames::FitFrames;
 use crate::fit::solver::subfit::{fit_subsampled, SubFit};
 use crate::fit::uncertainty::score::score_candidates;
-use crate::fit::{fit_from, FitOptions, FitResult};
+use crate::fit::{fit_every_pixel_from, FitOptions, FitResult};
 
 /// Candidates whose projected every-pixel ΔBIC lie within this many
 /// [`BIC_THRESHOLD`]s of the leader's (beyond their 3σ spread) are converged on every
@@ -175,7 +175,9 @@ pub(crate) fn refit_on_subsample(
 }
 
 /// Converges `refit` on every pixel from its subsampled optimum and fills its
-/// candidate's figures from that fit (the every-pixel ΔBIC against `current`).
+/// candidate's figures from that fit (the every-pixel ΔBIC against `current`). The
+/// every-pixel stage only (`fit::fit_every_pixel_from`): the subsampled stage would
+/// stop at once at that optimum, after a pass over the subsample for nothing.
 pub(crate) fn converge(
     c: &Capture,
     frames: &FitFrames,
@@ -183,7 +185,7 @@ pub(crate) fn converge(
     refit: &mut Refit,
     cand: &mut Candidate,
 ) -> Result<()> {
-    let r = fit_from(c, frames, &refit.model, Some(&refit.sub.state), &|_, _| {})?;
+    let r = fit_every_pixel_from(c, frames, &refit.model, &refit.sub.state)?;
     cand.added_rank = r.rank.saturating_sub(current.rank);
     cand.identifiable = cand.added_rank > 0;
     cand.delta_chi2 = current.chi2 - r.chi2;

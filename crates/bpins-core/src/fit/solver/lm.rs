@@ -4,7 +4,8 @@
 //! nuisances eliminated, the globals solved on the Schur complement, the frames'
 //! steps back-substituted (`crate::fit::solver::schur`, the dense pseudo-inverse's numbers in
 //! time and memory linear in the frames). Iterations first run on
-//! every third row and column (all channels), then on every pixel until converged.
+//! every third row and column (all channels), then on every pixel until converged
+//! (from a subsampled optimum, every pixel only: [`minimise_every_pixel`]).
 
 use crate::error::Result;
 use crate::fit::model::accumulate::Accum;
@@ -42,6 +43,17 @@ pub(crate) fn minimise(
 /// its candidates); the sums returned, where given, are on that subsample.
 pub(crate) fn minimise_subsampled(pb: &Problem, theta: Vec<f64>) -> Result<(Vec<f64>, usize, Option<Accum>)> {
     minimise_stages(pb, theta, &STAGES[..1], &|_, _| {})
+}
+
+/// [`minimise`] through the every-pixel stage only: from a subsampled optimum (a
+/// diagnosis's candidate, `diagnose::refits::converge`) the subsampled stage would
+/// stop at once, after one pass over the subsample for nothing.
+pub(crate) fn minimise_every_pixel(
+    pb: &Problem,
+    theta: Vec<f64>,
+    progress: &dyn Fn(&str, usize),
+) -> Result<(Vec<f64>, usize, Option<Accum>)> {
+    minimise_stages(pb, theta, &STAGES[1..], progress)
 }
 
 /// [`minimise`] through `stages`; the sums returned are at the last stage's stride.
