@@ -158,10 +158,14 @@ pub struct Cells {
 
 impl Cells {
     /// The cell size for a `width × height` image: even, about 1/64 of the shorter
-    /// side (so the estimator's cost does not grow with the sensor), at least 2.
+    /// side (so the estimator's cost does not grow with the sensor), at least 4: a
+    /// cell of 2 holds one pixel of each DoFP channel, so neither its gradient (the
+    /// move to the cell's centre, module doc) nor its scatter (the noise) can be read
+    /// from it (measured: a 128 × 128 frame of 27.6 µm pixels behind an 8 mm lens read
+    /// on cells of 2 px was 0.07–0.13° off at up to 10σ; on cells of 4 px, ≤ 0.017°).
     pub fn default_cell_px(width_px: usize, height_px: usize) -> usize {
         let c = (width_px.min(height_px) as f64 / 64.0).round() as usize;
-        (c.max(2) + 1) & !1
+        (c.max(4) + 1) & !1
     }
 
     /// Grid cells in all, usable or not.

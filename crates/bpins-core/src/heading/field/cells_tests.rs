@@ -116,5 +116,6 @@ fn a_gradient_is_read_at_the_cell_centre_not_at_the_channel_centroids() {
 fn default_cell_size_is_even_and_scales_with_the_sensor() {
     assert_eq!(Cells::default_cell_px(612, 512), 8);
     assert_eq!(Cells::default_cell_px(2448, 2048), 32);
-    assert_eq!(Cells::default_cell_px(64, 48), 2);
+    assert_eq!(Cells::default_cell_px(64, 48), 4);
+    assert_eq!(Cells::default_cell_px(128, 128), 4);
 }
