@@ -108,7 +108,9 @@ pub fn run_merge(a: MergeArgs) -> anyhow::Result<()> {
 /// The paired difference of a row's errors from the nominal chain's on the same trials
 /// (same sun, same field conditions): its mean and that mean's 1σ, degrees.
 fn against_nominal(r: &Row, nominal: &[Row]) -> Option<(f64, f64)> {
-    let n = nominal.iter().find(|n| n.extractor == r.extractor && n.sun_elevation_deg == r.sun_elevation_deg)?;
+    let n = nominal
+        .iter()
+        .find(|n| n.extractor == r.extractor && n.sun_elevation_deg == r.sun_elevation_deg && n.band == r.band)?;
     if n.errors_deg.len() != r.errors_deg.len() {
         return None;
     }
@@ -117,14 +119,32 @@ fn against_nominal(r: &Row, nominal: &[Row]) -> Option<(f64, f64)> {
     (count > 1).then(|| (mean, std / (count as f64).sqrt()))
 }
 
+/// The extractor cell: a colour sensor's with its band (`sun_vector R`, `sun_vector
+/// fused`), a monochrome one's as it was.
+fn extractor_cell(extractor: &str, band: &Option<String>) -> String {
+    match band {
+        Some(b) => format!("{extractor} {b}"),
+        None => extractor.to_string(),
+    }
+}
+
 /// The table, the nominal chain's own error (where it was computed: not on `merge`) and
 /// the budget.
 fn print_rows(s: &Summary, nominal: &[Row]) -> anyhow::Result<()> {
     out!("Heading error, degrees ({} trials per source and sun elevation)", s.trials_per_source);
+    let colour = s.rows.iter().any(|r| r.band.is_some());
+    // The extractor column's width: a colour sensor's cells carry the band.
+    let xw = if colour { 20 } else { 14 };
+    if colour {
+        out!(
+            "colour sensor: a row per band (R, G, B: each from its own superpixels) and `fused` (their \
+             inverse-variance mean on each extractor's 1σ)"
+        );
+    }
     out!(
-        "{:<20} {:<14} {:>8} {:<8} {:>10} {:>9} {:>9} {:>9} {:>9} {:>7}  {}",
+        "{:<20} {:<xw$} {:>8} {:<8} {:>10} {:>9} {:>9} {:>9} {:>9} {:>7}  {}",
         "source",
-        "extractor",
+        if colour { "extractor band" } else { "extractor" },
         "sun (°)",
         "known",
         "mean (°)",
@@ -145,9 +165,9 @@ fn print_rows(s: &Summary, nominal: &[Row]) -> anyhow::Result<()> {
             })
         };
         out!(
-            "{:<20} {:<14} {:>8} {:<8} {:>+10.4} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>7}  {}",
+            "{:<20} {:<xw$} {:>8} {:<8} {:>+10.4} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>7}  {}",
             r.source,
-            r.extractor,
+            extractor_cell(&r.extractor, &r.band),
             r.sun_elevation_deg,
             r.known.map(|k| if k { "known" } else { "unknown" }).unwrap_or("—"),
             r.mean_deg,
@@ -173,7 +193,7 @@ fn print_rows(s: &Summary, nominal: &[Row]) -> anyhow::Result<()> {
             b.shares.iter().map(|x| format!("{} {:.0} %", x.source, 100.0 * x.share_of_sum)).collect();
         out!(
             "budget {} at sun {}°{}: {} of Σσ²; σ combined {:.4}°, √Σσ² {:.4}° ({}); each σ ± {:.0} % from {} trials",
-            b.extractor,
+            extractor_cell(&b.extractor, &b.band),
             b.sun_elevation_deg,
             b.known.map(|k| if k { " (known)" } else { " (unknown)" }).unwrap_or(""),
             shares.join(", "),

@@ -17,7 +17,8 @@
 //!                                  # default: order of first appearance in [[errors]]
 //!
 //! [sensor]                         # exactly a capture's [sensor] (docs/spec/CAPTURE.md)
-//! layout = "colocated"             # or "dofp" (2 × 2 superpixels)
+//! layout = "colocated"             # or "dofp" (2 × 2 superpixels); a dofp sensor with
+//!                                  # colour_tiles is swept band by band (below)
 //! width_px = 1224
 //! height_px = 1024
 //! pixel_pitch_um = 3.45
@@ -75,7 +76,15 @@
 //! `budget`: each source's share of the combined variance and whether they add in
 //! quadrature), `summary.csv`, `budget.csv`, `report.html`, every trial's error in
 //! `trials.csv`, and `shard.toml` written last (the slice is complete).
+//!
+//! # A colour-polarization sensor
+//!
+//! With `[sensor] colour_tiles` each trial is the colour mosaic, read band by band
+//! (`colour.rs`): every row, budget and trial line carries `band` (`R`, `G`, `B`, or
+//! `fused`: their inverse-variance mean), a `band` column after `known` in the CSV
+//! files; a monochrome sensor's outputs have none. CPU backend only.
 
+mod colour;
 mod edge_point;
 mod parse;
 mod report;
@@ -84,11 +93,12 @@ mod spec;
 mod stats;
 mod store;
 
+pub use colour::{band_columns, colour_heading_sums, fuse as fuse_bands, BandColumn, ColourSumsJob};
 pub use edge_point::heading as edge_point_heading;
 pub use report::html as report_html;
 pub use run::{
-    columns, draws, nominal_rows, peak, run_units, unit, unit_count, unit_index, variants, CpuSums, Reading, Shard,
-    SumsEngine, SumsJob, TrialRecord, TrialSetup, Unit, MAX_CONTEXTS, NOMINAL,
+    columns, draws, nominal_rows, peak, record_columns, run_units, unit, unit_count, unit_index, variants, CpuSums,
+    Reading, Shard, SumsEngine, SumsJob, TrialRecord, TrialSetup, Unit, MAX_CONTEXTS, NOMINAL,
 };
 pub use spec::{Distribution, ErrorSpec, Known, Per, PixelNoise, SweepExtractor, SweepSpec, Target, COMBINED, FORMAT};
 pub use stats::{describe, percentile_sorted, summarise, Budget, Row, Share, Summary, SUMMARY_FORMAT};

@@ -236,17 +236,6 @@ impl SweepSpec {
                 "edge_point reads the ring pixel by pixel: it needs [sensor] layout = \"colocated\"".into(),
             ));
         }
-        // A colour sensor's trials would be rendered and read as monochrome: refused by
-        // name (docs/colour.md), not swept as the wrong sensor.
-        if sensor.colour.is_some() {
-            return Err(bad(
-                p,
-                "sensor.colour_tiles",
-                "a colour-polarization sensor: `bpins sweep` does not render and read one band by band yet, and \
-                 its trials would be a monochrome sensor's; sweep the sensor without colour_tiles"
-                    .into(),
-            ));
-        }
         if let Layout::Dofp { .. } = sensor.layout {
             if sensor.geometry.width_px < 2 || sensor.geometry.height_px < 2 {
                 return Err(bad(p, "sensor.width_px", "a DoFP sensor needs at least 2 × 2 px".into()));

@@ -13,6 +13,12 @@ const TEMPLATE: &str = include_str!("report.html");
 
 const COLOURS: [&str; 8] = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf"];
 
+/// A colour sensor's band after its extractor (` · R`, ` · fused`); nothing on a
+/// monochrome sensor.
+fn band_label(b: &Option<String>) -> String {
+    b.as_ref().map(|b| format!(" · {b}")).unwrap_or_default()
+}
+
 fn known_label(k: Option<bool>) -> &'static str {
     match k {
         Some(true) => " (known)",
@@ -103,7 +109,7 @@ pub fn html(spec: &SweepSpec, summary: &Summary) -> Result<String> {
         .map(|r| {
             vec![
                 r.source.clone(),
-                r.extractor.clone(),
+                format!("{}{}", r.extractor, band_label(&r.band)),
                 r.sun_elevation_deg.to_string(),
                 known(r.known),
                 format!("{:+.4} ± {:.4}", r.mean_deg, r.mean_sigma_deg),
@@ -123,7 +129,7 @@ pub fn html(spec: &SweepSpec, summary: &Summary) -> Result<String> {
             let shares: Vec<String> =
                 b.shares.iter().map(|s| format!("{} {:.1} %", s.source, 100.0 * s.share_of_sum)).collect();
             [
-                b.extractor.clone(),
+                format!("{}{}", b.extractor, band_label(&b.band)),
                 b.sun_elevation_deg.to_string(),
                 known(b.known),
                 shares.join("; "),
@@ -140,9 +146,12 @@ pub fn html(spec: &SweepSpec, summary: &Summary) -> Result<String> {
         trials: summary.trials_per_source.to_string(),
         width_px: spec.sensor.geometry.width_px.to_string(),
         height_px: spec.sensor.geometry.height_px.to_string(),
-        layout: match spec.sensor.layout {
-            crate::sensor::Layout::Dofp { .. } => "DoFP",
-            crate::sensor::Layout::Colocated { .. } => "colocated",
+        layout: match (&spec.sensor.layout, &spec.sensor.colour) {
+            (crate::sensor::Layout::Dofp { .. }, None) => "DoFP",
+            (crate::sensor::Layout::Dofp { .. }, Some(_)) => {
+                "colour DoFP (each band from its own superpixels; fused: their inverse-variance mean)"
+            }
+            (crate::sensor::Layout::Colocated { .. }, _) => "colocated",
         },
         elevations: summary.sun_elevations_deg.iter().map(|e| e.to_string()).collect::<Vec<_>>().join(", "),
         sources,
@@ -162,7 +171,7 @@ fn elevation_plot(summary: &Summary, ex: &str) -> Plot {
     let rows: Vec<&Row> = summary.rows.iter().filter(|r| r.extractor == ex && r.std_deg.is_finite()).collect();
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     for r in &rows {
-        let name = format!("{}{}", r.source, known_label(r.known));
+        let name = format!("{}{}{}", r.source, known_label(r.known), band_label(&r.band));
         match series.iter_mut().find(|(n, _)| *n == name) {
             Some((_, pts)) => pts.push((r.sun_elevation_deg, r.std_deg)),
             None => series.push((name, vec![(r.sun_elevation_deg, r.std_deg)])),
@@ -209,7 +218,14 @@ fn elevation_plot(summary: &Summary, ex: &str) -> Plot {
 fn histogram(r: &Row) -> Histogram {
     let (w, hgt, m) = (240.0, 120.0, 20.0);
     let ok: Vec<f64> = r.errors_deg.iter().copied().filter(|v| v.is_finite()).collect();
-    let label = format!("{} · {}{} · sun {}°", r.source, r.extractor, known_label(r.known), r.sun_elevation_deg);
+    let label = format!(
+        "{} · {}{}{} · sun {}°",
+        r.source,
+        r.extractor,
+        band_label(&r.band),
+        known_label(r.known),
+        r.sun_elevation_deg
+    );
     if ok.is_empty() {
         return Histogram { label, bars: Vec::new(), low: None, high: None };
     }

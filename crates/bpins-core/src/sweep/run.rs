@@ -16,6 +16,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
+use super::colour::{band_columns, colour_heading_sums, fuse, BandColumn, ColourSumsJob};
 use super::spec::{Known, Per, PixelNoise, SweepExtractor, SweepSpec, Target};
 use crate::camera::Intrinsics;
 use crate::chain::{ChainFrame, NoiseIndex, Scene};
@@ -25,7 +26,7 @@ use crate::error::Result;
 use crate::heading::{Extractor, HeadingContext, HeadingSums};
 use crate::noise::{stream, FrameKey};
 use crate::recon::Reconstructor;
-use crate::sensor::{Channel, Layout, Response};
+use crate::sensor::{Channel, ColourTiles, Layout, Response};
 use crate::simulate::{colocated_heading_sums, mosaic_heading_sums, peak_intensity};
 
 /// One trial of the plan.
@@ -100,13 +101,21 @@ pub fn columns(spec: &SweepSpec, source: usize) -> Vec<(SweepExtractor, Option<b
     spec.extractors.iter().flat_map(|&e| v.iter().map(move |&k| (e, k))).collect()
 }
 
+/// The columns of a source's trial record with their band: every [`columns`] entry
+/// once per [`band_columns`] (`None` alone on a monochrome sensor, so its record is
+/// [`columns`]; R, G, B, fused on a colour one).
+pub fn record_columns(spec: &SweepSpec, source: usize) -> Vec<(SweepExtractor, Option<bool>, Option<BandColumn>)> {
+    let bands = band_columns(spec);
+    columns(spec, source).into_iter().flat_map(|(e, k)| bands.iter().map(move |&b| (e, k, b))).collect()
+}
+
 /// One trial's outcome.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrialRecord {
     pub unit: Unit,
     pub sun_azimuth_deg: f64,
     /// Heading error, degrees (NaN where the extractor gave no heading), by
-    /// [`columns`] of the unit's source.
+    /// [`record_columns`] of the unit's source.
     pub errors_deg: Vec<f64>,
 }
 
@@ -147,6 +156,9 @@ pub struct TrialSetup {
     pub sun_azimuth_deg: f64,
     /// The true chain (drawn errors folded in).
     pub frame: ChainFrame,
+    /// A colour sensor's: the true chain of each band (`frame` in the band, by
+    /// [`crate::sensor::Band::index`]: [`ChainFrame::bands`]); `None` on a monochrome one.
+    pub band_frames: Option<Box<[ChainFrame; 3]>>,
     pub readings: Vec<Reading>,
     /// Per variant, (reading, context) of its sums.
     slots: Vec<(usize, usize)>,
@@ -198,14 +210,16 @@ impl TrialSetup {
             }
         }
         let field = spec.field_scene(u.trial);
+        let model = truth.model();
         let frame = ChainFrame::new_in_field(
-            &truth.model(),
+            &model,
             &nominal,
             &scene,
             &resp,
             NoiseIndex { seed: spec.seed, trial: u.trial as u32, frame: u.source as u32 },
             field.as_ref(),
         );
+        let band_frames = spec.sensor.colour.as_ref().map(|_| Box::new(frame.bands(&model, &scene)));
         let variants = variants(spec, u.source);
         let channels = spec.channels();
         let mut readings: Vec<Reading> = Vec::new();
@@ -224,7 +238,7 @@ impl TrialSetup {
                 }
             }
         }
-        Ok(TrialSetup { unit: u, sun_azimuth_deg: sun_az, frame, readings, slots, variants })
+        Ok(TrialSetup { unit: u, sun_azimuth_deg: sun_az, frame, band_frames, readings, slots, variants })
     }
 
     /// Solves every extractor from the readings' sums (`sums[reading][context]`).
@@ -250,6 +264,28 @@ impl TrialSetup {
                     }
                 };
                 errors_deg.push(heading.map(|hd| wrap_deg_180(hd - 0.0)).unwrap_or(f64::NAN));
+            }
+        }
+        TrialRecord { unit: self.unit, sun_azimuth_deg: self.sun_azimuth_deg, errors_deg }
+    }
+
+    /// A colour sensor's: every extractor from each band's sums
+    /// (`sums[reading][context][band]`), each band's heading error then the fused one
+    /// ([`record_columns`]' order). The plain extractors only (`edge_point` reads a
+    /// colocated sensor, never a colour one).
+    pub fn finish_colour(&self, spec: &SweepSpec, sums: &[Vec<[HeadingSums; 3]>]) -> TrialRecord {
+        let mut errors_deg = Vec::with_capacity(spec.extractors.len() * self.variants.len() * BandColumn::ALL.len());
+        for &e in &spec.extractors {
+            for &(r, c) in &self.slots {
+                let ctx = &self.readings[r].contexts[c];
+                let est = sums[r][c].map(|s| match e {
+                    SweepExtractor::Plain(e) => s.solve(e, ctx).ok(),
+                    SweepExtractor::EdgePoint => None,
+                });
+                let fused = fuse(&est);
+                for heading in est.iter().map(|x| x.map(|x| x.heading_deg)).chain([fused]) {
+                    errors_deg.push(heading.map(|hd| wrap_deg_180(hd - 0.0)).unwrap_or(f64::NAN));
+                }
             }
         }
         TrialRecord { unit: self.unit, sun_azimuth_deg: self.sun_azimuth_deg, errors_deg }
@@ -353,6 +389,29 @@ pub trait SumsEngine: Sync {
         true
     }
 
+    /// Per job, one set of each band's sums per context (`[band][…]` by
+    /// [`crate::sensor::Band::index`]), for a colour DoFP sensor of `mosaic` and `tiles`,
+    /// `w × h` px ([`colour_heading_sums`]). Refused unless the engine implements it
+    /// (the CPU does; the GPU does not yet).
+    #[allow(clippy::too_many_arguments)]
+    fn colour_heading_sums(
+        &self,
+        jobs: &[ColourSumsJob],
+        mosaic: &[[Channel; 2]; 2],
+        tiles: &ColourTiles,
+        w: usize,
+        h: usize,
+        mask_full_scale_dn: f64,
+    ) -> Result<Vec<Vec<[HeadingSums; 3]>>> {
+        let _ = (jobs, mosaic, tiles, w, h, mask_full_scale_dn);
+        Err(crate::Error::Backend {
+            backend: self.name().to_string(),
+            message: "a colour-polarization sensor ([sensor] colour_tiles) is swept on the CPU backend only; use \
+                      --backend cpu"
+                .into(),
+        })
+    }
+
     /// Trials per call (progress is reported between calls).
     fn batch(&self) -> usize {
         64
@@ -392,6 +451,21 @@ impl SumsEngine for CpuSums {
                     .map(|ctx| mosaic_heading_sums(j.frame, w, h, mosaic, j.rec, mask_full_scale_dn, ctx))
                     .collect(),
             })
+            .collect())
+    }
+
+    fn colour_heading_sums(
+        &self,
+        jobs: &[ColourSumsJob],
+        mosaic: &[[Channel; 2]; 2],
+        tiles: &ColourTiles,
+        w: usize,
+        h: usize,
+        mask_full_scale_dn: f64,
+    ) -> Result<Vec<Vec<[HeadingSums; 3]>>> {
+        Ok(jobs
+            .par_iter()
+            .map(|j| colour_heading_sums(j.frames, w, h, mosaic, tiles, j.rec, mask_full_scale_dn, j.contexts))
             .collect())
     }
 
@@ -437,6 +511,22 @@ pub fn run_units(
                 TrialSetup::new(spec, *u, p)
             })
             .collect::<Result<Vec<_>>>()?;
+        if let (Some(tiles), Layout::Dofp { mosaic }) = (&spec.sensor.colour, &spec.sensor.layout) {
+            // A colour sensor: each band's sums, from the colour mosaic (colour.rs).
+            let jobs: Vec<ColourSumsJob> = setups
+                .iter()
+                .flat_map(|t| {
+                    let frames = t.band_frames.as_deref().expect("a colour sensor's setup has its bands");
+                    t.readings.iter().map(move |r| ColourSumsJob { frames, rec: &r.rec, contexts: &r.contexts })
+                })
+                .collect();
+            let mut sums = engine.colour_heading_sums(&jobs, mosaic, tiles, w, h, full)?.into_iter();
+            let per_trial: Vec<Vec<Vec<[HeadingSums; 3]>>> =
+                setups.iter().map(|t| sums.by_ref().take(t.readings.len()).collect()).collect();
+            out.par_extend(setups.par_iter().zip(per_trial.par_iter()).map(|(t, s)| t.finish_colour(spec, s)));
+            progress(out.len(), total);
+            continue;
+        }
         let jobs: Vec<SumsJob> = setups
             .iter()
             .flat_map(|t| t.readings.iter().map(|r| SumsJob { frame: &t.frame, rec: &r.rec, contexts: &r.contexts }))

@@ -450,15 +450,16 @@ mod tests {
         assert!(e.contains("my-sweep.toml") && e.contains("pixel_pitch_um"), "{e}");
         let e = err_of(&TINY.replacen("[lens]", "[lens]\nfocal = 3", 1));
         assert!(e.contains("my-sweep.toml") && e.contains("focal"), "{e}");
-        // A colour sensor is refused by name, not swept as a monochrome one.
+        // A colour sensor is swept band by band (colour.rs); its tiles are a DoFP
+        // sensor's, as a capture's are.
         let colour = TINY.replacen("layout = \"colocated\"", "layout = \"dofp\"", 1).replacen(
             "channels = [0, 45, 90]",
             "colour_tiles = [[\"R\", \"G\"], [\"G\", \"B\"]]",
             1,
         );
-        let e = err_of(&colour);
-        assert!(e.contains("sensor.colour_tiles") && e.contains("band by band"), "{e}");
-        assert!(parse(&colour.replacen("colour_tiles = [[\"R\", \"G\"], [\"G\", \"B\"]]", "", 1)).is_ok());
+        assert!(parse(&colour).unwrap().sensor.colour.is_some());
+        let e = err_of(&TINY.replacen("channels = [0, 45, 90]", "colour_tiles = [[\"R\", \"G\"], [\"G\", \"B\"]]", 1));
+        assert!(e.contains("my-sweep.toml") && e.contains("colour_tiles is for layout = \"dofp\""), "{e}");
     }
 
     #[test]

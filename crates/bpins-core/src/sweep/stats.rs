@@ -8,7 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::run::{columns, TrialRecord};
+use super::run::{record_columns, TrialRecord};
 use super::spec::{SweepSpec, COMBINED};
 
 /// The summary's format name.
@@ -24,6 +24,10 @@ pub struct Row {
     /// absent where it has none.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub known: Option<bool>,
+    /// A colour sensor's band (`R`, `G`, `B`) or `fused` (their inverse-variance
+    /// mean); absent on a monochrome sensor.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub band: Option<String>,
     pub mean_deg: f64,
     /// The mean's own 1σ, σ/√n: a mean within about twice it is the trials' scatter,
     /// not a bias (absent in summaries written before it was added).
@@ -67,6 +71,9 @@ pub struct Budget {
     pub sun_elevation_deg: f64,
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub known: Option<bool>,
+    /// A colour sensor's band or `fused`, as [`Row::band`]; absent on a monochrome one.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub band: Option<String>,
     pub shares: Vec<Share>,
     pub combined_std_deg: f64,
     /// √(Σ σ²) over the single sources: the combined σ if they add in quadrature.
@@ -138,7 +145,7 @@ pub fn summarise(spec: &SweepSpec, records: &[TrialRecord]) -> Summary {
             if mine.is_empty() {
                 continue;
             }
-            for (ci, (e, known)) in columns(spec, si).into_iter().enumerate() {
+            for (ci, (e, known, band)) in record_columns(spec, si).into_iter().enumerate() {
                 let errs: Vec<f64> = mine.iter().map(|r| r.errors_deg[ci]).collect();
                 let ([mean, std, rms, p95, max], n, failed) = describe(&errs);
                 rows.push(Row {
@@ -146,6 +153,7 @@ pub fn summarise(spec: &SweepSpec, records: &[TrialRecord]) -> Summary {
                     extractor: e.name().to_string(),
                     sun_elevation_deg: el,
                     known,
+                    band: band.map(|b| b.name().to_string()),
                     mean_deg: mean,
                     mean_sigma_deg: if n > 0 { std / (n as f64).sqrt() } else { f64::NAN },
                     std_deg: std,
@@ -186,6 +194,7 @@ fn budget(spec: &SweepSpec, rows: &[Row]) -> Vec<Budget> {
                         && r.extractor == c.extractor
                         && r.sun_elevation_deg == c.sun_elevation_deg
                         && (r.known == c.known || r.known.is_none())
+                        && r.band == c.band
                 })
                 .cloned()
         };
@@ -213,6 +222,7 @@ fn budget(spec: &SweepSpec, rows: &[Row]) -> Vec<Budget> {
             extractor: c.extractor.clone(),
             sun_elevation_deg: c.sun_elevation_deg,
             known: c.known,
+            band: c.band.clone(),
             shares,
             combined_std_deg: c.std_deg,
             root_sum_square_deg: rss,
@@ -228,19 +238,38 @@ fn budget(spec: &SweepSpec, rows: &[Row]) -> Vec<Budget> {
     out
 }
 
+/// A colour sensor's CSV column after `known`: `band,` in the header and each line;
+/// nothing on a monochrome sensor (its files are what they were).
+fn band_cell(colour: bool, band: &Option<String>) -> String {
+    if colour {
+        format!("{},", band.as_deref().unwrap_or_default())
+    } else {
+        String::new()
+    }
+}
+
 impl Summary {
-    /// The rows as CSV (one header line; `known` empty where it does not apply).
+    /// Whether the rows are a colour sensor's (they carry a band).
+    fn colour(&self) -> bool {
+        self.rows.iter().any(|r| r.band.is_some())
+    }
+
+    /// The rows as CSV (one header line; `known` empty where it does not apply; a
+    /// colour sensor's with a `band` column after it: R, G, B or fused).
     pub fn rows_csv(&self) -> String {
-        let mut s = String::from(
-            "source,extractor,sun_elevation_deg,known,mean_deg,std_deg,rms_deg,p95_deg,max_abs_deg,trials,failed,mean_sigma_deg\n",
+        let colour = self.colour();
+        let mut s = format!(
+            "source,extractor,sun_elevation_deg,known,{}mean_deg,std_deg,rms_deg,p95_deg,max_abs_deg,trials,failed,mean_sigma_deg\n",
+            if colour { "band," } else { "" }
         );
         for r in &self.rows {
             s += &format!(
-                "{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                "{},{},{},{},{}{},{},{},{},{},{},{},{}\n",
                 r.source,
                 r.extractor,
                 r.sun_elevation_deg,
                 r.known.map(|k| k.to_string()).unwrap_or_default(),
+                band_cell(colour, &r.band),
                 r.mean_deg,
                 r.std_deg,
                 r.rms_deg,
@@ -254,18 +283,22 @@ impl Summary {
         s
     }
 
-    /// The budget as CSV, one line per (extractor, elevation, known, source).
+    /// The budget as CSV, one line per (extractor, elevation, known, source); a colour
+    /// sensor's per band too (a `band` column after `known`).
     pub fn budget_csv(&self) -> String {
-        let mut s = String::from(
-            "extractor,sun_elevation_deg,known,source,variance_deg2,share_of_combined,combined_std_deg,root_sum_square_deg,adds_in_quadrature,share_of_sum\n",
+        let colour = self.colour();
+        let mut s = format!(
+            "extractor,sun_elevation_deg,known,{}source,variance_deg2,share_of_combined,combined_std_deg,root_sum_square_deg,adds_in_quadrature,share_of_sum\n",
+            if colour { "band," } else { "" }
         );
         for b in &self.budget {
             for sh in &b.shares {
                 s += &format!(
-                    "{},{},{},{},{},{},{},{},{},{}\n",
+                    "{},{},{},{}{},{},{},{},{},{},{}\n",
                     b.extractor,
                     b.sun_elevation_deg,
                     b.known.map(|k| k.to_string()).unwrap_or_default(),
+                    band_cell(colour, &b.band),
                     sh.source,
                     sh.variance_deg2,
                     sh.share_of_combined,

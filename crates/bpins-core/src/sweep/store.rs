@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::run::{columns, unit_count, unit_index, Shard, TrialRecord, Unit};
+use super::run::{record_columns, unit_count, unit_index, Shard, TrialRecord, Unit};
 use super::spec::{bad, SweepSpec};
 use super::stats::{summarise, Summary};
 use crate::error::{Error, Result};
@@ -193,6 +193,18 @@ pub fn write_outputs(spec: &SweepSpec, records: &[TrialRecord], dir: &Path) -> R
 
 const TRIALS_HEADER: &str = "sun_elevation_deg,source,trial,sun_azimuth_deg,extractor,known,error_deg";
 
+/// A colour sensor's `trials.csv` header: a line per band (R, G, B) and fused.
+const COLOUR_TRIALS_HEADER: &str = "sun_elevation_deg,source,trial,sun_azimuth_deg,extractor,known,band,error_deg";
+
+/// The header of `spec`'s `trials.csv`.
+fn trials_header(spec: &SweepSpec) -> &'static str {
+    if spec.sensor.colour.is_some() {
+        COLOUR_TRIALS_HEADER
+    } else {
+        TRIALS_HEADER
+    }
+}
+
 /// Every trial's every error, one line each, in unit order. Numbers are written in
 /// Rust's shortest round-trip form, so reading them back gives the same bits.
 fn write_trials(spec: &SweepSpec, records: &[TrialRecord], path: &Path) -> Result<()> {
@@ -200,19 +212,20 @@ fn write_trials(spec: &SweepSpec, records: &[TrialRecord], path: &Path) -> Resul
     recs.sort_by_key(|r| r.unit);
     write_with(path, Replace::Allowed, |w| {
         let io = |e| Error::Io { path: path.to_path_buf(), source: e };
-        writeln!(w, "{TRIALS_HEADER}").map_err(io)?;
+        writeln!(w, "{}", trials_header(spec)).map_err(io)?;
         for r in recs {
-            let cols = columns(spec, r.unit.source);
-            for ((e, known), err) in cols.iter().zip(&r.errors_deg) {
+            let cols = record_columns(spec, r.unit.source);
+            for ((e, known, band), err) in cols.iter().zip(&r.errors_deg) {
                 writeln!(
                     w,
-                    "{},{},{},{},{},{},{}",
+                    "{},{},{},{},{},{},{}{}",
                     spec.sun_elevations_deg[r.unit.elevation],
                     spec.sources[r.unit.source],
                     r.unit.trial,
                     r.sun_azimuth_deg,
                     e.name(),
                     known.map(|k| k.to_string()).unwrap_or_default(),
+                    band.map(|b| format!("{},", b.name())).unwrap_or_default(),
                     err
                 )
                 .map_err(io)?;
@@ -226,17 +239,19 @@ fn write_trials(spec: &SweepSpec, records: &[TrialRecord], path: &Path) -> Resul
 pub fn read_trials(spec: &SweepSpec, path: &Path) -> Result<Vec<TrialRecord>> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?;
     let mut lines = text.lines().enumerate();
+    let header = trials_header(spec);
+    let fields = header.split(',').count();
     match lines.next() {
-        Some((_, h)) if h == TRIALS_HEADER => {}
-        _ => return Err(bad(path, "line 1", format!("expected the header {TRIALS_HEADER}"))),
+        Some((_, h)) if h == header => {}
+        _ => return Err(bad(path, "line 1", format!("expected the header {header}"))),
     }
     let mut by_unit: BTreeMap<usize, TrialRecord> = BTreeMap::new();
     for (i, line) in lines {
         let at = format!("line {}", i + 1);
         let f: Vec<&str> = line.split(',').collect();
         let num = |s: &str| s.parse::<f64>().map_err(|_| bad(path, &at, format!("`{s}` is not a number")));
-        if f.len() != 7 {
-            return Err(bad(path, &at, "expected 7 comma-separated fields".into()));
+        if f.len() != fields {
+            return Err(bad(path, &at, format!("expected {fields} comma-separated fields")));
         }
         let el = num(f[0])?;
         let elevation = spec
@@ -261,16 +276,21 @@ pub fn read_trials(spec: &SweepSpec, path: &Path) -> Result<Vec<TrialRecord>> {
         });
         rec.sun_azimuth_deg = num(f[3])?;
         let col = rec.errors_deg.len();
-        let cols = columns(spec, source);
+        let cols = record_columns(spec, source);
         let want = cols.get(col).ok_or_else(|| bad(path, &at, "more columns than the sweep has".into()))?;
         let known = want.1.map(|k| k.to_string()).unwrap_or_default();
         if want.0.name() != f[4] || known != f[5] {
             return Err(bad(path, &at, format!("expected extractor {} known `{known}`", want.0.name())));
         }
-        rec.errors_deg.push(num(f[6])?);
+        if let Some(b) = want.2 {
+            if f[6] != b.name() {
+                return Err(bad(path, &at, format!("expected band {}", b.name())));
+            }
+        }
+        rec.errors_deg.push(num(f[fields - 1])?);
     }
     let out: Vec<TrialRecord> = by_unit.into_values().collect();
-    if let Some(r) = out.iter().find(|r| r.errors_deg.len() != columns(spec, r.unit.source).len()) {
+    if let Some(r) = out.iter().find(|r| r.errors_deg.len() != record_columns(spec, r.unit.source).len()) {
         return Err(bad(
             path,
             "(file)",
