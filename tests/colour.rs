@@ -339,3 +339,35 @@ fn a_colour_camera_finds_the_clouds_by_their_white_and_keeps_the_clear_skys_head
     assert!(rms(&colour) < 0.015, "{:.4}° RMS: {colour:?}", rms(&colour));
     assert!(colour.iter().all(|r| r[0].abs() < 3.0 * r[1]), "{colour:?}");
 }
+
+/// The fit's photon-transfer noise is read on the sky alone (issue 45; docs/colour.md):
+/// a colour mosaic's second difference spans 8 px, and a textured cloud's 8 px read as
+/// noise made 9.6 DN, K = 0 and 1.7 % PRNU of a capture whose truth is 1 DN, K = 0.1 DN/e⁻
+/// and none (the noise variance at the sky's level 3.8 × the truth, χ²/dof 0.25). On the
+/// frames' sky masks it is within a few tenths of a DN² of the truth and χ²/dof ≈ 1.
+#[test]
+fn a_cloudy_colour_captures_noise_is_read_on_its_sky() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (cap, out) = (tmp.path().join("cap"), tmp.path().join("fit"));
+    #[rustfmt::skip]
+    let mut args = vec![
+        "simulate", "--out", cap.to_str().unwrap(), "--width-px", "204", "--height-px", "172",
+        "--pixel-pitch-um", "41.4", "--sun-azimuth-deg", "200", "--sun-elevation-deg", "45",
+        "--headings-deg", "7,97", "--dmax", "0.70", "--read-noise-dn", "1", "--system-gain-dn-per-e", "0.1",
+        "--seed", "1", "--scene-seed", "1", "--scene", "clouds.count=6", "--scene", "clouds.min_elevation_deg=30",
+        "--scene", "clouds.radius_min_deg=10", "--scene", "clouds.radius_max_deg=25",
+    ];
+    args.extend(BLUE_SKY);
+    bpins(&args).ok();
+    bpins(&["fit", cap.to_str().unwrap(), "--effects", "sky_spectrum", "--out", out.to_str().unwrap()]).ok();
+    let fit = read_json(&out.join("fit.json"));
+    let noise = &fit["noise"];
+    let (read, k, prnu) = (f64_of(noise, "read_dn"), f64_of(noise, "k_dn_per_e"), f64_of(noise, "prnu"));
+    // The variance at a G pixel's level of this sky (~1 000 DN above black), DN².
+    let s = 1000.0;
+    let (var, truth) = (read * read + k * s + (prnu * s).powi(2), 1.0 + 0.1 * s);
+    assert!((var / truth - 1.0).abs() < 0.25, "{noise}: {var:.1} DN² at {s} DN, truth {truth}");
+    assert!(read < 4.0 && prnu < 0.006, "{noise}");
+    let chi2 = f64_of(&fit, "chi2_per_dof");
+    assert!((0.8..1.3).contains(&chi2), "χ²/dof {chi2}");
+}

@@ -93,7 +93,7 @@ pub fn fit(c: &Capture, frames: &[FrameData], opts: &FitOptions, progress: &dyn 
 
 /// The sensor noise of a capture (photon transfer over its frames).
 pub fn capture_noise(c: &Capture, frames: &[FrameData]) -> Result<NoiseModel> {
-    input::frames::noise_of(c, frames)
+    input::sky_noise::noise_of(c, frames, None)
         .ok_or_else(|| Error::TooFewSamples("too few usable pixels to estimate the sensor noise".into()))
 }
 
@@ -133,7 +133,7 @@ fn fit_from_stages(
     every_pixel_only: bool,
     progress: &dyn Fn(&str, usize),
 ) -> Result<FitResult> {
-    let noise = frames.noise(c)?;
+    let noise = frames.noise(c, opts)?;
     let (pb, theta) = problem(c, frames, opts, start, noise)?;
     let (theta, iterations, last) = if every_pixel_only {
         solver::lm::minimise_every_pixel(&pb, theta, progress)?

@@ -30,7 +30,8 @@
 
 use crate::capture::{Capture, FrameData};
 use crate::error::{Error, Result};
-use crate::fit::input::noise::{NoiseModel, NoiseSums};
+use crate::fit::input::noise::NoiseModel;
+use crate::fit::input::sky_noise::{noise_of, noise_sums, FrameNoise};
 use crate::fit::FitOptions;
 use crate::heading::field::SkyMask;
 use crate::pixel_analyzers::PixelMaps;
@@ -260,7 +261,7 @@ impl<'a> FitFrames<'a> {
         let grid = Grid { s, cols: w.div_ceil(sp), rows: h.div_ceil(sp) };
         let known_model = opts.known.model();
         let full = c.sensor.full_scale_dn();
-        let mut noise = NoiseSums::default();
+        let mut noise = FrameNoise::default();
         let (mut offsets, mut values, mut sky, mut heading) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         // As many whole frames in memory at once as there are threads (at most 4).
         let batch = rayon::current_num_threads().clamp(1, 4);
@@ -275,7 +276,7 @@ impl<'a> FitFrames<'a> {
                         .then(|| first_heading(c, k, &data).map_err(|e| e.to_string()));
                     let off = offsets_of(&grid, k, w, h);
                     let vals = take(&grid, &off, &data, w, nq);
-                    let sums = noise_sums(c, &data);
+                    let sums = noise_sums(c, &data, mask.as_ref());
                     Ok((sums, mask, first, off, vals))
                 })
                 .collect::<Result<_>>()?;
@@ -399,11 +400,20 @@ impl<'a> FitFrames<'a> {
         }
     }
 
-    /// The sensor noise of the capture (photon transfer over every pixel of every frame).
-    pub fn noise(&self, c: &Capture) -> Result<NoiseModel> {
+    /// The sensor noise of the capture (photon transfer over every pixel of every frame;
+    /// a colour capture's on each frame's sky mask, [`crate::fit::input::sky_noise`], read
+    /// with `opts` as [`FitFrames::sky_masks`] reads them, or `opts.sky_masks`).
+    pub fn noise(&self, c: &Capture, opts: &FitOptions) -> Result<NoiseModel> {
         let model = match (&self.pixels, &self.known) {
             (_, Some(k)) => k.noise,
-            (Pixels::All(f), None) => noise_of(c, f),
+            (Pixels::All(f), None) if c.sensor.colour.is_some() => {
+                let masks = match &opts.sky_masks {
+                    Some(m) if m.len() == f.len() => m.clone(),
+                    _ => self.sky_masks(c, opts)?,
+                };
+                noise_of(c, f, Some(&masks))
+            }
+            (Pixels::All(f), None) => noise_of(c, f, None),
             (Pixels::Sampled { .. }, None) => None,
         };
         model.ok_or_else(|| Error::TooFewSamples("too few usable pixels to estimate the sensor noise".into()))
@@ -436,48 +446,6 @@ fn read_frame(c: &Capture, k: usize, maps: Option<&PixelMaps>) -> Result<FrameDa
         Some(m) => crate::pipeline::apply_pixel_maps(c, data, m),
         None => Ok(data),
     }
-}
-
-/// The sensor noise of `frames` of `c` (photon transfer, [`noise_sums`]); `None` when
-/// too few samples. A monochrome capture's: `noise::estimate`, as before colour.
-pub(crate) fn noise_of(c: &Capture, frames: &[FrameData]) -> Option<NoiseModel> {
-    let (black, full) = (c.sensor.black_level_dn, c.sensor.full_scale_dn());
-    if c.sensor.colour.is_none() {
-        return crate::fit::input::noise::estimate(frames, black, full);
-    }
-    let mut sums = NoiseSums::default();
-    frames.iter().for_each(|d| sums.merge(&noise_sums(c, d)));
-    sums.model(full)
-}
-
-/// The photon-transfer sums of one frame of `c` ([`NoiseSums::add`]: each pixel against
-/// the same channel's pixels 2 px to either side along its row). On a colour sensor
-/// those are under another filter, so the frame's columns are first taken apart by the
-/// tile column they lie in (`u div 2 mod 2`): along a row of each part the pixels 2 px
-/// apart (4 px on the sensor) are the same band and channel, and the second difference
-/// spans 8 px of a smooth sky instead of 4.
-pub(crate) fn noise_sums(c: &Capture, data: &FrameData) -> NoiseSums {
-    let (black, full) = (c.sensor.black_level_dn, c.sensor.full_scale_dn());
-    let mut sums = NoiseSums::default();
-    match (data, &c.sensor.colour) {
-        (FrameData::Mosaic { width_px, height_px, dn }, Some(_)) => {
-            for part in band_columns(dn, *width_px as usize, *height_px as usize) {
-                sums.add(&part, black, full);
-            }
-        }
-        _ => sums.add(data, black, full),
-    }
-    sums
-}
-
-/// The columns of a `w × h` mosaic whose tile column (`u div 2`) is even, then those
-/// whose tile column is odd, each as a mosaic of its own (rows kept).
-fn band_columns(dn: &[f32], w: usize, h: usize) -> [FrameData; 2] {
-    [0, 1].map(|class| {
-        let cols: Vec<usize> = (0..w).filter(|u| (u / 2) % 2 == class).collect();
-        let part = (0..h).flat_map(|v| cols.iter().map(move |&u| dn[v * w + u])).collect();
-        FrameData::Mosaic { width_px: cols.len() as u32, height_px: h as u32, dn: part }
-    })
 }
 
 /// (width, height, samples per pixel) of the capture's frames.
@@ -567,34 +535,6 @@ fn first_heading(c: &Capture, k: usize, data: &FrameData) -> Result<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_colour_mosaics_noise_is_read_within_each_band() {
-        use crate::noise::{stream, FrameKey};
-        // An RGGB mosaic: the bands at 0.5, 1 and 0.8 of a smooth ramp, read noise 2 DN,
-        // K = 0.2 DN/e⁻.
-        let (w, h) = (400, 200);
-        let key = FrameKey::new(3, 0, 0);
-        let band = [[0.5, 1.0], [1.0, 0.8]];
-        let dn: Vec<f32> = (0..w * h)
-            .map(|p| {
-                let (u, v) = (p % w, p / w);
-                let s = (200.0 + 2.0 * u as f64) * band[(v / 2) % 2][(u / 2) % 2];
-                (100.0 + s + (4.0 + 0.2 * s).sqrt() * key.normal(p as u32, 0, stream::TEMPORAL)) as f32
-            })
-            .collect();
-        let mut sums = NoiseSums::default();
-        for part in band_columns(&dn, w, h) {
-            sums.add(&part, 100.0, 4095.0);
-        }
-        let m = sums.model(4095.0).unwrap();
-        assert!((m.k_dn_per_e - 0.2).abs() < 0.03 && m.prnu < 0.003, "{m:?}");
-        // Read as a monochrome mosaic, the steps between the bands are taken for noise.
-        let mut mono = NoiseSums::default();
-        mono.add(&FrameData::Mosaic { width_px: w as u32, height_px: h as u32, dn }, 100.0, 4095.0);
-        let mono = mono.model(4095.0).unwrap();
-        assert!(mono.variance_dn2(400.0) > 10.0 * m.variance_dn2(400.0), "{mono:?} against {m:?}");
-    }
 
     #[test]
     fn points_keep_absolute_strides_inside_a_rect() {

@@ -107,6 +107,11 @@ impl NoiseSums {
         }
     }
 
+    /// How many second differences the sums hold.
+    pub(crate) fn samples(&self) -> f64 {
+        self.acc[0]
+    }
+
     /// Adds the sums of other frames.
     pub fn merge(&mut self, o: &NoiseSums) {
         self.acc.iter_mut().zip(o.acc).for_each(|(a, b)| *a += b);
