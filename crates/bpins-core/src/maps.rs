@@ -242,11 +242,17 @@ pub fn stokes_maps<T: RawDn>(raw: &RawImage<T>, rec: &Reconstructor, cfg: &MapsC
 pub(crate) struct Scratch {
     vert: [Vec<f32>; 2],
     pub(crate) ch: [Vec<f32>; 4],
+    /// `even[k]`: k is even; the row kernels' selects read it as a lane mask.
+    even: Vec<bool>,
 }
 
 impl Scratch {
     pub(crate) fn new(w: usize) -> Self {
-        Scratch { vert: [vec![0.0; w], vec![0.0; w]], ch: std::array::from_fn(|_| vec![0.0; w]) }
+        Scratch {
+            vert: [vec![0.0; w], vec![0.0; w]],
+            ch: std::array::from_fn(|_| vec![0.0; w]),
+            even: (0..w + 1).map(|k| k % 2 == 0).collect(),
+        }
     }
 
     /// Step 1 (bilinear): rows of parity p interpolated to row v, the lattice clamped.
@@ -271,9 +277,24 @@ impl Scratch {
                 }
             }
         }
+        let mut done = [false; 4];
+        for p in 0..2 {
+            let Some([k0, k1]) = row_pair(lat, p) else { continue };
+            let [a, b] = self.ch.get_disjoint_mut([k0, k1]).expect("two channels");
+            let src = &self.vert[p][..w];
+            // The interior as `horizontal` makes it, both channels in one pass.
+            take_turns(src, &self.even[1..], &mut a[..w], &mut b[..w], |x| x, |l, r| 0.5 * (l + r));
+            // Before the first and after the last of a channel's columns, the nearest.
+            (a[0], b[0]) = (src[0], src[1]);
+            a[w - 1] = if (w - 1) % 2 == 0 { src[w - 1] } else { src[w - 2] };
+            b[w - 1] = if w % 2 == 0 { src[w - 1] } else { src[w - 2] };
+            (done[k0], done[k1]) = (true, true);
+        }
         for (k, at) in lat.iter().enumerate() {
             let Some((ou, ov)) = *at else { continue };
-            horizontal(&self.vert[ov], ou, &mut self.ch[k]);
+            if !done[k] {
+                horizontal(&self.vert[ov], ou, &mut self.ch[k]);
+            }
         }
     }
 
@@ -304,13 +325,43 @@ impl Scratch {
         let (w, h) = (raw.width_px, raw.height_px);
         let vs = v.clamp(1, h - 2);
         let row = |r: usize| &raw.data[r * raw.stride..][..w];
-        let (up, mid, down) = (row(vs - 1), row(vs), row(vs + 1));
-        // Whole-DN sums below 2^24 are exact in f32, and so are their halves and quarters.
-        let round = |s: f32, n: f32| if integer { ((s + 0.5 * n) / n).floor() } else { s / n };
+        self.opencv_rows(row(vs - 1), row(vs), row(vs + 1), vs, lat, integer);
+    }
+
+    /// [`Self::opencv_row`] from the rows `vs − 1`, `vs`, `vs + 1` of a mosaic (each
+    /// its full width), `vs` the interior row the map row reads (its own index clamped
+    /// to 1..h − 2).
+    pub(crate) fn opencv_rows<T: RawDn>(
+        &mut self,
+        up: &[T],
+        mid: &[T],
+        down: &[T],
+        vs: usize,
+        lat: &[Option<(usize, usize)>; 4],
+        integer: bool,
+    ) {
+        if integer {
+            self.opencv_rows_with::<T, true>(up, mid, down, vs, lat)
+        } else {
+            self.opencv_rows_with::<T, false>(up, mid, down, vs, lat)
+        }
+    }
+
+    #[inline(always)]
+    fn opencv_rows_with<T: RawDn, const INT: bool>(
+        &mut self,
+        up: &[T],
+        mid: &[T],
+        down: &[T],
+        vs: usize,
+        lat: &[Option<(usize, usize)>; 4],
+    ) {
+        let w = mid.len();
+        let (up, down) = (&up[..w], &down[..w]);
         let mut on_row = [false; 2];
         for p in 0..2 {
             on_row[p] = (vs + p) % 2 == 0;
-            let out = &mut self.vert[p];
+            let out = &mut self.vert[p][..w];
             if on_row[p] {
                 for (o, &x) in out.iter_mut().zip(mid) {
                     *o = x.dn_f32();
@@ -321,18 +372,90 @@ impl Scratch {
                 }
             }
         }
+        // The two channels of a row parity (columns ou = 0 and 1) share their
+        // candidates, own column and neighbour pair, and take them in turns.
+        let n = w - 2;
+        let mut done = [false; 4];
+        for p in 0..2 {
+            let Some([k0, k1]) = row_pair(lat, p) else { continue };
+            let [a, b] = self.ch.get_disjoint_mut([k0, k1]).expect("two channels");
+            let (n_on, n_off) = if on_row[p] { (1.0, 2.0) } else { (2.0, 4.0) };
+            let own = |x: f32| opencv_mean::<INT>(x, n_on);
+            take_turns(&self.vert[p][..w], &self.even[1..], &mut a[..w], &mut b[..w], own, |l, r| {
+                opencv_mean::<INT>(l + r, n_off)
+            });
+            for o in [a, b] {
+                o[0] = o[1];
+                o[w - 1] = o[w - 2];
+            }
+            (done[k0], done[k1]) = (true, true);
+        }
         for (k, at) in lat.iter().enumerate() {
             let Some((ou, ov)) = *at else { continue };
-            let (src, out) = (&self.vert[ov], &mut self.ch[k]);
+            if done[k] {
+                continue;
+            }
+            let (src, out) = (&self.vert[ov][..w], &mut self.ch[k][..w]);
             // A row sum holds two samples: its own column halves it, a pair quarters it.
             let (n_on, n_off) = if on_row[ov] { (1.0, 2.0) } else { (2.0, 4.0) };
-            for us in 1..w - 1 {
-                out[us] =
-                    if (us + ou) % 2 == 0 { round(src[us], n_on) } else { round(src[us - 1] + src[us + 1], n_off) };
+            // Column us = k + 1 (k < w − 2) is the channel's own where us + ou is even,
+            // i.e. `even[k + (1 + ou) % 2]`. Both candidates are computed at every
+            // column and one selected by a mask read from memory, so that the loop
+            // vectorizes without a branch or index arithmetic.
+            let (l, c, r, o) = (&src[..n], &src[1..n + 1], &src[2..n + 2], &mut out[1..n + 1]);
+            let own_here = &self.even[(1 + ou) % 2..][..n];
+            for k in 0..n {
+                let own = opencv_mean::<INT>(c[k], n_on);
+                let pair = opencv_mean::<INT>(l[k] + r[k], n_off);
+                o[k] = if own_here[k] { own } else { pair };
             }
             out[0] = out[1];
             out[w - 1] = out[w - 2];
         }
+    }
+}
+
+/// The channels at columns ou = 0 and 1 of row parity `p`, if the mosaic has both.
+fn row_pair(lat: &[Option<(usize, usize)>; 4], p: usize) -> Option<[usize; 2]> {
+    let on = |ou: usize| (0..4).find(|&k| lat[k] == Some((ou, p)));
+    Some([on(0)?, on(1)?])
+}
+
+/// The interior columns us (1..w − 1) of the two channels of one row parity, `a` at
+/// columns ou = 0 and `b` at ou = 1: each takes `own(src[us])` on its own column and
+/// `pair(src[us − 1], src[us + 1])` between two of them, so both share one pair of
+/// candidates per column. `even_us[k]`: column k + 1 is even (`a`'s own). A select,
+/// not a branch, so that the loop vectorizes; the border columns are the caller's.
+#[inline(always)]
+fn take_turns(
+    src: &[f32],
+    even_us: &[bool],
+    a: &mut [f32],
+    b: &mut [f32],
+    own: impl Fn(f32) -> f32,
+    pair: impl Fn(f32, f32) -> f32,
+) {
+    let n = src.len() - 2;
+    let (l, c, r, even_us) = (&src[..n], &src[1..n + 1], &src[2..n + 2], &even_us[..n]);
+    let (a, b) = (&mut a[1..n + 1], &mut b[1..n + 1]);
+    for k in 0..n {
+        let (x, y) = (own(c[k]), pair(l[k], r[k]));
+        (a[k], b[k]) = if even_us[k] { (x, y) } else { (y, x) };
+    }
+}
+
+/// OpenCV's mean of `n` whole-DN samples summing to `s`, rounded half up
+/// (`(s + n/2) >> log2 n`), or the plain mean `s / n` when not `INT`. `n` is 1, 2 or 4:
+/// a multiplication by the exact `1/n` rounds as the division does (both are the
+/// correctly rounded `s / n`), and vectorizes cheaper. Whole-DN sums below 2^24 are
+/// exact in f32, and so are their halves and quarters.
+#[inline(always)]
+pub(crate) fn opencv_mean<const INT: bool>(s: f32, n: f32) -> f32 {
+    let inv = 1.0 / n;
+    if INT {
+        ((s + 0.5 * n) * inv).floor()
+    } else {
+        s * inv
     }
 }
 

@@ -33,11 +33,14 @@
 //!   of the size in each direction.
 //!
 //! Units and frame as the mono maps (module `maps`): DN above the black level,
-//! angles counter-clockwise as displayed. Cost: stage 1 writes one full-size f32
-//! mosaic per band into a [`ColourScratch`] the caller may keep; stage 2 is the mono
-//! opencv route once per band.
+//! angles counter-clockwise as displayed. Cost: the two stages are fused row by row.
+//! Each rayon job takes a block of map rows and keeps, per band, a ring of the three
+//! stage-1 mosaic rows that stage 2's row reads (the two rows either side of a block
+//! are computed by both jobs), so no full-size intermediate is written; stage 2 and
+//! the Stokes and angles are the mono opencv route's row kernels once per band, which
+//! makes a full-size colour route at least three mono routes' work by construction.
 
-use super::{checked, lattices, Interpolation, MapsConfig, MapsError, MapsOut, PixelMap, Scratch};
+use super::{checked, lattices, opencv_mean, Interpolation, MapsConfig, MapsError, MapsOut, PixelMap, Scratch};
 use crate::heading::field::{RawDn, RawImage};
 use crate::recon::Reconstructor;
 use crate::sensor::{Band, ColourTiles};
@@ -50,11 +53,17 @@ pub struct BandMaps {
     pub maps: super::Maps,
 }
 
-/// Stage 1's full-size mosaics, one per band (kept by a caller mapping many frames).
+/// Scratch a caller mapping many frames may keep. The fused route (module docs) needs
+/// no full-size intermediate any more, so this holds nothing; it stays in the
+/// signature so that callers keep compiling.
 #[derive(Default)]
 pub struct ColourScratch {
-    bands: [Vec<f32>; 3],
+    _none: (),
 }
+
+/// Map rows per rayon job in the full-size routes: stage 1 is computed twice for the
+/// two mosaic rows either side of a block (2 of 34 rows, 6 %).
+const BLOCK_ROWS: usize = 32;
 
 /// The maps' size for a `w × h` colour mosaic: the same, or a quarter each way for
 /// superpixels.
@@ -134,7 +143,7 @@ pub fn colour_maps_into<T: RawDn>(
     rec: &Reconstructor,
     cfg: &MapsConfig,
     tiles: &ColourTiles,
-    scratch: &mut ColourScratch,
+    _scratch: &mut ColourScratch,
     out: &mut [(Band, MapsOut)],
 ) -> Result<(), MapsError> {
     let (w, h) = (raw.width_px, raw.height_px);
@@ -175,106 +184,191 @@ pub fn colour_maps_into<T: RawDn>(
         wanted[band.index()] = Some(lattice(tiles, *band, cfg.interpolation)?);
     }
     let opencv = cfg.interpolation == Interpolation::OpenCv;
-    let integer = opencv && T::INTEGER;
-    for (b, l) in wanted.iter().enumerate() {
-        if l.is_some() {
-            scratch.bands[b].resize(w * h, 0.0);
-        }
-    }
-    colour_stage(raw, &wanted, &mut scratch.bands, integer, (!opencv).then_some(cfg.full_scale_dn as f32));
+    let full_scale = (!opencv).then_some(cfg.full_scale_dn as f32);
     let px = PixelMap::new(rec, cfg, 1.0, [0.0; 2]);
-    for (band, o) in out.iter_mut() {
-        let m = RawImage::packed(&scratch.bands[band.index()][..w * h], w, h);
-        let row = |s: &mut Scratch, v: usize, aop: &mut [f32], dolp: &mut [f32], int: &mut [f32], aoe| {
-            s.opencv_row(&m, v, &lat, integer);
-            px.row(&s.ch, v, aop, dolp, int, aoe);
-        };
-        let rows = o.aop_deg.par_chunks_mut(w).zip(o.dolp.par_chunks_mut(w)).zip(o.intensity_dn.par_chunks_mut(w));
-        match o.aoe_deg.as_deref_mut() {
-            Some(aoe) => rows.zip(aoe.par_chunks_mut(w)).enumerate().for_each_init(
-                || Scratch::new(w),
-                |s, (v, (((aop, dolp), int), aoe))| row(s, v, aop, dolp, int, Some(aoe)),
-            ),
-            None => rows
-                .enumerate()
-                .for_each_init(|| Scratch::new(w), |s, (v, ((aop, dolp), int))| row(s, v, aop, dolp, int, None)),
-        }
+    if opencv && T::INTEGER {
+        full_size::<T, true>(raw, &wanted, full_scale, &px, &lat, out);
+    } else {
+        full_size::<T, false>(raw, &wanted, full_scale, &px, &lat, out);
     }
     Ok(())
 }
 
-/// Stage 1 (module docs): every wanted band's full-size mosaic, a row at a time.
-/// `full_scale`: Some for the bilinear flavour (invalid samples NaN), None for opencv.
-fn colour_stage<T: RawDn>(
+/// One band's rows of the maps within a block of [`BLOCK_ROWS`] rows.
+struct BlockOut<'a> {
+    band: usize,
+    aop_deg: &'a mut [f32],
+    dolp: &'a mut [f32],
+    intensity_dn: &'a mut [f32],
+    aoe_deg: Option<&'a mut [f32]>,
+}
+
+/// One rayon job's rows: the raw rows as read (raw row R in slot R % 6, `read_row`
+/// saying which row a slot holds: one mosaic row reads three raw rows, and the next
+/// but one reads two of them again), each band's ring of stage-1 mosaic rows (row r
+/// in slot r % 3), stage 2's scratch.
+struct Job {
+    read: [Vec<f32>; 6],
+    read_row: [usize; 6],
+    ring: [[Vec<f32>; 3]; 3],
+    /// The first mosaic row not yet in the rings (0 at a block's start: none).
+    next: usize,
+    /// `pairs[k]`: k / 2 is even, the lane mask of stage 1's selects.
+    pairs: Vec<bool>,
+    s: Scratch,
+}
+
+/// Both full-size routes (module docs), stage 1 fused into stage 2 row by row.
+/// `INT`: averages rounded to whole DN (opencv on integer samples); `full_scale`:
+/// Some for the bilinear flavour (invalid samples NaN).
+fn full_size<T: RawDn, const INT: bool>(
     raw: &RawImage<T>,
     wanted: &[Option<Lattice>; 3],
-    bands: &mut [Vec<f32>; 3],
-    integer: bool,
     full_scale: Option<f32>,
+    px: &PixelMap,
+    lat: &[Option<(usize, usize)>; 4],
+    out: &mut [(Band, MapsOut)],
 ) {
     let (w, h) = (raw.width_px, raw.height_px);
-    let round = |s: f32, n: f32| if integer { ((s + 0.5 * n) / n).floor() } else { s / n };
-    let [r, g, b] = bands;
-    // One row of the three band mosaics at a time; an absent band gets an empty row.
-    let rows: Vec<[&mut [f32]; 3]> = {
-        let mut it = [r, g, b].map(|x| x.chunks_mut(w.max(1)));
-        (0..h).map(|_| it.each_mut().map(|c| c.next().unwrap_or(&mut []))).collect()
-    };
-    rows.into_par_iter().enumerate().for_each_init(
-        || [vec![0f32; w / 2 + 1], vec![0f32; w / 2 + 1], vec![0f32; w / 2 + 1]],
-        |[up, mid, down], (v, out)| {
-            let (j, y) = (v % 2, v / 2);
-            let ph = (h - j).div_ceil(2);
-            let ys = y.clamp(1, ph - 2);
-            for i in 0..2 {
-                let pw = (w - i).div_ceil(2);
-                for (buf, yy) in [(&mut *up, ys - 1), (&mut *mid, ys), (&mut *down, ys + 1)] {
-                    let src = &raw.data[(2 * yy + j) * raw.stride..][..w];
-                    for (x, o) in buf[..pw].iter_mut().enumerate() {
-                        let d = src[2 * x + i].dn_f32();
-                        *o = match full_scale {
-                            Some(fs) => checked(d, fs),
-                            None => d,
-                        };
-                    }
+    let bw = BLOCK_ROWS * w;
+    let mut blocks: Vec<Vec<BlockOut>> = (0..h.div_ceil(BLOCK_ROWS)).map(|_| Vec::new()).collect();
+    for (band, o) in out.iter_mut() {
+        let mut aoe = o.aoe_deg.as_deref_mut().map(|a| a.chunks_mut(bw));
+        let rows = o.aop_deg.chunks_mut(bw).zip(o.dolp.chunks_mut(bw)).zip(o.intensity_dn.chunks_mut(bw));
+        for (blk, ((aop_deg, dolp), intensity_dn)) in blocks.iter_mut().zip(rows) {
+            let aoe_deg = aoe.as_mut().and_then(|a| a.next());
+            blk.push(BlockOut { band: band.index(), aop_deg, dolp, intensity_dn, aoe_deg });
+        }
+    }
+    blocks.into_par_iter().enumerate().for_each_init(
+        || Job {
+            read: std::array::from_fn(|_| vec![0.0; w]),
+            read_row: [usize::MAX; 6],
+            ring: std::array::from_fn(|_| std::array::from_fn(|_| vec![0.0; w])),
+            next: 0,
+            pairs: (0..w + 4).map(|k| (k / 2) % 2 == 0).collect(),
+            s: Scratch::new(w),
+        },
+        |job, (bi, mut outs)| {
+            job.next = 0;
+            let v0 = bi * BLOCK_ROWS;
+            for v in v0..(v0 + BLOCK_ROWS).min(h) {
+                // Stage 2 reads mosaic rows vs − 1, vs, vs + 1 (OpenCV's border: the
+                // first and last rows are those of their neighbours inwards).
+                let vs = v.clamp(1, h - 2);
+                for r in job.next.max(vs - 1)..vs + 2 {
+                    job.mosaic_row::<T, INT>(raw, r, wanted, full_scale);
                 }
-                for (bi, l) in wanted.iter().enumerate() {
-                    let Some(l) = *l else { continue };
-                    let o = &mut *out[bi];
-                    let at = |x: usize| -> f32 {
-                        match l {
-                            Lattice::One(ox, oy) => {
-                                let on_col = (x + ox).is_multiple_of(2);
-                                if (ys + oy).is_multiple_of(2) {
-                                    if on_col {
-                                        mid[x]
-                                    } else {
-                                        round(mid[x - 1] + mid[x + 1], 2.0)
-                                    }
-                                } else if on_col {
-                                    round(up[x] + down[x], 2.0)
-                                } else {
-                                    round(up[x - 1] + up[x + 1] + down[x - 1] + down[x + 1], 4.0)
-                                }
-                            }
-                            Lattice::Quincunx(p) => {
-                                if (x + ys) % 2 == p {
-                                    mid[x]
-                                } else {
-                                    round(up[x] + down[x] + mid[x - 1] + mid[x + 1], 4.0)
-                                }
-                            }
-                        }
-                    };
-                    for x in 1..pw - 1 {
-                        o[2 * x + i] = at(x);
-                    }
-                    o[i] = o[2 + i];
-                    o[2 * (pw - 1) + i] = o[2 * (pw - 2) + i];
+                job.next = vs + 2;
+                let lr = (v - v0) * w;
+                for o in outs.iter_mut() {
+                    let [a, b, c] = &job.ring[o.band];
+                    let slot = |r: usize| [a, b, c][r % 3].as_slice();
+                    job.s.opencv_rows(slot(vs - 1), slot(vs), slot(vs + 1), vs, lat, INT);
+                    let aoe = o.aoe_deg.as_deref_mut().map(|e| &mut e[lr..][..w]);
+                    px.row(
+                        &job.s.ch,
+                        v,
+                        &mut o.aop_deg[lr..][..w],
+                        &mut o.dolp[lr..][..w],
+                        &mut o.intensity_dn[lr..][..w],
+                        aoe,
+                    );
                 }
             }
         },
     );
+}
+
+impl Job {
+    /// Stage 1 (module docs): row `r` of every wanted band's full-size mosaic into
+    /// its ring. Row r is row y = r / 2 of the analyzer planes of row parity j = r % 2
+    /// (both column parities at once: pixel column c is plane column x = c / 2 of
+    /// plane i = c % 2), their neighbours in the plane two pixels away.
+    fn mosaic_row<T: RawDn, const INT: bool>(
+        &mut self,
+        raw: &RawImage<T>,
+        r: usize,
+        wanted: &[Option<Lattice>; 3],
+        full_scale: Option<f32>,
+    ) {
+        let (w, h) = (raw.width_px, raw.height_px);
+        let (j, y) = (r % 2, r / 2);
+        let ph = (h - j).div_ceil(2);
+        let ys = y.clamp(1, ph - 2);
+        let rows = [ys - 1, ys, ys + 1].map(|yy| 2 * yy + j);
+        for rr in rows {
+            if self.read_row[rr % 6] == rr {
+                continue;
+            }
+            let (buf, src) = (&mut self.read[rr % 6], &raw.data[rr * raw.stride..][..w]);
+            match full_scale {
+                Some(fs) => buf.iter_mut().zip(src).for_each(|(o, &d)| *o = checked(d.dn_f32(), fs)),
+                None => buf.iter_mut().zip(src).for_each(|(o, &d)| *o = d.dn_f32()),
+            }
+            self.read_row[rr % 6] = rr;
+        }
+        let read = rows.map(|rr| self.read[rr % 6].as_slice());
+        for (b, l) in wanted.iter().enumerate() {
+            let Some(l) = *l else { continue };
+            bayer_row::<INT>(read, &self.pairs, ys, l, &mut self.ring[b][r % 3]);
+        }
+    }
+}
+
+/// One row of a band's stage-1 mosaic from its plane rows ys − 1, ys, ys + 1 (read
+/// at full width, `[up, mid, down]`): OpenCV's bilinear Bayer demosaic of each
+/// analyzer plane (module docs), every interior plane column x (pixel columns 2x and
+/// 2x + 1) either the band's own sample or the mean of the band's neighbours, the
+/// border plane columns copied from the next ones inwards. Both candidates are
+/// computed at every column and one selected by x's parity, read from the lane mask
+/// `pairs` (module `maps`' opencv kernel does the same), so that the loop vectorizes.
+fn bayer_row<const INT: bool>(read: [&[f32]; 3], pairs: &[bool], ys: usize, l: Lattice, o: &mut [f32]) {
+    let w = o.len();
+    // Interior pixel columns c = 2 + k, k < n, in both planes (w ≥ 6).
+    let n = w - 4;
+    let [up, mid, down] = read;
+    // The n columns from d on: d = 0, 2, 4 are the left neighbour, the column, the right.
+    fn window(row: &[f32], d: usize, n: usize) -> &[f32] {
+        &row[d..d + n]
+    }
+    let at = |row, d| window(row, d, n);
+    let (ul, u0, ur) = (at(up, 0), at(up, 2), at(up, 4));
+    let (ml, m0, mr) = (at(mid, 0), at(mid, 2), at(mid, 4));
+    let (dl, d0, dr) = (at(down, 0), at(down, 2), at(down, 4));
+    let oi = &mut o[2..n + 2];
+    // Pixel column 2 + k is plane column x = (k + 2) / 2: the band's own where
+    // x + phase is even, i.e. `pairs[k + 2 + 2 (phase % 2)]`.
+    let own_where = |phase: usize| &pairs[2 + 2 * (phase % 2)..][..n];
+    match l {
+        Lattice::One(ox, oy) if (ys + oy).is_multiple_of(2) => {
+            let here = own_where(ox);
+            for k in 0..n {
+                let (own, nb) = (m0[k], opencv_mean::<INT>(ml[k] + mr[k], 2.0));
+                oi[k] = if here[k] { own } else { nb };
+            }
+        }
+        Lattice::One(ox, _) => {
+            let here = own_where(ox);
+            for k in 0..n {
+                let own = opencv_mean::<INT>(u0[k] + d0[k], 2.0);
+                let nb = opencv_mean::<INT>(ul[k] + ur[k] + dl[k] + dr[k], 4.0);
+                oi[k] = if here[k] { own } else { nb };
+            }
+        }
+        Lattice::Quincunx(p) => {
+            // Own where (x + ys) % 2 == p, i.e. x + ys + p even.
+            let here = own_where(ys + p);
+            for k in 0..n {
+                let (own, nb) = (m0[k], opencv_mean::<INT>(u0[k] + d0[k] + ml[k] + mr[k], 4.0));
+                oi[k] = if here[k] { own } else { nb };
+            }
+        }
+    }
+    o[0] = o[2];
+    o[1] = o[3];
+    o[w - 2] = o[w - 4];
+    o[w - 1] = o[w - 3];
 }
 
 /// Superpixel maps of one band (module docs).

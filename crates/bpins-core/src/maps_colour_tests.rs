@@ -127,3 +127,135 @@ fn tiles_that_are_not_bayer_are_refused_but_by_superpixels() {
     let small = colour_maps(&RawImage::packed(&raw[..5 * 5], 5, 5), &rec(), &cfg(Interpolation::OpenCv), &t);
     assert!(matches!(small, Err(MapsError::TooSmall { min: 6, .. })), "{small:?}");
 }
+
+/// Stage 1 as first written, one analyzer plane and one pixel at a time (module docs):
+/// the reference the fused, vectorized route must equal bit for bit.
+fn stage1_reference<T: RawDn>(raw: &RawImage<T>, l: Lattice, integer: bool, full_scale: Option<f32>) -> Vec<f32> {
+    let (w, h) = (raw.width_px, raw.height_px);
+    let round = |s: f32, n: f32| if integer { ((s + 0.5 * n) / n).floor() } else { s / n };
+    let mut m = vec![0f32; w * h];
+    for (j, i) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+        let (pw, ph) = ((w - i).div_ceil(2), (h - j).div_ceil(2));
+        let p = |x: usize, y: usize| {
+            let d = raw.data[(2 * y + j) * raw.stride + 2 * x + i].dn_f32();
+            full_scale.map_or(d, |fs| crate::maps::checked(d, fs))
+        };
+        for y in 0..ph {
+            for x in 0..pw {
+                let (xs, ys) = (x.clamp(1, pw - 2), y.clamp(1, ph - 2));
+                m[(2 * y + j) * w + 2 * x + i] = match l {
+                    Lattice::One(ox, oy) => {
+                        let on_col = (xs + ox) % 2 == 0;
+                        match ((ys + oy) % 2 == 0, on_col) {
+                            (true, true) => p(xs, ys),
+                            (true, false) => round(p(xs - 1, ys) + p(xs + 1, ys), 2.0),
+                            (false, true) => round(p(xs, ys - 1) + p(xs, ys + 1), 2.0),
+                            (false, false) => round(
+                                p(xs - 1, ys - 1) + p(xs + 1, ys - 1) + p(xs - 1, ys + 1) + p(xs + 1, ys + 1),
+                                4.0,
+                            ),
+                        }
+                    }
+                    Lattice::Quincunx(par) if (xs + ys) % 2 == par => p(xs, ys),
+                    Lattice::Quincunx(_) => round(p(xs, ys - 1) + p(xs, ys + 1) + p(xs - 1, ys) + p(xs + 1, ys), 4.0),
+                };
+            }
+        }
+    }
+    m
+}
+
+/// The two stages apart, as first written: each band's full-size mosaic, then the
+/// per-column opencv kernel and the Stokes and angles over it.
+fn two_stage_reference<T: RawDn>(raw: &RawImage<T>, cfg: &MapsConfig, band: Band) -> super::super::Maps {
+    let (w, h) = (raw.width_px, raw.height_px);
+    let opencv = cfg.interpolation == Interpolation::OpenCv;
+    let integer = opencv && T::INTEGER;
+    let l = lattice(&ColourTiles::imx250myr(), band, cfg.interpolation).unwrap();
+    let m = stage1_reference(raw, l, integer, (!opencv).then_some(cfg.full_scale_dn as f32));
+    let px = PixelMap::new(&rec(), cfg, 1.0, [0.0; 2]);
+    let lat = lattices(&cfg.mosaic);
+    let mut maps = super::super::Maps {
+        width_px: w,
+        height_px: h,
+        aop_deg: vec![0.0; w * h],
+        dolp: vec![0.0; w * h],
+        intensity_dn: vec![0.0; w * h],
+        aoe_deg: vec![0.0; w * h],
+    };
+    for v in 0..h {
+        let ch = crate::maps::tests::opencv_row_reference(&RawImage::packed(&m, w, h), v, &lat, integer);
+        let r = v * w..(v + 1) * w;
+        let (a, d, i, e) = (
+            &mut maps.aop_deg[r.clone()],
+            &mut maps.dolp[r.clone()],
+            &mut maps.intensity_dn[r.clone()],
+            &mut maps.aoe_deg[r],
+        );
+        px.row(&ch, v, a, d, i, Some(e));
+    }
+    maps
+}
+
+#[test]
+fn the_fused_full_size_routes_are_the_two_stages_bit_for_bit() {
+    use crate::maps::tests::{same_bits, seeded_dn};
+    let t = ColourTiles::imx250myr();
+    // Odd sizes, the smallest, and more than two blocks of rows (BLOCK_ROWS).
+    for (w, h, seed) in [(6, 6, 1), (7, 9, 2), (13, 11, 3), (26, 2 * BLOCK_ROWS + 7, 4)] {
+        // 12-bit samples with zeros and saturated ones (bilinear's NaN), as u16, u8, and
+        // fractional f32 with a NaN; a strided copy of the u16 ones.
+        let whole = seeded_dn(w * h, seed, 0.0, 4200.0, false);
+        let u16s: Vec<u16> = whole.iter().map(|&x| x as u16).collect();
+        let u8s: Vec<u8> = whole.iter().map(|&x| (x as u16 >> 4).min(255) as u8).collect();
+        let mut frac = seeded_dn(w * h, seed + 10, 0.0, 4200.0, true);
+        frac[2 * w + 3] = f32::NAN;
+        let stride = w + 3;
+        let mut wide = vec![7u16; stride * h];
+        for v in 0..h {
+            wide[v * stride..][..w].copy_from_slice(&u16s[v * w..][..w]);
+        }
+        for route in [Interpolation::OpenCv, Interpolation::Bilinear] {
+            let c = cfg(route);
+            let check = |got: Vec<BandMaps>, want: [super::super::Maps; 3], what: &str| {
+                for g in got {
+                    let (m, r) = (&g.maps, &want[g.band.index()]);
+                    for (name, x, y) in [
+                        ("aop", &m.aop_deg, &r.aop_deg),
+                        ("dolp", &m.dolp, &r.dolp),
+                        ("intensity", &m.intensity_dn, &r.intensity_dn),
+                        ("aoe", &m.aoe_deg, &r.aoe_deg),
+                    ] {
+                        assert!(same_bits(x, y), "{route:?} {what} {w} × {h} {:?} {name}", g.band);
+                    }
+                }
+            };
+            let wants = |raw: &dyn Fn(Band) -> super::super::Maps| Band::ALL.map(raw);
+            let raw16 = RawImage::packed(&u16s, w, h);
+            check(colour_maps(&raw16, &rec(), &c, &t).unwrap(), wants(&|b| two_stage_reference(&raw16, &c, b)), "u16");
+            let strided = RawImage { data: &wide, width_px: w, height_px: h, stride };
+            check(
+                colour_maps(&strided, &rec(), &c, &t).unwrap(),
+                wants(&|b| two_stage_reference(&raw16, &c, b)),
+                "strided",
+            );
+            let raw8 = RawImage::packed(&u8s, w, h);
+            check(colour_maps(&raw8, &rec(), &c, &t).unwrap(), wants(&|b| two_stage_reference(&raw8, &c, b)), "u8");
+            let rawf = RawImage::packed(&frac, w, h);
+            check(colour_maps(&rawf, &rec(), &c, &t).unwrap(), wants(&|b| two_stage_reference(&rawf, &c, b)), "f32");
+            // Some bands, out of order, without AoE: the same rows.
+            let n = w * h;
+            let mut bufs = [[(); 3].map(|_| vec![0f32; n]), [(); 3].map(|_| vec![0f32; n])];
+            let [[a0, d0, i0], [a1, d1, i1]] = &mut bufs;
+            let mut out = [
+                (Band::B, MapsOut { aop_deg: a0, dolp: d0, intensity_dn: i0, aoe_deg: None }),
+                (Band::R, MapsOut { aop_deg: a1, dolp: d1, intensity_dn: i1, aoe_deg: None }),
+            ];
+            colour_maps_into(&raw16, &rec(), &c, &t, &mut ColourScratch::default(), &mut out).unwrap();
+            for (k, band) in [Band::B, Band::R].into_iter().enumerate() {
+                let r = two_stage_reference(&raw16, &c, band);
+                assert!(same_bits(&bufs[k][0], &r.aop_deg) && same_bits(&bufs[k][1], &r.dolp), "{route:?} {band:?}");
+            }
+        }
+    }
+}

@@ -195,3 +195,107 @@ fn wrong_buffers_are_refused_with_their_sizes() {
     let e = stokes_maps(&RawImage::packed(&dn[..4], 2, 2), &rec(), &config(Interpolation::OpenCv, 2, 2));
     assert!(e.unwrap_err().to_string().contains("at least 3 × 3"));
 }
+
+/// The opencv row kernel as first written, a branch and a division per column: the
+/// reference the vectorized kernel must equal bit for bit (also stage 2 of the
+/// colour routes' reference, `maps_colour_tests`).
+pub(crate) fn opencv_row_reference<T: RawDn>(
+    raw: &RawImage<T>,
+    v: usize,
+    lat: &[Option<(usize, usize)>; 4],
+    integer: bool,
+) -> [Vec<f32>; 4] {
+    let (w, h) = (raw.width_px, raw.height_px);
+    let vs = v.clamp(1, h - 2);
+    let row = |r: usize| &raw.data[r * raw.stride..][..w];
+    let (up, mid, down) = (row(vs - 1), row(vs), row(vs + 1));
+    let round = |s: f32, n: f32| if integer { ((s + 0.5 * n) / n).floor() } else { s / n };
+    let mut vert = [vec![0f32; w], vec![0f32; w]];
+    let mut on_row = [false; 2];
+    for p in 0..2 {
+        on_row[p] = (vs + p) % 2 == 0;
+        for u in 0..w {
+            vert[p][u] = if on_row[p] { mid[u].dn_f32() } else { up[u].dn_f32() + down[u].dn_f32() };
+        }
+    }
+    let mut ch: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0f32; w]);
+    for (k, at) in lat.iter().enumerate() {
+        let Some((ou, ov)) = *at else { continue };
+        let (src, out) = (&vert[ov], &mut ch[k]);
+        let (n_on, n_off) = if on_row[ov] { (1.0, 2.0) } else { (2.0, 4.0) };
+        for us in 1..w - 1 {
+            out[us] = if (us + ou) % 2 == 0 { round(src[us], n_on) } else { round(src[us - 1] + src[us + 1], n_off) };
+        }
+        out[0] = out[1];
+        out[w - 1] = out[w - 2];
+    }
+    ch
+}
+
+/// Seeded samples in `lo..hi` (splitmix64), fractional if `frac`.
+pub(crate) fn seeded_dn(n: usize, seed: u64, lo: f32, hi: f32, frac: bool) -> Vec<f32> {
+    let mut s = seed;
+    (0..n)
+        .map(|_| {
+            s = s.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = s;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            let x = lo + (hi - lo) * ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32;
+            if frac {
+                x
+            } else {
+                x.floor()
+            }
+        })
+        .collect()
+}
+
+/// Bit for bit, NaN for NaN.
+pub(crate) fn same_bits(a: &[f32], b: &[f32]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()))
+}
+
+#[test]
+fn the_vectorized_opencv_row_is_the_per_column_kernel_bit_for_bit() {
+    let lat = lattices(&DEFAULT_MOSAIC);
+    for (w, h, seed) in [(3, 3, 1), (7, 5, 2), (24, 9, 3), (41, 12, 4)] {
+        let whole = seeded_dn(w * h, seed, 0.0, 4096.0, false);
+        let u16s: Vec<u16> = whole.iter().map(|&x| x as u16).collect();
+        let u8s: Vec<u8> = whole.iter().map(|&x| (x as u16 >> 4) as u8).collect();
+        let mut frac = seeded_dn(w * h, seed + 10, 0.0, 4096.0, true);
+        frac[w + 1] = f32::NAN;
+        let mut s = Scratch::new(w);
+        for v in 0..h {
+            s.opencv_row(&RawImage::packed(&u16s, w, h), v, &lat, true);
+            let want = opencv_row_reference(&RawImage::packed(&u16s, w, h), v, &lat, true);
+            assert!((0..4).all(|k| same_bits(&s.ch[k][..w], &want[k])), "u16 {w} × {h} row {v}");
+            s.opencv_row(&RawImage::packed(&u8s, w, h), v, &lat, true);
+            let want = opencv_row_reference(&RawImage::packed(&u8s, w, h), v, &lat, true);
+            assert!((0..4).all(|k| same_bits(&s.ch[k][..w], &want[k])), "u8 {w} × {h} row {v}");
+            s.opencv_row(&RawImage::packed(&frac, w, h), v, &lat, false);
+            let want = opencv_row_reference(&RawImage::packed(&frac, w, h), v, &lat, false);
+            assert!((0..4).all(|k| same_bits(&s.ch[k][..w], &want[k])), "f32 {w} × {h} row {v}");
+        }
+    }
+}
+
+#[test]
+fn the_paired_bilinear_row_is_the_per_channel_one_bit_for_bit() {
+    // `horizontal` (one channel at a time, the first kernel) against both channels of
+    // a row parity in one pass, on the same vertical step; invalid samples included.
+    let lat = lattices(&DEFAULT_MOSAIC);
+    for (w, h, seed) in [(2, 2, 1), (3, 4, 2), (8, 5, 3), (25, 12, 4)] {
+        let dn: Vec<u16> = seeded_dn(w * h, seed, 0.0, 4200.0, false).iter().map(|&x| x as u16).collect();
+        let mut s = Scratch::new(w);
+        for v in 0..h {
+            s.bilinear_row(&RawImage::packed(&dn, w, h), v, &lat, FS as f32);
+            for (k, at) in lat.iter().enumerate() {
+                let (ou, ov) = at.unwrap();
+                let mut want = vec![0f32; w];
+                horizontal(&s.vert[ov], ou, &mut want);
+                assert!(same_bits(&s.ch[k][..w], &want), "{w} × {h} row {v} channel {k}");
+            }
+        }
+    }
+}
