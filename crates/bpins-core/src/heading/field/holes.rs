@@ -39,17 +39,17 @@
 
 use super::clouds::rayleigh_dolp;
 use super::observe::{cone_sun, residual, search, sharpen, Obs};
-use super::robust::{summary, Robust, Scratch};
+use super::robust::{summary, Robust, Scratch, CHI2_1_Q25};
 use super::sigma::{block_sums, meridian_band, solve, sum_blocks, BLOCKS};
-use super::stats::{median, quantile, tukey};
+use super::stats::{jackknife_sd, median, quantile, tukey};
 use super::{Cells, FieldContext, FieldOptions, FieldQuality, NoHeading};
 use crate::conventions::wrap_deg_180;
 use crate::heading::{sun_vector, Extractor};
 
 /// `r_top` is the ratio this many cells reach (a lone hot cell cannot set it).
 const CORE_TOP: usize = 4;
-/// A core cell's ratio is within this fraction of `r_top` (its noise allowed for):
-/// a cover of about 5 % at most, whose turn is 5 % of the deck's.
+/// A core cell's ratio is within this fraction of `r_top`: a cover of about 3 % at
+/// most (the deck keeps a few per cent of the DoLP), whose turn is 3 % of the deck's.
 const CORE_TOL: f64 = 0.03;
 /// Rayleigh's DoLP over d_max above which a cell's ratio is read (γ > 35° from the sun
 /// and the anti-sun: nearer, the ratio's noise and the sky's departures grow).
@@ -58,7 +58,7 @@ const CORE_VERIFIABLE: f64 = 0.3;
 const JOIN_CELLS: usize = 2;
 /// Fewest core cells and holes a heading may rest on.
 pub(super) const MIN_CORE_CELLS: usize = 12;
-pub(super) const MIN_HOLES: usize = 2;
+const MIN_HOLES: usize = 2;
 /// Rounds of (core at the current sun → cone search on the core).
 const CORE_ROUNDS: usize = 3;
 const MAX_ITERATIONS: usize = 8;
@@ -66,20 +66,23 @@ const MAX_ITERATIONS: usize = 8;
 const DECK_SHARE: f64 = 0.3;
 /// The median of χ²₁.
 const CHI2_1_MEDIAN: f64 = 0.4549;
-/// The lower quartile of χ²₁ (τ as step 4 reads it).
-const CHI2_1_Q25: f64 = 0.1015;
 
 /// Student's t at 97.5 % for 1…15 degrees of freedom (the 95 % two-sided interval).
 const T_975: [f64; 15] =
     [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160, 2.145, 2.131];
 
+/// A cell's ratio r = DoLP/D(γ) for the sun at `s` (the module's equation), where
+/// Rayleigh's DoLP there is above CORE_VERIFIABLE of d_max; `None` nearer the sun and
+/// the anti-sun.
+fn ratio(o: &Obs, s: glam::DVec3) -> Option<f64> {
+    let d = rayleigh_dolp(o.d.dot(s));
+    (d > CORE_VERIFIABLE).then(|| o.dolp / d)
+}
+
 /// Into `core`: whether each cell of `obs` is a hole's clear core for the sun at `s`
 /// (the module's equation). Returns the number of core cells; `t` is a buffer.
 fn core_cells(obs: &[Obs], s: glam::DVec3, t: &mut Vec<f64>, core: &mut Vec<bool>) -> (usize, f64) {
-    let ratio = |o: &Obs| {
-        let d = rayleigh_dolp(o.d.dot(s));
-        (d > CORE_VERIFIABLE).then(|| o.dolp / d)
-    };
+    let ratio = |o: &Obs| ratio(o, s);
     t.clear();
     t.extend(obs.iter().filter_map(ratio));
     core.clear();
@@ -100,10 +103,7 @@ fn core_cells(obs: &[Obs], s: glam::DVec3, t: &mut Vec<f64>, core: &mut Vec<bool
 /// their median δ² over χ²₁'s median). The deck's turn shared by every core cell is
 /// what the holes' jackknife cannot see; 0 where no deck is seen. `t` is a buffer.
 fn rim_turn_deg(obs: &[Obs], w: &[(f64, f64, f64, f64)], s: glam::DVec3, r_top: f64, t: &mut Vec<f64>) -> f64 {
-    let ratio = |o: &Obs| {
-        let d = rayleigh_dolp(o.d.dot(s));
-        (d > CORE_VERIFIABLE).then(|| o.dolp / d)
-    };
+    let ratio = |o: &Obs| ratio(o, s);
     let deck = |o: &&Obs| ratio(o).is_some_and(|r| r < DECK_SHARE * r_top);
     t.clear();
     t.extend(obs.iter().filter(deck).filter_map(ratio));
@@ -137,12 +137,10 @@ fn sun_offset_jackknife_deg(obs: &[Obs], w: &[(f64, f64, f64, f64)], band: (f64,
         })
     };
     let dev: Vec<f64> = blocks.iter().filter(|b| b.n > 0.0).filter_map(|b| elevation(&total.minus(b))).collect();
-    let k = dev.len() as f64;
-    if k < 2.0 {
+    if dev.len() < 2 {
         return 0.0;
     }
-    let mean = dev.iter().sum::<f64>() / k;
-    ((k - 1.0) / k * dev.iter().map(|d| (d - mean).powi(2)).sum::<f64>()).sqrt()
+    jackknife_sd(&dev)
 }
 
 /// The holes of the core cells of `obs` on a `cols`-wide grid: a hole index per obs

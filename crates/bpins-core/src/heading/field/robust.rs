@@ -147,7 +147,7 @@ fn cg_of(sg2: f64) -> f64 {
 }
 
 /// The lower quartile of χ² with one degree of freedom.
-const CHI2_1_Q25: f64 = 0.1015;
+pub(super) const CHI2_1_Q25: f64 = 0.1015;
 const TAU_Q: f64 = 0.25;
 const TAU_CHI2: f64 = CHI2_1_Q25;
 /// τ's quantile after a tight start, and χ²₁'s value there.

@@ -5,6 +5,7 @@
 
 use super::observe::{cone_sun, Obs};
 use super::robust::{Robust, Scratch};
+use super::stats::jackknife_sd;
 use super::{Cells, FieldContext, FieldHeading, FieldOptions, NoHeading, SigmaParts};
 use crate::conventions::{heading_deg_from_level_sun, image_angle_rad, level_from_camera, wrap_deg_180};
 use crate::heading::{meridian, sun_vector, Extractor, HeadingSums};
@@ -168,8 +169,7 @@ fn finish(
     }
     let (dev, k) = (&dev[..solved], used as f64);
     let jackknife_deg = if dev.len() >= 2 && dev.len() as f64 == k {
-        let mean = dev.iter().sum::<f64>() / k;
-        ((k - 1.0) / k * dev.iter().map(|d| (d - mean).powi(2)).sum::<f64>()).sqrt()
+        jackknife_sd(dev)
     } else {
         // Too few blocks to leave one out (or one that cannot be left out): the fit's
         // own σ, doubled.

@@ -67,6 +67,15 @@ pub(super) fn grown_clusters(
     dilate(kept, cols, grid_len / cols.max(1), r, tmp, out);
 }
 
+/// The delete-one jackknife's standard deviation of an estimate from its `k`
+/// leave-one-out values `dev` (any common offset): √((k − 1)/k · Σ (dᵢ − d̄)²)
+/// (Efron & Stein 1981). `dev` holds at least one value.
+pub(super) fn jackknife_sd(dev: &[f64]) -> f64 {
+    let k = dev.len() as f64;
+    let mean = dev.iter().sum::<f64>() / k;
+    ((k - 1.0) / k * dev.iter().map(|d| (d - mean).powi(2)).sum::<f64>()).sqrt()
+}
+
 pub(super) fn tukey(r: f64) -> f64 {
     let u = r / TUKEY_C;
     if u.abs() < 1.0 {
