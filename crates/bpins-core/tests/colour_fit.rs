@@ -66,6 +66,37 @@ fn a_colour_captures_band_parameters_are_fitted_and_recovered() {
 }
 
 #[test]
+fn each_bands_neutral_points_are_fitted_apart() {
+    // A Berry sky (neutral points 20° apart in green) whose pairs split wider in the
+    // blue and narrower in the red (sky_neutral_spectrum at its typical 1.25 and 0.8).
+    let c = colour_capture();
+    let mut set = EffectSet::new();
+    set.set("sky_neutral_points", "separation_deg", 20.0).unwrap();
+    typical(&mut set, "sky_neutral_spectrum");
+    let frames = simulate(&c, &set, 44);
+    let effects = vec![find("sky_neutral_points").unwrap(), find("sky_neutral_spectrum").unwrap()];
+    // One separation for every band leaves the red and blue skies unexplained.
+    let one = fit(&c, &frames, &FitOptions { effects: vec![effects[0]], ..Default::default() }, &|_, _| {}).unwrap();
+    let r = fit(&c, &frames, &FitOptions { effects, ..Default::default() }, &|_, _| {}).unwrap();
+    assert!((r.chi2_per_dof - 1.0).abs() < 0.03, "χ²/dof {}", r.chi2_per_dof);
+    assert!(one.chi2_per_dof > r.chi2_per_dof + 0.05, "one separation: χ²/dof {}", one.chi2_per_dof);
+    for (name, t) in [
+        ("sky_neutral_points.separation_deg", 20.0),
+        ("sky_neutral_spectrum.separation_r", 0.8),
+        ("sky_neutral_spectrum.separation_b", 1.25),
+    ] {
+        let f = fitted(&r, name);
+        eprintln!("{name}: {:.4} ± {:.4} (truth {t}); χ²/dof {:.4}", f.value, f.sigma, r.chi2_per_dof);
+        assert!(
+            (f.value - t).abs() < 4.0 * f.sigma && f.sigma < 0.1 * t,
+            "{name}: {} ± {} against {t}",
+            f.value,
+            f.sigma
+        );
+    }
+}
+
+#[test]
 fn a_blue_only_weak_grid_is_a_band_response_not_an_extinction_ratio() {
     let c = colour_capture();
     // ER 20 in the blue band alone (the sky neutral in every band).

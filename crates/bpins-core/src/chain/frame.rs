@@ -84,7 +84,7 @@ impl ChainFrame {
                 model.channels.analyzer_eps[c.index()],
             )
         });
-        let context = FrameContext { sun_cam, world_from_cam };
+        let context = FrameContext { sun_cam, world_from_cam, multiple_scattering: 1.0 };
         ChainFrame {
             intr,
             sun_cam,
@@ -131,9 +131,11 @@ impl ChainFrame {
     /// d_max times the band's factor, every channel's gain times the band's sky
     /// radiance and response (the chain is linear up to the photo-signal, so a radiance
     /// scale is a gain), each analyzer's ε plus the band's; the scene's white light
-    /// (clouds, the sun's disc) over the band's sky by 1/r_b. Everything else (the
-    /// camera, the effects, the offsets, the noise keys) is the frame's, so the bands'
-    /// frames draw the same noise at a pixel. At a neutral band block, bitwise `self`.
+    /// (clouds, the sun's disc) over the band's sky by 1/r_b; the sky effects' vectors
+    /// completed for the band's multiple scattering (the neutral points' separation).
+    /// Everything else (the camera, the other effects, the offsets, the noise keys) is
+    /// the frame's, so the bands' frames draw the same noise at a pixel. At a neutral
+    /// band block, bitwise `self`.
     pub fn in_band(mut self, model: &Model, scene: &Scene, b: crate::sensor::Band) -> Self {
         let k = b.index();
         let bands = &model.bands;
@@ -146,6 +148,16 @@ impl ChainFrame {
         // elements scale what they add by 1/r_b, so the band's gain leaves it white.
         if let Some(f) = self.field.as_mut() {
             f.white_over_sky = 1.0 / bands.radiance[k];
+        }
+        // The sky effects that model multiple scattering, completed for the band's.
+        if bands.multiple_scattering[k] != 1.0 {
+            let world_from_cam = true_world_from_camera(model, scene);
+            let context = FrameContext {
+                sun_cam: self.sun_cam,
+                world_from_cam,
+                multiple_scattering: bands.multiple_scattering[k],
+            };
+            self.sky = frame_sky_params(&model.sky, &context);
         }
         // Each channel's analyzer with the band's ε added.
         self.analyzers = Channel::ALL.map(|c| {

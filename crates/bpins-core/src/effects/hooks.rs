@@ -16,11 +16,14 @@ pub type RayFn = fn(p: &RayParams, g: &RayGeometry, s: Stokes) -> Stokes;
 
 /// What a per-pixel or sky effect may know of the frame beyond its own values
 /// (`Apply::Ray`'s and `Apply::Sky`'s `frame`): the sun, a unit vector in the true
-/// camera frame, and the true camera's axes in the ENU world (columns).
+/// camera frame, the true camera's axes in the ENU world (columns), and the sky's
+/// multiple scattering relative to the green band's (1 for a monochrome frame; a colour
+/// band's from `BandBlock::multiple_scattering`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameContext {
     pub sun_cam: DVec3,
     pub world_from_cam: DMat3,
+    pub multiple_scattering: f64,
 }
 
 /// How many 4-vectors a sky effect's frame vector holds: room for a frame's constants

@@ -63,6 +63,7 @@ pub(crate) mod sensor_nonlinearity;
 pub(crate) mod sky_depolarization;
 pub(crate) mod sky_dolp_shape;
 pub(crate) mod sky_neutral_points;
+pub(crate) mod sky_neutral_spectrum;
 pub(crate) mod sky_spectrum;
 pub(crate) mod stray_light;
 pub(crate) mod vignetting;
@@ -211,6 +212,7 @@ const ALL: &[&EffectDef] = &[
     &sky_neutral_points::EFFECT,
     &sky_dolp_shape::EFFECT,
     &sky_spectrum::EFFECT,
+    &sky_neutral_spectrum::EFFECT,
     &window::EFFECT,
     &lens_diattenuation::EFFECT,
     &lens_retardance::EFFECT,

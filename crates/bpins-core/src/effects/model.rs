@@ -87,11 +87,21 @@ pub struct BandBlock {
     pub gain: [f64; 3],
     /// ε = 1/ER each band's analyzers add to their channel's.
     pub eps: [f64; 3],
+    /// The sky's multiple scattering in each band relative to green's, as the sky
+    /// effects that model it read it from their frame (`FrameContext::multiple_scattering`:
+    /// the neutral points' separation scales by it).
+    pub multiple_scattering: [f64; 3],
 }
 
 impl Default for BandBlock {
     fn default() -> Self {
-        BandBlock { radiance: [1.0; 3], dmax_factor: [1.0; 3], gain: [1.0; 3], eps: [0.0; 3] }
+        BandBlock {
+            radiance: [1.0; 3],
+            dmax_factor: [1.0; 3],
+            gain: [1.0; 3],
+            eps: [0.0; 3],
+            multiple_scattering: [1.0; 3],
+        }
     }
 }
 

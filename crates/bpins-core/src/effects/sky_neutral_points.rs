@@ -65,12 +65,14 @@ pub const EFFECT: EffectDef = EffectDef {
 };
 
 /// The vector completed with the frame's constants ([`NeutralPoints::to_params`]) from
-/// the separation (degrees) in `p[0][0]`; left neutral (all zero) at separation 0.
+/// the separation (degrees) in `p[0][0]` times the frame's multiple scattering (a
+/// colour band's, `sky_neutral_spectrum`; 1 otherwise); left neutral (all zero) at
+/// separation 0.
 fn with_frame(p: SkyParams, c: &FrameContext) -> SkyParams {
     if p[0][0] == 0.0 {
         return p;
     }
-    NeutralPoints::new(&c.world_from_cam, c.sun_cam, p[0][0].to_radians()).to_params()
+    NeutralPoints::new(&c.world_from_cam, c.sun_cam, (p[0][0] * c.multiple_scattering).to_radians()).to_params()
 }
 
 /// The quartic sky along the ray `g` in place of the sky so far `s` where it is on
