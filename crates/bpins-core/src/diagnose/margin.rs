@@ -3,7 +3,9 @@
 //! ```text
 //! w_{c,k} = σ_k(base + c) / σ_k(base)        c a candidate the search did not add, k a frame:
 //!                                            the heading's 1σ with c freed over the model's own,
-//!                                            from the score test's joint system (same samples)
+//!                                            from the score test's joint system (same samples),
+//!                                            c held to its physical range where the data hold
+//!                                            it more loosely (`fit::uncertainty::prior`)
 //! σ_k    ← σ_k · max_c w_{c,k}               the final fit's heading 1σ (`heading_sigma_deg`)
 //! ```
 //!
@@ -16,18 +18,27 @@
 //! headings were off by 3–5 of their 1σ with nothing named. Freeing the candidate in
 //! the joint system is the profile of the heading over the candidate's allowed range
 //! (its Gauss–Newton linearization: the candidate's own 1σ from the data, carried into
-//! the heading by their correlation). Each candidate alone: the largest widening
-//! stands, as the least a user must allow for; where the candidates are several and
-//! independent, this is below their sum.
+//! the heading by their correlation). Where the data leave a direction of the
+//! candidate free, or hold it more loosely than its physical range
+//! (`ParamSpec::physical`, as a uniform: half-width/√3), that range holds it instead,
+//! and the heading's shift across the range joins the 1σ (before, a direction
+//! through the heading that the data do not constrain left the heading not estimable
+//! in the joint system and counted as no widening). Each candidate alone: the largest
+//! widening stands, as the least a user must allow for; where the candidates are
+//! several and independent, this is below their sum.
 //!
 //! Measured (release, this machine): `samples/clean` widens by 2.0–2.1 (analyzer
 //! angles), its eight headings then within 1.4σ and the 1σ 1.6× their RMS error;
-//! the PySkyLumos peer Rayleigh sky by 1.3–2.3.
+//! the PySkyLumos peer Rayleigh sky by 1.6–2.3 (its 1σ then 2.3× the RMS error, 1.3×
+//! before). The widening is the full fit's: `bpins fit --effects analyzer_angles` on
+//! that sky gives each frame a statistical 1σ 1.16–2.30× the model's, as the score's
+//! subsample does (to 1 %). On the repo's captures no candidate has a direction
+//! through the heading that the data leave free (equal extinction ratios trade against
+//! scale and d_max; `analyzer_incidence`'s e2 has no column at c = 0): the physical
+//! ranges change no widening by more than 0.005.
 //!
-//! Units: the widening is a ratio, the 1σ degrees. Cannot: a candidate the data cannot
-//! tell from the model at all (no constrained direction: the pseudo-inverse leaves it
-//! out, widening 1) moves the heading by an amount only a physical range could bound;
-//! effects outside the catalog.
+//! Units: the widening is a ratio, the 1σ degrees. Cannot: effects outside the
+//! catalog; a physical range the registry states too narrow.
 
 use crate::fit::FitResult;
 

@@ -8,6 +8,7 @@ use crate::fit::input::frames::FitFrames;
 use crate::fit::model::problem::problem;
 use crate::fit::model::slots::{Derivative, Nuisance, SlotId};
 use crate::fit::solver::schur::BlockInverse;
+use crate::fit::uncertainty::prior;
 use crate::fit::{FitOptions, FitResult, Param};
 
 /// The score of adding `candidate` to a fitted model: the Δχ² one Gauss–Newton step
@@ -77,6 +78,20 @@ pub fn score_candidates(
     let free = pb.slots.free();
     let headings: Vec<Option<usize>> =
         (0..frames.len()).map(|k| free.binary_search(&pb.slots.at(k, Nuisance::Heading)).ok()).collect();
+    // q²: the fit's heading variance over this subsample's (≈ n_sub/n × the fit's
+    // n/n_eff), the median over the frames: the scale at which a physical range enters
+    // this system (prior.rs).
+    let q2 = median(
+        headings
+            .iter()
+            .zip(&base.frames)
+            .filter_map(|(p, f)| {
+                let s = own_cov.sigma(p.filter(|&p| p >= first + all)? - all);
+                let r = (f.heading_sigma_stat_deg / s).powi(2);
+                (r.is_finite() && r > 0.0).then_some(r)
+            })
+            .collect(),
+    );
     let mut out = Vec::with_capacity(candidates.len());
     let mut at = first;
     for candidate in candidates {
@@ -89,6 +104,11 @@ pub fn score_candidates(
         // the model's other parameters adds no constrained direction and no Δχ².
         let cov = BlockInverse::new(&a);
         let x = cov.solve(&b);
+        // The heading's 1σ with the candidate free within what the data allow and its
+        // physical range (prior.rs): bounded where the data leave it loose or free.
+        let sigmas: Vec<f64> = candidate.params.iter().map(prior::physical_sigma).collect();
+        let bounded = q2.map(|q2| BlockInverse::new(&prior::with_prior(&a, first, &sigmas, q2)));
+        let bounded = bounded.as_ref().unwrap_or(&cov);
         // Score test: the joint model's predicted Δχ² minus the base model's own.
         let joint = x.iter().zip(&b).map(|(a, b)| a * b).sum::<f64>();
         let added = cov.rank().saturating_sub(own_cov.rank());
@@ -102,7 +122,7 @@ pub fn score_candidates(
                 .iter()
                 .map(|p| {
                     let Some(p) = p.filter(|&p| p >= first + all) else { return 1.0 };
-                    let (joint, base) = (cov.sigma(p - all + k), own_cov.sigma(p - all));
+                    let (joint, base) = (bounded.sigma(p - all + k), own_cov.sigma(p - all));
                     if joint.is_finite() && base > 0.0 && base.is_finite() {
                         (joint / base).max(1.0)
                     } else {
@@ -123,6 +143,13 @@ pub fn score_candidates(
     Ok(out)
 }
 
+/// The median of `v` (`None` where empty).
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    (n > 0).then(|| if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
+}
+
 /// What [`score_candidate`] predicts: Δχ² and the one-step parameters with their 1σ.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Score {
@@ -138,6 +165,7 @@ pub struct Score {
     pub identifiable: bool,
     /// Per frame, the heading's 1σ with the candidate freed over the base model's, on
     /// the same samples (≥ 1): how much wider the heading is where the candidate may
-    /// take any value the data allow (1 where it adds no constrained direction).
+    /// take any value the data allow and its physical range holds (`prior.rs`: along a
+    /// direction the data do not constrain, the heading's shift across that range).
     pub heading_widen: Vec<f64>,
 }
