@@ -13,6 +13,7 @@ use std::fs;
 use std::path::Path;
 
 const TINY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/sweeps/tiny.toml");
+const COLOUR_TINY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/sweeps/colour-tiny.toml");
 
 fn main() -> std::process::ExitCode {
     needs::run(vec![(
@@ -31,6 +32,10 @@ fn main() -> std::process::ExitCode {
             (
                 "the_gpu_sweep_gives_the_cpu_trials_within_the_heading_tolerance",
                 the_gpu_sweep_gives_the_cpu_trials_within_the_heading_tolerance,
+            ),
+            (
+                "a_colour_sweep_with_crosstalk_on_the_gpu_gives_the_cpu_trials",
+                a_colour_sweep_with_crosstalk_on_the_gpu_gives_the_cpu_trials,
             ),
         ],
     )])
@@ -126,17 +131,7 @@ fn the_gpu_sweep_gives_the_cpu_trials_within_the_heading_tolerance() {
     let (cpu, gpu) = (t.path().join("cpu"), t.path().join("gpu"));
     bpins(&["sweep", TINY, "--trials", "3", "--out", &s(&cpu)]).ok();
     bpins(&["sweep", TINY, "--trials", "3", "--backend", "gpu", "--out", &s(&gpu)]).ok();
-    let read = |d: &Path| fs::read_to_string(d.join("trials.csv")).unwrap();
-    let (c, g) = (read(&cpu), read(&gpu));
-    assert_eq!(c.lines().count(), g.lines().count());
-    let mut worst: f64 = 0.0;
-    for (a, b) in c.lines().zip(g.lines()).skip(1) {
-        let (ka, ea) = a.rsplit_once(',').unwrap();
-        let (kb, eb) = b.rsplit_once(',').unwrap();
-        assert_eq!(ka, kb, "the same trial on both lines");
-        let (x, y): (f64, f64) = (ea.parse().unwrap(), eb.parse().unwrap());
-        worst = worst.max(bpins_gpu::tolerance::heading_diff_deg(x, y));
-    }
+    let worst = trials_apart_deg(&cpu, &gpu);
     assert!(worst <= bpins_gpu::tolerance::HEADING_DEG, "CPU and GPU trials differ by {worst}°");
     // Field conditions are the CPU's only: the GPU refuses them, saying so.
     let cloudy = t.path().join("cloudy.toml");
@@ -146,7 +141,43 @@ fn the_gpu_sweep_gives_the_cpu_trials_within_the_heading_tolerance() {
     bpins(&["sweep", &s(&cloudy), "--trials", "1", "--backend", "gpu", "--out", &c])
         .fails()
         .stderr_has("CPU backend only");
+    assert!(!Path::new(&c).exists(), "refused before its output folder is made");
     bpins(&["sweep", &s(&cloudy), "--trials", "1", "--out", &s(&t.path().join("c-cpu"))]).ok();
     // Slices of different backends are not merged.
     bpins(&["merge", &s(&cpu), &s(&gpu), "--out", &s(&t.path().join("m"))]).fails();
+}
+
+/// The largest heading difference between the same trials of two sweep folders'
+/// `trials.csv` (each line's last field), degrees; the lines' keys must match.
+fn trials_apart_deg(cpu: &Path, gpu: &Path) -> f64 {
+    let read = |d: &Path| fs::read_to_string(d.join("trials.csv")).unwrap();
+    let (c, g) = (read(cpu), read(gpu));
+    assert_eq!(c.lines().count(), g.lines().count());
+    let mut worst: f64 = 0.0;
+    for (a, b) in c.lines().zip(g.lines()).skip(1) {
+        let (ka, ea) = a.rsplit_once(',').unwrap();
+        let (kb, eb) = b.rsplit_once(',').unwrap();
+        assert_eq!(ka, kb, "the same trial on both lines");
+        let (x, y): (f64, f64) = (ea.parse().unwrap(), eb.parse().unwrap());
+        worst = worst.max(bpins_gpu::tolerance::heading_diff_deg(x, y));
+    }
+    worst
+}
+
+/// A colour sensor's sweep on the GPU (issue 45): each trial's colour mosaic rendered on
+/// the device, crosstalk across bands in one source's trials, every band's and the fused
+/// heading within the heading tolerance of the CPU's, trial by trial.
+fn a_colour_sweep_with_crosstalk_on_the_gpu_gives_the_cpu_trials() {
+    let t = tempfile::tempdir().unwrap();
+    let spec = t.path().join("colour.toml");
+    let crosstalk =
+        "\n[[errors]]\nsource = \"crosstalk\"\nparam = \"crosstalk.c\"\ndistribution = \"fixed\"\nvalue = 0.02\n";
+    fs::write(&spec, fs::read_to_string(COLOUR_TINY).unwrap() + crosstalk).unwrap();
+    let (cpu, gpu) = (t.path().join("cpu"), t.path().join("gpu"));
+    bpins(&["sweep", &s(&spec), "--trials", "1", "--out", &s(&cpu)]).ok();
+    bpins(&["sweep", &s(&spec), "--trials", "1", "--backend", "gpu", "--out", &s(&gpu)]).ok();
+    let trials = fs::read_to_string(gpu.join("trials.csv")).unwrap();
+    assert!(trials.lines().any(|l| l.contains(",crosstalk,") && l.contains(",B,")), "{trials}");
+    let worst = trials_apart_deg(&cpu, &gpu);
+    assert!(worst <= bpins_gpu::tolerance::HEADING_DEG, "CPU and GPU colour trials differ by {worst}°");
 }

@@ -254,3 +254,12 @@ fn mosaic_pixel_dn(f: ChainFrame, u: u32, v: u32, w: u32, h: u32, mosaic: vec4<u
     // Sensor: non-uniformities, offsets, noise, rounding.
     return sensor_dn(f, signal, ch, sensor_noise(f, v * w + u, ch));
 }
+
+// The band over DoFP pixel (u, v) of a colour-polarization sensor, as a band index
+// (R 0, G 1, B 2): `tiles[2·((v / 2) mod 2) + (u / 2) mod 2]`, each filter over a
+// whole 2 × 2 analyzer tile (CONVENTIONS.md `colour_tiles`; CPU twin:
+// `ColourTiles::band_at`).
+fn band_at(tiles: vec4<u32>, u: u32, v: u32) -> u32 {
+    return tiles[2u * ((v >> 1u) & 1u) + ((u >> 1u) & 1u)];
+}
+

@@ -47,8 +47,9 @@ pub trait Backend: Send + Sync {
     /// By default each band's whole mosaic ([`Backend::render_mosaic`]) and each pixel
     /// taken from its band's: the same numbers, since the bands' frames share the
     /// noise keys and a pixel's DN is its own, except where a mosaic effect
-    /// (`crosstalk`) mixes a pixel with neighbours of other bands, which this refuses
-    /// ([`crate::Error::Backend`]); the CPU renders that too.
+    /// (`crosstalk`) mixes a pixel with neighbours of other bands, which this default
+    /// refuses ([`crate::Error::Backend`]). The CPU and `bpins-gpu`'s `Gpu` override it
+    /// and render that too (each neighbour through its own band's frame).
     fn render_colour_mosaic(
         &self,
         frames: &[[ChainFrame; 3]],
@@ -61,7 +62,7 @@ pub trait Backend: Send + Sync {
             return Err(crate::Error::Backend {
                 backend: self.name().to_string(),
                 message: "not yet: a mosaic effect (crosstalk) on a colour sensor mixes bands, which this backend \
-                          renders one band at a time; use the CPU backend"
+                          renders one band at a time; use the CPU or GPU backend"
                     .into(),
             });
         }

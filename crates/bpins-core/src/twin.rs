@@ -36,7 +36,8 @@ pub use crate::recon::Reconstructor;
 pub use crate::simulate::{
     colocated_heading_sums, mosaic_heading_sums, peak_intensity, render_colocated, render_mosaic, sky_maps, SkyMaps,
 };
-/// A sweep's sums engine (the CPU's is [`crate::CpuSums`]): the job it is given and
-/// the most heading contexts one trial reads.
+/// A sweep's sums engine (the CPU's is [`crate::CpuSums`]): the job it is given (a
+/// colour sensor's too) and the most heading contexts one trial reads; a colour
+/// mosaic's band sums, for a twin that renders the mosaic and reads it back.
 #[cfg(feature = "io")]
-pub use crate::sweep::{SumsEngine, SumsJob, MAX_CONTEXTS};
+pub use crate::sweep::{colour_mosaic_heading_sums, ColourSumsJob, SumsEngine, SumsJob, MAX_CONTEXTS};

@@ -57,6 +57,7 @@ struct Specialisation {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum RenderEntry {
     Mosaic,
+    ColourMosaic,
     Colocated,
     ChainMaps,
     SkyMaps,
@@ -66,6 +67,7 @@ impl RenderEntry {
     fn name(self) -> &'static str {
         match self {
             RenderEntry::Mosaic => "render_mosaic",
+            RenderEntry::ColourMosaic => "render_colour_mosaic",
             RenderEntry::Colocated => "render_colocated",
             RenderEntry::ChainMaps => "chain_maps",
             RenderEntry::SkyMaps => "sky_maps",

@@ -92,6 +92,19 @@ impl bpins_core::twin::Backend for Gpu {
         Gpu::render_mosaic(self, frames, w, h, mosaic).map_err(into_core)
     }
 
+    /// Each pixel through its band's frame, crosstalk with each neighbour through its
+    /// own band's ([`Gpu::render_colour_mosaic`]): no band-at-a-time default, no refusal.
+    fn render_colour_mosaic(
+        &self,
+        frames: &[[bpins_core::twin::ChainFrame; 3]],
+        w: usize,
+        h: usize,
+        mosaic: &[[bpins_core::sensor::Channel; 2]; 2],
+        tiles: &bpins_core::sensor::ColourTiles,
+    ) -> bpins_core::Result<Vec<Vec<f32>>> {
+        Gpu::render_colour_mosaic(self, frames, w, h, mosaic, tiles).map_err(into_core)
+    }
+
     fn render_colocated(
         &self,
         frames: &[bpins_core::twin::ChainFrame],

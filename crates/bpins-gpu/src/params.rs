@@ -12,7 +12,7 @@ use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::effects::{
     AnalyzerParams, SkyParams, ANALYZER_COUNT, MOSAIC_COUNT, RAY_COUNT, SENSOR_COUNT, SKY_COUNT, SKY_WIDTH,
 };
-use bpins_core::sensor::Channel;
+use bpins_core::sensor::{Channel, ColourTiles};
 use bpins_core::twin::ChainFrame;
 use bpins_core::twin::HeadingContext;
 use bpins_core::twin::Reconstructor;
@@ -182,6 +182,13 @@ pub fn mosaic_positions(mosaic: &[[Channel; 2]; 2]) -> [u32; 4] {
     [mosaic[0][0], mosaic[0][1], mosaic[1][0], mosaic[1][1]].map(|c| c.index() as u32)
 }
 
+/// A colour sensor's band index ([`Band::index`](bpins_core::sensor::Band::index)) at
+/// tile position `2·tv + tu` (WGSL `band_at` reads `tiles[2·((v / 2) & 1) + ((u / 2) & 1)]`).
+pub fn tile_bands(tiles: &ColourTiles) -> [u32; 4] {
+    let t = &tiles.tiles;
+    [t[0][0], t[0][1], t[1][0], t[1][1]].map(|b| b.index() as u32)
+}
+
 /// Where a frame's samples sit: sample (i, j) at `(x0 + step·i, y0 + step·j)` px.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SampleGrid {
@@ -221,8 +228,12 @@ impl HeadingParams {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RenderDims {
+    /// (width_px, height_px, frames of the batch, 0).
     pub size: [u32; 4],
+    /// [`mosaic_positions`].
     pub mosaic: [u32; 4],
+    /// A colour sensor's [`tile_bands`] (`render_colour_mosaic`; zero for the others).
+    pub tiles: [u32; 4],
 }
 
 /// WGSL `SumsDims` in `kernels/sums.wgsl`.
@@ -284,9 +295,22 @@ mod tests {
         );
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);
         check!("sums", HeadingParams, [camera, distortion, band, grid]);
-        check!("render", RenderDims, [size, mosaic]);
+        check!("render", RenderDims, [size, mosaic, tiles]);
         check!("sums", SumsDims, [samples, image]);
         check!("reduce", ReduceDims, [size]);
+    }
+
+    /// WGSL `band_at` reads `tile_bands` as `ColourTiles::band_at` reads the tiles.
+    #[test]
+    fn tile_bands_are_read_as_the_cpu_reads_the_tiles() {
+        use bpins_core::sensor::Band;
+        let tiles = ColourTiles { tiles: [[Band::G, Band::B], [Band::R, Band::G]], ..ColourTiles::imx250myr() };
+        let t = tile_bands(&tiles);
+        for (u, v) in (0..9u32).flat_map(|u| (0..7u32).map(move |v| (u, v))) {
+            let wgsl = t[(2 * ((v >> 1) & 1) + ((u >> 1) & 1)) as usize];
+            assert_eq!(wgsl as usize, tiles.band_at(u as usize, v as usize).index(), "({u}, {v})");
+        }
+        assert_eq!(tile_bands(&ColourTiles::imx250myr()), [0, 1, 1, 2]);
     }
 
     #[test]

@@ -3,9 +3,9 @@
 
 use crate::device::{Gpu, RenderEntry};
 use crate::masks::EffectMasks;
-use crate::params::{mosaic_positions, FrameParams, RenderDims};
+use crate::params::{mosaic_positions, tile_bands, FrameParams, RenderDims};
 use crate::{GpuError, Result};
-use bpins_core::sensor::{Channel, DEFAULT_MOSAIC};
+use bpins_core::sensor::{Channel, ColourTiles, DEFAULT_MOSAIC};
 use bpins_core::twin::ChainFrame;
 use bpins_core::twin::SkyMaps;
 
@@ -47,19 +47,36 @@ impl Gpu {
         mosaic: &[[Channel; 2]; 2],
         per_pixel: usize,
     ) -> Result<Vec<Vec<f32>>> {
+        let dims = RenderDims { size: [w as u32, h as u32, 0, 0], mosaic: mosaic_positions(mosaic), tiles: [0; 4] };
+        self.render_grouped(entry, frames, 1, dims, per_pixel)
+    }
+
+    /// [`Gpu::render`] where each output frame reads `per_item` consecutive frames of
+    /// `frames` (a colour sensor's three bands), on the sensor `dims` (its `size.z`
+    /// set per batch).
+    fn render_grouped(
+        &self,
+        entry: RenderEntry,
+        frames: &[ChainFrame],
+        per_item: usize,
+        dims: RenderDims,
+        per_pixel: usize,
+    ) -> Result<Vec<Vec<f32>>> {
+        let (w, h) = (dims.size[0] as usize, dims.size[1] as usize);
         let per_frame = (w * h * per_pixel) as u64 * 4;
-        let batch = self.batch_size(frames.len(), per_frame, &format!("a {w} × {h} px frame"))?;
-        let mut out = Vec::with_capacity(frames.len());
-        for chunk in frames.chunks(batch) {
+        let n = frames.len() / per_item;
+        let batch = self.batch_size(n, per_frame, &format!("a {w} × {h} px frame"))?;
+        let mut out = Vec::with_capacity(n);
+        for chunk in frames.chunks(batch * per_item) {
             let params = chunk.iter().map(FrameParams::try_from).collect::<Result<Vec<FrameParams>>>()?;
+            let items = (chunk.len() / per_item) as u32;
             // The entry point running the hooks some frame of the chunk has on.
             let pipeline = &self.pipelines.render(&self.device, entry, EffectMasks::of(&params));
-            let dims =
-                RenderDims { size: [w as u32, h as u32, chunk.len() as u32, 0], mosaic: mosaic_positions(mosaic) };
+            let dims = RenderDims { size: [w as u32, h as u32, items, 0], ..dims };
             let (u, f) = (self.uniform("dims", &dims), self.storage("frames", &params));
-            let o = self.output("frames out", per_frame * chunk.len() as u64);
+            let o = self.output("frames out", per_frame * items as u64);
             let group = self.bind(pipeline, &[&u, &f, &o]);
-            let groups = [(w as u32).div_ceil(WG_EDGE), (h as u32).div_ceil(WG_EDGE), chunk.len() as u32];
+            let groups = [(w as u32).div_ceil(WG_EDGE), (h as u32).div_ceil(WG_EDGE), items];
             let data: Vec<f32> = self.run(&[(pipeline, &group, groups)], &o)?;
             out.extend(data.chunks_exact(w * h * per_pixel).map(|c| c.to_vec()));
         }
@@ -76,6 +93,26 @@ impl Gpu {
         mosaic: &[[Channel; 2]; 2],
     ) -> Result<Vec<Vec<f32>>> {
         self.render(RenderEntry::Mosaic, frames, w, h, mosaic, 1)
+    }
+
+    /// Colour-polarization DoFP mosaics (`w × h`, row-major DN), one per element of
+    /// `frames` (its three band frames by [`Band::index`](bpins_core::sensor::Band::index)):
+    /// each pixel through the band over it (`tiles`), and where a mosaic effect
+    /// (crosstalk) mixes it with its edge neighbours, each neighbour through its own
+    /// band's frame; the sensor stage is the first band's (the bands share it). The
+    /// WGSL twin of bpins-core's `simulate::render_colour_mosaic` (tolerances: TOLERANCES.md).
+    pub fn render_colour_mosaic(
+        &self,
+        frames: &[[ChainFrame; 3]],
+        w: usize,
+        h: usize,
+        mosaic: &[[Channel; 2]; 2],
+        tiles: &ColourTiles,
+    ) -> Result<Vec<Vec<f32>>> {
+        let all: Vec<ChainFrame> = frames.iter().flatten().cloned().collect();
+        let dims =
+            RenderDims { size: [w as u32, h as u32, 0, 0], mosaic: mosaic_positions(mosaic), tiles: tile_bands(tiles) };
+        self.render_grouped(RenderEntry::ColourMosaic, &all, 3, dims, 1)
     }
 
     /// Colocated frames: per frame, one `w × h` plane per channel of `channels` (as

@@ -280,7 +280,9 @@ pub fn mosaic_pixel_signal_dn(
 /// its neighbours, through the frame of the band over it (`frames` by
 /// [`Band::index`](crate::sensor::Band::index), [`ChainFrame::bands`]; CONVENTIONS.md
 /// `colour_tiles`), so crosstalk between neighbouring tiles mixes bands as they are.
-/// The mosaic effects' vectors are the frames' (the same in every band).
+/// The mosaic effects' vectors are the frames' (the same in every band). WGSL twin:
+/// `colour_pixel_signal_dn` in `shaders/kernels/render.wgsl` (the frames read from its
+/// buffer).
 pub fn colour_pixel_signal_dn(
     frames: &[ChainFrame; 3],
     tiles: &crate::sensor::ColourTiles,

@@ -86,6 +86,23 @@ pub fn colour_heading_sums(
     contexts: &[HeadingContext],
 ) -> Vec<[HeadingSums; 3]> {
     let dn = crate::simulate::render_colour_mosaic(frames, w, h, mosaic, tiles);
+    colour_mosaic_heading_sums(&dn, w, h, mosaic, tiles, rec, full_scale_dn, contexts)
+}
+
+/// [`colour_heading_sums`] of a colour mosaic already rendered (`dn`, `w × h` DN,
+/// row-major): each band's sums per context. A device that renders the mosaic and
+/// reads it back (`bpins-gpu`'s colour sweep) sums it here, as the CPU does.
+#[allow(clippy::too_many_arguments)]
+pub fn colour_mosaic_heading_sums(
+    dn: &[f32],
+    w: usize,
+    h: usize,
+    mosaic: &[[Channel; 2]; 2],
+    tiles: &ColourTiles,
+    rec: &Reconstructor,
+    full_scale_dn: f64,
+    contexts: &[HeadingContext],
+) -> Vec<[HeadingSums; 3]> {
     let (tw, th) = (w / 2, h / 2);
     let rows: Vec<Vec<[HeadingSums; 3]>> = (0..th)
         .into_par_iter()
@@ -327,7 +344,7 @@ per = "pixel"
     }
 
     #[test]
-    fn the_gpu_engine_refuses_a_colour_sweep_by_default() {
+    fn an_engine_without_colour_refuses_a_colour_sweep_before_writing_anything() {
         struct NoColour;
         impl super::super::run::SumsEngine for NoColour {
             fn name(&self) -> &str {
@@ -347,6 +364,13 @@ per = "pixel"
         let s = spec(COLOUR_TINY);
         let e = run_units(&s, 0..1, &NoColour, &|_, _| {}).unwrap_err().to_string();
         assert!(e.contains("colour_tiles") && e.contains("--backend cpu"), "{e}");
+        // Refused before the output folder is made.
+        let t = tempfile::tempdir().unwrap();
+        let out = t.path().join("out");
+        let e = run_to_dir(&s, Shard::WHOLE, &NoColour, &out, &|_, _| {}).unwrap_err().to_string();
+        assert!(e.contains("colour_tiles") && !out.exists(), "{e}");
+        // The CPU's empty answer is no refusal.
+        assert!(super::super::run::check_engine(&s, &CpuSums).is_ok());
     }
 
     fn est(heading_deg: f64, sigma_deg: f64) -> Option<HeadingEstimate> {

@@ -82,7 +82,8 @@
 //! With `[sensor] colour_tiles` each trial is the colour mosaic, read band by band
 //! (`colour.rs`): every row, budget and trial line carries `band` (`R`, `G`, `B`, or
 //! `fused`: their inverse-variance mean), a `band` column after `known` in the CSV
-//! files; a monochrome sensor's outputs have none. CPU backend only.
+//! files; a monochrome sensor's outputs have none. The CPU and the GPU engine sweep it
+//! (the GPU renders each colour mosaic and reads it back; the host sums it).
 
 mod colour;
 mod edge_point;
@@ -93,7 +94,9 @@ mod spec;
 mod stats;
 mod store;
 
-pub use colour::{band_columns, colour_heading_sums, fuse as fuse_bands, BandColumn, ColourSumsJob};
+pub use colour::{
+    band_columns, colour_heading_sums, colour_mosaic_heading_sums, fuse as fuse_bands, BandColumn, ColourSumsJob,
+};
 pub use edge_point::heading as edge_point_heading;
 pub use report::html as report_html;
 pub use run::{

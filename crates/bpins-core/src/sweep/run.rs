@@ -392,7 +392,8 @@ pub trait SumsEngine: Sync {
     /// Per job, one set of each band's sums per context (`[band][…]` by
     /// [`crate::sensor::Band::index`]), for a colour DoFP sensor of `mosaic` and `tiles`,
     /// `w × h` px ([`colour_heading_sums`]). Refused unless the engine implements it
-    /// (the CPU does; the GPU does not yet).
+    /// (the CPU and `bpins-gpu`'s GPU do); an engine that refuses refuses an empty
+    /// `jobs` too, which [`check_engine`] asks before a sweep writes anything.
     #[allow(clippy::too_many_arguments)]
     fn colour_heading_sums(
         &self,
@@ -474,6 +475,23 @@ impl SumsEngine for CpuSums {
     }
 }
 
+/// Whether `engine` can sweep `spec`: field conditions on an engine without them, or a
+/// colour sensor on one that refuses it (asked with no jobs), are refused here, before
+/// any trial is set up or any output written.
+pub(crate) fn check_engine(spec: &SweepSpec, engine: &dyn SumsEngine) -> Result<()> {
+    if !spec.scene.is_empty() && !engine.field_scenes() {
+        return Err(crate::Error::Backend {
+            backend: engine.name().to_string(),
+            message: "field conditions ([sky] scene) run on the CPU backend only; use --backend cpu".into(),
+        });
+    }
+    if let (Some(tiles), Layout::Dofp { mosaic }) = (&spec.sensor.colour, &spec.sensor.layout) {
+        let (w, h) = spec.size_px();
+        engine.colour_heading_sums(&[], mosaic, tiles, w, h, spec.sensor.full_scale_dn())?;
+    }
+    Ok(())
+}
+
 /// Runs units `range` of the plan on `engine`, in order, calling `progress(done,
 /// total)` after each batch.
 pub fn run_units(
@@ -482,12 +500,7 @@ pub fn run_units(
     engine: &dyn SumsEngine,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Vec<TrialRecord>> {
-    if !spec.scene.is_empty() && !engine.field_scenes() {
-        return Err(crate::Error::Backend {
-            backend: engine.name().to_string(),
-            message: "field conditions ([sky] scene) run on the CPU backend only; use --backend cpu".into(),
-        });
-    }
+    check_engine(spec, engine)?;
     let total = range.len();
     let units: Vec<Unit> = range.map(|i| unit(spec, i)).collect();
     let (w, h) = spec.size_px();

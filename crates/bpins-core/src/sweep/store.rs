@@ -101,6 +101,8 @@ pub fn run_to_dir(
     if ShardMeta::read(dir).ok().flatten().as_ref() == Some(&meta) && dir.join("trials.csv").is_file() {
         return Ok(Outcome::AlreadyComplete);
     }
+    // What the engine cannot sweep is refused before the folder is made or touched.
+    super::run::check_engine(spec, engine)?;
     std::fs::create_dir_all(dir).map_err(|e| Error::Io { path: dir.to_path_buf(), source: e })?;
     // An earlier, different run's marker goes first: the folder is incomplete until
     // the new one is written.
