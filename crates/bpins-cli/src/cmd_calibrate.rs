@@ -3,9 +3,10 @@
 //! DIR/calibration.toml with DIR/pixels.exr beside it (for `heading`, `fit`,
 //! `diagnose --calibration` and the library's Compass), every map as
 //! DIR/maps.exr and DIR/png/*.png, DIR/summary.json and DIR/report.html. A colour
-//! sensor (`colour_tiles`) is calibrated band by band and its calibration.toml holds
-//! effects only (`lab/bands.rs`), no pixels.exr: the colour compass does not apply
-//! per-pixel maps per band yet.
+//! sensor (`colour_tiles`) is calibrated band by band: its calibration.toml holds
+//! effects (`lab/bands.rs`: what `fit` and `diagnose` take), and
+//! DIR/calibration-pixels.toml with DIR/pixels.exr its per-pixel maps, which the
+//! compass (`heading`) applies band by band (the fit does not yet).
 
 use crate::{ensure_not_in_capture, write_json, write_output};
 use anyhow::Context;
@@ -16,6 +17,9 @@ use bpins_core::LabCapture;
 use serde_json::json;
 use std::path::PathBuf;
 use std::sync::Arc;
+
+/// A colour sensor's per-pixel calibration file, beside calibration.toml (its effects).
+const COLOUR_PIXELS_FILE: &str = "calibration-pixels.toml";
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -113,15 +117,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let maps = write_maps(&cal, &a.out).context("writing the maps")?;
     let source = format!("bpins calibrate {}", a.lab.display());
-    // A colour sensor's per-pixel maps are not applied band by band yet (the colour
-    // compass refuses them): its calibration is the effects each band's means give.
+    // A colour sensor's per-pixel maps are applied band by band by the compass, not yet
+    // by the fit: calibration.toml is the effects each band's means give (every route),
+    // calibration-pixels.toml the maps (the compass's, `heading`'s).
     let calibration = match &cal.bands {
         Some(bands) => {
             let (effects, sigmas) =
                 bpins_core::tool::lab::bands::effects(bands).context("the colour sensor's calibration effects")?;
+            let px =
+                Calibration { source: source.clone(), pixels: Some(Arc::new(cal.maps.clone())), ..Default::default() };
+            px.write_pixels(&a.out).context("writing pixels.exr")?;
+            write_output(&a.out.join(COLOUR_PIXELS_FILE), px.to_toml().as_bytes())?;
             say!(
                 "colour sensor: calibration.toml holds effects (analyzer_angles, extinction_ratio, band_response, \
-                 channel_response), not per-pixel maps (not applied per band yet; they are in maps.exr)"
+                 channel_response: heading, fit, diagnose); {COLOUR_PIXELS_FILE} the per-pixel maps (pixels.exr: \
+                 heading applies them band by band; the fit does not yet)"
             );
             Calibration { source, effects, sigmas, ..Default::default() }
         }
@@ -151,7 +161,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     write_json(&a.out.join("summary.json"), &summary)?;
     write_output(&a.out.join("report.html"), report_html(&cal, &a.lab.display().to_string(), &maps)?.as_bytes())?;
     let t_all = t0.elapsed().as_secs_f64();
-    let pixels_note = if cal.bands.is_some() { "" } else { " (+ pixels.exr)" };
+    let pixels_note = if cal.bands.is_some() { " (+ calibration-pixels.toml, pixels.exr)" } else { " (+ pixels.exr)" };
     say!(
         "wrote {}{pixels_note}, maps.exr, png/, summary.json, report.html to {} in {t_all:.1} s \
          (reading and fitting {t_fit:.1} s, writing {:.1} s)",

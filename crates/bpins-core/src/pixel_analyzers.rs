@@ -68,6 +68,27 @@ pub struct CellAnalyzer {
     pub ok: bool,
 }
 
+impl CellAnalyzer {
+    /// `rows`, `ok` from the cell's analyzer rows `a_rows` (by channel index): least
+    /// squares over the four channels, (AᵀA)⁻¹Aᵀ; `ok` false where AᵀA is singular.
+    fn solve_rows(&mut self, a_rows: &[DVec3; 4]) {
+        let mut ata = DMat3::ZERO;
+        for r in a_rows {
+            ata += DMat3::from_cols(*r * r.x, *r * r.y, *r * r.z);
+        }
+        if ata.determinant().abs() > 1e-12 {
+            let inv = ata.inverse();
+            for (k, r) in a_rows.iter().enumerate() {
+                let col = inv * *r;
+                for i in 0..3 {
+                    self.rows[i][k] = col[i];
+                }
+            }
+            self.ok = true;
+        }
+    }
+}
+
 /// One [`CellAnalyzer`] per cell of a grid of `cell_px` cells, row-major.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CellAnalyzers {
@@ -250,21 +271,7 @@ impl PixelMaps {
                         cell.pattern[k] = m;
                     }
                 }
-                // Least squares over the four channels: (AᵀA)⁻¹Aᵀ.
-                let mut ata = DMat3::ZERO;
-                for r in &a_rows {
-                    ata += DMat3::from_cols(*r * r.x, *r * r.y, *r * r.z);
-                }
-                if ata.determinant().abs() > 1e-12 {
-                    let inv = ata.inverse();
-                    for (k, r) in a_rows.iter().enumerate() {
-                        let col = inv * *r;
-                        for i in 0..3 {
-                            cell.rows[i][k] = col[i];
-                        }
-                    }
-                    cell.ok = true;
-                }
+                cell.solve_rows(&a_rows);
                 cell
             })
             .collect();
@@ -317,6 +324,9 @@ impl PixelMaps {
     }
 }
 
+#[path = "pixel_analyzers_band.rs"]
+mod band;
+
 fn angles(m: &[[Channel; 2]; 2]) -> [[f64; 2]; 2] {
     m.map(|r| r.map(|c| c.angle_deg()))
 }
@@ -328,7 +338,7 @@ mod tests {
 
     /// Seeded flawed maps of a `w × h` sensor: angle offsets up to ±1.5°, ε up to
     /// 0.04, gain ±10 %, offsets 64 ± 5 DN.
-    fn flawed(w: usize, h: usize) -> PixelMaps {
+    pub(super) fn flawed(w: usize, h: usize) -> PixelMaps {
         let r = |i: usize, salt: u64| {
             let x = (i as u64 ^ salt)
                 .wrapping_mul(0x9E37_79B9_7F4A_7C15)

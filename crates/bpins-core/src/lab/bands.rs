@@ -182,8 +182,9 @@ pub fn unband_gain(
         .collect()
 }
 
-/// The calibration a colour compass and a colour fit apply (effects, no per-pixel
-/// maps, which are not applied per band yet): `analyzer_angles` (each channel's mean
+/// The effects calibration of a colour sensor, which every route applies (the
+/// per-pixel maps go in a file of their own: the compass applies them per band, the
+/// fit not yet): `analyzer_angles` (each channel's mean
 /// offset over every band: the analyzers are one grid under the filters),
 /// `extinction_ratio` (the reference band's ε per channel), `band_response` (q_R, q_B
 /// and each band's ε_b, module doc) and `channel_response` (green band's channel gains

@@ -220,8 +220,9 @@ impl<'a> FitFrames<'a> {
         if c.sensor.colour.is_some() && maps.is_some() {
             return Err(Error::Capture {
                 path: c.toml_path(),
-                message: "[sensor] colour_tiles: per-pixel maps of a colour-polarization sensor are not applied \
-                          yet: use a calibration without them (effects only)"
+                message: "[sensor] colour_tiles: not yet: the fit does not apply per-pixel maps ([pixels]) of a \
+                          colour-polarization sensor band by band (the compass and `heading` do): fit with the \
+                          effects-only calibration `bpins calibrate` writes beside them (calibration.toml)"
                     .into(),
             });
         }

@@ -378,7 +378,7 @@ impl Cells {
                             let x: [f64; 4] = std::array::from_fn(|k| mean[k] - c.offset_dn[k]);
                             let dot = |row: &[f64; 4]| (0..4).map(|k| row[k] * x[k]).sum::<f64>();
                             let s = Stokes::new(dot(&c.rows[0]), dot(&c.rows[1]), dot(&c.rows[2]), 0.0);
-                            if a.bad == 0.0 && matches!(finish, Finish::Mosaic(_)) {
+                            if a.bad == 0.0 && matches!(finish, Finish::Mosaic(_) | Finish::Band(_)) {
                                 remove_fixed_pattern(&mut var, &a.n, &c.pattern, &s);
                             }
                             (s, c.rows, [1.0; 4])

@@ -17,8 +17,11 @@
 //! computed once per frame from the cell's pixel places. Cells are whole superpixels:
 //! their size a multiple of 4 px, so each holds the same places of every band.
 //!
-//! Frame: image pixels (CONVENTIONS.md); units DN. Cannot: apply a per-pixel
-//! calibration (per-cell analyzers are built for the monochrome grid).
+//! A per-pixel calibration is applied as for a monochrome mosaic, through per-cell
+//! analyzers built from the band's own pixels' maps on the band's grid
+//! (`PixelMaps::cell_analyzers_band`: the weights of this plane fit).
+//!
+//! Frame: image pixels (CONVENTIONS.md); units DN.
 
 use super::*;
 
@@ -124,11 +127,40 @@ impl Cells {
         cell_px: usize,
         scratch: &mut CellScratch,
     ) {
+        self.fill_band(img, mosaic, classes, CellRecon::Frame(rec), full_scale_dn, cell_px, scratch)
+    }
+
+    /// As [`Cells::fill_from_mosaic_band`], each cell reconstructed through the
+    /// analyzers of the band's own pixels (a per-pixel calibration,
+    /// `PixelMaps::cell_analyzers_band` for the same `classes`); the grid is `cal`'s.
+    pub fn fill_from_mosaic_band_calibrated<T: RawDn>(
+        &mut self,
+        img: &RawImage<T>,
+        mosaic: &[[Channel; 2]; 2],
+        classes: [[bool; 2]; 2],
+        cal: &CellAnalyzers,
+        full_scale_dn: f64,
+        scratch: &mut CellScratch,
+    ) {
+        self.fill_band(img, mosaic, classes, CellRecon::PerCell(cal), full_scale_dn, cal.cell_px, scratch)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn fill_band<T: RawDn>(
+        &mut self,
+        img: &RawImage<T>,
+        mosaic: &[[Channel; 2]; 2],
+        classes: [[bool; 2]; 2],
+        rec: CellRecon,
+        full_scale_dn: f64,
+        cell_px: usize,
+        scratch: &mut CellScratch,
+    ) {
         let cell_px = cell_px.max(4).div_ceil(4) * 4;
         let chan = [0, 1].map(|dv| [0, 1].map(|du| Layout::dofp_channel(mosaic, du, dv).index()));
         let geom = BandGeom::new(mosaic, classes, cell_px);
         let finish = Finish::Band(&geom);
-        self.build(img.width_px, img.height_px, cell_px, CellRecon::Frame(rec), finish, scratch, |cj, acc| {
+        self.build(img.width_px, img.height_px, cell_px, rec, finish, scratch, |cj, acc| {
             for dv in 0..cell_px {
                 let v = cj * cell_px + dv;
                 let tiles = classes[(v >> 1) & 1];
@@ -155,6 +187,7 @@ impl Cells {
 mod tests {
     use super::*;
     use crate::effects::Model;
+    use crate::pixel_analyzers::PixelMaps;
     use crate::sensor::{Band, ColourTiles, DEFAULT_MOSAIC};
 
     fn rec() -> Reconstructor {
@@ -219,6 +252,99 @@ mod tests {
                 // A plane leaves no scatter (f32 rounding only).
                 assert!(c.var_q_dn2 < 1e-6 && c.var_u_dn2 < 1e-6, "{b:?}: {c:?}");
             }
+        }
+    }
+
+    fn band_cells_calibrated(dn: &[f32], maps: &PixelMaps, classes: [[bool; 2]; 2], cell_px: usize) -> Cells {
+        let (w, h) = (maps.width_px, maps.height_px);
+        let cal = maps.cell_analyzers_band(classes, cell_px, 64.0);
+        let mut cells = Cells::default();
+        let img = RawImage::packed(dn, w, h);
+        cells.fill_from_mosaic_band_calibrated(&img, &DEFAULT_MOSAIC, classes, &cal, 1e9, &mut CellScratch::default());
+        cells
+    }
+
+    #[test]
+    fn nominal_maps_give_each_band_its_uncalibrated_cells() {
+        // The planar field plus seeded noise (so each cell has a scatter to keep).
+        let (w, h) = (48, 32);
+        let mut dn = planar(w, h);
+        for (i, x) in dn.iter_mut().enumerate() {
+            // SplitMix64's finaliser of the pixel index: seeded, well mixed.
+            let mut z = (i as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            let r = (z ^ (z >> 31)) >> 40;
+            *x += (r as f32 / (1u64 << 24) as f32 - 0.5) * 40.0;
+        }
+        let maps = PixelMaps::nominal(w, h, DEFAULT_MOSAIC);
+        let tiles = ColourTiles::imx250myr();
+        for b in Band::ALL {
+            let plain = band_cells(&dn, w, h, tiles.classes(b), 8);
+            let cal = band_cells_calibrated(&dn, &maps, tiles.classes(b), 8);
+            assert_eq!(plain.cells.len(), cal.cells.len(), "{b:?}");
+            assert_eq!((plain.cell_px, plain.cols, plain.rows), (cal.cell_px, cal.cols, cal.rows));
+            for (p, c) in plain.cells.iter().zip(&cal.cells) {
+                let pairs = [
+                    (p.stokes.i, c.stokes.i),
+                    (p.stokes.q, c.stokes.q),
+                    (p.stokes.u, c.stokes.u),
+                    (p.var_q_dn2, c.var_q_dn2),
+                    (p.var_u_dn2, c.var_u_dn2),
+                ];
+                for (x, y) in pairs {
+                    assert!((x - y).abs() <= 1e-12 * x.abs().max(1.0), "{b:?}: {p:?} against {c:?}");
+                }
+                assert!(p.var_q_dn2 > 1.0, "the noise left a scatter: {p:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_turn_of_one_bands_analyzers_is_undone_by_its_maps() {
+        // Every R pixel's analyzer turned (by channel: +2°, −1.5°, +1°, −2.5°), the
+        // other bands nominal; the planar field through each pixel's own analyzer.
+        let (w, h) = (48, 32);
+        let tiles = ColourTiles::imx250myr();
+        let turn_deg = [2.0, -1.5, 1.0, -2.5];
+        let mut maps = PixelMaps::nominal(w, h, DEFAULT_MOSAIC);
+        let analyzer_deg = (0..w * h)
+            .map(|i| {
+                let (u, v) = (i % w, i / w);
+                let c = Layout::dofp_channel(&DEFAULT_MOSAIC, u, v);
+                let turn = if tiles.band_at(u, v) == Band::R { turn_deg[c.index()] } else { 0.0 };
+                (c.angle_deg() + turn) as f32
+            })
+            .collect();
+        maps.analyzer_deg = Some(analyzer_deg);
+        let field = |x: f64, y: f64| [2000.0 + 9.0 * x - 6.0 * y, 300.0 + 2.0 * x + 1.5 * y, -400.0 + 3.0 * y - x];
+        let dn: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let (a, o) = maps.pixel(i % w, i / w, 64.0);
+                let s = field((i % w) as f64, (i / w) as f64);
+                (o + a[0] * s[0] + a[1] * s[1] + a[2] * s[2]) as f32
+            })
+            .collect();
+        let worst = |cells: &Cells| {
+            let err = |c: &Cell| {
+                let want = field(c.x_px, c.y_px);
+                (c.stokes.q - want[1]).abs().max((c.stokes.u - want[2]).abs())
+            };
+            cells.cells.iter().map(err).fold(0.0, f64::max)
+        };
+        let (plain, cal) = (
+            band_cells(&dn, w, h, tiles.classes(Band::R), 8),
+            band_cells_calibrated(&dn, &maps, tiles.classes(Band::R), 8),
+        );
+        assert_eq!(cal.cells.len(), 24);
+        // Turned analyzers read as nominal move Q and U by tens of DN; their maps undo it
+        // (a planar field, constant turns per channel: exact up to f32 rounding).
+        assert!(worst(&plain) > 10.0 && worst(&cal) < 2e-3, "R: {} DN → {} DN", worst(&plain), worst(&cal));
+        // The other bands' pixels were not turned: through their maps they read as before.
+        for b in [Band::G, Band::B] {
+            let (p, c) =
+                (band_cells(&dn, w, h, tiles.classes(b), 8), band_cells_calibrated(&dn, &maps, tiles.classes(b), 8));
+            assert!(worst(&p) < 2e-3 && worst(&c) < 2e-3, "{b:?}: {} and {} DN", worst(&p), worst(&c));
         }
     }
 
