@@ -1554,6 +1554,50 @@ fn a_civil_twilight_frame_is_read_under_the_sun_below_the_horizon_and_a_mixed_on
     assert_ne!(frame(&both), frame(&one));
 }
 
+/// Issue 48 items 1 and 5: `fit` and `diagnose` read a capture's source by `heading`'s
+/// rule. The mixed twilight above (the sun at −12.4° and a 75 % moon, half the light
+/// each) is refused by both, naming the frame and both shares in `heading`'s words, not
+/// fitted about the brighter source; the civil twilight (the sun at −4.4°, the moon
+/// set) is fitted about the sun below the horizon, each frame's heading within 2σ of
+/// its reference, and fit.json and the fit's table say which source lit each frame.
+#[test]
+fn fit_and_diagnose_refuse_a_mixed_twilight_naming_the_shares_and_fit_a_civil_one_about_the_sun() {
+    let tmp = tempfile::tempdir().unwrap();
+    let place = ["--latitude-deg", "36.07", "--longitude-deg", "120.38"];
+    let size = ["--width-px", "128", "--height-px", "128", "--pixel-pitch-um", "27.6", "--headings-deg", "20,200"];
+    let make = |name: &str, time: &str| {
+        let cap = s(&tmp.path().join(name));
+        let mut args = vec!["simulate", "--out", &cap, "--time-utc", time, "--scene", "twilight"];
+        args.extend_from_slice(&place);
+        args.extend_from_slice(&size);
+        bpins(&args).ok();
+        cap
+    };
+    let mixed = make("mixed", "2026-06-24T12:30:00Z");
+    for cmd in ["fit", "diagnose"] {
+        let out = s(&tmp.path().join(format!("{cmd}_mixed")));
+        let r = bpins(&[cmd, &mixed, "--out", &out]).fails();
+        r.stderr_has("frames[0] frames/f000.png")
+            .stderr_has("the sun at -12.4° gives 50 % of the sky's light")
+            .stderr_has("the moon (at 35.5°, 75 % lit) 50 %")
+            .stderr_has("no single source");
+        assert!(!std::path::Path::new(&out).join("fit.json").exists(), "{cmd}: nothing written");
+    }
+    let civil = make("civil", "2026-07-02T11:40:00Z");
+    let out = tmp.path().join("fit_civil");
+    let r = bpins(&["fit", &civil, "--out", &s(&out)]).ok();
+    assert!(r.stdout.contains("twilight: the sun at -4.4° gives 100 % of the sky's light"), "{}", r.stdout);
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("fit.json")).unwrap()).unwrap();
+    let (frames, sky) = (v["frames"].as_array().unwrap(), v["sky"].as_array().unwrap());
+    assert_eq!((frames.len(), sky.len()), (2, 2), "{v}");
+    for (f, k) in frames.iter().zip(sky) {
+        let (e, sg) = (f["heading_error_deg"].as_f64().unwrap(), f["heading_sigma_deg"].as_f64().unwrap());
+        assert!(e.abs() <= 2.0 * sg, "{f}");
+        assert_eq!((k["source"].as_str(), k["sun_share"].as_f64(), k["moon_share"].as_f64()), (Some("sun"), Some(1.0), Some(0.0)), "{k}");
+        assert!(k["sun"].as_str().unwrap().contains("the moon (at -16.6°, below the horizon) 0 %"), "{k}");
+    }
+}
+
 /// By moonlight through a real camera (docs/night.md): the full moon over a dark
 /// site's glow, the IMX250MZR at f/1.4 for 0.5 s, its 3.45 µm pixels behind a 1 mm
 /// lens (a 47° field on 256 px). `heading` reads every frame under the moon with a
@@ -1710,6 +1754,32 @@ fn clouds_that_turn_together_leave_the_clear_skys_heading() {
             assert_eq!(errors.len(), 8, "seed {seed}, rim {rim}: every frame has a heading: {v:#}");
             assert!(rms <= 0.1, "seed {seed}, rim {rim}: {rms:.4}° RMS: {errors:?}");
             assert!(within >= 7 && errors.iter().all(|e| e.0.abs() <= 4.0 * e.1), "seed {seed}, rim {rim}: {errors:?}");
+        }
+    }
+    // Bright turned rims with the sun at 120° (issue 46 item 1's last case, a mono
+    // camera): scene seed 1's frames at 80° and 240° (0.63° and 1.6° off at a 1σ of
+    // 0.8° and 2.7° before) and scene seed 4's at 240° (0.20° off at 3.6σ), where the
+    // rims' own tight "sky" took the start; the brightness test's reference is now the
+    // DoLP plateau, not the cells that fit that start. The clouds turn per frame index,
+    // so every heading is rendered.
+    let headings = "0,40,80,120,160,200,240,280";
+    for seed in ["1", "4"] {
+        let cap = tmp.path().join(format!("rims-120-{seed}"));
+        let json = tmp.path().join(format!("rims-120-{seed}.json"));
+        #[rustfmt::skip]
+        bpins(&[
+            "simulate", "--out", &s(&cap), "--scene-seed", seed, "--seed", seed,
+            "--sun-azimuth-deg", "120", "--sun-elevation-deg", "25", "--headings-deg", headings,
+            "--scene", "clouds.count=6", "--scene", "clouds.coherence=1", "--scene", "clouds.rim=1",
+            "--scene", "clouds.min_elevation_deg=45", "--scene", "clouds.radius_min_deg=8",
+            "--scene", "clouds.radius_max_deg=20", "--scene", "clouds.dolp_factor=0.6",
+        ])
+        .ok();
+        bpins(&["heading", &s(&cap), "--json", &s(&json)]).ok();
+        let v = read_json(&json);
+        for f in v["frames"].as_array().unwrap() {
+            let (e, sigma) = (f64_of(f, "error_deg"), f64_of(f, "sigma_deg"));
+            assert!(e.abs() <= 0.05 && e.abs() <= 2.0 * sigma, "seed {seed}: {e:.4}° at 1σ {sigma:.4}°: {f:#}");
         }
     }
 }
