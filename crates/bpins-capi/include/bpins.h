@@ -59,6 +59,18 @@ typedef enum BpinsStatus {
   BPINS_ERR_PANIC = 8,
 } BpinsStatus;
 
+// Which source lit the sky a heading was read about (`BpinsHeading::source`).
+typedef enum BpinsSource {
+  // `BPINS_SUN_ANGLES`: the caller gave the angles (of the sun or the moon).
+  BPINS_SOURCE_GIVEN = 0,
+  // `BPINS_SUN_UNIX_TIME`: the sun (NREL SPA), by day or in a twilight it dominates.
+  BPINS_SOURCE_SUN = 1,
+  // `BPINS_SUN_UNIX_TIME`: the moon (Meeus ch. 47), at night where it is up and its
+  // sky gives at least 99 % of the light; the sun's 1σ part then includes the moon
+  // ephemeris's 0.005°.
+  BPINS_SOURCE_MOON = 2,
+} BpinsSource;
+
 // Why a frame has no heading (`BpinsHeading::reason`).
 typedef enum BpinsNoHeading {
   // The frame has a heading.
@@ -80,6 +92,12 @@ typedef enum BpinsNoHeading {
   BPINS_NO_HEADING_CONTRADICTS = 7,
   // The frame is too dark to tell: its polarized signal is below the noise.
   BPINS_NO_HEADING_TOO_DARK = 8,
+  // `BPINS_SUN_UNIX_TIME`: the sun and the moon both light the sky and neither gives
+  // 99 % of its light (a twilight with the moon up); the message names both shares.
+  BPINS_NO_HEADING_MIXED_SKY = 9,
+  // `BPINS_SUN_UNIX_TIME`: the sun is past −10° and no moon is up bright enough to be
+  // read alone (a dark night); the message gives both elevations.
+  BPINS_NO_HEADING_DARK_NIGHT = 10,
 } BpinsNoHeading;
 
 // A compass: the camera, the sensor and its calibration, with the estimator's
@@ -184,6 +202,10 @@ typedef struct BpinsAttitude {
 typedef struct BpinsHeading {
   // Whether the frame has a heading.
   bool has_heading;
+  // Which source lit the sky (set with or without a heading). It lies in what was
+  // padding after `has_heading`: the struct's size and every other field's offset
+  // are those of the headers without it.
+  enum BpinsSource source;
   // Heading: azimuth of the image top, degrees from North toward East, [0, 360).
   double heading_deg;
   // The heading's 1σ, degrees: max(fit, jackknife, coherent) in quadrature with the
@@ -273,7 +295,11 @@ typedef uint32_t BpinsBand;
 // `azimuth_deg` and `elevation_deg` are the sun's position.
 #define BPINS_SUN_ANGLES 0
 
-// `unix_time_s`, `latitude_deg` and `longitude_deg` give it, through NREL SPA.
+// `unix_time_s`, `latitude_deg` and `longitude_deg` give it: the source that lights
+// the sky then, as `bpins heading` reads a capture's `time_utc` and place: the sun
+// (NREL SPA) by day, the moon at night where it is up and its sky the brighter
+// (`BpinsHeading::source` says which); a mixed twilight or a dark night is a frame
+// without a heading (`BPINS_NO_HEADING_MIXED_SKY`, `BPINS_NO_HEADING_DARK_NIGHT`).
 #define BPINS_SUN_UNIX_TIME 1
 
 #define BPINS_BAND_R 0

@@ -6,7 +6,7 @@
 
 use crate::{BpinsStatus, Failure};
 use bpins_core::camera::{Intrinsics, Projection};
-use bpins_core::compass::{Attitude, CompassConfig, Extractor, FieldHeading, FieldOptions, NoHeading, Sun};
+use bpins_core::compass::{Attitude, CompassConfig, Extractor, FieldHeading, FieldOptions, NoHeading, SkySource, Sun};
 use bpins_core::sensor::{Band, Channel, ColourTiles, DEFAULT_MOSAIC};
 use std::ffi::c_char;
 
@@ -32,7 +32,11 @@ pub const BPINS_EXTRACTOR_MERIDIAN_LINE: BpinsExtractor = 1;
 pub type BpinsSunKind = u32;
 /// `azimuth_deg` and `elevation_deg` are the sun's position.
 pub const BPINS_SUN_ANGLES: BpinsSunKind = 0;
-/// `unix_time_s`, `latitude_deg` and `longitude_deg` give it, through NREL SPA.
+/// `unix_time_s`, `latitude_deg` and `longitude_deg` give it: the source that lights
+/// the sky then, as `bpins heading` reads a capture's `time_utc` and place: the sun
+/// (NREL SPA) by day, the moon at night where it is up and its sky the brighter
+/// (`BpinsHeading::source` says which); a mixed twilight or a dark night is a frame
+/// without a heading (`BPINS_NO_HEADING_MIXED_SKY`, `BPINS_NO_HEADING_DARK_NIGHT`).
 pub const BPINS_SUN_UNIX_TIME: BpinsSunKind = 1;
 
 /// Bytes of `BpinsHeading::message`, its terminating NUL included.
@@ -177,6 +181,27 @@ pub enum BpinsNoHeading {
     BPINS_NO_HEADING_CONTRADICTS = 7,
     /// The frame is too dark to tell: its polarized signal is below the noise.
     BPINS_NO_HEADING_TOO_DARK = 8,
+    /// `BPINS_SUN_UNIX_TIME`: the sun and the moon both light the sky and neither gives
+    /// 99 % of its light (a twilight with the moon up); the message names both shares.
+    BPINS_NO_HEADING_MIXED_SKY = 9,
+    /// `BPINS_SUN_UNIX_TIME`: the sun is past −10° and no moon is up bright enough to be
+    /// read alone (a dark night); the message gives both elevations.
+    BPINS_NO_HEADING_DARK_NIGHT = 10,
+}
+
+/// Which source lit the sky a heading was read about (`BpinsHeading::source`).
+#[allow(non_camel_case_types)]
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BpinsSource {
+    /// `BPINS_SUN_ANGLES`: the caller gave the angles (of the sun or the moon).
+    BPINS_SOURCE_GIVEN = 0,
+    /// `BPINS_SUN_UNIX_TIME`: the sun (NREL SPA), by day or in a twilight it dominates.
+    BPINS_SOURCE_SUN = 1,
+    /// `BPINS_SUN_UNIX_TIME`: the moon (Meeus ch. 47), at night where it is up and its
+    /// sky gives at least 99 % of the light; the sun's 1σ part then includes the moon
+    /// ephemeris's 0.005°.
+    BPINS_SOURCE_MOON = 2,
 }
 
 /// One frame's result. Without a heading (`has_heading` false) the heading and its
@@ -187,6 +212,10 @@ pub enum BpinsNoHeading {
 pub struct BpinsHeading {
     /// Whether the frame has a heading.
     pub has_heading: bool,
+    /// Which source lit the sky (set with or without a heading). It lies in what was
+    /// padding after `has_heading`: the struct's size and every other field's offset
+    /// are those of the headers without it.
+    pub source: BpinsSource,
     /// Heading: azimuth of the image top, degrees from North toward East, [0, 360).
     pub heading_deg: f64,
     /// The heading's 1σ, degrees: max(fit, jackknife, coherent) in quadrature with the
@@ -370,6 +399,11 @@ impl From<&FieldHeading> for BpinsHeading {
         let q = &h.quality;
         let mut out = BpinsHeading {
             has_heading: h.result.is_ok(),
+            source: match h.source {
+                SkySource::Given => BpinsSource::BPINS_SOURCE_GIVEN,
+                SkySource::Sun(_) => BpinsSource::BPINS_SOURCE_SUN,
+                SkySource::Moon(_) => BpinsSource::BPINS_SOURCE_MOON,
+            },
             heading_deg: f64::NAN,
             sigma_deg: f64::NAN,
             sigma_fit_deg: f64::NAN,
@@ -414,6 +448,8 @@ impl From<&FieldHeading> for BpinsHeading {
                     NoHeading::Solver(_) => BPINS_NO_HEADING_SOLVER,
                     NoHeading::Contradicts { .. } => BPINS_NO_HEADING_CONTRADICTS,
                     NoHeading::TooDark { .. } => BPINS_NO_HEADING_TOO_DARK,
+                    NoHeading::MixedSky { .. } => BPINS_NO_HEADING_MIXED_SKY,
+                    NoHeading::DarkNight { .. } => BPINS_NO_HEADING_DARK_NIGHT,
                 };
                 write_message(&mut out.message, &why.to_string());
             }

@@ -198,6 +198,20 @@ fn a_wrong_buffer_a_null_pointer_and_a_bad_sun_are_statuses_with_messages() {
     unsafe { bpins_compass_free(handle) };
 }
 
+/// The source added to `BpinsHeading` took padding after `has_heading`: the size and
+/// every other field's offset are those of the headers without it (a caller built
+/// against them still gets its fields where it looks).
+#[test]
+fn the_heading_struct_keeps_its_layout() {
+    use std::mem::{offset_of, size_of};
+    assert_eq!(size_of::<BpinsSource>(), 4);
+    assert_eq!((offset_of!(BpinsHeading, has_heading), offset_of!(BpinsHeading, source)), (0, 4));
+    assert_eq!(offset_of!(BpinsHeading, heading_deg), 8);
+    assert_eq!(offset_of!(BpinsHeading, sun_elevation_offset_deg), 128);
+    assert_eq!((offset_of!(BpinsHeading, reason), offset_of!(BpinsHeading, message)), (136, 140));
+    assert_eq!(size_of::<BpinsHeading>(), 400);
+}
+
 #[test]
 fn configs_and_calibrations_are_checked_and_used() {
     let s = common::clean_frame(0);
@@ -229,6 +243,23 @@ fn configs_and_calibrations_are_checked_and_used() {
     let want = rust.heading(RawImage::packed(&s.raw, w, h), t, s.attitude).unwrap();
     assert_eq!(r.has_heading, want.result.is_ok());
     assert_eq!(r.used_fraction, want.quality.used_fraction);
+    assert_eq!(r.source, BpinsSource::BPINS_SOURCE_SUN);
+    // At night the clock reads the moon where it is up (2026-06-29T16:00:00Z at 20° N:
+    // the full moon at 41.6°), as the Rust front door does; a moonless midnight
+    // (2026-07-14T16:00:00Z at Qingdao) is a frame without a heading, typed.
+    let moonlit = BpinsSun { unix_time_s: 1_782_748_800.0, latitude_deg: 20.0, ..clock };
+    let r = heading_u16(handle, &s.raw, (w, h, w), &moonlit, &c_att(&s)).unwrap();
+    let t = Sun::UnixTime { time_s: 1_782_748_800.0, latitude_deg: 20.0, longitude_deg: 120.38, sigma_deg: 0.0 };
+    let want = rust.heading(RawImage::packed(&s.raw, w, h), t, s.attitude).unwrap();
+    assert!(matches!(want.source, bpins_core::compass::SkySource::Moon(_)), "{:?}", want.source);
+    assert_eq!((r.source, r.has_heading), (BpinsSource::BPINS_SOURCE_MOON, want.result.is_ok()));
+    assert_eq!(r.sun_elevation_offset_deg.to_bits(), want.quality.sun_elevation_offset_deg.to_bits());
+    let dark = BpinsSun { unix_time_s: 1_784_044_800.0, ..clock };
+    let r = heading_u16(handle, &s.raw, (w, h, w), &dark, &c_att(&s)).unwrap();
+    assert!(!r.has_heading && r.heading_deg.is_nan());
+    assert_eq!((r.reason, r.source), (BpinsNoHeading::BPINS_NO_HEADING_DARK_NIGHT, BpinsSource::BPINS_SOURCE_SUN));
+    let why = unsafe { CStr::from_ptr(r.message.as_ptr()) }.to_str().unwrap();
+    assert!(why.starts_with("not yet: the moon is at"), "{why}");
     let bad_time = BpinsSun { unix_time_s: f64::NAN, ..clock };
     assert_eq!(
         heading_u16(handle, &s.raw, (w, h, w), &bad_time, &c_att(&s)).unwrap_err().0,

@@ -70,7 +70,8 @@ impl Compass {
     /// The field headings of frame `f` of the capture this compass was made for
     /// ([`Compass::for_capture`]), its pixels `data` in memory, with each of
     /// `extractors` (the robust loop runs once): the sun and the reference tilt with
-    /// their 1σ as the frame's entry gives them.
+    /// their 1σ as the frame's entry gives them; each reading's source is the entry's
+    /// (the sun or the moon with their shares where it has a time and place).
     pub fn capture_frame(
         &mut self,
         data: &FrameData,
@@ -87,7 +88,16 @@ impl Compass {
             tilt_y_deg: f.tilt_y_deg.unwrap_or(0.0),
             sigma_deg: f.tilt_sigma_deg.unwrap_or(0.0),
         };
-        self.capture_headings(data, sun, attitude, extractors)
+        let mut hs = self.capture_headings(data, sun, attitude, extractors)?;
+        // The entry's angles are given to the compass; which source they are is the entry's.
+        #[cfg(feature = "spa")]
+        let source = crate::sky::SkySource::of(&f.sun);
+        #[cfg(not(feature = "spa"))]
+        let source = crate::sky::SkySource::Given;
+        for h in &mut hs {
+            h.source = source;
+        }
+        Ok(hs)
     }
 
     /// The field headings of a capture's frame `data` (a DoFP mosaic or colocated
@@ -106,9 +116,13 @@ impl Compass {
         }
         let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
+        if let Some(refused) = sun.refused(extractors) {
+            return Ok(refused);
+        }
         self.fill_capture_cells(data)?;
-        let ctx = field_context(self.intr, &self.known, sun, &attitude);
-        Ok(field::estimate_many_with(&self.cells, &ctx, &self.cfg.options, extractors, &mut self.scratch))
+        let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
+        let hs = field::estimate_many_with(&self.cells, &ctx, &self.cfg.options, extractors, &mut self.scratch);
+        Ok(sun.stamped(hs))
     }
 
     /// [`Compass::colour_headings`] of a colour capture's frame `data` (its DoFP mosaic).

@@ -2,7 +2,7 @@
 //! with each input's range, and the typed error that refuses one outside it.
 
 #[cfg(doc)]
-use super::{Compass, FieldHeading};
+use super::{Compass, FieldHeading, NoHeading};
 use super::{Extractor, FieldOptions};
 use crate::calibration::Calibration;
 use crate::camera::Intrinsics;
@@ -77,7 +77,8 @@ pub(super) fn check_attitude(a: &Attitude) -> Result<(), CompassError> {
     Err(CompassError::Attitude(why))
 }
 
-/// The sun of one frame.
+/// The sun of one frame: its angles given, or a time and place from which the compass
+/// finds the source that lights the sky (the sun, or at night the moon).
 ///
 /// ```
 /// use bpins_core::compass::Sun;
@@ -96,8 +97,14 @@ pub enum Sun {
     /// Azimuth (from North toward East) and elevation, degrees, with their 1σ.
     Angles { azimuth_deg: f64, elevation_deg: f64, sigma_deg: f64 },
     /// A time (seconds since 1970-01-01T00:00:00Z, as Unix and ROS clocks give it) and
-    /// a place, through NREL SPA (±0.0003°); `sigma_deg` for the clock's and the
-    /// position's error, in degrees of sun angle. (Feature `spa`, on by default.)
+    /// a place, read by the rule `bpins heading` reads a capture's `time_utc` by
+    /// (`sky::source_from_unix_time`): the sun through NREL SPA (±0.0003°) by day and in
+    /// a twilight it dominates; the moon (Meeus ch. 47, 1σ ⊕ 0.005°) at night where it is
+    /// up and its sky gives ≥ 99 % of the light; a mixed twilight or a dark night a
+    /// reading without a heading ([`NoHeading::MixedSky`], [`NoHeading::DarkNight`]).
+    /// The reading's [`FieldHeading::source`] says which. `sigma_deg` for the clock's
+    /// and the position's error, in degrees of the source's angle. (Feature `spa`, on
+    /// by default.)
     #[cfg(feature = "spa")]
     UnixTime { time_s: f64, latitude_deg: f64, longitude_deg: f64, sigma_deg: f64 },
 }

@@ -1,9 +1,11 @@
 //! The front door for a robot: a [`Compass`] built once from the camera, the sensor
 //! and a calibration; per frame it takes the raw mosaic as the camera delivers it
 //! (borrowed `u8`, `u16` or `f32` with a row stride, no copy), the sun (angles, or a
-//! Unix time and a place through NREL SPA) and the attitude with its 1σ, and returns
-//! the heading with an honest 1σ, how much of the sky it used, or why there is none
-//! (the field estimator, [`crate::heading::field`]).
+//! Unix time and a place: the sun through NREL SPA by day, the moon at night where it
+//! lights the sky, as `bpins heading` reads a capture) and the attitude with its 1σ,
+//! and returns the heading with an honest 1σ, how much of the sky it used and which
+//! source lit it ([`FieldHeading::source`]), or why there is none (the field
+//! estimator, [`crate::heading::field`]).
 //!
 //! ```
 //! use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
@@ -49,6 +51,8 @@
 pub use crate::heading::field::SkySun;
 pub use crate::heading::field::{FieldHeading, FieldOptions, FieldQuality, NoHeading, RawDn, RawImage, SigmaParts};
 pub use crate::heading::Extractor;
+pub use crate::sky::twilight::{Dominant, Shares};
+pub use crate::sky::SkySource;
 pub use colour::ColourFix;
 pub use inputs::{Attitude, CompassConfig, CompassError, Sun};
 
@@ -59,7 +63,7 @@ use crate::pixel_analyzers::CellAnalyzers;
 use crate::recon::Reconstructor;
 use crate::sensor::Channel;
 #[cfg(feature = "spa")]
-use crate::sky::sun::sun_from_unix_time;
+use crate::sky::{moon::MOON_POSITION_SIGMA_DEG, sun::SunSource, Refusal};
 use inputs::{check_attitude, check_sun};
 
 mod colour;
@@ -104,6 +108,8 @@ pub struct Compass {
     cell_px: usize,
     /// Each cell's own reconstruction where the calibration has per-pixel maps.
     cell_analyzers: Option<CellAnalyzers>,
+    /// A colour sensor's: each band's cells' own (by `Band::index`), from its pixels' maps.
+    band_analyzers: [Option<CellAnalyzers>; 3],
     /// A colocated capture's reconstruction (`None`: DoFP; `capture.rs`).
     #[cfg_attr(not(feature = "io"), allow(dead_code))]
     colocated: Option<Colocated>,
@@ -159,21 +165,23 @@ impl Compass {
         // the places to fit the plane that moves its mean to the cell's centre (in one
         // superpixel R's and B's channels have one pixel each, a pixel off the centre).
         let cell_px = if cfg.colour.is_some() { cell_px.div_ceil(4).max(2) * 4 } else { cell_px };
-        if cfg.colour.is_some() && cfg.calibration.pixels.is_some() {
-            return bad("per-pixel maps of a colour-polarization sensor are not applied yet: use a calibration \
-                        without them (effects only)"
-                .into());
-        }
-        let cell_analyzers = match &cfg.calibration.pixels {
-            None => None,
-            Some(px) => {
-                if let Some(m) = cfg.calibration.pixels_conflict() {
-                    return bad(m);
-                }
-                px.check_sensor(cfg.width_px, cfg.height_px, &cfg.mosaic).map_err(CompassError::Config)?;
-                Some(px.cell_analyzers(cell_px, cfg.black_level_dn))
+        let (mut cell_analyzers, mut band_analyzers) = (None, <[Option<CellAnalyzers>; 3]>::default());
+        if let Some(px) = &cfg.calibration.pixels {
+            if let Some(m) = cfg.calibration.pixels_conflict() {
+                return bad(m);
             }
-        };
+            px.check_sensor(cfg.width_px, cfg.height_px, &cfg.mosaic).map_err(CompassError::Config)?;
+            match &cfg.colour {
+                // A colour sensor's bands each through their own pixels' maps, on the band's grid.
+                Some(colour) => {
+                    for b in colour.bands() {
+                        let cal = px.cell_analyzers_band(colour.classes(b), cell_px, cfg.black_level_dn);
+                        band_analyzers[b.index()] = Some(cal);
+                    }
+                }
+                None => cell_analyzers = Some(px.cell_analyzers(cell_px, cfg.black_level_dn)),
+            }
+        }
         Ok(Compass {
             cfg,
             known,
@@ -182,6 +190,7 @@ impl Compass {
             full_scale_dn,
             cell_px,
             cell_analyzers,
+            band_analyzers,
             colocated: None,
             cells: Cells::default(),
             band_cells: Default::default(),
@@ -200,12 +209,18 @@ impl Compass {
         self.check_size(&frame)?;
         let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
-        let ctx = field_context(self.intr, &self.known, sun, &attitude);
-        if self.cfg.colour.is_some() {
-            return Ok(self.bands(&frame, &ctx, &[self.cfg.extractor]).fused.remove(0));
+        if let Some(mut refused) = sun.refused(&[self.cfg.extractor]) {
+            return Ok(refused.remove(0));
         }
-        self.fill_mosaic_cells(&frame);
-        Ok(field::estimate_with(&self.cells, &ctx, &self.cfg.options, self.cfg.extractor, &mut self.scratch))
+        let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
+        let mut h = if self.cfg.colour.is_some() {
+            self.bands(&frame, &ctx, &[self.cfg.extractor]).fused.remove(0)
+        } else {
+            self.fill_mosaic_cells(&frame);
+            field::estimate_with(&self.cells, &ctx, &self.cfg.options, self.cfg.extractor, &mut self.scratch)
+        };
+        h.source = sun.source;
+        Ok(h)
     }
 
     /// [`Compass::heading`] with each of `extractors` (the robust loop runs once; each
@@ -221,12 +236,16 @@ impl Compass {
         self.check_size(&frame)?;
         let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
-        let ctx = field_context(self.intr, &self.known, sun, &attitude);
+        if let Some(refused) = sun.refused(extractors) {
+            return Ok(refused);
+        }
+        let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
         if self.cfg.colour.is_some() {
-            return Ok(self.bands(&frame, &ctx, extractors).fused);
+            return Ok(sun.stamped(self.bands(&frame, &ctx, extractors).fused));
         }
         self.fill_mosaic_cells(&frame);
-        Ok(field::estimate_many_with(&self.cells, &ctx, &self.cfg.options, extractors, &mut self.scratch))
+        let hs = field::estimate_many_with(&self.cells, &ctx, &self.cfg.options, extractors, &mut self.scratch);
+        Ok(sun.stamped(hs))
     }
 
     /// A colour-polarization frame's headings: each band's from its own pixels, with
@@ -247,8 +266,15 @@ impl Compass {
         self.check_size(&frame)?;
         let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
-        let ctx = field_context(self.intr, &self.known, sun, &attitude);
-        Ok(self.bands(&frame, &ctx, extractors))
+        let bands = self.cfg.colour.as_ref().map_or_else(Vec::new, |c| c.bands());
+        if let Some(refused) = sun.refused(extractors) {
+            let bands = bands.into_iter().map(|b| (b, refused.clone())).collect();
+            return Ok(ColourFix { bands, fused: refused });
+        }
+        let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
+        let fix = self.bands(&frame, &ctx, extractors);
+        let bands = fix.bands.into_iter().map(|(b, hs)| (b, sun.stamped(hs))).collect();
+        Ok(ColourFix { bands, fused: sun.stamped(fix.fused) })
     }
 
     /// Whether the sensor is a colour-polarization one (bands read apart and fused).
@@ -265,15 +291,26 @@ impl Compass {
     fn bands<T: RawDn>(&mut self, frame: &RawImage<T>, ctx: &FieldContext, extractors: &[Extractor]) -> ColourFix {
         let colour = self.cfg.colour.clone().expect("a colour compass");
         for b in colour.bands() {
-            self.band_cells[b.index()].fill_from_mosaic_band(
-                frame,
-                &self.cfg.mosaic,
-                colour.classes(b),
-                &self.rec,
-                self.full_scale_dn,
-                self.cell_px,
-                &mut self.scratch.cells,
-            );
+            let (cells, classes) = (&mut self.band_cells[b.index()], colour.classes(b));
+            match &self.band_analyzers[b.index()] {
+                Some(cal) => cells.fill_from_mosaic_band_calibrated(
+                    frame,
+                    &self.cfg.mosaic,
+                    classes,
+                    cal,
+                    self.full_scale_dn,
+                    &mut self.scratch.cells,
+                ),
+                None => cells.fill_from_mosaic_band(
+                    frame,
+                    &self.cfg.mosaic,
+                    classes,
+                    &self.rec,
+                    self.full_scale_dn,
+                    self.cell_px,
+                    &mut self.scratch.cells,
+                ),
+            }
         }
         // Every band's cloud tests see the frame's red-to-blue ratio (white clouds).
         let [r, _, bl] = &self.band_cells;
@@ -332,20 +369,67 @@ impl Compass {
     }
 }
 
-/// `sun` as (azimuth, elevation, 1σ) in degrees, SPA run where it is a time and place,
-/// and checked.
-pub(super) fn resolve_sun(sun: Sun) -> Result<(f64, f64, f64), CompassError> {
-    let (az, el, sun_sigma) = match sun {
-        Sun::Angles { azimuth_deg, elevation_deg, sigma_deg } => (azimuth_deg, elevation_deg, sigma_deg),
+/// A frame's sun as the estimator takes it, the source that lit the sky, and why the
+/// sky cannot be read where it cannot.
+pub(super) struct Resolved {
+    /// Azimuth, elevation and 1σ, degrees.
+    pub angles: (f64, f64, f64),
+    pub source: SkySource,
+    /// A time and place whose sky is not read (a mixed twilight, a dark night).
+    pub refusal: Option<NoHeading>,
+}
+
+impl Resolved {
+    /// Each extractor's reading of a frame that is not read, with the reason, or `None`
+    /// where it is read.
+    fn refused(&self, extractors: &[Extractor]) -> Option<Vec<FieldHeading>> {
+        let why = self.refusal.as_ref()?;
+        let no = |&extractor: &Extractor| FieldHeading {
+            extractor,
+            result: Err(why.clone()),
+            quality: FieldQuality::default(),
+            source: self.source,
+        };
+        Some(extractors.iter().map(no).collect())
+    }
+
+    /// `hs`, each saying which source lit the sky.
+    fn stamped(&self, mut hs: Vec<FieldHeading>) -> Vec<FieldHeading> {
+        for h in &mut hs {
+            h.source = self.source;
+        }
+        hs
+    }
+}
+
+/// `sun` checked, with its source. Angles are given ([`SkySource::Given`]); a time and
+/// a place go through the capture reader's rule (`sky::source_and_shares_from_unix_time`,
+/// `sky::refusal`): the sun by day and in a twilight it dominates, the moon at night
+/// where it is up and its sky gives ≥ 99 % of the light (its 1σ the caller's ⊕ the
+/// ephemeris's [`MOON_POSITION_SIGMA_DEG`]), a mixed twilight or a dark night refused
+/// ([`NoHeading::MixedSky`], [`NoHeading::DarkNight`]).
+pub(super) fn resolve_sun(sun: Sun) -> Result<Resolved, CompassError> {
+    match sun {
+        Sun::Angles { azimuth_deg, elevation_deg, sigma_deg } => {
+            check_sun(azimuth_deg, elevation_deg, sigma_deg)?;
+            Ok(Resolved { angles: (azimuth_deg, elevation_deg, sigma_deg), source: SkySource::Given, refusal: None })
+        }
         #[cfg(feature = "spa")]
         Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg } => {
-            let s = sun_from_unix_time(time_s, latitude_deg, longitude_deg)
+            let (s, shares) = crate::sky::source_and_shares_from_unix_time(time_s, latitude_deg, longitude_deg)
                 .map_err(|e| CompassError::Sun(e.to_string()))?;
-            (s.azimuth_deg, s.elevation_deg, sigma_deg)
+            check_sun(s.azimuth_deg, s.elevation_deg, sigma_deg)?;
+            let refusal = crate::sky::refusal(&s, &shares).map(|r| match r {
+                Refusal::Mixed(shares) => NoHeading::MixedSky { shares },
+                Refusal::Dark(shares) => NoHeading::DarkNight { shares },
+            });
+            let (source, sigma_deg) = match s.source {
+                SunSource::Moon { .. } => (SkySource::Moon(shares), sigma_deg.hypot(MOON_POSITION_SIGMA_DEG)),
+                _ => (SkySource::Sun(shares), sigma_deg),
+            };
+            Ok(Resolved { angles: (s.azimuth_deg, s.elevation_deg, sigma_deg), source, refusal })
         }
-    };
-    check_sun(az, el, sun_sigma)?;
-    Ok((az, el, sun_sigma))
+    }
 }
 
 /// What the field estimator knows about a frame: the camera `intr` as calibrated, the

@@ -170,3 +170,114 @@ fn refusals_name_the_wrong_value_and_its_range() {
     let m = c.heading(RawImage::packed(&raw[..300 * 200], 300, 200), ok, level).unwrap_err().to_string();
     assert!(m.contains("give the sensor's width and height"), "{m}");
 }
+
+/// A frame of the moonlit sky at `time_s` and a place, as `bpins simulate --exposure-s`
+/// makes one: the pattern about the moon (`sky::source_from_unix_time`), its signal the
+/// moon's sky in cd/m² (K&S, `sky_light`) through an IMX250MZR-like sensor at f/1.4 for
+/// `exposure_s` (`sensor_exposure.rs`: photon and read noise), with this file's binned
+/// 27.6 µm pixels; the moon's (azimuth, elevation) with it.
+#[cfg(feature = "spa")]
+fn moonlit_frame(time_s: f64, lat: f64, lon: f64, exposure_s: f64, heading_deg: f64) -> (Vec<u16>, (f64, f64)) {
+    let src = crate::sky::source_from_unix_time(time_s, lat, lon).unwrap();
+    assert!(matches!(src.source, crate::sky::sun::SunSource::Moon { .. }), "{src:?}");
+    let sky = crate::sky::radiometry::sky_light(&src).unwrap();
+    let e = crate::sensor_exposure::Exposure::imx250mzr(exposure_s, 1.4);
+    let k = e.system_gain_dn_per_e(4095.0 - 64.0);
+    let response = Response {
+        gain_dn: k * e.electrons_per_cd_m2(27.6) * sky.unit_cd_m2,
+        read_noise_dn: e.read_noise_e * k,
+        system_gain_dn_per_e: k,
+        ..Response::samples(0.0)
+    };
+    let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+    let (az, el) = (src.azimuth_deg, src.elevation_deg);
+    let scene = Scene { sun_az_deg: az, sun_el_deg: el, heading_deg, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+    let f = ChainFrame::new(&Model::default(), &lens, &scene, &response, NoiseIndex { seed: 5, trial: 0, frame: 0 });
+    (render_mosaic(&f, 306, 256, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect(), (az, el))
+}
+
+/// Issue 48 item 3: a clock and a place at night read the moon like the sun by day.
+/// The full moon at 41.6° (2026-06-29T16:00:00Z at 20° N 120.38° E, docs/night.md),
+/// 0.1 s at f/1.4: each heading within 2σ, the reading saying the moon lit the sky
+/// with its share, the moon's ephemeris 1σ in the sun's part.
+#[test]
+#[cfg(feature = "spa")]
+fn a_moonlit_frame_from_its_clock_reads_the_moon_within_two_sigma() {
+    let (time_s, lat, lon) = (1_782_748_800.0, 20.0, 120.38);
+    let lens = Intrinsics::new(Projection::Pinhole, 8000.0 / 27.6, 152.5, 127.5);
+    let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+    let clock = Sun::UnixTime { time_s, latitude_deg: lat, longitude_deg: lon, sigma_deg: 0.0 };
+    for heading_deg in [30.0, 200.0] {
+        let (raw, (_, moon_el)) = moonlit_frame(time_s, lat, lon, 0.1, heading_deg);
+        assert!((moon_el - 41.6).abs() < 0.1, "{moon_el}");
+        let r = c.heading(RawImage::packed(&raw, 306, 256), clock, Attitude::default()).unwrap();
+        let (h, sigma) = r.result.as_ref().map(|(h, s)| (*h, *s)).unwrap_or_else(|e| panic!("{e}"));
+        let err = crate::conventions::wrap_deg_180(h - heading_deg);
+        assert!(err.abs() < 2.0 * sigma.total_deg(), "{heading_deg}: {h} ± {}", sigma.total_deg());
+        let SkySource::Moon(shares) = r.source else { panic!("{:?}", r.source) };
+        assert!(shares.moon_share() > 0.99 && shares.sun_elevation_deg < -18.0, "{}", shares.describe());
+        assert!((shares.moon_illuminated_fraction - 1.0).abs() < 0.02, "{}", shares.describe());
+        // The caller gave an exact clock: the moon's 1σ is the ephemeris's, entering 1:1.
+        let ephemeris = crate::sky::moon::MOON_POSITION_SIGMA_DEG;
+        assert!((sigma.sun_deg - ephemeris).abs() < 1e-12, "{sigma:?}");
+    }
+    // The same frame with the moon's angles given reads the same heading, its source
+    // the caller's ("given"), its sun part 0: the clock went through the moon.
+    let (raw, (az, el)) = moonlit_frame(time_s, lat, lon, 0.1, 30.0);
+    let given = Sun::Angles { azimuth_deg: az, elevation_deg: el, sigma_deg: 0.0 };
+    let g = c.heading(RawImage::packed(&raw, 306, 256), given, Attitude::default()).unwrap();
+    let t = c.heading(RawImage::packed(&raw, 306, 256), clock, Attitude::default()).unwrap();
+    assert_eq!(g.source, SkySource::Given);
+    assert!((g.heading_deg().unwrap() - t.heading_deg().unwrap()).abs() < 1e-9, "{g:?} {t:?}");
+    assert!(g.result.as_ref().unwrap().1.sun_deg < t.result.as_ref().unwrap().1.sun_deg);
+}
+
+/// A dark night (no moon up, the sun far below) and a mixed twilight (the sun at
+/// −12.4° and a 75 % moon, about half each) are refused with typed reasons naming the
+/// shares, as `bpins heading` refuses them; by day the reading says the sun.
+#[test]
+#[cfg(feature = "spa")]
+fn a_dark_night_and_a_mixed_twilight_are_refused_with_typed_reasons() {
+    let (raw, lens) = frame(&Model::default(), [0.0, 0.0]);
+    let mut c = Compass::new(CompassConfig::dofp(lens, 306, 256, 12, 64.0)).unwrap();
+    let at = |time_s| Sun::UnixTime { time_s, latitude_deg: 36.07, longitude_deg: 120.38, sigma_deg: 0.01 };
+    let read = |c: &mut Compass, t| c.heading(RawImage::packed(&raw, 306, 256), at(t), Attitude::default()).unwrap();
+    // 2026-07-14T16:00:00Z, midnight at Qingdao a day after the new moon.
+    let dark = read(&mut c, 1_784_044_800.0);
+    let Err(NoHeading::DarkNight { shares }) = &dark.result else { panic!("{dark:?}") };
+    assert!(shares.moon_elevation_deg < 0.0 && shares.sun_elevation_deg < -10.0, "{}", shares.describe());
+    assert!(matches!(dark.source, SkySource::Sun(_)), "{:?}", dark.source);
+    let words = dark.result.as_ref().unwrap_err().to_string();
+    let src = crate::sky::source_from_unix_time(1_784_044_800.0, 36.07, 120.38).unwrap();
+    assert_eq!(Some(words.clone()), crate::sky::dark_night(&src), "the capture reader's words");
+    assert!(words.starts_with("not yet: the moon is at"), "{words}");
+    // 2026-06-24T12:30:00Z: the sun at −12.4°, a 75 % moon at 35.5°.
+    let mixed = read(&mut c, 1_782_304_200.0);
+    let Err(NoHeading::MixedSky { shares }) = &mixed.result else { panic!("{mixed:?}") };
+    assert!(shares.sun_share() > 0.1 && shares.moon_share() > 0.1, "{}", shares.describe());
+    let words = mixed.result.as_ref().unwrap_err().to_string();
+    assert!(words.contains("no single source") && words.contains("35.5°"), "{words}");
+    // Every extractor's reading says the same.
+    let all = c
+        .headings(RawImage::packed(&raw, 306, 256), at(1_784_044_800.0), Attitude::default(), &Extractor::ALL)
+        .unwrap();
+    assert!(all.len() == 2 && all.iter().all(|h| matches!(h.result, Err(NoHeading::DarkNight { .. }))));
+    // A colour compass: each band and the fused reading, refused alike.
+    let colour = CompassConfig {
+        colour: Some(crate::sensor::ColourTiles::imx250myr()),
+        ..CompassConfig::dofp(lens, 306, 256, 12, 64.0)
+    };
+    let fix = Compass::new(colour)
+        .unwrap()
+        .colour_headings(RawImage::packed(&raw, 306, 256), at(1_782_304_200.0), Attitude::default(), &Extractor::ALL)
+        .unwrap();
+    assert_eq!(fix.bands.len(), 3);
+    for h in fix.bands.iter().flat_map(|(_, hs)| hs).chain(&fix.fused) {
+        assert!(matches!(h.result, Err(NoHeading::MixedSky { .. })) && matches!(h.source, SkySource::Sun(_)), "{h:?}");
+    }
+    // By day (10:30 local): the sun, with all of the light (this frame was rendered
+    // under another sun, so only the source is asked of it).
+    let day = read(&mut c, 1_782_009_000.0);
+    let SkySource::Sun(shares) = day.source else { panic!("{:?}", day.source) };
+    assert!(shares.sun_share() > 0.999_999 && shares.sun_elevation_deg > 30.0, "{}", shares.describe());
+}

@@ -48,7 +48,7 @@ pub fn source_from_unix_time(
 /// light (naming both shares: a mixed sky has no single source's pattern); where the
 /// sun is the source past [`NIGHT_SUN_ELEVATION_DEG`] (its pattern faded) and the moon
 /// is below the horizon or too faint to be read alone. `None` also where the angles are
-/// not from a time and place (given, unplaced).
+/// not from a time and place (given, unplaced). [`refusal`] is the same, typed.
 #[cfg(feature = "spa")]
 pub fn dark_night(sun: &sun::SunPosition) -> Option<String> {
     let (sun::SunSource::Spa { time_utc, latitude_deg, longitude_deg }
@@ -57,24 +57,114 @@ pub fn dark_night(sun: &sun::SunPosition) -> Option<String> {
         return None;
     };
     let shares = twilight::shares_at(time_utc, *latitude_deg, *longitude_deg).ok()?;
-    if shares.dominant() == twilight::Dominant::Mixed {
-        return Some(shares.mixed_reason());
+    refusal(sun, &shares).map(|r| r.to_string())
+}
+
+/// Why a sky cannot be read, typed: [`dark_night`]'s reasons, each with the shares it
+/// was decided on (its words are the shares' [`twilight::Shares::mixed_reason`] and
+/// [`twilight::Shares::dark_reason`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Refusal {
+    /// Both sources light the sky and neither gives [`twilight::DOMINANT_SHARE`].
+    Mixed(twilight::Shares),
+    /// The sun past [`NIGHT_SUN_ELEVATION_DEG`] and no moon to read alone (below the
+    /// horizon, or up but too faint).
+    Dark(twilight::Shares),
+}
+
+impl std::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Refusal::Mixed(s) => f.write_str(&s.mixed_reason()),
+            Refusal::Dark(s) => f.write_str(&s.dark_reason()),
+        }
     }
-    if !matches!(sun.source, sun::SunSource::Spa { .. }) || sun.elevation_deg >= NIGHT_SUN_ELEVATION_DEG {
+}
+
+/// [`dark_night`]'s rule on a source `sun` from [`source_from_time_place`] or
+/// [`source_from_unix_time`] and the `shares` of its time and place; `None` where it
+/// may be read, and for given or unplaced angles.
+#[cfg(feature = "spa")]
+pub fn refusal(sun: &sun::SunPosition, shares: &twilight::Shares) -> Option<Refusal> {
+    use sun::SunSource;
+    if !matches!(sun.source, SunSource::Spa { .. } | SunSource::Moon { .. }) {
         return None;
     }
-    if shares.moon_elevation_deg > 0.0 {
-        return Some(format!(
-            "{}: the sun's pattern has faded past {NIGHT_SUN_ELEVATION_DEG:.0}° and the moon's sky is too faint \
-             to be read alone (refused)",
-            shares.describe()
-        ));
+    if shares.dominant() == twilight::Dominant::Mixed {
+        return Some(Refusal::Mixed(*shares));
     }
-    Some(format!(
-        "not yet: the moon is at {:.1}° and the sun at {:.1}°: neither lights the sky (the moon is read from \
-         the time and place once it rises)",
-        shares.moon_elevation_deg, sun.elevation_deg
-    ))
+    if !matches!(sun.source, SunSource::Spa { .. }) || sun.elevation_deg >= NIGHT_SUN_ELEVATION_DEG {
+        return None;
+    }
+    Some(Refusal::Dark(*shares))
+}
+
+/// The source of `time_unix_s` at a place ([`source_from_unix_time`]) with the two
+/// sources' shares of the sky's light there ([`twilight::shares_of`]), each ephemeris
+/// run once: what the live compass reads a frame's clock and fix through.
+#[cfg(feature = "spa")]
+pub fn source_and_shares_from_unix_time(
+    time_unix_s: f64,
+    latitude_deg: f64,
+    longitude_deg: f64,
+) -> crate::Result<(sun::SunPosition, twilight::Shares)> {
+    let sun = sun::sun_from_unix_time(time_unix_s, latitude_deg, longitude_deg)?;
+    let moon = moon::moon_from_unix_time(time_unix_s, latitude_deg, longitude_deg)?;
+    let shares = twilight::shares_of(sun.elevation_deg, &moon);
+    Ok((night_source(sun, moon)?, shares))
+}
+
+/// Which source lit the sky a reading is about, as the reading says it (the
+/// [`crate::compass::Compass`]'s [`crate::compass::FieldHeading::source`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum SkySource {
+    /// Angles the caller gave: which body they are is the caller's to say.
+    #[default]
+    Given,
+    /// The sun from the time and place (NREL SPA), by day or in a twilight it
+    /// dominates, with both sources' shares of the sky's light at the zenith.
+    Sun(twilight::Shares),
+    /// The moon from the time and place (Meeus ch. 47): at night, up, and its sky the
+    /// brighter; with the shares.
+    Moon(twilight::Shares),
+}
+
+impl SkySource {
+    /// "given", "sun" or "moon".
+    pub fn name(&self) -> &'static str {
+        match self {
+            SkySource::Given => "given",
+            SkySource::Sun(_) => "sun",
+            SkySource::Moon(_) => "moon",
+        }
+    }
+
+    /// The source of a capture's `sun` ([`sun::SunSource`]): the sun or the moon with the
+    /// shares of its time and place (`Given` for given or unplaced angles, and where the
+    /// shares cannot be computed).
+    #[cfg(feature = "spa")]
+    pub fn of(sun: &sun::SunPosition) -> SkySource {
+        use sun::SunSource;
+        let (SunSource::Spa { time_utc, latitude_deg, longitude_deg }
+        | SunSource::Moon { time_utc, latitude_deg, longitude_deg, .. }) = &sun.source
+        else {
+            return SkySource::Given;
+        };
+        match (twilight::shares_at(time_utc, *latitude_deg, *longitude_deg), &sun.source) {
+            (Ok(s), SunSource::Moon { .. }) => SkySource::Moon(s),
+            (Ok(s), _) => SkySource::Sun(s),
+            (Err(_), _) => SkySource::Given,
+        }
+    }
+
+    /// The shares of the sky's light at the zenith, where the source came from a time
+    /// and place.
+    pub fn shares(&self) -> Option<&twilight::Shares> {
+        match self {
+            SkySource::Given => None,
+            SkySource::Sun(s) | SkySource::Moon(s) => Some(s),
+        }
+    }
 }
 
 #[cfg(feature = "spa")]

@@ -73,6 +73,12 @@ const TEMPERATURE_C: f64 = 15.0;
 const HORIZON_REFRACTION_DEG: f64 = 0.5667;
 /// K&S 1991's V-band extinction coefficient (Mauna Kea, 2800 m), mag per airmass.
 pub const KS91_EXTINCTION_MAG_PER_AIRMASS: f64 = 0.172;
+/// 1σ of the moon's apparent direction from this ephemeris, degrees per angle: the
+/// largest difference from JPL Horizons in topocentric right ascension and
+/// declination in the tests below (≤ 0.005°; UT1 − UTC adds ≤ 0.004° in azimuth,
+/// inside it). Taken as a 1σ, so a bound, not a spread: the compass adds it in
+/// quadrature to the caller's clock and place 1σ where the moon is the source.
+pub const MOON_POSITION_SIGMA_DEG: f64 = 0.005;
 
 /// The moon's direction, distance, phase and light for one instant and place.
 #[derive(Clone, Debug, PartialEq)]

@@ -191,6 +191,25 @@ impl Shares {
             100.0 * DOMINANT_SHARE
         )
     }
+
+    /// Why a dark frame is not read: the sun past `sky::NIGHT_SUN_ELEVATION_DEG` (its
+    /// pattern faded) and the moon below the horizon, or up but too faint to be read
+    /// alone (`sky::Refusal::Dark`).
+    pub fn dark_reason(&self) -> String {
+        if self.moon_elevation_deg > 0.0 {
+            return format!(
+                "{}: the sun's pattern has faded past {:.0}° and the moon's sky is too faint to be read alone \
+                 (refused)",
+                self.describe(),
+                crate::sky::NIGHT_SUN_ELEVATION_DEG
+            );
+        }
+        format!(
+            "not yet: the moon is at {:.1}° and the sun at {:.1}°: neither lights the sky (the moon is read from \
+             the time and place once it rises)",
+            self.moon_elevation_deg, self.sun_elevation_deg
+        )
+    }
 }
 
 /// A share as a percentage: whole numbers, with "< 1 %" and "> 99 %" at the ends.

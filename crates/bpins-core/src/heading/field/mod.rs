@@ -25,7 +25,8 @@
 //!    together lean every partly covered cell one way; observe.rs `sharpen`)
 //! 4. iterate: δ_i against the current sun; clouds per cell (clouds.rs: DoLP under
 //!    0.6 × an absolute, upper-share clear-sky expectation; brighter than the smooth
-//!    sky; on a colour sensor, whiter than the blue sky by the red-to-blue ratio
+//!    sky fitted to the clear sky's DoLP plateau (not to the cells that fit the current
+//!    sun: a deck's turned rims may be those); on a colour sensor, whiter than the blue sky by the red-to-blue ratio
 //!    (`Cells::tint`); near the sun the nearest verifiable cells' label), weight 0, grown by 2
 //!    cells where they cluster; a model-misfit scale τ with the lower quartile of
 //!    δ²/(σ_α² + τ²) at χ²₁'s (0.1015) over the clear cells away from clouds (where
@@ -118,6 +119,7 @@ pub use sky_sun::{sky_sun, SkySun};
 use super::Extractor;
 use crate::camera::Intrinsics;
 use crate::conventions::level_from_camera;
+use crate::sky::SkySource;
 use glam::DMat3;
 
 /// What the field estimator knows of one frame: the camera as believed, the sun and
@@ -245,6 +247,14 @@ pub enum NoHeading {
     TooDark { signal_dn: f64, noise_dn: f64, snr: f64 },
     #[error("{0}")]
     Solver(String),
+    /// From a time and place: the sun and the moon both light the sky and neither gives
+    /// 99 % of its light (`sky::Refusal::Mixed`); the frame is not read.
+    #[error("{}", shares.mixed_reason())]
+    MixedSky { shares: crate::sky::twilight::Shares },
+    /// From a time and place: the sun past −10° and no moon up bright enough to be read
+    /// alone (`sky::Refusal::Dark`); the frame is not read.
+    #[error("{}", shares.dark_reason())]
+    DarkNight { shares: crate::sky::twilight::Shares },
 }
 
 /// The parts of a field heading's 1σ, degrees.
@@ -330,7 +340,12 @@ pub struct FieldQuality {
 ///     }
 /// }
 /// let sigma = SigmaParts { fit_deg: 0.02, jackknife_deg: 0.03, tilt_deg: 0.04, ..Default::default() };
-/// let h = FieldHeading { extractor: Extractor::SunVector, result: Ok((123.4, sigma)), quality: FieldQuality::default() };
+/// let h = FieldHeading {
+///     extractor: Extractor::SunVector,
+///     result: Ok((123.4, sigma)),
+///     quality: FieldQuality::default(),
+///     source: Default::default(),
+/// };
 /// let (deg, one_sigma) = to_filter(&h).unwrap();
 /// assert_eq!(deg, 123.4);
 /// assert!((one_sigma - 0.05).abs() < 1e-12); // max(fit, jackknife, coherent) ⊕ tilt
@@ -341,6 +356,9 @@ pub struct FieldHeading {
     /// Heading in [0°, 360°) and its 1σ, or why there is none.
     pub result: Result<(f64, SigmaParts), NoHeading>,
     pub quality: FieldQuality,
+    /// Which source lit the sky it was read about (the compass sets it; the estimator,
+    /// given angles, leaves [`SkySource::Given`]).
+    pub source: SkySource,
 }
 
 impl FieldHeading {
@@ -375,7 +393,10 @@ pub fn estimate_many_with(
         Ok(r) => extractors.iter().map(|&e| sigma::heading(&r, e, cells, ctx, opts, &scratch.robust)).collect(),
         Err((quality, why)) => {
             let why = coarse::explain_dim(cells, why);
-            extractors.iter().map(|&e| FieldHeading { extractor: e, result: Err(why.clone()), quality }).collect()
+            extractors
+                .iter()
+                .map(|&e| FieldHeading { extractor: e, result: Err(why.clone()), quality, source: SkySource::Given })
+                .collect()
         }
     }
 }
@@ -394,7 +415,9 @@ pub fn estimate_with(
     let cells = coarse.as_ref().unwrap_or(cells);
     match robust::fitted(cells, ctx, opts, &mut scratch.robust) {
         Ok(r) => sigma::heading(&r, extractor, cells, ctx, opts, &scratch.robust),
-        Err((quality, why)) => FieldHeading { extractor, result: Err(coarse::explain_dim(cells, why)), quality },
+        Err((quality, why)) => {
+            FieldHeading { extractor, result: Err(coarse::explain_dim(cells, why)), quality, source: SkySource::Given }
+        }
     }
 }
 

@@ -119,7 +119,7 @@ pub(super) fn heading(
         };
         (h, SigmaParts { cross_deg, ..parts })
     });
-    FieldHeading { extractor: e, result, quality: r.quality }
+    FieldHeading { extractor: e, result, quality: r.quality, source: crate::sky::SkySource::Given }
 }
 
 /// The sum of every block's sums.
