@@ -40,6 +40,7 @@ fn main() -> std::process::ExitCode {
                     a_neutral_effect_left_out_of_a_dispatch_changes_no_output_bit,
                 ),
                 ("a_colour_sensor_agrees_on_both_backends", a_colour_sensor_agrees_on_both_backends),
+                ("each_bands_neutral_points_agree_on_both_backends", each_bands_neutral_points_agree_on_both_backends),
             ],
         ),
         (
@@ -427,4 +428,45 @@ fn gl_backend_runs_the_f32_chain_within_its_tolerances() {
     assert!(gl.adapter_name().contains("Gl"), "{}", gl.adapter_name());
     assert_case_agrees(&gl, "ideal", 2);
     assert_case_agrees(&gl, "all_effects", 2);
+}
+
+/// A colour sensor under a Berry sky whose neutral points split wider in the blue and
+/// narrower in the red (`sky_neutral_spectrum`): each band's frame carries its own
+/// quartic sky, and the GPU renders each pixel through it as the CPU does (32 × 24,
+/// noise-free DN, one frame).
+fn each_bands_neutral_points_agree_on_both_backends() {
+    use bpins_core::camera::{Intrinsics, Projection};
+    use bpins_core::effects::EffectSet;
+    use bpins_core::internal::backend::{Backend, Cpu};
+    use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
+    use bpins_core::sensor::{ColourTiles, Response, DEFAULT_MOSAIC};
+    let (w, h) = (32, 24);
+    let intr = Intrinsics::new(Projection::Pinhole, 20.0, 15.5, 11.5);
+    let tiles = ColourTiles::imx250myr();
+    let render = |spectrum: bool, backend: &dyn Backend| {
+        let mut set = EffectSet::new();
+        set.set("sky_neutral_points", "separation_deg", 30.0).unwrap();
+        if spectrum {
+            set.set("sky_neutral_spectrum", "separation_r", 0.6).unwrap();
+            set.set("sky_neutral_spectrum", "separation_b", 1.6).unwrap();
+        }
+        let model = set.model();
+        // The sun low in the view's edge: the Babinet and Brewster points in the field.
+        let sc =
+            Scene { sun_az_deg: 0.0, sun_el_deg: 50.0, heading_deg: 0.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.7 };
+        let f =
+            ChainFrame::new(&model, &intr, &sc, &Response::ideal(2000.0), NoiseIndex { seed: 3, trial: 0, frame: 0 });
+        backend.render_colour_mosaic(&[f.bands(&model, &sc)], w, h, &DEFAULT_MOSAIC, &tiles).unwrap().remove(0)
+    };
+    let (cpu, cpu_one) = (render(true, &Cpu), render(false, &Cpu));
+    let tol = bpins_gpu::tolerance::DN_MAX_ABS as f32;
+    let beyond = |a: &[f32], b: &[f32]| a.iter().zip(b).filter(|(x, y)| (**x - **y).abs() > tol).count();
+    // The check can fail: one separation for every band is more than 1 DN off on the
+    // red and blue pixels near the neutral points.
+    let moved = beyond(&cpu, &cpu_one);
+    assert!(moved > 20, "only {moved} pixels tell each band's separation from green's");
+    for gpu in gpus() {
+        let g = render(true, gpu);
+        assert_eq!(beyond(&cpu, &g), 0, "{}: band neutral points beyond tolerance", gpu.precision().name());
+    }
 }
