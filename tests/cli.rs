@@ -1557,7 +1557,7 @@ fn a_civil_twilight_frame_is_read_under_the_sun_below_the_horizon_and_a_mixed_on
 /// Issue 48 items 1 and 5: `fit` and `diagnose` read a capture's source by `heading`'s
 /// rule. The mixed twilight above (the sun at −12.4° and a 75 % moon, half the light
 /// each) is refused by both, naming the frame and both shares in `heading`'s words, not
-/// fitted about the brighter source; the civil twilight (the sun at −4.4°, the moon
+/// fitted about the brighter source, and so is a dark night; the civil twilight (the sun at −4.4°, the moon
 /// set) is fitted about the sun below the horizon, each frame's heading within 2σ of
 /// its reference, and fit.json and the fit's table say which source lit each frame.
 #[test]
@@ -1583,6 +1583,11 @@ fn fit_and_diagnose_refuse_a_mixed_twilight_naming_the_shares_and_fit_a_civil_on
             .stderr_has("no single source");
         assert!(!std::path::Path::new(&out).join("fit.json").exists(), "{cmd}: nothing written");
     }
+    // A day after the new moon at midnight: no source lights the sky.
+    let dark = make("dark", "2026-07-14T16:00:00Z");
+    bpins(&["fit", &dark, "--out", &s(&tmp.path().join("fit_dark"))])
+        .fails()
+        .stderr_has("frames[0] frames/f000.png: not yet: the moon is at -30.7° and the sun at -32.3°");
     let civil = make("civil", "2026-07-02T11:40:00Z");
     let out = tmp.path().join("fit_civil");
     let r = bpins(&["fit", &civil, "--out", &s(&out)]).ok();
@@ -1593,7 +1598,11 @@ fn fit_and_diagnose_refuse_a_mixed_twilight_naming_the_shares_and_fit_a_civil_on
     for (f, k) in frames.iter().zip(sky) {
         let (e, sg) = (f["heading_error_deg"].as_f64().unwrap(), f["heading_sigma_deg"].as_f64().unwrap());
         assert!(e.abs() <= 2.0 * sg, "{f}");
-        assert_eq!((k["source"].as_str(), k["sun_share"].as_f64(), k["moon_share"].as_f64()), (Some("sun"), Some(1.0), Some(0.0)), "{k}");
+        assert_eq!(
+            (k["source"].as_str(), k["sun_share"].as_f64(), k["moon_share"].as_f64()),
+            (Some("sun"), Some(1.0), Some(0.0)),
+            "{k}"
+        );
         assert!(k["sun"].as_str().unwrap().contains("the moon (at -16.6°, below the horizon) 0 %"), "{k}");
     }
 }

@@ -151,6 +151,13 @@ fn print_steps(d: &Diagnosis) -> anyhow::Result<()> {
     let mw = column_width("model", models.iter().map(String::as_str));
     if let Some(n) = &d.night {
         out!("the sky's source: {} ({} of {} frames moonlit)", n.source, n.moonlit_frames, n.frames);
+    } else if let Some(sky) = d.steps.last().map(|s| &s.fit.sky) {
+        // By day and twilight, from the frames' time and place: the first sunlit frame's,
+        // as `bpins heading` says it (every frame's in diagnosis.json's `sky`).
+        let sunlit = sky.iter().filter(|f| f.source == "sun").count();
+        if let Some(first) = sky.iter().find(|f| f.source == "sun") {
+            out!("the sky's source: the sun at {} ({sunlit} of {} frames sunlit)", first.sun, sky.len());
+        }
     }
     out!("{:<mw$}  {:>9}  {:>10}  {:>9}  {:>14}", "model", "χ²/dof", "AoP RMS °", "DoLP RMS", "heading RMS °");
     for (s, m) in d.steps.iter().zip(&models) {

@@ -50,10 +50,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for p in &r.params {
         out!("  {:<34} {:>+12.5} ± {:<10.5} {}", p.name, p.value, p.sigma, p.unit);
     }
-    out!("frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max  radiance ±range   χ²/dof");
+    out!(
+        "frame  heading (°)      ± (°)   reference (°)  error (°)  scale (DN)   d_max  radiance ±range   χ²/dof  \
+         sun az/el (°) [± its 1σ], source"
+    );
     for (k, f) in r.frames.iter().enumerate() {
         out!(
-            "{:>5}  {:>11.4} {:>10.4} {:>15} {:>10} {:>11.2} {:>7.4} {:>14.4} {:>8.4}",
+            "{:>5}  {:>11.4} {:>10.4} {:>15} {:>10} {:>11.2} {:>7.4} {:>14.4} {:>8.4}  {}",
             k,
             f.heading_deg,
             f.heading_sigma_deg,
@@ -62,7 +65,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             f.scale_dn,
             f.dmax,
             f.radiance.iter().map(|c| c.abs()).sum::<f64>(),
-            f.chi2_per_dof
+            f.chi2_per_dof,
+            r.sky.get(k).map_or("—", |s| s.sun.as_str())
         );
     }
     if let Some(h) = r.heading_rms_deg {

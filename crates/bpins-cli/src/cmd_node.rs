@@ -433,10 +433,8 @@ impl NodeSource<'_> {
         }
         if let Some(site) = &self.site {
             let t_s = t_ns as f64 * 1e-9;
-            let (_, _, sigma_deg) = site.sun_at(t_s).map_err(|e| e.to_string())?;
-            let lon = site.longitude_deg.expect("sun_at checked it");
-            let sun = source_from_unix_time(t_s, site.latitude_deg, lon).map_err(|e| e.to_string())?;
-            return Ok((sun, sigma_deg));
+            // The sun, or the moon at night, its 1σ the site's through that body's ephemeris.
+            return site.source_at(t_s).map_err(|e| e.to_string());
         }
         let (p, n) = around(&self.inbox.fix, t_ns);
         let why = |s: &Stamped<(f64, f64)>| s.value.as_ref().err().map(|e| format!("{}: {e}", a.fix_topic));

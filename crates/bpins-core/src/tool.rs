@@ -30,6 +30,7 @@ pub mod diagnose {
 pub mod fit {
     pub use crate::fit::input::frames::MIN_BUDGET_PX;
     pub use crate::fit::input::resolution::TOLD_SIGMA;
+    pub use crate::fit::input::sky::{frame_skies, FrameSky};
     pub use crate::fit::{
         fit_from, residual_maps_of, FitFrames, FitJson, FitRequest, FrameMaps, Loaded, ResidualMaps, DEFAULT_BUDGET_PX,
     };

@@ -37,6 +37,14 @@ pub struct Heading {
     reason: Option<String>,
     /// The extractor that read it ("sun_vector" or "meridian_line").
     extractor: String,
+    /// Which source lit the sky: "given" (the sun's angles were given), or from
+    /// `time_utc` and the place "sun" (by day, or a twilight it dominates) or "moon"
+    /// (at night where it is up and its sky the brighter); given with or without a heading.
+    source: String,
+    /// The sun's and the moon's shares of the sky's light at the zenith, 0…1 (None for
+    /// given angles); a frame is read where one source gives at least 0.99.
+    sun_share: Option<f64>,
+    moon_share: Option<f64>,
     cells_total: usize,
     cells_used: usize,
     /// Whether the mosaic was read in place (False: a copy, for arrays whose columns are not adjacent).
@@ -84,6 +92,9 @@ fn heading_of(fix: &FieldHeading, zero_copy: bool) -> Heading {
         residual_rms_deg: q.residual_rms_deg,
         reason,
         extractor: fix.extractor.name().to_string(),
+        source: fix.source.name().to_string(),
+        sun_share: fix.source.shares().map(|s| s.sun_share()),
+        moon_share: fix.source.shares().map(|s| s.moon_share()),
         cells_total: q.cells_total,
         cells_used: q.cells_used,
         zero_copy,
@@ -246,9 +257,12 @@ impl Compass {
     ///         tilt_x_deg=0.0, tilt_y_deg=0.0, tilt_sigma_deg=0.0) -> Heading
     ///
     /// The sun: its azimuth (from North toward East) and elevation in degrees, or a
-    /// timezone-aware `datetime` and a place (NREL SPA), or a `datetime` and `site`, the
-    /// site file `bpins.locate` wrote (in place of a GNSS position; the sun's 1σ takes
-    /// in the site's). The attitude: tilt about the
+    /// timezone-aware `datetime` and a place (the sun through NREL SPA by day, the moon
+    /// at night where it is up and its sky the brighter: `Heading.source` says which; a
+    /// mixed twilight or a dark night is a Heading without one, `reason` naming the
+    /// shares), or a `datetime` and `site`, the
+    /// site file `bpins.locate` wrote (in place of a GNSS position, read by the same
+    /// rule, the source's 1σ taking in the site's). The attitude: tilt about the
     /// camera's x then y axis as the IMU reads it, degrees, each with 1σ
     /// `tilt_sigma_deg`.
     #[pyo3(signature = (mosaic, *, sun_azimuth_deg=None, sun_elevation_deg=None, time_utc=None,
@@ -425,7 +439,8 @@ fn frame_sun_attitude(
     Ok((sun, attitude))
 }
 
-/// The sun at `time_utc` from a located site file, its 1σ the site's ⊕ `sigma`.
+/// The sky's source at `time_utc` from a located site file (`Site::compass_sun`: the
+/// sun, or the moon at night, by the `time_utc=` path's rule), its 1σ the site's ⊕ `sigma`.
 fn site_sun(
     path: &std::path::Path,
     az: Option<f64>,
@@ -445,8 +460,14 @@ fn site_sun(
         return Err(PyValueError::new_err(format!("sun_sigma_deg = {sigma}: expected a 1σ ≥ 0")));
     }
     let site = bpins_core::Site::load(path).map_err(|e| crate::py_err_in("site: ", e))?;
-    let (azimuth_deg, elevation_deg, s) = site.sun_at(unix_time_of(t)?).map_err(|e| crate::py_err_in("site: ", e))?;
-    Ok(Sun::Angles { azimuth_deg, elevation_deg, sigma_deg: s.hypot(sigma_deg) })
+    // The site's place as a time and place: the compass reads the source by the rule
+    // `time_utc=` with a place gets (the moon at night, a mixed or dark sky refused).
+    match site.compass_sun(unix_time_of(t)?).map_err(|e| crate::py_err_in("site: ", e))? {
+        Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg: s } => {
+            Ok(Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg: s.hypot(sigma_deg) })
+        }
+        angles => Ok(angles),
+    }
 }
 
 /// Seconds since 1970 of a timezone-aware `datetime`.

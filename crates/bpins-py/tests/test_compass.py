@@ -89,6 +89,33 @@ def test_sun_from_a_datetime_equals_the_sun_from_its_angles(samples):
         c.heading(mosaics[0], time_utc=datetime.datetime(2026, 6, 21, 9, 0), latitude_deg=36.07, longitude_deg=120.38)
 
 
+def test_a_moonlit_frame_read_from_its_clock_names_the_moon_and_a_dark_night_is_refused(cli, tmp_path):
+    # `bpins simulate` renders the sky of 2026-06-29T16:00:00Z at 20° N 120.38° E: the
+    # full moon at 41.6° (docs/night.md). Read from the same clock and place, the
+    # compass takes the moon, says so, and reads the heading within 2σ.
+    out = tmp_path / "moon"
+    subprocess.run([cli, "simulate", "--out", str(out), "--time-utc", "2026-06-29T16:00:00Z", "--latitude-deg", "20",
+                    "--longitude-deg", "120.38", "--width-px", "256", "--height-px", "256", "--pixel-pitch-um", "27.6",
+                    "--headings-deg", "30"], check=True, capture_output=True)
+    meta, mosaics = bpins.read_capture(out)
+    c = bpins.Compass.from_capture(out)
+    t = datetime.datetime(2026, 6, 29, 16, 0, tzinfo=datetime.timezone.utc)
+    h = c.heading(mosaics[0], time_utc=t, latitude_deg=20.0, longitude_deg=120.38)
+    assert h.reason is None, h.reason
+    assert h.source == "moon" and h.moon_share > 0.99 and abs(h.sun_share + h.moon_share - 1.0) < 1e-12, h
+    err = (h.heading_deg - meta["frames"][0]["heading_deg"] + 180.0) % 360.0 - 180.0
+    assert abs(err) < 2.0 * h.sigma_deg, (h, err)
+    assert h.sigma_parts_deg["sun_deg"] > 0.0  # the moon ephemeris's 0.005°, propagated
+    # Given angles: the caller's source.
+    g = c.heading(mosaics[0], sun_azimuth_deg=40.0, sun_elevation_deg=25.0)
+    assert g.source == "given" and g.sun_share is None
+    # Midnight at Qingdao a day after the new moon: no source lights the sky.
+    dark = datetime.datetime(2026, 7, 14, 16, 0, tzinfo=datetime.timezone.utc)
+    d = c.heading(mosaics[0], time_utc=dark, latitude_deg=36.07, longitude_deg=120.38)
+    assert d.heading_deg is None and d.source == "sun", d
+    assert d.reason.startswith("not yet: the moon is at"), d.reason
+
+
 def test_the_gil_is_released_while_a_compass_works():
     sim = bpins.simulate(width_px=1224, height_px=1024, seed=2)
     compasses = [bpins.Compass(1224, 1024, sim["focal_length_px"], black_level_dn=64.0) for _ in range(2)]

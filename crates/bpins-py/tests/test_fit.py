@@ -77,3 +77,17 @@ def test_bad_fit_arguments_name_themselves(samples, tmp_path):
         bpins.fit(cap, sample_budget_px=10)
     with pytest.raises(FileNotFoundError, match="no-capture-here/capture.toml: not found"):
         bpins.fit(tmp_path / "no-capture-here")
+
+
+def test_a_mixed_twilight_is_refused_naming_the_frame_and_both_shares(cli, tmp_path):
+    # The sun at −12.4° and a 75 % moon each give half the sky's light (docs/night.md,
+    # "Twilight"): not fitted about either, as `bpins fit` refuses it.
+    cap = tmp_path / "mixed"
+    subprocess.run([cli, "simulate", "--out", str(cap), "--time-utc", "2026-06-24T12:30:00Z", "--latitude-deg",
+                    "36.07", "--longitude-deg", "120.38", "--width-px", "128", "--height-px", "128",
+                    "--pixel-pitch-um", "27.6", "--headings-deg", "20,200", "--scene", "twilight"],
+                   check=True, capture_output=True)
+    for run in (bpins.fit, bpins.diagnose):
+        with pytest.raises(ValueError, match="frames/f000.png") as e:
+            run(cap)
+        assert "the moon (at 35.5°, 75 % lit) 50 %" in str(e.value) and "no single source" in str(e.value)

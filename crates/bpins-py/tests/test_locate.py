@@ -1,5 +1,7 @@
 """locate from Python (issue 33): the same answer as `bpins locate`, the site file
-it writes serving the Compass in place of a GNSS position, and "not yet" raised."""
+it writes serving the Compass in place of a GNSS position (its sky's source by the
+readers' rule: the moon at night, a mixed twilight or a dark night refused), and
+"not yet" raised."""
 
 import datetime
 import json
@@ -41,8 +43,52 @@ def test_locate_gives_the_cli_answer_and_a_site_the_compass_takes(series, cli, t
     t = datetime.datetime(2026, 6, 21, 2, 0, tzinfo=datetime.timezone.utc)
     h = c.heading(frames[-1], time_utc=t, site=site)
     assert abs(h.heading_deg - 30.0) < max(3 * h.sigma_deg, 0.05)
+    assert h.source == "sun" and h.sun_share > 0.99, h
     with pytest.raises(ValueError, match="site"):
         c.heading(frames[-1], time_utc=t, site=site, latitude_deg=36.0)
+
+
+def site_file(path, latitude_deg, longitude_deg):
+    path.write_text(f"""format = "bpins-site/1"
+route = "stamped"
+latitude_deg = {latitude_deg}
+latitude_sigma_deg = 0.01
+longitude_deg = {longitude_deg}
+longitude_sigma_deg = 0.01
+heading_deg = 0.0
+heading_sigma_deg = 0.1
+""")
+    return path
+
+
+def test_a_site_reads_the_moon_at_night_and_refuses_a_mixed_twilight_and_a_dark_night(cli, tmp_path):
+    # The site path reads the source by the rule `time_utc=` with a place does (issue
+    # 48): the full moon at 41.6° from 20° N 120.38° E at 2026-06-29T16:00:00Z
+    # (docs/night.md), rendered by `bpins simulate` and read with the site in place of
+    # the place, is the moon's sky, within 2σ.
+    out = tmp_path / "moon"
+    subprocess.run([cli, "simulate", "--out", str(out), "--time-utc", "2026-06-29T16:00:00Z", "--latitude-deg", "20",
+                    "--longitude-deg", "120.38", "--width-px", "256", "--height-px", "256", "--pixel-pitch-um", "27.6",
+                    "--headings-deg", "30"], check=True, capture_output=True)
+    meta, mosaics = bpins.read_capture(out)
+    c = bpins.Compass.from_capture(out)
+    utc = datetime.timezone.utc
+    h = c.heading(mosaics[0], time_utc=datetime.datetime(2026, 6, 29, 16, 0, tzinfo=utc),
+                  site=site_file(tmp_path / "tropic.toml", 20.0, 120.38))
+    assert h.reason is None, h.reason
+    assert h.source == "moon" and h.moon_share > 0.99 and abs(h.sun_share + h.moon_share - 1.0) < 1e-12, h
+    err = (h.heading_deg - meta["frames"][0]["heading_deg"] + 180.0) % 360.0 - 180.0
+    assert abs(err) < 2.0 * h.sigma_deg, (h, err)
+    assert h.sigma_parts_deg["sun_deg"] > 0.005  # the site's 0.01° place ⊕ the ephemeris's 0.005°
+    # From Qingdao: the sun at −12.4° and a 75 % moon give half the light each (a
+    # mixed twilight), and a day after the new moon no source lights the midnight sky.
+    qingdao = site_file(tmp_path / "qingdao.toml", 36.07, 120.38)
+    m = c.heading(mosaics[0], time_utc=datetime.datetime(2026, 6, 24, 12, 30, tzinfo=utc), site=qingdao)
+    assert m.heading_deg is None and "no single source" in m.reason, m
+    assert "the sun at -12.4° gives 50 % of the sky's light, the moon (at 35.5°, 75 % lit) 50 %" in m.reason, m
+    d = c.heading(mosaics[0], time_utc=datetime.datetime(2026, 7, 14, 16, 0, tzinfo=utc), site=qingdao)
+    assert d.heading_deg is None and d.source == "sun", d
+    assert d.reason.startswith("not yet: the moon is at"), d.reason
 
 
 def test_a_span_too_short_for_the_bounds_raises_not_yet(series):

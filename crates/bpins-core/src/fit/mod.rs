@@ -133,6 +133,8 @@ fn fit_from_stages(
     every_pixel_only: bool,
     progress: &dyn Fn(&str, usize),
 ) -> Result<FitResult> {
+    // A mixed twilight or a dark night is refused, never fitted about one source.
+    let sky = input::sky::frame_skies(c)?;
     let noise = frames.noise(c, opts)?;
     let (pb, theta) = problem(c, frames, opts, start, noise)?;
     let (theta, iterations, last) = if every_pixel_only {
@@ -229,6 +231,7 @@ fn fit_from_stages(
         n_eff,
         rank: cov.rank(),
         degenerate,
+        sky,
         state: FitState {
             effect_values,
             frames: (0..frames.len()).map(|k| pb.slots.frame(k).map(|i| theta[i])).collect(),

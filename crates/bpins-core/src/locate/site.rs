@@ -14,8 +14,10 @@
 //! heading_sigma_deg = 0.05
 //! ```
 //!
-//! The sun for a later time comes from SPA at the place; its 1σ is the place's,
-//! propagated: √((∂A/∂φ σ_φ)² + (∂A/∂λ σ_λ)²), and the same for the elevation, the
+//! The sun for a later time comes from SPA at the place (the sky's source by the
+//! readers' rule, `sky::source_from_time_place`: the moon at night where its sky is the
+//! brighter, through Meeus); its 1σ is the place's, propagated through that body's
+//! ephemeris: √((∂A/∂φ σ_φ)² + (∂A/∂λ σ_λ)²), and the same for the elevation, the
 //! larger of the two (azimuth and elevation share one 1σ in the compass).
 
 use super::{Located, Route};
@@ -103,37 +105,66 @@ impl Site {
     /// The sun at `time_unix_s` from this site: (azimuth, elevation, 1σ), degrees.
     /// Errs on a site without longitude (the pole route: no clock, no sun).
     pub fn sun_at(&self, time_unix_s: f64) -> Result<(f64, f64, f64)> {
-        let (Some(lon), Some(s_lon)) = (self.longitude_deg, self.longitude_sigma_deg) else {
-            return Err(Error::Place(
+        self.body_at(&|la, lo| sun_from_unix_time(time_unix_s, la, lo).map(|s| (s.azimuth_deg, s.elevation_deg)))
+    }
+
+    /// The sky's source at `time_unix_s` from this site by the rule every reader uses
+    /// (`sky::source_from_unix_time`: the sun, or the moon at night where its sky is the
+    /// brighter), with the 1σ of its angles from the site's, propagated through that
+    /// body's own ephemeris (module doc). Errs as [`Site::sun_at`].
+    pub fn source_at(&self, time_unix_s: f64) -> Result<(crate::sky::sun::SunPosition, f64)> {
+        let (_, lon) = self.place_of()?;
+        let src = crate::sky::source_from_unix_time(time_unix_s, self.latitude_deg, lon)?;
+        let (_, _, sigma_deg) = if matches!(src.source, crate::sky::sun::SunSource::Moon { .. }) {
+            self.body_at(&|la, lo| {
+                crate::sky::moon::moon_from_unix_time(time_unix_s, la, lo).map(|m| (m.azimuth_deg, m.elevation_deg))
+            })?
+        } else {
+            self.sun_at(time_unix_s)?
+        };
+        Ok((src, sigma_deg))
+    }
+
+    /// The site's latitude and longitude, degrees; errs without a longitude.
+    fn place_of(&self) -> Result<(f64, f64)> {
+        match self.longitude_deg {
+            Some(lon) if self.longitude_sigma_deg.is_some() => Ok((self.latitude_deg, lon)),
+            _ => Err(Error::Place(
                 "the site has no longitude (located by the pole route, without a clock): the sun at a time needs one"
                     .into(),
-            ));
-        };
-        let lat = self.latitude_deg;
-        let at = |la: f64, lo: f64| {
-            sun_from_unix_time(time_unix_s, la.clamp(-90.0, 90.0), crate::conventions::wrap_deg_180(lo))
-        };
-        let s = at(lat, lon)?;
+            )),
+        }
+    }
+
+    /// A body's (azimuth, elevation) from `at(latitude, longitude)` at this site, with
+    /// the 1σ the site's place gives them (module doc), degrees.
+    fn body_at(&self, at: &dyn Fn(f64, f64) -> Result<(f64, f64)>) -> Result<(f64, f64, f64)> {
+        let (lat, lon) = self.place_of()?;
+        let s_lon = self.longitude_sigma_deg.unwrap_or(0.0);
+        let at = |la: f64, lo: f64| at(la.clamp(-90.0, 90.0), crate::conventions::wrap_deg_180(lo));
+        let (az, el) = at(lat, lon)?;
         let d = 0.01;
         let dlat = at(lat + d, lon)?;
         let dlon = at(lat, lon + d)?;
-        let da = |x: f64| crate::conventions::wrap_deg_180(x - s.azimuth_deg) / d;
-        let sig_az = (da(dlat.azimuth_deg) * self.latitude_sigma_deg).hypot(da(dlon.azimuth_deg) * s_lon);
-        let sig_el = ((dlat.elevation_deg - s.elevation_deg) / d * self.latitude_sigma_deg)
-            .hypot((dlon.elevation_deg - s.elevation_deg) / d * s_lon);
-        Ok((s.azimuth_deg, s.elevation_deg, sig_az.max(sig_el)))
+        let da = |x: f64| crate::conventions::wrap_deg_180(x - az) / d;
+        let sig_az = (da(dlat.0) * self.latitude_sigma_deg).hypot(da(dlon.0) * s_lon);
+        let sig_el = ((dlat.1 - el) / d * self.latitude_sigma_deg).hypot((dlon.1 - el) / d * s_lon);
+        Ok((az, el, sig_az.max(sig_el)))
     }
 
-    /// The sun at `time_unix_s` for the [`Compass`](crate::compass::Compass), its 1σ
-    /// the place's ([`Site::sun_at`]).
+    /// The sky at `time_unix_s` for the [`Compass`](crate::compass::Compass): this site's
+    /// place as a time and place (`Sun::UnixTime`), so the compass reads the source by
+    /// the readers' rule (the moon at night; a mixed twilight or a dark night refused,
+    /// typed), its 1σ the place's ([`Site::source_at`]).
     pub fn compass_sun(&self, time_unix_s: f64) -> Result<crate::compass::Sun> {
-        let (azimuth_deg, elevation_deg, sigma_deg) = self.sun_at(time_unix_s)?;
-        Ok(crate::compass::Sun::Angles { azimuth_deg, elevation_deg, sigma_deg })
+        let (latitude_deg, longitude_deg) = self.place_of()?;
+        let (_, sigma_deg) = self.source_at(time_unix_s)?;
+        Ok(crate::compass::Sun::UnixTime { time_s: time_unix_s, latitude_deg, longitude_deg, sigma_deg })
     }
 
     /// Gives every frame of `c` stamped without a place (read by
-    /// [`Capture::load_unplaced`](crate::capture::Capture::load_unplaced)) the sun at
-    /// this site, its 1σ the place's in quadrature with the frame's own
+    /// [`Capture::load_unplaced`](crate::capture::Capture::load_unplaced)) the sky's
+    /// source at this site ([`Site::source_at`]: the moon at night), its 1σ the place's in quadrature with the frame's own
     /// `sun_sigma_deg`. Returns how many frames it placed.
     pub fn place(&self, c: &mut crate::capture::Capture) -> Result<usize> {
         let mut n = 0;
@@ -141,12 +172,64 @@ impl Site {
             let crate::sky::sun::SunSource::Unplaced { time_utc } = &f.sun.source else { continue };
             let t = crate::sky::sun::parse_time_utc(time_utc)?;
             let t_s = t.timestamp() as f64 + f64::from(t.timestamp_subsec_nanos()) * 1e-9;
-            let (_, _, sigma) = self.sun_at(t_s)?;
+            let (_, sigma) = self.source_at(t_s)?;
             let lon = self.longitude_deg.unwrap_or(f64::NAN);
-            f.sun = crate::sky::sun::sun_from_time_place(time_utc, self.latitude_deg, lon)?;
+            f.sun = crate::sky::source_from_time_place(time_utc, self.latitude_deg, lon)?;
             f.sun_sigma_deg = Some(f.sun_sigma_deg.unwrap_or(0.0).hypot(sigma));
             n += 1;
         }
         Ok(n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sky::sun::SunSource;
+
+    fn site(latitude_deg: f64, longitude_deg: f64) -> Site {
+        Site {
+            format: FORMAT.into(),
+            route: "stamped".into(),
+            time_utc: None,
+            latitude_deg,
+            latitude_sigma_deg: 0.05,
+            longitude_deg: Some(longitude_deg),
+            longitude_sigma_deg: Some(0.05),
+            heading_deg: 0.0,
+            heading_sigma_deg: 0.1,
+        }
+    }
+
+    #[test]
+    fn the_site_s_source_is_the_readers_and_its_sigma_that_body_s() {
+        // By day: the sun, its 1σ exactly `sun_at`'s.
+        let day = site(36.07, 120.38);
+        let t_day = crate::sky::sun::parse_time_utc("2026-06-21T04:00:00Z").unwrap().timestamp() as f64;
+        let (src, sigma) = day.source_at(t_day).unwrap();
+        assert!(matches!(src.source, SunSource::Spa { .. }), "{src:?}");
+        assert_eq!((src.azimuth_deg, src.elevation_deg, sigma), day.sun_at(t_day).unwrap());
+        // The full moon at 41.6° (docs/night.md): the moon, at the readers' angles, its
+        // 1σ from the moon's own ephemeris: not the sun's, below the horizon.
+        let night = site(20.0, 120.38);
+        let t = crate::sky::sun::parse_time_utc("2026-06-29T16:00:00Z").unwrap().timestamp() as f64;
+        let (moon, sigma) = night.source_at(t).unwrap();
+        let want = crate::sky::source_from_unix_time(t, 20.0, 120.38).unwrap();
+        assert!(matches!(moon.source, SunSource::Moon { .. }), "{moon:?}");
+        assert_eq!((moon.azimuth_deg, moon.elevation_deg), (want.azimuth_deg, want.elevation_deg));
+        let (_, _, sun_sigma) = night.sun_at(t).unwrap();
+        assert!(
+            sigma > 0.0 && sigma < 0.2 && (sigma - sun_sigma).abs() > 1e-3,
+            "{sigma} against the sun's {sun_sigma}"
+        );
+        // The compass is given the time and place, so that it applies the rule itself.
+        let crate::compass::Sun::UnixTime { latitude_deg, longitude_deg, sigma_deg, .. } =
+            night.compass_sun(t).unwrap()
+        else {
+            panic!("a time and place");
+        };
+        assert_eq!((latitude_deg, longitude_deg, sigma_deg), (20.0, 120.38, sigma));
+        let pole = Site { longitude_deg: None, longitude_sigma_deg: None, ..night };
+        assert!(pole.source_at(t).is_err() && pole.compass_sun(t).is_err());
     }
 }

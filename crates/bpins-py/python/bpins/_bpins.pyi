@@ -31,6 +31,14 @@ class Heading:
     reason: Optional[str]
     """Why there is no heading; None where there is one."""
     extractor: str
+    source: str
+    """Which source lit the sky: "given" (angles given), or from time_utc and the place
+    "sun" (by day, or a twilight it dominates) or "moon" (at night where it is up and its
+    sky the brighter)."""
+    sun_share: Optional[float]
+    """The sun's share of the sky's light at the zenith (0…1); None for given angles."""
+    moon_share: Optional[float]
+    """The moon's share (1 − sun_share); None for given angles."""
     cells_total: int
     cells_used: int
     zero_copy: bool

@@ -69,6 +69,8 @@ impl FitRequest {
             });
         }
         let capture = Capture::load(&self.capture)?;
+        // A frame no source lights alone is refused before its pixels are read.
+        crate::fit::input::sky::frame_skies(&capture)?;
         let cal = self.calibration.as_deref().map(Calibration::load).transpose()?;
         let pixels = cal.as_ref().and_then(|c| c.pixels.clone());
         let options = FitOptions {

@@ -90,6 +90,9 @@ pub struct FitResult {
     pub rank: usize,
     /// Each combination of parameters the data cannot constrain, in words.
     pub degenerate: Vec<String>,
+    /// Which source lit each frame's sky (the sun, or the moon at night), with both
+    /// sources' shares, as `bpins heading` says it (`fit::input::sky`).
+    pub sky: Vec<crate::fit::input::sky::FrameSky>,
     /// The fitted values, to start another fit from (not serialised).
     #[serde(skip)]
     pub state: FitState,
