@@ -6,7 +6,7 @@
 //! sensor (`colour_tiles`) is calibrated band by band: its calibration.toml holds
 //! effects (`lab/bands.rs`: what `fit` and `diagnose` take), and
 //! DIR/calibration-pixels.toml with DIR/pixels.exr its per-pixel maps, which the
-//! compass (`heading`) applies band by band (the fit does not yet).
+//! compass (`heading`) applies band by band and `fit` and `diagnose` pixel by pixel.
 
 use crate::{ensure_not_in_capture, write_json, write_output};
 use anyhow::Context;
@@ -117,9 +117,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let maps = write_maps(&cal, &a.out).context("writing the maps")?;
     let source = format!("bpins calibrate {}", a.lab.display());
-    // A colour sensor's per-pixel maps are applied band by band by the compass, not yet
-    // by the fit: calibration.toml is the effects each band's means give (every route),
-    // calibration-pixels.toml the maps (the compass's, `heading`'s).
+    // A colour sensor's per-pixel maps are each pixel's total (its band's ε and gain
+    // included), so they go in a file of their own: calibration.toml is the effects each
+    // band's means give (every route), calibration-pixels.toml the maps (every route).
+    // Together they would count the band twice (`Calibration::pixels_conflict`).
     let calibration = match &cal.bands {
         Some(bands) => {
             let (effects, sigmas) =
@@ -131,7 +132,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             say!(
                 "colour sensor: calibration.toml holds effects (analyzer_angles, extinction_ratio, band_response, \
                  channel_response: heading, fit, diagnose); {COLOUR_PIXELS_FILE} the per-pixel maps (pixels.exr: \
-                 heading applies them band by band; the fit does not yet)"
+                 heading applies them band by band, fit and diagnose pixel by pixel)"
             );
             Calibration { source, effects, sigmas, ..Default::default() }
         }

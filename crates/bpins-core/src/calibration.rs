@@ -95,7 +95,11 @@ impl Calibration {
     }
 
     /// Why the per-pixel maps cannot be used with the known effects, if they cannot:
-    /// both would correct the analyzers and channel responses.
+    /// both would correct the analyzers and channel responses. A colour sensor's maps
+    /// are each pixel's total, as the lab measures it (`lab/bands.rs`): its ε is the
+    /// channel's plus the band's (`ε_p = ε_k + ε_b`), its gain carries the band's
+    /// (`g_p ∝ q_b (1 + γ_k)`), so `band_response`'s `qe_*` and `eps_*` beside them
+    /// would count the band twice (its sky terms, `sky_spectrum`, are the sky's: kept).
     pub fn pixels_conflict(&self) -> Option<String> {
         self.pixels.as_ref()?;
         let m = self.model();
@@ -103,10 +107,13 @@ impl Calibration {
         let clash = m.channels.analyzer_delta_deg != d.channels.analyzer_delta_deg
             || m.channels.analyzer_eps != d.channels.analyzer_eps
             || m.channels.gain != d.channels.gain
-            || m.channels.offset_dn != d.channels.offset_dn;
+            || m.channels.offset_dn != d.channels.offset_dn
+            || m.bands.gain != d.bands.gain
+            || m.bands.eps != d.bands.eps;
         clash.then(|| {
-            "per-pixel maps ([pixels]) replace the analyzer and channel effects (analyzer_angles, \
-             extinction_ratio, channel_response, array_rotation); give one or the other"
+            "per-pixel maps ([pixels]) replace the analyzer, channel and band effects (analyzer_angles, \
+             extinction_ratio, channel_response, array_rotation, band_response: each pixel's map is its \
+             total, the band's ε and gain included); give one or the other"
                 .to_string()
         })
     }

@@ -84,8 +84,12 @@ pub fn reconstruct_frame(c: &Capture, data: &FrameData, known: &Model, mode: Rec
 
 /// Frame `data` of capture `c` as nominal pixels would read it, through a lab
 /// calibration's per-pixel maps ([`PixelMaps::nominal_mosaic`]): then `heading`,
-/// `fit` and `diagnose` read it with nominal analyzers. Maps of another sensor size
-/// or mosaic are refused, with both named.
+/// `fit` and `diagnose` read it with nominal analyzers. On a colour-polarization
+/// sensor every 2 × 2 tile lies under one filter (CONVENTIONS.md `colour_tiles`), so
+/// each tile is solved through its own band's pixels only; its maps are each pixel's
+/// total (the band's ε and gain included), so the nominal mosaic is read with a
+/// neutral `band_response` (`Calibration::pixels_conflict`). Maps of another sensor
+/// size or mosaic are refused, with both named.
 pub fn apply_pixel_maps(c: &Capture, data: FrameData, maps: &PixelMaps) -> Result<FrameData> {
     let g = &c.sensor.geometry;
     let refuse = |m: String| Error::Capture { path: c.toml_path(), message: m };

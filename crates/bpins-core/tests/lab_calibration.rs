@@ -266,6 +266,8 @@ fn a_calibration_file_round_trips_and_one_for_another_sensor_is_refused() {
         (text.replace("width_px = 64", "width_px = 65"), "65 × 48"),
         (text.replace("\"eps\"", "\"eps\", \"nope\""), "nope"),
         (format!("{text}\n[effects.analyzer_angles]\nd45_deg = 0.5\n"), "replace the analyzer"),
+        // A colour band's gain is in the maps' gain: band_response beside them counts it twice.
+        (format!("{text}\n[effects.band_response]\nqe_b = 0.6\n"), "band_response"),
     ] {
         std::fs::write(out.join("bad.toml"), bad).unwrap();
         let e = Calibration::load(&out.join("bad.toml")).unwrap_err().to_string();

@@ -217,15 +217,6 @@ impl<'a> FitFrames<'a> {
         opts: &FitOptions,
         progress: &dyn Fn(usize),
     ) -> Result<FitFrames<'static>> {
-        if c.sensor.colour.is_some() && maps.is_some() {
-            return Err(Error::Capture {
-                path: c.toml_path(),
-                message: "[sensor] colour_tiles: not yet: the fit does not apply per-pixel maps ([pixels]) of a \
-                          colour-polarization sensor band by band (the compass and `heading` do): fit with the \
-                          effects-only calibration `bpins calibrate` writes beside them (calibration.toml)"
-                    .into(),
-            });
-        }
         let (w, h, _) = dims(c);
         let read = |k: usize| read_frame(c, k, maps.as_deref());
         if blocks_per_stratum(w, h, budget) == 1 {
