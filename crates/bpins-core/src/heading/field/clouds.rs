@@ -7,16 +7,10 @@
 //!               the most polarized max(min_cells, 3 %) of them reach
 //! brighter:     ln I − m(γ, z) > med + max(ln BRIGHT_FACTOR, 5 · 1.4826 · MAD₋)
 //!               m a smooth radiance (ln I on 1, cos γ, z and their squares and product,
-//!               centred and scaled) fitted by least squares to the reference cells,
-//!               refitted without those above it by 2σ (up to 6 rounds: the clear
-//!               cells' lower envelope); med the residuals' median, MAD₋ their spread
-//!               below it (clouds are brighter, never darker)
-//! reference:    the cells on the clear sky's DoLP plateau, r ≥ (1 − PLATEAU_TOL)·r_top,
-//!               r_top the ratio the PLATEAU_TOP-th most polarized verifiable cell
-//!               reaches (γ > 35° from the sun and the anti-sun), on a monochrome
-//!               frame where at least min_cells are and at most half the verifiable
-//!               cells are depolarized (no overcast); else the clear cells that fit
-//!               the sun
+//!               centred and scaled) fitted by least squares to the clear cells that
+//!               fit the sun, refitted without those above it by 2σ (up to 6 rounds:
+//!               the clear cells' lower envelope); med the residuals' median, MAD₋
+//!               their spread below it (clouds are brighter, never darker)
 //! whiter:       t − m_t(γ, z) > med + max(ln WHITE_FACTOR, 5 · 1.4826 · MAD₋)   colour frames only
 //!               t = ln(I_R/I_B) of the cell, m_t fitted as m is (the clear cells'
 //!               lower envelope): a cloud's white light in a blue sky raises t
@@ -31,15 +25,7 @@
 //! scattering angle of 90° gives less than 20 % DoLP outside dust storms and smoke;
 //! Horváth & Varjú, *Polarized Light in Animal Vision* (2004), ch. 11) keep the
 //! clear patches as the reference. A bright rim that stays polarized fails the DoLP
-//! test and passes the brightness test, whose reference must then not be the cells that
-//! fit the current sun: where a deck turns one way, its sunlit rims agree with each
-//! other as tightly as the clear sky does, and a start among them makes them the cells
-//! that fit (and the clear sky the misfit). The reference is read from the DoLP
-//! instead, which needs no sun that is right to a degree: a rim covered by a share c
-//! keeps about 1 − c of the DoLP (its depolarized part) and the clear sky keeps all of
-//! it, so the most polarized cells are the clear sky and the outermost rims, and the
-//! rims among them are the bright ones the envelope trims (`holes.rs` reads an
-//! overcast's cores on the same plateau). On a colour sensor a cloud is also whiter
+//! test and passes the brightness test. On a colour sensor a cloud is also whiter
 //! than the sky around it, dim or bright, polarized or not: the red-to-blue ratio that
 //! all-sky cloud imagers have thresholded for decades (Long et al. 2006) joins the two
 //! tests (the colour compass gives every band's cells the frame's ratio).
@@ -108,70 +94,6 @@ pub(super) fn clear_dmax(cells: &[CellSky], min_cells: usize, ratios: &mut Vec<f
     mid.max(UPPER_SHARE * upper).max(CLEAR_DMAX_MIN)
 }
 
-/// A sky whose depolarized cells are more than this share of the verifiable ones is
-/// an overcast to [`reference`].
-const OVERCAST_SHARE: f64 = 0.5;
-/// `r_top` is the ratio this many cells reach (a lone hot cell cannot set it).
-pub(super) const PLATEAU_TOP: usize = 4;
-/// A plateau cell's ratio is within this fraction of `r_top`: a cover of about 3 % at
-/// most under a deck that keeps a few per cent of the DoLP.
-pub(super) const PLATEAU_TOL: f64 = 0.03;
-/// Rayleigh's DoLP over d_max above which a cell's ratio is read for the plateau (γ >
-/// 35° from the sun and the anti-sun: nearer, the ratio's noise and the sky's
-/// departures grow).
-pub(super) const PLATEAU_VERIFIABLE: f64 = 0.3;
-
-/// Into `clear`: the reference cells of the smooth sky ([`brighter`]; the module's
-/// equation) — verifiable, not depolarized (`depol`), and fitting the current sun,
-/// or, on a monochrome frame that is no overcast (at most OVERCAST_SHARE of the
-/// verifiable cells depolarized) whose plateau holds at least `min_cells` cells, on the
-/// clear sky's DoLP plateau. Returns whether the plateau was the reference. `r` and
-/// `plateau` are buffers.
-pub(super) fn reference(
-    cells: &[CellSky],
-    depol: &[bool],
-    min_cells: usize,
-    r: &mut Vec<f64>,
-    plateau: &mut Vec<bool>,
-    clear: &mut Vec<bool>,
-) -> bool {
-    let ratio = |c: &CellSky| {
-        let d = rayleigh_dolp(c.cg);
-        (d > PLATEAU_VERIFIABLE).then(|| c.dolp / d)
-    };
-    r.clear();
-    r.extend(cells.iter().filter_map(ratio));
-    plateau.clear();
-    let n = r.len();
-    if n >= PLATEAU_TOP {
-        let r_top = *r.select_nth_unstable_by(n - PLATEAU_TOP, |a, b| a.total_cmp(b)).1;
-        plateau.extend(cells.iter().map(|c| ratio(c).is_some_and(|x| x >= (1.0 - PLATEAU_TOL) * r_top)));
-    } else {
-        plateau.resize(cells.len(), false);
-    }
-    // A colour frame's whiteness test reads the rims with no sun at all ([`whiter`]'s
-    // bluest cells), and its bands' cells, a quarter of the pixels each, spread wider
-    // than the plateau's 3 % (tried: its turned rims 0.017° → 0.019° RMS, worst 1.7σ →
-    // 2.6σ): there the cells that fit stay the reference.
-    let mono = !cells.iter().any(|c| c.tint.is_finite());
-    // Under an overcast (most verifiable cells depolarized) the cells that fit stay the
-    // reference: the plateau is then a few holes' cores, too few to fit the radiance
-    // of the whole view by (holes.rs reads them).
-    let verifiable = cells.iter().filter(|c| c.verifiable()).count();
-    let overcast = depol.iter().filter(|&&d| d).count() as f64 > OVERCAST_SHARE * verifiable as f64;
-    let on = plateau.iter().zip(depol).filter(|(&p, &d)| p && !d).count();
-    let by_plateau = mono && !overcast && on >= min_cells;
-    clear.clear();
-    clear.extend(
-        cells
-            .iter()
-            .zip(depol)
-            .zip(plateau.iter())
-            .map(|((c, &d), &p)| c.verifiable() && !d && if by_plateau { p } else { c.fits }),
-    );
-    by_plateau
-}
-
 /// Into `out`: whether each cell is depolarized against the clear sky's `dmax`, where
 /// Rayleigh's DoLP there is > VERIFIABLE of d_max (γ > 23° from the sun and the
 /// anti-sun; closer, a cell's DoLP says nothing).
@@ -187,17 +109,14 @@ pub(super) fn depolarized(cells: &[CellSky], dmax: f64, out: &mut Vec<bool>) {
 const VERIFIABLE: f64 = 0.08;
 
 /// Into `out`: whether each cell is brighter than the smooth sky fitted to the clear
-/// cells (`clear`: [`reference`]); only verifiable cells are
+/// cells (`clear`: fits, verifiable and not depolarized); only verifiable cells are
 /// marked (closer to the sun the smooth sky is an extrapolation). Nothing is marked
 /// when fewer than 20 cells are clear. `clear` loses the cells the envelope's fit
 /// trims; `r` is a buffer. The radiance takes no sun-free reference of its dimmest
 /// cells as the colour ratio does ([`whiter`]): a sky's radiance varies by more than
 /// the cut across the view, and tried, the dimmest cells' envelope did read the
 /// turned rims of one deck (0.36° → 0.007° RMS) but took two thirds of a sky of ten
-/// coherent clouds for cloud (`clouds_coherent`: 0.79° → 3.3° RMS, 7σ). The DoLP
-/// plateau ([`reference`]) needs no sun either and keeps the envelope's cells polarized
-/// like the clear sky: the same deck reads 0.359° → 0.007° RMS (mono, 24 frames) and
-/// `clouds_coherent` 0.79° → 0.54° RMS, 9 → 2 of 40 frames refused (docs/field.md).
+/// coherent clouds for cloud (`clouds_coherent`: 0.79° → 3.3° RMS, 7σ).
 pub(super) fn brighter(cells: &[CellSky], clear: &mut [bool], r: &mut Vec<f64>, out: &mut Vec<bool>) {
     above_envelope(cells, clear, r, |c| c.ln_i, BRIGHT_FACTOR.ln(), out);
 }
@@ -213,8 +132,8 @@ pub(super) fn brighter(cells: &[CellSky], clear: &mut [bool], r: &mut Vec<f64>, 
 ///   the verifiable cells lowest against the last fit; it holds while clouds cover
 ///   less than 1 − WHITE_KEEP of the sky, even where the current sun is wrong and the
 ///   cells that "fit" are a deck's turned rims;
-/// - the clear cells (`clear`: [`reference`], less the brighter; their lower
-///   envelope as [`brighter`] fits it): the wider reference, so the finer cut
+/// - the clear cells (`clear`: fit the sun, not depolarized, not brighter; their
+///   lower envelope as [`brighter`] fits it): the wider reference, so the finer cut
 ///   at a thin cloud's edge.
 ///
 /// Cells without a ratio are never marked; nothing is marked on a monochrome frame (no
@@ -545,55 +464,6 @@ mod tests {
         for (i, x) in br.iter().enumerate() {
             assert_eq!(*x, (300..340).contains(&i), "cell {i}");
         }
-    }
-
-    #[test]
-    fn a_deck_s_bright_rims_that_fit_a_wrong_sun_are_found_against_the_dolp_plateau() {
-        // A clear sky (d_max 0.6) of which 40 % of the cells, in runs of ten across the
-        // view, are a deck's sunlit rims: 1.6× brighter, DoLP × 0.9 (inner rims, off
-        // the plateau) or × 0.99 (outer rims, on it), turned alike, so that a start
-        // among them makes them the cells that fit the sun and the clear cells the misfit.
-        let rim = |i: usize| (i / 10) % 5 < 2;
-        let mut cells = sky(0.6, 1000);
-        for (i, c) in cells.iter_mut().enumerate() {
-            c.tint = f64::NAN; // a monochrome frame
-            c.fits = rim(i);
-            if rim(i) {
-                c.ln_i += 1.6f64.ln();
-                c.dolp *= if i % 3 == 0 { 0.99 } else { 0.9 };
-            }
-        }
-        let depol = vec![false; cells.len()];
-        let (mut r, mut plateau, mut clear, mut br) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        // The cells that fit as the reference: the envelope is the rims', nothing is
-        // brighter than it, the rims stay sky.
-        let mut fits: Vec<bool> = cells.iter().map(|c| c.fits && c.verifiable()).collect();
-        brighter(&cells, &mut fits, &mut r, &mut br);
-        assert!(br.iter().filter(|&&x| x).count() < 10, "the rims' own envelope hides them");
-        // The DoLP plateau as the reference: the clear sky and the outer rims, whose
-        // envelope is the clear sky's; every rim is brighter, no clear cell is.
-        assert!(reference(&cells, &depol, 40, &mut r, &mut plateau, &mut clear));
-        let on_plateau = |i: usize| rayleigh_dolp(cells[i].cg) > PLATEAU_VERIFIABLE && (!rim(i) || i % 3 == 0);
-        assert!(clear.iter().enumerate().all(|(i, &c)| c == on_plateau(i)));
-        brighter(&cells, &mut clear, &mut r, &mut br);
-        for (i, x) in br.iter().enumerate() {
-            assert_eq!(*x, rim(i), "cell {i}");
-        }
-        // An overcast (most verifiable cells depolarized) keeps the cells that fit.
-        let deck: Vec<bool> = (0..cells.len()).map(|i| i % 5 < 3).collect();
-        assert!(!reference(&cells, &deck, 40, &mut r, &mut plateau, &mut clear));
-        assert!(clear.iter().zip(&cells).zip(&deck).all(|((&k, c), &d)| k == (c.fits && c.verifiable() && !d)));
-        // A colour frame (a band ratio in every cell) keeps the cells that fit.
-        let colour: Vec<CellSky> = cells.iter().map(|c| CellSky { tint: -0.7, ..*c }).collect();
-        assert!(!reference(&colour, &depol, 40, &mut r, &mut plateau, &mut clear));
-        assert!(clear.iter().zip(&colour).all(|(&k, c)| k == (c.fits && c.verifiable())));
-        // A plateau of fewer than min_cells cells (every cell's DoLP spread wider than
-        // the plateau's 3 %): the cells that fit the sun, as before.
-        for (i, c) in cells.iter_mut().enumerate() {
-            c.dolp *= 1.0 - 0.1 * ((i * 37) % 100) as f64 / 100.0;
-        }
-        assert!(!reference(&cells, &depol, 400, &mut r, &mut plateau, &mut clear));
-        assert!(clear.iter().zip(&cells).all(|(&k, c)| k == (c.fits && c.verifiable())));
     }
 
     #[test]
