@@ -89,14 +89,11 @@ def test_sun_from_a_datetime_equals_the_sun_from_its_angles(samples):
         c.heading(mosaics[0], time_utc=datetime.datetime(2026, 6, 21, 9, 0), latitude_deg=36.07, longitude_deg=120.38)
 
 
-def test_a_moonlit_frame_read_from_its_clock_names_the_moon_and_a_dark_night_is_refused(cli, tmp_path):
+def test_a_moonlit_frame_read_from_its_clock_names_the_moon_and_a_dark_night_is_refused(moonlit_capture):
     # `bpins simulate` renders the sky of 2026-06-29T16:00:00Z at 20° N 120.38° E: the
     # full moon at 41.6° (docs/night.md). Read from the same clock and place, the
     # compass takes the moon, says so, and reads the heading within 2σ.
-    out = tmp_path / "moon"
-    subprocess.run([cli, "simulate", "--out", str(out), "--time-utc", "2026-06-29T16:00:00Z", "--latitude-deg", "20",
-                    "--longitude-deg", "120.38", "--width-px", "256", "--height-px", "256", "--pixel-pitch-um", "27.6",
-                    "--headings-deg", "30"], check=True, capture_output=True)
+    out = moonlit_capture
     meta, mosaics = bpins.read_capture(out)
     c = bpins.Compass.from_capture(out)
     t = datetime.datetime(2026, 6, 29, 16, 0, tzinfo=datetime.timezone.utc)

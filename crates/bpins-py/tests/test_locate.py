@@ -61,15 +61,12 @@ heading_sigma_deg = 0.1
     return path
 
 
-def test_a_site_reads_the_moon_at_night_and_refuses_a_mixed_twilight_and_a_dark_night(cli, tmp_path):
+def test_a_site_reads_the_moon_at_night_and_refuses_a_mixed_twilight_and_a_dark_night(moonlit_capture, tmp_path):
     # The site path reads the source by the rule `time_utc=` with a place does (issue
     # 48): the full moon at 41.6° from 20° N 120.38° E at 2026-06-29T16:00:00Z
     # (docs/night.md), rendered by `bpins simulate` and read with the site in place of
     # the place, is the moon's sky, within 2σ.
-    out = tmp_path / "moon"
-    subprocess.run([cli, "simulate", "--out", str(out), "--time-utc", "2026-06-29T16:00:00Z", "--latitude-deg", "20",
-                    "--longitude-deg", "120.38", "--width-px", "256", "--height-px", "256", "--pixel-pitch-um", "27.6",
-                    "--headings-deg", "30"], check=True, capture_output=True)
+    out = moonlit_capture
     meta, mosaics = bpins.read_capture(out)
     c = bpins.Compass.from_capture(out)
     utc = datetime.timezone.utc
