@@ -107,6 +107,7 @@ mod recon;
 mod sensor_exposure;
 mod simulate;
 mod sky;
+mod stats;
 mod stokes;
 #[cfg(feature = "io")]
 mod sweep;

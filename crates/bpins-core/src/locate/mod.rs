@@ -250,12 +250,8 @@ pub fn locate(obs: &[SunObs], opts: &LocateOptions) -> Result<Located, LocateErr
 /// The frames' median neutral-point separation and median 1σ where the sky is not
 /// Rayleigh's: the median |separation| over 5° and over twice its 1σ.
 fn non_rayleigh(obs: &[SunObs]) -> Option<(f64, f64)> {
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let sep = median(obs.iter().map(|o| o.separation_deg).collect());
-    let sigma = median(obs.iter().map(|o| o.separation_sigma_deg).collect());
+    let sep = crate::stats::median(obs.iter().map(|o| o.separation_deg).collect())?;
+    let sigma = crate::stats::median(obs.iter().map(|o| o.separation_sigma_deg).collect())?;
     (sep.abs() > NON_RAYLEIGH_DEG && sep.abs() > 2.0 * sigma).then_some((sep, sigma))
 }
 

@@ -71,9 +71,8 @@ pub(crate) fn direction_sigma_deg(o: &SunObs) -> f64 {
 
 /// The 1σ of a travel between two frames, degrees: √2 × the median frame's.
 pub(crate) fn travel_sigma_deg(obs: &[SunObs]) -> f64 {
-    let mut s: Vec<f64> = obs.iter().map(direction_sigma_deg).collect();
-    s.sort_by(f64::total_cmp);
-    std::f64::consts::SQRT_2 * s[s.len() / 2]
+    let median = crate::stats::median(obs.iter().map(direction_sigma_deg).collect());
+    std::f64::consts::SQRT_2 * median.unwrap_or(f64::NAN)
 }
 
 /// The sun's least travel on the sky in `dt_s` seconds, whatever the place and the

@@ -94,8 +94,7 @@ pub(crate) fn solve_pole(obs: &[SunObs]) -> Result<Located, LocateError> {
         None => vec![f64::NAN; obs.len()],
     };
     if sigma_i.iter().all(|x| x.is_finite()) {
-        let mut el_sigma: Vec<f64> = obs.iter().map(super::shared_elevation_sigma).collect();
-        el_sigma.sort_by(f64::total_cmp);
+        let el_sigma = crate::stats::median(obs.iter().map(super::shared_elevation_sigma).collect());
         let v_el: Vec<f64> = obs
             .iter()
             .zip(&sigma_i)
@@ -105,7 +104,7 @@ pub(crate) fn solve_pole(obs: &[SunObs]) -> Result<Located, LocateError> {
                 DVec3::new(-sb * sh, -cb * sh, ch).dot(p) * 1f64.to_radians() / si
             })
             .collect();
-        fit.add_shared_bias(&mut cov, &v_el, el_sigma[el_sigma.len() / 2]);
+        fit.add_shared_bias(&mut cov, &v_el, el_sigma.unwrap_or(f64::NAN));
         let u0 = s[0] - p * s[0].dot(p);
         let cos_dec = (1.0 - q[2] * q[2]).max(0.0).sqrt();
         let v_drift: Vec<f64> = s

@@ -50,9 +50,7 @@ pub(crate) fn solve_stamped(obs: &[SunObs]) -> Result<Located, LocateError> {
     // The elevations may share a bias (the estimator's own, a lens or sky error that
     // every frame sees alike) of about one frame's 1σ with the sky's unknown
     // neutral-point separation's part: the median's.
-    let mut el_sigma: Vec<f64> = obs.iter().map(super::shared_elevation_sigma).collect();
-    el_sigma.sort_by(f64::total_cmp);
-    let shared = el_sigma[el_sigma.len() / 2];
+    let shared = crate::stats::median(obs.iter().map(super::shared_elevation_sigma).collect()).unwrap_or(f64::NAN);
     let v: Vec<f64> = obs.iter().flat_map(|o| [0.0, 1.0 / o.elevation_sigma_deg.max(1e-6)]).collect();
     fit.add_shared_bias(&mut cov, &v, shared);
     let times: Vec<f64> = obs.iter().filter_map(|o| o.time_unix_s).collect();

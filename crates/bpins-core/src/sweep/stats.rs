@@ -122,15 +122,10 @@ pub fn describe(x: &[f64]) -> ([f64; 5], usize, usize) {
     ([mean, var.sqrt(), rms, p95, abs[n - 1]], n, failed)
 }
 
-/// The `q` quantile of sorted `x`, linear between order statistics.
+/// The `q` quantile of sorted `x`, linear between order statistics (the crate's one
+/// definition, [`crate::stats::quantile_sorted`]).
 pub fn percentile_sorted(x: &[f64], q: f64) -> f64 {
-    let pos = q * (x.len() - 1) as f64;
-    let (lo, frac) = (pos.floor() as usize, pos - pos.floor());
-    if lo + 1 < x.len() {
-        x[lo] + frac * (x[lo + 1] - x[lo])
-    } else {
-        x[lo]
-    }
+    crate::stats::quantile_sorted(x, q)
 }
 
 /// Summarises trial records (any order; they are sorted by unit) into rows and budget.

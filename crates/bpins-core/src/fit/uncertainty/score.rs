@@ -81,7 +81,7 @@ pub fn score_candidates(
     // q²: the fit's heading variance over this subsample's (≈ n_sub/n × the fit's
     // n/n_eff), the median over the frames: the scale at which a physical range enters
     // this system (prior.rs).
-    let q2 = median(
+    let q2 = crate::stats::median(
         headings
             .iter()
             .zip(&base.frames)
@@ -141,13 +141,6 @@ pub fn score_candidates(
         at += k;
     }
     Ok(out)
-}
-
-/// The median of `v` (`None` where empty).
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    (n > 0).then(|| if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
 }
 
 /// What [`score_candidate`] predicts: Δχ² and the one-step parameters with their 1σ.
