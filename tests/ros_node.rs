@@ -64,6 +64,7 @@ fn main() -> std::process::ExitCode {
                     "the_node_survives_its_router_going_away_and_coming_back",
                     the_node_survives_its_router_going_away_and_coming_back,
                 ),
+                ("images_in_shared_memory_are_read_in_place", images_in_shared_memory_are_read_in_place),
             ],
         ),
         (
@@ -281,6 +282,18 @@ fn the_node_survives_its_router_going_away_and_coming_back() {
     let (got, log) = play("restart", &["--restart-router"], 3);
     assert_same_messages(&answers(&got), &recording().1);
     assert!(log.contains("3 frame(s) received, 3 read, 0 dropped"), "{log}");
+    // Over TCP each 157 kB image came in Zenoh's 64 KiB batches, joined by the node.
+    assert!(log.contains("; 0 read in place"), "{log}");
+}
+
+fn images_in_shared_memory_are_read_in_place() {
+    // The SDK's session with Zenoh's shared memory on (as rmw_zenoh's with
+    // ZENOH_CONFIG_OVERRIDE): each image reaches the node in the publisher's shared
+    // memory and is read there, with the same answers as over TCP.
+    let (got, log) = play("shm", &["--shm"], 3);
+    assert_same_messages(&answers(&got), &recording().1);
+    assert!(log.contains("3 frame(s) received, 3 read, 0 dropped"), "{log}");
+    assert!(log.contains("; 3 read in place (shared memory"), "{log}");
 }
 
 fn sigterm_ends_a_node_without_a_router_cleanly() {

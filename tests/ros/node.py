@@ -12,13 +12,16 @@ publishes the bag's messages (read with rosbags) on the node's default topics:
 /camera/camera_info, /imu/data, /fix and /camera/image_raw, in the bag's order, each
 image after the one before it has its answer. With --garbage a malformed image (a
 few random bytes) and a mis-sized one go first; with --restart-router the router
-goes away after the first frame and comes back. Writes OUT (JSON): the graph's
+goes away after the first frame and comes back; with --shm the SDK's session turns
+on Zenoh's shared memory (ZENOH_CONFIG_OVERRIDE, as with rmw_zenoh) and the images
+are published from its shared memory (ShmImages). Writes OUT (JSON): the graph's
 tokens, the SDK's type hashes, and every Imu and DiagnosticArray received, as
 `bags.py read` prints a bag's.
 """
 
 import argparse
 import json
+import os
 import sys
 import threading
 import time
@@ -63,7 +66,36 @@ def entry(topic, typ, m):
     return e
 
 
+SHM_ON = "transport/shared_memory/enabled=true"
+
+
+class ShmImages:
+    """Images published from shared memory: serialized into a buffer of the
+    session's own SHM provider (`size` bytes), sent as a reference to a partner that
+    has shared memory on (a copy of the bytes to one that has not). rmw_zenoh with
+    shared memory on leaves it to Zenoh's implicit optimization (a large payload
+    copied into the session's pool), whose pool is made in the background on the
+    first large message, so that the first few images go over TCP: explicit here, so
+    that every image of a three-frame test goes through shared memory."""
+
+    def __init__(self, publisher, size):
+        self.p = publisher
+        self.provider = zenoh.shm.ShmProvider.default_backend(size)
+
+    def publish(self, **kw):
+        p = self.p
+        cdr = bytes(p.session_mgr.store.serialize_cdr(p.msg_class(**kw), p.msg_type))
+        # Blocks until a buffer the subscribers have let go of is collected.
+        buf = self.provider.alloc(len(cdr), zenoh.shm.BlockOn(zenoh.shm.GarbageCollect()))
+        buf[:] = cdr
+        p.pub.put(zenoh.ZBytes(buf), encoding=zenoh.Encoding("application/cdr"),
+                  attachment=p._create_attachment(p.sequence_number, time.time_ns()))
+        p.sequence_number += 1
+
+
 def play(a):
+    if a.shm:
+        os.environ["ZENOH_CONFIG_OVERRIDE"] = SHM_ON
     registry._registry = registry.MessageRegistry(str(MSGS))
     hashes = {}
     for t in TYPES:
@@ -120,6 +152,7 @@ def play(a):
                 sys.exit(f"no answer to image {sent} within 60 s")
 
     image_pub = pub("/camera/image_raw", "sensor_msgs/msg/Image")
+    shm = ShmImages(image_pub, 4 << 20) if a.shm else None
     if a.garbage:
         # Random bytes, then an image of the wrong size: both diagnostics, never a crash.
         image_pub.pub.put(b"\x00\x01\x00\x00\x07\x07", attachment=image_pub._create_attachment(0, 0))
@@ -140,7 +173,10 @@ def play(a):
     images = 0
     for topic, typ, m in msgs:
         p = pub(TOPIC_OF[topic], typ)
-        p.publish(**fields(m))
+        if shm is not None and p is image_pub:
+            shm.publish(**fields(m))
+        else:
+            p.publish(**fields(m))
         if typ == "sensor_msgs/msg/Image":
             sent += 1
             wait_answer()
@@ -186,6 +222,7 @@ def main():
     pl.add_argument("out")
     pl.add_argument("--garbage", action="store_true")
     pl.add_argument("--restart-router", action="store_true", help="close and reopen the router after the first frame")
+    pl.add_argument("--shm", action="store_true", help="the SDK's session with Zenoh's shared memory on")
     a = p.parse_args()
     play(a)
 

@@ -9,6 +9,11 @@ at --hz; a subscriber of /bpins/heading and /diagnostics matches each answer to 
 image by stamp. Prints the latency (image published → answer received, both clocks
 this host's) p50, p99 and max, the answers, the frames the node dropped, and the
 node's CPU time per frame read (utime + stime from /proc, over the run).
+
+--shm turns on Zenoh's shared memory in the SDK's session (ZENOH_CONFIG_OVERRIDE,
+as with rmw_zenoh: `transport/shared_memory/enabled=true`) and publishes the images
+from it (node.py's ShmImages), so that the node reads each in place instead of
+receiving it over TCP.
 """
 
 import argparse
@@ -29,6 +34,8 @@ from PIL import Image as PilImage
 from zenoh_ros2_sdk import ROS2Publisher, ROS2Subscriber
 
 MSGS = Path(__file__).resolve().parents[1] / "data" / "ros2_msgs"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from node import SHM_ON, ShmImages  # noqa: E402
 
 
 def cpu_s(pid):
@@ -42,7 +49,10 @@ def main():
     p.add_argument("capture")
     p.add_argument("--hz", type=float, default=10.0)
     p.add_argument("--n", type=int, default=100)
+    p.add_argument("--shm", action="store_true")
     a = p.parse_args()
+    if a.shm:
+        os.environ["ZENOH_CONFIG_OVERRIDE"] = SHM_ON
     registry._registry = registry.MessageRegistry(str(MSGS))
     cap = Path(a.capture)
     spec = tomllib.loads((cap / "capture.toml").read_text())
@@ -91,6 +101,8 @@ def main():
     info_pub = ROS2Publisher("/camera/camera_info", "sensor_msgs/msg/CameraInfo", **kw)
     img_pub = ROS2Publisher("/camera/image_raw", "sensor_msgs/msg/Image", **kw)
     T = info_pub.session_mgr.store.types
+    # Room for a few frames: the node holds the one it reads and the one waiting.
+    publish = ShmImages(img_pub, 4 * (len(data) + 4096)).publish if a.shm else img_pub.publish
 
     def header(ns):
         return T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](
@@ -106,7 +118,7 @@ def main():
     # Warm-up: the compass is built on the first frame.
     ns = time.time_ns()
     sent[ns] = time.monotonic()
-    img_pub.publish(header=header(ns), height=h, width=w, encoding="mono16", is_bigendian=0, step=2 * w, data=data)
+    publish(header=header(ns), height=h, width=w, encoding="mono16", is_bigendian=0, step=2 * w, data=data)
     while ns not in got and time.time() < deadline + 60:
         time.sleep(0.01)
     with lock:
@@ -121,7 +133,7 @@ def main():
         ns = time.time_ns()
         with lock:
             sent[ns] = time.monotonic()
-        img_pub.publish(header=header(ns), height=h, width=w, encoding="mono16", is_bigendian=0, step=2 * w, data=data)
+        publish(header=header(ns), height=h, width=w, encoding="mono16", is_bigendian=0, step=2 * w, data=data)
         time.sleep(max(0.0, t_next - time.monotonic()))
     time.sleep(2.0)
     cpu1 = cpu_s(node.pid)

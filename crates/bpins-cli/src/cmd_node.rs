@@ -19,7 +19,7 @@
 use crate::bag::ImuMatchArg;
 use crate::cmd_heading_bag::{frame_parts, out_message};
 use crate::frames::{self, FrameId, FrameSource, SourceFrame, Stamp};
-use crate::node_graph::{Graph, Publisher};
+use crate::node_graph::{Graph, Kept, Publisher};
 use anyhow::{anyhow, Context};
 use bpins_core::calibration::Calibration;
 use bpins_core::camera::Intrinsics;
@@ -46,6 +46,8 @@ use std::time::{Duration, Instant};
 pub const IMU_KEPT: usize = 400;
 /// GNSS fixes kept.
 pub const FIX_KEPT: usize = 16;
+/// Image buffers kept for reuse (beside the one waiting and the one being read).
+const SPARE_KEPT: usize = 2;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -148,14 +150,36 @@ extern "C" fn on_signal(_: libc::c_int) {
 #[derive(Default)]
 struct Inbox {
     /// The newest image not yet read, with when it arrived.
-    image: Mutex<Option<(Vec<u8>, Instant)>>,
+    image: Mutex<Option<(Kept, Instant)>>,
     arrived: Condvar,
+    /// Image buffers read and let go, each filled again by a later image: a frame's
+    /// pages stay mapped instead of being faulted in for each new one.
+    spare: Mutex<Vec<Vec<u8>>>,
+    /// Images read in place (shared memory, or one batch) rather than joined.
+    in_place: AtomicU64,
     camera_info: Mutex<Option<CameraInfo>>,
     imu: Mutex<VecDeque<Stamped<ImuSample>>>,
     fix: Mutex<VecDeque<Stamped<(f64, f64)>>>,
     received: AtomicU64,
     dropped: AtomicU64,
     malformed: AtomicU64,
+}
+
+impl Inbox {
+    /// A buffer for an image: a spare one, else a new one.
+    fn buffer(&self) -> Vec<u8> {
+        self.spare.lock().unwrap_or_else(|p| p.into_inner()).pop().unwrap_or_default()
+    }
+
+    /// Gives back an image's buffer for reuse (let go past [`SPARE_KEPT`]); one
+    /// read in place goes back to Zenoh.
+    fn recycle(&self, k: Kept) {
+        let Kept::Joined(b) = k else { return };
+        let mut spare = self.spare.lock().unwrap_or_else(|p| p.into_inner());
+        if spare.len() < SPARE_KEPT {
+            spare.push(b);
+        }
+    }
 }
 
 fn keep<T>(q: &Mutex<VecDeque<Stamped<T>>>, kept: usize, s: Stamped<T>) {
@@ -216,26 +240,36 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let heading_pub = graph.publisher(&a.heading_topic, types::IMU)?;
     let diag_pub = graph.publisher(&a.diagnostics_topic, types::DIAGNOSTIC_ARRAY)?;
     let i = inbox.clone();
-    graph.subscribe(&a.image_topic, types::IMAGE, Qos::SENSOR_NEWEST, move |b| {
+    graph.subscribe(&a.image_topic, types::IMAGE, Qos::SENSOR_NEWEST, move |p| {
         i.received.fetch_add(1, Ordering::Relaxed);
-        let mut slot = i.image.lock().unwrap_or_else(|p| p.into_inner());
-        if slot.replace((b.into_owned(), Instant::now())).is_some() {
-            i.dropped.fetch_add(1, Ordering::Relaxed);
+        // Kept in place where it is one piece (shared memory), else joined (over TCP
+        // a large image arrives in Zenoh's 64 KiB batches) outside the slot's lock,
+        // into a buffer used before.
+        let b = p.keep(|| i.buffer());
+        if let Kept::InPlace(_) = b {
+            i.in_place.fetch_add(1, Ordering::Relaxed);
         }
+        let old = i.image.lock().unwrap_or_else(|p| p.into_inner()).replace((b, Instant::now()));
         i.arrived.notify_one();
+        if let Some((old, _)) = old {
+            i.dropped.fetch_add(1, Ordering::Relaxed);
+            i.recycle(old);
+        }
     })?;
     if file.is_none() {
         let i = inbox.clone();
-        graph.subscribe(&a.camera_info_topic, types::CAMERA_INFO, Qos::DEFAULT, move |b| match decode(&b) {
-            Ok(ci) => *i.camera_info.lock().unwrap_or_else(|p| p.into_inner()) = Some(ci),
-            Err(_) => {
-                i.malformed.fetch_add(1, Ordering::Relaxed);
+        graph.subscribe(&a.camera_info_topic, types::CAMERA_INFO, Qos::DEFAULT, move |p| {
+            match decode(&p.to_bytes()) {
+                Ok(ci) => *i.camera_info.lock().unwrap_or_else(|p| p.into_inner()) = Some(ci),
+                Err(_) => {
+                    i.malformed.fetch_add(1, Ordering::Relaxed);
+                }
             }
         })?;
     }
     if a.imu_topic != "none" {
         let i = inbox.clone();
-        graph.subscribe(&a.imu_topic, types::IMU, Qos::DEFAULT, move |b| match decode_imu(&b) {
+        graph.subscribe(&a.imu_topic, types::IMU, Qos::DEFAULT, move |p| match decode_imu(&p.to_bytes()) {
             Ok((stamp_ns, value)) => keep(&i.imu, IMU_KEPT, Stamped { stamp_ns, index: 0, value }),
             Err(_) => {
                 i.malformed.fetch_add(1, Ordering::Relaxed);
@@ -244,7 +278,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     if given_sun.is_none() && site.is_none() {
         let i = inbox.clone();
-        graph.subscribe(&a.fix_topic, types::NAV_SAT_FIX, Qos::DEFAULT, move |b| match decode_fix(&b) {
+        graph.subscribe(&a.fix_topic, types::NAV_SAT_FIX, Qos::DEFAULT, move |p| match decode_fix(&p.to_bytes()) {
             Ok((stamp_ns, value)) => keep(&i.fix, FIX_KEPT, Stamped { stamp_ns, index: 0, value }),
             Err(_) => {
                 i.malformed.fetch_add(1, Ordering::Relaxed);
@@ -291,7 +325,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         per_frame_ms(compass_cpu_s)
     );
     let (received, dropped) = (inbox.received.load(Ordering::Relaxed), inbox.dropped.load(Ordering::Relaxed));
-    say!("bpins node: {received} frame(s) received, {} read, {dropped} dropped; {cpu}; closing", node.read);
+    let in_place = inbox.in_place.load(Ordering::Relaxed);
+    say!(
+        "bpins node: {received} frame(s) received, {} read, {dropped} dropped; {cpu}; {in_place} read in place \
+         (shared memory or one batch); closing",
+        node.read
+    );
     drop(node);
     drop((heading_pub, diag_pub));
     graph.close();
@@ -323,7 +362,7 @@ impl NodeSource<'_> {
     }
 
     /// The newest image, waiting at most 100 ms.
-    fn next_image(&mut self) -> Option<Vec<u8>> {
+    fn next_image(&mut self) -> Option<Kept> {
         let slot = self.inbox.image.lock().unwrap_or_else(|p| p.into_inner());
         let (mut slot, _) = self
             .inbox
@@ -501,82 +540,96 @@ impl FrameSource for NodeSource<'_> {
     }
 
     fn each(&mut self, visit: &mut dyn FnMut(SourceFrame<'_>) -> anyhow::Result<()>) -> anyhow::Result<()> {
-        let a = self.a;
         let mut scratch: Vec<u16> = Vec::new();
         while !self.done() {
             self.status()?;
             let Some(bytes) = self.next_image() else { continue };
-            let im: Image = match decode(&bytes) {
-                Ok(im) => im,
-                Err(e) => {
-                    self.inbox.malformed.fetch_add(1, Ordering::Relaxed);
-                    self.diagnose(Header::default(), &format!("image on {}: {e}", a.image_topic))?;
-                    continue;
-                }
-            };
-            let header = im.header.clone();
-            let cam = match self.camera(&im) {
-                Ok(c) => c,
-                Err(why) => {
-                    self.diagnose(header, &why)?;
-                    continue;
-                }
-            };
-            let g = &cam.sensor.geometry;
-            if (im.width, im.height) != (g.width_px, g.height_px) {
-                let why = format!(
-                    "image of {} × {} px does not match the camera's {} × {} px ({})",
-                    im.width, im.height, g.width_px, g.height_px, cam.source
-                );
-                self.diagnose(header, &why)?;
-                continue;
-            }
-            // The camera as the CameraInfo gives it, less its header (a driver stamps
-            // each one): the compass is rebuilt only for another camera.
-            let info = match &self.file {
-                Some(_) => None,
-                None => self.inbox.camera_info.lock().unwrap_or_else(|p| p.into_inner()).clone(),
-            }
-            .map(|ci| CameraInfo { header: Header::default(), ..ci });
-            if let Err(why) = self.ensure_compass(&cam, info) {
-                self.diagnose(header, &why)?;
-                continue;
-            }
-            let stamp_ns = im.header.stamp.ns();
-            let (sun, sun_sigma_deg) = match self.sun_at(stamp_ns) {
-                Ok((s, sigma)) => (Ok(s), sigma),
-                Err(why) => (Err(why), a.sun_sigma_deg),
-            };
-            let tilt = self.tilt_at(stamp_ns);
-            let (pixels, mut sun, tilt) = match frame_parts(
-                &im,
-                cam.sensor.colour.as_ref(),
-                &mut scratch,
-                cam.sensor.bit_depth,
-                &sun,
-                &tilt,
-                sun_sigma_deg,
-            ) {
-                Ok(p) => p,
-                Err(e) => {
-                    self.diagnose(header, &format!("{e:#}"))?;
-                    continue;
-                }
-            };
-            if let (Some(p), Ok(s)) = (&a.site, sun.as_mut()) {
-                s.source = s.source.replace("1σ --sun-sigma-deg", &format!("1σ the site {}'s", p.display()));
-            }
-            let id = FrameId {
-                message_index: Some(self.read),
-                stamp: Some(Stamp { sec: im.header.stamp.sec, nanosec: im.header.stamp.nanosec }),
-                stamp_ns: Some(stamp_ns),
-                frame_id: Some(im.header.frame_id.clone()),
-                ..FrameId::default()
-            };
-            self.read += 1;
-            visit(SourceFrame { id, pixels, sun, tilt, reference_heading_deg: None })?;
+            let r = self.read_image(bytes.bytes(), &mut scratch, visit);
+            self.inbox.recycle(bytes);
+            r?;
         }
         Ok(())
+    }
+}
+
+impl NodeSource<'_> {
+    /// One image: its frame to `visit`, or a diagnostic saying why there is none.
+    fn read_image(
+        &mut self,
+        bytes: &[u8],
+        scratch: &mut Vec<u16>,
+        visit: &mut dyn FnMut(SourceFrame<'_>) -> anyhow::Result<()>,
+    ) -> anyhow::Result<()> {
+        let a = self.a;
+        let im: Image = match decode(bytes) {
+            Ok(im) => im,
+            Err(e) => {
+                self.inbox.malformed.fetch_add(1, Ordering::Relaxed);
+                self.diagnose(Header::default(), &format!("image on {}: {e}", a.image_topic))?;
+                return Ok(());
+            }
+        };
+        let header = im.header.clone();
+        let cam = match self.camera(&im) {
+            Ok(c) => c,
+            Err(why) => {
+                self.diagnose(header, &why)?;
+                return Ok(());
+            }
+        };
+        let g = &cam.sensor.geometry;
+        if (im.width, im.height) != (g.width_px, g.height_px) {
+            let why = format!(
+                "image of {} × {} px does not match the camera's {} × {} px ({})",
+                im.width, im.height, g.width_px, g.height_px, cam.source
+            );
+            self.diagnose(header, &why)?;
+            return Ok(());
+        }
+        // The camera as the CameraInfo gives it, less its header (a driver stamps
+        // each one): the compass is rebuilt only for another camera.
+        let info = match &self.file {
+            Some(_) => None,
+            None => self.inbox.camera_info.lock().unwrap_or_else(|p| p.into_inner()).clone(),
+        }
+        .map(|ci| CameraInfo { header: Header::default(), ..ci });
+        if let Err(why) = self.ensure_compass(&cam, info) {
+            self.diagnose(header, &why)?;
+            return Ok(());
+        }
+        let stamp_ns = im.header.stamp.ns();
+        let (sun, sun_sigma_deg) = match self.sun_at(stamp_ns) {
+            Ok((s, sigma)) => (Ok(s), sigma),
+            Err(why) => (Err(why), a.sun_sigma_deg),
+        };
+        let tilt = self.tilt_at(stamp_ns);
+        let (pixels, mut sun, tilt) = match frame_parts(
+            &im,
+            cam.sensor.colour.as_ref(),
+            scratch,
+            cam.sensor.bit_depth,
+            &sun,
+            &tilt,
+            sun_sigma_deg,
+        ) {
+            Ok(p) => p,
+            Err(e) => {
+                self.diagnose(header, &format!("{e:#}"))?;
+                return Ok(());
+            }
+        };
+        if let (Some(p), Ok(s)) = (&a.site, sun.as_mut()) {
+            s.source = s.source.replace("1σ --sun-sigma-deg", &format!("1σ the site {}'s", p.display()));
+        }
+        let id = FrameId {
+            message_index: Some(self.read),
+            stamp: Some(Stamp { sec: im.header.stamp.sec, nanosec: im.header.stamp.nanosec }),
+            stamp_ns: Some(stamp_ns),
+            frame_id: Some(im.header.frame_id.clone()),
+            ..FrameId::default()
+        };
+        self.read += 1;
+        visit(SourceFrame { id, pixels, sun, tilt, reference_heading_deg: None })
     }
 }
 

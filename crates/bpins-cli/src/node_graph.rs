@@ -33,6 +33,9 @@ pub struct Publisher {
     sequence: AtomicI64,
 }
 
+/// Zenoh's receive buffers per link, bytes (see [`config`]).
+const RX_BUFFER_BYTES: &str = "16777216";
+
 /// The Zenoh configuration of a node peer connecting to `endpoint`.
 fn config(endpoint: &str) -> anyhow::Result<zenoh::Config> {
     let mut c = zenoh::Config::default();
@@ -46,6 +49,15 @@ fn config(endpoint: &str) -> anyhow::Result<zenoh::Config> {
         ("connect/retry", "{period_init_ms: 1000, period_max_ms: 4000, period_increase_factor: 2}"),
         ("listen/endpoints", "[\"tcp/localhost:0\"]"),
         ("scouting/multicast/enabled", "false"),
+        // Zenoh keeps a fragmented message's batches (one per 64 KiB) until its last
+        // one arrives, each in a receive buffer from a per-link pool of `buffer_size /
+        // batch` buffers, allocating (and zeroing) the rest afresh for every message
+        // past the pool: with the default 65535 bytes (a pool of one), every batch of a
+        // 10 MB frame but one. 16 MiB (the size DEFAULT_CONFIG.json5 suggests for large
+        // messages) recycles all of a 2448 × 2048 mono16 frame's. The pool is made
+        // with the link (measured with shared memory built in too: the node starts
+        // ~7 MB larger, 22 MB, and peaks lower at full frames, 46 MB instead of 60).
+        ("transport/link/rx/buffer_size", RX_BUFFER_BYTES),
     ] {
         c.insert_json5(key, value).map_err(|e| anyhow!("zenoh configuration {key} = {value}: {e}"))?;
     }
@@ -92,20 +104,19 @@ impl Graph {
     }
 
     /// Subscribes to `topic`: `on_sample` gets each sample's payload (on Zenoh's
-    /// threads: it must be quick), borrowed where Zenoh holds it in one piece, else
-    /// the one contiguous copy (which a callback keeping it takes without another).
+    /// threads: it must be quick).
     pub fn subscribe(
         &mut self,
         topic: &str,
         ros_type: &str,
         qos: Qos,
-        on_sample: impl Fn(std::borrow::Cow<'_, [u8]>) + Send + Sync + 'static,
+        on_sample: impl Fn(Payload<'_>) + Send + Sync + 'static,
     ) -> anyhow::Result<()> {
         let (key, _) = self.endpoint(EntityKind::Subscription, topic, ros_type, qos)?;
         let sub = self
             .session
             .declare_subscriber(key)
-            .callback(move |sample| on_sample(sample.payload().to_bytes()))
+            .callback(move |sample| on_sample(Payload(sample.payload())))
             .wait()
             .map_err(|e| anyhow!("{e}"))
             .with_context(|| format!("subscribing to {topic}"))?;
@@ -140,6 +151,54 @@ impl Graph {
     }
 }
 
+/// A received sample's payload: one piece (a shared-memory buffer, or a message
+/// that fit in one batch), or the batches Zenoh received a larger one in over TCP.
+pub struct Payload<'a>(&'a zenoh::bytes::ZBytes);
+
+/// A payload kept past its callback.
+pub enum Kept {
+    /// Zenoh's own buffer, read in place: a publisher's shared memory (mapped, no
+    /// copy anywhere on this host), or the one receive batch it came in.
+    InPlace(zenoh::bytes::ZBytes),
+    /// Joined from its batches into a buffer of ours.
+    Joined(Vec<u8>),
+}
+
+impl Kept {
+    /// The payload's bytes.
+    pub fn bytes(&self) -> &[u8] {
+        match self {
+            Kept::InPlace(z) => z.slices().next().unwrap_or(&[]),
+            Kept::Joined(b) => b,
+        }
+    }
+}
+
+impl Payload<'_> {
+    /// The bytes, borrowed where Zenoh holds them in one piece, else joined in a new
+    /// buffer.
+    pub fn to_bytes(&self) -> std::borrow::Cow<'_, [u8]> {
+        self.0.to_bytes()
+    }
+
+    /// The payload kept: in place where it is one piece, else joined into `buffer()`
+    /// (its contents replaced: a buffer used again keeps its pages, where a new one of
+    /// a frame's size is mapped and faulted in afresh).
+    pub fn keep(&self, buffer: impl FnOnce() -> Vec<u8>) -> Kept {
+        let mut pieces = self.0.slices();
+        if let (Some(_), None) = (pieces.next(), pieces.next()) {
+            return Kept::InPlace(self.0.clone());
+        }
+        let mut b = buffer();
+        b.clear();
+        b.reserve(self.0.len());
+        for s in self.0.slices() {
+            b.extend_from_slice(s);
+        }
+        Kept::Joined(b)
+    }
+}
+
 impl Publisher {
     /// Publishes one serialized message with its attachment.
     pub fn put(&self, cdr: Vec<u8>) -> anyhow::Result<()> {
@@ -155,4 +214,36 @@ impl Publisher {
 /// Nanoseconds since the Unix epoch.
 pub fn now_ns() -> i64 {
     std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos() as i64).unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use zenoh::bytes::ZBytes;
+
+    #[test]
+    fn a_payload_in_one_piece_is_kept_in_place_and_batches_are_joined_into_the_buffer_given() {
+        let one = ZBytes::from(vec![1u8, 2, 3]);
+        let k = Payload(&one).keep(|| panic!("no buffer for a payload in one piece"));
+        assert!(matches!(k, Kept::InPlace(_)));
+        assert_eq!(k.bytes(), [1, 2, 3]);
+
+        // Two batches, as Zenoh hands a fragmented message: joined into the buffer
+        // given, its old contents replaced and its allocation kept.
+        let mut w = ZBytes::writer();
+        w.append(ZBytes::from(vec![4u8, 5]));
+        w.append(ZBytes::from(vec![6u8, 7, 8]));
+        let two = w.finish();
+        assert_eq!(two.slices().count(), 2);
+        let mut spare = Vec::with_capacity(64);
+        spare.extend_from_slice(&[9, 9, 9, 9, 9, 9, 9, 9]);
+        let at = spare.as_ptr();
+        let k = Payload(&two).keep(|| spare);
+        assert_eq!(k.bytes(), [4, 5, 6, 7, 8]);
+        let Kept::Joined(b) = k else { panic!("two batches are joined") };
+        assert_eq!(b.as_ptr(), at, "the buffer given is reused");
+
+        let empty = ZBytes::new();
+        assert_eq!(Payload(&empty).keep(Vec::new).bytes(), [] as [u8; 0]);
+    }
 }
