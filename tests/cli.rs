@@ -1515,9 +1515,11 @@ fn a_moonlit_frame_is_read_under_the_moon_and_a_moonless_night_is_refused_naming
 /// put the sun at −4.4° with the moon set (civil twilight) is read about the sun below
 /// the horizon within 2σ, its row naming the shares; one where the sun at −12.4° and a
 /// 75 % moon each give half the sky's light is rendered with both skies (the `twilight`
-/// scene element changes its pixels) and refused, naming both shares.
+/// scene element changes its pixels) and read with both sources (`two_sources.rs`):
+/// within 3σ of a 1σ under 0.3° (docs/night.md's table has the share of such frames
+/// within 2σ).
 #[test]
-fn a_civil_twilight_frame_is_read_under_the_sun_below_the_horizon_and_a_mixed_one_is_refused() {
+fn a_civil_twilight_frame_is_read_under_the_sun_below_the_horizon_and_a_mixed_one_with_both_sources() {
     let tmp = tempfile::tempdir().unwrap();
     let place = ["--latitude-deg", "36.07", "--longitude-deg", "120.38"];
     let size = ["--width-px", "128", "--height-px", "128", "--pixel-pitch-um", "27.6", "--headings-deg", "20,200"];
@@ -1543,10 +1545,11 @@ fn a_civil_twilight_frame_is_read_under_the_sun_below_the_horizon_and_a_mixed_on
     }
     let (both, mixed) = run("mixed", "2026-06-24T12:30:00Z", &["--scene", "twilight"]);
     for row in &mixed {
-        assert!(row["heading_deg"].is_null(), "{row}");
-        let why = row["no_heading_reason"].as_str().unwrap();
-        assert!(why.contains("the sun at -12.4° gives 50 % of the sky's light"), "{why}");
-        assert!(why.contains("the moon (at 35.5°, 75 % lit) 50 %") && why.contains("no single source"), "{why}");
+        let (e, sg) = (row["error_deg"].as_f64().expect("read"), row["sigma_deg"].as_f64().unwrap());
+        assert!(e.abs() <= 3.0 * sg && sg < 0.3, "{row}");
+        let sun = row["sun"].as_str().unwrap();
+        assert!(sun.contains("the sun at -12.4° gives 50 % of the sky's light"), "{sun}");
+        assert!(sun.contains("the moon (at 35.5°, 75 % lit) 50 %"), "{sun}");
     }
     // The moon's sky is in the mixed frame: without the element its pixels differ.
     let (one, _) = run("sun_only", "2026-06-24T12:30:00Z", &[]);

@@ -298,8 +298,9 @@ typedef uint32_t BpinsBand;
 // `unix_time_s`, `latitude_deg` and `longitude_deg` give it: the source that lights
 // the sky then, as `bpins heading` reads a capture's `time_utc` and place: the sun
 // (NREL SPA) by day, the moon at night where it is up and its sky the brighter
-// (`BpinsHeading::source` says which); a mixed twilight or a dark night is a frame
-// without a heading (`BPINS_NO_HEADING_MIXED_SKY`, `BPINS_NO_HEADING_DARK_NIGHT`).
+// (`BpinsHeading::source` says which); a twilight lit by both is read with both
+// sources (a colour sensor's mixed one is `BPINS_NO_HEADING_MIXED_SKY`); a dark night
+// is a frame without a heading (`BPINS_NO_HEADING_DARK_NIGHT`).
 #define BPINS_SUN_UNIX_TIME 1
 
 #define BPINS_BAND_R 0

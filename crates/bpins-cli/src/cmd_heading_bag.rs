@@ -180,11 +180,15 @@ pub fn frame_parts<'a>(
         Mosaic::U16(r) => Pixels::Dn16(r),
     };
     let sigma_deg = (sun_sigma_deg > 0.0).then_some(sun_sigma_deg);
-    let sun = sun.as_ref().map_err(Clone::clone).and_then(|s| match bpins_core::tool::sun::dark_night(s) {
-        Some(why) => Err(why),
-        None => Ok(s),
+    // A mixed twilight is read with both sources (`mixed` below); a dark night refused.
+    let sun = sun.as_ref().map_err(Clone::clone).and_then(|s| {
+        match (bpins_core::compass::Sun::mixed_twilight(s, sun_sigma_deg), bpins_core::tool::sun::dark_night(s)) {
+            (None, Some(why)) => Err(why),
+            _ => Ok(s),
+        }
     });
     let sun = sun.map(|s| FrameSun {
+        mixed: bpins_core::compass::Sun::mixed_twilight(s, sun_sigma_deg),
         azimuth_deg: s.azimuth_deg,
         elevation_deg: s.elevation_deg,
         sigma_deg,

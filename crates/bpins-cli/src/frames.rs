@@ -70,6 +70,9 @@ pub struct FrameSun {
     pub sigma_deg: Option<f64>,
     /// Where it came from, for the table and the JSON's `sun`.
     pub source: String,
+    /// A mixed twilight's clock and place ([`Sun::mixed_twilight`]): the compass reads
+    /// the frame with both sources; `None`: the angles above.
+    pub mixed: Option<Sun>,
 }
 
 impl FrameSun {
@@ -339,11 +342,11 @@ pub fn frame_rows(compass: &mut Compass, extractors: &[Extractor], f: &SourceFra
     let mut frame_rows: Vec<Row> = Vec::new();
     match (&f.sun, &f.tilt) {
         (Ok(sun), Ok(tilt)) => {
-            let sun_arg = Sun::Angles {
+            let sun_arg = sun.mixed.unwrap_or(Sun::Angles {
                 azimuth_deg: sun.azimuth_deg,
                 elevation_deg: sun.elevation_deg,
                 sigma_deg: sun.sigma_deg.unwrap_or(0.0),
-            };
+            });
             let att = Attitude { tilt_x_deg: tilt.tilt_x_deg, tilt_y_deg: tilt.tilt_y_deg, sigma_deg: tilt.sigma_deg };
             // Per band (a colour sensor: the fused heading first, then each band's),
             // each extractor's heading.

@@ -259,8 +259,8 @@ impl Compass {
     /// The sun: its azimuth (from North toward East) and elevation in degrees, or a
     /// timezone-aware `datetime` and a place (the sun through NREL SPA by day, the moon
     /// at night where it is up and its sky the brighter: `Heading.source` says which; a
-    /// mixed twilight or a dark night is a Heading without one, `reason` naming the
-    /// shares), or a `datetime` and `site`, the
+    /// twilight lit by both is read with both sources (docs/night.md); a dark night is
+    /// a Heading without one, `reason` naming the shares), or a `datetime` and `site`, the
     /// site file `bpins.locate` wrote (in place of a GNSS position, read by the same
     /// rule, the source's 1σ taking in the site's). The attitude: tilt about the
     /// camera's x then y axis as the IMU reads it, degrees, each with 1σ
@@ -461,7 +461,8 @@ fn site_sun(
     }
     let site = bpins_core::Site::load(path).map_err(|e| crate::py_err_in("site: ", e))?;
     // The site's place as a time and place: the compass reads the source by the rule
-    // `time_utc=` with a place gets (the moon at night, a mixed or dark sky refused).
+    // `time_utc=` with a place gets (the moon at night, a mixed twilight read with both
+    // sources, a dark sky refused).
     match site.compass_sun(unix_time_of(t)?).map_err(|e| crate::py_err_in("site: ", e))? {
         Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg: s } => {
             Ok(Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg: s.hypot(sigma_deg) })

@@ -100,13 +100,41 @@ pub enum Sun {
     /// a place, read by the rule `bpins heading` reads a capture's `time_utc` by
     /// (`sky::source_from_unix_time`): the sun through NREL SPA (±0.0003°) by day and in
     /// a twilight it dominates; the moon (Meeus ch. 47, 1σ ⊕ 0.005°) at night where it is
-    /// up and its sky gives ≥ 99 % of the light; a mixed twilight or a dark night a
-    /// reading without a heading ([`NoHeading::MixedSky`], [`NoHeading::DarkNight`]).
+    /// up and its sky gives ≥ 99 % of the light; a twilight lit by both read with both
+    /// sources where the smaller gives ≥ 0.1 % (`Shares::reads_both`; on a colour
+    /// sensor a mixed one is [`NoHeading::MixedSky`]); a dark night a reading without a
+    /// heading ([`NoHeading::DarkNight`]).
     /// The reading's [`FieldHeading::source`] says which. `sigma_deg` for the clock's
     /// and the position's error, in degrees of the source's angle. (Feature `spa`, on
     /// by default.)
     #[cfg(feature = "spa")]
     UnixTime { time_s: f64, latitude_deg: f64, longitude_deg: f64, sigma_deg: f64 },
+}
+
+impl Sun {
+    /// The time and place of `sun` as [`Sun::UnixTime`] where they give a twilight lit
+    /// by both the sun and the moon, the smaller share at least
+    /// [`crate::sky::twilight::READ_BOTH_SHARE`] (`Shares::reads_both`), and the frame is
+    /// not a dark night: a sky the compass reads with both sources; `None` otherwise
+    /// (angles given, unplaced, one source's sky, a dark night, or a time that does not
+    /// parse). A capture's frame or a bag's stamp gives its source as a
+    /// [`crate::sky::sun::SunPosition`]: `bpins heading` reads such frames through this.
+    #[cfg(feature = "spa")]
+    pub fn mixed_twilight(sun: &crate::sky::sun::SunPosition, sigma_deg: f64) -> Option<Sun> {
+        use crate::sky::sun::SunSource;
+        let (SunSource::Spa { time_utc, latitude_deg, longitude_deg }
+        | SunSource::Moon { time_utc, latitude_deg, longitude_deg, .. }) = &sun.source
+        else {
+            return None;
+        };
+        let shares = crate::sky::twilight::shares_at(time_utc, *latitude_deg, *longitude_deg).ok()?;
+        if !shares.reads_both() || matches!(crate::sky::refusal(sun, &shares), Some(crate::sky::Refusal::Dark(_))) {
+            return None;
+        }
+        let t = crate::sky::sun::parse_time_utc(time_utc).ok()?;
+        let time_s = t.timestamp() as f64 + f64::from(t.timestamp_subsec_nanos()) * 1e-9;
+        Some(Sun::UnixTime { time_s, latitude_deg: *latitude_deg, longitude_deg: *longitude_deg, sigma_deg })
+    }
 }
 
 /// The frame's attitude as an IMU reads it: tilt about the camera's x then y axis,

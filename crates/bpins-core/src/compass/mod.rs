@@ -49,7 +49,9 @@
 
 /// The sun one frame's sky shows, with 1σ (what `bpins_core::measure` reads for `locate`).
 pub use crate::heading::field::SkySun;
-pub use crate::heading::field::{FieldHeading, FieldOptions, FieldQuality, NoHeading, RawDn, RawImage, SigmaParts};
+pub use crate::heading::field::{
+    FieldHeading, FieldOptions, FieldQuality, NoHeading, RawDn, RawImage, SecondSource, SigmaParts,
+};
 pub use crate::heading::Extractor;
 pub use crate::sky::twilight::{Dominant, Shares};
 pub use crate::sky::SkySource;
@@ -213,6 +215,9 @@ impl Compass {
             return Ok(refused.remove(0));
         }
         let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
+        if let Some(mut hs) = self.mixed(&frame, &sun, &ctx, &[self.cfg.extractor]) {
+            return Ok(hs.remove(0));
+        }
         let mut h = if self.cfg.colour.is_some() {
             self.bands(&frame, &ctx, &[self.cfg.extractor]).fused.remove(0)
         } else {
@@ -240,6 +245,9 @@ impl Compass {
             return Ok(refused);
         }
         let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
+        if let Some(hs) = self.mixed(&frame, &sun, &ctx, extractors) {
+            return Ok(hs);
+        }
         if self.cfg.colour.is_some() {
             return Ok(sun.stamped(self.bands(&frame, &ctx, extractors).fused));
         }
@@ -267,7 +275,7 @@ impl Compass {
         let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
         let bands = self.cfg.colour.as_ref().map_or_else(Vec::new, |c| c.bands());
-        if let Some(refused) = sun.refused(extractors) {
+        if let Some(refused) = sun.refused(extractors).or_else(|| sun.mixed_refused(extractors)) {
             let bands = bands.into_iter().map(|b| (b, refused.clone())).collect();
             return Ok(ColourFix { bands, fused: refused });
         }
@@ -347,6 +355,24 @@ impl Compass {
         Ok(())
     }
 
+    /// A mixed twilight's readings (`sun.second` set): a monochrome frame's cells read
+    /// with both sources (`heading::field::two_sources`), a colour one's refused
+    /// ([`NoHeading::MixedSky`]); `None` where the sky has one source.
+    fn mixed<T: RawDn>(
+        &mut self,
+        frame: &RawImage<T>,
+        sun: &Resolved,
+        ctx: &FieldContext,
+        extractors: &[Extractor],
+    ) -> Option<Vec<FieldHeading>> {
+        let second = sun.second.as_ref()?;
+        if self.cfg.colour.is_some() {
+            return sun.mixed_refused(extractors);
+        }
+        self.fill_mosaic_cells(frame);
+        Some(sun.stamped(field::estimate_two(&self.cells, ctx, second, &self.cfg.options, extractors)))
+    }
+
     /// Fills `self.cells` from a DoFP frame of the sensor's size (checked by the caller).
     fn fill_mosaic_cells<T: RawDn>(&mut self, frame: &RawImage<T>) {
         match &self.cell_analyzers {
@@ -375,8 +401,10 @@ pub(super) struct Resolved {
     /// Azimuth, elevation and 1σ, degrees.
     pub angles: (f64, f64, f64),
     pub source: SkySource,
-    /// A time and place whose sky is not read (a mixed twilight, a dark night).
+    /// A time and place whose sky is not read (a dark night).
     pub refusal: Option<NoHeading>,
+    /// A mixed twilight's other source, read beside the frame's (`two_sources.rs`).
+    pub second: Option<SecondSource>,
 }
 
 impl Resolved {
@@ -387,6 +415,19 @@ impl Resolved {
         let no = |&extractor: &Extractor| FieldHeading {
             extractor,
             result: Err(why.clone()),
+            quality: FieldQuality::default(),
+            source: self.source,
+        };
+        Some(extractors.iter().map(no).collect())
+    }
+
+    /// A mixed twilight's readings refused (where the sky is not read with both
+    /// sources: a colour sensor's), or `None` where the sky has one source.
+    fn mixed_refused(&self, extractors: &[Extractor]) -> Option<Vec<FieldHeading>> {
+        let shares = self.second.as_ref()?.shares;
+        let no = |&extractor: &Extractor| FieldHeading {
+            extractor,
+            result: Err(NoHeading::MixedSky { shares }),
             quality: FieldQuality::default(),
             source: self.source,
         };
@@ -406,30 +447,62 @@ impl Resolved {
 /// a place go through the capture reader's rule (`sky::source_and_shares_from_unix_time`,
 /// `sky::refusal`): the sun by day and in a twilight it dominates, the moon at night
 /// where it is up and its sky gives ≥ 99 % of the light (its 1σ the caller's ⊕ the
-/// ephemeris's [`MOON_POSITION_SIGMA_DEG`]), a mixed twilight or a dark night refused
-/// ([`NoHeading::MixedSky`], [`NoHeading::DarkNight`]).
+/// ephemeris's [`MOON_POSITION_SIGMA_DEG`]), a twilight lit by both read with both
+/// ([`Resolved::second`], `Shares::reads_both`), a dark night refused
+/// ([`NoHeading::DarkNight`]).
 pub(super) fn resolve_sun(sun: Sun) -> Result<Resolved, CompassError> {
     match sun {
         Sun::Angles { azimuth_deg, elevation_deg, sigma_deg } => {
             check_sun(azimuth_deg, elevation_deg, sigma_deg)?;
-            Ok(Resolved { angles: (azimuth_deg, elevation_deg, sigma_deg), source: SkySource::Given, refusal: None })
+            let angles = (azimuth_deg, elevation_deg, sigma_deg);
+            Ok(Resolved { angles, source: SkySource::Given, refusal: None, second: None })
         }
         #[cfg(feature = "spa")]
         Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg } => {
             let (s, shares) = crate::sky::source_and_shares_from_unix_time(time_s, latitude_deg, longitude_deg)
                 .map_err(|e| CompassError::Sun(e.to_string()))?;
             check_sun(s.azimuth_deg, s.elevation_deg, sigma_deg)?;
-            let refusal = crate::sky::refusal(&s, &shares).map(|r| match r {
-                Refusal::Mixed(shares) => NoHeading::MixedSky { shares },
-                Refusal::Dark(shares) => NoHeading::DarkNight { shares },
-            });
+            // A twilight lit by both is read with both sources (the other body from the
+            // same clock and place); a dark night refused.
+            let (refusal, second) = match crate::sky::refusal(&s, &shares) {
+                Some(Refusal::Dark(shares)) => (Some(NoHeading::DarkNight { shares }), None),
+                _ if shares.reads_both() => {
+                    (None, Some(second_source(time_s, latitude_deg, longitude_deg, &s, shares)?))
+                }
+                _ => (None, None),
+            };
             let (source, sigma_deg) = match s.source {
                 SunSource::Moon { .. } => (SkySource::Moon(shares), sigma_deg.hypot(MOON_POSITION_SIGMA_DEG)),
                 _ => (SkySource::Sun(shares), sigma_deg),
             };
-            Ok(Resolved { angles: (s.azimuth_deg, s.elevation_deg, sigma_deg), source, refusal })
+            Ok(Resolved { angles: (s.azimuth_deg, s.elevation_deg, sigma_deg), source, refusal, second })
         }
     }
+}
+
+/// The other source of a mixed twilight at `time_s` and a place, beside the frame's
+/// source `s`: its azimuth and elevation from its ephemeris, and the frame's source's
+/// share of the two skies' polarized radiance ([`Shares::sun_unit_share`]).
+#[cfg(feature = "spa")]
+fn second_source(
+    time_s: f64,
+    latitude_deg: f64,
+    longitude_deg: f64,
+    s: &crate::sky::sun::SunPosition,
+    shares: Shares,
+) -> Result<SecondSource, CompassError> {
+    let err = |e: crate::Error| CompassError::Sun(e.to_string());
+    let w_sun = shares.sun_unit_share();
+    Ok(match s.source {
+        SunSource::Moon { .. } => {
+            let sun = crate::sky::sun::sun_from_unix_time(time_s, latitude_deg, longitude_deg).map_err(err)?;
+            SecondSource { azimuth_deg: sun.azimuth_deg, elevation_deg: sun.elevation_deg, share: 1.0 - w_sun, shares }
+        }
+        _ => {
+            let moon = crate::sky::moon::moon_from_unix_time(time_s, latitude_deg, longitude_deg).map_err(err)?;
+            SecondSource { azimuth_deg: moon.azimuth_deg, elevation_deg: moon.elevation_deg, share: w_sun, shares }
+        }
+    })
 }
 
 /// What the field estimator knows about a frame: the camera `intr` as calibrated, the

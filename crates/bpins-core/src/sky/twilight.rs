@@ -27,10 +27,13 @@
 //! Cronin et al. 2006 measured it through civil twilight), with the day's d_max.
 //!
 //! The reader's rule (`sky::source_from_time_place`, `sky::dark_night`): the frame's
-//! source is the source with the larger share; it is read where its share is at least
-//! [`DOMINANT_SHARE`]; where neither reaches it the frame is refused, naming both
-//! shares: a sky lit by both has two patterns, about two points, summed as Stokes
-//! vectors, and no single source's pattern fits it.
+//! source is the source with the larger share. A sky lit by both has two patterns,
+//! about two points, summed as Stokes vectors, and no single source's pattern fits it:
+//! the heading reads it with both (`heading::field::two_sources`: both bodies from the
+//! ephemeris, the share fitted beside the heading) wherever the smaller share is at
+//! least [`READ_BOTH_SHARE`] ([`Shares::reads_both`]); what needs one source's pattern
+//! (`bpins fit`, `bpins diagnose`, a colour compass) refuses a frame where neither
+//! share reaches [`DOMINANT_SHARE`], naming both.
 //!
 //! Units: cd/m², degrees, shares in [0, 1]. Frame: world ENU (elevations). Cannot: the
 //! twilight sky's own shape (its brightening toward the sun's azimuth, its colour, the
@@ -44,14 +47,22 @@ use crate::sky::radiometry::{cd_m2_from_mag_arcsec2, SkyLight, SUN_OUTSIDE_LUX};
 /// twilight's end; Patat's remainder is already 0 from about −16°).
 pub const TWILIGHT_END_DEG: f64 = -18.0;
 
-/// The share of the sky's light at the zenith one source must give to be read alone.
-/// Measured (docs/night.md "Twilight", `bpins simulate --scene twilight.strength=…`
+/// The share of the sky's light at the zenith one source must give for what reads one
+/// source's pattern (`bpins fit`, `bpins diagnose`, a colour compass) to read the frame;
+/// below it those refuse it ([`Dominant::Mixed`], `sky::Refusal::Mixed`), while the
+/// heading reads it with both sources ([`READ_BOTH_SHARE`]). Measured (docs/night.md "Twilight", `bpins simulate --scene twilight.strength=…`
 /// read with the dominant source's angles given): an unmodelled second source of share
 /// q turns the read heading by 30–50·q degrees RMS where the two stand 70–145° apart in
 /// azimuth (7·q where they stand opposite), and the reported 1σ seldom covers it (0–3 of 8
 /// frames within 2σ at 1–5 %). At 90 % that is 3–5°; at 99 %, 0.3–0.45° RMS, about the
 /// night's own 1σ (0.1–0.3°, docs/night.md) and the published night compass's 0.32°.
 pub const DOMINANT_SHARE: f64 = 0.99;
+
+/// The smaller share from which the compass reads a sky with both sources
+/// (`heading::field::two_sources`), where the two light it and the frame is not refused:
+/// measured (docs/night.md "Twilight", the sun's pattern read alone, 1σ 0.011°): the
+/// moon at 0.24 % turned it 0.050° RMS (0/8 within 2σ), at 0.08 % 0.017° (23/24).
+pub const READ_BOTH_SHARE: f64 = 0.001;
 
 /// Patat et al. 2006's V fit at the zenith: a0, a1 (per degree), a2 (per degree²), about ζ = 95°.
 const PATAT_V: [f64; 3] = [11.84, 1.518, -0.057];
@@ -147,6 +158,29 @@ impl Shares {
         1.0 - self.sun_share()
     }
 
+    /// The sun's share of the two skies' radiance per unit of Rayleigh's pattern,
+    /// u_sun/(u_sun + u_moon) with u = L_zenith/½(1 + sin²h) (the `twilight` scene
+    /// element's weights): with one d_max for both, the sun's share w of the polarized
+    /// radiance the two-source heading fits (`heading::field::two_sources`); 1 where
+    /// neither lights the sky.
+    pub fn sun_unit_share(&self) -> f64 {
+        let unit = |cd_m2: f64, el_deg: f64| cd_m2 / (0.5 * (1.0 + el_deg.to_radians().sin().powi(2)));
+        let u_sun = unit(self.sun_cd_m2, self.sun_elevation_deg);
+        let u_moon = if self.moon_cd_m2 > 0.0 { unit(self.moon_cd_m2, self.moon_elevation_deg) } else { 0.0 };
+        if u_sun + u_moon > 0.0 {
+            u_sun / (u_sun + u_moon)
+        } else {
+            1.0
+        }
+    }
+
+    /// Whether both sources light the sky and the smaller gives at least
+    /// [`READ_BOTH_SHARE`]: a sky the compass reads with both (where it reads it at all).
+    pub fn reads_both(&self) -> bool {
+        let p = self.sun_share();
+        self.sun_cd_m2 > 0.0 && self.moon_cd_m2 > 0.0 && p.min(1.0 - p) >= READ_BOTH_SHARE
+    }
+
     /// Which source gives at least [`DOMINANT_SHARE`], if either.
     pub fn dominant(&self) -> Dominant {
         let p = self.sun_share();
@@ -182,11 +216,13 @@ impl Shares {
         )
     }
 
-    /// Why a mixed frame is not read (for [`Dominant::Mixed`]).
+    /// Why a mixed frame is not read where one source's pattern is needed (for
+    /// [`Dominant::Mixed`]: `bpins fit` and `bpins diagnose`, a colour compass).
     pub fn mixed_reason(&self) -> String {
         format!(
             "{}: a sky lit by both has two polarization patterns (one about each source) and no single source's \
-             E-vector pattern; read when one gives at least {:.0} % (refused)",
+             E-vector pattern; read here when one gives at least {:.0} % (refused; `bpins heading` and a monochrome \
+             compass read it with both sources)",
             self.describe(),
             100.0 * DOMINANT_SHARE
         )

@@ -111,9 +111,11 @@ mod sigma;
 mod sky_sun;
 pub(crate) mod spatial;
 mod stats;
+mod two_sources;
 
 pub use cells::{Cell, CellScratch, Cells, RawDn, RawImage};
 pub use sky_sun::{sky_sun, SkySun};
+pub use two_sources::{estimate_two, mixed_pattern, SecondSource, SHARE_LOG_ODDS_SIGMA};
 
 use super::Extractor;
 use crate::camera::Intrinsics;
@@ -247,7 +249,8 @@ pub enum NoHeading {
     #[error("{0}")]
     Solver(String),
     /// From a time and place: the sun and the moon both light the sky and neither gives
-    /// 99 % of its light (`sky::Refusal::Mixed`); the frame is not read.
+    /// 99 % of its light (`sky::Refusal::Mixed`), on a colour compass (a monochrome one
+    /// reads it with both sources, `two_sources.rs`); the frame is not read.
     #[error("{}", shares.mixed_reason())]
     MixedSky { shares: crate::sky::twilight::Shares },
     /// From a time and place: the sun past −10° and no moon up bright enough to be read

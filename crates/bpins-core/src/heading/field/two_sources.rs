@@ -1,0 +1,485 @@
+//! A twilight sky lit by both the sun and the moon: the heading from two Rayleigh
+//! patterns summed as Stokes vectors, the polarized share fitted beside the heading.
+//!
+//! ```text
+//! per cell (level frame): ray d, observed E-vector e, f = d × e (both ⊥ d)
+//! m_k = d × s_k(ψ)                    |m_k|² = sin²γ_k, s_k the body k on its cone at heading ψ
+//! Z_k = ((m_k·e)² − (m_k·f)², 2(m_k·e)(m_k·f))   = sin²γ_k·(cos 2φ_k, sin 2φ_k), φ_k the angle of
+//!                                       Rayleigh's E-vector ⊥(s_k, d) from e
+//! z   = w·Z_p + (1 − w)·Z_o            the Stokes sum (Q, U ∝ d_max·½·sin²γ per unit radiance)
+//! δ   = ½·atan2(z_y, z_x)              the predicted AoP off the observed one, radians
+//! w   = 1/(1 + e^−θ),  θ ~ N(θ₀, σ_θ²) the frame's source's share of the polarized radiance per
+//!                                       unit (θ₀ from the model's shares, [`SecondSource::share`])
+//! minimize Σ ρ(δ_i/σ_i) + (θ − θ₀)²/σ_θ²  over (ψ, θ); σ_i² = σ_α,i² + τ², ρ Tukey's biweight
+//! ```
+//!
+//! Source: the sum is the `twilight` scene element's (`scene/twilight.rs`): two
+//! incoherent skies add as Stokes vectors, each Rayleigh's about its own body with the
+//! frame's d_max (Cronin, Warrant & Greiner 2006 for the sun below the horizon), each
+//! weighted by its zenith luminance over Rayleigh's zenith radiance about it
+//! (`sky/twilight.rs`: K&S, Patat et al. 2006). Both bodies' azimuths come from the
+//! ephemeris, so one heading turns both. The share is uncertain (Patat's twilight is
+//! Paranal's; a lower, hazier site's is ≈ 30 % brighter; K&S's moonlit sky is good to a
+//! few tens of per cent), so θ is fitted with a weak prior, σ_θ = [`SHARE_LOG_ODDS_SIGMA`]
+//! (a factor e ≈ 2.7 on the ratio of the two skies), and the heading's 1σ is the
+//! marginal one: the joint covariance's ψψ element, so w's uncertainty is in it. Where
+//! the two bodies stand nearly in line (their patterns nearly agree) the data do not
+//! tell w: the prior holds it, and the heading's 1σ carries what their correlation
+//! leaves (measured, docs/night.md "Twilight": with the moon low and nearly opposite
+//! the sun it widens to 0.2–0.4°, the errors alike). The start: a 1° grid search of ψ
+//! at five shares about θ₀ (±1σ_θ, ±2σ_θ, with the prior's penalty), the share then
+//! scanned and ψ refined in turn; then rounds of τ, Tukey's weights and Gauss–Newton.
+//!
+//! 1σ² = max(σ_fit, σ_jack, σ_coherent)² + σ_misfit² + σ_tilt² + σ_sun² + σ_floor² as
+//! the one-source estimator's step 5 (`sigma.rs`), each on the joint fit: σ_fit from the
+//! curvature (χ²-scaled), σ_jack deleting one of 4 × 4 image blocks and refitting both
+//! parameters, σ_coherent the spatial sandwich of the profiled score (the heading's score
+//! less its projection on θ's), σ_tilt through the frame's source.
+//!
+//! Units: degrees at the interface, radians inside. Frame: level camera (CONVENTIONS.md).
+//! Cannot: clouds (no cloud tests; a cloud's cells are down-weighted only by Tukey's
+//! weights on their residuals); the other source's own depolarization or neutral points
+//! (both skies carry the frame's d_max); twilight's own sky shape (the Earth's shadow,
+//! its colour); the meridian-line extractor (every extractor asked for reads this fit);
+//! the check of the sky's own sun elevation (`sun_elevation_offset_deg` is 0); a warm
+//! compass's no-allocation promise (a mixed frame allocates its cells' buffers).
+
+use super::observe::{observe, Obs};
+use super::sigma::BLOCKS;
+use super::stats::{jackknife_sd, quantile, tukey};
+use super::{
+    dark::Polarized, spatial::coherent_sigma_deg, Cells, FieldContext, FieldHeading, FieldOptions, FieldQuality,
+    NoHeading, SigmaParts,
+};
+use crate::conventions::{heading_deg_from_level_sun, level_from_camera, wrap_deg_180};
+use crate::heading::Extractor;
+use crate::sky::twilight::Shares;
+use glam::DVec3;
+
+/// The prior's 1σ on the share's log-odds θ (module doc).
+pub const SHARE_LOG_ODDS_SIGMA: f64 = 1.0;
+/// Per-cell model error the start search assumes beside a cell's noise, radians.
+const SEARCH_SIGMA_RAD: f64 = 0.3 * std::f64::consts::PI / 180.0;
+/// Cost cap of the start search, radians (as `observe.rs`).
+const SEARCH_CAP_RAD: f64 = 2.0 * std::f64::consts::PI / 180.0;
+/// Cells the start search reads at most (evenly strided).
+const SEARCH_CELLS: usize = 600;
+/// A second minimum of the start cost within this of the first is ambiguous (χ²).
+const AMBIGUITY_CHI2: f64 = 9.0;
+/// Robust Gauss–Newton rounds.
+const ROUNDS: usize = 12;
+/// What a clear sky's unmodelled structure leaves beyond the noise (`robust.rs`), degrees.
+const CLEAR_RESIDUAL_DEG: f64 = 0.5;
+/// τ's quantile and χ²₁'s value there (`robust.rs`: the lower quartile).
+const TAU_Q: f64 = 0.25;
+const TAU_CHI2: f64 = 0.1015;
+
+/// The second source of a mixed twilight: where it stands and its share of the sky.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SecondSource {
+    /// The other body's azimuth (from North toward East) and elevation, degrees (the
+    /// frame's source is [`FieldContext`]'s sun).
+    pub azimuth_deg: f64,
+    pub elevation_deg: f64,
+    /// The model's share of the frame's source in the polarized radiance per unit
+    /// (`w` above, in (0, 1)): the fit's start and its prior's centre.
+    pub share: f64,
+    /// The zenith shares it was made from (for the words).
+    pub shares: Shares,
+}
+
+/// One cell as the two-source fit reads it.
+#[derive(Clone, Copy, Debug)]
+struct Cell2 {
+    d: DVec3,
+    e: DVec3,
+    f: DVec3,
+    var: f64,
+    block: usize,
+    grid: usize,
+}
+
+/// The double-angle vector of body `s` at ray `d` on the basis (e, f): sin²γ·(cos 2φ, sin 2φ).
+#[inline]
+fn pattern(c: &Cell2, s: DVec3) -> (f64, f64) {
+    let m = c.d.cross(s);
+    let (a, b) = (m.dot(c.e), m.dot(c.f));
+    (a * a - b * b, 2.0 * a * b)
+}
+
+/// The body at azimuth `az_deg`, elevation `el_deg` in the level frame at heading ψ
+/// (conventions: `s = (cos h·sin(ψ − A), −cos h·cos(ψ − A), sin h)`).
+pub(super) fn body(heading_deg: f64, az_deg: f64, el_deg: f64) -> DVec3 {
+    let (sh, ch) = el_deg.to_radians().sin_cos();
+    let (sa, ca) = (heading_deg - az_deg).to_radians().sin_cos();
+    DVec3::new(ch * sa, -ch * ca, sh)
+}
+
+/// The mixed sky's predicted AoP off the observed one, radians, for the frame's source
+/// at `sp` and the other at `so` with share `w` of the frame's source.
+#[inline]
+fn delta(c: &Cell2, sp: DVec3, so: DVec3, w: f64) -> f64 {
+    let (zp, zo) = (pattern(c, sp), pattern(c, so));
+    let (x, y) = (w * zp.0 + (1.0 - w) * zo.0, w * zp.1 + (1.0 - w) * zo.1);
+    0.5 * y.atan2(x)
+}
+
+/// The mixed sky's predicted double-angle vector: w·Z_p + (1 − w)·Z_o at one cell
+/// (for tests and the docs).
+pub fn mixed_pattern(d: DVec3, e: DVec3, sp: DVec3, so: DVec3, w: f64) -> (f64, f64) {
+    let c = Cell2 { d, e, f: d.cross(e), var: 0.0, block: 0, grid: 0 };
+    let (zp, zo) = (pattern(&c, sp), pattern(&c, so));
+    (w * zp.0 + (1.0 - w) * zo.0, w * zp.1 + (1.0 - w) * zo.1)
+}
+
+fn logistic(t: f64) -> f64 {
+    1.0 / (1.0 + (-t).exp())
+}
+
+/// The fit's model at one parameter point.
+struct Model<'a> {
+    ctx: &'a FieldContext,
+    other: &'a SecondSource,
+}
+
+impl Model<'_> {
+    fn suns(&self, psi_deg: f64) -> (DVec3, DVec3) {
+        (
+            body(psi_deg, self.ctx.sun_az_deg, self.ctx.sun_el_deg),
+            body(psi_deg, self.other.azimuth_deg, self.other.elevation_deg),
+        )
+    }
+}
+
+/// The joint fit's state.
+#[derive(Clone, Copy, Debug)]
+struct Fit {
+    psi_deg: f64,
+    theta: f64,
+    /// Inverse of the normal matrix (ψ in degrees, θ).
+    cov: [[f64; 2]; 2],
+    chi2_dof: f64,
+}
+
+/// Gauss–Newton on (ψ, θ) with fixed per-cell weights `wt` (robust weight / σ²) over
+/// the cells `keep` admits, from `start`; returns the end point and the inverse normal
+/// matrix.
+fn gauss_newton(
+    cells: &[Cell2],
+    wt: &[f64],
+    keep: &dyn Fn(usize) -> bool,
+    m: &Model<'_>,
+    theta0: f64,
+    start: (f64, f64),
+    rounds: usize,
+) -> ((f64, f64), [[f64; 2]; 2]) {
+    let (mut psi, mut th) = start;
+    let mut cov = [[f64::INFINITY, 0.0], [0.0, SHARE_LOG_ODDS_SIGMA.powi(2)]];
+    let (hp, ht) = (1e-3, 1e-4);
+    for _ in 0..rounds {
+        let (sp, so) = m.suns(psi);
+        let (sp2, so2) = m.suns(psi + hp);
+        let w = logistic(th);
+        let w2 = logistic(th + ht);
+        let (mut a, mut b, mut c, mut g0, mut g1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for (i, cl) in cells.iter().enumerate() {
+            if wt[i] <= 0.0 || !keep(i) {
+                continue;
+            }
+            let r = delta(cl, sp, so, w);
+            let jp = wrap_half(delta(cl, sp2, so2, w) - r) / hp;
+            let jt = wrap_half(delta(cl, sp, so, w2) - r) / ht;
+            a += wt[i] * jp * jp;
+            b += wt[i] * jp * jt;
+            c += wt[i] * jt * jt;
+            g0 += wt[i] * jp * r;
+            g1 += wt[i] * jt * r;
+        }
+        let prior = 1.0 / SHARE_LOG_ODDS_SIGMA.powi(2);
+        c += prior;
+        g1 += prior * (th - theta0);
+        let det = a * c - b * b;
+        if !(det > 0.0 && det.is_finite()) {
+            break;
+        }
+        cov = [[c / det, -b / det], [-b / det, a / det]];
+        let (dp, dt) = (-(c * g0 - b * g1) / det, -(a * g1 - b * g0) / det);
+        psi += dp.clamp(-5.0, 5.0);
+        th += dt.clamp(-2.0, 2.0);
+        if dp.abs() < 1e-5 && dt.abs() < 1e-5 {
+            break;
+        }
+    }
+    ((psi, th), cov)
+}
+
+/// Wraps an angle difference of AoPs to (−π/2, π/2].
+fn wrap_half(x: f64) -> f64 {
+    let p = std::f64::consts::PI;
+    let r = (x + 0.5 * p).rem_euclid(p) - 0.5 * p;
+    if r <= -0.5 * p {
+        r + p
+    } else {
+        r
+    }
+}
+
+/// The start: a grid search of the heading in 1° steps on the bounded cost, at the
+/// model's share and at the share's log-odds ±1σ and ±2σ of the prior (so a sky whose
+/// share the model misses by a factor of several still starts in the heading's basin),
+/// each with the prior's penalty; the heading's profile over those shares decides, and
+/// a second minimum of it more than 20° away within χ² 9 is an ambiguous frame.
+/// Returns (ψ in degrees, θ).
+fn search(cells: &[Cell2], m: &Model<'_>, theta0: f64) -> Result<(f64, f64), NoHeading> {
+    let stride = cells.len().div_ceil(SEARCH_CELLS).max(1);
+    let sub: Vec<&Cell2> = cells.iter().step_by(stride).collect();
+    let cap = SEARCH_CAP_RAD * SEARCH_CAP_RAD;
+    let cost = |psi: f64, th: f64| {
+        let (sp, so) = m.suns(psi);
+        let w = logistic(th);
+        let data = sub.iter().map(|c| (delta(c, sp, so, w).powi(2)).min(cap) / (c.var + SEARCH_SIGMA_RAD.powi(2)));
+        data.sum::<f64>() + ((th - theta0) / SHARE_LOG_ODDS_SIGMA).powi(2)
+    };
+    let thetas = [-2.0, -1.0, 0.0, 1.0, 2.0].map(|k| theta0 + k * SHARE_LOG_ODDS_SIGMA);
+    // Per heading of the grid: the best of the shares, (ψ, cost, θ).
+    let grid: Vec<(f64, f64, f64)> = (0..360)
+        .map(|k| {
+            let psi = k as f64;
+            thetas.iter().map(|&th| (psi, cost(psi, th), th)).fold((psi, f64::INFINITY, theta0), |a, b| {
+                if b.1 < a.1 {
+                    b
+                } else {
+                    a
+                }
+            })
+        })
+        .collect();
+    let min = |a: (f64, f64), b: (f64, f64)| if b.1 < a.1 { b } else { a };
+    let refine = |c: f64, th: f64| {
+        let fine = |c: f64, step: f64| {
+            (-6..=6).map(|k| c + step * k as f64).map(|p| (p, cost(p, th))).fold((c, f64::INFINITY), min)
+        };
+        fine(fine(c, 0.5).0, 0.05)
+    };
+    let at = grid.iter().copied().fold((0.0, f64::INFINITY, theta0), |a, b| if b.1 < a.1 { b } else { a });
+    // Then the share and the heading in turn: θ in 0.1 steps about the grid's, ψ refined.
+    let (mut best, mut th) = (refine(at.0, at.2), at.2);
+    for _ in 0..3 {
+        let scan = (-6..=6).map(|k| th + 0.1 * k as f64).map(|t| (t, cost(best.0, t)));
+        th = scan.fold((th, f64::INFINITY), min).0;
+        best = refine(best.0, th);
+    }
+    let n = grid.len();
+    let other = (0..n)
+        .filter(|&k| grid[k].1 <= grid[(k + 1) % n].1 && grid[k].1 <= grid[(k + n - 1) % n].1)
+        .map(|k| grid[k])
+        .filter(|g| wrap_deg_180(g.0 - best.0).abs() > 20.0)
+        .fold((0.0, f64::INFINITY, theta0), |a, b| if b.1 < a.1 { b } else { a });
+    if other.1.is_finite() {
+        let o = refine(other.0, other.2);
+        if o.1 - best.1 < AMBIGUITY_CHI2 {
+            return Err(NoHeading::Ambiguous { best_deg: best.0.rem_euclid(360.0), other_deg: o.0.rem_euclid(360.0) });
+        }
+    }
+    Ok((best.0, th))
+}
+
+/// The heading of a mixed twilight frame's cells: the frame's source at `ctx`'s sun and
+/// `other` beside it (module doc). Every extractor in `extractors` gets this one fit.
+pub fn estimate_two(
+    cells: &Cells,
+    ctx: &FieldContext,
+    other: &SecondSource,
+    opts: &FieldOptions,
+    extractors: &[Extractor],
+) -> Vec<FieldHeading> {
+    let (result, quality) = match fit_two(cells, ctx, other, opts) {
+        Ok((h, parts, q)) => (Ok((h, parts)), q),
+        Err((q, why)) => (Err(why), q),
+    };
+    extractors
+        .iter()
+        .map(|&extractor| FieldHeading {
+            extractor,
+            result: result.clone(),
+            quality,
+            source: crate::sky::SkySource::Given,
+        })
+        .collect()
+}
+
+type Outcome = Result<(f64, SigmaParts, FieldQuality), (FieldQuality, NoHeading)>;
+
+fn fit_two(cells: &Cells, ctx: &FieldContext, other: &SecondSource, opts: &FieldOptions) -> Outcome {
+    let mut quality = FieldQuality { cells_total: cells.grid_len(), ..Default::default() };
+    if ctx.sun_el_deg > 89.0 {
+        return Err((quality, NoHeading::SunAtZenith { sun_el_deg: ctx.sun_el_deg }));
+    }
+    if !(other.share > 0.0 && other.share < 1.0) {
+        return Err((quality, NoHeading::Solver(format!("a mixed sky's share {} outside (0, 1)", other.share))));
+    }
+    let level = ctx.level_from_camera();
+    let (mut slots, mut obs) = (Vec::new(), Vec::new());
+    observe(cells, ctx, opts, level, &mut slots, &mut obs);
+    quality.cells_valid = obs.len();
+    let polarized = Polarized::of(&obs);
+    if let Some(why) = polarized.too_dark() {
+        return Err((quality, why));
+    }
+    let min_used = opts.min_cells.max((opts.min_used_fraction * quality.cells_total as f64).ceil() as usize);
+    let m = Model { ctx, other };
+    let cos_excl = opts.sun_exclusion_deg.to_radians().cos();
+    let c2: Vec<Cell2> = obs
+        .iter()
+        .map(|o: &Obs| Cell2 { d: o.d, e: o.e, f: o.d.cross(o.e), var: o.var_aop, block: o.block, grid: o.grid })
+        .collect();
+    if c2.len() < min_used {
+        return Err((
+            quality,
+            polarized.explain(NoHeading::TooLittleSky { used: c2.len(), total: quality.cells_total }),
+        ));
+    }
+    let theta0 = (other.share / (1.0 - other.share)).ln();
+    let (psi0, theta_start) = search(&c2, &m, theta0).map_err(|r| (quality, polarized.explain(r)))?;
+    let (sp, so) = m.suns(psi0);
+    let near = |c: &Cell2, sp: DVec3, so: DVec3| c.d.dot(sp) > cos_excl || c.d.dot(so) > cos_excl;
+    // Cells away from both bodies (aureole, glare): sun_exclusion_deg about each, which
+    // turn with ψ: taken at the start heading.
+    let cells2: Vec<Cell2> = c2.into_iter().filter(|c| !near(c, sp, so)).collect();
+    // Robust rounds: residuals at the current point, τ, Tukey's weights, Gauss–Newton.
+    let (mut psi, mut th) = (psi0, theta_start);
+    let mut wt = vec![0.0; cells2.len()];
+    let mut t = Vec::with_capacity(cells2.len());
+    let mut tau2 = 0.0;
+    let mut cov = [[f64::INFINITY, 0.0], [0.0, 1.0]];
+    for it in 1..=ROUNDS {
+        quality.iterations = it;
+        let (sp, so) = m.suns(psi);
+        let w = logistic(th);
+        t.clear();
+        t.extend(cells2.iter().map(|c| (delta(c, sp, so, w).powi(2) - TAU_CHI2 * c.var) / TAU_CHI2));
+        tau2 = quantile(&mut t, TAU_Q).max(0.0);
+        for (x, c) in wt.iter_mut().zip(&cells2) {
+            let var = c.var + tau2;
+            *x = tukey(delta(c, sp, so, w) / var.sqrt()) / var;
+        }
+        let ((p2, t2), cv) = gauss_newton(&cells2, &wt, &|_| true, &m, theta0, (psi, th), 4);
+        cov = cv;
+        let step = wrap_deg_180(p2 - psi).abs() + (t2 - th).abs();
+        (psi, th) = (p2, t2);
+        if step < 1e-4 {
+            break;
+        }
+    }
+    // What the fit left: used cells, residual beyond noise, χ².
+    let (sp, so) = m.suns(psi);
+    let w = logistic(th);
+    let (mut sw, mut swd2, mut noise, mut used, mut chi2) = (0.0, 0.0, 0.0, 0usize, 0.0);
+    for (c, &x) in cells2.iter().zip(&wt) {
+        let rw = x * (c.var + tau2);
+        if rw >= 0.5 {
+            let d = delta(c, sp, so, w);
+            used += 1;
+            sw += rw;
+            swd2 += rw * d * d;
+            noise += rw * c.var;
+            chi2 += x * d * d;
+        }
+    }
+    quality.cells_used = used;
+    quality.used_fraction = used as f64 / quality.cells_total.max(1) as f64;
+    quality.misfit_deg = tau2.sqrt().to_degrees();
+    quality.residual_rms_deg = if sw > 0.0 { (swd2 / sw).sqrt().to_degrees() } else { f64::NAN };
+    if used < min_used {
+        return Err((quality, polarized.explain(NoHeading::TooLittleSky { used, total: quality.cells_total })));
+    }
+    let misfit_rms_deg = if sw > 0.0 { ((swd2 - noise).max(0.0) / sw).sqrt().to_degrees() } else { f64::NAN };
+    if misfit_rms_deg > opts.max_residual_deg {
+        return Err((quality, NoHeading::PoorFit { residual_deg: misfit_rms_deg, limit_deg: opts.max_residual_deg }));
+    }
+    if !(cov[0][0].is_finite() && cov[0][0] > 0.0) {
+        return Err((quality, NoHeading::Solver("the two-source fit's normal matrix is singular".into())));
+    }
+    let dof = (used as f64 - 2.0).max(1.0);
+    let fit = Fit { psi_deg: psi, theta: th, cov, chi2_dof: chi2 / dof };
+    let parts = sigma_parts(&cells2, &wt, &m, theta0, &fit, cells, opts, misfit_rms_deg);
+    Ok((psi.rem_euclid(360.0), parts, quality))
+}
+
+/// Step 5 on the joint fit (module doc).
+#[allow(clippy::too_many_arguments)]
+fn sigma_parts(
+    cells2: &[Cell2],
+    wt: &[f64],
+    m: &Model<'_>,
+    theta0: f64,
+    fit: &Fit,
+    cells: &Cells,
+    opts: &FieldOptions,
+    misfit_rms_deg: f64,
+) -> SigmaParts {
+    let fit_deg = fit.cov[0][0].max(0.0).sqrt() * fit.chi2_dof.max(1.0).sqrt();
+    // Delete-one-block jackknife, both parameters refitted.
+    let mut dev = Vec::with_capacity(BLOCKS * BLOCKS);
+    for b in 0..BLOCKS * BLOCKS {
+        if !cells2.iter().zip(wt).any(|(c, &x)| c.block == b && x > 0.0) {
+            continue;
+        }
+        let keep = |i: usize| cells2[i].block != b;
+        let ((p, _), _) = gauss_newton(cells2, wt, &keep, m, theta0, (fit.psi_deg, fit.theta), 4);
+        dev.push(wrap_deg_180(p - fit.psi_deg));
+    }
+    let jackknife_deg = if dev.len() >= 2 { jackknife_sd(&dev) } else { 2.0 * fit_deg };
+    // The spatial sandwich of the profiled score: a = a_ψ − (H_ψθ/H_θθ)·a_θ (H_θθ with
+    // the prior), its curvature Σ w·a_ψ·a = H_ψψ − H_ψθ²/H_θθ, the inverse of the
+    // marginal variance (the prior's score is not a draw of the sky, so not in V).
+    let (sp, so) = m.suns(fit.psi_deg);
+    let (sp2, so2) = m.suns(fit.psi_deg + 0.01);
+    let w = logistic(fit.theta);
+    let w2 = logistic(fit.theta + 1e-4);
+    let (hpt, htt) = (-fit.cov[0][1], fit.cov[0][0]); // ∝ the normal matrix's ψθ, θθ (same det)
+    let k = if htt > 0.0 { hpt / htt } else { 0.0 };
+    let mut t = Vec::new();
+    let coherent_deg = coherent_sigma_deg(
+        cells2.iter().zip(wt).filter(|(_, &x)| x > 0.0).map(|(c, &x)| {
+            let r = delta(c, sp, so, w);
+            let ap = wrap_half(delta(c, sp2, so2, w) - r) / 0.01;
+            let at = wrap_half(delta(c, sp, so, w2) - r) / 1e-4;
+            let a = ap - k * at;
+            (c.grid, x * r * a, x * ap * a)
+        }),
+        cells.cols,
+        cells.rows,
+        &mut t,
+    );
+    let coherent_deg = if coherent_deg.is_finite() { coherent_deg } else { 0.0 };
+    let misfit_deg = if misfit_rms_deg.is_finite() {
+        (misfit_rms_deg.powi(2) - CLEAR_RESIDUAL_DEG.powi(2)).max(0.0).sqrt()
+    } else {
+        0.0
+    };
+    // The reference tilt through the frame's source (as sigma.rs).
+    let ctx = m.ctx;
+    let level = ctx.level_from_camera();
+    let s_cam = level.transpose() * sp;
+    let eps = 1e-3;
+    let dpsi = |dx: f64, dy: f64| {
+        let l = level_from_camera(ctx.tilt_x_deg + dx, ctx.tilt_y_deg + dy)
+            * level_from_camera(ctx.mount_tilt_deg[0], ctx.mount_tilt_deg[1]);
+        wrap_deg_180(heading_deg_from_level_sun(l * s_cam, ctx.sun_az_deg) - fit.psi_deg) / eps
+    };
+    SigmaParts {
+        fit_deg,
+        jackknife_deg,
+        coherent_deg,
+        misfit_deg,
+        cross_deg: 0.0,
+        tilt_deg: ctx.tilt_sigma_deg * dpsi(eps, 0.0).hypot(dpsi(0.0, eps)),
+        sun_deg: ctx.sun_sigma_deg,
+        floor_deg: opts.sigma_floor_deg,
+    }
+}
+
+#[cfg(test)]
+#[path = "two_sources_tests.rs"]
+mod tests;
