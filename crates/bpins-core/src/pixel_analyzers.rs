@@ -13,8 +13,9 @@
 //! the lab could not measure is absent and takes its nominal value (offset: the
 //! black level; gain 1; φ the channel's angle; ε 0).
 //!
-//! Two ways to apply them, both exact for a Stokes field that is planar across the
-//! region they work on, with errors of second order (flaw × curvature) otherwise:
+//! Two ways to apply them, for a Stokes field that is planar across the region they
+//! work on exact (per cell) or to second order in the flaws (per tile), with errors of
+//! second order (flaw × curvature) otherwise:
 //!
 //! * **Per cell** ([`CellAnalyzers`], the front door): a cell reduces each channel
 //!   to its value at the cell centre, `c_k = Σ_p w_p DN_p` with the plane-fit weights
@@ -25,14 +26,27 @@
 //!   channel's plane (`Σ r_p r_pᵀ` of `[a_p, o_p]`) is taken out of the cell's
 //!   scatter, so the cell's noise stays that of the photons.
 //! * **Per tile** ([`PixelMaps::nominal_mosaic`], the capture readers): each 2 × 2
-//!   tile's Stokes vector `S` is solved through its four rows; each pixel becomes
-//!   what a nominal pixel would read, `b + a_nom,k·S + (x_p − a_p·S)/g_p`, so
-//!   `heading`, `fit` and `diagnose` read a calibrated mosaic with their usual
-//!   (nominal) analyzers.
+//!   tile's Stokes vector at its centre `S_c` is solved through its four rows, each
+//!   pixel's own `S_p = S_c + ∇S·d_p` (`d_p` = (±½, ±½) px, `∇S` from the neighbouring
+//!   tiles); each pixel becomes what a nominal pixel would read, `b + a_nom,k·S_p +
+//!   (x_p − a_p·S_p)/g_p`, so `heading`, `fit` and `diagnose` read a calibrated mosaic
+//!   with their usual (nominal) analyzers; what is left is flaw² × the field's step
+//!   across the tile. One `S` for the whole tile left `(a_nom,k − a_p/g_p)·(S − S_p)`:
+//!   the flaw × that step, first order in each, of one sign tile after tile where a
+//!   channel's mean analyzer is off (issue 45: 0.4°/px and analyzers 1–2° off turned
+//!   a fitted heading by up to 2σ, `tests/calibrate.rs`).
 
 use crate::sensor::{dn_is_valid, Channel, Layout};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
+
+/// The least ε a map may hold. A map is a measurement: a pixel whose true ε is near 0
+/// is measured at 0 ± its noise (σ_ε ≈ 0.001 from a 12-angle lab capture), and a
+/// clamp at 0 would bias the mean of such pixels up by 0.4 σ_ε (E[max(n, 0)] = σ/√2π),
+/// a channel's mean ε by up to 3·10⁻⁴ on a die whose ε spread reaches 0, enough to
+/// turn a heading by 0.006° where the channels' ε differ (docs/calibrate.md). The row
+/// `a_p` is linear in ε, so a slightly negative estimate is as good as any.
+pub(crate) const EPS_MAP_MIN: f64 = -0.1;
 
 /// Names of the maps, as the calibration's EXR file names its channels.
 pub const MAP_NAMES: [&str; 4] = ["offset_dn", "gain", "analyzer_deg", "eps"];
@@ -50,7 +64,8 @@ pub struct PixelMaps {
     pub gain: Option<Vec<f32>>,
     /// Analyzer transmission axis, degrees, image frame (near the channel's nominal angle).
     pub analyzer_deg: Option<Vec<f32>>,
-    /// Extinction ratio ε (= 1/ER), 0 … 1.
+    /// Extinction ratio ε (= 1/ER), 0 … 1; an estimate may fall below 0 by its noise
+    /// (`EPS_MAP_MIN`).
     pub eps: Option<Vec<f32>>,
 }
 
@@ -147,9 +162,9 @@ impl PixelMaps {
             }
         }
         if let Some(e) = &self.eps {
-            if let Some(i) = e.iter().position(|&x| !(0.0..1.0).contains(&x)) {
+            if let Some(i) = e.iter().position(|&x| !(EPS_MAP_MIN as f32..1.0).contains(&x)) {
                 return Err(format!(
-                    "map eps: pixel ({}, {}) is {} (must be in [0, 1))",
+                    "map eps: pixel ({}, {}) is {} (must be in [{EPS_MAP_MIN}, 1))",
                     i % self.width_px,
                     i / self.width_px,
                     e[i]
@@ -279,41 +294,54 @@ impl PixelMaps {
     }
 
     /// The mosaic `dn` (row-major, this size) as nominal pixels would read it (see
-    /// the module): per tile, `S` through the four pixels' own rows, then each pixel
-    /// `b + a_nom,k·S + (x_p − a_p·S)/g_p` with `x_p = DN_p − o_p`. Tiles with a
-    /// saturated or zero sample, and a last odd row or column, are left as they are.
+    /// the module): per tile, the Stokes vector at the tile's centre `S_c` through
+    /// the four pixels' own rows, each pixel's own `S_p = S_c + ∇S·d_p` (`d_p` its
+    /// offset from the centre, ±½ px; `∇S` from the neighbouring tiles' first
+    /// solutions, `tile_gradients`), then each pixel `b + a_nom,k·S_p + (x_p −
+    /// a_p·S_p)/g_p` with `x_p = DN_p − o_p`. For a Stokes field planar over three
+    /// tiles the error left is of second order in the flaws (flaw² × the field's step
+    /// across a tile), where one `S` per tile left the first. Tiles with a saturated or
+    /// zero sample, and a last odd row or column, are left as they are.
     pub fn nominal_mosaic(&self, dn: &[f32], black_level_dn: f64, full_scale_dn: f64) -> Vec<f32> {
-        let w = self.width_px;
-        let mut out = dn.to_vec();
+        let (w, tw, th) = (self.width_px, self.width_px / 2, self.height_px / 2);
         let nominal_row = |c: Channel| {
             let (s, co) = (2.0 * c.angle_deg()).to_radians().sin_cos();
             DVec3::new(0.5, 0.5 * co, 0.5 * s)
         };
-        out.par_chunks_mut(2 * w).enumerate().for_each(|(tj, rows)| {
-            if rows.len() < 2 * w {
-                return;
+        // Tile (ti, tj)'s four pixels: offsets, rows a_p, x_p, gains; None where unusable.
+        let tile = |ti: usize, tj: usize| {
+            let mut px = [(0usize, 0usize, DVec3::ZERO, 0.0f64, 0.0f64); 4];
+            let mut ata = DMat3::ZERO;
+            for (n, (du, dv)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
+                let (u, v) = (2 * ti + du, 2 * tj + dv);
+                let raw = dn[v * w + u] as f64;
+                if !dn_is_valid(raw, full_scale_dn) {
+                    return None;
+                }
+                let (a, o) = self.pixel(u, v, black_level_dn);
+                let a = DVec3::from_array(a);
+                ata += DMat3::from_cols(a * a.x, a * a.y, a * a.z);
+                px[n] = (du, dv, a, raw - o, self.gain.as_ref().map_or(1.0, |g| g[v * w + u] as f64));
             }
-            for ti in 0..w / 2 {
-                let mut px = [(0usize, 0usize, DVec3::ZERO, 0.0f64, 0.0f64); 4];
-                let mut ok = true;
-                let mut ata = DMat3::ZERO;
-                let mut atx = DVec3::ZERO;
-                for (n, (du, dv)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
-                    let (u, v) = (2 * ti + du, 2 * tj + dv);
-                    let raw = dn[v * w + u] as f64;
-                    ok &= dn_is_valid(raw, full_scale_dn);
-                    let (a, o) = self.pixel(u, v, black_level_dn);
-                    let a = DVec3::from_array(a);
-                    let x = raw - o;
-                    ata += DMat3::from_cols(a * a.x, a * a.y, a * a.z);
-                    atx += a * x;
-                    px[n] = (du, dv, a, x, self.gain.as_ref().map_or(1.0, |g| g[v * w + u] as f64));
-                }
-                if !ok || ata.determinant().abs() < 1e-12 {
-                    continue;
-                }
-                let s = ata.inverse() * atx;
+            (ata.determinant().abs() >= 1e-12).then(|| (px, ata.inverse()))
+        };
+        // First pass: each tile's S as if its pixels saw one Stokes vector.
+        let first: Vec<Option<DVec3>> = (0..tw * th)
+            .into_par_iter()
+            .map(|t| {
+                let (px, inv) = tile(t % tw, t / tw)?;
+                Some(inv * px.iter().map(|p| p.2 * p.3).sum::<DVec3>())
+            })
+            .collect();
+        let mut out = dn.to_vec();
+        out.par_chunks_mut(2 * w).take(th).enumerate().for_each(|(tj, rows)| {
+            for ti in 0..tw {
+                let Some((px, inv)) = tile(ti, tj) else { continue };
+                let [gu, gv] = tile_gradients(&first, tw, th, ti, tj);
+                let at = |du: usize, dv: usize| gu * (du as f64 - 0.5) + gv * (dv as f64 - 0.5);
+                let s_c = inv * px.iter().map(|&(du, dv, a, x, _)| a * (x - a.dot(at(du, dv)))).sum::<DVec3>();
                 for (du, dv, a, x, g) in px {
+                    let s = s_c + at(du, dv);
                     let c = Layout::dofp_channel(&self.mosaic, 2 * ti + du, 2 * tj + dv);
                     let y = black_level_dn + nominal_row(c).dot(s) + (x - a.dot(s)) / g;
                     rows[dv * w + 2 * ti + du] = y as f32;
@@ -322,6 +350,31 @@ impl PixelMaps {
         });
         out
     }
+}
+
+/// The Stokes field's change per pixel along u and v at tile `(ti, tj)` of a `tw × th`
+/// grid of 2 × 2 tiles, from its neighbours' first solutions `first` (row-major): a
+/// central difference over 4 px where both neighbours are usable, one-sided over 2 px
+/// where one is, 0 where neither is. A tile's first solution is off its centre's by
+/// its rows' mixing of the gradient (`(AᵀA)⁻¹ Σ a_p a_pᵀ ∇S·d_p`), alike in every tile
+/// but for the tiles' own flaws, so the differences carry only the flaws' difference ×
+/// the step: first order in the flaws, which the conversion multiplies by the flaw again.
+fn tile_gradients(first: &[Option<DVec3>], tw: usize, th: usize, ti: usize, tj: usize) -> [DVec3; 2] {
+    let get = |i: Option<usize>, j: Option<usize>| match (i, j) {
+        (Some(i), Some(j)) if i < tw && j < th => first[j * tw + i],
+        _ => None,
+    };
+    let diff = |lo: Option<DVec3>, here: Option<DVec3>, hi: Option<DVec3>| match (lo, here, hi) {
+        (Some(l), _, Some(h)) => (h - l) / 4.0,
+        (Some(l), Some(c), None) => (c - l) / 2.0,
+        (None, Some(c), Some(h)) => (h - c) / 2.0,
+        _ => DVec3::ZERO,
+    };
+    let here = get(Some(ti), Some(tj));
+    [
+        diff(get(ti.checked_sub(1), Some(tj)), here, get(Some(ti + 1), Some(tj))),
+        diff(get(Some(ti), tj.checked_sub(1)), here, get(Some(ti), Some(tj + 1))),
+    ]
 }
 
 #[path = "pixel_analyzers_band.rs"]
@@ -436,11 +489,13 @@ mod tests {
         let dn = render(&m);
         let out = m.nominal_mosaic(&dn, 64.0, 65535.0);
         let ideal = render(&PixelMaps::nominal(32, 24, DEFAULT_MOSAIC));
-        // Within a tile the field varies by a pixel's gradient: the residual is the
-        // flaw × that step (second order), below 0.2 DN against 1000 DN signals.
+        // Within a tile the field varies by a pixel's gradient (up to 3 DN/px here):
+        // each pixel is converted at its own S_p, so a planar field comes out to second
+        // order in the flaws, flaw² × that step: 0.005 DN (one S per tile left the
+        // flaw × that step, 0.14 DN).
         let worst = out.iter().zip(&ideal).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
         let before = dn.iter().zip(&ideal).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
-        assert!(worst < 2.0 && before > 50.0, "after {worst} DN, before {before} DN");
+        assert!(worst < 0.02 && before > 50.0, "after {worst} DN, before {before} DN");
     }
 
     #[test]
@@ -452,6 +507,11 @@ mod tests {
         assert!(m.check_sensor(32, 24, &other).unwrap_err().contains("mosaic"));
         let mut bad = m.clone();
         bad.eps.as_mut().unwrap()[5] = 1.5;
+        assert!(bad.check().unwrap_err().contains("eps"));
+        // An estimate of a small ε may fall below 0 by its noise; far below is refused.
+        bad.eps.as_mut().unwrap()[5] = -0.002;
+        bad.check().unwrap();
+        bad.eps.as_mut().unwrap()[5] = -0.2;
         assert!(bad.check().unwrap_err().contains("eps"));
         let mut bad = m.clone();
         bad.mosaic = other;

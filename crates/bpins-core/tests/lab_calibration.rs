@@ -206,6 +206,38 @@ fn a_simulated_flawed_sensor_is_calibrated_back_pixel_by_pixel_to_the_photon_noi
     assert!((err_off - 1.0).abs() < 0.1, "offset RMS error {err_off} DN");
 }
 
+/// ε maps are measurements, unclamped at 0 (issue 45): on a die whose ε spread reaches
+/// 0 (channels 45°, 90°, 135°: half their pixels at ε = 0), a clamp biased each such
+/// channel's mean ε up by 0.25 of a pixel's 1σ (2.6·10⁻⁴ on the simulated die of
+/// `tests/calibrate.rs`) against the channel whose ε stands clear of 0, which turns a
+/// heading by up to 0.01°. Each channel's mean error stays within its own noise.
+#[test]
+fn a_die_whose_eps_reaches_zero_is_calibrated_without_bias() {
+    let mut fx = EffectSet::new();
+    fx.parse_assignment("extinction_ratio.eps0=0.03").unwrap();
+    let flaws = PixelFlaws { eps_sigma: 0.01, seed: 5, ..PixelFlaws::none() };
+    let (lab, truth, _dir) = sim_lab(128, 96, &LabPlan::default(), &fx.model(), &flaws);
+    let cal = calibrate(&lab, &|_, _| {}).unwrap();
+    let (m, t) = (cal.maps.eps.as_ref().unwrap(), truth.eps.as_ref().unwrap());
+    let sig = &cal.sigma.as_ref().unwrap().eps;
+    let w = truth.width_px;
+    let mut by = [(0.0, 0.0, 0.0, 0.0); 4];
+    for i in 0..m.len() {
+        let k = Layout::dofp_channel(&DEFAULT_MOSAIC, i % w, i / w).index();
+        let b = &mut by[k];
+        *b = (b.0 + 1.0, b.1 + (m[i] - t[i]) as f64, b.2 + (sig[i] as f64).powi(2), b.3 + f64::from(t[i] == 0.0));
+    }
+    for (k, (n, d, s2, zeros)) in by.into_iter().enumerate() {
+        let (bias, se) = (d / n, (s2 / n).sqrt() / n.sqrt());
+        eprintln!("channel {k}: mean ε error {bias:.2e} (its 1σ {se:.1e}), truth at 0: {zeros}/{n}");
+        // The clamp's bias was ~10 σ of a channel's mean here.
+        assert!(bias.abs() < 4.0 * se, "channel {k}: mean ε error {bias} vs its 1σ {se}");
+        assert!(k == 0 || zeros > 0.3 * n, "channel {k}: {zeros} of {n} at 0");
+    }
+    // Some estimates fall below 0, as a measurement of 0 should.
+    assert!(m.iter().any(|&e| e < 0.0));
+}
+
 #[test]
 fn captures_that_cannot_determine_a_quantity_are_partly_calibrated_with_the_reason() {
     let flaws = PixelFlaws { angle_sigma_deg: 0.3, ..PixelFlaws::none() };

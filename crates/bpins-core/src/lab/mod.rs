@@ -31,7 +31,7 @@ pub mod simulate;
 pub mod summary;
 
 use crate::capture::LabCapture;
-use crate::pixel_analyzers::PixelMaps;
+use crate::pixel_analyzers::{PixelMaps, EPS_MAP_MIN};
 use crate::sensor::{Layout, DEFAULT_MOSAIC};
 use crate::Result;
 use flat::FlatField;
@@ -233,7 +233,8 @@ pub fn calibrate(lab: &LabCapture, progress: &dyn Fn(usize, usize)) -> Result<La
                 .collect();
             let val = |i: usize, j: usize| if bad[i] { ch_means[class(i)][j] } else { per_px[i].0[j] };
             maps.gain = Some((0..n).map(|i| (val(i, 0) / mean_g) as f32).collect());
-            maps.eps = Some((0..n).map(|i| val(i, 1).clamp(0.0, 0.999) as f32).collect());
+            // Unclamped at 0: an unbiased estimate of a small ε (`EPS_MAP_MIN`).
+            maps.eps = Some((0..n).map(|i| val(i, 1).clamp(EPS_MAP_MIN, 0.999) as f32).collect());
             maps.analyzer_deg = Some(
                 (0..n)
                     .map(|i| {
