@@ -1768,4 +1768,30 @@ fn clouds_that_turn_together_leave_the_clear_skys_heading() {
             assert!(within >= 7 && errors.iter().all(|e| e.0.abs() <= 4.0 * e.1), "seed {seed}, rim {rim}: {errors:?}");
         }
     }
+    // Bright turned rims with the sun at 120° (issue 46 item 1's last case, a mono
+    // camera): scene seed 1's frames at 80° and 240° (0.63° and 1.6° off at a 1σ of
+    // 0.8° and 2.7° before) and scene seed 4's at 240° (0.20° off at 3.6σ), where the
+    // rims' own tight "sky" took the start; the brightness test's reference is now the
+    // DoLP plateau, not the cells that fit that start. The clouds turn per frame index,
+    // so every heading is rendered.
+    let headings = "0,40,80,120,160,200,240,280";
+    for seed in ["1", "4"] {
+        let cap = tmp.path().join(format!("rims-120-{seed}"));
+        let json = tmp.path().join(format!("rims-120-{seed}.json"));
+        #[rustfmt::skip]
+        bpins(&[
+            "simulate", "--out", &s(&cap), "--scene-seed", seed, "--seed", seed,
+            "--sun-azimuth-deg", "120", "--sun-elevation-deg", "25", "--headings-deg", headings,
+            "--scene", "clouds.count=6", "--scene", "clouds.coherence=1", "--scene", "clouds.rim=1",
+            "--scene", "clouds.min_elevation_deg=45", "--scene", "clouds.radius_min_deg=8",
+            "--scene", "clouds.radius_max_deg=20", "--scene", "clouds.dolp_factor=0.6",
+        ])
+        .ok();
+        bpins(&["heading", &s(&cap), "--json", &s(&json)]).ok();
+        let v = read_json(&json);
+        for f in v["frames"].as_array().unwrap() {
+            let (e, sigma) = (f64_of(f, "error_deg"), f64_of(f, "sigma_deg"));
+            assert!(e.abs() <= 0.05 && e.abs() <= 2.0 * sigma, "seed {seed}: {e:.4}° at 1σ {sigma:.4}°: {f:#}");
+        }
+    }
 }

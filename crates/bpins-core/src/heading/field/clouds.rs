@@ -7,10 +7,18 @@
 //!               the most polarized max(min_cells, 3 %) of them reach
 //! brighter:     ln I − m(γ, z) > med + max(ln BRIGHT_FACTOR, 5 · 1.4826 · MAD₋)
 //!               m a smooth radiance (ln I on 1, cos γ, z and their squares and product,
-//!               centred and scaled) fitted by least squares to the clear cells that
-//!               fit the sun, refitted without those above it by 2σ (up to 6 rounds:
-//!               the clear cells' lower envelope); med the residuals' median, MAD₋
-//!               their spread below it (clouds are brighter, never darker)
+//!               centred and scaled) fitted by least squares to the reference cells,
+//!               refitted without those above it by 2σ (up to 6 rounds: the clear
+//!               cells' lower envelope); med the residuals' median, MAD₋ their spread
+//!               below it (clouds are brighter, never darker)
+//! reference:    the cells on the clear sky's DoLP plateau, r ≥ (1 − PLATEAU_TOL)·r_top,
+//!               r_top the ratio the PLATEAU_TOP-th most polarized verifiable cell
+//!               reaches (γ > 35° from the sun and the anti-sun), on a monochrome
+//!               frame where at least min_cells are, at most half the verifiable
+//!               cells are depolarized (no overcast), and either the plateau spans the
+//!               view (PLATEAU_TOP cells in each of PLATEAU_SPAN of PLATEAU_BINS bins of
+//!               cos²γ) or at least min_cells cells are depolarized (a cloud in view);
+//!               else the clear cells that fit the sun
 //! whiter:       t − m_t(γ, z) > med + max(ln WHITE_FACTOR, 5 · 1.4826 · MAD₋)   colour frames only
 //!               t = ln(I_R/I_B) of the cell, m_t fitted as m is (the clear cells'
 //!               lower envelope): a cloud's white light in a blue sky raises t
@@ -25,7 +33,20 @@
 //! scattering angle of 90° gives less than 20 % DoLP outside dust storms and smoke;
 //! Horváth & Varjú, *Polarized Light in Animal Vision* (2004), ch. 11) keep the
 //! clear patches as the reference. A bright rim that stays polarized fails the DoLP
-//! test and passes the brightness test. On a colour sensor a cloud is also whiter
+//! test and passes the brightness test, whose reference must then not be the cells that
+//! fit the current sun: where a deck turns one way, its sunlit rims agree with each
+//! other as tightly as the clear sky does, and a start among them makes them the cells
+//! that fit (and the clear sky the misfit). The reference is read from the DoLP
+//! instead, which needs no sun that is right to a degree: a rim covered by a share c
+//! keeps about 1 − c of the DoLP (its depolarized part) and the clear sky keeps all of
+//! it, so the most polarized cells are the clear sky and the outermost rims, and the
+//! rims among them are the bright ones the envelope trims (`holes.rs` reads an
+//! overcast's cores on the same plateau). Only where that plateau is the clear sky's:
+//! a clear sky whose DoLP is not Rayleigh's shape (Berry's d_max·sin²γ, whose ratio
+//! to Rayleigh's is 1 + cos²γ) has its most polarized cells, by Rayleigh's ratio, on a
+//! thin ring of γ at the verifiable edge, and a smooth sky fitted to that ring took
+//! 20–70 % of such a sky for cloud; a plateau that spans the view, or one beside a
+//! cloud the DoLP test finds, is the clear sky's. On a colour sensor a cloud is also whiter
 //! than the sky around it, dim or bright, polarized or not: the red-to-blue ratio that
 //! all-sky cloud imagers have thresholded for decades (Long et al. 2006) joins the two
 //! tests (the colour compass gives every band's cells the frame's ratio).
@@ -94,6 +115,97 @@ pub(super) fn clear_dmax(cells: &[CellSky], min_cells: usize, ratios: &mut Vec<f
     mid.max(UPPER_SHARE * upper).max(CLEAR_DMAX_MIN)
 }
 
+/// A sky whose depolarized cells are more than this share of the verifiable ones is
+/// an overcast to [`reference`].
+const OVERCAST_SHARE: f64 = 0.5;
+/// `r_top` is the ratio this many cells reach (a lone hot cell cannot set it).
+pub(super) const PLATEAU_TOP: usize = 4;
+/// A plateau cell's ratio is within this fraction of `r_top`: a cover of about 3 % at
+/// most under a deck that keeps a few per cent of the DoLP.
+pub(super) const PLATEAU_TOL: f64 = 0.03;
+/// Rayleigh's DoLP over d_max above which a cell's ratio is read for the plateau (γ >
+/// 35° from the sun and the anti-sun: nearer, the ratio's noise and the sky's
+/// departures grow).
+pub(super) const PLATEAU_VERIFIABLE: f64 = 0.3;
+
+/// A cell's DoLP over Rayleigh's shape, where that shape is > PLATEAU_VERIFIABLE of d_max.
+fn plateau_ratio(c: &CellSky) -> Option<f64> {
+    let d = rayleigh_dolp(c.cg);
+    (d > PLATEAU_VERIFIABLE).then(|| c.dolp / d)
+}
+
+/// The plateau's span is read in this many bins of cos²γ over its verifiable range …
+const PLATEAU_BINS: usize = 8;
+/// … and must reach this many of them (half the range of cos²γ: a band of γ some 30°
+/// wide).
+const PLATEAU_SPAN: usize = 4;
+/// cos²γ where Rayleigh's DoLP over d_max falls to PLATEAU_VERIFIABLE: (1 − x)/(1 + x) = v.
+const PLATEAU_X_MAX: f64 = (1.0 - PLATEAU_VERIFIABLE) / (1.0 + PLATEAU_VERIFIABLE);
+
+/// Into `clear`: the reference cells of the smooth sky ([`brighter`]; the module's
+/// equation) — verifiable, not depolarized (`depol`), and fitting the current sun,
+/// or, on a monochrome frame that is no overcast (at most OVERCAST_SHARE of the
+/// verifiable cells depolarized) whose plateau holds at least `min_cells` cells and
+/// either spans the view or lies beside at least `min_cells` depolarized cells, on the
+/// clear sky's DoLP plateau. Returns whether the plateau was the reference. `r` and
+/// `plateau` are buffers.
+pub(super) fn reference(
+    cells: &[CellSky],
+    depol: &[bool],
+    min_cells: usize,
+    r: &mut Vec<f64>,
+    plateau: &mut Vec<bool>,
+    clear: &mut Vec<bool>,
+) -> bool {
+    r.clear();
+    r.extend(cells.iter().filter_map(plateau_ratio));
+    plateau.clear();
+    let n = r.len();
+    if n >= PLATEAU_TOP {
+        let r_top = *r.select_nth_unstable_by(n - PLATEAU_TOP, |a, b| a.total_cmp(b)).1;
+        plateau.extend(cells.iter().map(|c| plateau_ratio(c).is_some_and(|x| x >= (1.0 - PLATEAU_TOL) * r_top)));
+    } else {
+        plateau.resize(cells.len(), false);
+    }
+    // A colour frame's whiteness test reads the rims with no sun at all ([`whiter`]'s
+    // bluest cells), and its bands' cells, a quarter of the pixels each, spread wider
+    // than the plateau's 3 % (tried: its turned rims 0.017° → 0.019° RMS, worst 1.7σ →
+    // 2.6σ): there the cells that fit stay the reference.
+    let mono = !cells.iter().any(|c| c.tint.is_finite());
+    // Under an overcast (most verifiable cells depolarized) the cells that fit stay the
+    // reference: the plateau is then a few holes' cores, too few to fit the radiance
+    // of the whole view by (holes.rs reads them).
+    let verifiable = cells.iter().filter(|c| c.verifiable()).count();
+    let depolarized = depol.iter().filter(|&&d| d).count();
+    let overcast = depolarized as f64 > OVERCAST_SHARE * verifiable as f64;
+    let on = plateau.iter().zip(depol).filter(|(&p, &d)| p && !d).count();
+    // The plateau must be the clear sky's, not the shape of a sky whose DoLP is not
+    // Rayleigh's: under Berry's d_max·sin²γ the ratio, d_max·(1 + cos²γ), peaks at the
+    // verifiable edge and its plateau is a thin ring of γ there, over which a smooth sky
+    // fitted to it extrapolates (tried: 20–70 % of such a clear sky called cloud on 3
+    // of 8 frames, `tests/real_sky_shape.rs`). It serves where it spans the view (at
+    // least PLATEAU_TOP of its cells in each of PLATEAU_SPAN of the PLATEAU_BINS bins of
+    // cos²γ over the verifiable range) or where the DoLP test finds a cloud (at least
+    // min_cells cells depolarized: a deck's cores, beside which a start among its rims
+    // may have made the ratio itself slope).
+    let mut bins = [0usize; PLATEAU_BINS];
+    for (c, _) in cells.iter().zip(plateau.iter()).zip(depol).filter(|((_, &p), &d)| p && !d).map(|(x, _)| x) {
+        bins[((c.cg * c.cg / PLATEAU_X_MAX * PLATEAU_BINS as f64) as usize).min(PLATEAU_BINS - 1)] += 1;
+    }
+    let spans = bins.iter().filter(|&&k| k >= PLATEAU_TOP).count() >= PLATEAU_SPAN;
+    let clouded = depolarized >= min_cells;
+    let by_plateau = mono && !overcast && (spans || clouded) && on >= min_cells;
+    clear.clear();
+    clear.extend(
+        cells
+            .iter()
+            .zip(depol)
+            .zip(plateau.iter())
+            .map(|((c, &d), &p)| c.verifiable() && !d && if by_plateau { p } else { c.fits }),
+    );
+    by_plateau
+}
+
 /// Into `out`: whether each cell is depolarized against the clear sky's `dmax`, where
 /// Rayleigh's DoLP there is > VERIFIABLE of d_max (γ > 23° from the sun and the
 /// anti-sun; closer, a cell's DoLP says nothing).
@@ -109,14 +221,17 @@ pub(super) fn depolarized(cells: &[CellSky], dmax: f64, out: &mut Vec<bool>) {
 const VERIFIABLE: f64 = 0.08;
 
 /// Into `out`: whether each cell is brighter than the smooth sky fitted to the clear
-/// cells (`clear`: fits, verifiable and not depolarized); only verifiable cells are
+/// cells (`clear`: [`reference`]); only verifiable cells are
 /// marked (closer to the sun the smooth sky is an extrapolation). Nothing is marked
 /// when fewer than 20 cells are clear. `clear` loses the cells the envelope's fit
 /// trims; `r` is a buffer. The radiance takes no sun-free reference of its dimmest
 /// cells as the colour ratio does ([`whiter`]): a sky's radiance varies by more than
 /// the cut across the view, and tried, the dimmest cells' envelope did read the
 /// turned rims of one deck (0.36° → 0.007° RMS) but took two thirds of a sky of ten
-/// coherent clouds for cloud (`clouds_coherent`: 0.79° → 3.3° RMS, 7σ).
+/// coherent clouds for cloud (`clouds_coherent`: 0.79° → 3.3° RMS, 7σ). The DoLP
+/// plateau ([`reference`]) needs no sun either and keeps the envelope's cells polarized
+/// like the clear sky: the same deck reads 0.359° → 0.007° RMS (mono, 24 frames) and
+/// `clouds_coherent` 0.79° → 0.54° RMS, 9 → 2 of 40 frames refused (docs/field.md).
 pub(super) fn brighter(cells: &[CellSky], clear: &mut [bool], r: &mut Vec<f64>, out: &mut Vec<bool>) {
     above_envelope(cells, clear, r, |c| c.ln_i, BRIGHT_FACTOR.ln(), out);
 }
@@ -132,8 +247,8 @@ pub(super) fn brighter(cells: &[CellSky], clear: &mut [bool], r: &mut Vec<f64>, 
 ///   the verifiable cells lowest against the last fit; it holds while clouds cover
 ///   less than 1 − WHITE_KEEP of the sky, even where the current sun is wrong and the
 ///   cells that "fit" are a deck's turned rims;
-/// - the clear cells (`clear`: fit the sun, not depolarized, not brighter; their
-///   lower envelope as [`brighter`] fits it): the wider reference, so the finer cut
+/// - the clear cells (`clear`: [`reference`], less the brighter; their lower
+///   envelope as [`brighter`] fits it): the wider reference, so the finer cut
 ///   at a thin cloud's edge.
 ///
 /// Cells without a ratio are never marked; nothing is marked on a monochrome frame (no
@@ -464,6 +579,106 @@ mod tests {
         for (i, x) in br.iter().enumerate() {
             assert_eq!(*x, (300..340).contains(&i), "cell {i}");
         }
+    }
+
+    #[test]
+    fn a_deck_s_bright_rims_that_fit_a_wrong_sun_are_found_against_the_dolp_plateau() {
+        // A clear sky (d_max 0.6) of which 40 % of the cells, in runs of ten across the
+        // view, are a deck's sunlit rims: 1.6× brighter, DoLP × 0.9 (inner rims, off
+        // the plateau) or × 0.99 (outer rims, on it), turned alike, so that a start
+        // among them makes them the cells that fit the sun and the clear cells the misfit;
+        // and 5 % are its cores, depolarized (DoLP × 0.3), no brighter.
+        let rim = |i: usize| (i / 10) % 5 < 2;
+        let core = |i: usize| (i / 10) % 5 == 2 && i % 10 < 5;
+        let mut cells = sky(0.6, 1000);
+        for (i, c) in cells.iter_mut().enumerate() {
+            c.tint = f64::NAN; // a monochrome frame
+            c.fits = rim(i);
+            if rim(i) {
+                c.ln_i += 1.6f64.ln();
+                c.dolp *= if i % 3 == 0 { 0.99 } else { 0.9 };
+            }
+            if core(i) {
+                c.dolp *= 0.3;
+            }
+        }
+        let mut depol = Vec::new();
+        depolarized(&cells, 0.6, &mut depol);
+        assert!(depol.iter().enumerate().all(|(i, &d)| d == core(i)));
+        let (mut r, mut plateau, mut clear, mut br) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        // The cells that fit as the reference: the envelope is the rims', nothing is
+        // brighter than it, the rims stay sky.
+        let mut fits: Vec<bool> = cells.iter().map(|c| c.fits && c.verifiable()).collect();
+        brighter(&cells, &mut fits, &mut r, &mut br);
+        assert!(br.iter().filter(|&&x| x).count() < 10, "the rims' own envelope hides them");
+        // The DoLP plateau as the reference: the clear sky and the outer rims, whose
+        // envelope is the clear sky's; every rim is brighter, no clear cell is.
+        assert!(reference(&cells, &depol, 40, &mut r, &mut plateau, &mut clear));
+        let on_plateau =
+            |i: usize| rayleigh_dolp(cells[i].cg) > PLATEAU_VERIFIABLE && (!rim(i) || i % 3 == 0) && !core(i);
+        assert!(clear.iter().enumerate().all(|(i, &c)| c == on_plateau(i)));
+        brighter(&cells, &mut clear, &mut r, &mut br);
+        for (i, x) in br.iter().enumerate() {
+            assert_eq!(*x, rim(i), "cell {i}");
+        }
+        // Without the depolarized cores (no cell depolarized: a clear sky to the DoLP
+        // test) the plateau still serves: it spans the view's γ.
+        let none = vec![false; cells.len()];
+        assert!(reference(&cells, &none, 40, &mut r, &mut plateau, &mut clear));
+        assert!(clear.iter().enumerate().all(|(i, &c)| c == on_plateau(i)));
+        // An overcast (most verifiable cells depolarized) keeps the cells that fit.
+        let deck: Vec<bool> = (0..cells.len()).map(|i| i % 5 < 3).collect();
+        assert!(!reference(&cells, &deck, 40, &mut r, &mut plateau, &mut clear));
+        assert!(clear.iter().zip(&cells).zip(&deck).all(|((&k, c), &d)| k == (c.fits && c.verifiable() && !d)));
+        // A colour frame (a band ratio in every cell) keeps the cells that fit.
+        let colour: Vec<CellSky> = cells.iter().map(|c| CellSky { tint: -0.7, ..*c }).collect();
+        assert!(!reference(&colour, &depol, 40, &mut r, &mut plateau, &mut clear));
+        assert!(clear.iter().zip(&colour).zip(&depol).all(|((&k, c), &d)| k == (c.fits && c.verifiable() && !d)));
+        // A plateau of fewer than min_cells cells (every cell's DoLP spread wider than
+        // the plateau's 3 %): the cells that fit the sun, as before.
+        for (i, c) in cells.iter_mut().enumerate() {
+            c.dolp *= 1.0 - 0.1 * ((i * 37) % 100) as f64 / 100.0;
+        }
+        assert!(!reference(&cells, &depol, 400, &mut r, &mut plateau, &mut clear));
+        assert!(clear.iter().zip(&cells).zip(&depol).all(|((&k, c), &d)| k == (c.fits && c.verifiable() && !d)));
+    }
+
+    #[test]
+    fn a_clear_sky_whose_dolp_is_not_rayleigh_s_shape_is_not_called_cloud() {
+        // A clear monochrome sky whose DoLP is Berry's d_max·sin²γ (its ratio to
+        // Rayleigh's shape, d_max·(1 + cos²γ), is 1.54× higher at the plateau's
+        // verifiable edge, 35° from the sun and the anti-sun, than at γ = 90°) under a
+        // radiance with a circumsolar aureole outside the smooth sky's basis.
+        let mut cells = sky(0.6, 1000);
+        for c in cells.iter_mut() {
+            let g = c.cg.acos();
+            c.tint = f64::NAN;
+            c.dolp = 0.6 * (1.0 - c.cg * c.cg);
+            c.ln_i = (1.0 + 10.0 * (-3.0 * g).exp() + 0.45 * c.cg * c.cg).ln() + 0.3 * c.z;
+        }
+        let mut depol = Vec::new();
+        depolarized(&cells, clear_dmax(&cells, 40, &mut Vec::new()), &mut depol);
+        assert!(!depol.iter().any(|&d| d), "Berry's DoLP is above Rayleigh's everywhere");
+        let (mut r, mut plateau, mut clear, mut br) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let verifiable = cells.iter().filter(|c| c.verifiable()).count();
+        // Its plateau spans no band of γ and no cell is depolarized: the cells that fit
+        // stay the reference, and nothing is brighter than their smooth sky.
+        assert!(!reference(&cells, &depol, 40, &mut r, &mut plateau, &mut clear));
+        assert!(clear.iter().zip(&cells).all(|(&k, c)| k == c.verifiable()));
+        brighter(&cells, &mut clear, &mut r, &mut br);
+        assert!(!br.iter().any(|&x| x), "{} cells called cloud", br.iter().filter(|&&x| x).count());
+        // What the guard keeps out: this sky's plateau is a thin ring of γ at the
+        // verifiable edge, not its clear sky.
+        let ring: Vec<bool> = plateau.iter().zip(&cells).map(|(&p, c)| p && c.verifiable()).collect();
+        let on = ring.iter().filter(|&&p| p).count();
+        assert!(on >= 40 && on * 10 < verifiable, "a ring of {on} of {verifiable} cells");
+        assert!(cells.iter().zip(&ring).filter(|(_, &p)| p).all(|(c, _)| c.cg.abs() > 0.65));
+        // The same sky with a cloud of 60 depolarized cells: the plateau takes over (as
+        // beside a deck's cores above), ring and all: the guard's limit.
+        for d in depol.iter_mut().skip(400).take(60) {
+            *d = true;
+        }
+        assert!(reference(&cells, &depol, 40, &mut r, &mut plateau, &mut clear));
     }
 
     #[test]

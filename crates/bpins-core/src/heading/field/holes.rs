@@ -37,7 +37,7 @@
 //! residuals show of it); read a frame with fewer than MIN_HOLES holes or
 //! MIN_CORE_CELLS core cells (refused as too little sky).
 
-use super::clouds::rayleigh_dolp;
+use super::clouds::{rayleigh_dolp, PLATEAU_TOL, PLATEAU_TOP, PLATEAU_VERIFIABLE};
 use super::observe::{cone_sun, residual, search, sharpen, Obs};
 use super::robust::{summary, Robust, Scratch, CHI2_1_Q25};
 use super::sigma::{block_sums, meridian_band, solve, sum_blocks, BLOCKS};
@@ -46,14 +46,15 @@ use super::{Cells, FieldContext, FieldOptions, FieldQuality, NoHeading};
 use crate::conventions::wrap_deg_180;
 use crate::heading::{sun_vector, Extractor};
 
-/// `r_top` is the ratio this many cells reach (a lone hot cell cannot set it).
-const CORE_TOP: usize = 4;
+/// `r_top` is the ratio this many cells reach (a lone hot cell cannot set it): the
+/// clear sky's plateau as the cloud tests read it (`clouds.rs`).
+const CORE_TOP: usize = PLATEAU_TOP;
 /// A core cell's ratio is within this fraction of `r_top`: a cover of about 3 % at
 /// most (the deck keeps a few per cent of the DoLP), whose turn is 3 % of the deck's.
-const CORE_TOL: f64 = 0.03;
+const CORE_TOL: f64 = PLATEAU_TOL;
 /// Rayleigh's DoLP over d_max above which a cell's ratio is read (γ > 35° from the sun
 /// and the anti-sun: nearer, the ratio's noise and the sky's departures grow).
-const CORE_VERIFIABLE: f64 = 0.3;
+const CORE_VERIFIABLE: f64 = PLATEAU_VERIFIABLE;
 /// Core cells within this many cells of each other (Chebyshev) are one hole.
 const JOIN_CELLS: usize = 2;
 /// Fewest core cells and holes a heading may rest on.

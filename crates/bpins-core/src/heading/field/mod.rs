@@ -25,7 +25,9 @@
 //!    together lean every partly covered cell one way; observe.rs `sharpen`)
 //! 4. iterate: δ_i against the current sun; clouds per cell (clouds.rs: DoLP under
 //!    0.6 × an absolute, upper-share clear-sky expectation; brighter than the smooth
-//!    sky; on a colour sensor, whiter than the blue sky by the red-to-blue ratio
+//!    sky fitted to the clear sky's DoLP plateau (not to the cells that fit the current
+//!    sun: a deck's turned rims may be those; where that plateau spans the view or the
+//!    DoLP test finds a cloud); on a colour sensor, whiter than the blue sky by the red-to-blue ratio
 //!    (`Cells::tint`); near the sun the nearest verifiable cells' label), weight 0, grown by 2
 //!    cells where they cluster; a model-misfit scale τ with the lower quartile of
 //!    δ²/(σ_α² + τ²) at χ²₁'s (0.1015) over the clear cells away from clouds (where

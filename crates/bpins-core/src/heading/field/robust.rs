@@ -4,7 +4,7 @@
 //! left. The heading and its 1σ (step 5) are `sigma.rs`; the loop's masks and order
 //! statistics, `stats.rs`.
 
-use super::clouds::{brighter, clear_dmax, depolarized, propagate, whiter, CellSky};
+use super::clouds::{brighter, clear_dmax, depolarized, propagate, reference, whiter, CellSky};
 use super::dark::Polarized;
 use super::holes;
 use super::observe::{cone_sun, observe, residual, search, sharpen, Obs};
@@ -131,8 +131,10 @@ fn clouds(obs: &[Obs], tau2: f64, min_cells: usize, cols: usize, rows: usize, b:
     }));
     let dmax = clear_dmax(&b.sky, min_cells, &mut b.t);
     depolarized(&b.sky, dmax, &mut b.depol);
-    b.clear.clear();
-    b.clear.extend(b.sky.iter().zip(&b.depol).map(|(c, &d)| c.fits && c.verifiable() && !d));
+    // The smooth sky's reference: on a monochrome frame that is no overcast, the clear
+    // sky's DoLP plateau, not the cells that fit the current sun (a start among a
+    // deck's rims makes them the cells that fit; clouds.rs `reference`).
+    reference(&b.sky, &b.depol, min_cells, &mut b.t, &mut b.keep, &mut b.clear);
     brighter(&b.sky, &mut b.clear, &mut b.t, &mut b.bright);
     // A colour frame's third test: whiter than the blue sky (clouds.rs `whiter`).
     whiter(&b.sky, &mut b.clear, &mut b.keep, &mut b.t, &mut b.more, &mut b.white);
