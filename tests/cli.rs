@@ -1678,6 +1678,49 @@ fn a_full_moon_through_a_real_exposure_is_read_with_an_honest_sigma_and_a_short_
     assert!(r.stdout.contains("too dark"), "{}", r.stdout);
 }
 
+/// A city's light dome on one side of a moonlit fisheye (docs/night.md): the full moon
+/// at 41.6° over a city's glow (18 mag/arcsec²) with a dome 20 × the zenith's glow at
+/// the eastern horizon, a 256 × 256 equidistant fisheye (3.45 µm behind 0.35 mm, f/1.4,
+/// 0.5 s). The dome's cells lifted the frame's pooled radiance over the dim-frame rule's
+/// threshold, so every frame was read on noisy 4 px cells and refused as too dark; the
+/// median cell decides now (`heading/field/coarse.rs`), and the sky away from the dome
+/// is read with a 1σ that covers its error (measured: 10 of 16, all within 2σ).
+#[test]
+fn a_city_s_light_dome_beside_the_moonlit_sky_is_read_with_an_honest_sigma() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (mut read, mut within_2, mut n, mut worst) = (0, 0, 0, 0.0f64);
+    for seed in ["1", "2"] {
+        let cap = s(&tmp.path().join(format!("dome{seed}")));
+        let json = s(&tmp.path().join(format!("dome{seed}.json")));
+        #[rustfmt::skip]
+        bpins(&[
+            "simulate", "--out", &cap, "--seed", seed, "--time-utc", "2026-06-29T16:00:00Z",
+            "--latitude-deg", "20", "--longitude-deg", "120.38", "--width-px", "256", "--height-px", "256",
+            "--pixel-pitch-um", "3.45", "--focal-length-mm", "0.35", "--projection", "equidistant",
+            "--exposure-s", "0.5", "--f-number", "1.4", "--scene", "night_background",
+            "--scene", "night_background.mag_arcsec2=18.0", "--scene", "night_background.city_gain=20",
+            "--scene", "night_background.city_azimuth_deg=90",
+        ])
+        .ok();
+        bpins(&["heading", &cap, "--json", &json]).ok();
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+        for row in v["frames"].as_array().unwrap() {
+            n += 1;
+            let Some(e) = row["error_deg"].as_f64() else {
+                let why = row["no_heading_reason"].as_str().unwrap();
+                assert!(!why.starts_with("too dark"), "{why}");
+                continue;
+            };
+            let sg = row["sigma_deg"].as_f64().unwrap();
+            read += 1;
+            within_2 += usize::from(e.abs() <= 2.0 * sg);
+            worst = worst.max(e.abs() / sg);
+        }
+    }
+    assert!(n == 16 && read >= 8, "{read} of {n} read");
+    assert!(within_2 * 10 >= read * 9 && worst < 4.0, "{within_2} of {read} within 2σ, the worst {worst:.1}σ");
+}
+
 /// The diagnosis by moonlight (issue 48 item 5): a full moon at 41.6°, a dark site's
 /// glow, the IMX250MZR at f/1.4, 256 × 256 px, six frames hiding the analyzers' typical
 /// angle errors. At 2 s (about 100 e⁻ per pixel) the diagnosis names `analyzer_angles`

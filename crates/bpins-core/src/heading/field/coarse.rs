@@ -1,8 +1,9 @@
-//! Dim frames read on larger cells: where a frame is dim (its cells' mean radiance
-//! less than 40σ of its noise: tens of electrons per pixel, a night's), its cells'
-//! noise is first counted whole ([`noise_factor`]: `cells.rs` leaves out the gradient
-//! extrapolation's share, ×1.5 on 4 px cells, which by day the robust fit absorbs and
-//! at night made the 1σ and the dark test too small), and where its
+//! Dim frames read on larger cells: where a frame is dim (its median cell's radiance
+//! less than 300σ of its noise: a night's, up to at least the 731 e⁻ per pixel a full
+//! moon at 82° gives in 4 s on 3.45 µm at f/1.4),
+//! its cells' noise is first counted whole ([`noise_factor`]: `cells.rs` leaves out
+//! the gradient extrapolation's share, ×1.5 on 4 px cells, which by day the robust fit
+//! absorbs and at night made the 1σ and the dark test too small), and where its
 //! polarized signal stands less than 6σ above its cells' noise (`dark.rs`'s measure),
 //! 2 × 2 cells are merged, again while it does and the grid keeps at least 16 × 16
 //! cells.
@@ -25,9 +26,25 @@
 //! its cells' radiance stands hundreds of σ above their noise), and so is a dim one
 //! whose polarized signal stands 6σ above it.
 //!
+//! Dim is judged cell by cell, the median cell deciding ([`is_dim`]), not on the pooled
+//! mean: a city's light dome on one side of a fisheye (docs/night.md) lifted the pooled
+//! radiance over the threshold, so its frames were read on 4 px cells and refused as
+//! too dark. The threshold was 40σ on the pooled mean; a full moon over a city's glow at
+//! 2 s (about 300 e⁻ per pixel, its 4 px cells ≈ 56σ) then stood just above it and was
+//! read on noisy 4 px cells (11 of 16, median 1σ 2.6°) while 1 s (merged) and 4 s
+//! (polarized enough) read 16 of 16. At 100σ the same switch came back with a full moon
+//! at 82° over the city at 4 s (2 of 16 read, 16 of 16 at 2 s: little DoLP in view, so
+//! S/N under 6 on 4 px cells, the moon alone giving 731 e⁻ per pixel). At 300σ every frame of the night's
+//! sweep (`examples/night/sweep.sh`, four latitudes) is dim: more photons never read
+//! fewer frames there, and the median 1σ rises from one exposure to the next in three
+//! rows only, by 0.003–0.017° (docs/night.md); the cloud table's day frames read
+//! exactly as under the old rule (measured 2026-11-28).
+//!
 //! Where the fit of a dim frame that still stands less than 6σ above its noise fails
 //! (ambiguous, too little sky, a misfit, a contradiction), the failure is named for the
-//! dark ([`explain_dim`]: `NoHeading::TooDark`, with the numbers).
+//! dark ([`explain_dim`]: `NoHeading::TooDark`, with the numbers), its S/N judged
+//! without the cells brighter than twice the median cell's radiance (a light dome's,
+//! whose noise pooled in named the dome frames' too little usable sky for the dark).
 //!
 //! Units: DN; pixels. Frame: the image's (cell centres), Stokes in the image frame.
 //! Cannot: merge across a cell that is missing (saturated, off the sensor's whole
@@ -39,8 +56,13 @@ use crate::stokes::Stokes;
 
 /// Merge while the polarized signal stands less than this above the noise…
 const POLARIZED_SNR: f64 = 6.0;
-/// … and the cells' radiance less than this.
-const DIM_SNR: f64 = 40.0;
+/// … and the median cell's radiance less than this above its noise (a night's, up to
+/// at least 731 e⁻ per pixel; the cloud table's day frames read the same as
+/// under the old 40σ pooled rule, measured 2026-11-28).
+const DIM_SNR: f64 = 300.0;
+/// A failed fit's dark is judged without the cells brighter than this × the median
+/// cell's radiance (a light dome: `explain_dim`).
+const GLOW: f64 = 2.0;
 /// Never merge below this many cells across or down.
 const MIN_GRID: usize = 16;
 
@@ -59,20 +81,21 @@ pub(super) fn polarized_snr(cells: &Cells) -> f64 {
     }
 }
 
-/// The cells' mean radiance against its noise, var I ≈ (var Q + var U)/4 (four
-/// channels: I = ½ΣI_k, Q = I_0 − I_90, U = I_45 − I_135).
-fn radiance_snr(cells: &Cells) -> f64 {
-    let (mut i, mut s2) = (0.0, 0.0);
-    for c in &cells.cells {
-        i += c.stokes.i;
-        s2 += 0.25 * (c.var_q_dn2 + c.var_u_dn2);
-    }
-    let n = cells.cells.len().max(1) as f64;
-    if s2 > 0.0 {
-        (i / n) / (s2 / n).sqrt()
-    } else {
-        f64::INFINITY
-    }
+/// Whether the frame is dim: fewer than half its cells' radiance stands `min_snr` above
+/// its own noise, var I ≈ (var Q + var U)/4 (four channels: I = ½ΣI_k, Q = I_0 − I_90,
+/// U = I_45 − I_135). Cell by cell, not pooled: a city's light dome on one side of a
+/// night's fisheye lifts the pooled mean radiance far above its noise while the sky
+/// away from it, the cells the fit reads, stays dim (the median cell decides).
+fn is_dim(cells: &Cells, min_snr: f64) -> bool {
+    let bright = cells
+        .cells
+        .iter()
+        .filter(|c| {
+            let var_i = 0.25 * (c.var_q_dn2 + c.var_u_dn2);
+            var_i <= 0.0 || c.stokes.i >= min_snr * var_i.sqrt()
+        })
+        .count();
+    2 * bright < cells.cells.len()
 }
 
 /// `why` the fit of a dim frame's `cells` (as read, merged or not) failed, named for the
@@ -87,17 +110,26 @@ pub(super) fn explain_dim(cells: &Cells, why: NoHeading) -> NoHeading {
             | NoHeading::PoorFit { .. }
             | NoHeading::Contradicts { .. }
     );
-    if !fit_failed || radiance_snr(cells) >= DIM_SNR {
+    if !fit_failed || !is_dim(cells, DIM_SNR) {
         return why;
     }
-    let snr = polarized_snr(cells);
+    // Judged on the sky the fit reads, not on a glow that drowns part of it: cells more
+    // than GLOW × the median cell's radiance (a city's dome) left out. A uniformly dim
+    // frame keeps nearly all its cells, so its measure is the whole frame's.
+    let mut i: Vec<f64> = cells.cells.iter().map(|c| c.stokes.i).collect();
+    let mid = i.len() / 2;
+    let median_dn = if i.is_empty() { 0.0 } else { *i.select_nth_unstable_by(mid, f64::total_cmp).1 };
+    let (mut n, mut p2, mut s2) = (0usize, 0.0, 0.0);
+    for c in cells.cells.iter().filter(|c| c.stokes.i <= GLOW * median_dn) {
+        n += 1;
+        p2 += c.stokes.q * c.stokes.q + c.stokes.u * c.stokes.u;
+        s2 += 0.5 * (c.var_q_dn2 + c.var_u_dn2);
+    }
+    let snr = if s2 > 0.0 { ((p2 - 2.0 * s2).max(0.0) / s2).sqrt() } else { f64::INFINITY };
     if snr >= POLARIZED_SNR {
         return why;
     }
-    let n = cells.cells.len().max(1) as f64;
-    let (p2, s2) = cells.cells.iter().fold((0.0, 0.0), |(a, b), c| {
-        (a + c.stokes.q * c.stokes.q + c.stokes.u * c.stokes.u, b + 0.5 * (c.var_q_dn2 + c.var_u_dn2))
-    });
+    let n = n.max(1) as f64;
     NoHeading::TooDark { signal_dn: ((p2 - 2.0 * s2).max(0.0) / n).sqrt(), noise_dn: (s2 / n).sqrt(), snr }
 }
 
@@ -121,7 +153,7 @@ pub(super) fn coarsened(cells: &Cells) -> Option<Cells> {
     let k = noise_factor(cells.cell_px);
     // The noise scaled by k scales the radiance's S/N by 1/√k: a bright frame is told
     // before any copy (a live loop allocates nothing for it).
-    if radiance_snr(cells) / k.sqrt() >= DIM_SNR {
+    if !is_dim(cells, DIM_SNR * k.sqrt()) {
         return None;
     }
     let mut c = cells.clone();
@@ -229,6 +261,42 @@ mod tests {
         assert_eq!((small.cell_px, small.cells.len()), (4, 400));
         assert!((small.cells[0].var_q_dn2 - 1.5).abs() < 1e-12);
         assert!((noise_factor(8) - 1.1).abs() < 1e-12 && noise_factor(2) == 1.0);
+    }
+
+    #[test]
+    fn a_bright_dome_on_one_side_leaves_the_dim_sky_elsewhere_dim() {
+        // A third of the grid (the columns toward a city) 3000 × brighter, its noise
+        // √3000 × (shot noise): the pooled mean radiance stands 556σ (I ≈ 10300 DN against
+        // σ_I ≈ 18.5 DN), above the threshold even with the noise ×1.5; the median cell
+        // 17σ. The sky away from the dome (P = 2 DN, σ² = 1/1.5 measured) is merged as a
+        // dim frame's is, to 16 px cells (σ² = 1/16: S/N √62 = 7.9); a uniformly dim one too.
+        let mut g = grid(64, 2.0, 1.0 / 1.5);
+        for c in g.cells.iter_mut().filter(|c| c.col < 22) {
+            c.stokes = Stokes::new(30000.0, 1.0, 0.0, 0.0);
+            c.var_q_dn2 *= 3000.0;
+            c.var_u_dn2 *= 3000.0;
+        }
+        let (i, s2) =
+            g.cells.iter().fold((0.0, 0.0), |(a, b), c| (a + c.stokes.i, b + 0.25 * (c.var_q_dn2 + c.var_u_dn2)));
+        assert!(i / s2.sqrt() / (g.cells.len() as f64).sqrt() > DIM_SNR * 1.5f64.sqrt(), "pooled: bright");
+        let c = coarsened(&g).expect("dim: the median cell decides");
+        assert!(c.cell_px > 4, "merged: {}", c.cell_px);
+        assert!(coarsened(&grid(64, 1.0, 1.0 / 1.5)).expect("dim").cell_px > 4);
+        // Merged, the sky away from the dome stands 6σ or more; a failed fit there is not
+        // the dark's (the dome's noise pooled in would have made it so), while the same
+        // sky at P = 1 DN (S/N 3.7 on 16 px cells) is.
+        let tls = NoHeading::TooLittleSky { used: 10, total: 256 };
+        assert!(polarized_snr(&c) < POLARIZED_SNR, "pooled: {}", polarized_snr(&c));
+        assert_eq!(explain_dim(&c, tls.clone()), tls);
+        let dark = coarsened(&grid(64, 1.0, 1.0 / 1.5)).unwrap();
+        assert!(matches!(explain_dim(&dark, tls.clone()), NoHeading::TooDark { .. }));
+        // Half the cells or more bright: a bright frame, untouched.
+        for c in g.cells.iter_mut().filter(|c| c.col < 40) {
+            c.stokes = Stokes::new(1000.0, 1.0, 0.0, 0.0);
+            c.var_q_dn2 = 1e-4;
+            c.var_u_dn2 = 1e-4;
+        }
+        assert!(coarsened(&g).is_none());
     }
 
     #[test]
