@@ -57,11 +57,13 @@ for phase in $PHASES; do
             # The moon's photons at the zenith, as simulate says them.
             electrons="$(grep -o '[0-9.]* e⁻ per pixel' "$work/simulate.txt" | head -1 | cut -d' ' -f1)"
             python3 - "$phase" "$CSV" "$glow" "$exposure" "$electrons" "$work/h1.json" "$work/h2.json" <<'PY'
-import json, statistics, sys
+import json, re, statistics, sys
 phase, csv, glow, exposure, electrons, files = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5], sys.argv[6:]
 rows = [f for p in files for f in json.load(open(p))["frames"]]
 src = rows[0]["sun"]
-lit = src.split("the moon")[1].split(",")[1].strip() if "the moon" in src else "?"
+# The moon's lit fraction, wherever the source's text says it ("…, 50 % lit, …").
+m = re.search(r"(\d+ % lit)", src)
+lit = m.group(1) if m else "?"
 moon = f"{lit}, {rows[0]['sun_elevation_deg']:.1f}°"
 ok = [f for f in rows if f["heading_deg"] is not None]
 if ok:
