@@ -38,8 +38,9 @@ fn only_the_front_doors_modules_are_public() {
     let private: Vec<&str> = text.lines().filter_map(|l| l.trim().strip_prefix("mod ")?.strip_suffix(';')).collect();
     assert!(private.len() >= 15 && private.contains(&"chain") && private.contains(&"fit"), "{private:?}");
     let hidden = text.find("#[doc(hidden)]\npub mod internal").expect("a hidden `internal` module");
-    // `math` and `lsq` are helpers of the rooms (an atan2, a least-squares solver), not rooms.
-    for m in private.iter().filter(|m| !["math", "lsq"].contains(m)) {
+    // `math`, `lsq` and `stats` are helpers of the rooms (an atan2, a least-squares
+    // solver, a median), not rooms.
+    for m in private.iter().filter(|m| !["math", "lsq", "stats"].contains(m)) {
         let reexport = format!("pub use crate::{m}::*;");
         assert!(text[hidden..].contains(&reexport), "`internal` does not re-export `{m}`");
     }
