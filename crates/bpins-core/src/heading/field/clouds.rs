@@ -2,6 +2,8 @@
 //!
 //! ```text
 //! depolarized:  DoLP < DOLP_FRACTION · d_ref · D(γ),   D(γ) = sin²γ/(1 + cos²γ)  (Rayleigh, seed eq. 1)
+//!               (a mixed twilight's D is its two skies' Stokes sum, `two_sources.rs`;
+//!               the tests read D per cell, [`CellSky::shape`])
 //!               d_ref = max(median r, UPPER_SHARE · upper r, CLEAR_DMAX_MIN)
 //!               r = DoLP/D(γ) over the cells that fit the sun; `upper`: the ratio that
 //!               the most polarized max(min_cells, 3 %) of them reach
@@ -85,6 +87,10 @@ pub(super) struct CellSky {
     /// cos γ from the current sun, and the ray's elevation sine (level frame).
     pub cg: f64,
     pub z: f64,
+    /// The clear sky's DoLP over d_max at the cell: Rayleigh's D(γ) =
+    /// [`rayleigh_dolp`]`(cg)` for one source; a mixed twilight's Stokes sum for two
+    /// (`two_sources.rs`).
+    pub shape: f64,
     /// Whether the cell fits the current sun (its angle residual within 3σ).
     pub fits: bool,
     /// Index in the cell grid (row-major).
@@ -96,7 +102,7 @@ impl CellSky {
     /// VERIFIABLE of d_max).
     #[inline]
     pub fn verifiable(&self) -> bool {
-        rayleigh_dolp(self.cg) > VERIFIABLE
+        self.shape > VERIFIABLE
     }
 }
 
@@ -104,7 +110,7 @@ impl CellSky {
 /// no cell fits. `ratios` is a buffer.
 pub(super) fn clear_dmax(cells: &[CellSky], min_cells: usize, ratios: &mut Vec<f64>) -> f64 {
     ratios.clear();
-    ratios.extend(cells.iter().filter(|c| c.fits && rayleigh_dolp(c.cg) > 0.3).map(|c| c.dolp / rayleigh_dolp(c.cg)));
+    ratios.extend(cells.iter().filter(|c| c.fits && c.shape > 0.3).map(|c| c.dolp / c.shape));
     if ratios.is_empty() {
         return f64::NAN;
     }
@@ -130,7 +136,7 @@ pub(super) const PLATEAU_VERIFIABLE: f64 = 0.3;
 
 /// A cell's DoLP over Rayleigh's shape, where that shape is > PLATEAU_VERIFIABLE of d_max.
 fn plateau_ratio(c: &CellSky) -> Option<f64> {
-    let d = rayleigh_dolp(c.cg);
+    let d = c.shape;
     (d > PLATEAU_VERIFIABLE).then(|| c.dolp / d)
 }
 
@@ -190,7 +196,9 @@ pub(super) fn reference(
     // may have made the ratio itself slope).
     let mut bins = [0usize; PLATEAU_BINS];
     for (c, _) in cells.iter().zip(plateau.iter()).zip(depol).filter(|((_, &p), &d)| p && !d).map(|(x, _)| x) {
-        bins[((c.cg * c.cg / PLATEAU_X_MAX * PLATEAU_BINS as f64) as usize).min(PLATEAU_BINS - 1)] += 1;
+        // cos²γ from the shape, (1 − D)/(1 + D): a mixed sky's effective one.
+        let x = (1.0 - c.shape) / (1.0 + c.shape);
+        bins[((x / PLATEAU_X_MAX * PLATEAU_BINS as f64) as usize).min(PLATEAU_BINS - 1)] += 1;
     }
     let spans = bins.iter().filter(|&&k| k >= PLATEAU_TOP).count() >= PLATEAU_SPAN;
     let clouded = depolarized >= min_cells;
@@ -212,7 +220,7 @@ pub(super) fn reference(
 pub(super) fn depolarized(cells: &[CellSky], dmax: f64, out: &mut Vec<bool>) {
     out.clear();
     out.extend(cells.iter().map(|c| {
-        let d = rayleigh_dolp(c.cg);
+        let d = c.shape;
         dmax.is_finite() && d > VERIFIABLE && c.dolp < DOLP_FRACTION * dmax * d
     }));
 }
@@ -496,6 +504,7 @@ mod tests {
                     tint: -0.7 + 0.05 * z,
                     cg,
                     z,
+                    shape: rayleigh_dolp(cg),
                     fits: true,
                     grid: i,
                 }
@@ -552,7 +561,16 @@ mod tests {
                 let (r, k) = (g / cols, g % cols);
                 let near_sun = (8..12).contains(&r) && ((2..6).contains(&k) || (14..18).contains(&k));
                 let cg = if near_sun { sun_cg } else { 0.0 };
-                CellSky { dolp: 0.5, ln_i: 0.0, tint: f64::NAN, cg, z: 0.5, fits: true, grid: g }
+                CellSky {
+                    dolp: 0.5,
+                    ln_i: 0.0,
+                    tint: f64::NAN,
+                    cg,
+                    z: 0.5,
+                    shape: rayleigh_dolp(cg),
+                    fits: true,
+                    grid: g,
+                }
             })
             .collect();
         let mut cloud: Vec<bool> = cells.iter().map(|c| c.verifiable() && c.grid % cols < 10).collect();

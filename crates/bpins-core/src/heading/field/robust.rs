@@ -4,7 +4,7 @@
 //! left. The heading and its 1σ (step 5) are `sigma.rs`; the loop's masks and order
 //! statistics, `stats.rs`.
 
-use super::clouds::{brighter, clear_dmax, depolarized, propagate, reference, whiter, CellSky};
+use super::clouds::{brighter, clear_dmax, depolarized, propagate, rayleigh_dolp, reference, whiter, CellSky};
 use super::dark::Polarized;
 use super::holes;
 use super::observe::{cone_sun, observe, residual, search, sharpen, Obs};
@@ -126,6 +126,7 @@ fn clouds(obs: &[Obs], tau2: f64, min_cells: usize, cols: usize, rows: usize, b:
         tint: o.tint,
         cg: r.2,
         z: o.d.z,
+        shape: rayleigh_dolp(r.2),
         fits: r.0.powi(2) < 9.0 * (o.var_aop + tau2),
         grid: o.grid,
     }));

@@ -137,3 +137,58 @@ fn the_share_is_fitted_beside_the_heading_from_a_start_off_by_a_factor_of_three(
         );
     }
 }
+
+#[test]
+fn a_depolarized_patch_in_a_mixed_sky_is_cloud_and_leaves_the_heading_where_it_was() {
+    // The mixed sky of the test above (sun at −12°, moon at 35°, the sun's share 0.3),
+    // d_max 0.6, its radiance smooth; a 9 × 9 patch of cells keeps 15 % of the mixed
+    // DoLP (a cloud: below DOLP_FRACTION of the clear sky's) and turns its AoP by 0.8°.
+    let ctx = FieldContext::new(
+        crate::camera::Intrinsics::new(crate::camera::Projection::Pinhole, 100.0, 0.0, 0.0),
+        290.0,
+        -12.0,
+    );
+    let shares = Shares::new(-12.0, 35.0, 0.3, 1.0);
+    let other = SecondSource { azimuth_deg: 160.0, elevation_deg: 35.0, share: 0.3, shares };
+    let m = Model { ctx: &ctx, other: &other };
+    let (psi_true, w_true, sigma_rad) = (57.0, 0.3f64, 0.2f64.to_radians());
+    let (sp, so) = m.suns(psi_true);
+    let theta0 = (w_true / (1.0 - w_true)).ln();
+    let patch = |g: usize| (7..16).contains(&(g / 30)) && (13..22).contains(&(g % 30));
+    let turn = 0.8f64.to_radians();
+    let mut cells = synthetic(sp, so, w_true, sigma_rad, 7);
+    let mut seen = Vec::new();
+    for c in &mut cells {
+        let shape = mixed_shape(c, sp, so, w_true);
+        let mut s = Seen { dolp: 0.6 * shape, ln_i: 5.0 + 0.3 * c.d.z, tint: f64::NAN };
+        if patch(c.grid) {
+            s.dolp *= 0.15;
+            c.e = turn.cos() * c.e + turn.sin() * c.f;
+            c.f = c.d.cross(c.e);
+        }
+        seen.push(s);
+    }
+    let verifiable = |c: &Cell2| mixed_shape(c, sp, so, w_true) > 0.08;
+    assert!(cells.iter().filter(|c| patch(c.grid)).all(verifiable), "the patch is where the DoLP tells");
+    // The tests at the true point: the patch is cloud, grown by at most DILATE_CELLS,
+    // and nothing away from it is.
+    let mut cb = CloudBufs::default();
+    mixed_clouds(&cells, &seen, (sp, so, w_true), 0.0, 40, 30, 30, &mut cb);
+    let near_patch = |g: usize| (5..18).contains(&(g / 30)) && (11..24).contains(&(g % 30));
+    for c in &cells {
+        assert!(!patch(c.grid) || cb.grown[c.grid], "patch cell {} not cloud", c.grid);
+        assert!(near_patch(c.grid) || !cb.grown[c.grid], "clear cell {} called cloud", c.grid);
+    }
+    // The robust rounds from a start 0.3° off: the heading is the clear sky's (within
+    // 3σ of its marginal 1σ), the patch's cells weigh nothing, and 1σ is tight.
+    let r = robust_rounds(&cells, &cells, &seen, &m, theta0, (psi_true + 0.3, theta0), 40, (30, 30), &mut cb);
+    let (err, sd) = (wrap_deg_180(r.psi_deg - psi_true), r.cov[0][0].sqrt());
+    assert!(err.abs() < 3.0 * sd && sd < 0.05, "{err} ± {sd}");
+    assert!(cells.iter().zip(&r.wt).all(|(c, &x)| !patch(c.grid) || x == 0.0));
+    // What the patch does unseen (every cell weighed by its noise alone): the heading
+    // moves by more than 3σ, so the test above could fail.
+    let wt: Vec<f64> = cells.iter().map(|c| 1.0 / c.var).collect();
+    let ((psi, _), cov) = gauss_newton(&cells, &wt, &|_| true, &m, theta0, (psi_true, theta0), 30);
+    let moved = wrap_deg_180(psi - psi_true);
+    assert!(moved.abs() > 3.0 * cov[0][0].sqrt(), "the patch moves a plain fit: {moved} ± {}", cov[0][0].sqrt());
+}
