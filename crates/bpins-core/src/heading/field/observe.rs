@@ -14,9 +14,9 @@ use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Cost cap of the start search: a cell off by more than this is an outlier, radians.
-const SEARCH_CAP_RAD: f64 = 2.0 * PI / 180.0;
+pub(super) const SEARCH_CAP_RAD: f64 = 2.0 * PI / 180.0;
 /// Per-cell model error assumed by the start search, radians (so no cell dominates).
-const SEARCH_SIGMA_RAD: f64 = 0.3 * PI / 180.0;
+pub(super) const SEARCH_SIGMA_RAD: f64 = 0.3 * PI / 180.0;
 /// Cells the start search reads at most (evenly strided).
 const SEARCH_CELLS: usize = 400;
 /// A second minimum of the start cost within this of the first is ambiguous (χ² units

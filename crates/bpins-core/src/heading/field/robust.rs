@@ -18,13 +18,13 @@ use glam::DVec3;
 
 const MAX_ITERATIONS: usize = 8;
 /// The clouds found at one sun stand while the sun moves by less than this, degrees.
-const CLOUDS_SETTLED_DEG: f64 = 0.05;
+pub(super) const CLOUDS_SETTLED_DEG: f64 = 0.05;
 /// Clustered rejections grow by this many cells (soft edges of clouds and crowns).
-const DILATE_CELLS: isize = 2;
+pub(super) const DILATE_CELLS: usize = 2;
 /// What a clear sky's unmodelled structure leaves in the used cells' residual beyond
 /// their noise (a Berry sky, the aureole, a tilted fisheye's skyline: ≤ 1.2° RMS in
 /// the field table), degrees.
-const CLEAR_RESIDUAL_DEG: f64 = 0.5;
+pub(super) const CLEAR_RESIDUAL_DEG: f64 = 0.5;
 /// A start whose misfit scale τ is within this is taken as a tight clear sky, and τ
 /// stays bounded by it through the loop, degrees.
 const TAU_BOUND_DEG: f64 = 1.0;
@@ -71,7 +71,7 @@ fn weights(
         clouds(obs, tau2_all.min(tau_cap * tau_cap), opts.min_cells, cols, grid_len / cols.max(1), b);
         let cloud = obs.iter().zip(&b.cloud).map(|(o, &c)| (o.grid, c));
         let (mask, kept, tmp) = (&mut b.mask, &mut b.clustered, &mut b.tmp);
-        grown_clusters(cloud, grid_len, cols, DILATE_CELLS as usize, mask, kept, tmp, &mut b.cloud_grown);
+        grown_clusters(cloud, grid_len, cols, DILATE_CELLS, mask, kept, tmp, &mut b.cloud_grown);
         b.clouds_at = Some(s);
     }
     // τ: the lower quartile of δ²/(σ_α² + τ²) at χ²₁'s (0.1015) over the clear cells
@@ -107,7 +107,7 @@ fn weights(
     // not the sun's disc) grow by DILATE_CELLS.
     let rejected = obs.iter().zip(&b.w).map(|(o, x)| (o.grid, x.0 < 0.5 && cg_of(x.2) < cos_excl));
     let (mask, kept, tmp) = (&mut b.mask, &mut b.clustered, &mut b.tmp);
-    grown_clusters(rejected, grid_len, cols, DILATE_CELLS as usize, mask, kept, tmp, &mut b.grown);
+    grown_clusters(rejected, grid_len, cols, DILATE_CELLS, mask, kept, tmp, &mut b.grown);
     for (o, x) in obs.iter().zip(b.w.iter_mut()) {
         if b.grown[o.grid] {
             x.0 = 0.0;
@@ -151,8 +151,8 @@ fn cg_of(sg2: f64) -> f64 {
 
 /// The lower quartile of χ² with one degree of freedom.
 pub(super) const CHI2_1_Q25: f64 = 0.1015;
-const TAU_Q: f64 = 0.25;
-const TAU_CHI2: f64 = CHI2_1_Q25;
+pub(super) const TAU_Q: f64 = 0.25;
+pub(super) const TAU_CHI2: f64 = CHI2_1_Q25;
 /// τ's quantile after a tight start, and χ²₁'s value there.
 const TIGHT_Q: f64 = 0.15;
 const TIGHT_CHI2: f64 = 0.035_766;
@@ -285,7 +285,7 @@ pub(super) fn robust(
     clouds(obs, tau * tau, opts.min_cells, cells.cols, cells.rows, b);
     let cloud = obs.iter().zip(&b.cloud).map(|(o, &c)| (o.grid, c));
     let (mask, kept, tmp) = (&mut b.mask, &mut b.clustered, &mut b.tmp);
-    grown_clusters(cloud, cells.grid_len(), cells.cols, DILATE_CELLS as usize, mask, kept, tmp, &mut sc.sky_grown);
+    grown_clusters(cloud, cells.grid_len(), cells.cols, DILATE_CELLS, mask, kept, tmp, &mut sc.sky_grown);
     let clouded = obs.iter().filter(|o| sc.sky_grown[o.grid]).count();
     quality.cloud_fraction = clouded as f64 / obs.len().max(1) as f64;
     Ok(Robust {
@@ -349,12 +349,17 @@ pub(super) fn summary(
     // clear sky leaves. A turn shared by the used cells (rims of clouds that turn
     // together, rims of clouds whose cores lie outside the view) biases the heading by
     // up to that much, and no sandwich over the residuals can see it.
-    let misfit_deg = if misfit_rms_deg.is_finite() {
+    (quality, coherent_deg, misfit_rms_deg, misfit_beyond_clear_deg(misfit_rms_deg))
+}
+
+/// The misfit part of the 1σ, degrees: the used cells' residual RMS `misfit_rms_deg`
+/// beyond what a clear sky leaves ([`CLEAR_RESIDUAL_DEG`]), 0 where it is not finite.
+pub(super) fn misfit_beyond_clear_deg(misfit_rms_deg: f64) -> f64 {
+    if misfit_rms_deg.is_finite() {
         (misfit_rms_deg.powi(2) - CLEAR_RESIDUAL_DEG.powi(2)).max(0.0).sqrt()
     } else {
         0.0
-    };
-    (quality, coherent_deg, misfit_rms_deg, misfit_deg)
+    }
 }
 
 impl Scratch {

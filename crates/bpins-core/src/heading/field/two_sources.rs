@@ -55,7 +55,8 @@
 //! compass's no-allocation promise (a mixed frame allocates its cells' buffers).
 
 use super::clouds::{brighter, clear_dmax, depolarized, propagate, reference, whiter, CellSky};
-use super::observe::{observe, Obs};
+use super::observe::{observe, Obs, SEARCH_CAP_RAD, SEARCH_SIGMA_RAD};
+use super::robust::{misfit_beyond_clear_deg, CLOUDS_SETTLED_DEG, DILATE_CELLS, TAU_CHI2, TAU_Q};
 use super::sigma::BLOCKS;
 use super::stats::{grown_clusters, jackknife_sd, quantile, tukey};
 use super::{
@@ -69,27 +70,16 @@ use glam::DVec3;
 
 /// The prior's 1σ on the share's log-odds θ (module doc).
 pub const SHARE_LOG_ODDS_SIGMA: f64 = 1.0;
-/// Per-cell model error the start search assumes beside a cell's noise, radians.
-const SEARCH_SIGMA_RAD: f64 = 0.3 * std::f64::consts::PI / 180.0;
-/// Cost cap of the start search, radians (as `observe.rs`).
-const SEARCH_CAP_RAD: f64 = 2.0 * std::f64::consts::PI / 180.0;
 /// Cells the start search reads at most (evenly strided).
 const SEARCH_CELLS: usize = 600;
 /// A second minimum of the start cost within this of the first is ambiguous (χ²).
 const AMBIGUITY_CHI2: f64 = 9.0;
 /// Robust Gauss–Newton rounds.
 const ROUNDS: usize = 12;
-/// What a clear sky's unmodelled structure leaves beyond the noise (`robust.rs`), degrees.
-const CLEAR_RESIDUAL_DEG: f64 = 0.5;
-/// τ's quantile and χ²₁'s value there (`robust.rs`: the lower quartile).
-const TAU_Q: f64 = 0.25;
-const TAU_CHI2: f64 = 0.1015;
 
-/// The clouds found at one (ψ, θ) stand while ψ moves by less than this, degrees, and
-/// θ by less than this (as `robust.rs`).
-const CLOUDS_SETTLED: f64 = 0.05;
-/// Cloud cells that cluster grow by this many cells (`robust.rs`: soft edges).
-const DILATE_CELLS: usize = 2;
+/// The clouds found at one (ψ, θ) stand while ψ moves by less than
+/// `robust.rs`'s [`CLOUDS_SETTLED_DEG`] and θ (the share's log-odds) by less than this.
+const SHARE_SETTLED: f64 = 0.05;
 
 /// The second source of a mixed twilight: where it stands and its share of the sky.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -527,7 +517,7 @@ fn robust_rounds(
 ) -> Rounds {
     let (psi0, theta_start) = start;
     // Robust rounds: residuals at the current point, clouds (`mixed_clouds`: weight 0,
-    // found again once ψ or θ moves by CLOUDS_SETTLED), τ over the cells away from
+    // found again once ψ or θ moves by CLOUDS_SETTLED_DEG or SHARE_SETTLED), τ over the cells away from
     // them, Tukey's weights, Gauss–Newton.
     let (mut psi, mut th) = (psi0, theta_start);
     let mut wt = vec![0.0; cells2.len()];
@@ -553,7 +543,7 @@ fn robust_rounds(
         let (sp, so) = m.suns(psi);
         let w = logistic(th);
         let settled = clouds_at
-            .is_some_and(|(p, h)| wrap_deg_180(p - psi).abs() < CLOUDS_SETTLED && (h - th).abs() < CLOUDS_SETTLED);
+            .is_some_and(|(p, h)| wrap_deg_180(p - psi).abs() < CLOUDS_SETTLED_DEG && (h - th).abs() < SHARE_SETTLED);
         if !settled {
             // Which cells fit: at the misfit scale of every cell (clouds included).
             let tau2_all = tau2_of(&mut t, sp, so, w, &|_| false);
@@ -641,11 +631,7 @@ fn sigma_parts(
         &mut t,
     );
     let coherent_deg = if coherent_deg.is_finite() { coherent_deg } else { 0.0 };
-    let misfit_deg = if misfit_rms_deg.is_finite() {
-        (misfit_rms_deg.powi(2) - CLEAR_RESIDUAL_DEG.powi(2)).max(0.0).sqrt()
-    } else {
-        0.0
-    };
+    let misfit_deg = misfit_beyond_clear_deg(misfit_rms_deg);
     // The reference tilt through the frame's source (as sigma.rs).
     let ctx = m.ctx;
     let level = ctx.level_from_camera();
