@@ -19,9 +19,12 @@
 //! fit starts) the luminance is bridged log-linearly from K&S's sun on the horizon
 //! (L_0 ≈ 650 cd/m², their model with the sun's airmass 5) to Patat's 2.0 cd/m²: a
 //! slope of 1.26 mag per degree against Patat's 1.52 at 95°, so no step and no kink
-//! larger than the data's scatter. (The fit's three coefficients were taken as recalled
-//! from the paper's V row and not checked against its table in this workplace, which
-//! cannot reach it; the shape, ~1.5 mag per degree at ζ = 95°, is the paper's Fig. 5.)
+//! larger than the data's scatter. (The fit's three coefficients are the V row of the
+//! paper's Table 4, checked against an independent transcription of that table in a
+//! public astronomy package's `Paranal_sky_brightness` — U 11.78/1.376/−0.039, B
+//! 11.84/1.411/−0.041, V 11.84/1.518/−0.057, R 11.40/1.567/−0.064, I 10.93/1.470/−0.062,
+//! valid for ζ ≥ 95° and held at 106° beyond — since this workplace cannot reach the
+//! paper itself; the shape, ~1.5 mag per degree at ζ = 95°, is the paper's Fig. 5.)
 //! The twilight sky's polarization is taken as
 //! Rayleigh's about the sun below the horizon (the E-vector ⊥ the sun–view plane, as
 //! Cronin et al. 2006 measured it through civil twilight), with the day's d_max.
@@ -64,7 +67,8 @@ pub const DOMINANT_SHARE: f64 = 0.99;
 /// moon at 0.24 % turned it 0.050° RMS (0/8 within 2σ), at 0.08 % 0.017° (23/24).
 pub const READ_BOTH_SHARE: f64 = 0.001;
 
-/// Patat et al. 2006's V fit at the zenith: a0, a1 (per degree), a2 (per degree²), about ζ = 95°.
+/// Patat et al. 2006's V fit at the zenith (their Table 4): a0, a1 (per degree), a2 (per
+/// degree²), about ζ = 95°.
 const PATAT_V: [f64; 3] = [11.84, 1.518, -0.057];
 /// Paranal's dark-time zenith V, mag/arcsec² (Patat 2003): inside Patat's twilight values.
 const PARANAL_NIGHT_V_MAG: f64 = 21.6;
