@@ -530,7 +530,7 @@ fn series_of(a: &Args) -> anyhow::Result<Option<bpins_core::tool::locate::Series
 /// `--lab`: a lab capture of the sensor (bpins_core::tool::lab), written whole
 /// (capture.toml last), and its truth where asked.
 fn run_lab(a: &Args, model: &bpins_core::effects::Model) -> anyhow::Result<()> {
-    use bpins_core::tool::lab::{lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
+    use bpins_core::tool::lab::{colour_truth_maps, lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
     use bpins_core::LabCapture;
     if !matches!(a.layout, LayoutArg::Dofp) {
         bail!("--lab: a lab capture calibrates a dofp mosaic; use --layout dofp");
@@ -570,11 +570,14 @@ fn run_lab(a: &Args, model: &bpins_core::effects::Model) -> anyhow::Result<()> {
         exposures: a.lab_exposures.clone(),
         darks: a.lab_darks,
     };
-    let mut truth = truth_maps(model, &c.intrinsics(), w, h, DEFAULT_MOSAIC, a.black_level_dn, &flaws);
-    // A colour sensor: each pixel through its band's response under the lab's white source.
-    if let Some(colour) = &c.sensor.colour {
-        bpins_core::tool::lab::colour_truth(&mut truth, model, colour);
-    }
+    // A colour sensor: each pixel through its band's response under the lab's white
+    // source, its band's ε added before the die's spread, as in the sky's chain.
+    let truth = match &c.sensor.colour {
+        Some(colour) => {
+            colour_truth_maps(model, &c.intrinsics(), w, h, DEFAULT_MOSAIC, a.black_level_dn, &flaws, colour)
+        }
+        None => truth_maps(model, &c.intrinsics(), w, h, DEFAULT_MOSAIC, a.black_level_dn, &flaws),
+    };
     let full = c.sensor.full_scale_dn();
     let sensor = LabSensor {
         signal_dn: a.peak_fraction * (full - a.black_level_dn),

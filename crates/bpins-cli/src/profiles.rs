@@ -1,6 +1,6 @@
 //! Residual profiles on disk: `profiles.csv` (the numbers, one row per bin) and
 //! `profiles.svg` (one panel per axis, three to a row — scattering angle, radius, image azimuth,
-//! mosaic position, channel, model DoLP — each with three strips: raw-DN χ² per sample − 1,
+//! mosaic position, channel, model DoLP, and a colour sensor's colour band — each with three strips: raw-DN χ² per sample − 1,
 //! AoP residual and DoLP residual against that axis, each strip on its own symmetric
 //! scale, zero dashed). A missing effect shows as a trend along its own axis.
 

@@ -42,7 +42,7 @@ pub mod lab {
     pub use crate::lab::bands;
     pub use crate::lab::output::{maps_of, write_maps, MapFile};
     pub use crate::lab::report::report_html;
-    pub use crate::lab::simulate::{colour_truth, lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
+    pub use crate::lab::simulate::{colour_truth_maps, lab_frames, truth_maps, LabPlan, LabSensor, PixelFlaws};
 }
 
 /// A series of frames simulated over time at a place (`bpins simulate --series`), its

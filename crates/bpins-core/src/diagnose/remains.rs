@@ -1,6 +1,6 @@
 //! What remains after a diagnosis, as data — the final χ²/dof against what noise alone
-//! gives and, where it is above, where the misfit lies (by channel, by radius, the
-//! strongest trends in sky space); and the fitted values of what the search added that
+//! gives and, where it is above, where the misfit lies (by channel, by colour band on a
+//! colour sensor, by radius, the strongest trends in sky space); and the fitted values of what the search added that
 //! no real instrument or sky has — with the English sentence rendered from it.
 //!
 //! A residual at the noise reached only with such a value is not an explanation: a
@@ -41,6 +41,9 @@ pub struct Unexplained {
     pub partial: Vec<&'static str>,
     /// The raw-DN misfit by analyzer channel (bins of [`Axis::Channel`]).
     pub by_channel: Vec<ProfileBin>,
+    /// The raw-DN misfit by colour band (bins of [`Axis::ColourBand`]; empty on a
+    /// monochrome sensor).
+    pub by_band: Vec<ProfileBin>,
     /// The raw-DN misfit by radius from the principal point, focal lengths.
     pub by_radius: Vec<ProfileBin>,
     /// The strongest trend of each residual quantity in sky space.
@@ -68,6 +71,7 @@ impl Remains {
         let u = Unexplained {
             partial,
             by_channel: along(Axis::Channel),
+            by_band: along(Axis::ColourBand),
             by_radius: along(Axis::Radius),
             trends: trends(profiles, TREND_MIN_SAMPLES),
         };
@@ -124,6 +128,22 @@ impl Unexplained {
     /// The channel bin with the largest χ² per sample.
     pub fn worst_channel(&self) -> Option<&ProfileBin> {
         self.by_channel.iter().max_by(|a, b| a.chi2_per_sample.total_cmp(&b.chi2_per_sample))
+    }
+
+    /// The colour band whose raw-DN misfit stands above every other band's by more
+    /// than χ² per sample's noise (5·√(2/n) of its n samples, at least 0.02, as
+    /// [`Remains::noise_limit`]): where a residual is one band's (a blue-only flaw);
+    /// `None` on a monochrome sensor or where the bands are alike.
+    pub fn band_apart(&self) -> Option<&ProfileBin> {
+        let worst = self.by_band.iter().max_by(|a, b| a.chi2_per_sample.total_cmp(&b.chi2_per_sample))?;
+        let next = self
+            .by_band
+            .iter()
+            .filter(|b| !std::ptr::eq(*b, worst))
+            .map(|b| b.chi2_per_sample)
+            .max_by(f64::total_cmp)?;
+        let noise = (5.0 * (2.0 / worst.dn_samples.max(1) as f64).sqrt()).max(0.02);
+        (worst.chi2_per_sample - next > noise).then_some(worst)
     }
 
     /// The radius bin with the largest χ² per sample.
@@ -193,6 +213,25 @@ impl std::fmt::Display for Remains {
                 each.join(", ")
             )?;
         }
+        // A colour sensor: whether one band carries the misfit (a blue-only flaw is the
+        // blue band's, not the sensor's).
+        if !u.by_band.is_empty() {
+            let each: Vec<String> = u
+                .by_band
+                .iter()
+                .map(|b| format!("{} {:.3}", ["R", "G", "B"][(b.lo as usize).min(2)], b.chi2_per_sample))
+                .collect();
+            match u.band_apart() {
+                Some(w) => write!(
+                    f,
+                    " By colour band it is largest in {} (χ² per sample {:.3}; bands: {}).",
+                    Axis::ColourBand.describe(w.lo),
+                    w.chi2_per_sample,
+                    each.join(", ")
+                )?,
+                None => write!(f, " It is alike in every colour band (χ² per sample {}).", each.join(", "))?,
+            }
+        }
         if let Some(w) = u.worst_radius() {
             let each: Vec<String> =
                 u.by_radius.iter().map(|b| format!("{:.2}–{:.2}: {:.2}", b.lo, b.hi, b.chi2_per_sample)).collect();
@@ -245,6 +284,7 @@ mod tests {
         let u = Unexplained {
             partial: vec!["lens_retardance"],
             by_channel: vec![bin(0.0, 1.1), bin(1.0, 1.3)],
+            by_band: vec![],
             by_radius: vec![],
             trends: vec![trend],
         };
@@ -267,6 +307,23 @@ mod tests {
         );
         assert!(s.contains("largest in the 45° channel (χ² per sample 1.300"), "{s}");
         assert!(s.contains("In sky space, the DoLP residual (measured − model) varies most along the radius"), "{s}");
+        // A monochrome sensor's residual has no band.
+        assert!(!s.contains("band"), "{s}");
+        // A colour sensor's: a residual that is the blue band's says so; one alike in
+        // every band (within χ²'s noise of 10⁴ samples, 0.07) says that.
+        let banded = |chi2: [f64; 3]| {
+            let by_band =
+                (0..3).map(|k| ProfileBin { dn_samples: 10_000, ..bin(k as f64, chi2[k]) }).collect::<Vec<_>>();
+            let u = Unexplained { by_band, ..r.unexplained.clone().unwrap() };
+            Remains { unexplained: Some(u), ..r.clone() }.to_string()
+        };
+        let blue = banded([1.02, 1.03, 1.45]);
+        assert!(blue.contains("By colour band it is largest in the blue band (χ² per sample 1.450; bands: R 1.020, G 1.030, B 1.450)."), "{blue}");
+        let alike = banded([1.30, 1.33, 1.29]);
+        assert!(
+            alike.contains("It is alike in every colour band (χ² per sample R 1.300, G 1.330, B 1.290)."),
+            "{alike}"
+        );
         let quiet = Remains::within_noise(0.999, 1.02, &[], &[], &[]);
         assert_eq!(quiet.to_string(), "χ²/dof 0.999 is within the noise (≤ 1.020): nothing structured remains.");
         // Never "nothing structured remains" beside a name.

@@ -3,8 +3,8 @@
 //!
 //! ```text
 //! φ_p = θ_k + Δθ_k (model) + g_x (x/W − ½) + g_y (y/H − ½) + σ_φ n₁     degrees, image frame
-//! ε_p = ε_k (model) + σ_ε n₂  (clamped ≥ 0)
-//! g_p = (1 + gain_k) · (1 + v2 r² + v4 r⁴) · (1 + PRNU n₃), then scaled to mean 1
+//! ε_p = max(ε_die(p) + σ_ε n₂, 0),  ε_die(p) = max(ε_k + ε_b + σ_die n, 0)  (the chain's)
+//! g_p = (1 + gain_k) · q_b · (1 + v2 r² + v4 r⁴) · (1 + PRNU n₃), then scaled to mean 1
 //! o_p = black + offset_k + DSNU n₄                                     DN
 //! DN  = o_p + s e_j a_p·(1, d cos 2θ_j, d sin 2θ_j) + noise           polarized flat j
 //! ```
@@ -14,7 +14,11 @@
 //! lengths), each pixel's own analyzer from the catalog's analyzer effects
 //! (`polarimetric_nonuniformity`, `analyzer_incidence`: the chain's `pixel_analyzer`,
 //! so a lab capture and a sky capture of one simulated sensor share its die; the lab's
-//! source is seen through the lens, at each pixel's chief ray); further per-pixel
+//! source is seen through the lens, at each pixel's chief ray). On a colour sensor each
+//! pixel's analyzer is its band's (`ChainFrame::in_band`: ε_b added to the channel's ε
+//! before the die's spread and its clip at 0, q_b its gain; ε_b, q_b from
+//! `band_response`, no `sky_spectrum`: the lab's source is white), as in the sky's
+//! chain, so a colour die is one die in both captures too; further per-pixel
 //! spreads from [`PixelFlaws`]. Not simulated here: `sensor_nonlinearity` (the lab
 //! calibration assumes a linear sensor). Noise: shot noise
 //! `K·signal` (DN²), read noise, rounding, clipping to `[0, full scale]`, seeded per
@@ -102,8 +106,8 @@ impl LabPlan {
     }
 }
 
-/// The truth maps of a `w × h` sensor with `mosaic`, channel effects `model`, lens
-/// `intr` (vignetting radius) and per-pixel `flaws`; gain scaled to mean 1.
+/// The truth maps of a monochrome `w × h` sensor with `mosaic`, channel effects
+/// `model`, lens `intr` (vignetting radius) and per-pixel `flaws`; gain scaled to mean 1.
 pub fn truth_maps(
     model: &Model,
     intr: &Intrinsics,
@@ -112,6 +116,40 @@ pub fn truth_maps(
     mosaic: [[Channel; 2]; 2],
     black_level_dn: f64,
     flaws: &PixelFlaws,
+) -> PixelMaps {
+    truth_maps_in_bands(model, intr, w, h, mosaic, black_level_dn, flaws, None)
+}
+
+/// [`truth_maps`] of a colour-polarization sensor with filters `colour`: each pixel's
+/// analyzer is its band's, as the sky's chain has it (`ChainFrame::in_band`, then the
+/// analyzer effects: ε_p = max(ε_k + ε_b + σ n, 0) with `polarimetric_nonuniformity`),
+/// and its gain is times the band's response `q_b` (`band_response`; the lab's source is
+/// white, so no `sky_spectrum`): a band's mean gain over green's is its `q_b`.
+#[allow(clippy::too_many_arguments)]
+pub fn colour_truth_maps(
+    model: &Model,
+    intr: &Intrinsics,
+    w: usize,
+    h: usize,
+    mosaic: [[Channel; 2]; 2],
+    black_level_dn: f64,
+    flaws: &PixelFlaws,
+    colour: &crate::sensor::ColourTiles,
+) -> PixelMaps {
+    truth_maps_in_bands(model, intr, w, h, mosaic, black_level_dn, flaws, Some(colour))
+}
+
+/// [`truth_maps`], each pixel in its band's frame where `colour` is given.
+#[allow(clippy::too_many_arguments)]
+fn truth_maps_in_bands(
+    model: &Model,
+    intr: &Intrinsics,
+    w: usize,
+    h: usize,
+    mosaic: [[Channel; 2]; 2],
+    black_level_dn: f64,
+    flaws: &PixelFlaws,
+    colour: Option<&crate::sensor::ColourTiles>,
 ) -> PixelMaps {
     let key = FrameKey::new(flaws.seed, 0xF1A5, 0);
     let n = w * h;
@@ -125,6 +163,13 @@ pub fn truth_maps(
         dmax: 0.0,
     };
     let frame = crate::chain::ChainFrame::noise_free(model, intr, &scene);
+    // A colour sensor's pixels see their band's frame (the band's ε in each channel's
+    // analyzer, before the analyzer effects), exactly as the sky's chain renders them
+    // (`chain::colour_pixel_signal_dn`); a monochrome sensor's the frame itself.
+    let frames = match colour {
+        Some(_) => frame.bands(model, &scene),
+        None => [frame.clone(), frame.clone(), frame],
+    };
     let [vig_v2, vig_v4] = crate::effects::vignetting::coefficients(model);
     let per_px: Vec<(f32, f32, f64, f32)> = (0..n)
         .into_par_iter()
@@ -134,11 +179,13 @@ pub fn truth_maps(
             let k = ch.index();
             let (x, y) = ((u as f64 + 0.5) / w as f64 - 0.5, (v as f64 + 0.5) / h as f64 - 0.5);
             let p = i as u32;
+            let b = colour.map_or(0, |c| c.band_at(u, v).index());
+            let frame = &frames[b];
             // The pixel's own analyzer against its channel's (the analyzer effects):
-            // doubled-angle turn, ε and gain changes; exactly 0, 0 and 1 without them.
+            // doubled-angle turn, ε and gain changes; exactly 0, ε_k + ε_b and 1 without them.
             let chan = frame.analyzers[k];
             let own =
-                crate::chain::pixel_analyzer(&frame, &frame.intr.geometry(u as f64, v as f64), u as u32, v as u32, k);
+                crate::chain::pixel_analyzer(frame, &frame.intr.geometry(u as f64, v as f64), u as u32, v as u32, k);
             let a = own.analyzer;
             let turn_deg = 0.5
                 * (a.sin2t * chan.cos2t - a.cos2t * chan.sin2t)
@@ -150,12 +197,16 @@ pub fn truth_maps(
                 + flaws.angle_gradient_deg[0] * x
                 + flaws.angle_gradient_deg[1] * y
                 + flaws.angle_sigma_deg * key.normal(p, 0, 0);
-            let eps =
-                (model.channels.analyzer_eps[k] + (a.eps - chan.eps) + flaws.eps_sigma * key.normal(p, 1, 0)).max(0.0);
+            // The chain's ε of this pixel (its band's added before the die's clip), then
+            // the lab-only spread and its own clip.
+            let eps = (a.eps + flaws.eps_sigma * key.normal(p, 1, 0)).max(0.0);
             let r2 = ((u as f64 - intr.cx_px).powi(2) + (v as f64 - intr.cy_px).powi(2)) / (intr.f_px * intr.f_px);
             let vig = crate::effects::vignetting::factor(vig_v2, vig_v4, r2).max(1e-3);
+            // The die's gain change (the band frame's radiance × response cancels here),
+            // then the band's response under the lab's white source.
             let own_gain = own.gain / frame.gain_dn[k];
-            let gain = model.channels.gain[k] * own_gain * vig * (1.0 + flaws.prnu * key.normal(p, 2, 0));
+            let q_b = if colour.is_some() { model.bands.gain[b] } else { 1.0 };
+            let gain = model.channels.gain[k] * q_b * own_gain * vig * (1.0 + flaws.prnu * key.normal(p, 2, 0));
             let offset = black_level_dn + model.channels.offset_dn[k] + flaws.dsnu_dn * key.normal(p, 3, 0);
             (angle as f32, eps as f32, gain, offset as f32)
         })
@@ -216,24 +267,58 @@ pub fn lab_frames(truth: &PixelMaps, plan: &LabPlan, sensor: &LabSensor) -> Vec<
         .collect()
 }
 
-/// A colour-polarization sensor's truth from the monochrome `truth` of the same die
-/// (`truth_maps`): each pixel through its band's response (`band_response`, the
-/// model's [`crate::effects::BandBlock`]): `ε_p += ε_b`, `g_p ×= q_b`, the gain
-/// scaled back to mean 1. The lab source is white (each band sees the same radiance:
-/// no `sky_spectrum`), so a band's mean gain over green's is its `q_b`.
-pub fn colour_truth(truth: &mut PixelMaps, model: &Model, colour: &crate::sensor::ColourTiles) {
-    let w = truth.width_px;
-    let band = |i: usize| colour.band_at(i % w, i / w).index();
-    if let Some(e) = truth.eps.as_mut() {
-        for (i, x) in e.iter_mut().enumerate() {
-            *x += model.bands.eps[band(i)] as f32;
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chain::tests::{intrinsics, scene};
+    use crate::chain::{pixel_analyzer, ChainFrame};
+    use crate::effects::EffectSet;
+    use crate::sensor::{Band, ColourTiles, DEFAULT_MOSAIC};
+
+    /// A colour die whose ε spread reaches 0 (`polarimetric_nonuniformity` σ_ε 0.02 about
+    /// the blue band's ε_b 0.012): the lab truth's ε of every pixel is the one the sky's
+    /// chain gives it (its band's frame, then the die's spread and clip), so a lab capture
+    /// and a sky capture of the sensor share one die; the blue mean is
+    /// E[max(μ + σn, 0)] = μΦ(μ/σ) + σφ(μ/σ) = 0.01537 (μ 0.012, σ 0.02), not the
+    /// clip-then-add 0.02·φ(0) + 0.012 = 0.01998.
+    #[test]
+    fn a_colour_dies_lab_truth_has_the_sky_chains_eps_pixel_for_pixel() {
+        let mut set = EffectSet::new();
+        set.set("polarimetric_nonuniformity", "eps_sigma", 0.02).unwrap();
+        set.set("polarimetric_nonuniformity", "angle_sigma_deg", 1.0).unwrap();
+        set.set("band_response", "eps_b", 0.012).unwrap();
+        set.set("band_response", "eps_r", 0.004).unwrap();
+        set.set("band_response", "qe_b", 0.6).unwrap();
+        let model = set.model();
+        let (intr, sc, colour) = (intrinsics(), scene(), ColourTiles::imx250myr());
+        let (w, h) = (96, 96);
+        let truth = colour_truth_maps(&model, &intr, w, h, DEFAULT_MOSAIC, 64.0, &PixelFlaws::none(), &colour);
+        // The sky's chain: each pixel's analyzer in its band's frame (a sky scene).
+        let sky = ChainFrame::noise_free(&model, &intr, &sc).bands(&model, &sc);
+        let eps = truth.eps.as_ref().unwrap();
+        let gain = truth.gain.as_ref().unwrap();
+        let (mut blue, mut blue_gain, mut green_gain) = (vec![], vec![], vec![]);
+        for (i, &e) in eps.iter().enumerate() {
+            let (u, v) = (i % w, i / w);
+            let b = colour.band_at(u, v);
+            let f = &sky[b.index()];
+            let k = Layout::dofp_channel(&DEFAULT_MOSAIC, u, v).index();
+            let chain = pixel_analyzer(f, &f.intr.geometry(u as f64, v as f64), u as u32, v as u32, k);
+            assert_eq!(e, chain.analyzer.eps as f32, "pixel ({u}, {v}), {b:?}");
+            match b {
+                Band::B => {
+                    blue.push(e as f64);
+                    blue_gain.push(gain[i] as f64);
+                }
+                Band::G => green_gain.push(gain[i] as f64),
+                Band::R => {}
+            }
         }
-    }
-    if let Some(g) = truth.gain.as_mut() {
-        let scaled: Vec<f64> = g.iter().enumerate().map(|(i, &x)| x as f64 * model.bands.gain[band(i)]).collect();
-        let mean = scaled.iter().sum::<f64>() / scaled.len() as f64;
-        for (x, s) in g.iter_mut().zip(scaled) {
-            *x = (s / mean) as f32;
-        }
+        let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
+        // Some blue pixels clipped at 0, some between 0 and ε_b: the spread reaches 0.
+        assert!(blue.contains(&0.0) && blue.iter().any(|&e| e > 0.0 && e < 0.012));
+        assert!((mean(&blue) - 0.01537).abs() < 0.0012, "blue mean ε {}", mean(&blue));
+        // The band's response under the white source: blue's gain over green's is q_b.
+        assert!((mean(&blue_gain) / mean(&green_gain) - 0.6).abs() < 1e-5);
     }
 }

@@ -26,11 +26,21 @@ pub enum Axis {
     Channel,
     /// The model's DoLP at the sample.
     ModelDolp,
+    /// Colour band of a colour-polarization sensor (R, G, B → 0…2, `Band::index`);
+    /// none on a monochrome one (its profile is left out).
+    ColourBand,
 }
 
 impl Axis {
-    pub const ALL: [Axis; 6] =
-        [Axis::ScatteringAngle, Axis::Radius, Axis::ImageAzimuth, Axis::MosaicPosition, Axis::Channel, Axis::ModelDolp];
+    pub const ALL: [Axis; 7] = [
+        Axis::ScatteringAngle,
+        Axis::Radius,
+        Axis::ImageAzimuth,
+        Axis::MosaicPosition,
+        Axis::Channel,
+        Axis::ModelDolp,
+        Axis::ColourBand,
+    ];
 
     /// Name in files and reports.
     pub fn name(self) -> &'static str {
@@ -41,6 +51,7 @@ impl Axis {
             Axis::MosaicPosition => "mosaic_position",
             Axis::Channel => "channel",
             Axis::ModelDolp => "model_dolp",
+            Axis::ColourBand => "colour_band",
         }
     }
 
@@ -53,6 +64,7 @@ impl Axis {
             Axis::MosaicPosition => "mosaic position (u%2 + 2·v%2)",
             Axis::Channel => "channel (0°, 45°, 90°, 135°)",
             Axis::ModelDolp => "model DoLP",
+            Axis::ColourBand => "colour band (R, G, B)",
         }
     }
 
@@ -65,6 +77,11 @@ impl Axis {
             Axis::MosaicPosition => format!("mosaic position {x:.0}"),
             Axis::Channel => format!("the {:.0}° channel", 45.0 * x.floor()),
             Axis::ModelDolp => format!("model DoLP {x:.2}"),
+            Axis::ColourBand => match x.floor() as i64 {
+                0 => "the red band".to_string(),
+                1 => "the green band".to_string(),
+                _ => "the blue band".to_string(),
+            },
         }
     }
 
@@ -77,6 +94,7 @@ impl Axis {
             Axis::MosaicPosition => (0.0, 4.0, 4),
             Axis::Channel => (0.0, 4.0, 4),
             Axis::ModelDolp => (0.0, 1.0, 10),
+            Axis::ColourBand => (0.0, 3.0, 3),
         }
     }
 }
@@ -96,6 +114,8 @@ pub struct Position {
     pub mosaic: f64,
     pub channel: f64,
     pub model_dolp: f64,
+    /// Colour band index (`Band::index`); NaN on a monochrome sensor.
+    pub band: f64,
 }
 
 impl Position {
@@ -107,6 +127,7 @@ impl Position {
             Axis::MosaicPosition => self.mosaic,
             Axis::Channel => self.channel,
             Axis::ModelDolp => self.model_dolp,
+            Axis::ColourBand => self.band,
         }
     }
 }
@@ -210,7 +231,8 @@ impl Profiler {
         }
     }
 
-    /// The profiles (bins without any sample left out).
+    /// The profiles (bins without any sample left out; the colour band's only where a
+    /// sample has a band).
     pub fn finish(&self) -> Vec<Profile> {
         let mean = |s: f64, n: usize| if n > 0 { s / n as f64 } else { f64::NAN };
         Axis::ALL
@@ -236,6 +258,7 @@ impl Profiler {
                     .collect();
                 Profile { axis, bins }
             })
+            .filter(|p| p.axis != Axis::ColourBand || !p.bins.is_empty())
             .collect()
     }
 }
@@ -337,6 +360,7 @@ fn label(a: Axis) -> &'static str {
         Axis::MosaicPosition => "the mosaic position",
         Axis::Channel => "the analyzer channel",
         Axis::ModelDolp => "the model's DoLP",
+        Axis::ColourBand => "the colour band",
     }
 }
 
@@ -354,6 +378,7 @@ mod tests {
             mosaic: 3.0,
             channel: 1.0,
             model_dolp: 0.55,
+            band: f64::NAN,
         };
         p.add_dn(&at, 2.0);
         p.add_dn(&at, -1.0);
@@ -373,6 +398,18 @@ mod tests {
         assert_eq!((get(Axis::Channel).bins[0].lo, get(Axis::Channel).bins[0].pol_samples), (1.0, 0));
         assert_eq!(Axis::Channel.describe(1.5), "the 45° channel");
         assert_eq!(get(Axis::ModelDolp).bins[0].lo, 0.5);
+        // A monochrome sensor's samples have no band: no band profile at all.
+        assert!(out.iter().all(|q| q.axis != Axis::ColourBand));
+        // A colour sensor's: each in its band's bin, polarization samples too.
+        let mut c = Profiler::new(0.8);
+        c.add_dn(&Position { band: 2.0, ..at }, 3.0);
+        c.add_dn(&Position { band: 0.0, ..at }, 1.0);
+        c.add_pol(&Position { band: 2.0, ..at }, Some(0.5), -0.01);
+        let bands = c.finish().into_iter().find(|q| q.axis == Axis::ColourBand).unwrap().bins;
+        let lo_n: Vec<(f64, usize, f64, usize)> =
+            bands.iter().map(|b| (b.lo, b.dn_samples, b.chi2_per_sample, b.pol_samples)).collect();
+        assert_eq!(lo_n, [(0.0, 1, 1.0, 0), (2.0, 1, 9.0, 1)]);
+        assert_eq!(Axis::ColourBand.describe(2.5), "the blue band");
         // Out of range: nowhere.
         let mut q = Profiler::new(0.8);
         q.add_dn(&Position { radius: 0.9, ..at }, 1.0);
@@ -392,6 +429,7 @@ mod tests {
                 mosaic: 0.0,
                 channel: 0.0,
                 model_dolp: 0.3,
+                band: f64::NAN,
             };
             for _ in 0..10 {
                 p.add_dn(&at, az.to_radians().cos());

@@ -197,6 +197,7 @@ pub fn residual_maps_of(
             mosaic: f64::NAN,
             channel: f64::NAN,
             model_dolp: f64::NAN,
+            band: f64::NAN,
         }
     };
     // Stacked sums: Σz with its count, Σz² (the same count).
@@ -300,6 +301,10 @@ impl<P: Fn(&crate::chain::ChainFrame, glam::DVec3, f64, f64) -> Position + Sync>
     ) -> Band {
         let (pb, c, w, pw) = (self.pb, self.pb.capture, self.w, self.pw);
         let mut profiler = Profiler::new(self.corner);
+        // A colour sensor's pixel's band (a 2 × 2 tile lies under one filter); none on
+        // a monochrome one.
+        let band_of =
+            |u: usize, v: usize| c.sensor.colour.as_ref().map_or(f64::NAN, |t| t.band_at(u, v).index() as f64);
         let mut buf = Vec::new();
         // Per pixel: DN residuals; gather the channels of each polarization sample of
         // the band's polarization row, then its residuals.
@@ -318,6 +323,7 @@ impl<P: Fn(&crate::chain::ChainFrame, glam::DVec3, f64, f64) -> Position + Sync>
                 let at = Position {
                     mosaic: if self.dofp { ((u % 2) + 2 * (v % 2)) as f64 } else { f64::NAN },
                     model_dolp: crate::chain::ray_stokes(f, &g).dolp(),
+                    band: band_of(u, v),
                     ..(self.position)(f, g.d, u as f64, v as f64)
                 };
                 let i = (v - v0) * w + u;
@@ -356,7 +362,8 @@ impl<P: Fn(&crate::chain::ChainFrame, glam::DVec3, f64, f64) -> Position + Sync>
                     let (u, v) =
                         if self.dofp { (2.0 * pu as f64 + 0.5, 2.0 * pv as f64 + 0.5) } else { (pu as f64, pv as f64) };
                     let d = f.intr.geometry(u, v).d;
-                    profiler.add_pol(&Position { model_dolp, ..(self.position)(f, d, u, v) }, da, dd);
+                    let band = band_of(if self.dofp { 2 * pu } else { pu }, if self.dofp { 2 * pv } else { pv });
+                    profiler.add_pol(&Position { model_dolp, band, ..(self.position)(f, d, u, v) }, da, dd);
                     Some((da, dd))
                 })
                 .collect();
