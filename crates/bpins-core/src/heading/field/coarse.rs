@@ -23,8 +23,9 @@
 //! 8 frames ambiguous at 4 px cells, 8 of 8 within 1σ at 8 px). Larger cells carry the
 //! same information with less noise per cell and 4× the degrees of freedom per noise
 //! estimate. A bright frame is untouched, however weakly polarized (a day's overcast:
-//! its cells' radiance stands hundreds of σ above their noise), and so is a dim one
-//! whose polarized signal stands 6σ above it.
+//! its cells' radiance stands hundreds of σ above their noise, or, on small cells,
+//! its holes of clear sky stand 30σ polarized), and so is a dim one whose polarized
+//! signal stands 6σ above it.
 //!
 //! Dim is judged cell by cell, the median cell deciding ([`is_dim`]), not on the pooled
 //! mean: a city's light dome on one side of a fisheye (docs/night.md) lifted the pooled
@@ -37,8 +38,23 @@
 //! S/N under 6 on 4 px cells, the moon alone giving 731 e⁻ per pixel). At 300σ every frame of the night's
 //! sweep (`examples/night/sweep.sh`, four latitudes) is dim: more photons never read
 //! fewer frames there, and the median 1σ rises from one exposure to the next in three
-//! rows only, by 0.003–0.017° (docs/night.md); the cloud table's day frames read
-//! exactly as under the old rule (measured 2026-11-28).
+//! rows only, by 0.003–0.017°, where the longer exposure stops the merge a step earlier
+//! (docs/night.md, "Why the 1σ rises with the exposure": on 4 px cells the
+//! delete-one-block jackknife over-counts, conservatively); the cloud table's day
+//! frames read exactly as under the old rule (measured 2026-11-28).
+//!
+//! A day's frame can be dim too: the IMX250MZR's 3.45 µm pixels on 4 px cells stand
+//! 300σ (noise ×1.5) only from about 8000 e⁻ per pixel at the zenith, three quarters of
+//! its full well (measured: 234σ at 4720 e⁻, 324σ at 9441 e⁻). Clear or weakly
+//! polarized, it is read as well or better dim (docs/night.md, "Day frames near the
+//! bound"); a heavy overcast's is not: its pooled polarized S/N is under 6 because
+//! its cloud is depolarized, not because its cells are noisy, and merging blurs its
+//! holes of clear sky into the cloud about them (measured, 4720 e⁻ per pixel, 8 seeds
+//! × 8 headings: 33 of 64 read, one at 4.7σ, against 44 of 64 read bright). So a dim
+//! frame with at least 40 cells (`min_cells`) standing 30σ polarized above their
+//! noise in clusters ([`clear_holes`]: a noise-limited frame's few such cells lie
+//! alone) is read as a bright one: 39 of 64, the largest 2.1σ; every row of the
+//! night's sweep unchanged.
 //!
 //! Where the fit of a dim frame that still stands less than 6σ above its noise fails
 //! (ambiguous, too little sky, a misfit, a contradiction), the failure is named for the
@@ -63,6 +79,13 @@ const DIM_SNR: f64 = 300.0;
 /// A failed fit's dark is judged without the cells brighter than this × the median
 /// cell's radiance (a light dome: `explain_dim`).
 const GLOW: f64 = 2.0;
+/// A dim frame is read as a bright one where at least HOLE_CELLS of its cells (the
+/// field estimator's default `min_cells`) stand HOLE_SNR polarized above their noise
+/// in clusters (`clear_holes`: an overcast's holes). 30σ: on the night's sweep a 4 px
+/// frame's clustered cells that high number 0–7 (the full moon at 42°, 4 s, S/N 8.3
+/// pooled), a heavy overcast's at 4720 e⁻ per pixel 60–143.
+const HOLE_SNR: f64 = 5.0 * POLARIZED_SNR;
+const HOLE_CELLS: usize = 40;
 /// Never merge below this many cells across or down.
 const MIN_GRID: usize = 16;
 
@@ -110,7 +133,7 @@ pub(super) fn explain_dim(cells: &Cells, why: NoHeading) -> NoHeading {
             | NoHeading::PoorFit { .. }
             | NoHeading::Contradicts { .. }
     );
-    if !fit_failed || !is_dim(cells, DIM_SNR) {
+    if !fit_failed || !is_dim(cells, DIM_SNR) || clear_holes(cells, HOLE_SNR) >= HOLE_CELLS {
         return why;
     }
     // Judged on the sky the fit reads, not on a glow that drowns part of it: cells more
@@ -153,7 +176,7 @@ pub(super) fn coarsened(cells: &Cells) -> Option<Cells> {
     let k = noise_factor(cells.cell_px);
     // The noise scaled by k scales the radiance's S/N by 1/√k: a bright frame is told
     // before any copy (a live loop allocates nothing for it).
-    if !is_dim(cells, DIM_SNR * k.sqrt()) {
+    if !is_dim(cells, DIM_SNR * k.sqrt()) || clear_holes(cells, HOLE_SNR * k.sqrt()) >= HOLE_CELLS {
         return None;
     }
     let mut c = cells.clone();
@@ -165,6 +188,29 @@ pub(super) fn coarsened(cells: &Cells) -> Option<Cells> {
         c = merged(&c);
     }
     Some(c)
+}
+
+/// How many of `c`'s cells stand `min_snr` polarized above their noise in clusters
+/// (each with two others of them among its eight neighbours, `stats::clustered`): an
+/// overcast's holes of clear sky. Per cell, as [`polarized_snr`] pools it:
+/// (Q² + U² − 2σ²)/σ² ≥ min_snr², σ² = ½(var Q + var U), DN². A noise-limited frame's
+/// cells scatter about its pooled S/N, and the few that a noisy variance (one degree
+/// of freedom per channel on 4 px cells) lifts that high lie alone. Limits: a clear
+/// night exposed long enough has such clusters too (the full moon at 42°, 256 px, from
+/// 8 s) and is then read as a bright one, its noise not counted ×1.5: at 8 s median 1σ
+/// 0.071° against 0.063° under the rule before, RMS error 0.051° against 0.054°.
+fn clear_holes(c: &Cells, min_snr: f64) -> usize {
+    let mut mask = vec![false; c.cols * c.rows];
+    for x in &c.cells {
+        let s2 = 0.5 * (x.var_q_dn2 + x.var_u_dn2);
+        let p2 = x.stokes.q * x.stokes.q + x.stokes.u * x.stokes.u;
+        if let Some(m) = mask.get_mut(x.row as usize * c.cols + x.col as usize) {
+            *m = p2 - 2.0 * s2 >= min_snr * min_snr * s2;
+        }
+    }
+    let mut kept = Vec::new();
+    super::stats::clustered(&mask, c.cols, &mut kept);
+    kept.iter().filter(|&&m| m).count()
 }
 
 /// Every whole 2 × 2 block of `c`'s cells as one cell.
@@ -297,6 +343,38 @@ mod tests {
             c.var_u_dn2 = 1e-4;
         }
         assert!(coarsened(&g).is_none());
+    }
+
+    #[test]
+    fn an_overcast_s_clear_holes_keep_its_cells_and_the_dark_s_lone_bright_cells_do_not() {
+        // Dim (I = 10 DN, σ_I = √½ DN), weakly polarized on the whole (P = 1 DN against
+        // σ = 1 DN: merged, as `a_bright_frame_is_untouched…` shows), with a 7 × 7 hole of
+        // clear sky (P = 40 DN: (1600 − 2)/1 ≥ 30² · 1.5, 30σ with the noise ×1.5): 49
+        // clustered cells ≥ 40, read as they are, and a failed fit there is not the dark's.
+        let mut g = grid(64, 1.0, 1.0);
+        for c in g.cells.iter_mut().filter(|c| (10..17).contains(&c.col) && (20..27).contains(&c.row)) {
+            c.stokes.q = 40.0;
+        }
+        assert!(polarized_snr(&g) < POLARIZED_SNR, "{}", polarized_snr(&g));
+        assert_eq!(clear_holes(&g, HOLE_SNR * 1.5f64.sqrt()), 49);
+        assert!(coarsened(&g).is_none(), "an overcast's holes: its fine cells kept");
+        let amb = NoHeading::Ambiguous { best_deg: 1.0, other_deg: 180.0 };
+        assert_eq!(explain_dim(&g, amb.clone()), amb);
+        // A hole of 6 × 6 = 36 cells is too few: merged as a dark frame.
+        let mut small = grid(64, 1.0, 1.0);
+        for c in small.cells.iter_mut().filter(|c| c.col < 6 && c.row < 6) {
+            c.stokes.q = 40.0;
+        }
+        assert_eq!(clear_holes(&small, HOLE_SNR * 1.5f64.sqrt()), 36);
+        assert!(coarsened(&small).expect("dim").cell_px > 4);
+        // 64 as bright but alone (every 8th cell of every 8th row: no two neighbours):
+        // a noisy variance's, not a hole; merged.
+        let mut lone = grid(64, 1.0, 1.0);
+        for c in lone.cells.iter_mut().filter(|c| c.col % 8 == 0 && c.row % 8 == 0) {
+            c.stokes.q = 40.0;
+        }
+        assert_eq!(clear_holes(&lone, HOLE_SNR * 1.5f64.sqrt()), 0);
+        assert!(coarsened(&lone).expect("dim").cell_px > 4);
     }
 
     #[test]
