@@ -165,8 +165,9 @@ fn trials_apart_deg(cpu: &Path, gpu: &Path) -> f64 {
 }
 
 /// A colour sensor's sweep on the GPU (issue 45): each trial's colour mosaic rendered on
-/// the device, crosstalk across bands in one source's trials, every band's and the fused
-/// heading within the heading tolerance of the CPU's, trial by trial.
+/// the device and summed there band by band (only the sums read back), crosstalk across
+/// bands in one source's trials, every band's and the fused heading within the heading
+/// tolerance of the CPU's, trial by trial.
 fn a_colour_sweep_with_crosstalk_on_the_gpu_gives_the_cpu_trials() {
     let t = tempfile::tempdir().unwrap();
     let spec = t.path().join("colour.toml");

@@ -41,6 +41,10 @@ fn main() -> std::process::ExitCode {
                 ),
                 ("a_colour_sensor_agrees_on_both_backends", a_colour_sensor_agrees_on_both_backends),
                 ("each_bands_neutral_points_agree_on_both_backends", each_bands_neutral_points_agree_on_both_backends),
+                (
+                    "colour_band_sums_on_the_device_equal_the_hosts_of_the_same_mosaic",
+                    colour_band_sums_on_the_device_equal_the_hosts_of_the_same_mosaic,
+                ),
             ],
         ),
         (
@@ -468,5 +472,144 @@ fn each_bands_neutral_points_agree_on_both_backends() {
     for gpu in gpus() {
         let g = render(true, gpu);
         assert_eq!(beyond(&cpu, &g), 0, "{}: band neutral points beyond tolerance", gpu.precision().name());
+    }
+}
+
+/// A colour sensor's band sums reduced on the device (issue 45). Two noisy trials of a
+/// 64 × 48 RGGB sensor (band model at typical strength, a lens ρ), their mosaics
+/// rendered on the device and read back; each band's sums of those very mosaics, two
+/// contexts (lens ρ unknown and known), summed on the host (the CPU's
+/// `colour_mosaic_heading_sums`), on the device from the uploaded mosaics, and on the
+/// device from mosaics rendered in place and never read back (the sweep's route: two
+/// readings per trial sharing its mosaic, the second with one context). Counts equal;
+/// every other sum within 1e-10 (f64 kernels: only the order of the additions differs)
+/// or 1e-3 (f32) of the largest of its kind, and at f32 one band sample's worth (≤ 1)
+/// more for the band sums (a sample on the other side of the band's edge); both
+/// extractors' headings within the heading tolerance (at f32 as `bpins agree` bounds them).
+fn colour_band_sums_on_the_device_equal_the_hosts_of_the_same_mosaic() {
+    use bpins_core::camera::{Intrinsics, Projection};
+    use bpins_core::effects::{find, EffectSet};
+    use bpins_core::sensor::{Channel, ColourTiles, Response, DEFAULT_MOSAIC};
+    use bpins_core::twin::{
+        colour_mosaic_heading_sums, Backend, ChainFrame, ColourSumsJob, Extractor, HeadingContext, HeadingSums,
+        NoiseIndex, Reconstructor, Scene,
+    };
+    let (w, h) = (64, 48);
+    let intr = Intrinsics::new(Projection::Pinhole, 40.0, 31.5, 23.5);
+    let resp = Response {
+        black_level_dn: 64.0,
+        read_noise_dn: 2.0,
+        system_gain_dn_per_e: 0.1,
+        quantize: true,
+        bit_depth: 12,
+        ..Response::ideal(3000.0)
+    };
+    let tiles = ColourTiles::imx250myr();
+    let mut set = EffectSet::new();
+    for name in ["sky_spectrum", "band_response"] {
+        for p in find(name).unwrap().params {
+            set.set(name, p.name, p.typical).unwrap();
+        }
+    }
+    set.set("lens_diattenuation", "rho2", 0.05).unwrap();
+    let model = set.model();
+    let scenes: Vec<Scene> = (0..2)
+        .map(|i| Scene {
+            sun_az_deg: 200.0,
+            sun_el_deg: 40.0 + 20.0 * i as f64,
+            heading_deg: 30.0 + 100.0 * i as f64,
+            tilt_x_deg: 0.0,
+            tilt_y_deg: 0.0,
+            dmax: 0.7,
+        })
+        .collect();
+    let frames: Vec<[ChainFrame; 3]> = scenes
+        .iter()
+        .enumerate()
+        .map(|(i, sc)| {
+            ChainFrame::new(&model, &intr, sc, &resp, NoiseIndex { seed: 45, trial: i as u32, frame: 0 })
+                .bands(&model, sc)
+        })
+        .collect();
+    let rec = Reconstructor::new(&Default::default(), resp.black_level_dn, &Channel::ALL).unwrap();
+    let ctx = |sc: &Scene, rho2: f64| HeadingContext {
+        lens_rho2: rho2,
+        ..HeadingContext::new(intr, w, h, sc.sun_az_deg - sc.heading_deg, sc.sun_el_deg)
+    };
+    // Both trials are read under the first trial's contexts by the given-mosaic route.
+    let contexts = [ctx(&scenes[0], 0.0), ctx(&scenes[0], 0.05)];
+    let full_scale = resp.full_scale_dn();
+    for gpu in gpus() {
+        let name = gpu.precision().name();
+        let f64_kernels = gpu.precision() == Precision::F64;
+        let dn = Backend::render_colour_mosaic(gpu, &frames, w, h, &DEFAULT_MOSAIC, &tiles).unwrap();
+        let given: Vec<&[f32]> = dn.iter().map(|d| d.as_slice()).collect();
+        let device =
+            gpu.colour_mosaic_heading_sums(&given, w, h, &DEFAULT_MOSAIC, &tiles, &rec, full_scale, &contexts).unwrap();
+        let jobs: Vec<ColourSumsJob> = frames
+            .iter()
+            .flat_map(|f| {
+                [
+                    ColourSumsJob { frames: f, rec: &rec, contexts: &contexts },
+                    ColourSumsJob { frames: f, rec: &rec, contexts: &contexts[..1] },
+                ]
+            })
+            .collect();
+        let in_place = gpu.colour_heading_sums(&jobs, w, h, &DEFAULT_MOSAIC, &tiles, full_scale).unwrap();
+        assert_eq!((device.len(), in_place.len()), (2, 4), "{name}");
+        // (sums, their values' largest magnitude per kind: scatter, band sums)
+        let scale = |s: &HeadingSums| {
+            let max = |v: &mut dyn Iterator<Item = f64>| v.fold(0.0, |m: f64, x| m.max(x.abs()));
+            (max(&mut s.scatter.iter().copied()), max(&mut s.line.iter().flatten().copied()))
+        };
+        let close = |host: &HeadingSums, dev: &HeadingSums, what: &str| {
+            assert_eq!(host.n, dev.n, "{name} {what}: sample counts");
+            let (scatter, line) = scale(host);
+            let rel = if f64_kernels { 1e-10 } else { 1e-3 };
+            for (a, b) in host.scatter.iter().zip(&dev.scatter) {
+                assert!((a - b).abs() <= rel * scatter, "{name} {what}: scatter {a} on the host, {b} on the device");
+            }
+            let slack = if f64_kernels { 0.0 } else { 1.0 };
+            for (k, (a, b)) in host.line.iter().flatten().zip(dev.line.iter().flatten()).enumerate() {
+                assert!(
+                    (a - b).abs() <= rel * line + slack,
+                    "{name} {what}: band sum {k} {a} on the host, {b} on the device"
+                );
+            }
+        };
+        for (k, d) in dn.iter().enumerate() {
+            let host = colour_mosaic_heading_sums(d, w, h, &DEFAULT_MOSAIC, &tiles, &rec, full_scale, &contexts);
+            assert_eq!(device[k].len(), 2, "{name}");
+            for (c, (hc, dc)) in host.iter().zip(&device[k]).enumerate() {
+                for b in 0..3 {
+                    let what = format!("trial {k} context {c} band {b}");
+                    close(&hc[b], &dc[b], &what);
+                    // The mosaics summed in place (never read back) are the same mosaics.
+                    close(&hc[b], &in_place[2 * k][c][b], &format!("{what}, rendered in place"));
+                    if c == 0 {
+                        close(&hc[b], &in_place[2 * k + 1][0][b], &format!("{what}, second reading"));
+                    }
+                    // The check can fail: each band reads its own quarter (R, B) or half (G).
+                    let share = if b == 1 { 2.0 } else { 1.0 };
+                    let n_px = (w / 2 * h / 2) as f64 / 4.0 * share;
+                    assert!(hc[b].n > 0.9 * n_px && hc[b].n <= n_px, "{what}: {} of {n_px} superpixels", hc[b].n);
+                    for e in Extractor::ALL {
+                        let (x, y) = (hc[b].solve(e, &contexts[c]), dc[b].solve(e, &contexts[c]));
+                        if let (Ok(x), Ok(y)) = (&x, &y) {
+                            let diff = bpins_gpu::tolerance::heading_diff_deg(x.heading_deg, y.heading_deg).abs();
+                            // At f32 as `bpins agree` bounds it: a tenth of a loosely determined estimate's 1σ.
+                            use bpins_gpu::tolerance::f32 as f32_tol;
+                            let tol = match gpu.precision() {
+                                Precision::F64 => bpins_gpu::tolerance::HEADING_DEG,
+                                Precision::F32 => f32_tol::HEADING_DEG.max(x.sigma_deg / f32_tol::HEADING_SIGMA_SHARE),
+                            };
+                            assert!(diff <= tol, "{name} {what} {e:?}: headings {diff}° apart");
+                        } else {
+                            assert_eq!(x.is_ok(), y.is_ok(), "{name} {what} {e:?}: one side solves, one not");
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -36,3 +36,28 @@ fn reduce_partials(@builtin(local_invocation_index) li: u32, @builtin(workgroup_
         sums[job * SUMS_LEN + k] = red1[0];
     }
 }
+
+// The same sums on a CPU adapter (llvmpipe), where the tree's barriers cost more than
+// the additions (each switches every SIMD group of the workgroup): one invocation per
+// (value, job), no workgroup memory, no barrier; the partials added in blocks of
+// WG_SIZE, in order, then the blocks' sums in order (no f32 sum runs over more than
+// WG_SIZE + partials / WG_SIZE terms in series). The same values as reduce_partials to
+// rounding (another fixed order). Global id x is value + SUMS_LEN · job.
+@compute @workgroup_size(64, 1, 1)
+fn reduce_partials_serial(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let n = dims.size.x;
+    if (gid.x >= SUMS_LEN * dims.size.y) {
+        return;
+    }
+    let job = gid.x / SUMS_LEN;
+    let k = gid.x % SUMS_LEN;
+    var total = 0.0lf;
+    for (var b = 0u; b < n; b += WG_SIZE) {
+        var block = 0.0lf;
+        for (var p = b; p < min(b + WG_SIZE, n); p++) {
+            block += partials[(job * n + p) * SUMS_LEN + k];
+        }
+        total += block;
+    }
+    sums[job * SUMS_LEN + k] = total;
+}

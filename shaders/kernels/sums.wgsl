@@ -15,7 +15,8 @@
 // Keep in sync with `SumsDims` in crates/bpins-gpu/src/params.rs.
 struct SumsDims {
     samples: vec4<u32>, // samples across, samples down, contexts per frame, layout (0 DoFP, 1 colocated; the kernel reads SUMS_LAYOUT)
-    image: vec4<u32>,   // width_px, height_px, workgroups across (ROWS rows each), runs per row
+    image: vec4<u32>,   // width_px, height_px, workgroups across (ROWS rows each), runs per row (colour: per parity)
+    tiles: vec4<u32>,   // colour: band index at tile position 2·(j mod 2) + (i mod 2) of superpixel (i, j); 0 otherwise
 }
 
 @group(0) @binding(0) var<uniform> dims: SumsDims;
@@ -274,5 +275,116 @@ fn frame_sums(@builtin(global_invocation_id) gid: vec3<u32>) {
     write_partial(&a0, ((frame * dims.samples.z) * n + p) * SUMS_LEN);
     if (two) {
         write_partial(&a1, ((frame * dims.samples.z + 1u) * n + p) * SUMS_LEN);
+    }
+}
+
+// Colour-polarization sensors: each band's heading sums of colour mosaics already
+// rendered on the device (render.wgsl `render_colour_mosaic` into `mosaics`, one
+// w × h DN frame after another; job z reads frame `mosaic_of[z]`). Only the sums come
+// back, SUMS_LEN per (job, context, band), never the mosaic.
+@group(0) @binding(5) var<storage, read> mosaics: array<f32>;
+@group(0) @binding(6) var<storage, read> mosaic_of: array<u32>;
+
+// Superpixel (i, j) of the stored mosaic at `base`: the tile's four DN (f32, as the
+// mosaic holds them), masked outside (0, full scale), then the tile's Stokes vector.
+// CPU twin: recon.rs `superpixel_stokes_row` for one tile (a masked tile's I is NaN
+// there, `ok` false here).
+fn stored_superpixel(base: u32, rp: ReconParams, i: u32, j: u32) -> Sample {
+    let w = dims.image.x;
+    var d = vec4<f64>(0.0lf);
+    var ok = true;
+    let full_scale = wide(rp.valid).x;
+    for (var p = 0u; p < 4u; p++) {
+        let u = 2u * i + (p & 1u);
+        let v = 2u * j + (p >> 1u);
+        let x = f64(mosaics[base + v * w + u]);
+        ok = ok && (full_scale == 0.0lf || dn_is_valid(x, full_scale));
+        d[rp.mosaic[p]] = x;
+    }
+    return Sample(reconstruct(rp, d), ok);
+}
+
+// Writes one context's sums as this invocation's partial for its band `band`, and
+// zeros for the other two bands' (every partial slot is written by exactly one
+// invocation). `base` is the (job, context)'s first band's slot.
+fn write_band_partials(a: ptr<function, Acc>, base: u32, n: u32, band: u32) {
+    for (var b = 0u; b < 3u; b++) {
+        let at = (base + b * n) * SUMS_LEN;
+        if (b == band) {
+            write_partial(a, at);
+        } else {
+            for (var t = 0u; t < SUMS_LEN; t++) {
+                partials[at + t] = 0.0lf;
+            }
+        }
+    }
+}
+
+// Each band's heading sums of a colour DoFP mosaic, one set per context. CPU twin:
+// bpins-core sweep/colour.rs `colour_mosaic_heading_sums(dn, w, h, mosaic, tiles, rec,
+// full_scale_dn, contexts)`, same steps: per tile row j, the row's superpixels (rec;
+// samples outside (0, full_scale_dn) masked); the even and the odd tiles of the row,
+// each under one band (`dims.tiles[2·(j mod 2) + parity]`, tiles.tiles[j mod 2][parity]),
+// summed as a row of their own into that band's sums; superpixel i at x = 0.5 + 2i px,
+// y = 0.5 + 2j px (the contexts' grid). Here one invocation per run of one parity's
+// superpixels along row j: global id x is the row, y = parity · runs + run, z the job;
+// partial slot p of n per (job, context, band), added by `reduce_partials` in a fixed
+// order (the CPU adds rows in row order: the sums agree to rounding).
+@compute @workgroup_size(64, 1, 1)
+fn colour_mosaic_heading_sums(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let job = gid.z;
+    let j = gid.x;
+    let n_ctx = min(dims.samples.z, MAX_CTX);
+    let runs = dims.image.w;
+    let parity = gid.y / runs;
+    let run = gid.y % runs;
+    // This invocation's run of the row's superpixels i = 2m + parity, m in [m0, m1).
+    let of_parity = (dims.samples.x + 1u - parity) / 2u;
+    let per_run = (of_parity + runs - 1u) / runs;
+    let m0 = min(run * per_run, of_parity);
+    let m1 = select(min(m0 + per_run, of_parity), m0, j >= dims.samples.y);
+    let band = dims.tiles[2u * (j & 1u) + parity];
+    let base = mosaic_of[job] * dims.image.x * dims.image.y;
+    let rp = recon[job];
+    let h0 = heading[job * dims.samples.z];
+    let h1 = heading[job * dims.samples.z + n_ctx - 1u];
+    let c0 = context_from(h0);
+    let c1 = context_from(h1);
+    let two = n_ctx > 1u;
+    var a0 = acc_new();
+    var a1 = acc_new();
+    for (var b = m0; b < m1; b += BLOCK) {
+        let e = min(b + BLOCK, m1);
+        for (var m = b; m < e; m++) {
+            // The superpixel's Stokes vector from the stored mosaic.
+            let i = 2u * m + parity;
+            let sample = stored_superpixel(base, rp, i, j);
+            // Its band's sums along the assumed ray at the superpixel's position.
+            let x0 = c0.grid.x + c0.grid.z * f64(i);
+            let y0 = c0.grid.y + c0.grid.z * f64(j);
+            let g0 = geometry(c0.intr, x0, y0);
+            let k0 = sector_at(c0, x0, y0);
+            accumulate(&a0, c0, g0, x0, y0, k0, sample);
+            if (two) {
+                let x1 = c1.grid.x + c1.grid.z * f64(i);
+                let y1 = c1.grid.y + c1.grid.z * f64(j);
+                var g1 = g0;
+                var k1 = k0;
+                if (SHARED_RAYS == 0u) {
+                    g1 = geometry(c1.intr, x1, y1);
+                    k1 = sector_at(c1, x1, y1);
+                }
+                accumulate(&a1, c1, g1, x1, y1, k1, sample);
+            }
+        }
+        flush_block(&a0);
+        flush_block(&a1);
+    }
+    // Partial slots per (job, context, band): n = 2 parities × runs × the rows' slots.
+    let n = 2u * runs * dims.image.z * ROWS;
+    let p = gid.y * dims.image.z * ROWS + j;
+    write_band_partials(&a0, (job * dims.samples.z) * 3u * n + p, n, band);
+    if (two) {
+        write_band_partials(&a1, (job * dims.samples.z + 1u) * 3u * n + p, n, band);
     }
 }

@@ -8,6 +8,11 @@
 //!   frame as `bpins-core`'s `frame/dofp_2048x2448_sky_to_heading`. Throughput is
 //!   per frame. Target on an H100: ≤ 1 ms per frame.
 //! * `gpu_frame/dofp_2048x2448_render_batch8`: the mosaics alone, read back.
+//! * `gpu_frame/colour_2048x2448_band_sums_batch8`: the same frames as IMX250MYR colour
+//!   mosaics (each band's frame, the bands' defaults), rendered and summed band by band
+//!   on the device, only the sums read back (the colour sweep's route), beside
+//!   `colour_2048x2448_render_batch8`: the colour mosaics alone, read back (what the
+//!   colour sweep read back before its sums moved to the device).
 //! * `gpu_sweep/trials_80`: the paper sweep at 2 trials per azimuth (80 trials of
 //!   1224 × 1024 colocated, every source), as `bpins run --backend gpu` runs it.
 //! * `gpu_sweep/paper_800_trials`: the whole sweep (set BPINS_BENCH_SWEEP=1: on
@@ -15,9 +20,9 @@
 
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::effects::Model;
-use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
+use bpins_core::sensor::{Channel, ColourTiles, Response, DEFAULT_MOSAIC};
 use bpins_core::twin::Reconstructor;
-use bpins_core::twin::{ChainFrame, NoiseIndex, Scene};
+use bpins_core::twin::{ChainFrame, ColourSumsJob, NoiseIndex, Scene};
 use bpins_core::twin::{Extractor, HeadingContext};
 use bpins_core::twin::{Source, SweepConfig};
 use bpins_gpu::{Gpu, SampleLayout, SumsJob};
@@ -79,6 +84,20 @@ fn gpu_frame(c: &mut Criterion) {
     });
     g.bench_function("dofp_2048x2448_render_batch8", |b| {
         b.iter(|| black_box(gpu.render_mosaic(&chain, W, H, &DEFAULT_MOSAIC).unwrap()))
+    });
+    // The same frames on a colour sensor: each band's frame of the default model.
+    let tiles = ColourTiles::imx250myr();
+    let scene =
+        Scene { sun_az_deg: 40.0, sun_el_deg: 25.0, heading_deg: 30.0, tilt_x_deg: 0.0, tilt_y_deg: 0.0, dmax: 0.6 };
+    let bands: Vec<[ChainFrame; 3]> = frames.iter().map(|f| f.0.bands(&Model::default(), &scene)).collect();
+    let contexts = [ctx];
+    let colour_jobs: Vec<ColourSumsJob> =
+        bands.iter().zip(&frames).map(|(b, f)| ColourSumsJob { frames: b, rec: &f.1, contexts: &contexts }).collect();
+    g.bench_function("colour_2048x2448_band_sums_batch8", |b| {
+        b.iter(|| black_box(gpu.colour_heading_sums(&colour_jobs, W, H, &DEFAULT_MOSAIC, &tiles, 4095.0).unwrap()))
+    });
+    g.bench_function("colour_2048x2448_render_batch8", |b| {
+        b.iter(|| black_box(gpu.render_colour_mosaic(&bands, W, H, &DEFAULT_MOSAIC, &tiles).unwrap()))
     });
     g.finish();
 }

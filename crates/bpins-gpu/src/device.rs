@@ -44,6 +44,8 @@ pub(crate) struct Pipelines {
     /// first use (llvmpipe compiles each for a while).
     specialised: Mutex<HashMap<Specialisation, wgpu::ComputePipeline>>,
     pub reduce_partials: wgpu::ComputePipeline,
+    /// `reduce_partials_serial`: the same sums without barriers, for a CPU adapter.
+    pub reduce_partials_serial: wgpu::ComputePipeline,
 }
 
 /// One specialised pipeline: its entry point and its constants (name, value's bits).
@@ -211,10 +213,20 @@ impl Gpu {
     }
 
     pub(crate) fn bind(&self, pipeline: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+        let numbered: Vec<(u32, &wgpu::Buffer)> = buffers.iter().enumerate().map(|(i, b)| (i as u32, *b)).collect();
+        self.bind_at(pipeline, &numbered)
+    }
+
+    /// [`Gpu::bind`] with each buffer at its own binding number (an entry point that
+    /// uses only some of its module's bindings).
+    pub(crate) fn bind_at(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[(u32, &wgpu::Buffer)],
+    ) -> wgpu::BindGroup {
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+            .map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: b.as_entire_binding() })
             .collect();
         self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: None,
@@ -363,6 +375,9 @@ impl Pipelines {
         if p == &self.reduce_partials {
             return "reduce_partials";
         }
+        if p == &self.reduce_partials_serial {
+            return "reduce_partials_serial";
+        }
         let made = self.specialised.lock().unwrap_or_else(|e| e.into_inner());
         made.iter().find(|(_, q)| *q == p).map_or("other", |(s, _)| s.entry)
     }
@@ -396,6 +411,16 @@ impl Pipelines {
         self.specialised(device, &self.sums_module, "frame_sums", &v.constants())
     }
 
+    /// The `colour_mosaic_heading_sums` pipeline (sums.wgsl) with `constants`
+    /// (`ColourSumsVariant` in colour_sums.rs).
+    pub(crate) fn colour_sums(
+        &self,
+        device: &wgpu::Device,
+        constants: &[(&'static str, f64)],
+    ) -> wgpu::ComputePipeline {
+        self.specialised(device, &self.sums_module, "colour_mosaic_heading_sums", constants)
+    }
+
     /// The pipeline of a `render.wgsl` entry point running the hooks of `masks`.
     pub(crate) fn render(
         &self,
@@ -416,18 +441,22 @@ impl Pipelines {
             }))
         };
         let reduce = module("reduce")?;
+        let reduce_entry = |entry: &'static str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: None,
+                module: &reduce,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
         Ok(Pipelines {
             render_module: module("render")?,
             sums_module: module("sums")?,
             specialised: Mutex::new(HashMap::new()),
-            reduce_partials: device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("reduce_partials"),
-                layout: None,
-                module: &reduce,
-                entry_point: Some("reduce_partials"),
-                compilation_options: Default::default(),
-                cache: None,
-            }),
+            reduce_partials: reduce_entry("reduce_partials"),
+            reduce_partials_serial: reduce_entry("reduce_partials_serial"),
         })
     }
 }

@@ -13,13 +13,16 @@
 //!   adapter lacks f64, or by choice, the same source runs in f32 ([`precision`]),
 //!   with statistical tolerances.
 //! * Heading: reduced on the device (each invocation sums a run of a row, then a
-//!   per-frame reduce); 119 numbers per frame come back, never the frame.
+//!   per-frame reduce); 119 numbers per frame come back, never the frame. A colour
+//!   sensor's mosaic is rendered and summed band by band on the device: 3 × 119 per
+//!   frame and context ([`Gpu::colour_heading_sums`]).
 //! * Batches: many frames (trials) per dispatch, split where the device's buffer
 //!   limits require it.
 //!
 //! Tolerances between the backends are in [`tolerance`] (and `TOLERANCES.md`).
 
 pub mod agree;
+mod colour_sums;
 mod device;
 mod masks;
 pub mod montecarlo;

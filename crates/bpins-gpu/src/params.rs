@@ -242,6 +242,8 @@ pub struct RenderDims {
 pub struct SumsDims {
     pub samples: [u32; 4],
     pub image: [u32; 4],
+    /// A colour sensor's [`tile_bands`] (`colour_mosaic_heading_sums`; zero for the others).
+    pub tiles: [u32; 4],
 }
 
 /// WGSL `ReduceDims` in `kernels/reduce.wgsl`.
@@ -296,7 +298,7 @@ mod tests {
         check!("sums", ReconParams, [row_i, row_q, row_u, inv_gain, offset_dn, valid, mosaic]);
         check!("sums", HeadingParams, [camera, distortion, band, grid]);
         check!("render", RenderDims, [size, mosaic, tiles]);
-        check!("sums", SumsDims, [samples, image]);
+        check!("sums", SumsDims, [samples, image, tiles]);
         check!("reduce", ReduceDims, [size]);
     }
 

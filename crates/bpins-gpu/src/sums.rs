@@ -19,7 +19,7 @@ pub const SUMS_LEN: usize = 7 + 7 * SECTORS;
 
 /// Rows of samples per workgroup of `frame_sums`, one invocation each (`ROWS` in
 /// `kernels/sums.wgsl`).
-const SUMS_ROWS: u32 = 64;
+pub(crate) const SUMS_ROWS: u32 = 64;
 
 /// Samples one invocation sums along its row on a GPU (on a CPU adapter: the whole row).
 const GPU_RUN_SAMPLES: u32 = 128;
@@ -164,6 +164,7 @@ impl Gpu {
             let dims = SumsDims {
                 samples: [sw as u32, sh as u32, n_ctx as u32, layout_id],
                 image: [w as u32, h as u32, wg_rows, runs],
+                tiles: [0; 4],
             };
             let n_jobs = (chunk.len() * n_ctx) as u32;
             let rdims = ReduceDims { size: [n_part as u32, n_jobs, 0, 0] };
@@ -202,7 +203,7 @@ impl Gpu {
     /// Runs per row of `sw` samples, one invocation each. A CPU adapter (llvmpipe) runs
     /// a workgroup's SIMD groups on one thread: whole rows give it long loops and few
     /// partials. A GPU needs many invocations in flight: runs of about GPU_RUN_SAMPLES.
-    fn sums_runs_per_row(&self, sw: u32) -> u32 {
+    pub(crate) fn sums_runs_per_row(&self, sw: u32) -> u32 {
         if self.is_cpu() {
             1
         } else {
@@ -212,7 +213,7 @@ impl Gpu {
 }
 
 /// `HeadingSums` from the kernel's SUMS_LEN values.
-fn sums_from(v: &[f64]) -> HeadingSums {
+pub(crate) fn sums_from(v: &[f64]) -> HeadingSums {
     let mut s = HeadingSums::default();
     s.scatter.copy_from_slice(&v[..6]);
     s.n = v[6];

@@ -90,8 +90,10 @@ pub fn colour_heading_sums(
 }
 
 /// [`colour_heading_sums`] of a colour mosaic already rendered (`dn`, `w × h` DN,
-/// row-major): each band's sums per context. A device that renders the mosaic and
-/// reads it back (`bpins-gpu`'s colour sweep) sums it here, as the CPU does.
+/// row-major): each band's sums per context. Its WGSL twin (`bpins-gpu`'s
+/// `Gpu::colour_mosaic_heading_sums`, `colour_mosaic_heading_sums` in
+/// `shaders/kernels/sums.wgsl`) sums the GPU colour sweep's mosaics on the device;
+/// `tests/gpu_parity.rs` compares the two on the same mosaics.
 #[allow(clippy::too_many_arguments)]
 pub fn colour_mosaic_heading_sums(
     dn: &[f32],
