@@ -152,8 +152,10 @@ pub fn colour_mosaic_heading_sums(
 /// with wᵦ = 1/σᵦ² (σᵦ each extractor's own statistical 1σ), taken as offsets from
 /// the first band's heading wrapped to ±180° so that headings either side of north
 /// average as angles. Equal weights where any answering band's σ is not a positive
-/// finite number. `None` where no band answered. Unlike the colour compass's fusion
-/// (`compass/colour.rs`) it carries no shared part: the plain extractors' 1σ has none.
+/// finite number. `None` where no band answered. The colour compass's fusion
+/// (`compass/colour.rs`) weighs its bands the same way (by the independent data term);
+/// its shared part enters the fused 1σ only, which a sweep does not record, so the
+/// fused heading is the same with or without it.
 pub fn fuse(estimates: &[Option<HeadingEstimate>; 3]) -> Option<f64> {
     let ok: Vec<&HeadingEstimate> = estimates.iter().flatten().collect();
     let first = ok.first()?.heading_deg;
