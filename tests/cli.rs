@@ -1543,18 +1543,57 @@ fn a_civil_twilight_frame_is_read_under_the_sun_below_the_horizon_and_a_mixed_on
         assert!(sun.contains("twilight: the sun at -4.4° gives 100 % of the sky's light"), "{sun}");
         assert!(sun.contains("below the horizon) 0 %"), "{sun}");
     }
+    // A one-source sky has no fitted share.
+    assert!(civil.iter().all(|r| r.get("fitted_sun_share").is_none() && r.get("fitted_sun_share_sigma").is_none()));
     let (both, mixed) = run("mixed", "2026-06-24T12:30:00Z", &["--scene", "twilight"]);
+    // The sun's share of the polarized radiance the frames were rendered with (the
+    // `twilight` element's weights, `Shares::sun_unit_share`): the fit's is near it.
+    let truth =
+        bpins_core::internal::sky::twilight::shares_at("2026-06-24T12:30:00Z", 36.07, 120.38).unwrap().sun_unit_share();
     for row in &mixed {
         let (e, sg) = (row["error_deg"].as_f64().expect("read"), row["sigma_deg"].as_f64().unwrap());
         assert!(e.abs() <= 3.0 * sg && sg < 0.3, "{row}");
         let sun = row["sun"].as_str().unwrap();
         assert!(sun.contains("the sun at -12.4° gives 50 % of the sky's light"), "{sun}");
         assert!(sun.contains("the moon (at 35.5°, 75 % lit) 50 %"), "{sun}");
+        let (w, sw) = (row["fitted_sun_share"].as_f64().unwrap(), row["fitted_sun_share_sigma"].as_f64().unwrap());
+        assert!((w - truth).abs() < 0.01 && sw > 0.0 && sw < 0.05, "fitted {w} ± {sw}, rendered {truth}: {row}");
     }
     // The moon's sky is in the mixed frame: without the element its pixels differ.
     let (one, _) = run("sun_only", "2026-06-24T12:30:00Z", &[]);
     let frame = |cap: &str| std::fs::read(std::path::Path::new(cap).join("frames/f000.png")).unwrap();
     assert_ne!(frame(&both), frame(&one));
+}
+
+/// Issue 48, the two-source reader under clouds (docs/night.md "Twilight"): a mixed
+/// twilight (2026-06-24T12:20Z at 36.07° N 120.38° E, the sun below −10° and a 75 %
+/// moon both lighting the sky) rendered with both skies and four small clouds near the
+/// zenith (the docs' cloud rows, scene seed 3), read by `bpins heading --json`: every
+/// frame read within 3σ, the clouds found (cloud fraction > 0), the fitted share
+/// reported in the JSON and the table.
+#[test]
+fn a_mixed_twilight_under_clouds_is_read_within_3_sigma_and_its_clouds_reported() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (cap, json) = (s(&tmp.path().join("cap")), s(&tmp.path().join("h.json")));
+    let mut args = vec!["simulate", "--out", &cap, "--time-utc", "2026-06-24T12:20:00Z", "--seed", "3"];
+    args.extend_from_slice(&["--scene-seed", "3", "--latitude-deg", "36.07", "--longitude-deg", "120.38"]);
+    args.extend_from_slice(&["--width-px", "128", "--height-px", "128", "--pixel-pitch-um", "27.6"]);
+    args.extend_from_slice(&["--headings-deg", "20,200", "--scene", "twilight", "--scene", "clouds.count=4"]);
+    args.extend_from_slice(&["--scene", "clouds.min_elevation_deg=72", "--scene", "clouds.radius_min_deg=4"]);
+    args.extend_from_slice(&["--scene", "clouds.radius_max_deg=8"]);
+    bpins(&args).ok();
+    let r = bpins(&["heading", &cap, "--json", &json]).ok();
+    assert!(r.stdout.contains("the sun's polarized share fitted"), "{}", r.stdout);
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let rows = v["frames"].as_array().unwrap();
+    assert_eq!(rows.len(), 2, "{v}");
+    for row in rows {
+        let (e, sg) = (row["error_deg"].as_f64().expect("read"), row["sigma_deg"].as_f64().unwrap());
+        assert!(e.abs() <= 3.0 * sg, "{row}");
+        assert!(row["cloud_fraction"].as_f64().unwrap() > 0.0, "{row}");
+        let w = row["fitted_sun_share"].as_f64().unwrap();
+        assert!(w > 0.0 && w < 1.0 && row["fitted_sun_share_sigma"].as_f64().unwrap() > 0.0, "{row}");
+    }
 }
 
 /// Issue 48 items 1 and 5: `fit` and `diagnose` read a capture's source by `heading`'s

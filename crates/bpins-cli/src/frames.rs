@@ -174,6 +174,13 @@ pub struct Row {
     pub misfit_deg: Option<f64>,
     pub iterations: Option<usize>,
     pub sun_elevation_offset_deg: Option<f64>,
+    /// A mixed twilight read with both sources (docs/night.md "Twilight"): the sun's
+    /// share of the two skies' polarized radiance as the fit found it, and its 1σ
+    /// (`FieldHeading::fitted_sun_share`); absent for a one-source sky.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fitted_sun_share: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fitted_sun_share_sigma: Option<f64>,
     /// The plain estimator's sample count (`--estimator plain`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub samples: Option<usize>,
@@ -215,6 +222,8 @@ impl Row {
             misfit_deg: None,
             iterations: None,
             sun_elevation_offset_deg: None,
+            fitted_sun_share: None,
+            fitted_sun_share_sigma: None,
             samples: None,
             no_heading_reason: None,
         }
@@ -241,6 +250,8 @@ impl Row {
         self.misfit_deg = finite(q.misfit_deg);
         self.iterations = Some(q.iterations);
         self.sun_elevation_offset_deg = finite(q.sun_elevation_offset_deg);
+        self.fitted_sun_share = h.fitted_sun_share();
+        self.fitted_sun_share_sigma = h.fitted_sun_share_sigma();
         match &h.result {
             Ok((heading, parts)) => {
                 self.set_heading(*heading, parts.total_deg());
@@ -273,9 +284,10 @@ impl Row {
             opt(self.cloud_fraction, &|x| format!("{:.1}", 100.0 * x)),
             opt(self.residual_rms_deg, &|x| format!("{x:.3}")),
             tilt,
-            match &self.no_heading_reason {
-                Some(w) => format!("no heading: {w}"),
-                None => self.sun.clone(),
+            match (&self.no_heading_reason, self.fitted_sun_share.zip(self.fitted_sun_share_sigma)) {
+                (Some(w), _) => format!("no heading: {w}"),
+                (None, Some((p, sd))) => format!("{}; the sun's polarized share fitted {p:.3} ± {sd:.3}", self.sun),
+                (None, None) => self.sun.clone(),
             }
         )
     }

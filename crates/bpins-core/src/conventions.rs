@@ -42,6 +42,17 @@ pub fn wrap_deg_90(a_deg: f64) -> f64 {
     }
 }
 
+/// Wraps an axial angle (period π) in radians to (−π/2, π/2]: an AoP or AoE
+/// difference, as [`wrap_deg_90`] in degrees.
+pub fn wrap_rad_90(a_rad: f64) -> f64 {
+    let r = a_rad.rem_euclid(std::f64::consts::PI); // [0, π)
+    if r > std::f64::consts::FRAC_PI_2 {
+        r - std::f64::consts::PI
+    } else {
+        r
+    }
+}
+
 /// Wraps an azimuth in degrees to [0°, 360°), the form used in files.
 pub fn wrap_deg_360(a_deg: f64) -> f64 {
     let r = a_deg.rem_euclid(360.0);

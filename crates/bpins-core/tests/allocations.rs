@@ -110,4 +110,127 @@ fn a_warm_compass_allocates_nothing_per_frame() {
         }
         assert_eq!(n, 0, "{extractor:?}: {n} allocations in {} warm frames", frames.len());
     }
+    #[cfg(feature = "io")]
+    mixed_twilight::allocates_nothing_warm();
+}
+
+/// A mixed twilight read with both sources (`two_sources.rs`) allocates nothing once
+/// the scratch is warm: the compass's mixed branch (`Compass::heading` under a
+/// `Sun::UnixTime` whose sky reads both), its cells and the two-source fit on the
+/// compass's [`FieldScratch`]. (The clock itself is not counted: the ephemeris writes
+/// its timestamp's text, `SunSource::Spa`, for any frame given a time.)
+#[cfg(feature = "io")]
+mod mixed_twilight {
+    use super::*;
+    use bpins_core::internal::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+    use bpins_core::internal::heading::field::{
+        estimate_two_with, Cells, FieldContext, FieldOptions, FieldScratch, SecondSource,
+    };
+    use bpins_core::internal::pipeline::{simulate_capture, SimSensor};
+    use bpins_core::internal::recon::Reconstructor;
+    use bpins_core::internal::sky::sun::SunSource;
+    use bpins_core::internal::sky::{moon, source_from_time_place, sun, twilight};
+    use bpins_core::scene::FieldScene;
+    use bpins_core::sensor::{Channel, Geometry};
+    use std::path::PathBuf;
+
+    /// 2026-06-24T12:30Z at Qingdao: the sun at −12.4° and a 75 % moon at 35.5°, each
+    /// about half the sky's light (tests/cli.rs's mixed twilight).
+    const TIME: &str = "2026-06-24T12:30:00Z";
+    const PLACE: (f64, f64) = (36.07, 120.38);
+    const W: usize = 128;
+
+    pub fn allocates_nothing_warm() {
+        let src = source_from_time_place(TIME, PLACE.0, PLACE.1).unwrap();
+        let frame = |i: usize, heading: f64| FrameSpec {
+            file: PathBuf::from(format!("frames/f{i:03}.png")),
+            sun: src.clone(),
+            heading_deg: Some(heading),
+            tilt_x_deg: None,
+            tilt_y_deg: None,
+            tilt_sigma_deg: None,
+            sun_sigma_deg: None,
+            yaw_deg: None,
+            yaw_sigma_deg: None,
+        };
+        let headings = [20.0, 140.0, 260.0];
+        let capture = Capture {
+            dir: PathBuf::new(),
+            sensor: SensorSpec {
+                colour: None,
+                layout: bpins_core::sensor::Layout::Dofp { mosaic: DEFAULT_MOSAIC },
+                geometry: Geometry { width_px: W as u32, height_px: W as u32, pixel_pitch_um: 27.6 },
+                bit_depth: 12,
+                black_level_dn: 64.0,
+            },
+            lens: LensSpec {
+                projection: Projection::Equidistant,
+                focal_length_mm: 2.2,
+                principal_point_px: bpins_core::conventions::image_centre_px(W as u32, W as u32),
+            },
+            frames: headings.iter().enumerate().map(|(i, &h)| frame(i, h)).collect(),
+        };
+        let mut scene = FieldScene::new(1);
+        scene.enable("twilight").unwrap();
+        let (_, data) = simulate_capture(&capture, &Default::default(), &SimSensor::samples(3), Some(&scene)).unwrap();
+        let raws: Vec<Vec<u16>> = data
+            .iter()
+            .map(|d| match d {
+                FrameData::Mosaic { dn, .. } => dn.iter().map(|&x| x.round() as u16).collect(),
+                _ => panic!("a DoFP capture gives mosaics"),
+            })
+            .collect();
+        // The frame's source and the other body, as the compass resolves the clock.
+        let (s, m) = (
+            sun::sun_from_time_place(TIME, PLACE.0, PLACE.1).unwrap(),
+            moon::moon_from_time_place(TIME, PLACE.0, PLACE.1).unwrap(),
+        );
+        let shares = twilight::shares_of(s.elevation_deg, &m);
+        assert!(shares.reads_both(), "{}", shares.describe());
+        let w_sun = shares.sun_unit_share();
+        let ((az, el), other) = match src.source {
+            SunSource::Moon { .. } => (
+                (m.azimuth_deg, m.elevation_deg),
+                SecondSource { azimuth_deg: s.azimuth_deg, elevation_deg: s.elevation_deg, share: 1.0 - w_sun, shares },
+            ),
+            _ => (
+                (s.azimuth_deg, s.elevation_deg),
+                SecondSource { azimuth_deg: m.azimuth_deg, elevation_deg: m.elevation_deg, share: w_sun, shares },
+            ),
+        };
+        let f_px = 2200.0 / 27.6;
+        let c = (W as f64 - 1.0) / 2.0;
+        let ctx = FieldContext::new(Intrinsics::new(Projection::Equidistant, f_px, c, c), az, el);
+        let rec = Reconstructor::new(&Default::default(), 64.0, &Channel::ALL).unwrap();
+        let (opts, mut cells, mut scratch) = (FieldOptions::default(), Cells::default(), FieldScratch::default());
+        let mut read = |raw: &[u16]| {
+            cells.fill_from_mosaic(
+                &RawImage::packed(raw, W, W),
+                &DEFAULT_MOSAIC,
+                &rec,
+                4095.0,
+                Cells::default_cell_px(W, W),
+                &mut scratch.cells,
+            );
+            estimate_two_with(&cells, &ctx, &other, &opts, Extractor::SunVector, &mut scratch)
+        };
+        for raw in &raws {
+            read(raw);
+        }
+        ALLOCATIONS.store(0, Ordering::SeqCst);
+        ARMED.store(true, Ordering::SeqCst);
+        let mut got = [(f64::NAN, f64::NAN, None); 3];
+        for (k, raw) in raws.iter().enumerate() {
+            let h = read(raw);
+            got[k] = (h.heading_deg().unwrap_or(f64::NAN), h.sigma_deg().unwrap_or(f64::NAN), h.fitted_share);
+        }
+        ARMED.store(false, Ordering::SeqCst);
+        let n = ALLOCATIONS.load(Ordering::SeqCst);
+        for (k, &(h, sd, share)) in got.iter().enumerate() {
+            let err = (h - headings[k] + 540.0).rem_euclid(360.0) - 180.0;
+            assert!(err.abs() < 3.0 * sd.max(0.05), "mixed frame {k}: heading {h} ± {sd} for {}", headings[k]);
+            assert!(share.is_some(), "mixed frame {k}: a fitted share");
+        }
+        assert_eq!(n, 0, "a mixed twilight: {n} allocations in {} warm frames", raws.len());
+    }
 }

@@ -45,6 +45,11 @@ pub struct Heading {
     /// given angles); a frame is read where one source gives at least 0.99.
     sun_share: Option<f64>,
     moon_share: Option<f64>,
+    /// A twilight lit by both, read with both sources: the sun's share of the two
+    /// skies' polarized radiance as the fit found it (not the zenith light's
+    /// `sun_share`), and its 1σ; None for a one-source sky or without a heading.
+    fitted_sun_share: Option<f64>,
+    fitted_sun_share_sigma: Option<f64>,
     cells_total: usize,
     cells_used: usize,
     /// Whether the mosaic was read in place (False: a copy, for arrays whose columns are not adjacent).
@@ -95,6 +100,8 @@ fn heading_of(fix: &FieldHeading, zero_copy: bool) -> Heading {
         source: fix.source.name().to_string(),
         sun_share: fix.source.shares().map(|s| s.sun_share()),
         moon_share: fix.source.shares().map(|s| s.moon_share()),
+        fitted_sun_share: fix.fitted_sun_share(),
+        fitted_sun_share_sigma: fix.fitted_sun_share_sigma(),
         cells_total: q.cells_total,
         cells_used: q.cells_used,
         zero_copy,

@@ -113,6 +113,34 @@ def test_a_moonlit_frame_read_from_its_clock_names_the_moon_and_a_dark_night_is_
     assert d.reason.startswith("not yet: the moon is at"), d.reason
 
 
+def test_a_mixed_twilight_reports_the_share_it_fitted_and_one_source_none(cli, tmp_path):
+    # The sun at −12.4° and a 75 % moon at 35.5° give half the light each from Qingdao
+    # at 2026-06-24T12:30:00Z (docs/night.md, "Twilight"): rendered with both skies and
+    # read from the same clock and place with both sources. The sun's share of the
+    # polarized radiance the fit found is near the one rendered (each sky's zenith
+    # light over Rayleigh's zenith radiance ½(1 + sin²h) about its body), with its 1σ;
+    # given angles (one source) have none.
+    cap = tmp_path / "mixed"
+    subprocess.run([cli, "simulate", "--out", str(cap), "--time-utc", "2026-06-24T12:30:00Z", "--latitude-deg",
+                    "36.07", "--longitude-deg", "120.38", "--width-px", "128", "--height-px", "128",
+                    "--pixel-pitch-um", "27.6", "--headings-deg", "20", "--scene", "twilight"],
+                   check=True, capture_output=True)
+    meta, mosaics = bpins.read_capture(cap)
+    c = bpins.Compass.from_capture(cap)
+    t = datetime.datetime(2026, 6, 24, 12, 30, tzinfo=datetime.timezone.utc)
+    h = c.heading(mosaics[0], time_utc=t, latitude_deg=36.07, longitude_deg=120.38)
+    assert h.reason is None, h.reason
+    err = (h.heading_deg - meta["frames"][0]["heading_deg"] + 180.0) % 360.0 - 180.0
+    assert abs(err) < 3.0 * h.sigma_deg, (h, err)
+    u_sun = h.sun_share / (1.0 + np.sin(np.radians(-12.4)) ** 2)
+    u_moon = h.moon_share / (1.0 + np.sin(np.radians(35.5)) ** 2)
+    rendered = u_sun / (u_sun + u_moon)
+    assert abs(h.fitted_sun_share - rendered) < 0.01, (h.fitted_sun_share, rendered)
+    assert 0.0 < h.fitted_sun_share_sigma < 0.05, h.fitted_sun_share_sigma
+    g = c.heading(mosaics[0], sun_azimuth_deg=40.0, sun_elevation_deg=25.0)
+    assert g.fitted_sun_share is None and g.fitted_sun_share_sigma is None
+
+
 def test_the_gil_is_released_while_a_compass_works():
     sim = bpins.simulate(width_px=1224, height_px=1024, seed=2)
     compasses = [bpins.Compass(1224, 1024, sim["focal_length_px"], black_level_dn=64.0) for _ in range(2)]

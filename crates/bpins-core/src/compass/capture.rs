@@ -123,7 +123,15 @@ impl Compass {
         let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
         // A mixed twilight: both sources (`two_sources.rs`).
         if let Some(second) = &sun.second {
-            return Ok(sun.stamped(field::estimate_two(&self.cells, &ctx, second, &self.cfg.options, extractors)));
+            let opts = &self.cfg.options;
+            return Ok(sun.stamped(field::estimate_two(
+                &self.cells,
+                &ctx,
+                second,
+                opts,
+                extractors,
+                &mut self.scratch,
+            )));
         }
         let hs = field::estimate_many_with(&self.cells, &ctx, &self.cfg.options, extractors, &mut self.scratch);
         Ok(sun.stamped(hs))

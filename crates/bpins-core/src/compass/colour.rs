@@ -46,7 +46,7 @@ pub(crate) fn fuse(extractor: Extractor, hs: &[&FieldHeading]) -> FieldHeading {
     let Some(&(h_ref, _)) = ok.iter().min_by(|a, b| data_deg(&a.1).total_cmp(&data_deg(&b.1))) else {
         // No band has a heading: the reason of the band that kept the most sky.
         let best = hs.iter().max_by_key(|h| h.quality.cells_used).expect("a colour sensor has bands");
-        return FieldHeading { extractor, result: best.result.clone(), quality, source };
+        return FieldHeading { extractor, result: best.result.clone(), quality, source, fitted_share: None };
     };
     let wrap = |x: f64| (x + 180.0).rem_euclid(360.0) - 180.0;
     let w: Vec<f64> = ok.iter().map(|(_, p)| 1.0 / data_deg(p).max(1e-12).powi(2)).collect();
@@ -67,7 +67,8 @@ pub(crate) fn fuse(extractor: Extractor, hs: &[&FieldHeading]) -> FieldHeading {
         sun_deg: shared(|p| p.sun_deg),
         floor_deg: shared(|p| p.floor_deg),
     };
-    FieldHeading { extractor, result: Ok((h, parts)), quality, source }
+    // A colour sensor's mixed twilight is refused (`NoHeading::MixedSky`): no share.
+    FieldHeading { extractor, result: Ok((h, parts)), quality, source, fitted_share: None }
 }
 
 /// A band's data term: the largest of its own noise estimates.
@@ -104,7 +105,8 @@ mod tests {
     fn band(h: f64, fit: f64, tilt: f64) -> FieldHeading {
         let parts = SigmaParts { fit_deg: fit, tilt_deg: tilt, ..SigmaParts::default() };
         let quality = FieldQuality { cells_total: 100, cells_valid: 100, cells_used: 90, ..FieldQuality::default() };
-        FieldHeading { extractor: Extractor::SunVector, result: Ok((h, parts)), quality, source: Default::default() }
+        let source = Default::default();
+        FieldHeading { extractor: Extractor::SunVector, result: Ok((h, parts)), quality, source, fitted_share: None }
     }
 
     #[test]

@@ -50,7 +50,7 @@
 /// The sun one frame's sky shows, with 1σ (what `bpins_core::measure` reads for `locate`).
 pub use crate::heading::field::SkySun;
 pub use crate::heading::field::{
-    FieldHeading, FieldOptions, FieldQuality, NoHeading, RawDn, RawImage, SecondSource, SigmaParts,
+    FieldHeading, FieldOptions, FieldQuality, FittedShare, NoHeading, RawDn, RawImage, SecondSource, SigmaParts,
 };
 pub use crate::heading::Extractor;
 pub use crate::sky::twilight::{Dominant, Shares};
@@ -215,10 +215,17 @@ impl Compass {
             return Ok(refused.remove(0));
         }
         let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
-        if let Some(mut hs) = self.mixed(&frame, &sun, &ctx, &[self.cfg.extractor]) {
-            return Ok(hs.remove(0));
-        }
-        let mut h = if self.cfg.colour.is_some() {
+        let mut h = if let Some(second) = &sun.second {
+            // A mixed twilight: a colour frame refused, a monochrome one read with both
+            // sources on the compass's buffers (no allocation once warm).
+            let refused = if self.cfg.colour.is_some() { sun.mixed_refused(&[self.cfg.extractor]) } else { None };
+            if let Some(mut refused) = refused {
+                return Ok(refused.remove(0));
+            }
+            self.fill_mosaic_cells(&frame);
+            let opts = &self.cfg.options;
+            field::estimate_two_with(&self.cells, &ctx, second, opts, self.cfg.extractor, &mut self.scratch)
+        } else if self.cfg.colour.is_some() {
             self.bands(&frame, &ctx, &[self.cfg.extractor]).fused.remove(0)
         } else {
             self.fill_mosaic_cells(&frame);
@@ -370,7 +377,8 @@ impl Compass {
             return sun.mixed_refused(extractors);
         }
         self.fill_mosaic_cells(frame);
-        Some(sun.stamped(field::estimate_two(&self.cells, ctx, second, &self.cfg.options, extractors)))
+        let hs = field::estimate_two(&self.cells, ctx, second, &self.cfg.options, extractors, &mut self.scratch);
+        Some(sun.stamped(hs))
     }
 
     /// Fills `self.cells` from a DoFP frame of the sensor's size (checked by the caller).
@@ -417,6 +425,7 @@ impl Resolved {
             result: Err(why.clone()),
             quality: FieldQuality::default(),
             source: self.source,
+            fitted_share: None,
         };
         Some(extractors.iter().map(no).collect())
     }
@@ -430,6 +439,7 @@ impl Resolved {
             result: Err(NoHeading::MixedSky { shares }),
             quality: FieldQuality::default(),
             source: self.source,
+            fitted_share: None,
         };
         Some(extractors.iter().map(no).collect())
     }

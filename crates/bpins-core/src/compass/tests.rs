@@ -285,4 +285,6 @@ fn a_dark_night_is_refused_and_a_mixed_twilight_read_with_both_sources() {
     let day = read(&mut c, 1_782_009_000.0);
     let SkySource::Sun(shares) = day.source else { panic!("{:?}", day.source) };
     assert!(shares.sun_share() > 0.999_999 && shares.sun_elevation_deg > 30.0, "{}", shares.describe());
+    // A one-source sky's reading has no fitted share (a mixed one's: tests/cli.rs).
+    assert_eq!((day.fitted_sun_share(), day.fitted_sun_share_sigma()), (None, None), "{day:?}");
 }

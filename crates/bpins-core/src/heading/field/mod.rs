@@ -117,7 +117,7 @@ mod two_sources;
 
 pub use cells::{Cell, CellScratch, Cells, RawDn, RawImage};
 pub use sky_sun::{sky_sun, SkySun};
-pub use two_sources::{estimate_two, mixed_pattern, SecondSource, SHARE_LOG_ODDS_SIGMA};
+pub use two_sources::{estimate_two, estimate_two_with, mixed_pattern, SecondSource, SHARE_LOG_ODDS_SIGMA};
 
 use super::Extractor;
 use crate::camera::Intrinsics;
@@ -328,6 +328,18 @@ pub struct FieldQuality {
     pub sun_elevation_offset_deg: f64,
 }
 
+/// The share a mixed twilight's fit found (`two_sources.rs`): `w`, the frame's
+/// source's share of the two skies' polarized radiance per unit of Rayleigh's pattern
+/// (the model's is [`crate::sky::twilight::Shares::sun_unit_share`] for the sun), and
+/// its 1σ, w(1 − w)·σ_θ, σ_θ the larger of the fit's marginal 1σ of the log-odds θ
+/// (χ²-scaled) and θ's delete-one-block jackknife (the delta method, so only a guide
+/// where w is near 0 or 1). Dimensionless, in (0, 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FittedShare {
+    pub share: f64,
+    pub sigma: f64,
+}
+
 /// One extractor's field heading of one frame.
 ///
 /// ```
@@ -349,6 +361,7 @@ pub struct FieldQuality {
 ///     result: Ok((123.4, sigma)),
 ///     quality: FieldQuality::default(),
 ///     source: Default::default(),
+///     fitted_share: None,
 /// };
 /// let (deg, one_sigma) = to_filter(&h).unwrap();
 /// assert_eq!(deg, 123.4);
@@ -363,6 +376,11 @@ pub struct FieldHeading {
     /// Which source lit the sky it was read about (the compass sets it; the estimator,
     /// given angles, leaves [`SkySource::Given`]).
     pub source: SkySource,
+    /// A mixed twilight read with both sources (`two_sources.rs`): the frame's
+    /// source's share as the fit found it, with its 1σ; `None` for a one-source sky or
+    /// a frame without a heading. The reading says it as the sun's
+    /// ([`FieldHeading::fitted_sun_share`]).
+    pub fitted_share: Option<FittedShare>,
 }
 
 impl FieldHeading {
@@ -372,6 +390,19 @@ impl FieldHeading {
 
     pub fn sigma_deg(&self) -> Option<f64> {
         self.result.as_ref().ok().map(|r| r.1.total_deg())
+    }
+
+    /// A mixed twilight's fitted share of the sun ([`FittedShare`]: w where the
+    /// frame's source is the sun or given, 1 − w where it is the moon); `None` for a
+    /// one-source sky or a frame without a heading.
+    pub fn fitted_sun_share(&self) -> Option<f64> {
+        let f = self.fitted_share?;
+        Some(if matches!(self.source, SkySource::Moon(_)) { 1.0 - f.share } else { f.share })
+    }
+
+    /// The 1σ of [`FieldHeading::fitted_sun_share`] (the same for either source's).
+    pub fn fitted_sun_share_sigma(&self) -> Option<f64> {
+        self.fitted_share.map(|f| f.sigma)
     }
 }
 
@@ -399,7 +430,13 @@ pub fn estimate_many_with(
             let why = coarse::explain_dim(cells, why);
             extractors
                 .iter()
-                .map(|&e| FieldHeading { extractor: e, result: Err(why.clone()), quality, source: SkySource::Given })
+                .map(|&e| FieldHeading {
+                    extractor: e,
+                    result: Err(why.clone()),
+                    quality,
+                    source: SkySource::Given,
+                    fitted_share: None,
+                })
                 .collect()
         }
     }
@@ -420,7 +457,8 @@ pub fn estimate_with(
     match robust::fitted(cells, ctx, opts, &mut scratch.robust) {
         Ok(r) => sigma::heading(&r, extractor, cells, ctx, opts, &scratch.robust),
         Err((quality, why)) => {
-            FieldHeading { extractor, result: Err(coarse::explain_dim(cells, why)), quality, source: SkySource::Given }
+            let result = Err(coarse::explain_dim(cells, why));
+            FieldHeading { extractor, result, quality, source: SkySource::Given, fitted_share: None }
         }
     }
 }
@@ -432,6 +470,8 @@ pub struct FieldScratch {
     /// The cells' accumulators.
     pub cells: CellScratch,
     robust: robust::Scratch,
+    /// A mixed twilight's (`two_sources.rs`).
+    two: two_sources::Scratch,
 }
 
 /// Which pixels of a frame show sky that follows the sky model's pattern, from the

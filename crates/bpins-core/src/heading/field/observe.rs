@@ -107,11 +107,19 @@ pub(super) fn observe(
     out.extend(slots.iter().flatten());
 }
 
-/// The sun on its cone: level-frame direction for heading ψ (conventions:
-/// `s = (cos h·sin(ψ − A), −cos h·cos(ψ − A), sin h)`).
+/// The sun on its cone: level-frame direction for heading ψ ([`on_cone`] at the
+/// context's sun).
 pub(super) fn cone_sun(ctx: &FieldContext, heading_deg: f64) -> DVec3 {
-    let (sh, ch) = ctx.sun_el_deg.to_radians().sin_cos();
-    let (sa, ca) = (heading_deg - ctx.sun_az_deg).to_radians().sin_cos();
+    on_cone(heading_deg, ctx.sun_az_deg, ctx.sun_el_deg)
+}
+
+/// A body at azimuth `az_deg` (from North toward East) and elevation `el_deg` on its
+/// cone: its level-frame direction for heading ψ (conventions:
+/// `s = (cos h·sin(ψ − A), −cos h·cos(ψ − A), sin h)`); the sun's, or a mixed
+/// twilight's other body's (`two_sources.rs`).
+pub(super) fn on_cone(heading_deg: f64, az_deg: f64, el_deg: f64) -> DVec3 {
+    let (sh, ch) = el_deg.to_radians().sin_cos();
+    let (sa, ca) = (heading_deg - az_deg).to_radians().sin_cos();
     DVec3::new(ch * sa, -ch * ca, sh)
 }
 

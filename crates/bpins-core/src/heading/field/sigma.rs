@@ -7,23 +7,13 @@ use super::observe::{cone_sun, Obs};
 use super::robust::{Robust, Scratch};
 use super::stats::jackknife_sd;
 use super::{Cells, FieldContext, FieldHeading, FieldOptions, NoHeading, SigmaParts};
-use crate::conventions::{heading_deg_from_level_sun, image_angle_rad, level_from_camera, wrap_deg_180};
+use crate::conventions::{heading_deg_from_level_sun, image_angle_rad, level_from_camera, wrap_deg_180, wrap_rad_90};
 use crate::heading::{meridian, sun_vector, Extractor, HeadingSums};
 use glam::{DMat3, DVec3};
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::FRAC_PI_2;
 
 /// Jackknife blocks per side of the image (BLOCKS² in all).
 pub(super) const BLOCKS: usize = 4;
-
-/// Wraps an axial angle in radians to (−π/2, π/2].
-fn wrap_rad_90(a: f64) -> f64 {
-    let r = a.rem_euclid(PI);
-    if r > FRAC_PI_2 {
-        r - PI
-    } else {
-        r
-    }
-}
 
 /// Per-block weighted sums of one extractor: the sun vector's scatter, or the
 /// meridian band (cells with |ψ| < band inside the zenith disc).
@@ -119,7 +109,7 @@ pub(super) fn heading(
         };
         (h, SigmaParts { cross_deg, ..parts })
     });
-    FieldHeading { extractor: e, result, quality: r.quality, source: crate::sky::SkySource::Given }
+    FieldHeading { extractor: e, result, quality: r.quality, source: crate::sky::SkySource::Given, fitted_share: None }
 }
 
 /// The sum of every block's sums.

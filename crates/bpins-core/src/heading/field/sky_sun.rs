@@ -60,7 +60,7 @@
 use super::robust::{self, Scratch};
 use super::sigma::{self, block_sums, sum_blocks, BLOCKS};
 use super::{Cells, FieldContext, FieldOptions, FieldQuality, FieldScratch, NoHeading};
-use crate::conventions::{wrap_deg_180, wrap_deg_360};
+use crate::conventions::{wrap_deg_180, wrap_deg_360, wrap_rad_90};
 use crate::heading::{sun_vector, Extractor, HeadingSums};
 use crate::lsq::{jackknife_sigma, Lm};
 use glam::DVec3;
@@ -277,16 +277,6 @@ fn quartic_fit(sc: &Scratch, psi_deg: f64, h_deg: f64) -> Option<QuarticFit> {
 /// on (α°, h°, 100·q), up to 50 Jacobians of 10 damping tries each, until a step lowers
 /// χ² by less than 10⁻⁹ of it.
 const LM: Lm<3> = Lm { step: [1e-3; 3], iterations: 50, tries: 10, rel_tol: 1e-9, ridge: 0.0 };
-
-/// Wraps an axial angle in radians to (−π/2, π/2].
-fn wrap_rad_90(a: f64) -> f64 {
-    let r = a.rem_euclid(std::f64::consts::PI);
-    if r > std::f64::consts::FRAC_PI_2 {
-        r - std::f64::consts::PI
-    } else {
-        r
-    }
-}
 
 fn too_little(q: FieldQuality) -> NoHeading {
     NoHeading::TooLittleSky { used: q.cells_valid, total: q.cells_total }

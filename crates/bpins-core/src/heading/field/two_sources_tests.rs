@@ -1,5 +1,6 @@
 //! Tests of the two-source sky model (`two_sources.rs`).
 
+use super::rounds::mixed_shape;
 use super::*;
 use crate::camera::meridional_basis;
 use crate::conventions::enu_from_az_el_deg;
@@ -34,10 +35,10 @@ fn one_share_is_one_source_s_pattern_and_the_sum_is_the_stokes_sum() {
         assert!(delta(&c, sun, moon, 1.0).abs() < 1e-9, "{az}/{el}: {}", delta(&c, sun, moon, 1.0));
         // w = 0 is the moon's alone: its angle off e is the angle between the two patterns.
         let tm = sky_stokes(moon, 0.6, d, &b);
-        let between = wrap_half(0.5 * (tm.u.atan2(tm.q) - t.u.atan2(t.q)));
+        let between = wrap_rad_90(0.5 * (tm.u.atan2(tm.q) - t.u.atan2(t.q)));
         // (the basis (e, d × e) turns the other way from the meridional (p, s)'s AoP).
         let got = delta(&c, sun, moon, 0.0);
-        assert!(wrap_half(got + between).abs() < 1e-9, "{az}/{el}: {got} vs {between}");
+        assert!(wrap_rad_90(got + between).abs() < 1e-9, "{az}/{el}: {got} vs {between}");
         // A sum of both skies, the moon's with weight k: the model at w = 1/(1 + k) is the
         // sum's angle (both skies' d_max alike), and no other share is.
         let k = 0.7;
@@ -61,9 +62,9 @@ fn a_heading_turns_both_bodies_together() {
     // them is unchanged.
     let (az_s, el_s, az_m, el_m) = (290.0, -12.0, 160.0, 35.0);
     for psi in [0.0, 37.0, 200.0] {
-        let (sp, so) = (body(psi, az_s, el_s), body(psi, az_m, el_m));
+        let (sp, so) = (on_cone(psi, az_s, el_s), on_cone(psi, az_m, el_m));
         let turn = glam::DMat3::from_rotation_z(25.0f64.to_radians());
-        let (sp2, so2) = (body(psi + 25.0, az_s, el_s), body(psi + 25.0, az_m, el_m));
+        let (sp2, so2) = (on_cone(psi + 25.0, az_s, el_s), on_cone(psi + 25.0, az_m, el_m));
         assert!((turn * sp - sp2).length() < 1e-12 && (turn * so - so2).length() < 1e-12, "{psi}");
         // The angle between the two bodies is the ephemeris's, whatever the heading.
         let want = enu_from_az_el_deg(az_s, el_s).dot(enu_from_az_el_deg(az_m, el_m));
@@ -73,13 +74,13 @@ fn a_heading_turns_both_bodies_together() {
         let (z1, z2) = (mixed_pattern(d, e, sp, so, 0.4), mixed_pattern(turn * d, turn * e, sp2, so2, 0.4));
         assert!((z1.0 - z2.0).abs() < 1e-12 && (z1.1 - z2.1).abs() < 1e-12);
     }
-    // The frame's source's elevation and azimuth as `observe.rs`'s cone.
-    let ctx = FieldContext::new(
-        crate::camera::Intrinsics::new(crate::camera::Projection::Pinhole, 100.0, 0.0, 0.0),
-        40.0,
-        25.0,
-    );
-    assert!((body(123.0, 40.0, 25.0) - super::super::observe::cone_sun(&ctx, 123.0)).length() < 1e-15);
+    // Each body on its cone by the conventions' columns: the heading read back from
+    // it (`heading_deg_from_level_sun`) is ψ, its elevation h, for either body.
+    for (psi, az, el) in [(123.0, 40.0, 25.0), (57.0, 290.0, -12.0), (300.0, 160.0, 35.0)] {
+        let s = on_cone(psi, az, el);
+        assert!((heading_deg_from_level_sun(s, az) - psi).abs() < 1e-9, "{psi} {az} {el}");
+        assert!((s.z.asin().to_degrees() - el).abs() < 1e-9 && (s.length() - 1.0).abs() < 1e-12);
+    }
 }
 
 /// Cells on a 30 × 30 grid of rays within 40° of the zenith (level frame), each
@@ -135,6 +136,9 @@ fn the_share_is_fitted_beside_the_heading_from_a_start_off_by_a_factor_of_three(
             "{seed}: θ {th} vs {theta_true} ± {}",
             cov[1][1].sqrt()
         );
+        // The share as reported: w within 3σ of the truth, its 1σ w(1 − w)·σ_θ.
+        let share = Fit { psi_deg: psi, theta: th, cov, chi2_dof: 1.0 }.share(0.0).unwrap();
+        assert!((share.share - w_true).abs() < 3.0 * share.sigma && share.sigma < 0.1, "{seed}: {share:?}");
     }
 }
 
@@ -184,11 +188,33 @@ fn a_depolarized_patch_in_a_mixed_sky_is_cloud_and_leaves_the_heading_where_it_w
     let r = robust_rounds(&cells, &cells, &seen, &m, theta0, (psi_true + 0.3, theta0), 40, (30, 30), &mut cb);
     let (err, sd) = (wrap_deg_180(r.psi_deg - psi_true), r.cov[0][0].sqrt());
     assert!(err.abs() < 3.0 * sd && sd < 0.05, "{err} ± {sd}");
-    assert!(cells.iter().zip(&r.wt).all(|(c, &x)| !patch(c.grid) || x == 0.0));
+    assert!(cells.iter().zip(&cb.wt).all(|(c, &x)| !patch(c.grid) || x == 0.0));
     // What the patch does unseen (every cell weighed by its noise alone): the heading
     // moves by more than 3σ, so the test above could fail.
     let wt: Vec<f64> = cells.iter().map(|c| 1.0 / c.var).collect();
     let ((psi, _), cov) = gauss_newton(&cells, &wt, &|_| true, &m, theta0, (psi_true, theta0), 30);
     let moved = wrap_deg_180(psi - psi_true);
     assert!(moved.abs() > 3.0 * cov[0][0].sqrt(), "the patch moves a plain fit: {moved} ± {}", cov[0][0].sqrt());
+}
+
+#[test]
+fn the_reading_says_the_fitted_share_as_the_sun_s_whichever_source_lit_the_frame() {
+    // w is the frame's source's share: the sun's where the frame is read about the sun
+    // (or given angles), 1 − w where about the moon; its 1σ the same; none without one.
+    let shares = Shares::new(-12.0, 35.0, 0.3, 1.0);
+    let h = |source| FieldHeading {
+        extractor: Extractor::SunVector,
+        result: Ok((10.0, SigmaParts::default())),
+        quality: FieldQuality::default(),
+        source,
+        fitted_share: Some(FittedShare { share: 0.3, sigma: 0.02 }),
+    };
+    use crate::sky::SkySource;
+    for (source, want) in [(SkySource::Sun(shares), 0.3), (SkySource::Given, 0.3), (SkySource::Moon(shares), 0.7)] {
+        let r = h(source);
+        assert!((r.fitted_sun_share().unwrap() - want).abs() < 1e-15, "{source:?}");
+        assert_eq!(r.fitted_sun_share_sigma(), Some(0.02));
+    }
+    let one = FieldHeading { fitted_share: None, ..h(SkySource::Sun(shares)) };
+    assert_eq!((one.fitted_sun_share(), one.fitted_sun_share_sigma()), (None, None));
 }
