@@ -36,7 +36,7 @@ pub const BPINS_SUN_ANGLES: BpinsSunKind = 0;
 /// the sky then, as `bpins heading` reads a capture's `time_utc` and place: the sun
 /// (NREL SPA) by day, the moon at night where it is up and its sky the brighter
 /// (`BpinsHeading::source` says which); a twilight lit by both is read with both
-/// sources (a colour sensor's mixed one is `BPINS_NO_HEADING_MIXED_SKY`); a dark night
+/// sources (a colour sensor's band by band, each band's share fitted); a dark night
 /// is a frame without a heading (`BPINS_NO_HEADING_DARK_NIGHT`).
 pub const BPINS_SUN_UNIX_TIME: BpinsSunKind = 1;
 
@@ -184,6 +184,8 @@ pub enum BpinsNoHeading {
     BPINS_NO_HEADING_TOO_DARK = 8,
     /// `BPINS_SUN_UNIX_TIME`: the sun and the moon both light the sky and neither gives
     /// 99 % of its light (a twilight with the moon up); the message names both shares.
+    /// Kept for the ABI: the compass, monochrome or colour, now reads such a sky with
+    /// both sources.
     BPINS_NO_HEADING_MIXED_SKY = 9,
     /// `BPINS_SUN_UNIX_TIME`: the sun is past −10° and no moon is up bright enough to be
     /// read alone (a dark night); the message gives both elevations.

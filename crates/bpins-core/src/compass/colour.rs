@@ -19,9 +19,28 @@
 //! (a fully correlated error is never averaged down). Only the photon and cell noise
 //! (the data term) is independent between bands, and only it falls by the fusion.
 //!
+//! A twilight lit by both the sun and the moon (`heading/field/two_sources.rs`): each
+//! band's cells are read with both sources, and each band fits its own share w_b (the
+//! frame's source's share of the polarized radiance per unit) beside the heading. The
+//! ratio of the two skies is not the same in every band: the twilight sky after sunset
+//! is bluer than the moonlit sky (ozone's Chappuis absorption of the sun's grazing
+//! path; moonlight is reddened sunlight), so one w for the three bands would misread
+//! two of them; each w_b starts from, and is held by a weak prior about, the same
+//! model share (V band, `sky/twilight.rs`). The band headings then fuse as above, each
+//! with its data term (the joint fit's, w_b's uncertainty in it), the band headings
+//! carrying their own fitted share ([`FieldHeading::fitted_share`]). The fused reading
+//! reports the green band's share: the band nearest the V band the model's shares are
+//! given in, and the one with the most pixels (two tiles of four); `None` where the
+//! green band has no heading. The red and blue shares are in [`ColourFix::bands`].
+//!
 //! Units: degrees. Cannot: weigh a band by what it shares with another beyond the
 //! parts named above (its jackknife and sandwich are taken as independent), or fuse
-//! two extractors.
+//! two extractors. In a mixed twilight where the two bodies stand nearly in line the
+//! prior holds each w_b, and a model share that misses the sky's moves every band the
+//! same way: that part of the data terms is shared, not independent, and the fusion
+//! averages it down as if it were not (docs/colour.md, docs/night.md "Twilight", for
+//! what it does measured). A colour frame allocates per frame (the band and fused
+//! lists), mixed or not; the monochrome compass's warm frame does not.
 
 use crate::heading::field::{FieldHeading, FieldQuality, SigmaParts};
 use crate::heading::Extractor;
@@ -67,8 +86,20 @@ pub(crate) fn fuse(extractor: Extractor, hs: &[&FieldHeading]) -> FieldHeading {
         sun_deg: shared(|p| p.sun_deg),
         floor_deg: shared(|p| p.floor_deg),
     };
-    // A colour sensor's mixed twilight is refused (`NoHeading::MixedSky`): no share.
+    // A share is the fused reading's where `fuse_bands` gives it (the green band's).
     FieldHeading { extractor, result: Ok((h, parts)), quality, source, fitted_share: None }
+}
+
+/// The fused heading of extractor `i` (the `i`-th heading of each band) over `bands`,
+/// with the green band's fitted share where the fused reading has a heading and the
+/// green band one (a mixed twilight, module doc).
+pub(crate) fn fuse_bands(extractor: Extractor, bands: &[(Band, Vec<FieldHeading>)], i: usize) -> FieldHeading {
+    let hs: Vec<&FieldHeading> = bands.iter().map(|(_, hs)| &hs[i]).collect();
+    let mut fused = fuse(extractor, &hs);
+    if fused.result.is_ok() {
+        fused.fitted_share = bands.iter().find(|(b, _)| *b == Band::G).and_then(|(_, hs)| hs[i].fitted_share);
+    }
+    fused
 }
 
 /// A band's data term: the largest of its own noise estimates.

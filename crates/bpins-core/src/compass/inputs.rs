@@ -102,7 +102,7 @@ pub enum Sun {
     /// a twilight it dominates; the moon (Meeus ch. 47, 1σ ⊕ 0.005°) at night where it is
     /// up and its sky gives ≥ 99 % of the light; a twilight lit by both read with both
     /// sources where the smaller gives ≥ 0.1 % (`Shares::reads_both`; on a colour
-    /// sensor a mixed one is [`NoHeading::MixedSky`]); a dark night a reading without a
+    /// sensor band by band, each band's share fitted); a dark night a reading without a
     /// heading ([`NoHeading::DarkNight`]).
     /// The reading's [`FieldHeading::source`] says which. `sigma_deg` for the clock's
     /// and the position's error, in degrees of the source's angle. (Feature `spa`, on

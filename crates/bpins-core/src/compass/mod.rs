@@ -215,18 +215,15 @@ impl Compass {
             return Ok(refused.remove(0));
         }
         let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
-        let mut h = if let Some(second) = &sun.second {
-            // A mixed twilight: a colour frame refused, a monochrome one read with both
-            // sources on the compass's buffers (no allocation once warm).
-            let refused = if self.cfg.colour.is_some() { sun.mixed_refused(&[self.cfg.extractor]) } else { None };
-            if let Some(mut refused) = refused {
-                return Ok(refused.remove(0));
-            }
+        let mut h = if self.cfg.colour.is_some() {
+            // Band by band, with both sources in a mixed twilight (`colour.rs`).
+            self.bands(&frame, &ctx, &[self.cfg.extractor], sun.second.as_ref()).fused.remove(0)
+        } else if let Some(second) = &sun.second {
+            // A mixed twilight: read with both sources on the compass's buffers (no
+            // allocation once warm).
             self.fill_mosaic_cells(&frame);
             let opts = &self.cfg.options;
             field::estimate_two_with(&self.cells, &ctx, second, opts, self.cfg.extractor, &mut self.scratch)
-        } else if self.cfg.colour.is_some() {
-            self.bands(&frame, &ctx, &[self.cfg.extractor]).fused.remove(0)
         } else {
             self.fill_mosaic_cells(&frame);
             field::estimate_with(&self.cells, &ctx, &self.cfg.options, self.cfg.extractor, &mut self.scratch)
@@ -252,11 +249,11 @@ impl Compass {
             return Ok(refused);
         }
         let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
+        if self.cfg.colour.is_some() {
+            return Ok(sun.stamped(self.bands(&frame, &ctx, extractors, sun.second.as_ref()).fused));
+        }
         if let Some(hs) = self.mixed(&frame, &sun, &ctx, extractors) {
             return Ok(hs);
-        }
-        if self.cfg.colour.is_some() {
-            return Ok(sun.stamped(self.bands(&frame, &ctx, extractors).fused));
         }
         self.fill_mosaic_cells(&frame);
         let hs = field::estimate_many_with(&self.cells, &ctx, &self.cfg.options, extractors, &mut self.scratch);
@@ -282,12 +279,12 @@ impl Compass {
         let sun = resolve_sun(sun)?;
         check_attitude(&attitude)?;
         let bands = self.cfg.colour.as_ref().map_or_else(Vec::new, |c| c.bands());
-        if let Some(refused) = sun.refused(extractors).or_else(|| sun.mixed_refused(extractors)) {
+        if let Some(refused) = sun.refused(extractors) {
             let bands = bands.into_iter().map(|b| (b, refused.clone())).collect();
             return Ok(ColourFix { bands, fused: refused });
         }
         let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
-        let fix = self.bands(&frame, &ctx, extractors);
+        let fix = self.bands(&frame, &ctx, extractors, sun.second.as_ref());
         let bands = fix.bands.into_iter().map(|(b, hs)| (b, sun.stamped(hs))).collect();
         Ok(ColourFix { bands, fused: sun.stamped(fix.fused) })
     }
@@ -302,8 +299,16 @@ impl Compass {
         self.cfg.extractor
     }
 
-    /// Each band's cells and headings, and the fused headings (a colour compass).
-    fn bands<T: RawDn>(&mut self, frame: &RawImage<T>, ctx: &FieldContext, extractors: &[Extractor]) -> ColourFix {
+    /// Each band's cells and headings, and the fused headings (a colour compass); a
+    /// mixed twilight's (`second` set) each band read with both sources, its own share
+    /// fitted (`colour.rs`).
+    fn bands<T: RawDn>(
+        &mut self,
+        frame: &RawImage<T>,
+        ctx: &FieldContext,
+        extractors: &[Extractor],
+        second: Option<&SecondSource>,
+    ) -> ColourFix {
         let colour = self.cfg.colour.clone().expect("a colour compass");
         for b in colour.bands() {
             let (cells, classes) = (&mut self.band_cells[b.index()], colour.classes(b));
@@ -334,15 +339,14 @@ impl Compass {
         for b in colour.bands() {
             let cells = &mut self.band_cells[b.index()];
             cells.tint.clone_from(&self.tint);
-            let hs = field::estimate_many_with(cells, ctx, &self.cfg.options, extractors, &mut self.scratch);
+            let (opts, scratch) = (&self.cfg.options, &mut self.scratch);
+            let hs = match second {
+                Some(s) => field::estimate_two(cells, ctx, s, opts, extractors, scratch),
+                None => field::estimate_many_with(cells, ctx, opts, extractors, scratch),
+            };
             bands.push((b, hs));
         }
-        let fused = (0..extractors.len())
-            .map(|i| {
-                let hs: Vec<&FieldHeading> = bands.iter().map(|(_, hs)| &hs[i]).collect();
-                colour::fuse(extractors[i], &hs)
-            })
-            .collect();
+        let fused = (0..extractors.len()).map(|i| colour::fuse_bands(extractors[i], &bands, i)).collect();
         ColourFix { bands, fused }
     }
 
@@ -362,9 +366,9 @@ impl Compass {
         Ok(())
     }
 
-    /// A mixed twilight's readings (`sun.second` set): a monochrome frame's cells read
-    /// with both sources (`heading::field::two_sources`), a colour one's refused
-    /// ([`NoHeading::MixedSky`]); `None` where the sky has one source.
+    /// A mixed twilight's readings (`sun.second` set) of a monochrome frame: its cells
+    /// read with both sources (`heading::field::two_sources`); `None` where the sky has
+    /// one source (a colour frame's: [`Compass::bands`]).
     fn mixed<T: RawDn>(
         &mut self,
         frame: &RawImage<T>,
@@ -373,9 +377,6 @@ impl Compass {
         extractors: &[Extractor],
     ) -> Option<Vec<FieldHeading>> {
         let second = sun.second.as_ref()?;
-        if self.cfg.colour.is_some() {
-            return sun.mixed_refused(extractors);
-        }
         self.fill_mosaic_cells(frame);
         let hs = field::estimate_two(&self.cells, ctx, second, &self.cfg.options, extractors, &mut self.scratch);
         Some(sun.stamped(hs))
@@ -423,20 +424,6 @@ impl Resolved {
         let no = |&extractor: &Extractor| FieldHeading {
             extractor,
             result: Err(why.clone()),
-            quality: FieldQuality::default(),
-            source: self.source,
-            fitted_share: None,
-        };
-        Some(extractors.iter().map(no).collect())
-    }
-
-    /// A mixed twilight's readings refused (where the sky is not read with both
-    /// sources: a colour sensor's), or `None` where the sky has one source.
-    fn mixed_refused(&self, extractors: &[Extractor]) -> Option<Vec<FieldHeading>> {
-        let shares = self.second.as_ref()?.shares;
-        let no = |&extractor: &Extractor| FieldHeading {
-            extractor,
-            result: Err(NoHeading::MixedSky { shares }),
             quality: FieldQuality::default(),
             source: self.source,
             fitted_share: None,

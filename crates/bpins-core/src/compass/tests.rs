@@ -236,7 +236,8 @@ fn a_moonlit_frame_from_its_clock_reads_the_moon_within_two_sigma() {
 /// the shares, as `bpins heading` refuses it; a mixed twilight (the sun at −12.4° and
 /// a 75 % moon, about half each) is read with both sources by a monochrome compass
 /// (`two_sources.rs`; its accuracy is `tests/cli.rs`'s, on frames rendered with both
-/// skies) and refused by a colour one; by day the reading says the sun.
+/// skies) and by a colour one band by band (its accuracy below); by day the reading
+/// says the sun.
 #[test]
 #[cfg(feature = "spa")]
 fn a_dark_night_is_refused_and_a_mixed_twilight_read_with_both_sources() {
@@ -267,7 +268,8 @@ fn a_dark_night_is_refused_and_a_mixed_twilight_read_with_both_sources() {
         .headings(RawImage::packed(&raw, 306, 256), at(1_784_044_800.0), Attitude::default(), &Extractor::ALL)
         .unwrap();
     assert!(all.len() == 2 && all.iter().all(|h| matches!(h.result, Err(NoHeading::DarkNight { .. }))));
-    // A colour compass: each band and the fused reading, refused alike.
+    // A colour compass: each band and the fused reading read with both sources, not
+    // refused (this frame's sky is a day's: only the road is asked of it).
     let colour = CompassConfig {
         colour: Some(crate::sensor::ColourTiles::imx250myr()),
         ..CompassConfig::dofp(lens, 306, 256, 12, 64.0)
@@ -278,7 +280,7 @@ fn a_dark_night_is_refused_and_a_mixed_twilight_read_with_both_sources() {
         .unwrap();
     assert_eq!(fix.bands.len(), 3);
     for h in fix.bands.iter().flat_map(|(_, hs)| hs).chain(&fix.fused) {
-        assert!(matches!(h.result, Err(NoHeading::MixedSky { .. })) && matches!(h.source, SkySource::Sun(_)), "{h:?}");
+        assert!(!matches!(h.result, Err(NoHeading::MixedSky { .. })) && matches!(h.source, SkySource::Sun(_)), "{h:?}");
     }
     // By day (10:30 local): the sun, with all of the light (this frame was rendered
     // under another sun, so only the source is asked of it).
@@ -287,4 +289,72 @@ fn a_dark_night_is_refused_and_a_mixed_twilight_read_with_both_sources() {
     assert!(shares.sun_share() > 0.999_999 && shares.sun_elevation_deg > 30.0, "{}", shares.describe());
     // A one-source sky's reading has no fitted share (a mixed one's: tests/cli.rs).
     assert_eq!((day.fitted_sun_share(), day.fitted_sun_share_sigma()), (None, None), "{day:?}");
+}
+
+/// Issue 48: a colour frame's mixed twilight (2026-06-24T12:30Z at Qingdao, the sun at
+/// −12.4° and a 75 % moon at 35.5°, about half the light each; the colour compass
+/// refused it before) rendered with both skies by `bpins simulate`'s code path
+/// (`twilight` element, IMX250MYR tiles), 128 × 128 px of 27.6 µm behind an 8 mm lens,
+/// read band by band with both sources and fused (`colour.rs`): the fused heading
+/// within 3σ, each band with its own fitted share near the one rendered, the fused
+/// reading carrying the green band's.
+#[test]
+#[cfg(all(feature = "spa", feature = "io"))]
+fn a_colour_mixed_twilight_is_read_band_by_band_with_both_sources() {
+    use crate::capture::{Capture, FrameData, FrameSpec, LensSpec, SensorSpec};
+    use crate::pipeline::{simulate_capture, SimSensor};
+    use crate::scene::FieldScene;
+    use crate::sensor::{Band, ColourTiles, Geometry, Layout};
+    const TIME: &str = "2026-06-24T12:30:00Z";
+    let (lat, lon, w) = (36.07, 120.38, 128usize);
+    let src = crate::sky::source_from_time_place(TIME, lat, lon).unwrap();
+    let headings = [20.0, 200.0];
+    let capture = Capture {
+        dir: "/nowhere".into(),
+        sensor: SensorSpec {
+            colour: Some(ColourTiles::imx250myr()),
+            layout: Layout::Dofp { mosaic: DEFAULT_MOSAIC },
+            geometry: Geometry { width_px: w as u32, height_px: w as u32, pixel_pitch_um: 27.6 },
+            bit_depth: 12,
+            black_level_dn: 64.0,
+        },
+        lens: LensSpec {
+            projection: Projection::Pinhole,
+            focal_length_mm: 8.0,
+            principal_point_px: crate::conventions::image_centre_px(w as u32, w as u32),
+        },
+        frames: headings
+            .iter()
+            .enumerate()
+            .map(|(i, &h)| FrameSpec { heading_deg: Some(h), ..FrameSpec::new(format!("f{i}.png"), src.clone()) })
+            .collect(),
+    };
+    let mut scene = FieldScene::new(1);
+    scene.enable("twilight").unwrap();
+    let (_, data) = simulate_capture(&capture, &Model::default(), &SimSensor::samples(1), Some(&scene)).unwrap();
+    let opts = FieldOptions::default();
+    let mut c = Compass::for_capture(&capture, Calibration::default(), opts, Extractor::SunVector).unwrap();
+    let clock = Sun::UnixTime { time_s: 1_782_304_200.0, latitude_deg: lat, longitude_deg: lon, sigma_deg: 0.0 };
+    let rendered = crate::sky::twilight::shares_at(TIME, lat, lon).unwrap().sun_unit_share();
+    for (d, &truth) in data.iter().zip(&headings) {
+        let FrameData::Mosaic { dn, .. } = d else { panic!("a colour frame is a mosaic") };
+        let raw: Vec<u16> = dn.iter().map(|&x| x.round() as u16).collect();
+        let fix = c.colour_headings(RawImage::packed(&raw, w, w), clock, Attitude::default(), &[Extractor::SunVector]);
+        let fix = fix.unwrap();
+        let fused = &fix.fused[0];
+        let (h, sigma) = (fused.heading_deg().expect("read"), fused.sigma_deg().unwrap());
+        let err = crate::conventions::wrap_deg_180(h - truth);
+        assert!(err.abs() < 3.0 * sigma && sigma < 0.5, "{truth}: {h} ± {sigma}");
+        assert!(matches!(fused.source, SkySource::Sun(_)), "{:?}", fused.source);
+        // Each band fits its own share; the frames hold the rendered one in every band.
+        for (b, hs) in &fix.bands {
+            let (share, sd) = (hs[0].fitted_sun_share().expect("a share"), hs[0].fitted_sun_share_sigma().unwrap());
+            assert!((share - rendered).abs() < 0.05 && sd > 0.0, "{b:?}: {share} ± {sd}, rendered {rendered}");
+        }
+        let green = &fix.bands.iter().find(|(b, _)| *b == Band::G).unwrap().1[0];
+        assert_eq!(fused.fitted_share, green.fitted_share);
+        // `heading` reads the same fused heading.
+        let one = c.heading(RawImage::packed(&raw, w, w), clock, Attitude::default()).unwrap();
+        assert_eq!(one.heading_deg(), Some(h));
+    }
 }

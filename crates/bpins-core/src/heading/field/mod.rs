@@ -251,8 +251,9 @@ pub enum NoHeading {
     #[error("{0}")]
     Solver(String),
     /// From a time and place: the sun and the moon both light the sky and neither gives
-    /// 99 % of its light (`sky::Refusal::Mixed`), on a colour compass (a monochrome one
-    /// reads it with both sources, `two_sources.rs`); the frame is not read.
+    /// 99 % of its light (`sky::Refusal::Mixed`), where one source's pattern is needed
+    /// (the compass, monochrome or colour, reads it with both sources, `two_sources.rs`);
+    /// the frame is not read.
     #[error("{}", shares.mixed_reason())]
     MixedSky { shares: crate::sky::twilight::Shares },
     /// From a time and place: the sun past −10° and no moon up bright enough to be read
