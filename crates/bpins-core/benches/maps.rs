@@ -13,6 +13,11 @@
 //! * `maps/2448x2048_colour_{bilinear,superpixel,opencv}`: `colour_maps_into` of the
 //!   same mosaic read as an IMX250MYR colour mosaic, the three bands' maps, no AoE
 //!   (issue 45: target ≤ 1.5× the mono route of the same name).
+//! * `pixel_maps/2448x2048_nominal_mosaic`: `PixelMaps::nominal_mosaic`, a raw frame
+//!   read through a flawed die's four per-pixel maps into the nominal mosaic the
+//!   capture readers take (`pipeline::apply_pixel_maps`). A colour-polarization frame
+//!   takes the same route (each 2 × 2 tile lies under one filter), so it has no bench
+//!   of its own.
 
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::effects::Model;
@@ -21,8 +26,8 @@ use bpins_core::internal::heading::field::RawImage;
 use bpins_core::internal::maps::{stokes_maps_into, Interpolation, MapsConfig, MapsOut};
 use bpins_core::internal::recon::{angle_maps, demosaic, Reconstructor};
 use bpins_core::internal::simulate::render_mosaic;
-use bpins_core::sensor::{Channel, ColourTiles, Response, DEFAULT_MOSAIC};
-use bpins_core::{colour_maps_into, colour_maps_size, ColourScratch};
+use bpins_core::sensor::{Channel, ColourTiles, Layout, Response, DEFAULT_MOSAIC};
+use bpins_core::{colour_maps_into, colour_maps_size, ColourScratch, PixelMaps};
 use criterion::{criterion_group, criterion_main, Criterion};
 use rayon::prelude::*;
 use std::hint::black_box;
@@ -144,5 +149,48 @@ fn maps(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, maps);
+/// A seeded flawed die of the full sensor (analyzers ±1.5°, ε 0–0.04, gain ±10 %,
+/// offsets 64 ± 5 DN, as `pixel_analyzers`' tests) and a frame it reads of a smooth
+/// sky (I, Q, U in DN, changing across the frame): the conversion's cost does not
+/// depend on the values, only on every map being present.
+fn flawed_die_frame() -> (PixelMaps, Vec<f32>) {
+    let r = |i: usize, salt: u64| {
+        let x =
+            (i as u64 ^ salt).wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(17).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    let n = W * H;
+    let angle = |i: usize| Layout::dofp_channel(&DEFAULT_MOSAIC, i % W, i / W).angle_deg();
+    let maps = PixelMaps {
+        width_px: W,
+        height_px: H,
+        mosaic: DEFAULT_MOSAIC,
+        offset_dn: Some((0..n).map(|i| (64.0 + 5.0 * r(i, 1)) as f32).collect()),
+        gain: Some((0..n).map(|i| (1.0 + 0.1 * r(i, 2)) as f32).collect()),
+        analyzer_deg: Some((0..n).map(|i| (angle(i) + 1.5 * r(i, 3)) as f32).collect()),
+        eps: Some((0..n).map(|i| (0.02 + 0.02 * r(i, 4)) as f32).collect()),
+    };
+    maps.check().expect("valid maps");
+    let dn = (0..n)
+        .map(|i| {
+            let (u, v) = ((i % W) as f64 / W as f64, (i / W) as f64 / H as f64);
+            let s = [1500.0 + 400.0 * u - 300.0 * v, 600.0 * (3.0 * u).cos(), 500.0 * (2.0 * v + u).sin()];
+            let (a, o) = maps.pixel(i % W, i / W, 64.0);
+            (o + a[0] * s[0] + a[1] * s[1] + a[2] * s[2]) as f32
+        })
+        .collect();
+    (maps, dn)
+}
+
+fn pixel_maps(c: &mut Criterion) {
+    let (maps, dn) = flawed_die_frame();
+    let mut g = c.benchmark_group("pixel_maps");
+    g.sample_size(20);
+    g.bench_function("2448x2048_nominal_mosaic", |b| {
+        b.iter(|| black_box(maps.nominal_mosaic(black_box(&dn), 64.0, 4095.0)))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, pixel_maps, maps);
 criterion_main!(benches);

@@ -14,6 +14,9 @@
 //! [`atan2_f32`]: the same reduction in single precision, atan t' by the odd
 //! polynomial of Cephes' `atanf` (degree 9, |t'| ≤ tan(π/8) = 0.4142 after the
 //! reflection about π/4), for the maps kernel's float32 pixels: eight lanes at once.
+//!
+//! [`sin_cos_quarter`]: sin and cos on |x| ≤ π/4 by fdlibm's kernel polynomials, for
+//! the analyzer rows of `pixel_analyzers` (the quadrant taken out exactly there).
 
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
@@ -105,6 +108,42 @@ pub fn wrap_deg_90_near(a_deg: f64) -> f64 {
     }
 }
 
+/// sin x and cos x for |x| ≤ π/4, within 1 ulp of libm's (tested): the minimax
+/// polynomials of fdlibm's kernels `__kernel_sin` and `__kernel_cos` (Sun Microsystems
+/// 1993, `k_sin.c`, `k_cos.c`, as in musl's `__sin.c`, `__cos.c`), with their
+/// evaluation order and no argument tail. No reduction: the caller brings the angle
+/// into range (`pixel_analyzers`: the analyzer's quadrant taken out exactly).
+/// Branch-free, so loops over it vectorize.
+#[inline(always)]
+#[allow(clippy::excessive_precision)] // fdlibm's digits, as published
+pub fn sin_cos_quarter(x: f64) -> (f64, f64) {
+    const S: [f64; 6] = [
+        -1.666_666_666_666_663_243_48e-1,
+        8.333_333_333_322_489_461_24e-3,
+        -1.984_126_982_985_794_931_34e-4,
+        2.755_731_370_707_006_767_89e-6,
+        -2.505_076_025_340_686_341_95e-8,
+        1.589_690_995_211_550_102_21e-10,
+    ];
+    const C: [f64; 6] = [
+        4.166_666_666_666_660_190_37e-2,
+        -1.388_888_888_887_410_957_49e-3,
+        2.480_158_728_947_672_941_78e-5,
+        -2.755_731_435_139_066_330_35e-7,
+        2.087_572_321_298_174_827_90e-9,
+        -1.135_964_755_778_819_482_65e-11,
+    ];
+    let z = x * x;
+    let w = z * z;
+    let rs = S[1] + z * (S[2] + z * S[3]) + z * w * (S[4] + z * S[5]);
+    let sin = x + z * x * (S[0] + z * rs);
+    let rc = z * (C[0] + z * (C[1] + z * C[2])) + w * w * (C[3] + z * (C[4] + z * C[5]));
+    let hz = 0.5 * z;
+    let one_minus = 1.0 - hz;
+    let cos = one_minus + (((1.0 - one_minus) - hz) + z * rc);
+    (sin, cos)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -158,6 +197,22 @@ mod tests {
         for (y, x) in [(0.0f32, 0.0f32), (-0.0, 0.0), (0.0, -0.0), (-0.0, -1.0), (1.0, 0.0), (-1.0, 0.0)] {
             assert_eq!(atan2_f32(y, x), f32::atan2(y, x), "({y}, {x})");
         }
+    }
+
+    #[test]
+    fn sin_cos_quarter_is_libm_s_to_an_ulp() {
+        let (mut worst, mut abs) = (0, 0f64);
+        for k in 0..=200_000 {
+            let x = FRAC_PI_4 * (k as f64 / 100_000.0 - 1.0) * (1.0 - 1e-16);
+            let ((s, c), (ws, wc)) = (sin_cos_quarter(x), x.sin_cos());
+            abs = abs.max((s - ws).abs()).max((c - wc).abs());
+            worst = worst.max(ulps(c, wc));
+            if ws.abs() > 1e-300 {
+                worst = worst.max(ulps(s, ws));
+            }
+        }
+        assert!(worst <= 1 && abs <= 1.2e-16, "{worst} ulp, {abs:e}");
+        assert_eq!(sin_cos_quarter(0.0), (0.0, 1.0));
     }
 
     #[test]

@@ -222,6 +222,62 @@ impl PixelMaps {
         ([0.5 * g * (1.0 + eps), 0.5 * g * (1.0 - eps) * c, 0.5 * g * (1.0 - eps) * s], o)
     }
 
+    /// Sensor row `v`'s analyzer rows, offsets and gains into `r`, as [`Self::pixel`]
+    /// gives them pixel by pixel but a row at a time and without libm, so the loop
+    /// vectorizes: sin 2φ and cos 2φ as the quadrant of the pixel's nominal 2φ (90° q,
+    /// exactly) turned by 2(φ − 45° q) through `math::sin_cos_quarter` (within 1 ulp),
+    /// libm's where a map strays beyond ±22.5° of its channel (maps not `check`ed).
+    fn row_into(&self, v: usize, black_level_dn: f64, r: &mut PixelRow) {
+        let w = self.width_px;
+        let span = v * w..(v + 1) * w;
+        let fill = |dst: &mut Vec<f64>, map: &Option<Vec<f32>>, absent: f64| {
+            dst.clear();
+            match map {
+                Some(m) => dst.extend(m[span.clone()].iter().map(|&x| x as f64)),
+                None => dst.resize(w, absent),
+            }
+        };
+        let nominal_deg = [0, 1].map(|u| Layout::dofp_channel(&self.mosaic, u, v).angle_deg());
+        fill(&mut r.g, &self.gain, 1.0);
+        fill(&mut r.eps, &self.eps, 0.0);
+        fill(&mut r.o, &self.offset_dn, black_level_dn);
+        match &self.analyzer_deg {
+            Some(_) => fill(&mut r.phi, &self.analyzer_deg, 0.0),
+            None => {
+                r.phi.clear();
+                r.phi.extend((0..w).map(|u| nominal_deg[u & 1]));
+            }
+        }
+        // 2φ = 90° q + 2d: q from the channel's nominal angle, (cos, sin) of 90° q exact.
+        let q = nominal_deg.map(|a| ((a / 45.0).round() as i64).rem_euclid(4) as usize);
+        let base_deg = q.map(|q| 45.0 * q as f64);
+        let turn = q.map(|q| [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)][q]);
+        for a in &mut r.a {
+            a.resize(w, 0.0);
+        }
+        let [a0, a1, a2] = &mut r.a;
+        let pixels = a0.iter_mut().zip(a1.iter_mut()).zip(a2.iter_mut()).zip(r.g.iter().zip(&r.eps).zip(&r.phi));
+        for (u, (((a0, a1), a2), ((&g, &eps), &phi))) in pixels.enumerate() {
+            // Selects, not indexing by u & 1: the loop vectorizes.
+            let odd = u & 1 == 1;
+            let base = if odd { base_deg[1] } else { base_deg[0] };
+            let (cq, sq) = if odd { turn[1] } else { turn[0] };
+            let (sd, cd) = crate::math::sin_cos_quarter((2.0 * (phi - base)).to_radians());
+            let (s, c) = (cq * sd + sq * cd, cq * cd - sq * sd);
+            *a0 = 0.5 * g * (1.0 + eps);
+            *a1 = 0.5 * g * (1.0 - eps) * c;
+            *a2 = 0.5 * g * (1.0 - eps) * s;
+        }
+        for u in 0..w {
+            let near = (r.phi[u] - base_deg[u & 1]).abs() <= 22.5; // false for NaN too
+            if !near {
+                let (s, c) = (2.0 * r.phi[u]).to_radians().sin_cos();
+                r.a[1][u] = 0.5 * r.g[u] * (1.0 - r.eps[u]) * c;
+                r.a[2][u] = 0.5 * r.g[u] * (1.0 - r.eps[u]) * s;
+            }
+        }
+    }
+
     /// The per-cell reconstruction of a grid of `cell_px` cells (even, ≥ 2) over the
     /// whole sensor (see the module); `black_level_dn` stands in for an unmeasured offset.
     pub fn cell_analyzers(&self, cell_px: usize, black_level_dn: f64) -> CellAnalyzers {
@@ -304,77 +360,135 @@ impl PixelMaps {
     /// zero sample, and a last odd row or column, are left as they are.
     pub fn nominal_mosaic(&self, dn: &[f32], black_level_dn: f64, full_scale_dn: f64) -> Vec<f32> {
         let (w, tw, th) = (self.width_px, self.width_px / 2, self.height_px / 2);
-        let nominal_row = |c: Channel| {
-            let (s, co) = (2.0 * c.angle_deg()).to_radians().sin_cos();
+        let mut out = dn.to_vec();
+        if tw == 0 || th == 0 {
+            return out;
+        }
+        // Each pixel's nominal row, by its place in the tile (TILE_PLACES order).
+        let nominal = TILE_PLACES.map(|(du, dv)| {
+            let (s, co) = (2.0 * Layout::dofp_channel(&self.mosaic, du, dv).angle_deg()).to_radians().sin_cos();
             DVec3::new(0.5, 0.5 * co, 0.5 * s)
-        };
-        // Tile (ti, tj)'s four pixels: offsets, rows a_p, x_p, gains; None where unusable.
-        let tile = |ti: usize, tj: usize| {
-            let mut px = [(0usize, 0usize, DVec3::ZERO, 0.0f64, 0.0f64); 4];
+        });
+        // Tile (ti, tj)'s four pixels, from its two sensor rows `px`; None where unusable.
+        let tile = |ti: usize, tj: usize, px: &[PixelRow; 2]| -> Option<Tile> {
+            let mut t = Tile { a: [DVec3::ZERO; 4], x: [0.0; 4], g: [0.0; 4], inv: DMat3::ZERO, first: DVec3::ZERO };
             let mut ata = DMat3::ZERO;
-            for (n, (du, dv)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
-                let (u, v) = (2 * ti + du, 2 * tj + dv);
-                let raw = dn[v * w + u] as f64;
+            for (n, (du, dv)) in TILE_PLACES.into_iter().enumerate() {
+                let u = 2 * ti + du;
+                let raw = dn[(2 * tj + dv) * w + u] as f64;
                 if !dn_is_valid(raw, full_scale_dn) {
                     return None;
                 }
-                let (a, o) = self.pixel(u, v, black_level_dn);
-                let a = DVec3::from_array(a);
+                let r = &px[dv];
+                let a = DVec3::new(r.a[0][u], r.a[1][u], r.a[2][u]);
                 ata += DMat3::from_cols(a * a.x, a * a.y, a * a.z);
-                px[n] = (du, dv, a, raw - o, self.gain.as_ref().map_or(1.0, |g| g[v * w + u] as f64));
+                (t.a[n], t.x[n], t.g[n]) = (a, raw - r.o[u], r.g[u]);
             }
-            (ata.determinant().abs() >= 1e-12).then(|| (px, ata.inverse()))
+            if ata.determinant().abs() < 1e-12 {
+                return None;
+            }
+            t.inv = ata.inverse();
+            // The first solution: one S for the whole tile.
+            t.first = t.inv * (0..4).map(|n| t.a[n] * t.x[n]).sum::<DVec3>();
+            Some(t)
         };
-        // First pass: each tile's S as if its pixels saw one Stokes vector.
-        let first: Vec<Option<DVec3>> = (0..tw * th)
-            .into_par_iter()
-            .map(|t| {
-                let (px, inv) = tile(t % tw, t / tw)?;
-                Some(inv * px.iter().map(|p| p.2 * p.3).sum::<DVec3>())
-            })
-            .collect();
-        let mut out = dn.to_vec();
-        out.par_chunks_mut(2 * w).take(th).enumerate().for_each(|(tj, rows)| {
-            for ti in 0..tw {
-                let Some((px, inv)) = tile(ti, tj) else { continue };
-                let [gu, gv] = tile_gradients(&first, tw, th, ti, tj);
-                let at = |du: usize, dv: usize| gu * (du as f64 - 0.5) + gv * (dv as f64 - 0.5);
-                let s_c = inv * px.iter().map(|&(du, dv, a, x, _)| a * (x - a.dot(at(du, dv)))).sum::<DVec3>();
-                for (du, dv, a, x, g) in px {
-                    let s = s_c + at(du, dv);
-                    let c = Layout::dofp_channel(&self.mosaic, 2 * ti + du, 2 * tj + dv);
-                    let y = black_level_dn + nominal_row(c).dot(s) + (x - a.dot(s)) / g;
-                    rows[dv * w + 2 * ti + du] = y as f32;
+        let tile_row = |tj: usize, px: &mut [PixelRow; 2], row: &mut Vec<Option<Tile>>| {
+            row.clear();
+            if tj < th {
+                for (dv, r) in px.iter_mut().enumerate() {
+                    self.row_into(2 * tj + dv, black_level_dn, r);
                 }
+                row.extend((0..tw).map(|ti| tile(ti, tj, px)));
             }
-        });
+        };
+        // Bands of tile rows in parallel; within a band the tile rows above, here and
+        // below in a rolling window, so each tile is solved once (twice at a band's
+        // edges) and its pixels read once.
+        out.par_chunks_mut(2 * w * BAND_TILE_ROWS).take(th.div_ceil(BAND_TILE_ROWS)).enumerate().for_each(
+            |(b, rows)| {
+                let tj0 = b * BAND_TILE_ROWS;
+                let mut win: [Vec<Option<Tile>>; 3] = Default::default();
+                let mut px: [PixelRow; 2] = Default::default();
+                if tj0 > 0 {
+                    tile_row(tj0 - 1, &mut px, &mut win[0]);
+                }
+                tile_row(tj0, &mut px, &mut win[1]);
+                for tj in tj0..(tj0 + BAND_TILE_ROWS).min(th) {
+                    tile_row(tj + 1, &mut px, &mut win[2]);
+                    let out_rows = &mut rows[(tj - tj0) * 2 * w..];
+                    for ti in 0..tw {
+                        let Some(t) = &win[1][ti] else { continue };
+                        let [gu, gv] = tile_gradients(&win, ti);
+                        let at = |n: usize| {
+                            let (du, dv) = TILE_PLACES[n];
+                            gu * (du as f64 - 0.5) + gv * (dv as f64 - 0.5)
+                        };
+                        let s_c = t.inv * (0..4).map(|n| t.a[n] * (t.x[n] - t.a[n].dot(at(n)))).sum::<DVec3>();
+                        for (n, (du, dv)) in TILE_PLACES.into_iter().enumerate() {
+                            let s = s_c + at(n);
+                            let y = black_level_dn + nominal[n].dot(s) + (t.x[n] - t.a[n].dot(s)) / t.g[n];
+                            out_rows[dv * w + 2 * ti + du] = y as f32;
+                        }
+                    }
+                    win.rotate_left(1);
+                }
+            },
+        );
         out
     }
 }
 
-/// The Stokes field's change per pixel along u and v at tile `(ti, tj)` of a `tw × th`
-/// grid of 2 × 2 tiles, from its neighbours' first solutions `first` (row-major): a
-/// central difference over 4 px where both neighbours are usable, one-sided over 2 px
-/// where one is, 0 where neither is. A tile's first solution is off its centre's by
-/// its rows' mixing of the gradient (`(AᵀA)⁻¹ Σ a_p a_pᵀ ∇S·d_p`), alike in every tile
-/// but for the tiles' own flaws, so the differences carry only the flaws' difference ×
-/// the step: first order in the flaws, which the conversion multiplies by the flaw again.
-fn tile_gradients(first: &[Option<DVec3>], tw: usize, th: usize, ti: usize, tj: usize) -> [DVec3; 2] {
-    let get = |i: Option<usize>, j: Option<usize>| match (i, j) {
-        (Some(i), Some(j)) if i < tw && j < th => first[j * tw + i],
-        _ => None,
-    };
+/// Tile rows per parallel task of [`PixelMaps::nominal_mosaic`]: 32 rows of a
+/// 2448-px-wide frame are 0.16 Mpx, 32 tasks per 2048-px frame; the rows above and
+/// below each band (solved twice) add 1/16.
+const BAND_TILE_ROWS: usize = 32;
+
+/// A 2 × 2 tile's pixels (u, v) offsets from its top-left pixel, in the order of [`Tile`].
+const TILE_PLACES: [(usize, usize); 4] = [(0, 0), (1, 0), (0, 1), (1, 1)];
+
+/// One sensor row of [`PixelMaps::row_into`], by pixel: the analyzer row `a_p` by
+/// component (I, Q, U), offset `o_p` and gain `g_p` as [`PixelMaps::pixel`] has them,
+/// and the maps' ε and φ (degrees) they came from.
+#[derive(Default)]
+struct PixelRow {
+    a: [Vec<f64>; 3],
+    o: Vec<f64>,
+    g: Vec<f64>,
+    eps: Vec<f64>,
+    phi: Vec<f64>,
+}
+
+/// One usable 2 × 2 tile of [`PixelMaps::nominal_mosaic`], by pixel in
+/// [`TILE_PLACES`] order: the rows `a_p` (DN per unit I, Q, U), `x_p = DN_p − o_p`
+/// (DN) and gains `g_p`; `(Σ a_p a_pᵀ)⁻¹` and the first solution `S` (one Stokes
+/// vector for the tile, DN).
+#[derive(Clone, Copy)]
+struct Tile {
+    a: [DVec3; 4],
+    x: [f64; 4],
+    g: [f64; 4],
+    inv: DMat3,
+    first: DVec3,
+}
+
+/// The Stokes field's change per pixel along u and v at tile `ti` of the middle row
+/// of `win` (tile rows above, here, below; an empty row: none there), from its
+/// neighbours' first solutions: a central difference over 4 px where both neighbours
+/// are usable, one-sided over 2 px where one is, 0 where neither is. A tile's first
+/// solution is off its centre's by its rows' mixing of the gradient (`(AᵀA)⁻¹ Σ a_p
+/// a_pᵀ ∇S·d_p`), alike in every tile but for the tiles' own flaws, so the differences
+/// carry only the flaws' difference × the step: first order in the flaws, which the
+/// conversion multiplies by the flaw again.
+fn tile_gradients(win: &[Vec<Option<Tile>>; 3], ti: usize) -> [DVec3; 2] {
+    let get = |row: usize, i: Option<usize>| i.and_then(|i| win[row].get(i)).and_then(|t| t.as_ref()).map(|t| t.first);
     let diff = |lo: Option<DVec3>, here: Option<DVec3>, hi: Option<DVec3>| match (lo, here, hi) {
         (Some(l), _, Some(h)) => (h - l) / 4.0,
         (Some(l), Some(c), None) => (c - l) / 2.0,
         (None, Some(c), Some(h)) => (h - c) / 2.0,
         _ => DVec3::ZERO,
     };
-    let here = get(Some(ti), Some(tj));
-    [
-        diff(get(ti.checked_sub(1), Some(tj)), here, get(Some(ti + 1), Some(tj))),
-        diff(get(Some(ti), tj.checked_sub(1)), here, get(Some(ti), Some(tj + 1))),
-    ]
+    let here = get(1, Some(ti));
+    [diff(get(1, ti.checked_sub(1)), here, get(1, Some(ti + 1))), diff(get(0, Some(ti)), here, get(2, Some(ti)))]
 }
 
 #[path = "pixel_analyzers_band.rs"]
@@ -496,6 +610,33 @@ mod tests {
         let worst = out.iter().zip(&ideal).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
         let before = dn.iter().zip(&ideal).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
         assert!(worst < 0.02 && before > 50.0, "after {worst} DN, before {before} DN");
+    }
+
+    #[test]
+    fn a_row_at_a_time_is_pixel_by_pixel() {
+        let mut m = flawed(34, 4);
+        // Unchecked maps: analyzers 35° and more from their channels take libm's route.
+        let phi = m.analyzer_deg.as_mut().unwrap();
+        (phi[3], phi[4], phi[40]) = (170.0, 0.0, -80.0);
+        let mut r = PixelRow::default();
+        for maps in [
+            m.clone(),
+            PixelMaps { analyzer_deg: None, eps: None, ..m.clone() },
+            PixelMaps::nominal(34, 4, DEFAULT_MOSAIC),
+        ] {
+            for v in 0..4 {
+                maps.row_into(v, 64.0, &mut r);
+                for u in 0..34 {
+                    let (a, o) = maps.pixel(u, v, 64.0);
+                    assert_eq!((r.o[u], r.g[u]), (o, maps.gain.as_ref().map_or(1.0, |g| g[v * 34 + u] as f64)));
+                    // `pixel` rounds 2φ·π/180 near π/2 (ulp 2.2e-16) before its sin_cos,
+                    // `row_into` the small 2(φ − 45° q): a few 1e-16 apart, of a row ≈ 0.5.
+                    for (k, (row, want)) in r.a.iter().zip(a).enumerate() {
+                        assert!((row[u] - want).abs() < 1e-15, "({u}, {v}) {k}: {} vs {want}", row[u]);
+                    }
+                }
+            }
+        }
     }
 
     #[test]
