@@ -205,6 +205,36 @@ fn accumulate(a: ptr<function, Acc>, cx: Context, g: RayGeometry, x: f64, y: f64
 }
 
 // Writes one context's sums as this invocation's partial of job `job`.
+// One sample's sums in each context, along the assumed ray at grid point (i, j): the
+// second context's ray is the first's where the contexts share their rays.
+fn accumulate_contexts(
+    a0: ptr<function, Acc>,
+    a1: ptr<function, Acc>,
+    c0: Context,
+    c1: Context,
+    two: bool,
+    i: u32,
+    j: u32,
+    sample: Sample,
+) {
+    let x0 = c0.grid.x + c0.grid.z * f64(i);
+    let y0 = c0.grid.y + c0.grid.z * f64(j);
+    let g0 = geometry(c0.intr, x0, y0);
+    let k0 = sector_at(c0, x0, y0);
+    accumulate(a0, c0, g0, x0, y0, k0, sample);
+    if (two) {
+        let x1 = c1.grid.x + c1.grid.z * f64(i);
+        let y1 = c1.grid.y + c1.grid.z * f64(j);
+        var g1 = g0;
+        var k1 = k0;
+        if (SHARED_RAYS == 0u) {
+            g1 = geometry(c1.intr, x1, y1);
+            k1 = sector_at(c1, x1, y1);
+        }
+        accumulate(a1, c1, g1, x1, y1, k1, sample);
+    }
+}
+
 fn write_partial(a: ptr<function, Acc>, base: u32) {
     flush_block(a);
     flush_run(a);
@@ -249,22 +279,7 @@ fn frame_sums(@builtin(global_invocation_id) gid: vec3<u32>) {
                 sample = mosaic_sample(f, rp, i, j);
             }
             // Heading sums along the assumed ray at the sample's pixel position.
-            let x0 = c0.grid.x + c0.grid.z * f64(i);
-            let y0 = c0.grid.y + c0.grid.z * f64(j);
-            let g0 = geometry(c0.intr, x0, y0);
-            let k0 = sector_at(c0, x0, y0);
-            accumulate(&a0, c0, g0, x0, y0, k0, sample);
-            if (two) {
-                let x1 = c1.grid.x + c1.grid.z * f64(i);
-                let y1 = c1.grid.y + c1.grid.z * f64(j);
-                var g1 = g0;
-                var k1 = k0;
-                if (SHARED_RAYS == 0u) {
-                    g1 = geometry(c1.intr, x1, y1);
-                    k1 = sector_at(c1, x1, y1);
-                }
-                accumulate(&a1, c1, g1, x1, y1, k1, sample);
-            }
+            accumulate_contexts(&a0, &a1, c0, c1, two, i, j, sample);
         }
         flush_block(&a0);
         flush_block(&a1);
@@ -360,22 +375,7 @@ fn colour_mosaic_heading_sums(@builtin(global_invocation_id) gid: vec3<u32>) {
             let i = 2u * m + parity;
             let sample = stored_superpixel(base, rp, i, j);
             // Its band's sums along the assumed ray at the superpixel's position.
-            let x0 = c0.grid.x + c0.grid.z * f64(i);
-            let y0 = c0.grid.y + c0.grid.z * f64(j);
-            let g0 = geometry(c0.intr, x0, y0);
-            let k0 = sector_at(c0, x0, y0);
-            accumulate(&a0, c0, g0, x0, y0, k0, sample);
-            if (two) {
-                let x1 = c1.grid.x + c1.grid.z * f64(i);
-                let y1 = c1.grid.y + c1.grid.z * f64(j);
-                var g1 = g0;
-                var k1 = k0;
-                if (SHARED_RAYS == 0u) {
-                    g1 = geometry(c1.intr, x1, y1);
-                    k1 = sector_at(c1, x1, y1);
-                }
-                accumulate(&a1, c1, g1, x1, y1, k1, sample);
-            }
+            accumulate_contexts(&a0, &a1, c0, c1, two, i, j, sample);
         }
         flush_block(&a0);
         flush_block(&a1);
