@@ -487,6 +487,47 @@ pub(super) fn propagate(cells: &[CellSky], cols: usize, rows: usize, cloud: &mut
     }
 }
 
+/// The cloud tests' working buffers (kept between frames by their callers).
+#[derive(Clone, Debug, Default)]
+pub(super) struct TestBufs {
+    depol: Vec<bool>,
+    keep: Vec<bool>,
+    clear: Vec<bool>,
+    bright: Vec<bool>,
+    more: Vec<bool>,
+    white: Vec<bool>,
+    votes: Vec<[u32; 2]>,
+}
+
+/// Into `cloud`, per cell of `sky` (a `cols × rows` grid's cells): taken for cloud by
+/// the three tests — depolarized against the clear sky's d_max ([`depolarized`]),
+/// brighter ([`brighter`]) or whiter ([`whiter`]) than the smooth sky of the clear
+/// reference ([`reference`]) — then the unverifiable cells labelled by their
+/// neighbours ([`propagate`]). The one labelling both readers take (`robust.rs`, one
+/// source; `two_sources_clouds.rs`, a mixed twilight). `t` is a scratch of ratios.
+pub(super) fn label(
+    sky: &[CellSky],
+    cols: usize,
+    rows: usize,
+    min_cells: usize,
+    t: &mut Vec<f64>,
+    b: &mut TestBufs,
+    cloud: &mut Vec<bool>,
+) {
+    let dmax = clear_dmax(sky, min_cells, t);
+    depolarized(sky, dmax, &mut b.depol);
+    // The smooth sky's reference: on a monochrome frame that is no overcast, the clear
+    // sky's DoLP plateau, not the cells that fit the current sun (a start among a
+    // deck's rims makes them the cells that fit; `reference`).
+    reference(sky, &b.depol, min_cells, t, &mut b.keep, &mut b.clear);
+    brighter(sky, &mut b.clear, t, &mut b.bright);
+    // A colour frame's third test: whiter than the blue sky (`whiter`).
+    whiter(sky, &mut b.clear, &mut b.keep, t, &mut b.more, &mut b.white);
+    cloud.clear();
+    cloud.extend(b.depol.iter().zip(&b.bright).zip(&b.white).map(|((&d, &br), &wh)| d || br || wh));
+    propagate(sky, cols, rows, cloud, &mut b.votes);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,7 +4,7 @@
 //! left. The heading and its 1σ (step 5) are `sigma.rs`; the loop's masks and order
 //! statistics, `stats.rs`.
 
-use super::clouds::{brighter, clear_dmax, depolarized, propagate, rayleigh_dolp, reference, whiter, CellSky};
+use super::clouds::{label, rayleigh_dolp, CellSky, TestBufs};
 use super::dark::Polarized;
 use super::holes;
 use super::observe::{cone_sun, observe, residual, search, sharpen, Obs};
@@ -130,18 +130,7 @@ fn clouds(obs: &[Obs], tau2: f64, min_cells: usize, cols: usize, rows: usize, b:
         fits: r.0.powi(2) < 9.0 * (o.var_aop + tau2),
         grid: o.grid,
     }));
-    let dmax = clear_dmax(&b.sky, min_cells, &mut b.t);
-    depolarized(&b.sky, dmax, &mut b.depol);
-    // The smooth sky's reference: on a monochrome frame that is no overcast, the clear
-    // sky's DoLP plateau, not the cells that fit the current sun (a start among a
-    // deck's rims makes them the cells that fit; clouds.rs `reference`).
-    reference(&b.sky, &b.depol, min_cells, &mut b.t, &mut b.keep, &mut b.clear);
-    brighter(&b.sky, &mut b.clear, &mut b.t, &mut b.bright);
-    // A colour frame's third test: whiter than the blue sky (clouds.rs `whiter`).
-    whiter(&b.sky, &mut b.clear, &mut b.keep, &mut b.t, &mut b.more, &mut b.white);
-    b.cloud.clear();
-    b.cloud.extend(b.depol.iter().zip(&b.bright).zip(&b.white).map(|((&d, &br), &wh)| d || br || wh));
-    propagate(&b.sky, cols, rows, &mut b.cloud, &mut b.votes);
+    label(&b.sky, cols, rows, min_cells, &mut b.t, &mut b.tests, &mut b.cloud);
 }
 
 /// |cos γ| back from sin²γ.
@@ -179,14 +168,8 @@ pub(super) struct Bufs {
     res: Vec<(f64, f64, f64)>,
     t: Vec<f64>,
     sky: Vec<CellSky>,
-    depol: Vec<bool>,
-    bright: Vec<bool>,
-    white: Vec<bool>,
-    clear: Vec<bool>,
-    keep: Vec<bool>,
-    more: Vec<bool>,
+    tests: TestBufs,
     cloud: Vec<bool>,
-    votes: Vec<[u32; 2]>,
     /// The cloud cells grown by their soft edges, and the sun they were found at
     /// (`None`: not yet for this frame).
     cloud_grown: Vec<bool>,

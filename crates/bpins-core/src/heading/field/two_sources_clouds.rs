@@ -9,7 +9,7 @@
 //! Units: radians inside (ψ in degrees), DoLP over d_max dimensionless. Frame: level
 //! camera (CONVENTIONS.md).
 
-use super::super::clouds::{brighter, clear_dmax, depolarized, propagate, reference, whiter, CellSky};
+use super::super::clouds::{label, CellSky, TestBufs};
 use super::super::robust::{CLOUDS_SETTLED_DEG, DILATE_CELLS, TAU_CHI2, TAU_Q};
 use super::super::stats::{grown_clusters, quantile, tukey};
 use super::{delta, gauss_newton, logistic, pattern, Cell2, Model, ROUNDS, SHARE_SETTLED};
@@ -48,14 +48,8 @@ pub(super) struct Seen {
 pub(super) struct CloudBufs {
     sky: Vec<CellSky>,
     t: Vec<f64>,
-    depol: Vec<bool>,
-    keep: Vec<bool>,
-    clear: Vec<bool>,
-    bright: Vec<bool>,
-    more: Vec<bool>,
-    white: Vec<bool>,
+    tests: TestBufs,
     cloud: Vec<bool>,
-    votes: Vec<[u32; 2]>,
     mask: Vec<bool>,
     kept: Vec<bool>,
     tmp: Vec<bool>,
@@ -101,14 +95,7 @@ pub(super) fn mixed_clouds(
         fits: delta(c, sp, so, w).powi(2) < 9.0 * (c.var + tau2),
         grid: c.grid,
     }));
-    let dmax = clear_dmax(&b.sky, min_cells, &mut b.t);
-    depolarized(&b.sky, dmax, &mut b.depol);
-    reference(&b.sky, &b.depol, min_cells, &mut b.t, &mut b.keep, &mut b.clear);
-    brighter(&b.sky, &mut b.clear, &mut b.t, &mut b.bright);
-    whiter(&b.sky, &mut b.clear, &mut b.keep, &mut b.t, &mut b.more, &mut b.white);
-    b.cloud.clear();
-    b.cloud.extend(b.depol.iter().zip(&b.bright).zip(&b.white).map(|((&d, &br), &wh)| d || br || wh));
-    propagate(&b.sky, cols, rows, &mut b.cloud, &mut b.votes);
+    label(&b.sky, cols, rows, min_cells, &mut b.t, &mut b.tests, &mut b.cloud);
     let marked = cells.iter().zip(&b.cloud).map(|(c, &x)| (c.grid, x));
     grown_clusters(marked, cols * rows, cols, DILATE_CELLS, &mut b.mask, &mut b.kept, &mut b.tmp, &mut b.grown);
 }
