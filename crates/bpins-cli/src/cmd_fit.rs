@@ -66,7 +66,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             f.dmax,
             f.radiance.iter().map(|c| c.abs()).sum::<f64>(),
             f.chi2_per_dof,
-            r.sky.get(k).map_or("—", |s| s.sun.as_str())
+            r.sky.get(k).map_or("—".into(), |s| match (f.twilight_strength, f.twilight_strength_sigma) {
+                // A mixed twilight: both skies fitted, the other's strength beside.
+                (Some(t), Some(ts)) =>
+                    format!("{}; both skies fitted, the other's at {t:.3} ± {ts:.3} × the model's", s.sun),
+                _ => s.sun.clone(),
+            })
         );
     }
     if let Some(h) = r.heading_rms_deg {

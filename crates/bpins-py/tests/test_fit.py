@@ -79,15 +79,24 @@ def test_bad_fit_arguments_name_themselves(samples, tmp_path):
         bpins.fit(tmp_path / "no-capture-here")
 
 
-def test_a_mixed_twilight_is_refused_naming_the_frame_and_both_shares(cli, tmp_path):
+def test_a_mixed_twilight_is_fitted_with_both_skies_and_a_dark_night_refused_naming_the_frame(cli, tmp_path):
     # The sun at −12.4° and a 75 % moon each give half the sky's light (docs/night.md,
-    # "Twilight"): not fitted about either, as `bpins fit` refuses it.
-    cap = tmp_path / "mixed"
-    subprocess.run([cli, "simulate", "--out", str(cap), "--time-utc", "2026-06-24T12:30:00Z", "--latitude-deg",
-                    "36.07", "--longitude-deg", "120.38", "--width-px", "128", "--height-px", "128",
-                    "--pixel-pitch-um", "27.6", "--headings-deg", "20,200", "--scene", "twilight"],
-                   check=True, capture_output=True)
+    # "Twilight"): fitted with both skies, as `bpins fit` fits it, the moon's strength a
+    # nuisance per frame near the simulated 1; a dark night is refused.
+    def simulate(name, time):
+        cap = tmp_path / name
+        subprocess.run([cli, "simulate", "--out", str(cap), "--time-utc", time, "--latitude-deg",
+                        "36.07", "--longitude-deg", "120.38", "--width-px", "128", "--height-px", "128",
+                        "--pixel-pitch-um", "27.6", "--headings-deg", "20,200", "--scene", "twilight"],
+                       check=True, capture_output=True)
+        return cap
+    got = bpins.fit(simulate("mixed", "2026-06-24T12:30:00Z"))
+    for f, k in zip(got["frames"], got["sky"]):
+        assert abs(f["heading_error_deg"]) <= 3.0 * f["heading_sigma_deg"], f
+        assert abs(f["twilight_strength"] - 1.0) < 0.05, f
+        assert k["mixed"] is True and k["source"] == "sun", k
+    dark = simulate("dark", "2026-07-14T16:00:00Z")
     for run in (bpins.fit, bpins.diagnose):
         with pytest.raises(ValueError, match="frames/f000.png") as e:
-            run(cap)
-        assert "the moon (at 35.5°, 75 % lit) 50 %" in str(e.value) and "no single source" in str(e.value)
+            run(dark)
+        assert "not yet: the moon is at -30.7° and the sun at -32.3°" in str(e.value)

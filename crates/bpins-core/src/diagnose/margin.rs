@@ -103,6 +103,8 @@ mod tests {
                     scale_dn: 1.0,
                     dmax: 0.5,
                     radiance: Default::default(),
+                    twilight_strength: None,
+                    twilight_strength_sigma: None,
                     chi2_per_dof: 1.0,
                 })
                 .collect(),

@@ -133,7 +133,7 @@ fn fit_from_stages(
     every_pixel_only: bool,
     progress: &dyn Fn(&str, usize),
 ) -> Result<FitResult> {
-    // A mixed twilight or a dark night is refused, never fitted about one source.
+    // A dark night is refused; a mixed twilight is fitted with both skies (`input::sky`).
     let sky = input::sky::frame_skies(c)?;
     let noise = frames.noise(c, opts)?;
     let (pb, theta) = problem(c, frames, opts, start, noise)?;
@@ -196,7 +196,9 @@ fn fit_from_stages(
             let h = at(Nuisance::Heading);
             let reference = c.frames[k].heading_deg;
             let (chi2, n) = acc.frame_chi2[k];
-            let chi2_per_dof = chi2 / (n as f64 - PER_FRAME as f64).max(1.0);
+            // The frame's slots: the twilight's strength counts where it has a second sky.
+            let slots = PER_FRAME - usize::from(pb.second[k].is_none());
+            let chi2_per_dof = chi2 / (n as f64 - slots as f64).max(1.0);
             FrameFit {
                 heading_deg: theta[h].rem_euclid(360.0),
                 heading_sigma_deg: heading_sigma_with_misfit(sigma(h), spatial(k, h)),
@@ -206,6 +208,8 @@ fn fit_from_stages(
                 scale_dn: theta[at(Nuisance::Scale)],
                 dmax: theta[at(Nuisance::Dmax)],
                 radiance: std::array::from_fn(|i| theta[at(Nuisance::Radiance(i))]),
+                twilight_strength: pb.second[k].map(|_| theta[at(Nuisance::Twilight)]),
+                twilight_strength_sigma: pb.second[k].map(|_| sigma(at(Nuisance::Twilight))),
                 chi2_per_dof,
             }
         })

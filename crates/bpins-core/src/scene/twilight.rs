@@ -83,20 +83,33 @@ impl FieldElement for Twilight {
 /// element is enabled and the other source lights the sky; unchanged otherwise.
 #[cfg(feature = "spa")]
 pub(crate) fn under(field: super::FieldScene, sun: &crate::sky::sun::SunPosition, dmax: f64) -> super::FieldScene {
-    use crate::sky::sun::SunSource;
     if !field.iter().any(|(d, _)| d.name == ELEMENT.name) {
         return field;
     }
+    match other_sky_of(sun, dmax) {
+        Some(o) => field.with_other_sky(o),
+        None => field,
+    }
+}
+
+/// The other source's sky of `sun`'s time and place ([`OtherSky`]: its direction, its
+/// sky's weight w = u_o/u_p against the frame's source's, d_max `dmax`); `None` for
+/// given or unplaced angles, where the ephemeris fails, or where the other source adds
+/// no light (w not positive and finite). What `simulate` renders (the element, [`under`])
+/// and what `fit` models a mixed twilight's frame with (`fit::input::sky`).
+#[cfg(feature = "spa")]
+pub(crate) fn other_sky_of(sun: &crate::sky::sun::SunPosition, dmax: f64) -> Option<OtherSky> {
+    use crate::sky::sun::SunSource;
     let (SunSource::Spa { time_utc, latitude_deg, longitude_deg }
     | SunSource::Moon { time_utc, latitude_deg, longitude_deg, .. }) = &sun.source
     else {
-        return field;
+        return None;
     };
     let (Ok(s), Ok(m)) = (
         crate::sky::sun::sun_from_time_place(time_utc, *latitude_deg, *longitude_deg),
         crate::sky::moon::moon_from_time_place(time_utc, *latitude_deg, *longitude_deg),
     ) else {
-        return field;
+        return None;
     };
     let shares = crate::sky::twilight::shares_of(s.elevation_deg, &m);
     let unit = |zenith_cd_m2: f64, el_deg: f64| zenith_cd_m2 / (0.5 * (1.0 + el_deg.to_radians().sin().powi(2)));
@@ -106,10 +119,7 @@ pub(crate) fn under(field: super::FieldScene, sun: &crate::sky::sun::SunPosition
         _ => (m.direction_enu(), u_moon, u_sun),
     };
     let weight = u_o / u_p;
-    if !(weight > 0.0 && weight.is_finite()) {
-        return field;
-    }
-    field.with_other_sky(OtherSky { direction_enu, weight, dmax })
+    (weight > 0.0 && weight.is_finite()).then_some(OtherSky { direction_enu, weight, dmax })
 }
 
 #[cfg(test)]

@@ -21,9 +21,10 @@ pub const NIGHT_SUN_ELEVATION_DEG: f64 = -10.0;
 /// where neither lights it, which the readers then refuse as too low, naming it. The
 /// moon's is [`sun::SunSource::Moon`]. Whether the frame may be read (one source giving
 /// [`twilight::DOMINANT_SHARE`] of the light, the sun above [`NIGHT_SUN_ELEVATION_DEG`])
-/// is [`dark_night`]'s, for what reads one source's pattern (the fit, the diagnosis); the
-/// heading reads a twilight lit by both with both (`compass::Sun::mixed_twilight`,
-/// `heading::field::two_sources`). Frames need only the time and place.
+/// is [`dark_night`]'s, for what reads one source's pattern; the heading reads a
+/// twilight lit by both with both (`compass::Sun::mixed_twilight`,
+/// `heading::field::two_sources`), the fit and the diagnosis model both skies
+/// (`fit::input::sky`). Frames need only the time and place.
 #[cfg(feature = "spa")]
 pub fn source_from_time_place(
     time_utc: &str,

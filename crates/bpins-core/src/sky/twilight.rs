@@ -221,12 +221,13 @@ impl Shares {
     }
 
     /// Why a mixed frame is not read where one source's pattern is needed (for
-    /// [`Dominant::Mixed`]: `bpins fit` and `bpins diagnose`).
+    /// [`Dominant::Mixed`]: a one-source reader's typed refusal; `bpins fit` and `bpins
+    /// diagnose` model both skies instead, `fit::input::sky`).
     pub fn mixed_reason(&self) -> String {
         format!(
             "{}: a sky lit by both has two polarization patterns (one about each source) and no single source's \
-             E-vector pattern; read here when one gives at least {:.0} % (refused; `bpins heading` and the compass, \
-             monochrome or colour, read it with both sources)",
+             E-vector pattern; read here when one gives at least {:.0} % (refused by this one-source reader; `bpins \
+             heading`, the compass, monochrome or colour, and `bpins fit` read it with both sources)",
             self.describe(),
             100.0 * DOMINANT_SHARE
         )

@@ -12,6 +12,7 @@ use crate::camera::Intrinsics;
 use crate::capture::Capture;
 use crate::capture::FrameData as Whole;
 use crate::chain::{colour_pixel_signal_dn, mosaic_pixel_signal_dn, ChainFrame, NoiseIndex, Scene};
+use crate::effects::Model;
 use crate::error::Result;
 use crate::fit::input::frames::{value_of, FitFrames};
 use crate::fit::input::noise::NoiseModel;
@@ -21,6 +22,7 @@ use crate::fit::model::stages::{Reuse, Stages};
 use crate::fit::model::start;
 use crate::fit::{FitOptions, FitState, BORDER_PX};
 use crate::heading::field::SkyMask;
+use crate::scene::twilight::{OtherSky, Twilight};
 use crate::sensor::{ColourTiles, Layout, Response};
 use std::sync::Arc;
 
@@ -37,6 +39,9 @@ pub(crate) struct Problem<'a> {
     pub sky: Arc<Vec<Option<SkyMask>>>,
     /// Per frame: the radiance basis.
     pub basis: Vec<radiance::Basis>,
+    /// Per frame: a mixed twilight's second sky (`fit::input::sky::second_skies`), its
+    /// d_max set per chain to the frame's; `None` for a frame one source lights.
+    pub second: Vec<Option<OtherSky>>,
 }
 
 /// One frame's chain and its radiance nuisance.
@@ -97,7 +102,9 @@ pub(crate) fn problem<'a>(
     noise: NoiseModel,
 ) -> Result<(Problem<'a>, Vec<f64>)> {
     let reference: Vec<bool> = c.frames.iter().map(|f| f.heading_deg.is_some()).collect();
-    let slots = Slots::new(opts, &reference);
+    let second = crate::fit::input::sky::second_skies(c);
+    let mut slots = Slots::new(opts, &reference);
+    slots.free_twilight(&second.iter().map(Option::is_some).collect::<Vec<_>>());
     // Each frame's sky (and, for a frame without a reference, its first heading) from
     // the field estimator, on the whole frames.
     let field = match &opts.sky_masks {
@@ -117,6 +124,7 @@ pub(crate) fn problem<'a>(
         full_scale_dn: c.sensor.full_scale_dn(),
         sky,
         basis,
+        second,
     };
     let mut theta = start::theta(&pb, warm, &field)?;
     if warm_basis.is_none() {
@@ -169,7 +177,13 @@ impl Problem<'_> {
             ..Response::ideal(at(Nuisance::Scale))
         };
         let model = set.model();
-        let chain = ChainFrame::new(&model, &self.nominal, &scene, &resp, NoiseIndex { seed: 0, trial: 0, frame: 0 });
+        let noise = NoiseIndex { seed: 0, trial: 0, frame: 0 };
+        let chain = match self.second.get(k).copied().flatten() {
+            // A mixed twilight: the other source's sky added, as the `twilight` scene
+            // element renders it, at the frame's d_max and strength k.
+            Some(o) => second_sky(&model, &self.nominal, &scene, &resp, o, at(Nuisance::Twilight)),
+            None => ChainFrame::new(&model, &self.nominal, &scene, &resp, noise),
+        };
         // A colour sensor: each band's frame, as `simulate` renders the mosaic.
         let bands = self
             .capture
@@ -333,6 +347,31 @@ impl Problem<'_> {
     }
 }
 
+/// The chain of `model` on `scene` with a mixed twilight's second sky `o` added: the
+/// `twilight` scene element at `strength` (in the fit's range, which may pass the
+/// element's `--scene` range of [0, 1]), its sky at the chain's d_max (the frame's
+/// fitted d_max, `sky_depolarization` included).
+fn second_sky(
+    model: &Model,
+    nominal: &Intrinsics,
+    scene: &Scene,
+    resp: &Response,
+    o: OtherSky,
+    strength: f64,
+) -> ChainFrame {
+    let noise = NoiseIndex { seed: 0, trial: 0, frame: 0 };
+    let dmax = (scene.dmax * model.sky_block.dmax_factor).min(1.0);
+    let other = Some(OtherSky { dmax, ..o });
+    let mut field = crate::scene::FieldScene::new(0);
+    field.enable(crate::scene::twilight::ELEMENT.name).expect("a registered element");
+    let mut chain = ChainFrame::new_in_field(model, nominal, scene, resp, noise, Some(&field));
+    debug_assert_eq!(chain.dmax, dmax);
+    if let Some(f) = chain.field.as_mut() {
+        f.elements = vec![Arc::new(Twilight { strength, other })];
+    }
+    chain
+}
+
 /// Pixel (u, v)'s chain stages under `f`: from a base's where given, else all evaluated.
 #[inline(always)]
 fn stages_of(f: &ChainFrame, uv: (usize, usize), from: Option<(Stages, Reuse)>) -> Stages {
@@ -376,6 +415,91 @@ mod tests {
                 ..FrameSpec::new("f.png", SunPosition::given(40.0, 25.0))
             }],
         }
+    }
+
+    /// A mixed twilight's frame (the sun at −12.4°, a 75 % moon: half the light each) is
+    /// modelled as `simulate` renders it with the `twilight` element: the moon's sky
+    /// added at the frame's d_max and the fitted strength (0.3 here, below the element's
+    /// default); a strength of 0 is the sun's sky alone, and the strength's side reuses
+    /// the ray only.
+    #[test]
+    fn a_mixed_twilight_frames_model_is_the_simulated_twilight_at_its_strength() {
+        let (t, lat, lon) = ("2026-06-24T12:30:00Z", 36.07, 120.38);
+        let sun = crate::sky::source_from_time_place(t, lat, lon).unwrap();
+        let mut c = colour_capture();
+        c.sensor.colour = None;
+        c.frames = vec![FrameSpec { heading_deg: Some(30.0), ..FrameSpec::new("f.png", sun.clone()) }];
+        let second = crate::fit::input::sky::second_skies(&c);
+        assert!(second[0].is_some_and(|o| o.weight > 0.5 && o.weight < 2.0), "{second:?}");
+        let (w, h) = (64, 48);
+        let resp = Response { black_level_dn: 64.0, bit_depth: 12, ..Response::ideal(1000.0) };
+        let scene = Scene {
+            sun_az_deg: sun.azimuth_deg,
+            sun_el_deg: sun.elevation_deg,
+            heading_deg: 30.0,
+            tilt_x_deg: 0.0,
+            tilt_y_deg: 0.0,
+            dmax: 0.6,
+        };
+        let model = EffectSet::new().model();
+        let noise = NoiseIndex { seed: 0, trial: 0, frame: 0 };
+        // The truth as `simulate` renders it: the element under the frame's time and place.
+        let render = |strength: f64| {
+            let mut field = crate::scene::FieldScene::new(1);
+            field.set("twilight", "strength", strength).unwrap();
+            let field = crate::scene::twilight::under(field, &sun, scene.dmax);
+            let f = ChainFrame::new_in_field(&model, &c.intrinsics(), &scene, &resp, noise, Some(&field));
+            (0..h)
+                .flat_map(|v| (0..w).map(move |u| (u, v)))
+                .map(|(u, v)| mosaic_pixel_signal_dn(&f, u, v, w, h, &DEFAULT_MOSAIC))
+                .collect::<Vec<f64>>()
+        };
+        let opts = FitOptions { rayleigh_radiance: true, ..Default::default() };
+        let data = [Whole::Mosaic { width_px: w as u32, height_px: h as u32, dn: vec![0.0; w * h] }];
+        let frames = FitFrames::all(&c, &data).unwrap();
+        let mut slots = Slots::new(&opts, &[true]);
+        slots.free_twilight(&[true]);
+        let pb = Problem {
+            capture: &c,
+            frames: &frames,
+            nominal: c.intrinsics(),
+            opts: &opts,
+            slots,
+            noise: NoiseModel::default(),
+            full_scale_dn: c.sensor.full_scale_dn(),
+            sky: Arc::new(vec![None]),
+            basis: vec![Default::default()],
+            second,
+        };
+        let mut theta = vec![0.0; pb.slots.all.len()];
+        for (n, x) in [(Nuisance::Heading, 30.0), (Nuisance::Scale, 1000.0), (Nuisance::Dmax, 0.6)] {
+            theta[pb.slots.at(0, n)] = x;
+        }
+        let mut buf = Vec::new();
+        let mut model_at = |strength: f64| {
+            theta[pb.slots.at(0, Nuisance::Twilight)] = strength;
+            let f = pb.chain(&theta, 0).unwrap();
+            let mut m = Vec::with_capacity(w * h);
+            for v in 0..h {
+                for u in 0..w {
+                    pb.pixel(&f, 0, u, v, &mut buf);
+                    m.push(buf[0].1 - 64.0);
+                }
+            }
+            (f, m)
+        };
+        let (base, m03) = model_at(0.3);
+        let (_, m0) = model_at(0.0);
+        let (truth03, truth0) = (render(0.3), render(0.0));
+        let mut moved = 0.0f64;
+        for i in 0..w * h {
+            assert!((m03[i] - truth03[i]).abs() < 1e-9 * truth03[i], "pixel {i}: {} vs {}", m03[i], truth03[i]);
+            assert!((m0[i] - truth0[i]).abs() < 1e-9 * truth0[i], "pixel {i}: {} vs {}", m0[i], truth0[i]);
+            moved = moved.max((m03[i] - m0[i]).abs() / m0[i]);
+        }
+        assert!(moved > 0.05, "the moon's sky moves the model: {moved}");
+        theta[pb.slots.at(0, Nuisance::Twilight)] = 0.31;
+        assert_eq!(pb.chain(&theta, 0).unwrap().reuse_from(&base), Reuse::Ray);
     }
 
     /// The fit's model of a colour frame is the mosaic `simulate` renders (noise off):
@@ -424,6 +548,7 @@ mod tests {
                 full_scale_dn: c.sensor.full_scale_dn(),
                 sky: Arc::new(vec![None]),
                 basis: vec![Default::default()],
+                second: vec![None],
             };
             let mut theta = vec![0.0; pb.slots.all.len()];
             for (n, x) in [(Nuisance::Heading, 30.0), (Nuisance::Scale, 1000.0), (Nuisance::Dmax, 0.6)] {

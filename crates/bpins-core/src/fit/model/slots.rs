@@ -28,6 +28,7 @@ pub enum NuisanceKind {
     Scale,
     Dmax,
     Radiance,
+    Twilight,
 }
 
 /// One per-frame nuisance: a kind, and for the radiance its basis coefficient.
@@ -41,6 +42,10 @@ pub enum Nuisance {
     Dmax,
     /// Coefficient `i` of the frame's radiance basis ([`radiance`]).
     Radiance(usize),
+    /// The strength of a mixed twilight's second sky (`fit::input::sky`): the factor on
+    /// the model's weight of the other source's sky; fixed at 1 (and without effect) on
+    /// a frame one source lights.
+    Twilight,
 }
 
 /// How a slot's column of the Jacobian is formed.
@@ -80,7 +85,7 @@ pub struct NuisanceDef {
 
 /// The per-frame nuisances, in slot order (the radiance row stands for its
 /// [`radiance::N`] coefficients).
-pub const NUISANCES: [NuisanceDef; 4] = [
+pub const NUISANCES: [NuisanceDef; 5] = [
     NuisanceDef {
         kind: NuisanceKind::Heading,
         name: "heading_deg",
@@ -122,15 +127,34 @@ pub const NUISANCES: [NuisanceDef; 4] = [
         derivative: Derivative::Radiance(0),
         free: |o, _| !o.rayleigh_radiance,
     },
+    NuisanceDef {
+        kind: NuisanceKind::Twilight,
+        name: "twilight_strength",
+        unit: "1",
+        // S = S_p + k·w·S_o: k ≥ 0 keeps the second sky a sky (no negative light); the
+        // model's w (K&S moonlight, Patat's twilight) is good to a factor of a few, so
+        // k is bounded at 4 (a physical range, not a prior: within it the data decide).
+        min: 0.0,
+        max: 4.0,
+        step: 1e-6,
+        // The sky's I, Q and U are affine in k, and every later stage linear in them.
+        derivative: Derivative::Secant,
+        // Freed by the problem where a frame has a second sky ([`Slots::free_twilight`]).
+        free: |_, _| false,
+    },
 ];
 
-/// Slots per frame: heading, scale, d_max, then the radiance coefficients.
-pub const PER_FRAME: usize = 3 + radiance::N;
+/// Slots per frame: heading, scale, d_max, the radiance coefficients, then the twilight's
+/// strength.
+pub const PER_FRAME: usize = 4 + radiance::N;
 
 impl Nuisance {
     /// Every nuisance of a frame, in slot order.
     pub fn all() -> impl Iterator<Item = Nuisance> {
-        [Nuisance::Heading, Nuisance::Scale, Nuisance::Dmax].into_iter().chain((0..radiance::N).map(Nuisance::Radiance))
+        [Nuisance::Heading, Nuisance::Scale, Nuisance::Dmax]
+            .into_iter()
+            .chain((0..radiance::N).map(Nuisance::Radiance))
+            .chain([Nuisance::Twilight])
     }
 
     /// Position among the frame's slots.
@@ -140,6 +164,7 @@ impl Nuisance {
             Nuisance::Scale => 1,
             Nuisance::Dmax => 2,
             Nuisance::Radiance(i) => 3 + i,
+            Nuisance::Twilight => 3 + radiance::N,
         }
     }
 
@@ -149,6 +174,7 @@ impl Nuisance {
             Nuisance::Scale => NuisanceKind::Scale,
             Nuisance::Dmax => NuisanceKind::Dmax,
             Nuisance::Radiance(_) => NuisanceKind::Radiance,
+            Nuisance::Twilight => NuisanceKind::Twilight,
         };
         NUISANCES.iter().find(|d| d.kind == kind).expect("every kind has its row")
     }
@@ -243,6 +269,15 @@ impl Slots {
         std::array::from_fn(|i| b + i)
     }
 
+    /// Frees the twilight strength of each frame `second[k]` marks (a frame with a
+    /// second sky); the others keep it fixed.
+    pub fn free_twilight(&mut self, second: &[bool]) {
+        for (k, _) in second.iter().enumerate().filter(|(_, &s)| s) {
+            let i = self.at(k, Nuisance::Twilight);
+            self.all[i].free = true;
+        }
+    }
+
     /// The free slots, in order.
     pub fn free(&self) -> Vec<usize> {
         (0..self.all.len()).filter(|&i| self.all[i].free).collect()
@@ -299,5 +334,12 @@ mod tests {
         assert!(free.contains(&SlotId::Frame { frame: 1, nuisance: Nuisance::Heading }));
         assert!(!free.iter().any(|id| matches!(id, SlotId::Frame { nuisance: Nuisance::Dmax, .. })));
         assert_eq!(s.at(1, Nuisance::Scale), PER_FRAME + 1);
+        // The twilight's strength: fixed unless a frame has a second sky.
+        assert!(!free.iter().any(|id| matches!(id, SlotId::Frame { nuisance: Nuisance::Twilight, .. })));
+        let mut s = s;
+        s.free_twilight(&[false, true]);
+        let free: Vec<SlotId> = s.free().iter().map(|&i| s.all[i].id).collect();
+        assert!(!free.contains(&SlotId::Frame { frame: 0, nuisance: Nuisance::Twilight }));
+        assert!(free.contains(&SlotId::Frame { frame: 1, nuisance: Nuisance::Twilight }));
     }
 }

@@ -1,7 +1,8 @@
 //! Starting guesses: where a fit begins when no warm start names a value. Effects at
 //! neutral; each frame's heading at its reference, else the field estimator's (from
 //! the sky mask), else the sun-vector extractor's on the whole frame; d_max 0.5
-//! (or the given one); no radiance shape; the radiance scale that fits best (linear).
+//! (or the given one); no radiance shape; a twilight's second sky at the model's weight
+//! (strength 1); the radiance scale that fits best (linear).
 
 use crate::error::{Error, Result};
 use crate::fit::model::problem::Problem;
@@ -38,6 +39,8 @@ pub(crate) fn theta(pb: &Problem, warm: Option<&FitState>, field: &[Option<SkyMa
                 Nuisance::Dmax => opts.fixed_dmax.or(warm.map(|w| w[n.index()])).unwrap_or(0.5),
                 Nuisance::Radiance(_) if opts.rayleigh_radiance => 0.0,
                 Nuisance::Radiance(_) => warm.map_or(0.0, |w| w[n.index()]),
+                // The model's weight of a second sky as it is (1 where there is none).
+                Nuisance::Twilight => warm.map_or(1.0, |w| w[n.index()]),
             };
         }
         theta.extend(frame);

@@ -52,6 +52,13 @@ pub struct FrameFit {
     /// The sky's radiance nuisance: coefficients of the frame's basis ([`radiance`]).
     #[serde(rename = "radiance_coefficients")]
     pub radiance: [f64; radiance::N],
+    /// A mixed twilight's second sky: its fitted strength k, the factor on the model's
+    /// weight of the other source's sky (1: the model's), and its 1σ (`fit::input::sky`);
+    /// absent for a frame one source lights.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub twilight_strength: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub twilight_strength_sigma: Option<f64>,
     pub chi2_per_dof: f64,
 }
 
