@@ -184,18 +184,17 @@ pub fn frame_parts<'a>(
     let sun = sun.as_ref().map_err(Clone::clone).and_then(|s| {
         match (bpins_core::compass::Sun::mixed_twilight(s, sun_sigma_deg), bpins_core::tool::sun::dark_night(s)) {
             (None, Some(why)) => Err(why),
-            _ => Ok(s),
+            (mixed, _) => Ok(FrameSun {
+                mixed,
+                azimuth_deg: s.azimuth_deg,
+                elevation_deg: s.elevation_deg,
+                sigma_deg,
+                source: match &s.source {
+                    SunSource::Given => "given by --sun-azimuth-deg and --sun-elevation-deg".to_string(),
+                    other => frames::sun_source(other, sigma_deg.map(|_| "--sun-sigma-deg")),
+                },
+            }),
         }
-    });
-    let sun = sun.map(|s| FrameSun {
-        mixed: bpins_core::compass::Sun::mixed_twilight(s, sun_sigma_deg),
-        azimuth_deg: s.azimuth_deg,
-        elevation_deg: s.elevation_deg,
-        sigma_deg,
-        source: match &s.source {
-            SunSource::Given => "given by --sun-azimuth-deg and --sun-elevation-deg".to_string(),
-            other => frames::sun_source(other, sigma_deg.map(|_| "--sun-sigma-deg")),
-        },
     });
     let tilt = tilt.as_ref().map_err(Clone::clone).map(|t| FrameTilt {
         tilt_x_deg: t.tilt_x_deg,
