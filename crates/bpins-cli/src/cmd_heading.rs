@@ -272,20 +272,7 @@ impl FrameSource for CaptureSource<'_> {
             visit(SourceFrame {
                 id: FrameId { file: Some(f.file.display().to_string()), ..FrameId::default() },
                 pixels: Pixels::Capture(&data),
-                // A mixed twilight is read with both sources; a dark night refused.
-                sun: match (
-                    bpins_core::compass::Sun::mixed_twilight(&f.sun, f.sun_sigma_deg.unwrap_or(0.0)),
-                    bpins_core::tool::sun::dark_night(&f.sun),
-                ) {
-                    (None, Some(why)) => Err(why),
-                    (mixed, _) => Ok(FrameSun {
-                        azimuth_deg: f.sun.azimuth_deg,
-                        elevation_deg: f.sun.elevation_deg,
-                        sigma_deg: f.sun_sigma_deg,
-                        source: frames::sun_source(&f.sun.source, sigma_from),
-                        mixed,
-                    }),
-                },
+                sun: FrameSun::of(&f.sun, f.sun_sigma_deg, frames::sun_source(&f.sun.source, sigma_from)),
                 tilt: Ok(FrameTilt {
                     tilt_x_deg: f.tilt_x_deg.unwrap_or(0.0),
                     tilt_y_deg: f.tilt_y_deg.unwrap_or(0.0),

@@ -180,21 +180,12 @@ pub fn frame_parts<'a>(
         Mosaic::U16(r) => Pixels::Dn16(r),
     };
     let sigma_deg = (sun_sigma_deg > 0.0).then_some(sun_sigma_deg);
-    // A mixed twilight is read with both sources (`mixed` below); a dark night refused.
     let sun = sun.as_ref().map_err(Clone::clone).and_then(|s| {
-        match (bpins_core::compass::Sun::mixed_twilight(s, sun_sigma_deg), bpins_core::tool::sun::dark_night(s)) {
-            (None, Some(why)) => Err(why),
-            (mixed, _) => Ok(FrameSun {
-                mixed,
-                azimuth_deg: s.azimuth_deg,
-                elevation_deg: s.elevation_deg,
-                sigma_deg,
-                source: match &s.source {
-                    SunSource::Given => "given by --sun-azimuth-deg and --sun-elevation-deg".to_string(),
-                    other => frames::sun_source(other, sigma_deg.map(|_| "--sun-sigma-deg")),
-                },
-            }),
-        }
+        let source = match &s.source {
+            SunSource::Given => "given by --sun-azimuth-deg and --sun-elevation-deg".to_string(),
+            other => frames::sun_source(other, sigma_deg.map(|_| "--sun-sigma-deg")),
+        };
+        FrameSun::of(s, sigma_deg, source)
     });
     let tilt = tilt.as_ref().map_err(Clone::clone).map(|t| FrameTilt {
         tilt_x_deg: t.tilt_x_deg,

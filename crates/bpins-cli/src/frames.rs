@@ -76,6 +76,24 @@ pub struct FrameSun {
 }
 
 impl FrameSun {
+    /// A frame's sun as the compass reads it: a twilight lit by both the sun and the
+    /// moon with both sources ([`Sun::mixed_twilight`]), a dark night refused with
+    /// the reason ([`bpins_core::tool::sun::dark_night`]), otherwise the angles.
+    /// `sigma_deg`: each angle's 1σ, degrees (`None`: exact); `source`: for the table.
+    pub fn of(sun: &bpins_core::SunPosition, sigma_deg: Option<f64>, source: String) -> Result<FrameSun, String> {
+        let mixed = Sun::mixed_twilight(sun, sigma_deg.unwrap_or(0.0));
+        match (&mixed, bpins_core::tool::sun::dark_night(sun)) {
+            (None, Some(why)) => Err(why),
+            _ => Ok(FrameSun {
+                azimuth_deg: sun.azimuth_deg,
+                elevation_deg: sun.elevation_deg,
+                sigma_deg,
+                source,
+                mixed,
+            }),
+        }
+    }
+
     /// `az/el [± 1σ], source`, four decimals.
     pub fn text(&self) -> String {
         let (az, el) = (self.azimuth_deg, self.elevation_deg);

@@ -166,9 +166,13 @@ fn truth_maps_in_bands(
     // A colour sensor's pixels see their band's frame (the band's ε in each channel's
     // analyzer, before the analyzer effects), exactly as the sky's chain renders them
     // (`chain::colour_pixel_signal_dn`); a monochrome sensor's the frame itself.
-    let frames = match colour {
-        Some(_) => frame.bands(model, &scene),
-        None => [frame.clone(), frame.clone(), frame],
+    let bands;
+    let frames: &[crate::chain::ChainFrame] = match colour {
+        Some(_) => {
+            bands = frame.bands(model, &scene);
+            &bands
+        }
+        None => std::slice::from_ref(&frame),
     };
     let [vig_v2, vig_v4] = crate::effects::vignetting::coefficients(model);
     let per_px: Vec<(f32, f32, f64, f32)> = (0..n)

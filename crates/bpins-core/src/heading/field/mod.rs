@@ -251,9 +251,10 @@ pub enum NoHeading {
     #[error("{0}")]
     Solver(String),
     /// From a time and place: the sun and the moon both light the sky and neither gives
-    /// 99 % of its light (`sky::Refusal::Mixed`), where one source's pattern is needed
-    /// (the compass, monochrome or colour, reads it with both sources, `two_sources.rs`);
-    /// the frame is not read.
+    /// 99 % of its light (`sky::Refusal::Mixed`), where one source's pattern is needed.
+    /// No reader returns it today: the compass, monochrome or colour, reads such a
+    /// frame with both sources (`two_sources.rs`). Kept so that the C ABI's
+    /// `BPINS_NO_HEADING_MIXED_SKY` (9) keeps its meaning for callers built against it.
     #[error("{}", shares.mixed_reason())]
     MixedSky { shares: crate::sky::twilight::Shares },
     /// From a time and place: the sun past −10° and no moon up bright enough to be read
