@@ -66,7 +66,7 @@ fn maps_of_a_colour_capture_are_each_bands_kernel_maps() {
     use bpins_core::{colour_maps, Interpolation, MapsConfig, Reconstructor};
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("maps");
-    for (route, size) in [("opencv", (408, 340)), ("superpixel", (102, 85))] {
+    for (route, size) in [("opencv", (408, 340)), ("opencv_ea", (408, 340)), ("superpixel", (102, 85))] {
         bpins(&["maps", COLOUR, "--out", &s(&out), "--frames", "1", "--interpolation", route])
             .ok()
             .stderr_has(&format!("({} × {} px", size.0, size.1))

@@ -28,6 +28,10 @@
 // polanalyser's demosaic (OpenCV's Bayer bilinear, rounded to whole DN), exactly.
 #define BPINS_MAPS_OPENCV 2
 
+// polanalyser's edge-aware demosaic (OpenCV's `COLOR_Bayer**2BGR_EA`), exactly: on a
+// mono frame the maps of `BPINS_MAPS_OPENCV`, on a colour one `COLOR_PolarRGB_EA`.
+#define BPINS_MAPS_OPENCV_EA 3
+
 // Bytes of `BpinsHeading::message`, its terminating NUL included.
 #define BPINS_MESSAGE_LEN 256
 
@@ -513,7 +517,8 @@ enum BpinsStatus bpins_stokes_maps_f32(const float *data,
 // `BPINS_BAND_R`, `BPINS_BAND_G`, `BPINS_BAND_B`. Maps of (width × height) floats, or
 // (width / 4) × (height / 4) for `BPINS_MAPS_SUPERPIXEL` (one value per 4 × 4
 // superpixel); `BPINS_MAPS_OPENCV` is polanalyser's `COLOR_PolarRGB` demosaic,
-// exactly (docs/colour.md). Otherwise as `bpins_stokes_maps_u16`.
+// `BPINS_MAPS_OPENCV_EA` its `COLOR_PolarRGB_EA`, exactly (docs/colour.md).
+// Otherwise as `bpins_stokes_maps_u16`.
 //
 // # Safety
 // As `bpins_stokes_maps_u16`; `colour_tiles` NULL or four readable chars; `out` NULL

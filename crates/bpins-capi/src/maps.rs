@@ -19,6 +19,9 @@ pub const BPINS_MAPS_BILINEAR: u32 = 0;
 pub const BPINS_MAPS_SUPERPIXEL: u32 = 1;
 /// polanalyser's demosaic (OpenCV's Bayer bilinear, rounded to whole DN), exactly.
 pub const BPINS_MAPS_OPENCV: u32 = 2;
+/// polanalyser's edge-aware demosaic (OpenCV's `COLOR_Bayer**2BGR_EA`), exactly: on a
+/// mono frame the maps of `BPINS_MAPS_OPENCV`, on a colour one `COLOR_PolarRGB_EA`.
+pub const BPINS_MAPS_OPENCV_EA: u32 = 3;
 
 /// How the maps are made. `bpins_maps_config_default` fills the defaults.
 #[repr(C)]
@@ -71,7 +74,7 @@ impl BpinsMapsConfig {
     fn to_core(self) -> Result<(MapsConfig, Reconstructor), Failure> {
         let interpolation = *Interpolation::ALL
             .get(self.interpolation as usize)
-            .ok_or_else(|| config_error(format!("interpolation {}: one of BPINS_MAPS_* (0…2)", self.interpolation)))?;
+            .ok_or_else(|| config_error(format!("interpolation {}: one of BPINS_MAPS_* (0…3)", self.interpolation)))?;
         let mosaic = mosaic_of_deg(self.mosaic_deg).map_err(config_error)?;
         let finite = [self.black_level_dn, self.full_scale_dn, self.aoe_centre_x_px, self.aoe_centre_y_px];
         if !finite.iter().all(|x| x.is_finite()) || self.full_scale_dn < 0.0 {
@@ -312,7 +315,8 @@ pub unsafe extern "C" fn bpins_stokes_maps_f32(
 /// `BPINS_BAND_R`, `BPINS_BAND_G`, `BPINS_BAND_B`. Maps of (width × height) floats, or
 /// (width / 4) × (height / 4) for `BPINS_MAPS_SUPERPIXEL` (one value per 4 × 4
 /// superpixel); `BPINS_MAPS_OPENCV` is polanalyser's `COLOR_PolarRGB` demosaic,
-/// exactly (docs/colour.md). Otherwise as `bpins_stokes_maps_u16`.
+/// `BPINS_MAPS_OPENCV_EA` its `COLOR_PolarRGB_EA`, exactly (docs/colour.md).
+/// Otherwise as `bpins_stokes_maps_u16`.
 ///
 /// # Safety
 /// As `bpins_stokes_maps_u16`; `colour_tiles` NULL or four readable chars; `out` NULL

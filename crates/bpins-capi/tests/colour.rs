@@ -133,9 +133,11 @@ fn band_headings_through_the_abi_are_the_front_doors() {
 fn colour_maps_through_the_abi_are_the_kernels() {
     let f = colour_frame(0);
     let (w, h) = (f.config.width_px, f.config.height_px);
-    for (code, interp) in
-        [(BPINS_MAPS_OPENCV, Interpolation::OpenCv), (BPINS_MAPS_SUPERPIXEL, Interpolation::Superpixel)]
-    {
+    for (code, interp) in [
+        (BPINS_MAPS_OPENCV, Interpolation::OpenCv),
+        (BPINS_MAPS_OPENCV_EA, Interpolation::OpenCvEa),
+        (BPINS_MAPS_SUPERPIXEL, Interpolation::Superpixel),
+    ] {
         let mut cfg = MaybeUninit::<BpinsMapsConfig>::uninit();
         // SAFETY: writable.
         assert_eq!(unsafe { bpins_maps_config_default(cfg.as_mut_ptr()) }, BpinsStatus::BPINS_OK);
@@ -176,14 +178,14 @@ fn colour_maps_through_the_abi_are_the_kernels() {
             assert!(same(&got[0], &m.maps.aop_deg) && same(&got[1], &m.maps.dolp), "{interp:?} {:?}", m.band);
             assert!(same(&got[2], &m.maps.intensity_dn) && same(&got[3], &m.maps.aoe_deg), "{interp:?} {:?}", m.band);
         }
-        // Refusals: no tiles, tiles that are not a Bayer arrangement for opencv.
+        // Refusals: no tiles, tiles that are not a Bayer arrangement for opencv(_ea).
         // SAFETY: as above.
         let st = unsafe { bpins_colour_maps_u16(f.raw.as_ptr(), w, h, w, &cfg, null(), out.as_ptr()) };
         assert_eq!(st, BpinsStatus::BPINS_ERR_NULL);
         let rrgb = [b'R' as c_char, b'R' as c_char, b'G' as c_char, b'B' as c_char];
         // SAFETY: as above.
         let st = unsafe { bpins_colour_maps_u16(f.raw.as_ptr(), w, h, w, &cfg, rrgb.as_ptr(), out.as_ptr()) };
-        if interp == Interpolation::OpenCv {
+        if interp != Interpolation::Superpixel {
             assert_eq!(st, BpinsStatus::BPINS_ERR_CONFIG);
             assert!(last_error().contains("Bayer"), "{}", last_error());
         } else {

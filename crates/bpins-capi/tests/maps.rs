@@ -36,6 +36,7 @@ fn the_abi_gives_the_kernels_maps_for_each_interpolation() {
         (BPINS_MAPS_BILINEAR, Interpolation::Bilinear),
         (BPINS_MAPS_SUPERPIXEL, Interpolation::Superpixel),
         (BPINS_MAPS_OPENCV, Interpolation::OpenCv),
+        (BPINS_MAPS_OPENCV_EA, Interpolation::OpenCvEa),
     ] {
         let mut cfg = std::mem::MaybeUninit::<BpinsMapsConfig>::uninit();
         // SAFETY: a writable config.

@@ -28,9 +28,11 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// How each channel is found at a pixel: bilinear (each channel on its own
-    /// lattice), superpixel (2 × 2 tiles, half size) or opencv (polanalyser's
-    /// demosaic, exactly). A colour capture: bilinear and opencv full size (opencv
-    /// is polanalyser's COLOR_PolarRGB), superpixel one value per 4 × 4 per band.
+    /// lattice), superpixel (2 × 2 tiles, half size), opencv (polanalyser's
+    /// demosaic, exactly) or opencv_ea (its edge-aware one, exactly; on a mono
+    /// capture the same maps as opencv). A colour capture: bilinear, opencv and
+    /// opencv_ea full size (polanalyser's COLOR_PolarRGB, COLOR_PolarRGB_EA),
+    /// superpixel one value per 4 × 4 per band.
     #[arg(long, value_parser = crate::names::by_name(&Interpolation::ALL, Interpolation::name), default_value = "bilinear")]
     interpolation: Interpolation,
     /// Only these frames (0-based, comma-separated); default every frame.

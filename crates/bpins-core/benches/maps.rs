@@ -4,13 +4,14 @@
 //! machine go to BENCHMARKS.md (issue 36: ≤ 40 ms for a full frame on 2 cores, 4× the
 //! memory-traffic limit of reading 10 MB and writing three float32 maps).
 //!
-//! * `maps/2448x2048_{bilinear,superpixel,opencv}`: `maps::stokes_maps_into`, no AoE;
+//! * `maps/2448x2048_{bilinear,superpixel,opencv,opencv_ea}`: `maps::stokes_maps_into`,
+//!   no AoE (opencv_ea: polanalyser's edge-aware demosaic, on a mono mosaic opencv's kernel);
 //! * `maps/2448x2048_bilinear_aoe`: with the AoE map too;
 //! * `maps/2448x2048_demosaic_angle_maps`: the route the maps replaced
 //!   (`recon::demosaic` to f64 Stokes, then `recon::angle_maps`), for comparison;
 //! * `maps/2448x2048_copy`: reading the mosaic and writing three float32 maps, the
 //!   memory-traffic floor on this machine;
-//! * `maps/2448x2048_colour_{bilinear,superpixel,opencv}`: `colour_maps_into` of the
+//! * `maps/2448x2048_colour_{bilinear,superpixel,opencv,opencv_ea}`: `colour_maps_into` of the
 //!   same mosaic read as an IMX250MYR colour mosaic, the three bands' maps, no AoE
 //!   (issue 45: target ≤ 1.5× the mono route of the same name).
 //! * `pixel_maps/2448x2048_nominal_mosaic`: `PixelMaps::nominal_mosaic`, a raw frame

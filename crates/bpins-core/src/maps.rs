@@ -12,7 +12,7 @@
 //! ```
 //!
 //! Frame: image pixels, angles counter-clockwise as displayed (CONVENTIONS.md);
-//! intensity in DN above the black level. Three interpolations ([`Interpolation`]):
+//! intensity in DN above the black level. Four interpolations ([`Interpolation`]):
 //!
 //! - **bilinear** (the default, the same numbers as [`crate::recon::demosaic`]):
 //!   each channel interpolated on its own lattice, every sample at its own pixel,
@@ -30,6 +30,11 @@
 //!   one-pixel border copied from the next row or column inwards. No pixel is masked.
 //!   (polanalyser rescales a float mosaic to `uint16` first; that route is not
 //!   reproduced: float samples are averaged without rounding.)
+//! - **opencv_ea**: polanalyser's edge-aware `COLOR_PolarMono_EA` (OpenCV's
+//!   `COLOR_Bayer**2BGR_EA`), exactly: on a mono mosaic the same maps as opencv, since
+//!   the analyzers polanalyser keeps are the Bayer demosaic's blue and red, which the
+//!   edge-aware one computes as the bilinear one does (`maps_ea.rs`); it differs on
+//!   colour mosaics (`maps_colour`).
 //!
 //! Rows run in parallel (rayon), each through a few row-long passes that the compiler
 //! vectorizes: the two vertical interpolations of the mosaic's row parities, the four
@@ -49,6 +54,9 @@ use rayon::prelude::*;
 pub mod colour;
 pub use colour::{colour_maps, colour_maps_into, colour_maps_size, BandMaps, ColourScratch};
 
+#[path = "maps_ea.rs"]
+mod ea;
+
 /// How each channel's DN is found at a pixel (module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Interpolation {
@@ -56,10 +64,13 @@ pub enum Interpolation {
     Bilinear,
     Superpixel,
     OpenCv,
+    /// polanalyser's edge-aware demosaic (`COLOR_PolarMono_EA`, `COLOR_PolarRGB_EA`).
+    OpenCvEa,
 }
 
 impl Interpolation {
-    pub const ALL: [Interpolation; 3] = [Interpolation::Bilinear, Interpolation::Superpixel, Interpolation::OpenCv];
+    pub const ALL: [Interpolation; 4] =
+        [Interpolation::Bilinear, Interpolation::Superpixel, Interpolation::OpenCv, Interpolation::OpenCvEa];
 
     /// The name on the command line, in Python and in C.
     pub fn name(self) -> &'static str {
@@ -67,11 +78,17 @@ impl Interpolation {
             Interpolation::Bilinear => "bilinear",
             Interpolation::Superpixel => "superpixel",
             Interpolation::OpenCv => "opencv",
+            Interpolation::OpenCvEa => "opencv_ea",
         }
     }
 
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|i| i.name() == name)
+    }
+
+    /// One of polanalyser's OpenCV routes: whole-DN rounding, OpenCV's border, no masking.
+    pub(crate) fn is_opencv(self) -> bool {
+        matches!(self, Interpolation::OpenCv | Interpolation::OpenCvEa)
     }
 
     /// The maps' size for a `w × h` mosaic: the same, or half for superpixels.
@@ -169,7 +186,7 @@ pub fn stokes_maps_into<T: RawDn>(
     if !raw.is_consistent() {
         return Err(MapsError::Buffer { width_px: w, height_px: h, stride: raw.stride, len: raw.data.len() });
     }
-    let min = if cfg.interpolation == Interpolation::OpenCv { 3 } else { 2 };
+    let min = if cfg.interpolation.is_opencv() { 3 } else { 2 };
     if w < min || h < min {
         return Err(MapsError::TooSmall { width_px: w, height_px: h, interpolation: cfg.interpolation.name(), min });
     }
@@ -198,7 +215,8 @@ pub fn stokes_maps_into<T: RawDn>(
             match cfg.interpolation {
                 Interpolation::Bilinear => s.bilinear_row(raw, v, &lat, fs),
                 Interpolation::Superpixel => s.superpixel_row(raw, v, &lat, fs),
-                Interpolation::OpenCv => s.opencv_row(raw, v, &lat, T::INTEGER),
+                // Edge-aware on a mono mosaic: the same channels (maps_ea.rs).
+                Interpolation::OpenCv | Interpolation::OpenCvEa => s.opencv_row(raw, v, &lat, T::INTEGER),
             }
             px.row(&s.ch, v, aop, dolp, int, aoe);
         };

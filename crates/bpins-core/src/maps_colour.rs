@@ -4,7 +4,7 @@
 //! `mosaic[v % 2][u % 2]` under the filter `tiles[(v / 2) % 2][(u / 2) % 2]`, a 4 × 4
 //! superpixel; the maps of each band go through the mono kernels of `maps`.
 //!
-//! Three interpolations ([`Interpolation`]), the same names as the mono maps:
+//! Four interpolations ([`Interpolation`]), the same names as the mono maps:
 //!
 //! - **opencv**: polanalyser's `demosaicing(raw, COLOR_PolarRGB)` reproduced exactly
 //!   for `uint8` and `uint16` mosaics, full size, in its two stages:
@@ -23,6 +23,13 @@
 //!   Bands are never mixed: stage 1 averages samples of one band only, stage 2 works
 //!   on one band's mosaic. (Analyzers are not mixed in stage 1 either: every plane is
 //!   one analyzer.)
+//! - **opencv_ea**: polanalyser's `demosaicing(raw, COLOR_PolarRGB_EA)` reproduced
+//!   exactly (`uint8`, `uint16`): the same two stages with OpenCV's edge-aware Bayer
+//!   demosaic (`COLOR_BayerBG2BGR_EA`, `maps_ea.rs`). Stage 1 differs from opencv
+//!   only for the band on two diagonal tiles (G) between its own sites: the mean of
+//!   its two row neighbours in the plane, or of its two column neighbours where the
+//!   row pair differs more (not the mean of all four). Stage 2 is the opencv one
+//!   (the edge-aware mono demosaic's analyzers are the bilinear one's, `maps_ea.rs`).
 //! - **bilinear**: the same two stages with the averages kept unrounded, and a
 //!   sample that is zero, at or above `full_scale_dn` or not finite makes every map
 //!   pixel it weighs NaN. The border rule is OpenCV's (not the mono bilinear's
@@ -40,6 +47,7 @@
 //! the Stokes and angles are the mono opencv route's row kernels once per band, which
 //! makes a full-size colour route at least three mono routes' work by construction.
 
+use super::ea::edge_aware_between;
 use super::{checked, lattices, opencv_mean, Interpolation, MapsConfig, MapsError, MapsOut, PixelMap, Scratch};
 use crate::heading::field::{RawDn, RawImage};
 use crate::recon::Reconstructor;
@@ -183,15 +191,27 @@ pub fn colour_maps_into<T: RawDn>(
     for (band, _) in out.iter() {
         wanted[band.index()] = Some(lattice(tiles, *band, cfg.interpolation)?);
     }
-    let opencv = cfg.interpolation == Interpolation::OpenCv;
-    let full_scale = (!opencv).then_some(cfg.full_scale_dn as f32);
+    let opencv = cfg.interpolation.is_opencv();
+    let stage1 = Stage1 {
+        full_scale: (!opencv).then_some(cfg.full_scale_dn as f32),
+        edge_aware: cfg.interpolation == Interpolation::OpenCvEa,
+    };
     let px = PixelMap::new(rec, cfg, 1.0, [0.0; 2]);
     if opencv && T::INTEGER {
-        full_size::<T, true>(raw, &wanted, full_scale, &px, &lat, out);
+        full_size::<T, true>(raw, &wanted, stage1, &px, &lat, out);
     } else {
-        full_size::<T, false>(raw, &wanted, full_scale, &px, &lat, out);
+        full_size::<T, false>(raw, &wanted, stage1, &px, &lat, out);
     }
     Ok(())
+}
+
+/// How stage 1 interpolates, beside its rounding.
+#[derive(Clone, Copy)]
+struct Stage1 {
+    /// Some for the bilinear flavour (invalid samples NaN).
+    full_scale: Option<f32>,
+    /// OpenCV's edge-aware Bayer demosaic (opencv_ea).
+    edge_aware: bool,
 }
 
 /// One band's rows of the maps within a block of [`BLOCK_ROWS`] rows.
@@ -219,12 +239,11 @@ struct Job {
 }
 
 /// Both full-size routes (module docs), stage 1 fused into stage 2 row by row.
-/// `INT`: averages rounded to whole DN (opencv on integer samples); `full_scale`:
-/// Some for the bilinear flavour (invalid samples NaN).
+/// `INT`: averages rounded to whole DN (opencv, opencv_ea on integer samples).
 fn full_size<T: RawDn, const INT: bool>(
     raw: &RawImage<T>,
     wanted: &[Option<Lattice>; 3],
-    full_scale: Option<f32>,
+    stage1: Stage1,
     px: &PixelMap,
     lat: &[Option<(usize, usize)>; 4],
     out: &mut [(Band, MapsOut)],
@@ -257,7 +276,7 @@ fn full_size<T: RawDn, const INT: bool>(
                 // first and last rows are those of their neighbours inwards).
                 let vs = v.clamp(1, h - 2);
                 for r in job.next.max(vs - 1)..vs + 2 {
-                    job.mosaic_row::<T, INT>(raw, r, wanted, full_scale);
+                    job.mosaic_row::<T, INT>(raw, r, wanted, stage1);
                 }
                 job.next = vs + 2;
                 let lr = (v - v0) * w;
@@ -290,7 +309,7 @@ impl Job {
         raw: &RawImage<T>,
         r: usize,
         wanted: &[Option<Lattice>; 3],
-        full_scale: Option<f32>,
+        stage1: Stage1,
     ) {
         let (w, h) = (raw.width_px, raw.height_px);
         let (j, y) = (r % 2, r / 2);
@@ -302,7 +321,7 @@ impl Job {
                 continue;
             }
             let (buf, src) = (&mut self.read[rr % 6], &raw.data[rr * raw.stride..][..w]);
-            match full_scale {
+            match stage1.full_scale {
                 Some(fs) => buf.iter_mut().zip(src).for_each(|(o, &d)| *o = checked(d.dn_f32(), fs)),
                 None => buf.iter_mut().zip(src).for_each(|(o, &d)| *o = d.dn_f32()),
             }
@@ -311,7 +330,7 @@ impl Job {
         let read = rows.map(|rr| self.read[rr % 6].as_slice());
         for (b, l) in wanted.iter().enumerate() {
             let Some(l) = *l else { continue };
-            bayer_row::<INT>(read, &self.pairs, ys, l, &mut self.ring[b][r % 3]);
+            bayer_row::<INT>(read, &self.pairs, ys, l, stage1.edge_aware, &mut self.ring[b][r % 3]);
         }
     }
 }
@@ -323,7 +342,15 @@ impl Job {
 /// border plane columns copied from the next ones inwards. Both candidates are
 /// computed at every column and one selected by x's parity, read from the lane mask
 /// `pairs` (module `maps`' opencv kernel does the same), so that the loop vectorizes.
-fn bayer_row<const INT: bool>(read: [&[f32]; 3], pairs: &[bool], ys: usize, l: Lattice, o: &mut [f32]) {
+/// `edge_aware`: a band on two diagonal tiles as OpenCV's edge-aware demosaic has it.
+fn bayer_row<const INT: bool>(
+    read: [&[f32]; 3],
+    pairs: &[bool],
+    ys: usize,
+    l: Lattice,
+    edge_aware: bool,
+    o: &mut [f32],
+) {
     let w = o.len();
     // Interior pixel columns c = 2 + k, k < n, in both planes (w ≥ 6).
     let n = w - 4;
@@ -356,8 +383,9 @@ fn bayer_row<const INT: bool>(read: [&[f32]; 3], pairs: &[bool], ys: usize, l: L
                 oi[k] = if here[k] { own } else { nb };
             }
         }
+        // Own where (x + ys) % 2 == p, i.e. x + ys + p even.
+        Lattice::Quincunx(p) if edge_aware => edge_aware_between::<INT>(own_where(ys + p), [ml, m0, mr], [u0, d0], oi),
         Lattice::Quincunx(p) => {
-            // Own where (x + ys) % 2 == p, i.e. x + ys + p even.
             let here = own_where(ys + p);
             for k in 0..n {
                 let (own, nb) = (m0[k], opencv_mean::<INT>(u0[k] + d0[k] + ml[k] + mr[k], 4.0));

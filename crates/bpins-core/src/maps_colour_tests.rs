@@ -27,7 +27,7 @@ fn rec() -> Reconstructor {
     Reconstructor::new(&Default::default(), 0.0, &Channel::ALL).unwrap()
 }
 
-const ROUTES: [Interpolation; 3] = Interpolation::ALL;
+const ROUTES: [Interpolation; 4] = Interpolation::ALL;
 
 #[test]
 fn each_band_reads_its_own_field_through_every_route() {
@@ -123,14 +123,23 @@ fn tiles_that_are_not_bayer_are_refused_but_by_superpixels() {
     let t = ColourTiles { tiles: [[Band::R, Band::R], [Band::G, Band::B]], ..ColourTiles::imx250myr() };
     let e = colour_maps(&RawImage::packed(&raw, w, h), &rec(), &cfg(Interpolation::OpenCv), &t);
     assert_eq!(e, Err(MapsError::NotBayer { band: "R", interpolation: "opencv" }));
+    let e = colour_maps(&RawImage::packed(&raw, w, h), &rec(), &cfg(Interpolation::OpenCvEa), &t);
+    assert_eq!(e, Err(MapsError::NotBayer { band: "R", interpolation: "opencv_ea" }));
     assert!(colour_maps(&RawImage::packed(&raw, w, h), &rec(), &cfg(Interpolation::Superpixel), &t).is_ok());
     let small = colour_maps(&RawImage::packed(&raw[..5 * 5], 5, 5), &rec(), &cfg(Interpolation::OpenCv), &t);
     assert!(matches!(small, Err(MapsError::TooSmall { min: 6, .. })), "{small:?}");
 }
 
 /// Stage 1 as first written, one analyzer plane and one pixel at a time (module docs):
-/// the reference the fused, vectorized route must equal bit for bit.
-fn stage1_reference<T: RawDn>(raw: &RawImage<T>, l: Lattice, integer: bool, full_scale: Option<f32>) -> Vec<f32> {
+/// the reference the fused, vectorized route must equal bit for bit. `edge_aware`: the
+/// band on two diagonal tiles from the pair of neighbours that differs less (maps_ea.rs).
+fn stage1_reference<T: RawDn>(
+    raw: &RawImage<T>,
+    l: Lattice,
+    integer: bool,
+    full_scale: Option<f32>,
+    edge_aware: bool,
+) -> Vec<f32> {
     let (w, h) = (raw.width_px, raw.height_px);
     let round = |s: f32, n: f32| if integer { ((s + 0.5 * n) / n).floor() } else { s / n };
     let mut m = vec![0f32; w * h];
@@ -157,6 +166,11 @@ fn stage1_reference<T: RawDn>(raw: &RawImage<T>, l: Lattice, integer: bool, full
                         }
                     }
                     Lattice::Quincunx(par) if (xs + ys) % 2 == par => p(xs, ys),
+                    Lattice::Quincunx(_) if edge_aware => {
+                        let (we, ns) = (p(xs - 1, ys) + p(xs + 1, ys), p(xs, ys - 1) + p(xs, ys + 1));
+                        let vertical = (p(xs - 1, ys) - p(xs + 1, ys)).abs() > (p(xs, ys + 1) - p(xs, ys - 1)).abs();
+                        round(if vertical { ns } else { we }, 2.0)
+                    }
                     Lattice::Quincunx(_) => round(p(xs, ys - 1) + p(xs, ys + 1) + p(xs - 1, ys) + p(xs + 1, ys), 4.0),
                 };
             }
@@ -169,10 +183,11 @@ fn stage1_reference<T: RawDn>(raw: &RawImage<T>, l: Lattice, integer: bool, full
 /// per-column opencv kernel and the Stokes and angles over it.
 fn two_stage_reference<T: RawDn>(raw: &RawImage<T>, cfg: &MapsConfig, band: Band) -> super::super::Maps {
     let (w, h) = (raw.width_px, raw.height_px);
-    let opencv = cfg.interpolation == Interpolation::OpenCv;
+    let opencv = cfg.interpolation.is_opencv();
     let integer = opencv && T::INTEGER;
     let l = lattice(&ColourTiles::imx250myr(), band, cfg.interpolation).unwrap();
-    let m = stage1_reference(raw, l, integer, (!opencv).then_some(cfg.full_scale_dn as f32));
+    let ea = cfg.interpolation == Interpolation::OpenCvEa;
+    let m = stage1_reference(raw, l, integer, (!opencv).then_some(cfg.full_scale_dn as f32), ea);
     let px = PixelMap::new(&rec(), cfg, 1.0, [0.0; 2]);
     let lat = lattices(&cfg.mosaic);
     let mut maps = super::super::Maps {
@@ -215,7 +230,7 @@ fn the_fused_full_size_routes_are_the_two_stages_bit_for_bit() {
         for v in 0..h {
             wide[v * stride..][..w].copy_from_slice(&u16s[v * w..][..w]);
         }
-        for route in [Interpolation::OpenCv, Interpolation::Bilinear] {
+        for route in [Interpolation::OpenCv, Interpolation::OpenCvEa, Interpolation::Bilinear] {
             let c = cfg(route);
             let check = |got: Vec<BandMaps>, want: [super::super::Maps; 3], what: &str| {
                 for g in got {
@@ -257,5 +272,42 @@ fn the_fused_full_size_routes_are_the_two_stages_bit_for_bit() {
                 assert!(same_bits(&bufs[k][0], &r.aop_deg) && same_bits(&bufs[k][1], &r.dolp), "{route:?} {band:?}");
             }
         }
+    }
+}
+
+#[test]
+fn edge_aware_stage1_is_opencvs_edge_aware_demosaic_of_each_analyzer_plane() {
+    // polanalyser's COLOR_PolarRGB_EA stage 1: each analyzer plane raw[j::2, i::2] (RGGB,
+    // OpenCV's BayerBG) through BayerBG2BGR_EA; its blue, green, red are bands B, G, R
+    // at the plane's pixels. The full-frame reference (maps_tests) against stage 1's.
+    use crate::maps::tests::{ea_bayer_reference, seeded_dn};
+    let t = ColourTiles::imx250myr();
+    for (w, h, seed) in [(6, 6, 1), (7, 9, 2), (26, 22, 3)] {
+        let dn: Vec<u16> = seeded_dn(w * h, seed, 0.0, 4096.0, false).iter().map(|&x| x as u16).collect();
+        let raw = RawImage::packed(&dn, w, h);
+        let stage1 = Band::ALL.map(|b| {
+            let l = lattice(&t, b, Interpolation::OpenCvEa).unwrap();
+            (stage1_reference(&raw, l, true, None, true), stage1_reference(&raw, l, true, None, false))
+        });
+        let mut differs = false;
+        for (j, i) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+            let (pw, ph) = ((w - i).div_ceil(2), (h - j).div_ceil(2));
+            let plane: Vec<u16> = (0..ph)
+                .flat_map(|y| (0..pw).map(move |x| (x, y)))
+                .map(|(x, y)| dn[(2 * y + j) * w + 2 * x + i])
+                .collect();
+            let bgr = ea_bayer_reference(&RawImage::packed(&plane, pw, ph), [[2, 1], [1, 0]], true);
+            for (band, c) in [(Band::R, 2), (Band::G, 1), (Band::B, 0)] {
+                let (ea, bilinear) = &stage1[band.index()];
+                for y in 0..ph {
+                    for x in 0..pw {
+                        let at = (2 * y + j) * w + 2 * x + i;
+                        assert_eq!(ea[at], bgr[c][y * pw + x], "{w} × {h} plane ({i}, {j}) {band:?} ({x}, {y})");
+                        differs |= ea[at] != bilinear[at];
+                    }
+                }
+            }
+        }
+        assert!(differs, "{w} × {h}: the edge-aware green is not the bilinear one");
     }
 }

@@ -299,3 +299,106 @@ fn the_paired_bilinear_row_is_the_per_channel_one_bit_for_bit() {
         }
     }
 }
+
+/// OpenCV's edge-aware Bayer demosaic (`COLOR_Bayer**2BGR_EA`) of a whole frame, one
+/// pixel at a time as `maps_ea.rs` states it: `pattern[y % 2][x % 2]` the colour at
+/// (x, y), 0 blue, 1 green, 2 red (`BayerBG`: [[2, 1], [1, 0]], `BayerGR`: [[1, 0],
+/// [2, 1]]); returns the blue, green and red planes. Also the reference of the colour
+/// route's stage 1 (`maps_colour_tests`).
+pub(crate) fn ea_bayer_reference<T: RawDn>(
+    raw: &RawImage<T>,
+    pattern: [[usize; 2]; 2],
+    integer: bool,
+) -> [Vec<f32>; 3] {
+    let (w, h) = (raw.width_px, raw.height_px);
+    let p = |x: usize, y: usize| raw.data[y * raw.stride + x].dn_f32();
+    let mean = |s: f32, n: f32| if integer { ((s + 0.5 * n) / n).floor() } else { s / n };
+    let mut bgr: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0f32; w * h]);
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let c = pattern[y % 2][x % 2];
+            let (we, ns) = (p(x - 1, y) + p(x + 1, y), p(x, y - 1) + p(x, y + 1));
+            bgr[c][y * w + x] = p(x, y);
+            if c == 1 {
+                bgr[pattern[y % 2][(x + 1) % 2]][y * w + x] = mean(we, 2.0);
+                bgr[pattern[(y + 1) % 2][x % 2]][y * w + x] = mean(ns, 2.0);
+            } else {
+                let diag = p(x - 1, y - 1) + p(x + 1, y - 1) + p(x - 1, y + 1) + p(x + 1, y + 1);
+                bgr[2 - c][y * w + x] = mean(diag, 4.0);
+                let vertical = (p(x - 1, y) - p(x + 1, y)).abs() > (p(x, y + 1) - p(x, y - 1)).abs();
+                bgr[1][y * w + x] = if vertical { mean(ns, 2.0) } else { mean(we, 2.0) };
+            }
+        }
+    }
+    for plane in &mut bgr {
+        for y in 1..h - 1 {
+            plane[y * w] = plane[y * w + 1];
+            plane[y * w + w - 1] = plane[y * w + w - 2];
+        }
+        plane.copy_within(w..2 * w, 0);
+        plane.copy_within((h - 2) * w..(h - 1) * w, (h - 1) * w);
+    }
+    bgr
+}
+
+#[test]
+fn the_edge_aware_reference_takes_green_along_the_smaller_difference() {
+    // BayerBG 3 × 3: the centre is blue; green from the pair that differs less, a tie
+    // along the row (bilinear: the 4-mean, 14, 15, 19); every pixel copies the centre
+    // (OpenCV's border). Worked by hand.
+    const BG: [[usize; 2]; 2] = [[2, 1], [1, 0]];
+    for (w_e, n_s, green) in [((10, 31), (12, 15), 14.0), ((10, 13), (20, 17), 12.0), ((7, 30), (9, 30), 20.0)] {
+        let dn: [u16; 9] = [1, n_s.0, 3, w_e.0, 100, w_e.1, 5, n_s.1, 9];
+        let [b, g, r] = ea_bayer_reference(&RawImage::packed(&dn, 3, 3), BG, true);
+        assert!(g.iter().all(|&x| x == green), "{w_e:?} {n_s:?}: {g:?}");
+        assert!(b.iter().all(|&x| x == 100.0) && r.iter().all(|&x| x == 5.0), "{b:?} {r:?}");
+        // (1+3+5+9+2)>>2
+    }
+}
+
+#[test]
+fn opencv_ea_mono_maps_are_the_edge_aware_demosaics_analyzers_bit_for_bit() {
+    // polanalyser's COLOR_PolarMono_EA: blue and red of BayerBG2BGR_EA (0°, 90°) and of
+    // BayerGR2BGR_EA (45°, 135°), the analyzers of bpins' default mosaic.
+    let lat = lattices(&DEFAULT_MOSAIC);
+    let (bg, gr) = ([[2, 1], [1, 0]], [[1, 0], [2, 1]]);
+    for (w, h, seed) in [(3, 3, 1), (7, 5, 2), (24, 9, 3), (41, 12, 4)] {
+        let whole = seeded_dn(w * h, seed, 0.0, 4096.0, false);
+        let u16s: Vec<u16> = whole.iter().map(|&x| x as u16).collect();
+        let u8s: Vec<u8> = whole.iter().map(|&x| (x as u16 >> 4) as u8).collect();
+        let mut s = Scratch::new(w);
+        let mut green_differs = false;
+        let mut check = |raw: &RawImage<u16>, what: &str| {
+            let [b0, g0, r90] = ea_bayer_reference(raw, bg, true);
+            let [b45, _, r135] = ea_bayer_reference(raw, gr, true);
+            for v in 0..h {
+                s.opencv_row(raw, v, &lat, true);
+                for (k, want) in [&b0, &b45, &r90, &r135].into_iter().enumerate() {
+                    assert!(same_bits(&s.ch[k][..w], &want[v * w..][..w]), "{what} {w} × {h} row {v} channel {k}");
+                }
+            }
+            // The green plane (dropped by polanalyser) is edge-aware: not the bilinear 4-mean.
+            green_differs |= (1..h - 1).any(|y| {
+                (1..w - 1).any(|x| {
+                    let p = |x: usize, y: usize| raw.data[y * w + x].dn_f32();
+                    (x + y) % 2 == 0
+                        && g0[y * w + x]
+                            != ((p(x - 1, y) + p(x + 1, y) + p(x, y - 1) + p(x, y + 1) + 2.0) / 4.0).floor()
+                })
+            });
+        };
+        check(&RawImage::packed(&u16s, w, h), "u16");
+        let raw8 = RawImage::packed(&u8s, w, h);
+        let [b0, _, _] = ea_bayer_reference(&raw8, bg, true);
+        for v in 0..h {
+            s.opencv_row(&raw8, v, &lat, true);
+            assert!(same_bits(&s.ch[0][..w], &b0[v * w..][..w]), "u8 {w} × {h} row {v}");
+        }
+        assert!(green_differs, "{w} × {h}");
+        // …so the route's maps are the opencv route's.
+        let raw = RawImage::packed(&u16s, w, h);
+        let ea = stokes_maps(&raw, &rec(), &config(Interpolation::OpenCvEa, w, h)).unwrap();
+        let ocv = stokes_maps(&raw, &rec(), &config(Interpolation::OpenCv, w, h)).unwrap();
+        assert!(same_bits(&ea.aop_deg, &ocv.aop_deg) && same_bits(&ea.dolp, &ocv.dolp), "{w} × {h}");
+    }
+}

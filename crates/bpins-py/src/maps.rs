@@ -61,13 +61,15 @@ fn output<'py>(
 /// half of it for "superpixel". "bilinear" interpolates each channel on its own
 /// lattice (NaN where a sample it weighs is zero, non-finite or at `full_scale_dn`);
 /// "opencv" reproduces polanalyser's `demosaicing` (OpenCV's Bayer bilinear) exactly
-/// for uint8 and uint16 mosaics. `out`: a dict of preallocated float32 arrays, filled
+/// for uint8 and uint16 mosaics, "opencv_ea" its edge-aware `COLOR_PolarMono_EA` (the
+/// same maps: the analyzers it keeps are the bilinear ones). `out`: a dict of preallocated float32 arrays, filled
 /// in place and returned (a loop over frames then allocates nothing).
 ///
 /// With `colour_tiles` (a colour-polarization mosaic, e.g. the IMX250MYR's
 /// (("R", "G"), ("G", "B"))): a dict by band ("R", "G", "B") of such dicts, each band
 /// from its own pixels (docs/colour.md); "opencv" is polanalyser's
-/// `demosaicing(raw, COLOR_PolarRGB)` exactly, "superpixel" a quarter of the size;
+/// `demosaicing(raw, COLOR_PolarRGB)` exactly, "opencv_ea" its `COLOR_PolarRGB_EA`,
+/// "superpixel" a quarter of the size;
 /// `out` then holds one dict per band.
 #[pyfunction]
 #[pyo3(signature = (mosaic, *, black_level_dn=0.0, mosaic_layout=[[90.0, 45.0], [135.0, 0.0]], interpolation="bilinear", full_scale_dn=None, aoe=false, aoe_centre_px=None, colour_tiles=None, out=None))]

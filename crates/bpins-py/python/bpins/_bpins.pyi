@@ -149,8 +149,9 @@ def stokes_maps(
     out: Optional[Dict[str, Any]] = None,
 ) -> Dict[str, Any]:
     """AoP (degrees, image frame), DoLP, intensity (DN) and, with `aoe`, AoE of a raw
-    mosaic read in place. `interpolation`: "bilinear", "superpixel" (half size) or
-    "opencv" (polanalyser's demosaicing, exactly). `out`: preallocated float32 arrays,
+    mosaic read in place. `interpolation`: "bilinear", "superpixel" (half size),
+    "opencv" (polanalyser's demosaicing, exactly) or "opencv_ea" (its edge-aware
+    COLOR_PolarMono_EA / COLOR_PolarRGB_EA, exactly). `out`: preallocated float32 arrays,
     filled in place and returned. With `colour_tiles` (a colour-polarization mosaic,
     e.g. (("R", "G"), ("G", "B"))): one such dict per band, keyed "R", "G", "B", each
     band from its own pixels ("opencv": polanalyser's COLOR_PolarRGB, exactly;
