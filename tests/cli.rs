@@ -299,7 +299,10 @@ fn clean_sample_headings_through_the_cli() {
     assert_eq!((v["estimator"].as_str(), v["recon"].as_str()), (Some("plain"), Some("demosaic")));
     for f in v["frames"].as_array().unwrap() {
         assert!(f64_of(f, "error_deg").abs() < 0.1, "plain: {f}");
+        // A monochrome capture's rows carry no band (a colour one's do: tests/colour.rs).
+        assert!(f.get("band").is_none() && f["samples"].is_u64(), "plain: {f}");
     }
+    assert_eq!(v["frames"].as_array().unwrap().len(), 8, "one row per frame");
     assert_eq!(snapshot(Path::new(CLEAN)), before);
 }
 

@@ -2,7 +2,7 @@
 //! made by an independent implementation of the spec): `heading` reads each band from
 //! its own pixels and fuses the bands; `maps` writes each band's maps; `fit` and
 //! `diagnose` model each pixel through its band (`crates/bpins-core/tests/colour_fit.rs`);
-//! the readers that do not read bands yet (the plain estimator) say so by name;
+//! the plain estimator reads each band and fuses them, `locate` reads the green band;
 //! and the frames are never read as monochrome when the `colour_tiles` key is deleted
 //! (read as mono the plain estimator is off by 0.24° RMS at up to 8σ on this capture).
 
@@ -49,10 +49,103 @@ fn every_band_of_the_colour_sample_reads_its_heading_and_the_fused_one_is_honest
     assert_eq!(bands, ["fused", "R", "G", "B"]);
 }
 
+/// `heading --estimator plain` reads a colour capture band by band (it refused one
+/// before): a row per band and a fused one per frame, as the field route's; each band's
+/// sun_vector heading near the truth within its statistical 1σ; the fused 1σ the bands'
+/// inverse-variance one, below every band's; `--recon superpixel` the colour sweep's
+/// sums (biased here by the sky's gradient across a tile: ~0.13°).
 #[test]
-fn readers_that_do_not_read_bands_yet_refuse_a_colour_capture_by_name() {
-    for cmd in [&["heading", COLOUR, "--estimator", "plain"][..]] {
-        bpins(cmd).fails().stderr_has("colour");
+fn the_plain_estimator_reads_each_band_of_the_colour_sample_and_fuses_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let json = tmp.path().join("plain.json");
+    bpins(&["heading", COLOUR, "--estimator", "plain", "--json", &s(&json)]).ok();
+    let v = read_json(&json);
+    assert_eq!((v["estimator"].as_str(), v["recon"].as_str()), (Some("plain"), Some("demosaic")));
+    let rows = v["frames"].as_array().unwrap();
+    assert_eq!(rows.len(), 4 * 4, "a fused row and three band rows per frame");
+    let of = |band: &str| -> Vec<(f64, f64, u64)> {
+        rows.iter()
+            .filter(|r| r["band"] == band)
+            .map(|r| (f64_of(r, "error_deg"), f64_of(r, "sigma_deg"), r["samples"].as_u64().unwrap()))
+            .collect()
+    };
+    // The truth within 3σ every frame (measured: R, the dimmest band, up to 2.5σ; its 1σ
+    // statistical, widened by the design effect of the band's interpolated samples).
+    for band in ["fused", "R", "G", "B"] {
+        for (i, (err, sigma, _)) in of(band).into_iter().enumerate() {
+            assert!(err.abs() < 3.0 * sigma && err.abs() < 0.03, "{band} frame {i}: error {err}°, 1σ {sigma}°");
+        }
+    }
+    for i in 0..4 {
+        let (fused, bands) = (of("fused")[i], ["R", "G", "B"].map(|b| of(b)[i]));
+        let inverse = bands.iter().map(|b| b.1.powi(-2)).sum::<f64>().sqrt().recip();
+        assert!((fused.1 - inverse).abs() < 1e-12 && bands.iter().all(|b| fused.1 < b.1), "frame {i}");
+        // G has two tiles of four, R and B one each; the fused row counts them all.
+        assert_eq!((bands[1].2, bands[0].2 + bands[1].2 + bands[2].2), (2 * bands[0].2, fused.2), "frame {i}");
+        assert_eq!(bands[0].2, bands[2].2, "frame {i}");
+    }
+    let bands: Vec<&str> = v["summary"].as_array().unwrap().iter().map(|x| x["band"].as_str().unwrap()).collect();
+    assert_eq!(bands, ["fused", "R", "G", "B"]);
+    // The superpixel route: the colour sweep's sums, four rays per sample.
+    let sp = tmp.path().join("superpixel.json");
+    bpins(&["heading", COLOUR, "--estimator", "plain", "--recon", "superpixel", "--json", &s(&sp)]).ok();
+    let sp = read_json(&sp);
+    let g: Vec<f64> =
+        sp["frames"].as_array().unwrap().iter().filter(|r| r["band"] == "G").map(|r| f64_of(r, "error_deg")).collect();
+    assert!(g.len() == 4 && g.iter().any(|e| e.abs() > 0.05), "{g:?}");
+}
+
+/// `locate` reads a colour capture (it refused one before) through its green band: an
+/// hour of stamped frames of a turning colour camera, located within 2σ of the truth and
+/// of the clear-sky targets, as the monochrome camera of the same pixels is.
+#[test]
+fn locate_reads_a_colour_capture_through_its_green_band() {
+    let tmp = tempfile::tempdir().unwrap();
+    let common = [
+        "--width-px",
+        "306",
+        "--height-px",
+        "256",
+        "--pixel-pitch-um",
+        "27.6",
+        "--time-utc",
+        "2026-06-21T01:00:00Z",
+        "--latitude-deg",
+        "36.07",
+        "--longitude-deg",
+        "120.38",
+        "--headings-deg",
+        "30",
+        "--every-min",
+        "5",
+        "--span-min",
+        "60",
+        "--yaw-step-deg",
+        "7",
+        "--yaw-sigma-deg",
+        "0.05",
+    ];
+    for colour in [true, false] {
+        let cap = tmp.path().join(if colour { "colour" } else { "mono" });
+        let mut args = vec!["simulate", "--out", cap.to_str().unwrap()];
+        if colour {
+            args.extend(["--colour-tiles", "RGGB"]);
+        }
+        args.extend(common);
+        bpins(&args).ok();
+        let json = tmp.path().join("locate.json");
+        let r = bpins(&["locate", &s(&cap), "--truth", &s(&cap.join("truth.toml")), "--json", &s(&json)]).ok();
+        assert!(r.stdout.contains("route stamped: 13 frames over 60 min"), "{}", r.stdout);
+        let v = read_json(&json);
+        let l = &v["located"];
+        for (key, sigma, target) in [
+            ("heading_deg", "heading_sigma_deg", 0.2),
+            ("latitude_deg", "latitude_sigma_deg", 0.5),
+            ("longitude_deg", "longitude_sigma_deg", 0.5),
+        ] {
+            let e = f64_of(&v["errors"], key);
+            assert!(e.abs() < target && e.abs() < 2.0 * f64_of(l, sigma), "colour {colour}: {key}: error {e} ({l})");
+        }
     }
 }
 

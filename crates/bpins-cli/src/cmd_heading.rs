@@ -9,7 +9,8 @@ use bpins_core::calibration::Calibration;
 use bpins_core::compass::Compass;
 use bpins_core::compass::Extractor;
 use bpins_core::compass::FieldOptions;
-use bpins_core::tool::pipeline::{apply_pixel_maps, frame_headings_of, ReconMode};
+use bpins_core::sensor::Band;
+use bpins_core::tool::pipeline::{apply_pixel_maps, colour_frame_headings_of, frame_headings_of, ReconMode};
 use bpins_core::Capture;
 use serde_json::json;
 use std::path::PathBuf;
@@ -61,7 +62,8 @@ pub struct Args {
     cell_px: Option<usize>,
     /// Plain estimator: how DoFP mosaics become Stokes samples: `demosaic` (bilinear,
     /// every pixel its own ray; most accurate) or `superpixel` (2×2 tiles at their
-    /// centres; faster, biased by ~0.05° on gradients). Default: demosaic.
+    /// centres; faster, biased by ~0.05° on gradients). Default: demosaic. A colour
+    /// capture: each band from its own tiles, demosaic's samples the tile means.
     #[arg(long, value_parser = crate::names::by_name(&ReconMode::ALL, ReconMode::name), conflicts_with = "bag")]
     recon: Option<ReconMode>,
     /// A known calibration to compensate, as effect.param=value (repeatable),
@@ -215,13 +217,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         frames::read_frames(&mut source, &mut compass, &extractors, &mut |_, _| Ok(()))
             .with_context(|| capture.toml_path().display().to_string())?
     } else {
-        if capture.sensor.colour.is_some() {
-            bail!(
-                "{}: --estimator plain reads every pixel as one band; a colour-polarization capture is read band by \
-                 band by the field estimator (the default)",
-                capture.toml_path().display()
-            );
-        }
         plain_rows(&mut source, &known, mode, calibration.pixels.as_deref(), a.calibration.as_deref(), &extractors)?
     };
     let summary = frames::summary(&rows, &extractors)?;
@@ -315,18 +310,12 @@ fn plain_rows(
             }
             None => *data,
         };
-        let mut frame_rows = Vec::new();
-        for (e, r) in frame_headings_of(capture, i, data, known, mode, extractors)? {
-            let mut row = Row::of(&f, e);
-            match r {
-                Ok(est) => {
-                    row.set_heading(est.heading_deg, est.sigma_deg);
-                    row.samples = Some(est.samples);
-                }
-                Err(err) => row.no_heading_reason = Some(err.to_string()),
-            }
-            frame_rows.push(row);
-        }
+        let frame_rows = if capture.sensor.colour.is_some() {
+            colour_rows(&f, capture, i, data, known, mode, extractors)?
+        } else {
+            let hs = frame_headings_of(capture, i, data, known, mode, extractors)?;
+            hs.into_iter().map(|(e, r)| plain_row(&f, e, r.map_err(|err| err.to_string()))).collect()
+        };
         i += 1;
         pb.inc(1);
         pb.suspend(|| -> anyhow::Result<()> {
@@ -343,6 +332,57 @@ fn plain_rows(
     })?;
     pb.finish_and_clear();
     Ok(rows)
+}
+
+/// A colour-polarization frame's plain rows (`colour_frame_headings_of`: each band's
+/// own 2 × 2 tiles, least squares, statistical 1σ), as the field route orders them:
+/// the fused heading with each extractor (the bands' inverse-variance mean, its 1σ
+/// statistical only, what the bands share not in it), then each band's.
+fn colour_rows(
+    f: &SourceFrame<'_>,
+    capture: &Capture,
+    index: usize,
+    data: &bpins_core::FrameData,
+    known: &bpins_core::effects::Model,
+    mode: ReconMode,
+    extractors: &[Extractor],
+) -> anyhow::Result<Vec<Row>> {
+    let per = colour_frame_headings_of(capture, index, data, known, mode, extractors)?;
+    let mut rows: Vec<Row> = per
+        .iter()
+        .map(|c| {
+            let fused = c.fused.ok_or_else(|| {
+                let why: Vec<String> = c
+                    .bands
+                    .iter()
+                    .filter_map(|(b, r)| r.as_ref().err().map(|e| format!("{}: {e}", b.name())))
+                    .collect();
+                format!("no band has a heading ({})", why.join("; "))
+            });
+            Row { band: Some("fused"), ..plain_row(f, c.extractor, fused) }
+        })
+        .collect();
+    let bands: Vec<Band> = per.first().map(|c| c.bands.iter().map(|(b, _)| *b).collect()).unwrap_or_default();
+    for (k, b) in bands.iter().enumerate() {
+        for c in &per {
+            let r = c.bands[k].1.as_ref().copied().map_err(ToString::to_string);
+            rows.push(Row { band: Some(b.name()), ..plain_row(f, c.extractor, r) });
+        }
+    }
+    Ok(rows)
+}
+
+/// A plain estimate's row: the heading, its 1σ and sample count, or why none.
+fn plain_row(f: &SourceFrame<'_>, e: Extractor, r: Result<bpins_core::HeadingEstimate, String>) -> Row {
+    let mut row = Row::of(f, e);
+    match r {
+        Ok(est) => {
+            row.set_heading(est.heading_deg, est.sigma_deg);
+            row.samples = Some(est.samples);
+        }
+        Err(why) => row.no_heading_reason = Some(why),
+    }
+    row
 }
 
 /// `--bag`: the front door over a ROS 2 bag (cmd_heading_bag.rs).

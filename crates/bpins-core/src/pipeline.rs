@@ -17,6 +17,10 @@ use crate::scene::FieldScene;
 use crate::sensor::{Layout, Response};
 use crate::simulate::{peak_intensity, peak_signal, render_colocated, render_mosaic};
 
+#[path = "pipeline_colour.rs"]
+mod colour;
+pub use colour::{colour_frame_headings_of, ColourPlainHeadings};
+
 /// How a DoFP mosaic becomes Stokes samples (colocated captures ignore it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ReconMode {

@@ -67,8 +67,8 @@ pub mod output {
 /// maps applied to a frame, and a frame's headings.
 pub mod pipeline {
     pub use crate::pipeline::{
-        apply_pixel_maps, frame_headings_of, reconstruct_frame, sim_band_frames, sim_chain_frame, sim_response,
-        simulate_capture, ReconMode, SimSensor,
+        apply_pixel_maps, colour_frame_headings_of, frame_headings_of, reconstruct_frame, sim_band_frames,
+        sim_chain_frame, sim_response, simulate_capture, ColourPlainHeadings, ReconMode, SimSensor,
     };
     /// AoP and DoLP of reconstructed Stokes maps, per pixel.
     pub use crate::recon::angle_maps;

@@ -220,23 +220,6 @@ impl Capture {
         validate::validate(self, &self.toml_path())
     }
 
-    /// Refuses a colour-polarization capture (`colour_tiles`) for `what`, a reader
-    /// that takes every pixel as one band: its bands would be mixed. `bpins heading`
-    /// and the compass read such captures band by band.
-    pub fn refuse_colour(&self, what: &str) -> Result<()> {
-        if self.sensor.colour.is_some() {
-            return Err(err(
-                &self.toml_path(),
-                format!(
-                    "[sensor] colour_tiles: a colour-polarization capture; {what} does not read one band by band yet, \
-                     and reading it as monochrome mixes the bands' polarization (`bpins heading` and the compass \
-                     read each band from its own pixels)"
-                ),
-            ));
-        }
-        Ok(())
-    }
-
     /// `capture.toml` of this capture.
     pub fn toml_path(&self) -> PathBuf {
         self.dir.join("capture.toml")

@@ -1,5 +1,15 @@
 //! From a capture to [`SunObs`]: each frame's cells, its sky's sun
 //! ([`crate::heading::field::sky_sun`]), its stamp and its turn since the first frame.
+//!
+//! A colour-polarization capture (`colour_tiles`) is read through its green band: the
+//! cells of the G tiles alone, with the frame's red-to-blue ratio for the colour cloud
+//! test, at the colour compass's cell size (`fit::input::masks::green_cells`, the
+//! fit's sky masks' cells). G has two tiles of four (the most cells and signal) and is
+//! the band model's reference band. The three bands' suns are not fused: most of each
+//! sun's 1σ is shared by the bands (the reference tilt, the sky model's misfit, the
+//! neutral points' nuisance σ_n that `locate` carries as one bias for all frames) and
+//! [`SkySun`] does not keep it apart from the independent noise, so an inverse-variance
+//! mean would average the shared part down as if it were independent.
 
 use super::{LocateError, SunObs};
 use crate::capture::{Capture, FrameData};
@@ -105,7 +115,6 @@ fn measure_with(
     read: impl Fn(usize) -> crate::Result<FrameData>,
     progress: &mut dyn FnMut(usize),
 ) -> Result<Vec<FrameSun>, LocateError> {
-    c.refuse_colour("locate")?;
     let yaw = relative_yaw(c)?;
     let mut scratch = FieldScratch::default();
     let mut out = Vec::with_capacity(c.frames.len());
@@ -118,7 +127,11 @@ fn measure_with(
             None => None,
         };
         let data = read(i)?;
-        let cells = frame_cells(c, &data, known, opts.cell_px)?;
+        // A colour capture's sun is its green band's (module doc).
+        let cells = match crate::fit::input::masks::green_cells(c, &data, known, opts.cell_px)? {
+            Some(green) => green,
+            None => frame_cells(c, &data, known, opts.cell_px)?,
+        };
         let ctx = field_context(c, f, known);
         let sun = sky_sun(&cells, &ctx, opts, &mut scratch);
         let given_sun_deg =

@@ -148,15 +148,34 @@ pub fn colour_mosaic_heading_sums(
 }
 
 /// The fused heading of the bands' estimates (by [`Band::index`]; `None` where a band
-/// gave none), degrees in [0°, 360°): their inverse-variance mean, ψ = Σ wᵦ ψᵦ / Σ wᵦ
-/// with wᵦ = 1/σᵦ² (σᵦ each extractor's own statistical 1σ), taken as offsets from
-/// the first band's heading wrapped to ±180° so that headings either side of north
-/// average as angles. Equal weights where any answering band's σ is not a positive
-/// finite number. `None` where no band answered. The colour compass's fusion
-/// (`compass/colour.rs`) weighs its bands the same way (by the independent data term);
-/// its shared part enters the fused 1σ only, which a sweep does not record, so the
-/// fused heading is the same with or without it.
+/// gave none), degrees in [0°, 360°): [`fused_estimate`]'s heading. The colour
+/// compass's fusion (`compass/colour.rs`) weighs its bands the same way (by the
+/// independent data term); its shared part enters the fused 1σ only, which a sweep
+/// does not record, so the fused heading is the same with or without it.
 pub fn fuse(estimates: &[Option<HeadingEstimate>; 3]) -> Option<f64> {
+    fused_estimate(estimates).map(|e| e.heading_deg)
+}
+
+/// The fused estimate of the bands' plain estimates (by [`Band::index`]; `None` where
+/// a band gave none): the sweep's fused column and `bpins heading --estimator plain`'s
+/// `fused` row. `None` where no band answered.
+///
+/// ```text
+/// w_b = 1/σ_b²                        σ_b the band's own statistical 1σ (the plain extractors'), degrees
+/// ψ   = ψ₁ + Σ w_b·wrap(ψ_b − ψ₁) / Σ w_b    offsets from the first band's ψ₁, wrapped to ±180°
+/// σ   = 1/√(Σ w_b)                    the bands' noise independent (each its own pixels)
+/// ```
+///
+/// Equal weights where any answering band's σ is not a positive finite number; σ is
+/// then the equal-weight mean's, √(Σ σ_b²)/n. `samples` is the bands' sum. The 1σ is
+/// statistical only, as the monochrome plain estimator's: the pixel noise of each
+/// band, independent between bands because each band reads its own pixels. What the
+/// bands share (the reference tilt, the sun, the camera model, a sky that is not
+/// Rayleigh's) moves every band's heading alike, is in no band's σ and so not in the
+/// fused one either; the field estimator's fusion carries it (`compass/colour.rs`).
+/// Units: degrees. Cannot: widen σ where the bands disagree beyond their noise (no
+/// Birge ratio: the plain 1σ stays the seed paper's statistical one).
+pub fn fused_estimate(estimates: &[Option<HeadingEstimate>; 3]) -> Option<HeadingEstimate> {
     let ok: Vec<&HeadingEstimate> = estimates.iter().flatten().collect();
     let first = ok.first()?.heading_deg;
     let weighted = ok.iter().all(|e| e.sigma_deg.is_finite() && e.sigma_deg > 0.0);
@@ -166,7 +185,16 @@ pub fn fuse(estimates: &[Option<HeadingEstimate>; 3]) -> Option<f64> {
         sw += w;
         swx += w * wrap_deg_180(e.heading_deg - first);
     }
-    Some((first + swx / sw).rem_euclid(360.0))
+    let sigma_deg = if weighted {
+        1.0 / sw.sqrt()
+    } else {
+        ok.iter().map(|e| e.sigma_deg * e.sigma_deg).sum::<f64>().sqrt() / ok.len() as f64
+    };
+    Some(HeadingEstimate {
+        heading_deg: (first + swx / sw).rem_euclid(360.0),
+        sigma_deg,
+        samples: ok.iter().map(|e| e.samples).sum(),
+    })
 }
 
 #[cfg(test)]
@@ -393,6 +421,15 @@ per = "pixel"
         let f = fuse(&[est(10.0, 0.0), est(20.0, 1.0), est(30.0, 1.0)]).unwrap();
         assert!((f - 20.0).abs() < 1e-12, "{f}");
         assert_eq!(fuse(&[None, None, None]), None);
+        // The fused 1σ: 1/√Σ(1/σ_b²) (σ 1 and 2: 1/√1.25), below every band's; the
+        // samples the bands'.
+        let f = fused_estimate(&[est(10.0, 1.0), None, est(15.0, 2.0)]).unwrap();
+        assert!((f.sigma_deg - 1.25f64.sqrt().recip()).abs() < 1e-12 && f.samples == 20, "{f:?}");
+        let f = fused_estimate(&[est(10.0, 0.3), est(11.0, 0.3), est(12.0, 0.3)]).unwrap();
+        assert!((f.sigma_deg - 0.3 / 3f64.sqrt()).abs() < 1e-12 && (f.heading_deg - 11.0).abs() < 1e-12, "{f:?}");
+        // Equal weights: the equal-weight mean's √(Σσ²)/n.
+        let f = fused_estimate(&[est(10.0, 0.0), est(20.0, 3.0), est(30.0, 4.0)]).unwrap();
+        assert!((f.sigma_deg - 5.0 / 3.0).abs() < 1e-12, "{f:?}");
         assert_eq!(BandColumn::from_name("fused"), Some(BandColumn::Fused));
         assert_eq!(BandColumn::from_name("B"), Some(BandColumn::Band(Band::B)));
         assert_eq!(BandColumn::from_name("b"), None);

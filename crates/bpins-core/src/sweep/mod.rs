@@ -95,7 +95,8 @@ mod stats;
 mod store;
 
 pub use colour::{
-    band_columns, colour_heading_sums, colour_mosaic_heading_sums, fuse as fuse_bands, BandColumn, ColourSumsJob,
+    band_columns, colour_heading_sums, colour_mosaic_heading_sums, fuse as fuse_bands, fused_estimate, BandColumn,
+    ColourSumsJob,
 };
 pub use edge_point::heading as edge_point_heading;
 pub use report::html as report_html;

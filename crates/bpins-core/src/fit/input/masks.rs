@@ -31,7 +31,7 @@ pub fn sky_masks(c: &Capture, frames: &[FrameData], opts: &FitOptions) -> Result
 
 /// The sky mask of frame `k` of `c` whose pixels are `data`, read with `known`.
 pub(crate) fn sky_mask_of(c: &Capture, k: usize, data: &FrameData, known: &Model) -> Result<Option<SkyMask>> {
-    let cells = match green_cells(c, data, known)? {
+    let cells = match green_cells(c, data, known, None)? {
         Some(cells) => cells,
         None => crate::pipeline::frame_cells(c, data, known, None)?,
     };
@@ -41,9 +41,15 @@ pub(crate) fn sky_mask_of(c: &Capture, k: usize, data: &FrameData, known: &Model
 
 /// A colour capture's frame: the cells of its G tiles with the frame's red-to-blue
 /// ratio, the `known` analyzer and channel errors undone, at the colour compass's cell
-/// size (the default cell, rounded up to whole superpixels, at least two each way);
-/// `None` on a monochrome capture.
-fn green_cells(c: &Capture, data: &FrameData, known: &Model) -> Result<Option<Cells>> {
+/// size (`cell_px`, or the default cell, rounded up to whole superpixels, at least two
+/// each way); `None` on a monochrome capture. The fit's masks and `locate`'s sky sun
+/// (`locate/capture.rs`) read these.
+pub(crate) fn green_cells(
+    c: &Capture,
+    data: &FrameData,
+    known: &Model,
+    cell_px: Option<usize>,
+) -> Result<Option<Cells>> {
     let (Some(tiles), Layout::Dofp { mosaic }, FrameData::Mosaic { width_px, height_px, dn }) =
         (&c.sensor.colour, &c.sensor.layout, data)
     else {
@@ -51,7 +57,7 @@ fn green_cells(c: &Capture, data: &FrameData, known: &Model) -> Result<Option<Ce
     };
     let (w, h) = (*width_px as usize, *height_px as usize);
     let rec = Reconstructor::new(known, c.sensor.black_level_dn, &Channel::ALL)?;
-    let cell_px = Cells::default_cell_px(w, h).div_ceil(4).max(2) * 4;
+    let cell_px = cell_px.unwrap_or_else(|| Cells::default_cell_px(w, h)).max(2).div_ceil(4).max(2) * 4;
     let img = RawImage::packed(dn.as_slice(), w, h);
     let mut scratch = CellScratch::default();
     let [mut red, mut green, mut blue] = [Cells::default(), Cells::default(), Cells::default()];
