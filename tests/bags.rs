@@ -129,6 +129,54 @@ fn tilt_sigma_is_taken_alike_from_a_capture_and_its_bag() {
 
 /// Issue 50 item 4: `heading --bag` (--bag-out, --json) and `bag-to-capture --out`
 /// refuse an output in the bag reached through a symbolic link or through `..`.
+/// Issue 48: a twilight lit by both the sun and the moon read from a bag (the sun
+/// and the moon from each frame's stamp and the bag's /gnss/fix, `FrameSun::of`) as
+/// from the capture it was written with: both sources, the same headings, 1σ and
+/// fitted share.
+#[test]
+fn a_mixed_twilight_reads_alike_from_a_capture_and_its_bag() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    bpins(&[
+        "simulate",
+        "--out",
+        &p("cap"),
+        "--bag-out",
+        &p("bag"),
+        "--width-px",
+        "128",
+        "--height-px",
+        "128",
+        "--pixel-pitch-um",
+        "27.6",
+        "--headings-deg",
+        "20,200",
+        "--time-utc",
+        "2026-06-24T12:30:00Z",
+        "--latitude-deg",
+        "36.07",
+        "--longitude-deg",
+        "120.38",
+        "--scene",
+        "twilight",
+    ]);
+    bpins(&["heading", &p("cap"), "--json", &p("cap.json")]);
+    let bag = p("bag");
+    let bag_json = p("bag.json");
+    bpins(&["heading", "--bag", &bag, "--json", &bag_json, "--bit-depth", "12", "--black-level-dn", "64"]);
+    let (cap, bag) = (json(&tmp.path().join("cap.json")), json(&tmp.path().join("bag.json")));
+    for i in 0..2 {
+        let (c, b) = (&cap["frames"][i], &bag["frames"][i]);
+        let f = |v: &Value, k: &str| v[k].as_f64().unwrap_or_else(|| panic!("{k} in {v}"));
+        let sun = b["sun"].as_str().unwrap();
+        assert!(sun.contains("the moon (at 35.5°, 75 % lit) 50 %"), "frame {i}: {sun}");
+        // The bag's frames are stamped 1 ms apart from the capture's time.
+        assert!((f(c, "heading_deg") - f(b, "heading_deg")).abs() < 1e-3, "frame {i}: {c} / {b}");
+        assert!((f(c, "sigma_deg") - f(b, "sigma_deg")).abs() < 1e-3, "frame {i}");
+        assert!((f(c, "fitted_sun_share") - f(b, "fitted_sun_share")).abs() < 1e-3, "frame {i}");
+    }
+}
+
 #[test]
 fn outputs_into_the_bag_through_a_link_or_dotdot_are_refused() {
     let tmp = tempfile::tempdir().unwrap();
