@@ -11,7 +11,8 @@
 //! * `field/*_cells` and `field/*_estimate`: the two stages of the first.
 //! * `field/sun_and_moon_from_clock`: what a `Sun::UnixTime` reading adds to every
 //!   frame of the live loop: the sun (NREL SPA), the moon (Meeus ch. 47) and both
-//!   shares of the sky's light (`sky::source_and_shares_from_unix_time`).
+//!   shares of the sky's light, as numbers (`sky::SunAndMoon::at_unix_time`: what the
+//!   compass runs, no timestamp text).
 
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
@@ -108,11 +109,7 @@ fn field(c: &mut Criterion) {
     // The ephemeris a clock-driven reading runs per frame (a night at Qingdao, moon up).
     g.bench_function("sun_and_moon_from_clock", |b| {
         b.iter(|| {
-            black_box(bpins_core::internal::sky::source_and_shares_from_unix_time(
-                black_box(1_782_009_000.0),
-                36.07,
-                120.38,
-            ))
+            black_box(bpins_core::internal::sky::SunAndMoon::at_unix_time(black_box(1_782_009_000.0), 36.07, 120.38))
         })
     });
     g.finish();

@@ -110,15 +110,97 @@ fn a_warm_compass_allocates_nothing_per_frame() {
         }
         assert_eq!(n, 0, "{extractor:?}: {n} allocations in {} warm frames", frames.len());
     }
+    #[cfg(feature = "spa")]
+    clock::allocates_nothing_warm();
     #[cfg(feature = "io")]
     mixed_twilight::allocates_nothing_warm();
+}
+
+/// Frames given by clock and place (`Sun::UnixTime`, as a robot with GNSS time gives
+/// them) through the front door, `Compass::heading`: the ephemeris it runs per frame
+/// (SPA, the moon's series, the two sources' shares) allocates nothing either. A day
+/// sun, a moonlit night and a mixed twilight whose source is the moon here; one whose
+/// source is the sun in `mixed_twilight` (its frames rendered with both skies).
+#[cfg(feature = "spa")]
+mod clock {
+    use super::*;
+    use bpins_core::compass::SkySource;
+    use bpins_core::internal::sky::source_from_unix_time;
+
+    const W: usize = 128;
+
+    pub fn allocates_nothing_warm() {
+        // 128 × 128 px of 27.6 µm behind a 2.2 mm equidistant lens (±46° across).
+        let c = (W as f64 - 1.0) / 2.0;
+        let lens = Intrinsics::new(Projection::Equidistant, 2200.0 / 27.6, c, c);
+        // 2026-06-21T02:30:00Z at Qingdao (10:30 local, the sun high); 2026-06-29T16:00:00Z
+        // at 20° N 120.38° E, the full moon at 41.6° giving > 99 % of the light
+        // (docs/night.md); 2026-06-24T12:45:00Z at Qingdao, a mixed twilight whose source
+        // is the moon (the sun at −14.7°, read with both: the sun the second source). The
+        // frames are rendered under the source's pattern alone, as bright as the day's:
+        // what is counted is the clock's road, not the night's photon noise.
+        let cases = [
+            ("day", 1_782_009_000.0, 36.07, 120.38),
+            ("moonlit", 1_782_748_800.0, 20.0, 120.38),
+            ("mixed, the moon the source", 1_782_305_100.0, 36.07, 120.38),
+        ];
+        for (case, time_s, lat, lon) in cases {
+            let src = source_from_unix_time(time_s, lat, lon).unwrap();
+            let headings = [20.0, 140.0, 260.0];
+            let raws: Vec<Vec<u16>> = headings
+                .iter()
+                .enumerate()
+                .map(|(k, &heading_deg)| {
+                    let scene = Scene {
+                        sun_az_deg: src.azimuth_deg,
+                        sun_el_deg: src.elevation_deg,
+                        heading_deg,
+                        tilt_x_deg: 0.0,
+                        tilt_y_deg: 0.0,
+                        dmax: 0.6,
+                    };
+                    let noise = NoiseIndex { seed: 11, trial: 0, frame: k as u32 };
+                    let f = ChainFrame::new(&Default::default(), &lens, &scene, &Response::samples(2400.0), noise);
+                    render_mosaic(&f, W, W, &DEFAULT_MOSAIC).into_iter().map(|x| x as u16).collect()
+                })
+                .collect();
+            let mut compass = Compass::new(CompassConfig::dofp(lens, W, W, 12, 64.0)).unwrap();
+            let sun = Sun::UnixTime { time_s, latitude_deg: lat, longitude_deg: lon, sigma_deg: 0.01 };
+            let mut read =
+                |raw: &[u16]| compass.heading(RawImage::packed(raw, W, W), sun, Attitude::default()).unwrap();
+            for raw in &raws {
+                read(raw);
+            }
+            ALLOCATIONS.store(0, Ordering::SeqCst);
+            ARMED.store(true, Ordering::SeqCst);
+            let mut got = [(f64::NAN, f64::NAN, SkySource::Given, None); 3];
+            for (k, raw) in raws.iter().enumerate() {
+                let h = read(raw);
+                got[k] =
+                    (h.heading_deg().unwrap_or(f64::NAN), h.sigma_deg().unwrap_or(f64::NAN), h.source, h.fitted_share);
+            }
+            ARMED.store(false, Ordering::SeqCst);
+            let n = ALLOCATIONS.load(Ordering::SeqCst);
+            for (k, &(h, sd, source, share)) in got.iter().enumerate() {
+                let err = (h - headings[k] + 540.0).rem_euclid(360.0) - 180.0;
+                assert!(err.abs() < 3.0 * sd.max(0.05), "{case} frame {k}: heading {h} ± {sd} for {}", headings[k]);
+                match (case, source) {
+                    ("day", SkySource::Sun(s)) => assert!(s.sun_share() > 0.99, "{}", s.describe()),
+                    ("moonlit", SkySource::Moon(s)) => assert!(s.moon_share() >= 0.99, "{}", s.describe()),
+                    (_, SkySource::Moon(s)) if s.reads_both() => assert!(share.is_some(), "{case}: {}", s.describe()),
+                    _ => panic!("{case} frame {k}: source {source:?}"),
+                }
+            }
+            assert_eq!(n, 0, "{case} frames by clock: {n} allocations in {} warm frames", raws.len());
+        }
+    }
 }
 
 /// A mixed twilight read with both sources (`two_sources.rs`) allocates nothing once
 /// the scratch is warm: the compass's mixed branch (`Compass::heading` under a
 /// `Sun::UnixTime` whose sky reads both), its cells and the two-source fit on the
-/// compass's [`FieldScratch`]. (The clock itself is not counted: the ephemeris writes
-/// its timestamp's text, `SunSource::Spa`, for any frame given a time.)
+/// compass's [`FieldScratch`]; then the same frames through the front door given by
+/// clock and place (the ephemeris on numbers, `sky::SunAndMoon`: no timestamp text).
 #[cfg(feature = "io")]
 mod mixed_twilight {
     use super::*;
@@ -232,5 +314,32 @@ mod mixed_twilight {
             assert!(share.is_some(), "mixed frame {k}: a fitted share");
         }
         assert_eq!(n, 0, "a mixed twilight: {n} allocations in {} warm frames", raws.len());
+
+        // The same frames through the front door, given by clock and place: the compass
+        // runs both ephemerides and the shares per frame, then the same reader.
+        let t = sun::parse_time_utc(TIME).unwrap();
+        let time_s = t.timestamp() as f64;
+        let lens = Intrinsics::new(Projection::Equidistant, f_px, c, c);
+        let mut compass = Compass::new(CompassConfig::dofp(lens, W, W, 12, 64.0)).unwrap();
+        let clock = Sun::UnixTime { time_s, latitude_deg: PLACE.0, longitude_deg: PLACE.1, sigma_deg: 0.0 };
+        let mut read = |raw: &[u16]| compass.heading(RawImage::packed(raw, W, W), clock, Attitude::default()).unwrap();
+        for raw in &raws {
+            read(raw);
+        }
+        ALLOCATIONS.store(0, Ordering::SeqCst);
+        ARMED.store(true, Ordering::SeqCst);
+        let mut front = [(f64::NAN, None); 3];
+        for (k, raw) in raws.iter().enumerate() {
+            let h = read(raw);
+            front[k] = (h.heading_deg().unwrap_or(f64::NAN), h.fitted_share);
+        }
+        ARMED.store(false, Ordering::SeqCst);
+        let n = ALLOCATIONS.load(Ordering::SeqCst);
+        for (k, &(h, share)) in front.iter().enumerate() {
+            // The compass's context is the estimator's above (level, 1σ 0): the same reading.
+            assert!((h - got[k].0).abs() < 1e-9, "mixed frame {k} by clock: {h} against {}", got[k].0);
+            assert_eq!(share, got[k].2, "mixed frame {k} by clock: the fitted share");
+        }
+        assert_eq!(n, 0, "a mixed twilight by clock: {n} allocations in {} warm frames", raws.len());
     }
 }

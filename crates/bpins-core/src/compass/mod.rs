@@ -65,7 +65,7 @@ use crate::pixel_analyzers::CellAnalyzers;
 use crate::recon::Reconstructor;
 use crate::sensor::Channel;
 #[cfg(feature = "spa")]
-use crate::sky::{moon::MOON_POSITION_SIGMA_DEG, sun::SunSource, Refusal};
+use crate::sky::{moon::MOON_POSITION_SIGMA_DEG, Refusal, SunAndMoon};
 use inputs::{check_attitude, check_sun};
 
 mod colour;
@@ -79,8 +79,9 @@ struct Colocated {
 }
 
 /// Live frames in, headings out: build once, then one call per frame (the module's
-/// example shows a whole frame). Holds its buffers between frames, so a warm compass
-/// allocates nothing per frame; one compass per camera and thread (it is `Send`).
+/// example shows a whole frame). Holds its buffers between frames, so a warm
+/// monochrome compass allocates nothing per frame, its sun given by angles or by clock
+/// and place (`tests/allocations.rs`); one compass per camera and thread (it is `Send`).
 ///
 /// ```
 /// # use bpins_core::camera::{Intrinsics, Projection};
@@ -441,10 +442,11 @@ impl Resolved {
 }
 
 /// `sun` checked, with its source. Angles are given ([`SkySource::Given`]); a time and
-/// a place go through the capture reader's rule (`sky::source_and_shares_from_unix_time`,
-/// `sky::refusal`): the sun by day and in a twilight it dominates, the moon at night
-/// where it is up and its sky gives ≥ 99 % of the light (its 1σ the caller's ⊕ the
-/// ephemeris's [`MOON_POSITION_SIGMA_DEG`]), a twilight lit by both read with both
+/// a place go through the capture reader's rule on numbers (`sky::SunAndMoon`, the
+/// computation `sky::source_and_shares_from_unix_time` and `sky::refusal` wrap): the
+/// sun by day and in a twilight it dominates, the moon at night where it is up and
+/// its sky gives ≥ 99 % of the light (its 1σ the caller's ⊕ the ephemeris's
+/// [`MOON_POSITION_SIGMA_DEG`]), a twilight lit by both read with both
 /// ([`Resolved::second`], `Shares::reads_both`), a dark night refused
 /// ([`NoHeading::DarkNight`]).
 pub(super) fn resolve_sun(sun: Sun) -> Result<Resolved, CompassError> {
@@ -456,50 +458,43 @@ pub(super) fn resolve_sun(sun: Sun) -> Result<Resolved, CompassError> {
         }
         #[cfg(feature = "spa")]
         Sun::UnixTime { time_s, latitude_deg, longitude_deg, sigma_deg } => {
-            let (s, shares) = crate::sky::source_and_shares_from_unix_time(time_s, latitude_deg, longitude_deg)
+            // Both bodies and their shares as numbers, each ephemeris run once and no
+            // timestamp text built: nothing allocated per frame. A clock or place refused
+            // builds its error's text (not the per-frame path).
+            let both = SunAndMoon::at_unix_time(time_s, latitude_deg, longitude_deg)
                 .map_err(|e| CompassError::Sun(e.to_string()))?;
-            check_sun(s.azimuth_deg, s.elevation_deg, sigma_deg)?;
+            let ((azimuth_deg, elevation_deg), shares) = (both.source_deg(), both.shares);
+            check_sun(azimuth_deg, elevation_deg, sigma_deg)?;
             // A twilight lit by both is read with both sources (the other body from the
             // same clock and place); a dark night refused.
-            let (refusal, second) = match crate::sky::refusal(&s, &shares) {
+            let (refusal, second) = match both.refusal() {
                 Some(Refusal::Dark(shares)) => (Some(NoHeading::DarkNight { shares }), None),
-                _ if shares.reads_both() => {
-                    (None, Some(second_source(time_s, latitude_deg, longitude_deg, &s, shares)?))
-                }
+                _ if shares.reads_both() => (None, Some(second_source(&both))),
                 _ => (None, None),
             };
-            let (source, sigma_deg) = match s.source {
-                SunSource::Moon { .. } => (SkySource::Moon(shares), sigma_deg.hypot(MOON_POSITION_SIGMA_DEG)),
-                _ => (SkySource::Sun(shares), sigma_deg),
+            let (source, sigma_deg) = if both.moon_is_source() {
+                (SkySource::Moon(shares), sigma_deg.hypot(MOON_POSITION_SIGMA_DEG))
+            } else {
+                (SkySource::Sun(shares), sigma_deg)
             };
-            Ok(Resolved { angles: (s.azimuth_deg, s.elevation_deg, sigma_deg), source, refusal, second })
+            Ok(Resolved { angles: (azimuth_deg, elevation_deg, sigma_deg), source, refusal, second })
         }
     }
 }
 
-/// The other source of a mixed twilight at `time_s` and a place, beside the frame's
-/// source `s`: its azimuth and elevation from its ephemeris, and the frame's source's
-/// share of the two skies' polarized radiance ([`Shares::sun_unit_share`]).
+/// The other source of a mixed twilight, beside the frame's source (`both`'s): its
+/// azimuth and elevation, and the frame's source's share of the two skies' polarized
+/// radiance ([`Shares::sun_unit_share`]).
 #[cfg(feature = "spa")]
-fn second_source(
-    time_s: f64,
-    latitude_deg: f64,
-    longitude_deg: f64,
-    s: &crate::sky::sun::SunPosition,
-    shares: Shares,
-) -> Result<SecondSource, CompassError> {
-    let err = |e: crate::Error| CompassError::Sun(e.to_string());
-    let w_sun = shares.sun_unit_share();
-    Ok(match s.source {
-        SunSource::Moon { .. } => {
-            let sun = crate::sky::sun::sun_from_unix_time(time_s, latitude_deg, longitude_deg).map_err(err)?;
-            SecondSource { azimuth_deg: sun.azimuth_deg, elevation_deg: sun.elevation_deg, share: 1.0 - w_sun, shares }
-        }
-        _ => {
-            let moon = crate::sky::moon::moon_from_unix_time(time_s, latitude_deg, longitude_deg).map_err(err)?;
-            SecondSource { azimuth_deg: moon.azimuth_deg, elevation_deg: moon.elevation_deg, share: w_sun, shares }
-        }
-    })
+fn second_source(both: &SunAndMoon) -> SecondSource {
+    let (shares, w_sun) = (both.shares, both.shares.sun_unit_share());
+    if both.moon_is_source() {
+        let (azimuth_deg, elevation_deg) = (both.sun_azimuth_deg, both.sun_elevation_deg);
+        SecondSource { azimuth_deg, elevation_deg, share: 1.0 - w_sun, shares }
+    } else {
+        let (azimuth_deg, elevation_deg) = (both.moon.azimuth_deg, both.moon.elevation_deg);
+        SecondSource { azimuth_deg, elevation_deg, share: w_sun, shares }
+    }
 }
 
 /// What the field estimator knows about a frame: the camera `intr` as calibrated, the

@@ -75,6 +75,57 @@ fn the_calibration_and_the_sun_from_a_clock_are_used() {
     assert!(matches!(c.heading(RawImage::packed(&raw, 306, 256), bad, Attitude::default()), Err(CompassError::Sun(_))));
 }
 
+/// A clock-given frame's sun resolved on numbers (`sky::SunAndMoon`, no timestamp text)
+/// is, bit for bit, what the capture reader's text route gives: the source and shares
+/// of `sky::source_and_shares_from_unix_time`, `sky::refusal` on them, the other body of
+/// a mixed twilight from its own ephemeris (`sun_from_unix_time`, `moon_from_unix_time`),
+/// the moon's 1σ ⊕ 0.005°. A day, a moonlit night (the full moon > 99 %), a mixed
+/// twilight of each source, a dark night, and a fraction of a second.
+#[test]
+#[cfg(feature = "spa")]
+fn a_clock_resolves_bit_for_bit_as_the_text_route() {
+    use crate::sky::sun::SunSource;
+    let (qd, south) = ((36.07, 120.38), (20.0, 120.38));
+    let cases = [
+        (1_782_009_000.0, qd),     // 2026-06-21T02:30Z: day
+        (1_782_748_800.0, south),  // 2026-06-29T16:00Z: the full moon at 41.6°
+        (1_782_304_200.0, qd),     // 2026-06-24T12:30Z: mixed, the sun the source
+        (1_782_305_100.0, qd),     // 2026-06-24T12:45Z: mixed, the moon the source
+        (1_784_044_800.0, qd),     // 2026-07-14T16:00Z: a dark night
+        (1_782_304_200.123_4, qd), // a fraction of a second
+    ];
+    let mut seen = (0, 0, 0, 0);
+    for (time_s, (lat, lon)) in cases {
+        let sigma_deg = 0.02;
+        let r = resolve_sun(Sun::UnixTime { time_s, latitude_deg: lat, longitude_deg: lon, sigma_deg }).unwrap();
+        // The text route, as the compass took it before.
+        let (s, shares) = crate::sky::source_and_shares_from_unix_time(time_s, lat, lon).unwrap();
+        let moonlit = matches!(s.source, SunSource::Moon { .. });
+        let sd = if moonlit { sigma_deg.hypot(crate::sky::moon::MOON_POSITION_SIGMA_DEG) } else { sigma_deg };
+        assert_eq!(r.angles, (s.azimuth_deg, s.elevation_deg, sd), "{time_s}");
+        assert_eq!(r.source, if moonlit { SkySource::Moon(shares) } else { SkySource::Sun(shares) }, "{time_s}");
+        let dark = matches!(crate::sky::refusal(&s, &shares), Some(Refusal::Dark(_)));
+        assert_eq!(r.refusal, dark.then_some(NoHeading::DarkNight { shares }), "{time_s}");
+        let second = (!dark && shares.reads_both()).then(|| {
+            let w_sun = shares.sun_unit_share();
+            if moonlit {
+                let o = crate::sky::sun::sun_from_unix_time(time_s, lat, lon).unwrap();
+                SecondSource { azimuth_deg: o.azimuth_deg, elevation_deg: o.elevation_deg, share: 1.0 - w_sun, shares }
+            } else {
+                let o = crate::sky::moon::moon_from_unix_time(time_s, lat, lon).unwrap();
+                SecondSource { azimuth_deg: o.azimuth_deg, elevation_deg: o.elevation_deg, share: w_sun, shares }
+            }
+        });
+        assert_eq!(r.second, second, "{time_s}");
+        seen.0 += usize::from(moonlit && second.is_none());
+        seen.1 += usize::from(!moonlit && second.is_some());
+        seen.2 += usize::from(moonlit && second.is_some());
+        seen.3 += usize::from(dark);
+    }
+    // Every road was taken: moonlit, mixed under each source, dark.
+    assert_eq!(seen, (1, 2, 1, 1), "moonlit, mixed (sun), mixed (moon), dark");
+}
+
 #[test]
 fn compasses_on_several_threads_read_what_one_reads() {
     // Frames under three attitudes; one compass reads them in turn, then three

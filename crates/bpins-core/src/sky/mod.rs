@@ -31,8 +31,8 @@ pub fn source_from_time_place(
     latitude_deg: f64,
     longitude_deg: f64,
 ) -> crate::Result<sun::SunPosition> {
-    let sun = sun::sun_from_time_place(time_utc, latitude_deg, longitude_deg)?;
-    night_source(sun, moon::moon_from_time_place(time_utc, latitude_deg, longitude_deg)?)
+    let time = sun::parse_time_utc(time_utc)?;
+    Ok(SunAndMoon::at(&time, latitude_deg, longitude_deg)?.source(&time, latitude_deg, longitude_deg))
 }
 
 /// [`source_from_time_place`] at `time_unix_s` seconds since 1970 (a bag's stamps).
@@ -42,8 +42,7 @@ pub fn source_from_unix_time(
     latitude_deg: f64,
     longitude_deg: f64,
 ) -> crate::Result<sun::SunPosition> {
-    let sun = sun::sun_from_unix_time(time_unix_s, latitude_deg, longitude_deg)?;
-    night_source(sun, moon::moon_from_unix_time(time_unix_s, latitude_deg, longitude_deg)?)
+    Ok(source_and_shares_from_unix_time(time_unix_s, latitude_deg, longitude_deg)?.0)
 }
 
 /// Why a frame's sky from its time and place cannot be read, or `None`: where the sun
@@ -90,13 +89,22 @@ impl std::fmt::Display for Refusal {
 #[cfg(feature = "spa")]
 pub fn refusal(sun: &sun::SunPosition, shares: &twilight::Shares) -> Option<Refusal> {
     use sun::SunSource;
-    if !matches!(sun.source, SunSource::Spa { .. } | SunSource::Moon { .. }) {
-        return None;
+    match sun.source {
+        // A sun source's angles are the sun's: its elevation is the rule's.
+        SunSource::Spa { .. } => refusal_rule(false, sun.elevation_deg, shares),
+        SunSource::Moon { sun_elevation_deg, .. } => refusal_rule(true, sun_elevation_deg, shares),
+        _ => None,
     }
+}
+
+/// [`refusal`]'s rule on numbers: whether the moon is the source, the sun's elevation
+/// (degrees) and the shares.
+#[cfg(feature = "spa")]
+fn refusal_rule(moon_is_source: bool, sun_elevation_deg: f64, shares: &twilight::Shares) -> Option<Refusal> {
     if shares.dominant() == twilight::Dominant::Mixed {
         return Some(Refusal::Mixed(*shares));
     }
-    if !matches!(sun.source, SunSource::Spa { .. }) || sun.elevation_deg >= NIGHT_SUN_ELEVATION_DEG {
+    if moon_is_source || sun_elevation_deg >= NIGHT_SUN_ELEVATION_DEG {
         return None;
     }
     Some(Refusal::Dark(*shares))
@@ -111,10 +119,86 @@ pub fn source_and_shares_from_unix_time(
     latitude_deg: f64,
     longitude_deg: f64,
 ) -> crate::Result<(sun::SunPosition, twilight::Shares)> {
-    let sun = sun::sun_from_unix_time(time_unix_s, latitude_deg, longitude_deg)?;
-    let moon = moon::moon_from_unix_time(time_unix_s, latitude_deg, longitude_deg)?;
-    let shares = twilight::shares_of(sun.elevation_deg, &moon);
-    Ok((night_source(sun, moon)?, shares))
+    let time = sun::unix_time(time_unix_s)?;
+    let both = SunAndMoon::at(&time, latitude_deg, longitude_deg)?;
+    Ok((both.source(&time, latitude_deg, longitude_deg), both.shares))
+}
+
+/// The sun and the moon at one instant and place, and their shares of the sky's light,
+/// as numbers: the one ephemeris computation behind every time-and-place reading (SPA
+/// for the sun, Meeus ch. 47 for the moon, `twilight.rs` for the shares). The live
+/// compass reads a frame's clock through it and builds no text, so a warm compass
+/// allocates nothing per clock-given frame; [`source_and_shares_from_unix_time`] and
+/// [`source_from_time_place`] add the source's timestamp text ([`sun::SunSource`]) for
+/// the captures and the CLI. Units: degrees; frame: the observer's horizon (azimuth
+/// from North toward East).
+#[cfg(feature = "spa")]
+#[derive(Clone, Debug, PartialEq)]
+pub struct SunAndMoon {
+    /// The apparent sun (NREL SPA, standard refraction, 0 m), degrees.
+    pub sun_azimuth_deg: f64,
+    pub sun_elevation_deg: f64,
+    pub moon: moon::MoonPosition,
+    /// The two sources' shares of the sky's light at the zenith ([`twilight::shares_of`]).
+    pub shares: twilight::Shares,
+}
+
+#[cfg(feature = "spa")]
+impl SunAndMoon {
+    /// Both bodies at `time_unix_s` seconds since 1970 (UTC, leap seconds not counted)
+    /// at a place. Allocates nothing on success; its errors (a time not representable,
+    /// a place out of range: [`crate::Error`]) build their text, not the per-frame path.
+    pub fn at_unix_time(time_unix_s: f64, latitude_deg: f64, longitude_deg: f64) -> crate::Result<SunAndMoon> {
+        SunAndMoon::at(&sun::unix_time(time_unix_s)?, latitude_deg, longitude_deg)
+    }
+
+    fn at(time: &chrono::DateTime<chrono::Utc>, latitude_deg: f64, longitude_deg: f64) -> crate::Result<SunAndMoon> {
+        let (sun_azimuth_deg, sun_elevation_deg) = sun::sun_angles_at(time, latitude_deg, longitude_deg)?;
+        let moon = moon::moon_at(time, latitude_deg, longitude_deg)?;
+        let shares = twilight::shares_of(sun_elevation_deg, &moon);
+        Ok(SunAndMoon { sun_azimuth_deg, sun_elevation_deg, moon, shares })
+    }
+
+    /// Whether the moon is the sky's source ([`source_from_time_place`]'s rule): up, and
+    /// its sky the brighter at the zenith (ties go to the sun).
+    pub fn moon_is_source(&self) -> bool {
+        // Written as the rule has always read (the sun unless the moon is up and not the
+        // fainter), so that a NaN decides as before.
+        !(self.moon.elevation_deg <= 0.0 || self.shares.moon_share() <= self.shares.sun_share())
+    }
+
+    /// The source's (azimuth, elevation), degrees: the moon's where it is the source,
+    /// else the sun's.
+    pub fn source_deg(&self) -> (f64, f64) {
+        if self.moon_is_source() {
+            (self.moon.azimuth_deg, self.moon.elevation_deg)
+        } else {
+            (self.sun_azimuth_deg, self.sun_elevation_deg)
+        }
+    }
+
+    /// Why the sky cannot be read, or `None` ([`refusal`]'s rule on these numbers).
+    pub fn refusal(&self) -> Option<Refusal> {
+        refusal_rule(self.moon_is_source(), self.sun_elevation_deg, &self.shares)
+    }
+
+    /// The source as the captures report it, with its timestamp's text (allocates).
+    fn source(&self, time: &chrono::DateTime<chrono::Utc>, latitude_deg: f64, longitude_deg: f64) -> sun::SunPosition {
+        let time_utc = time.to_rfc3339_opts(chrono::SecondsFormat::AutoSi, true);
+        let (azimuth_deg, elevation_deg) = self.source_deg();
+        let source = if self.moon_is_source() {
+            sun::SunSource::Moon {
+                time_utc,
+                latitude_deg,
+                longitude_deg,
+                illuminated_fraction: self.moon.illuminated_fraction,
+                sun_elevation_deg: self.sun_elevation_deg,
+            }
+        } else {
+            sun::SunSource::Spa { time_utc, latitude_deg, longitude_deg }
+        };
+        sun::SunPosition { azimuth_deg, elevation_deg, source }
+    }
 }
 
 /// Which source lit the sky a reading is about, as the reading says it (the
@@ -170,28 +254,6 @@ impl SkySource {
     }
 }
 
-#[cfg(feature = "spa")]
-fn night_source(sun: sun::SunPosition, moon: moon::MoonPosition) -> crate::Result<sun::SunPosition> {
-    let shares = twilight::shares_of(sun.elevation_deg, &moon);
-    if moon.elevation_deg <= 0.0 || shares.moon_share() <= shares.sun_share() {
-        return Ok(sun);
-    }
-    let sun::SunSource::Spa { time_utc, latitude_deg, longitude_deg } = sun.source else {
-        return Ok(sun);
-    };
-    Ok(sun::SunPosition {
-        azimuth_deg: moon.azimuth_deg,
-        elevation_deg: moon.elevation_deg,
-        source: sun::SunSource::Moon {
-            time_utc,
-            latitude_deg,
-            longitude_deg,
-            illuminated_fraction: moon.illuminated_fraction,
-            sun_elevation_deg: sun.elevation_deg,
-        },
-    })
-}
-
 #[cfg(all(test, feature = "spa"))]
 mod tests {
     use super::*;
@@ -243,6 +305,37 @@ mod tests {
         // lasts minutes a day, so few whole hours fall in it.
         assert!(moonlit > 60 && dark > 60, "{moonlit} moonlit hours, {dark} dark ones");
         assert!(mixed > 0 && mixed < 60, "{mixed} mixed hours");
+    }
+
+    #[test]
+    fn sun_and_moon_are_the_text_route_s_numbers_bit_for_bit() {
+        // Every 2 h 17 min 0.37 s over a month at two places (days, moonlit nights, dark
+        // ones, mixed twilights): the numbers a clock-given frame is read with are each
+        // ephemeris's own, and the source the text route reports (its stamp parsed back
+        // from its text, too) is the one they name.
+        let (mut moon_source, mut mixed) = (0, 0);
+        for k in 0..320 {
+            for (lat, lon) in [(36.07, 120.38), (20.0, 120.38)] {
+                let t = 1_782_000_000.0 + 8220.37 * k as f64;
+                let both = SunAndMoon::at_unix_time(t, lat, lon).unwrap();
+                let sun = sun::sun_from_unix_time(t, lat, lon).unwrap();
+                let moon = moon::moon_from_unix_time(t, lat, lon).unwrap();
+                assert_eq!((both.sun_azimuth_deg, both.sun_elevation_deg), (sun.azimuth_deg, sun.elevation_deg));
+                assert_eq!(both.moon, moon);
+                assert_eq!(both.shares, twilight::shares_of(sun.elevation_deg, &moon));
+                let (src, shares) = source_and_shares_from_unix_time(t, lat, lon).unwrap();
+                assert_eq!(shares, both.shares);
+                assert_eq!((src.azimuth_deg, src.elevation_deg), both.source_deg(), "{t}");
+                assert_eq!(matches!(src.source, sun::SunSource::Moon { .. }), both.moon_is_source(), "{t}");
+                assert_eq!(refusal(&src, &shares), both.refusal(), "{t}");
+                let text = src.source.time_utc().unwrap();
+                assert_eq!(source_from_time_place(text, lat, lon).unwrap(), src, "{text}");
+                assert_eq!(twilight::shares_at(text, lat, lon).unwrap(), shares, "{text}");
+                moon_source += usize::from(both.moon_is_source());
+                mixed += usize::from(matches!(both.refusal(), Some(Refusal::Mixed(_))));
+            }
+        }
+        assert!(moon_source > 50 && mixed > 0, "{moon_source} moonlit, {mixed} mixed");
     }
 
     #[test]

@@ -123,7 +123,10 @@ pub fn moon_from_unix_time(time_unix_s: f64, latitude_deg: f64, longitude_deg: f
     moon_at(&super::sun::unix_time(time_unix_s)?, latitude_deg, longitude_deg)
 }
 
-fn moon_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Result<MoonPosition> {
+/// The moon at `time` ([`moon_from_time_place`]'s, from a parsed time): no text is built
+/// on success, so a clock-given frame (`sky::SunAndMoon`) allocates nothing here; its
+/// errors build theirs (not the per-frame path).
+pub(crate) fn moon_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Result<MoonPosition> {
     check_place(latitude_deg, longitude_deg)?;
     let time_err = |message: String| Error::Time { time: format!("time {time}"), message };
     let dt_s = delta_t::estimate_from_date_like(time).map_err(|e| time_err(format!("ΔT: {e}")))?;

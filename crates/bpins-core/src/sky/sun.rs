@@ -182,14 +182,10 @@ pub(crate) fn unix_time(time_unix_s: f64) -> Result<DateTime<Utc>> {
     DateTime::<Utc>::from_timestamp(secs as i64, (frac * 1e9) as u32).ok_or_else(bad)
 }
 
+/// The sun at `time` with its timestamp's text, the [`SunPosition`] the captures and
+/// the CLI report: [`sun_angles_at`]'s numbers.
 fn sun_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Result<SunPosition> {
-    let time = *time;
-    let time_utc = time.to_rfc3339_opts(SecondsFormat::AutoSi, true);
-    check_place(latitude_deg, longitude_deg)?;
-    let dt_s = delta_t::estimate_from_date_like(&time)
-        .map_err(|e| Error::Time { time: format!("time {time_utc}"), message: format!("ΔT: {e}") })?;
-    let (azimuth_deg, elevation_deg) =
-        spa_apparent(&time, latitude_deg, longitude_deg, 0.0, dt_s, Some(RefractionCorrection::standard()))?;
+    let (azimuth_deg, elevation_deg) = sun_angles_at(time, latitude_deg, longitude_deg)?;
     Ok(SunPosition {
         azimuth_deg,
         elevation_deg,
@@ -199,6 +195,21 @@ fn sun_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Result
             longitude_deg,
         },
     })
+}
+
+/// The apparent sun's (azimuth, elevation), degrees, at `time` from a place at sea
+/// level: NREL SPA with the module doc's choices, as numbers. The one computation of
+/// the sun: [`sun_from_time_place`] and [`sun_from_unix_time`] add the timestamp's
+/// text; a clock-given frame (`sky::SunAndMoon`, the compass) takes the numbers alone
+/// and allocates nothing. Its errors ([`Error::Time`], [`Error::Place`], [`Error::Sun`])
+/// build their text, allocating: a refused time or place is not the per-frame path.
+pub(crate) fn sun_angles_at(time: &DateTime<Utc>, latitude_deg: f64, longitude_deg: f64) -> Result<(f64, f64)> {
+    check_place(latitude_deg, longitude_deg)?;
+    let dt_s = delta_t::estimate_from_date_like(time).map_err(|e| Error::Time {
+        time: format!("time {}", time.to_rfc3339_opts(SecondsFormat::AutoSi, true)),
+        message: format!("ΔT: {e}"),
+    })?;
+    spa_apparent(time, latitude_deg, longitude_deg, 0.0, dt_s, Some(RefractionCorrection::standard()))
 }
 
 /// Parses an RFC 3339 timestamp with an explicit offset and converts it to UTC.

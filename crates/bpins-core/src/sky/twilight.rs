@@ -268,9 +268,8 @@ fn percent(share: f64) -> String {
 /// The shares at `time_utc` and a place (SPA for the sun, `moon.rs` for the moon).
 #[cfg(feature = "spa")]
 pub fn shares_at(time_utc: &str, latitude_deg: f64, longitude_deg: f64) -> crate::Result<Shares> {
-    let sun = crate::sky::sun::sun_from_time_place(time_utc, latitude_deg, longitude_deg)?;
-    let moon = crate::sky::moon::moon_from_time_place(time_utc, latitude_deg, longitude_deg)?;
-    Ok(shares_of(sun.elevation_deg, &moon))
+    let time = crate::sky::sun::parse_time_utc(time_utc)?;
+    Ok(crate::sky::SunAndMoon::at(&time, latitude_deg, longitude_deg)?.shares)
 }
 
 /// The shares under the sun at `sun_elevation_deg` and `moon`.
