@@ -62,7 +62,8 @@ pub struct Args {
     cell_px: Option<usize>,
     /// Plain estimator: how DoFP mosaics become Stokes samples: `demosaic` (bilinear,
     /// every pixel its own ray; most accurate) or `superpixel` (2×2 tiles at their
-    /// centres; faster, biased by ~0.05° on gradients). Default: demosaic. A colour
+    /// centres; faster, biased by the sky's gradient across a tile: 0.03° RMS at 13.8 µm
+    /// behind 8 mm, 0.08°–0.25° at 27.6 µm, docs/honesty.md). Default: demosaic. A colour
     /// capture: each band from its own tiles, demosaic's samples the tile means.
     #[arg(long, value_parser = crate::names::by_name(&ReconMode::ALL, ReconMode::name), conflicts_with = "bag")]
     recon: Option<ReconMode>,
