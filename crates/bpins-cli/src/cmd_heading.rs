@@ -54,7 +54,8 @@ pub struct Args {
     extractor: ExtractorArg,
     /// Estimator: `field` (robust to clouds, trees, the sun in view, tilt; a 1σ that
     /// includes the reference tilt's and the sun's errors) or `plain` (every pixel, no
-    /// masks, statistical 1σ only: the seed paper's extractors as they are).
+    /// masks, statistical 1σ only: the seed paper's extractors as they are, the 1σ of
+    /// demosaiced samples widened for their interpolation, docs/honesty.md).
     #[arg(long, value_enum, default_value_t = Estimator::Field)]
     estimator: Estimator,
     /// Field estimator: cell size in pixels (default: about 1/64 of the shorter side).
@@ -63,8 +64,9 @@ pub struct Args {
     /// Plain estimator: how DoFP mosaics become Stokes samples: `demosaic` (bilinear,
     /// every pixel its own ray; most accurate) or `superpixel` (2×2 tiles at their
     /// centres; faster, biased by the sky's gradient across a tile: 0.03° RMS at 13.8 µm
-    /// behind 8 mm, 0.08°–0.25° at 27.6 µm, docs/honesty.md). Default: demosaic. A colour
-    /// capture: each band from its own tiles, demosaic's samples the tile means.
+    /// behind 8 mm, 0.08°–0.25° at 27.6 µm, docs/honesty.md). Default: demosaic, its 1σ
+    /// × 8/3 (√ of the design effect 64/9: each raw DN enters nine pixels' samples). A
+    /// colour capture: each band from its own tiles, demosaic's samples the tile means.
     #[arg(long, value_parser = crate::names::by_name(&ReconMode::ALL, ReconMode::name), conflicts_with = "bag")]
     recon: Option<ReconMode>,
     /// A known calibration to compensate, as effect.param=value (repeatable),

@@ -85,11 +85,16 @@ pub fn colour_frame_headings_of(
 /// of that channel is its sample; at the tile's other pixels the stage-2 bilinear mean
 /// of that sample and the next lattice point's, itself the stage-1 Bayer mean of the
 /// band's samples around it (`maps_colour.rs`). Interior tiles; the border's OpenCV
-/// rule differs on its one-tile rim. `tests` checks w against `colour_maps` itself.
+/// rule differs on its one-tile rim. `tests` checks w against `colour_maps` itself. The
+/// arithmetic is [`super::kish_design_effect`]'s, as the monochrome demosaic's.
 pub(crate) fn design_effect(tiles: &ColourTiles, b: Band) -> f64 {
+    /// One tile per superpixel: (7/8, 1/8) ⊗ (7/8, 1/8).
+    const ONE_TILE: [f64; 4] = [49.0 / 64.0, 7.0 / 64.0, 7.0 / 64.0, 1.0 / 64.0];
+    /// Two diagonal tiles per superpixel.
+    const TWO_TILES: [f64; 6] = [168.0 / 256.0, 40.0 / 256.0, 12.0 / 256.0, 12.0 / 256.0, 12.0 / 256.0, 12.0 / 256.0];
     match tiles.classes(b).iter().flatten().filter(|&&on| on).count() {
-        2 => 4096.0 / 1900.0,
-        _ => 4096.0 / 2500.0,
+        2 => super::kish_design_effect(&TWO_TILES),
+        _ => super::kish_design_effect(&ONE_TILE),
     }
 }
 
