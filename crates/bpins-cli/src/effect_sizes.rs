@@ -73,6 +73,13 @@ pub fn candidate_verdict(d: &Diagnosis, step: usize, c: &Candidate) -> (String, 
     } else if let Some(p) = d.confusable.iter().find(|p| p.second == c.effect) {
         words.push(format!("confusable with {}", p.first));
     }
+    // The step the cap stopped: searched, nothing added (`Remains::left_by_cap`).
+    if let Some(cap) = d.remains.left_by_cap.as_ref().filter(|_| step == d.rankings.len()) {
+        if cap.candidates.iter().any(|l| l.effect == c.effect) {
+            words.push(format!("passes, left out by the cap (--max-added {})", cap.max_added));
+            class = "no";
+        }
+    }
     // A colour band's effect: the bands it changes (`Candidate::bands_named`).
     if let Some(b) = c.bands_named().filter(|_| c.evidence.refitted()) {
         words.push(format!("bands {b}"));

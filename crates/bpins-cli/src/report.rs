@@ -196,6 +196,18 @@ fn plus_minus(p: &Param) -> String {
 fn answer(d: &Diagnosis, pair: &[Written; 2]) -> Answer {
     let (first, last) = (&d.steps[0], d.steps.last().expect("a starting step"));
     let mut verdict = match (d.selected.is_empty(), d.unexplained()) {
+        // The cap stopped the search with a candidate the data still show: said, never
+        // "nothing is missing" (`Remains::left_by_cap`).
+        (none, false) if d.remains.left_by_cap.is_some() => {
+            let cap = d.remains.left_by_cap.as_ref().expect("checked").to_string();
+            if none {
+                let mut cap = cap;
+                cap[..1].make_ascii_uppercase();
+                cap
+            } else {
+                format!("Missing: {}; {cap}", sized(d, &d.selected))
+            }
+        }
         (false, false) => format!("Missing: {}. With it the residual is at the noise.", sized(d, &d.selected)),
         // At the noise, but only with values no real instrument or sky has.
         (false, true) if d.remains.unexplained.is_none() => format!(

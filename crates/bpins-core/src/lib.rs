@@ -169,7 +169,7 @@ pub use capture::{CaptureWriter, LabFrame, LensSpec, SensorSpec};
 #[cfg(feature = "io")]
 pub use diagnose::{
     pairs::Confusable,
-    remains::{Remains, Unexplained},
+    remains::{CapCandidate, LeftByCap, Remains, Unexplained},
     sizes::{EffectSize, MinSize, OutsidePhysical, Thresholds},
     Candidate, Evidence, Step, Timings,
 };

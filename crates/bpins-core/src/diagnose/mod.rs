@@ -24,7 +24,10 @@
 //! two best refitted together are added if both pass ΔBIC (the runner-up converged
 //! on every pixel for it) and together they remove
 //! half (two effects that each explain a part) — an effect that only nibbles at a
-//! misfit it does not describe is not named — and the search repeats. Effects a sky
+//! misfit it does not describe is not named — and the search repeats, up to its cap
+//! (`max_added`); at the cap one more step is searched and nothing added: whatever
+//! passes the rule there is what the cap left out (`Remains::left_by_cap`, never
+//! "nothing remains"), its heading shift joining the headings' 1σ (`margin`). Effects a sky
 //! capture cannot tell from the fit's nuisances ([`inseparable`]: vignetting from the
 //! sky's radiance, a factor on d_max from each frame's d_max) are not candidates but
 //! listed, with why, as what the capture cannot tell. Two candidates that explain the
@@ -67,7 +70,7 @@ pub use json::DiagnosisJson;
 use pairs::{confusable, Confusable};
 pub use refits::CLOSE_MARGIN;
 use refits::{base_on_subsample, bound_on_every_pixel, converge, next_to_converge, refit_on_subsample, Refit, Stage};
-use remains::Remains;
+use remains::{CapCandidate, LeftByCap, Remains};
 use sizes::{EffectSize, MinSize, OutsidePhysical};
 use timings::timed;
 pub use timings::Timings;
@@ -77,7 +80,9 @@ pub use timings::Timings;
 pub struct DiagnoseOptions {
     /// The model to start from (and keep).
     pub base: FitOptions,
-    /// Most effects added.
+    /// Most effects added. At the cap the next step is still searched, nothing added:
+    /// what it would add is reported as left out (`Remains::left_by_cap`) and its
+    /// heading shift joins the headings' 1σ (`margin`).
     pub max_added: usize,
     /// Candidates refitted per step for their real Δχ².
     pub refit_top: usize,
@@ -304,9 +309,16 @@ pub fn diagnose_frames(
             .collect()
     };
     // Each candidate's widening of every frame's heading 1σ, scored against the
-    // current model (`None` once the model has moved on).
-    let mut widen: Option<Vec<(&'static str, Vec<f64>)>> = None;
-    for _ in 0..opts.max_added {
+    // current model: every step scores, and the search ends only after a step's scoring
+    // (at the cap too), so this is against the final model.
+    let mut widen: Vec<(&'static str, Vec<f64>)>;
+    // What the cap left out: each candidate of the step the cap stopped that passes the
+    // rule for adding one, with its heading shift per frame (`margin`).
+    let mut left_out: Vec<(CapCandidate, Vec<f64>)> = Vec::new();
+    loop {
+        // At the cap the step is still searched but nothing is added: what it would add
+        // is what the cap left out (the same rule, not another threshold).
+        let at_cap = model.effects.len() >= opts.base.effects.len() + opts.max_added;
         let candidates = candidates_of(&model);
         // On the scoring subsample, every candidate from one pass (the base model's
         // columns once): under the null the score is χ²_k whatever the sample size,
@@ -318,7 +330,7 @@ pub fn diagnose_frames(
         // ΔBIC at the effective sample count of the model a candidate adds to: where its
         // residual is smooth, Δχ² counts for n_eff/n of itself (the same factor for every
         // candidate of a step, so it does not reorder them by noise in n_eff).
-        widen = Some(candidates.iter().zip(&scores).map(|(e, s)| (e.name, s.heading_widen.clone())).collect());
+        widen = candidates.iter().zip(&scores).map(|(e, s)| (e.name, s.heading_widen.clone())).collect();
         let share = Share::of(&current);
         let mut ranking = Vec::new();
         for (e, s) in candidates.iter().zip(scores) {
@@ -444,6 +456,16 @@ pub fn diagnose_frames(
         }
         let Some(best) = best.filter(|b| evident(b)) else { break };
         if explains(&best) {
+            if at_cap {
+                // Every candidate that passes alone (rivals: the next step would add the
+                // best), each converged on every pixel.
+                for cand in d.rankings.last().expect("pushed").iter().filter(|c| explains(c)) {
+                    if let Some(full) = refits.iter().find(|r| r.effect == cand.effect).and_then(|r| r.full()) {
+                        left_out.push(CapCandidate::of(cand.effect, cand.delta_bic, None, full, &current));
+                    }
+                }
+                break;
+            }
             let f = current.n_eff / current.samples.max(1) as f64;
             let pair = runner.filter(|r| explains(r) && confusable(&best, r, f));
             // Evident: converged on every pixel, so its refit holds that fit.
@@ -454,7 +476,6 @@ pub fn diagnose_frames(
             };
             model = m;
             current = *full;
-            widen = None;
             match pair {
                 Some(r) => d.confusable.push(Confusable::new(best.effect, r.effect)),
                 None if best.matters() => d.selected.push(best.effect),
@@ -484,9 +505,15 @@ pub fn diagnose_frames(
             if dc < EXCESS_FRACTION * excess || share.delta_bic(dc, k) < 2.0 * BIC_THRESHOLD {
                 break;
             }
+            if at_cap {
+                // The two together: one refit, one shift.
+                for (a, b) in [(&best, &second), (&second, &best)] {
+                    left_out.push(CapCandidate::of(a.effect, a.delta_bic, Some(b.effect), &r, &current));
+                }
+                break;
+            }
             model = m;
             current = r;
-            widen = None;
             for cand in [&best, &second] {
                 if cand.matters() {
                     d.selected.push(cand.effect);
@@ -496,24 +523,13 @@ pub fn diagnose_frames(
             }
         }
         d.steps.push(Step { model: model.effects.iter().map(|e| e.name).collect(), fit: current.clone() });
-        if model.effects.len() >= opts.base.effects.len() + opts.max_added {
-            break;
-        }
     }
     // The final headings' 1σ with what the data cannot rule out (margin.rs).
-    let widen = match widen {
-        Some(w) => w,
-        None => {
-            let candidates = candidates_of(&model);
-            progress(&format!("scoring {} candidates against the final model", candidates.len()));
-            let scores = timed(&mut t.scoring_s, || {
-                score_candidates(c, frames, &model, &current, &candidates, opts.score_stride, SCORE_PROBE)
-            })?;
-            candidates.iter().zip(scores).map(|(e, s)| (e.name, s.heading_widen)).collect()
-        }
-    };
     let last = &mut d.steps.last_mut().expect("the starting model's step").fit;
     d.heading_margin = margin::widen_headings(last, &widen);
+    // And the heading shift of what the cap left out, which the data show.
+    let shifts: Vec<(&'static str, Vec<f64>)> = left_out.iter().map(|(l, h)| (l.effect, h.clone())).collect();
+    margin::carry_left_out(last, &mut d.heading_margin, &shifts);
     // Whatever remains: is it noise?
     let limit = Remains::noise_limit(current.dof);
     let pairs: Vec<String> = d.confusable.iter().map(|p| format!("{} or {}", p.first, p.second)).collect();
@@ -533,6 +549,9 @@ pub fn diagnose_frames(
         d.selected.iter().chain(&d.negligible).copied().chain(d.confusable.iter().map(|p| p.first)).collect();
     let own: Vec<Param> = current.params.iter().filter(|p| added.contains(&p.id.effect)).cloned().collect();
     d.remains = d.remains.with_unphysical(sizes::excluded_physical(&own));
+    let left_by_cap = (!left_out.is_empty())
+        .then(|| LeftByCap { max_added: opts.max_added, candidates: left_out.into_iter().map(|(l, _)| l).collect() });
+    d.remains = d.remains.with_left_by_cap(left_by_cap);
     d.night = night::Night::of(c, frames, &current, &d);
     t.total_s = t0.elapsed().as_secs_f64();
     d.timings = t;

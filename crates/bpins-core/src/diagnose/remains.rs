@@ -32,6 +32,84 @@ pub struct Remains {
     /// value, 1σ and range as numbers, with the words. Where any is, the capture is
     /// unexplained whatever its χ²/dof.
     pub unphysical: Vec<OutsidePhysical>,
+    /// Present when the search stopped at its cap (`max_added`) while a candidate not
+    /// added still passed its rule for adding one: what the cap left out. Then nothing
+    /// says that nothing else remains, and the headings' 1σ carry its shift (`margin`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub left_by_cap: Option<LeftByCap>,
+}
+
+/// What the search's cap left out: each candidate of the step the cap stopped that
+/// passes the rule for adding an effect (converged on every pixel, ΔBIC >
+/// [`BIC_THRESHOLD`], removing [`EXCESS_FRACTION`] of the excess χ²; or the best two
+/// together).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LeftByCap {
+    /// The cap: most effects added (`--max-added`).
+    pub max_added: usize,
+    pub candidates: Vec<CapCandidate>,
+}
+
+/// One candidate the cap left out.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CapCandidate {
+    pub effect: &'static str,
+    /// Its ΔBIC on every pixel against the final model.
+    pub delta_bic: f64,
+    /// The worst frame's |heading change| with it added (refitted on every pixel),
+    /// degrees: `sizes`' heading change.
+    pub heading_shift_deg: f64,
+    /// The other effect it passes with, where only the two together remove half the
+    /// excess (the shift is then the pair's).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub with: Option<&'static str>,
+}
+
+impl CapCandidate {
+    /// `effect` (passing `with` another, if any) against the final fit `without`, from
+    /// the fit `with_it` that adds it: its figures and its heading shift per frame,
+    /// degrees (signed, wrapped to ±180°).
+    pub(crate) fn of(
+        effect: &'static str,
+        delta_bic: f64,
+        with: Option<&'static str>,
+        with_it: &crate::fit::FitResult,
+        without: &crate::fit::FitResult,
+    ) -> (CapCandidate, Vec<f64>) {
+        let h: Vec<f64> = with_it
+            .state
+            .frames
+            .iter()
+            .zip(&without.state.frames)
+            .map(|(a, b)| crate::conventions::wrap_deg_180(a[0] - b[0]))
+            .collect();
+        let heading_shift_deg = h.iter().map(|x| x.abs()).fold(0.0, f64::max);
+        (CapCandidate { effect, delta_bic, heading_shift_deg, with }, h)
+    }
+}
+
+impl std::fmt::Display for LeftByCap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let each: Vec<String> = self
+            .candidates
+            .iter()
+            .map(|c| {
+                let with = c.with.map_or(String::new(), |w| format!(" together with {w}"));
+                format!("{}{with} (ΔBIC {:.0}, moves the heading {:.2}°)", c.effect, c.delta_bic, c.heading_shift_deg)
+            })
+            .collect();
+        let n = self.candidates.len();
+        write!(
+            f,
+            "the search stopped at its cap (--max-added {}) with {} not added, though the data show {} (it passes the \
+             rule for adding an effect): the headings' 1σ carry {} shift; raise --max-added to model {}.",
+            self.max_added,
+            each.join(" or "),
+            if n == 1 { "it" } else { "them" },
+            if n == 1 { "its" } else { "the largest" },
+            if n == 1 { "it" } else { "them" },
+        )
+    }
 }
 
 /// Where an unexplained residual lies.
@@ -82,6 +160,7 @@ impl Remains {
             named: Vec::new(),
             negligible: Vec::new(),
             unphysical: Vec::new(),
+            left_by_cap: None,
         }
     }
 
@@ -102,6 +181,7 @@ impl Remains {
             named,
             negligible: negligible.to_vec(),
             unphysical: Vec::new(),
+            left_by_cap: None,
         }
     }
 
@@ -111,11 +191,17 @@ impl Remains {
         Remains { unphysical, ..self }
     }
 
+    /// The same, with what the search's cap left out ([`Remains::left_by_cap`]).
+    pub fn with_left_by_cap(self, left_by_cap: Option<LeftByCap>) -> Remains {
+        Remains { left_by_cap, ..self }
+    }
+
     /// Whether the catalog leaves the capture unexplained: a structured residual
-    /// remains, or the model reached the noise only with values no real instrument or
-    /// sky has.
+    /// remains that no catalog effect explains (not one a candidate the cap left out
+    /// explains), or the model reached the noise only with values no real instrument
+    /// or sky has.
     pub fn is_unexplained(&self) -> bool {
-        self.unexplained.is_some() || !self.unphysical.is_empty()
+        (self.unexplained.is_some() && self.left_by_cap.is_none()) || !self.unphysical.is_empty()
     }
 
     /// The strongest trend of `quantity`, if any.
@@ -168,6 +254,17 @@ impl std::fmt::Display for Remains {
                     words(&self.unphysical)
                 );
             }
+            if let Some(cap) = &self.left_by_cap {
+                if !self.named.is_empty() {
+                    let are = if self.named.len() > 1 { "are" } else { "is" };
+                    write!(f, " once {} {are} modelled", self.named.join(" and "))?;
+                }
+                write!(f, ", but {cap}")?;
+                if !self.negligible.is_empty() {
+                    write!(f, " Detected but negligible (not named): {}.", self.negligible.join(", "))?;
+                }
+                return Ok(());
+            }
             if self.named.is_empty() {
                 write!(f, ": nothing structured remains")?;
             } else {
@@ -184,6 +281,20 @@ impl std::fmt::Display for Remains {
         };
         let n = u.partial.len();
         let added = u.partial.join(", ");
+        if let Some(cap) = &self.left_by_cap {
+            // Not "no catalog effect explains it": the cap stopped the search before one.
+            write!(
+                f,
+                "χ²/dof {:.3} remains (noise alone: ≤ {:.3}) after {}: {cap}",
+                self.chi2_per_dof,
+                self.noise_limit,
+                if n == 0 { "the starting model".to_string() } else { format!("adding {added}") },
+            )?;
+            if !self.unphysical.is_empty() {
+                write!(f, " Values no real instrument or sky has: {}.", words(&self.unphysical))?;
+            }
+            return Ok(());
+        }
         write!(
             f,
             "χ²/dof {:.3} remains (noise alone: ≤ {:.3}) after {}; no catalog effect explains it (none removes {:.0} % of the excess χ² with ΔBIC > {}).",
@@ -295,6 +406,7 @@ mod tests {
             named: vec![],
             negligible: vec![],
             unphysical: vec![],
+            left_by_cap: None,
         };
         assert!(r.is_unexplained());
         assert_eq!(r.trend(Quantity::DolpResidual).map(|t| t.axis), Some(Axis::Radius));
@@ -333,6 +445,25 @@ mod tests {
             "χ²/dof 0.993 is within the noise (≤ 1.020) once analyzer_angles is modelled: nothing else structured \
              remains; detected but negligible (below the size thresholds, not named): sky_dolp_shape."
         );
+        // Stopped by the cap with a candidate the data still show: never "nothing else
+        // structured remains", and not unexplained (a catalog effect explains it).
+        let left = CapCandidate { effect: "analyzer_angles", delta_bic: 7827.4, heading_shift_deg: 0.6912, with: None };
+        let cap = LeftByCap { max_added: 2, candidates: vec![left] };
+        let capped = Remains::within_noise(1.011, 1.02, &["extinction_ratio", "polarimetric_nonuniformity"], &[], &[])
+            .with_left_by_cap(Some(cap.clone()));
+        assert!(!capped.is_unexplained());
+        assert_eq!(
+            capped.to_string(),
+            "χ²/dof 1.011 is within the noise (≤ 1.020) once extinction_ratio and polarimetric_nonuniformity are \
+             modelled, but the search stopped at its cap (--max-added 2) with analyzer_angles (ΔBIC 7827, moves the \
+             heading 0.69°) not added, though the data show it (it passes the rule for adding an effect): the \
+             headings' 1σ carry its shift; raise --max-added to model it."
+        );
+        let above = Remains { left_by_cap: Some(cap), ..r.clone() };
+        assert!(!above.is_unexplained());
+        let s = above.to_string();
+        assert!(s.starts_with("χ²/dof 1.135 remains (noise alone: ≤ 1.020) after adding lens_retardance: the search stopped at its cap (--max-added 2) with analyzer_angles (ΔBIC 7827"), "{s}");
+        assert!(!s.contains("no catalog effect explains"), "{s}");
         let pair = Remains::within_noise(0.993, 1.02, &[], &["window or lens_diattenuation".into()], &[]);
         assert!(pair.to_string().contains("once window or lens_diattenuation is modelled"), "{pair}");
         assert!(!pair.is_unexplained());
