@@ -22,37 +22,39 @@ fn json(p: &Path) -> Value {
     serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
 }
 
+/// `simulate` into `dir`/cap and its bag `dir`/bag: 27.6 µm pixels at 36.07° N
+/// 120.38° E at `time_utc`, `args` the rest (size, headings, tilt, scene).
+fn simulate_with_bag(dir: &Path, time_utc: &str, args: &[&str]) {
+    let (cap, bag) = (dir.join("cap"), dir.join("bag"));
+    let (cap, bag) = (cap.to_str().unwrap(), bag.to_str().unwrap());
+    let mut all = vec!["simulate", "--out", cap, "--bag-out", bag, "--pixel-pitch-um", "27.6", "--time-utc", time_utc];
+    all.extend_from_slice(&["--latitude-deg", "36.07", "--longitude-deg", "120.38"]);
+    all.extend_from_slice(args);
+    bpins(&all);
+}
+
 #[test]
 fn a_simulated_capture_as_a_bag_and_back_keeps_its_headings() {
     let tmp = tempfile::tempdir().unwrap();
     let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
-    bpins(&[
-        "simulate",
-        "--out",
-        &p("cap"),
-        "--bag-out",
-        &p("bag"),
-        "--width-px",
-        "306",
-        "--height-px",
-        "256",
-        "--pixel-pitch-um",
-        "27.6",
-        "--headings-deg",
-        "30,250,300",
-        "--time-utc",
+    simulate_with_bag(
+        tmp.path(),
         "2026-06-21T02:30:00Z",
-        "--latitude-deg",
-        "36.07",
-        "--longitude-deg",
-        "120.38",
-        "--tilt-x-deg",
-        "1.5",
-        "--tilt-y-deg",
-        "-2",
-        "--imu-sigma-deg",
-        "0.05",
-    ]);
+        &[
+            "--width-px",
+            "306",
+            "--height-px",
+            "256",
+            "--headings-deg",
+            "30,250,300",
+            "--tilt-x-deg",
+            "1.5",
+            "--tilt-y-deg",
+            "-2",
+            "--imu-sigma-deg",
+            "0.05",
+        ],
+    );
     bpins(&["heading", &p("cap"), "--json", &p("cap.json")]);
     let sensor = ["--bit-depth", "12", "--black-level-dn", "64", "--imu-topic", "/imu/data"];
     let (bag, bag_json, back) = (p("bag"), p("bag.json"), p("back"));
@@ -85,27 +87,11 @@ fn a_simulated_capture_as_a_bag_and_back_keeps_its_headings() {
 fn tilt_sigma_is_taken_alike_from_a_capture_and_its_bag() {
     let tmp = tempfile::tempdir().unwrap();
     let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
-    bpins(&[
-        "simulate",
-        "--out",
-        &p("cap"),
-        "--bag-out",
-        &p("bag"),
-        "--width-px",
-        "306",
-        "--height-px",
-        "256",
-        "--pixel-pitch-um",
-        "27.6",
-        "--headings-deg",
-        "30,250",
-        "--time-utc",
+    simulate_with_bag(
+        tmp.path(),
         "2026-06-21T02:30:00Z",
-        "--latitude-deg",
-        "36.07",
-        "--longitude-deg",
-        "120.38",
-    ]);
+        &["--width-px", "306", "--height-px", "256", "--headings-deg", "30,250"],
+    );
     let tilt = ["--tilt-sigma-deg", "0.05"];
     let (cap, cap_json) = (p("cap"), p("cap.json"));
     let mut args = vec!["heading", &cap, "--json", &cap_json];
@@ -127,8 +113,6 @@ fn tilt_sigma_is_taken_alike_from_a_capture_and_its_bag() {
     }
 }
 
-/// Issue 50 item 4: `heading --bag` (--bag-out, --json) and `bag-to-capture --out`
-/// refuse an output in the bag reached through a symbolic link or through `..`.
 /// Issue 48: a twilight lit by both the sun and the moon read from a bag (the sun
 /// and the moon from each frame's stamp and the bag's /gnss/fix, `FrameSun::of`) as
 /// from the capture it was written with: both sources, the same headings, 1σ and
@@ -137,29 +121,11 @@ fn tilt_sigma_is_taken_alike_from_a_capture_and_its_bag() {
 fn a_mixed_twilight_reads_alike_from_a_capture_and_its_bag() {
     let tmp = tempfile::tempdir().unwrap();
     let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
-    bpins(&[
-        "simulate",
-        "--out",
-        &p("cap"),
-        "--bag-out",
-        &p("bag"),
-        "--width-px",
-        "128",
-        "--height-px",
-        "128",
-        "--pixel-pitch-um",
-        "27.6",
-        "--headings-deg",
-        "20,200",
-        "--time-utc",
+    simulate_with_bag(
+        tmp.path(),
         "2026-06-24T12:30:00Z",
-        "--latitude-deg",
-        "36.07",
-        "--longitude-deg",
-        "120.38",
-        "--scene",
-        "twilight",
-    ]);
+        &["--width-px", "128", "--height-px", "128", "--headings-deg", "20,200", "--scene", "twilight"],
+    );
     bpins(&["heading", &p("cap"), "--json", &p("cap.json")]);
     let bag = p("bag");
     let bag_json = p("bag.json");
@@ -177,6 +143,8 @@ fn a_mixed_twilight_reads_alike_from_a_capture_and_its_bag() {
     }
 }
 
+/// Issue 50 item 4: `heading --bag` (--bag-out, --json) and `bag-to-capture --out`
+/// refuse an output in the bag reached through a symbolic link or through `..`.
 #[test]
 fn outputs_into_the_bag_through_a_link_or_dotdot_are_refused() {
     let tmp = tempfile::tempdir().unwrap();
