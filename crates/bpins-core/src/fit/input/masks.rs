@@ -57,7 +57,7 @@ pub(crate) fn green_cells(
     };
     let (w, h) = (*width_px as usize, *height_px as usize);
     let rec = Reconstructor::new(known, c.sensor.black_level_dn, &Channel::ALL)?;
-    let cell_px = cell_px.unwrap_or_else(|| Cells::default_cell_px(w, h)).max(2).div_ceil(4).max(2) * 4;
+    let cell_px = cell_px.unwrap_or_else(|| Cells::default_cell_px(w, h)).div_ceil(4).max(2) * 4;
     let img = RawImage::packed(dn.as_slice(), w, h);
     let mut scratch = CellScratch::default();
     let [mut red, mut green, mut blue] = [Cells::default(), Cells::default(), Cells::default()];
