@@ -62,11 +62,11 @@ pub struct Args {
     #[arg(long, conflicts_with = "recon")]
     cell_px: Option<usize>,
     /// Plain estimator: how DoFP mosaics become Stokes samples: `demosaic` (bilinear,
-    /// every pixel its own ray; most accurate) or `superpixel` (2×2 tiles at their
-    /// centres; faster, biased by the sky's gradient across a tile: 0.03° RMS at 13.8 µm
-    /// behind 8 mm, 0.08°–0.25° at 27.6 µm, docs/honesty.md). Default: demosaic, its 1σ
-    /// × 8/3 (√ of the design effect 64/9: each raw DN enters nine pixels' samples). A
-    /// colour capture: each band from its own tiles, demosaic's samples the tile means.
+    /// every pixel its own ray) or `superpixel` (2×2 tiles at their centres, each
+    /// channel moved there by its gradient across the tiles beside it: as accurate,
+    /// docs/honesty.md). Default: demosaic, its 1σ × 8/3 (√ of the design effect 64/9:
+    /// each raw DN enters nine pixels' samples). A colour capture: each band from its
+    /// own tiles, demosaic's samples the tile means.
     #[arg(long, value_parser = crate::names::by_name(&ReconMode::ALL, ReconMode::name), conflicts_with = "bag")]
     recon: Option<ReconMode>,
     /// A known calibration to compensate, as effect.param=value (repeatable),

@@ -24,8 +24,9 @@ pub use colour::{colour_frame_headings_of, ColourPlainHeadings};
 /// How a DoFP mosaic becomes Stokes samples (colocated captures ignore it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ReconMode {
-    /// 2 × 2 tiles → one sample at the tile centre (fast; four rays per sample, so a
-    /// bias of a few hundredths of a degree where the pattern has a gradient).
+    /// 2 × 2 tiles → one sample at the tile centre, each channel moved there from its
+    /// own pixel by its gradient across the tiles beside it (`recon::superpixels_centred`:
+    /// the tile's four rays no longer read the sky's gradient as polarization).
     Superpixel,
     /// Bilinear per channel onto every pixel (each sample at its own ray); neighbours
     /// share raw DN, so the plain 1σ carries their design effect (× 8/3).
@@ -75,7 +76,7 @@ pub fn reconstruct_frame(c: &Capture, data: &FrameData, known: &Model, mode: Rec
         (FrameData::Mosaic { width_px, height_px, dn }, Layout::Dofp { mosaic }) => {
             let (w, h) = (*width_px as usize, *height_px as usize);
             match mode {
-                ReconMode::Superpixel => recon::superpixels(dn, w, h, mosaic, &rec, full),
+                ReconMode::Superpixel => recon::superpixels_centred(dn, w, h, mosaic, &rec, full),
                 ReconMode::Demosaic => recon::demosaic(dn, w, h, mosaic, &rec, full),
             }
         }

@@ -103,11 +103,12 @@ pub(crate) fn design_effect(tiles: &ColourTiles, b: Band) -> f64 {
 /// band is mixed:
 ///
 /// - [`ReconMode::Superpixel`]: each tile is one band's superpixel, its Stokes from its
-///   own four pixels at the tile centre (samples at 0 or full scale masked): the colour
-///   sweep's sums ([`crate::sweep::colour_mosaic_heading_sums`]). Four rays per
-///   sample: where the sky has a gradient (its pattern, a brightening toward the sun)
-///   the AoP is biased, 0.09°–0.13° in heading on `samples/colour-clear`'s frames,
-///   ten or more times their 1σ (docs/colour.md).
+///   own four pixels (samples at 0 or full scale masked), each moved to the tile centre
+///   by its gradient across the band's tiles 4 px to either side
+///   ([`crate::recon::band_superpixels_centred`]). As the tile reads them (the colour
+///   sweep's sums, [`crate::sweep::colour_mosaic_heading_sums`]) its four rays read the
+///   sky's gradient as polarization: 0.09°–0.13° in heading on `samples/colour-clear`'s
+///   frames, ten or more times their 1σ, before the move.
 /// - [`ReconMode::Demosaic`]: each band's Stokes at each of its own pixels, at that
 ///   pixel's ray, from the band's bilinear maps (`colour_maps`, [`Interpolation::Bilinear`]:
 ///   each analyzer plane's band samples averaged from that band's own samples, then the
@@ -143,7 +144,12 @@ fn colour_band_sums(
     let bands = tiles.bands();
     let sums = match mode {
         ReconMode::Superpixel => {
-            crate::sweep::colour_mosaic_heading_sums(dn, w, h, mosaic, tiles, &rec, full, std::slice::from_ref(ctx))[0]
+            let mut sums = [HeadingSums::default(); 3];
+            for &b in &bands {
+                let img = crate::recon::band_superpixels_centred(dn, w, h, mosaic, &rec, full, &tiles.classes(b));
+                sums[b.index()] = HeadingSums::from_image(&img, ctx);
+            }
+            sums
         }
         ReconMode::Demosaic => {
             let cfg = MapsConfig {
@@ -275,8 +281,9 @@ mod tests {
     }
 
     /// Noise-free, the demosaic route's samples (tile means of each pixel at its own
-    /// ray) read every band's heading to a few thousandths of a degree where the
-    /// superpixel route's (four rays per sample) are biased by the sky's gradient; with
+    /// ray) and the superpixel route's (each channel moved to its tile's centre) read
+    /// every band's heading to a few thousandths of a degree, where the colour sweep's
+    /// sums of the same tiles (four rays per sample) are biased by the sky's gradient; with
     /// noise each band within 3σ, the fused 1σ the bands' inverse-variance one, below
     /// every band's, and G with twice the samples of R and B.
     #[test]
@@ -291,9 +298,33 @@ mod tests {
         let quiet = SimSensor { read_noise_dn: 0.0, system_gain_dn_per_e: 1e-6, ..SimSensor::samples(1) };
         let err = |e: &HeadingEstimate| crate::conventions::wrap_deg_180(e.heading_deg - 7.0);
         let (demosaic, superpixel) = (read(quiet, ReconMode::Demosaic), read(quiet, ReconMode::Superpixel));
+        let (_, frames) = simulate_capture(&c, &known, &quiet, None).unwrap();
+        let FrameData::Mosaic { dn, .. } = &frames[0] else { panic!("a mosaic") };
+        let Layout::Dofp { mosaic } = &c.sensor.layout else { panic!("dofp") };
+        let rec = Reconstructor::new(&known, c.sensor.black_level_dn, &c.sensor.channels()).unwrap();
+        let (w, h) = (c.sensor.geometry.width_px as usize, c.sensor.geometry.height_px as usize);
+        let ctx = crate::pipeline::heading_context(&c, &c.frames[0], &known);
+        let tiles = c.sensor.colour.as_ref().unwrap();
+        let as_tiles = crate::sweep::colour_mosaic_heading_sums(
+            dn,
+            w,
+            h,
+            mosaic,
+            tiles,
+            &rec,
+            c.sensor.full_scale_dn(),
+            std::slice::from_ref(&ctx),
+        )[0];
         for ((b, d), (_, s)) in demosaic.bands.iter().zip(&superpixel.bands) {
             let (d, s) = (err(d.as_ref().unwrap()), err(s.as_ref().unwrap()));
-            assert!(d.abs() < 0.005 && s.abs() > 0.05, "{}: demosaic {d}°, superpixel {s}°", b.name());
+            let raw = crate::conventions::wrap_deg_180(
+                as_tiles[b.index()].solve(Extractor::SunVector, &ctx).unwrap().heading_deg - 7.0,
+            );
+            assert!(
+                d.abs() < 0.005 && s.abs() < 0.005 && raw.abs() > 0.05,
+                "{}: demosaic {d}°, superpixel {s}°, as the tiles read {raw}°",
+                b.name()
+            );
         }
         let noisy = read(SimSensor::samples(3), ReconMode::Demosaic);
         let bands: Vec<HeadingEstimate> = noisy.bands.iter().map(|(_, r)| *r.as_ref().unwrap()).collect();

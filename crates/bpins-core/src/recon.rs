@@ -13,7 +13,8 @@
 //! built from. Frame: image (Q, U referred to image +x). Units: DN.
 //!
 //! Layouts: a DoFP mosaic is reconstructed per 2 × 2 tile into one superpixel at the
-//! tile centre `(2i + 0.5, 2j + 0.5)`, or demosaiced (bilinear per channel) onto every
+//! tile centre `(2i + 0.5, 2j + 0.5)` (as the tile reads it, or with each channel moved
+//! to the centre: `recon_centred.rs`), or demosaiced (bilinear per channel) onto every
 //! pixel; colocated images per pixel. Saturated or zero DN mark a sample invalid (NaN).
 
 use crate::effects::Model;
@@ -22,6 +23,10 @@ use crate::sensor::{dn_is_valid, Channel};
 use crate::stokes::{Analyzer, Stokes};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
+
+#[path = "recon_centred.rs"]
+mod centred;
+pub use centred::{band_superpixels_centred, superpixels_centred};
 
 /// Linear map from the channels' DN to (I, Q, U), built once per frame.
 #[derive(Clone, Debug, PartialEq)]
