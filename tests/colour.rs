@@ -469,3 +469,71 @@ fn a_cloudy_colour_captures_noise_is_read_on_its_sky() {
     let chi2 = f64_of(&fit, "chi2_per_dof");
     assert!((0.8..1.3).contains(&chi2), "χ²/dof {chi2}");
 }
+
+/// `bpins fit` models a colour capture's bands by default (docs/colour.md, "Fitting and
+/// diagnosing one"): the bands differ in level (the sky's colour × the filters' QE) and
+/// in DoLP, which one level and one d_max per frame cannot fit (on this capture χ²/dof
+/// 1055 and the headings 0.55° and 0.73° off, 4.0σ both, before). Named no band effect,
+/// the fit adds `sky_spectrum`, says so and writes it in fit.json's `added`; named
+/// `band_response`, it adds nothing; a monochrome capture adds nothing; `diagnose`
+/// still starts from the capture's base model.
+#[test]
+fn fit_adds_sky_spectrum_to_a_colour_capture_that_names_no_band_effect() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sim = |name: &str, colour: bool| {
+        let cap = tmp.path().join(name);
+        #[rustfmt::skip]
+        let mut args = vec![
+            "simulate".to_string(), "--out".into(), s(&cap), "--width-px".into(), "128".into(),
+            "--height-px".into(), "96".into(), "--pixel-pitch-um".into(), "66".into(),
+            "--sun-azimuth-deg".into(), "200".into(), "--sun-elevation-deg".into(), "45".into(),
+            "--headings-deg".into(), "7,97".into(), "--dmax".into(), "0.70".into(),
+            "--read-noise-dn".into(), "1".into(), "--system-gain-dn-per-e".into(), "0.1".into(),
+            "--seed".into(), "1".into(),
+        ];
+        if colour {
+            args.extend(BLUE_SKY.map(String::from));
+        }
+        bpins(&args).ok();
+        cap
+    };
+    let fit = |cap: &std::path::Path, out: &str, effects: &[&str]| {
+        let out = tmp.path().join(out);
+        let mut args = vec!["fit".to_string(), s(cap), "--out".into(), s(&out)];
+        if !effects.is_empty() {
+            args.extend(["--effects".to_string(), effects.join(",")]);
+        }
+        let run = bpins(&args).ok();
+        (run.stderr, read_json(&out.join("fit.json")))
+    };
+    let colour = sim("colour", true);
+    let (stderr, v) = fit(&colour, "default", &[]);
+    assert!(stderr.contains("a colour capture: sky_spectrum added"), "{stderr}");
+    assert_eq!(v["effects"], serde_json::json!(["sky_spectrum"]), "{v}");
+    let added = v["added"].as_array().unwrap_or_else(|| panic!("no `added` in {v}"));
+    assert!(added.len() == 1 && added[0]["effect"] == "sky_spectrum", "{added:?}");
+    assert!(added[0]["why"].as_str().is_some_and(|w| w.contains("colour_tiles")), "{added:?}");
+    let chi2 = f64_of(&v, "chi2_per_dof");
+    assert!((0.8..1.3).contains(&chi2), "χ²/dof {chi2}");
+    for f in v["frames"].as_array().unwrap() {
+        let (err, sigma) = (f64_of(f, "heading_error_deg"), f64_of(f, "heading_sigma_deg"));
+        assert!(err.abs() < 3.0 * sigma && sigma < 0.05, "error {err}°, 1σ {sigma}°: {f}");
+    }
+    // Named band_response: the user's choice, nothing added.
+    let (stderr, v) = fit(&colour, "band-response", &["band_response"]);
+    assert!(!stderr.contains("added"), "{stderr}");
+    assert_eq!(v["effects"], serde_json::json!(["band_response"]), "{v}");
+    assert!(v.get("added").is_none(), "{v}");
+    // A monochrome capture: nothing added, no `added` in fit.json.
+    let mono = sim("mono", false);
+    let (stderr, v) = fit(&mono, "mono-fit", &[]);
+    assert!(!stderr.contains("added"), "{stderr}");
+    assert_eq!(v["effects"], serde_json::json!([]), "{v}");
+    assert!(v.get("added").is_none(), "{v}");
+    // The diagnosis starts from the capture's base model (no band effect), as before.
+    let diag = tmp.path().join("diagnosis");
+    bpins(&["diagnose", &s(&colour), "--max-added", "0", "--out", &s(&diag)]).ok();
+    let d = read_json(&diag.join("diagnosis.json"));
+    assert_eq!(d["steps"][0]["model"], serde_json::json!([]), "{}", d["steps"][0]["model"]);
+    assert!(f64_of(&d["steps"][0], "chi2_per_dof") > 100.0, "{}", d["steps"][0]["chi2_per_dof"]);
+}

@@ -60,7 +60,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let min_size = MinSize { heading_deg: a.min_heading_deg, aop_deg: a.min_aop_deg, dolp: a.min_dolp, dn: a.min_dn };
     let a = a.input;
-    let (request, loaded) = a.load_request()?;
+    // The search starts from the model given: no band effect added to a colour
+    // capture's (`sky_spectrum` and `band_response` are scored, as a confusable pair).
+    let (request, loaded) = a.load_request(false)?;
     let load_s = t_run.elapsed().as_secs_f64();
     let opts = DiagnoseOptions { base: loaded.options.clone(), max_added, min_size, ..Default::default() };
     let spinner = crate::progress::spinner("diagnose");

@@ -1,6 +1,8 @@
 //! `bpins fit`: fits the enabled effects and each frame's nuisances to a capture's raw
-//! DN; prints every parameter with its 1σ, χ²/dof, AoP and DoLP residual RMS and each
-//! frame's heading against its reference; writes DIR/fit.json.
+//! DN (a colour capture with no band effect named: `sky_spectrum` too, said on stderr
+//! and in fit.json's `added`); prints every parameter with its 1σ, χ²/dof, AoP and
+//! DoLP residual RMS and each frame's heading against its reference; writes
+//! DIR/fit.json.
 
 use crate::write_json;
 use anyhow::Context;
@@ -14,7 +16,15 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let a = a.input;
-    let (request, loaded) = a.load_request()?;
+    let (request, loaded) = a.load_request(true)?;
+    for x in &loaded.added {
+        // One line per effect the fit added (`FitRequest::model_colour_bands`; fit.json's `added`).
+        say!(
+            "a colour capture: {} added (each band's level and d_max; name sky_spectrum or band_response in \
+             --effects to choose)",
+            x.effect
+        );
+    }
     let names: Vec<&str> = loaded.options.effects.iter().map(|e| e.name).collect();
     say!(
         "bpins fit: {} frames of {}, effects: {}",
@@ -27,7 +37,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let first = fit_from(&loaded.capture, &loaded.frames, &loaded.options, None, &progress).context("fitting")?;
     // A parameter the sample cannot tell from neutral but every pixel could: read
     // more of each frame and fit again (`fit::resolution`).
-    let (bpins_core::tool::fit::Loaded { options: opts, capture: c, frames }, r) =
+    let (bpins_core::tool::fit::Loaded { options: opts, capture: c, frames, added }, r) =
         request.raise_where_needed(loaded, first, &progress).context("fitting on more pixels")?;
     spinner.finish_and_clear();
     if let Some(x) = &r.raised {
@@ -80,7 +90,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for d in &r.degenerate {
         out!("degenerate (1σ shown as inf): {d}");
     }
-    let v = FitJson::new(&a.capture, &opts, &r);
+    let v = FitJson::new(&a.capture, &opts, &added, &r);
     let path = a.out.join("fit.json");
     write_json(&path, &v)?;
     // The calibration: the known effects as given, then the fitted ones with their 1σ.

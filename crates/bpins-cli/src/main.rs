@@ -344,11 +344,17 @@ impl FitInput {
     /// sampled within the budget; a progress bar while reading). `out` must lie
     /// outside the capture.
     pub fn load(&self) -> anyhow::Result<bpins_core::tool::fit::Loaded> {
-        self.load_request().map(|(_, loaded)| loaded)
+        self.load_request(false).map(|(_, loaded)| loaded)
     }
 
     /// [`FitInput::load`], with the request it read (to read the capture again).
-    pub fn load_request(&self) -> anyhow::Result<(bpins_core::tool::fit::FitRequest, bpins_core::tool::fit::Loaded)> {
+    /// `model_colour_bands`: a colour capture whose effects name no band effect is
+    /// fitted with `sky_spectrum` too (`bpins fit`; `FitRequest::model_colour_bands`),
+    /// never for `bpins diagnose`, whose search starts from the model it is given.
+    pub fn load_request(
+        &self,
+        model_colour_bands: bool,
+    ) -> anyhow::Result<(bpins_core::tool::fit::FitRequest, bpins_core::tool::fit::Loaded)> {
         use anyhow::Context;
         if let Some(d) = self.fixed_dmax.filter(|d| !(0.0..=1.0).contains(d)) {
             anyhow::bail!("--fixed-dmax {d} must lie in [0, 1]");
@@ -369,6 +375,7 @@ impl FitInput {
             calibration: self.calibration.clone(),
             all_pixels: self.all_pixels,
             sample_budget_px: budget,
+            model_colour_bands,
         };
         let pb = progress::bar(0, "frames read");
         let loaded = request

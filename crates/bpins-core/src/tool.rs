@@ -32,7 +32,8 @@ pub mod fit {
     pub use crate::fit::input::resolution::TOLD_SIGMA;
     pub use crate::fit::input::sky::{frame_skies, FrameSky};
     pub use crate::fit::{
-        fit_from, residual_maps_of, FitFrames, FitJson, FitRequest, FrameMaps, Loaded, ResidualMaps, DEFAULT_BUDGET_PX,
+        fit_from, residual_maps_of, AddedEffect, FitFrames, FitJson, FitRequest, FrameMaps, Loaded, ResidualMaps,
+        COLOUR_BANDS_ADDED, DEFAULT_BUDGET_PX,
     };
 }
 

@@ -134,3 +134,47 @@ fn a_blue_only_weak_grid_is_a_band_response_not_an_extinction_ratio() {
     let last = &d.steps.last().unwrap().fit;
     assert!((last.chi2_per_dof - 1.0).abs() < 0.03, "χ²/dof {}", last.chi2_per_dof);
 }
+
+/// `FitRequest::model_colour_bands` (`bpins fit`'s default, docs/colour.md): a colour
+/// capture whose fitted effects name no band effect, and whose calibration holds no
+/// `sky_spectrum`, is fitted with `sky_spectrum` too, named in `Loaded::added`; a named
+/// band effect, a calibration's `sky_spectrum`, a monochrome capture or the flag off
+/// (a diagnosis) add nothing.
+#[test]
+fn a_fit_request_adds_sky_spectrum_to_a_colour_capture_only_where_no_band_is_modelled() {
+    use bpins_core::tool::fit::{FitRequest, MIN_BUDGET_PX};
+    let sample = |name: &str| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples").join(name);
+    let tmp = tempfile::tempdir().unwrap();
+    let cal = tmp.path().join("calibration.toml");
+    let c =
+        bpins_core::calibration::Calibration::from_params([("sky_spectrum.dmax_b", 0.9, 0.0)], "test", None).unwrap();
+    std::fs::write(&cal, c.to_toml()).unwrap();
+    let load = |capture: &str, effects: &[&str], calibration: Option<&std::path::Path>, on: bool| {
+        let request = FitRequest {
+            capture: sample(capture),
+            effects: effects.iter().map(|e| e.to_string()).collect(),
+            calibration: calibration.map(|p| p.to_path_buf()),
+            sample_budget_px: Some(MIN_BUDGET_PX),
+            model_colour_bands: on,
+            ..Default::default()
+        };
+        let l = request.load(&|_, _| {}).unwrap();
+        let names: Vec<&str> = l.options.effects.iter().map(|e| e.name).collect();
+        (names, l.added.iter().map(|a| a.effect).collect::<Vec<_>>())
+    };
+    let (names, added) = load("colour-clear", &[], None, true);
+    assert_eq!((names, added), (vec!["sky_spectrum"], vec!["sky_spectrum"]));
+    let (names, added) = load("colour-clear", &["analyzer_angles"], None, true);
+    assert_eq!((names, added), (vec!["analyzer_angles", "sky_spectrum"], vec!["sky_spectrum"]));
+    for (capture, effects, calibration, on) in [
+        ("colour-clear", &["band_response"][..], None, true),
+        ("colour-clear", &["sky_spectrum"][..], None, true),
+        ("colour-clear", &[][..], Some(cal.as_path()), true),
+        ("colour-clear", &[][..], None, false),
+        ("clean", &[][..], None, true),
+    ] {
+        let (names, added) = load(capture, effects, calibration, on);
+        assert!(added.is_empty(), "{capture} {effects:?} {calibration:?} {on}: added {added:?}");
+        assert_eq!(names, effects.to_vec(), "{capture} {effects:?} {calibration:?} {on}");
+    }
+}

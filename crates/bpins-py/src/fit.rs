@@ -23,6 +23,7 @@ fn request(
     rayleigh_radiance: bool,
     all_pixels: bool,
     sample_budget_px: Option<usize>,
+    model_colour_bands: bool,
 ) -> PyResult<FitRequest> {
     let min = bpins_core::tool::fit::MIN_BUDGET_PX;
     if let Some(b) = sample_budget_px.filter(|&b| b < min) {
@@ -48,6 +49,7 @@ fn request(
         calibration,
         all_pixels,
         sample_budget_px,
+        model_colour_bands,
     })
 }
 
@@ -66,7 +68,8 @@ fn to_dict<'py>(py: Python<'py>, json: serde_json::Result<String>) -> PyResult<B
 ///
 /// `effects`: the catalog effects whose parameters are fitted (names of
 /// `bpins.effects()`; default none: only each frame's heading, scale, radiance shape
-/// and d_max). `calibration`: a calibration.toml whose effects are held at their values
+/// and d_max; a colour capture's fit adds "sky_spectrum" where neither it nor
+/// "band_response" is named, as "added" says). `calibration`: a calibration.toml whose effects are held at their values
 /// and whose per-pixel maps are applied. `fixed_dmax`: the sky's peak DoLP in [0, 1]
 /// when known. `sample_budget_px`: most pixels of each frame read (a larger frame
 /// is fitted on a seeded sample of whole 2 × 2 tiles, its 1σ grown as "sample" says;
@@ -99,6 +102,7 @@ pub fn fit<'py>(
         rayleigh_radiance,
         all_pixels,
         sample_budget_px,
+        true,
     )?;
     let text = py
         .detach(|| {
@@ -106,7 +110,7 @@ pub fn fit<'py>(
             let first = fit_from(&l.capture, &l.frames, &l.options, None, &|_, _| {})?;
             // Where the sample cannot decide a parameter every pixel could: more pixels.
             let (l, r) = req.raise_where_needed(l, first, &|_, _| {})?;
-            Ok::<_, bpins_core::Error>(serde_json::to_string(&FitJson::new(&req.capture, &l.options, &r)))
+            Ok::<_, bpins_core::Error>(serde_json::to_string(&FitJson::new(&req.capture, &l.options, &l.added, &r)))
         })
         .map_err(py_err)?;
     to_dict(py, text)
@@ -160,6 +164,8 @@ pub fn diagnose<'py>(
         rayleigh_radiance,
         all_pixels,
         sample_budget_px,
+        // The search starts from the model given (no band effect added).
+        false,
     )?;
     let text = py
         .detach(|| {

@@ -40,7 +40,7 @@ pub mod uncertainty;
 
 pub use input::frames::{FitFrames, Sample, DEFAULT_BUDGET_PX};
 pub use input::masks::sky_masks;
-pub use input::request::{FitJson, FitRequest, Loaded};
+pub use input::request::{AddedEffect, FitJson, FitRequest, Loaded, COLOUR_BANDS_ADDED};
 pub use model::slots::PER_FRAME;
 pub use output::residuals::{residual_maps, residual_maps_of, FrameMaps, ResidualMaps};
 pub use output::result::{FitResult, FitState, FrameFit, Param};

@@ -2,9 +2,11 @@
 //! what a fit writes, in one place for every front end (the CLI, the Python package): a
 //! [`FitRequest`] names the capture, the model's effects, the options and a
 //! calibration, and [`FitRequest::load`] checks it and reads the capture into
-//! [`FitOptions`] and frames; [`FitJson`] is `fit.json` (`diagnosis.json`, the
-//! diagnosis's own type, carries the same fields in each step; docs/diagnose.md,
-//! "fit.json and diagnosis.json"), so every front end writes the same schema.
+//! [`FitOptions`] and frames (a fit of a colour capture adding `sky_spectrum` where
+//! the request names no band effect: [`AddedEffect`]); [`FitJson`] is `fit.json`
+//! (`diagnosis.json`, the diagnosis's own type, carries the same fields in each step;
+//! docs/diagnose.md, "fit.json and diagnosis.json"), so every front end writes the
+//! same schema.
 
 use crate::calibration::Calibration;
 use crate::capture::Capture;
@@ -36,22 +38,47 @@ pub struct FitRequest {
     /// through a seeded sample of whole 2 × 2 tiles); `None` reads every pixel.
     /// [`crate::fit::DEFAULT_BUDGET_PX`] is the CLI's default.
     pub sample_budget_px: Option<usize>,
+    /// On a colour capture (`colour_tiles`) whose fitted effects include neither
+    /// `sky_spectrum` nor `band_response` (and whose calibration holds no
+    /// `sky_spectrum`), fit `sky_spectrum` too ([`COLOUR_BANDS_ADDED`]): `bpins fit`'s
+    /// and `bpins.fit`'s default. A diagnosis leaves it off: its search starts from
+    /// the model it is given and scores the two as a confusable pair.
+    pub model_colour_bands: bool,
 }
+
+/// An effect a fit added to those it was asked for, and why (`fit.json`'s `added`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct AddedEffect {
+    /// Its registry name (`bpins effects`).
+    pub effect: &'static str,
+    /// Why, in words (for a colour capture: [`COLOUR_BANDS_ADDED`]).
+    pub why: &'static str,
+}
+
+/// Why a fit of a colour capture adds `sky_spectrum` ([`FitRequest::model_colour_bands`]).
+pub const COLOUR_BANDS_ADDED: &str = "a colour capture (colour_tiles): its bands differ in level (the sky's colour × \
+     the filters' QE) and in DoLP (d_max falls toward the blue), which one level and one d_max per frame cannot fit; \
+     sky_spectrum fits each band's level and d_max factor relative to green (name sky_spectrum or band_response \
+     in the effects to choose)";
 
 /// A checked request with its capture read (each frame whole, or its sample).
 pub struct Loaded {
     pub options: FitOptions,
     pub capture: Capture,
     pub frames: FitFrames<'static>,
+    /// Effects the fit added to the request's ([`FitRequest::model_colour_bands`]);
+    /// they are in `options.effects` too.
+    pub added: Vec<AddedEffect>,
 }
 
 impl FitRequest {
     /// Checks the request (every effect named in the registry, d_max in [0, 1], the
     /// budget at least [`MIN_BUDGET_PX`]), reads the calibration and the capture's
     /// frames as the fit holds them (whole, or sampled within the budget; the
-    /// calibration's per-pixel maps applied); `progress(frames_read, frames)`.
+    /// calibration's per-pixel maps applied); `progress(frames_read, frames)`. A colour
+    /// capture's fit may add `sky_spectrum` ([`FitRequest::model_colour_bands`]).
     pub fn load(&self, progress: &dyn Fn(usize, usize)) -> Result<Loaded> {
-        let effects = self
+        let mut effects = self
             .effects
             .iter()
             .map(|s| s.trim())
@@ -73,6 +100,23 @@ impl FitRequest {
         crate::fit::input::sky::frame_skies(&capture)?;
         let cal = self.calibration.as_deref().map(Calibration::load).transpose()?;
         let pixels = cal.as_ref().and_then(|c| c.pixels.clone());
+        // A colour sensor's bands see the sky through different filters: each band's
+        // level is its sky radiance × its filter's QE, and a clear sky's d_max falls
+        // toward the blue (`sky_spectrum`'s doc block). A model of one level and one
+        // d_max per frame misfits every band but one (χ²/dof ~750 on
+        // samples/colour-clear), and its 1σ takes the misfit for noise.
+        let mut added = Vec::new();
+        let names_bands = |name: &str| name == "sky_spectrum" || name == "band_response";
+        let known_sky = cal.as_ref().is_some_and(|c| c.effects.iter().any(|(d, _)| d.name == "sky_spectrum"));
+        if self.model_colour_bands
+            && capture.sensor.colour.is_some()
+            && !effects.iter().any(|e| names_bands(e.name))
+            && !known_sky
+        {
+            let sky = crate::effects::find("sky_spectrum")?;
+            effects.push(sky);
+            added.push(AddedEffect { effect: sky.name, why: COLOUR_BANDS_ADDED });
+        }
         let options = FitOptions {
             effects,
             trust_reference: self.trust_reference,
@@ -84,23 +128,26 @@ impl FitRequest {
         };
         let n = capture.frames.len();
         let frames = FitFrames::load(&capture, self.sample_budget_px, pixels, &options, &|k| progress(k, n))?;
-        Ok(Loaded { options, capture, frames })
+        Ok(Loaded { options, capture, frames, added })
     }
 }
 
-/// `fit.json`: the capture, the model's effects and the fit's own fields
-/// ([`FitResult`], the schema every fit result shares).
+/// `fit.json`: the capture, the model's effects (those the fit added among them, with
+/// why, in `added`; absent where none) and the fit's own fields ([`FitResult`], the
+/// schema every fit result shares).
 #[derive(serde::Serialize)]
 pub struct FitJson<'a> {
     pub capture: String,
     pub effects: Vec<&'static str>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub added: Vec<AddedEffect>,
     #[serde(flatten)]
     pub fit: &'a FitResult,
 }
 
 impl<'a> FitJson<'a> {
-    pub fn new(capture: &std::path::Path, options: &FitOptions, fit: &'a FitResult) -> Self {
+    pub fn new(capture: &std::path::Path, options: &FitOptions, added: &[AddedEffect], fit: &'a FitResult) -> Self {
         let effects = options.effects.iter().map(|e| e.name).collect();
-        FitJson { capture: capture.display().to_string(), effects, fit }
+        FitJson { capture: capture.display().to_string(), effects, added: added.to_vec(), fit }
     }
 }
