@@ -19,7 +19,7 @@ use bpins_core::effects::Model;
 use bpins_core::internal::chain::{ChainFrame, NoiseIndex, Scene};
 use bpins_core::internal::heading::{Extractor, HeadingContext, HeadingSums};
 use bpins_core::internal::montecarlo::{run_sweep, run_trial, Source, SweepConfig};
-use bpins_core::internal::recon::{superpixels, Reconstructor};
+use bpins_core::internal::recon::{superpixels, superpixels_centred, Reconstructor};
 use bpins_core::internal::simulate::{mosaic_heading_sums, render_colocated, render_mosaic, sky_maps};
 use bpins_core::sensor::{Channel, Response, DEFAULT_MOSAIC};
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -70,6 +70,10 @@ fn frame(c: &mut Criterion) {
     g.bench_function("stage_sky_to_dn", |b| b.iter(|| black_box(render_mosaic(&f, W, H, &DEFAULT_MOSAIC))));
     g.bench_function("stage_dn_to_stokes", |b| {
         b.iter(|| black_box(superpixels(&dn, W, H, &DEFAULT_MOSAIC, &rec, 4095.0)))
+    });
+    // The plain heading route's superpixels: each channel moved to the tile centre.
+    g.bench_function("stage_dn_to_stokes_centred", |b| {
+        b.iter(|| black_box(superpixels_centred(&dn, W, H, &DEFAULT_MOSAIC, &rec, 4095.0)))
     });
     g.bench_function("stage_stokes_to_heading", |b| b.iter(|| black_box(HeadingSums::from_image(&img, &ctx))));
     g.finish();
