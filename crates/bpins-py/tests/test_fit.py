@@ -63,6 +63,33 @@ def test_diagnose_names_the_hidden_effect_as_the_cli_does(samples, cli, tmp_path
     assert got["steps"][-1]["chi2_per_dof"] < 1.1
 
 
+def test_a_colour_captures_fit_models_its_bands_as_the_cli_does(cli, tmp_path):
+    """`bpins.fit` of a colour capture that names no band effect fits `sky_spectrum` too
+    (its bands differ in level and DoLP), says so in "added", and is the CLI's fit.json;
+    naming `band_response` adds nothing (docs/colour.md, "Fitting and diagnosing one")."""
+    cap = tmp_path / "colour"
+    # A blue sky through RGGB filters (tests/colour.rs' BLUE_SKY), 128 × 96, two frames.
+    sky = ["sky_spectrum.radiance_r=0.625", "sky_spectrum.radiance_b=1.25", "sky_spectrum.dmax_r=1.0571",
+           "sky_spectrum.dmax_b=0.8857", "band_response.qe_r=0.8", "band_response.qe_b=0.6667"]
+    args = ["simulate", "--out", str(cap), "--colour-tiles", "RGGB", "--width-px", "128", "--height-px", "96",
+            "--pixel-pitch-um", "66", "--sun-azimuth-deg", "200", "--sun-elevation-deg", "45",
+            "--headings-deg", "7,97", "--dmax", "0.70", "--read-noise-dn", "1", "--system-gain-dn-per-e", "0.1",
+            "--seed", "1"]
+    for e in sky:
+        args += ["--effect", e]
+    subprocess.run([cli, *args], check=True, capture_output=True)
+    got = bpins.fit(cap)
+    want = cli_json(cli, ["fit", str(cap)], tmp_path / "fit", "fit.json")
+    assert same(got, want) is None, same(got, want)
+    assert got["effects"] == ["sky_spectrum"]
+    assert [a["effect"] for a in got["added"]] == ["sky_spectrum"] and "colour_tiles" in got["added"][0]["why"]
+    assert 0.8 < got["chi2_per_dof"] < 1.3
+    for f in got["frames"]:
+        assert abs(f["heading_error_deg"]) < 3.0 * f["heading_sigma_deg"], f
+    named = bpins.fit(cap, ["band_response"])
+    assert named["effects"] == ["band_response"] and "added" not in named
+
+
 def test_bad_fit_arguments_name_themselves(samples, tmp_path):
     cap = samples / "clean"
     with pytest.raises(ValueError, match="effects: unknown effect `no_such_effect`"):
