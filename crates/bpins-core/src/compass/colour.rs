@@ -39,8 +39,10 @@
 //! prior holds each w_b, and a model share that misses the sky's moves every band the
 //! same way: that part of the data terms is shared, not independent, and the fusion
 //! averages it down as if it were not (docs/colour.md, docs/night.md "Twilight", for
-//! what it does measured). A colour frame allocates per frame (the band and fused
-//! lists), mixed or not; the monochrome compass's warm frame does not.
+//! what it does measured). `Compass::heading` of a warm colour compass allocates
+//! nothing, mixed or not (the bands' headings on the stack, fused in place:
+//! `tests/allocations.rs`), as the monochrome one does; `Compass::colour_headings`
+//! returns its lists (every extractor's band and fused headings), allocated per frame.
 
 use crate::heading::field::{FieldHeading, FieldQuality, SigmaParts};
 use crate::heading::Extractor;
@@ -57,25 +59,29 @@ pub struct ColourFix {
 }
 
 /// The fused heading of one extractor over its bands' headings `hs` (see the module).
+/// Allocates nothing where a band has a heading (the bands are walked in place).
 pub(crate) fn fuse(extractor: Extractor, hs: &[&FieldHeading]) -> FieldHeading {
     let quality = fused_quality(hs);
     // Every band is read about the same source.
     let source = hs.first().map_or_else(Default::default, |h| h.source);
-    let ok: Vec<(f64, SigmaParts)> = hs.iter().filter_map(|h| h.result.as_ref().ok().copied()).collect();
-    let Some(&(h_ref, _)) = ok.iter().min_by(|a, b| data_deg(&a.1).total_cmp(&data_deg(&b.1))) else {
+    // The bands with a heading, each with its weight w_b.
+    let ok = || {
+        hs.iter().filter_map(|h| h.result.as_ref().ok()).map(|&(h, p)| (h, p, 1.0 / data_deg(&p).max(1e-12).powi(2)))
+    };
+    let Some((h_ref, _, _)) = ok().min_by(|a, b| data_deg(&a.1).total_cmp(&data_deg(&b.1))) else {
         // No band has a heading: the reason of the band that kept the most sky.
         let best = hs.iter().max_by_key(|h| h.quality.cells_used).expect("a colour sensor has bands");
         return FieldHeading { extractor, result: best.result.clone(), quality, source, fitted_share: None };
     };
     let wrap = |x: f64| (x + 180.0).rem_euclid(360.0) - 180.0;
-    let w: Vec<f64> = ok.iter().map(|(_, p)| 1.0 / data_deg(p).max(1e-12).powi(2)).collect();
-    let sw: f64 = w.iter().sum();
-    let offset = ok.iter().zip(&w).map(|((h, _), w)| w * wrap(h - h_ref)).sum::<f64>() / sw;
+    let sw: f64 = ok().map(|(_, _, w)| w).sum();
+    let offset = ok().map(|(h, _, w)| w * wrap(h - h_ref)).sum::<f64>() / sw;
     let h = (h_ref + offset).rem_euclid(360.0);
-    let chi2: f64 = ok.iter().zip(&w).map(|((hb, _), w)| w * wrap(hb - h).powi(2)).sum();
-    let birge = if ok.len() > 1 { (chi2 / (ok.len() - 1) as f64).max(1.0) } else { 1.0 };
+    let chi2: f64 = ok().map(|(hb, _, w)| w * wrap(hb - h).powi(2)).sum();
+    let n = ok().count();
+    let birge = if n > 1 { (chi2 / (n - 1) as f64).max(1.0) } else { 1.0 };
     // A fully correlated part passes into the weighted mean with the same weights.
-    let shared = |f: fn(&SigmaParts) -> f64| ok.iter().zip(&w).map(|((_, p), w)| w * f(p)).sum::<f64>() / sw;
+    let shared = |f: fn(&SigmaParts) -> f64| ok().map(|(_, p, w)| w * f(&p)).sum::<f64>() / sw;
     let parts = SigmaParts {
         fit_deg: (birge / sw).sqrt(),
         jackknife_deg: 0.0,
@@ -110,11 +116,11 @@ fn data_deg(p: &SigmaParts) -> f64 {
 /// What the fused heading rests on: the bands' cells together, their fractions
 /// weighted by the cells each observed, the largest residual and misfit.
 fn fused_quality(hs: &[&FieldHeading]) -> FieldQuality {
-    let q: Vec<&FieldQuality> = hs.iter().map(|h| &h.quality).collect();
-    let sum = |f: fn(&FieldQuality) -> usize| q.iter().map(|x| f(x)).sum::<usize>();
+    let q = || hs.iter().map(|h| &h.quality);
+    let sum = |f: fn(&FieldQuality) -> usize| q().map(f).sum::<usize>();
     let (total, valid, used) = (sum(|x| x.cells_total), sum(|x| x.cells_valid), sum(|x| x.cells_used));
-    let cloud = q.iter().map(|x| x.cloud_fraction * x.cells_valid as f64).sum::<f64>() / (valid.max(1) as f64);
-    let max = |f: fn(&FieldQuality) -> f64| q.iter().map(|x| f(x)).filter(|x| x.is_finite()).fold(f64::NAN, f64::max);
+    let cloud = q().map(|x| x.cloud_fraction * x.cells_valid as f64).sum::<f64>() / (valid.max(1) as f64);
+    let max = |f: fn(&FieldQuality) -> f64| q().map(f).filter(|x| x.is_finite()).fold(f64::NAN, f64::max);
     FieldQuality {
         cells_total: total,
         cells_valid: valid,
@@ -122,7 +128,7 @@ fn fused_quality(hs: &[&FieldHeading]) -> FieldQuality {
         used_fraction: used as f64 / total.max(1) as f64,
         residual_rms_deg: max(|x| x.residual_rms_deg),
         misfit_deg: max(|x| x.misfit_deg),
-        iterations: q.iter().map(|x| x.iterations).max().unwrap_or(0),
+        iterations: q().map(|x| x.iterations).max().unwrap_or(0),
         cloud_fraction: cloud,
         sun_elevation_offset_deg: max(|x| x.sun_elevation_offset_deg.abs()),
     }

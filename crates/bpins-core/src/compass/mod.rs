@@ -63,7 +63,7 @@ use crate::effects::Model;
 use crate::heading::field::{self, Cells, FieldContext, FieldScratch};
 use crate::pixel_analyzers::CellAnalyzers;
 use crate::recon::Reconstructor;
-use crate::sensor::Channel;
+use crate::sensor::{Band, Channel, ColourTiles};
 #[cfg(feature = "spa")]
 use crate::sky::{moon::MOON_POSITION_SIGMA_DEG, Refusal, SunAndMoon};
 use inputs::{check_attitude, check_sun};
@@ -79,9 +79,12 @@ struct Colocated {
 }
 
 /// Live frames in, headings out: build once, then one call per frame (the module's
-/// example shows a whole frame). Holds its buffers between frames, so a warm
-/// monochrome compass allocates nothing per frame, its sun given by angles or by clock
-/// and place (`tests/allocations.rs`); one compass per camera and thread (it is `Send`).
+/// example shows a whole frame). Holds its buffers between frames, so a warm compass
+/// (monochrome or colour) allocates nothing in [`Compass::heading`], its sun given by
+/// angles or by clock and place, when its loop runs on a rayon pool's worker
+/// (`pool.install(|| loop { .. })`); called from another thread, rayon's global job
+/// queue allocates a 1.5 KB block per 63 parallel steps, a few per hundred frames
+/// (`tests/allocations.rs`). One compass per camera and thread (it is `Send`).
 ///
 /// ```
 /// # use bpins_core::camera::{Intrinsics, Projection};
@@ -218,7 +221,7 @@ impl Compass {
         let ctx = field_context(self.intr, &self.known, sun.angles, &attitude);
         let mut h = if self.cfg.colour.is_some() {
             // Band by band, with both sources in a mixed twilight (`colour.rs`).
-            self.bands(&frame, &ctx, &[self.cfg.extractor], sun.second.as_ref()).fused.remove(0)
+            self.band_heading(&frame, &ctx, sun.second.as_ref())
         } else if let Some(second) = &sun.second {
             // A mixed twilight: read with both sources on the compass's buffers (no
             // allocation once warm).
@@ -310,8 +313,58 @@ impl Compass {
         extractors: &[Extractor],
         second: Option<&SecondSource>,
     ) -> ColourFix {
-        let colour = self.cfg.colour.clone().expect("a colour compass");
+        let colour = self.fill_bands(frame);
+        let mut bands = Vec::new();
         for b in colour.bands() {
+            let cells = &mut self.band_cells[b.index()];
+            let (opts, scratch) = (&self.cfg.options, &mut self.scratch);
+            let hs = match second {
+                Some(s) => field::estimate_two(cells, ctx, s, opts, extractors, scratch),
+                None => field::estimate_many_with(cells, ctx, opts, extractors, scratch),
+            };
+            bands.push((b, hs));
+        }
+        let fused = (0..extractors.len()).map(|i| colour::fuse_bands(extractors[i], &bands, i)).collect();
+        ColourFix { bands, fused }
+    }
+
+    /// [`Compass::bands`]' fused heading of the compass's one extractor, without a list:
+    /// each band's heading on the stack (R, G, B by `Band::index`), fused in place, the
+    /// green band's fitted share where the fused reading has a heading (`fuse_bands`).
+    /// The same numbers, bit for bit; nothing allocated once warm (`Compass::heading`).
+    fn band_heading<T: RawDn>(
+        &mut self,
+        frame: &RawImage<T>,
+        ctx: &FieldContext,
+        second: Option<&SecondSource>,
+    ) -> FieldHeading {
+        let colour = self.fill_bands(frame);
+        let extractor = self.cfg.extractor;
+        let mut hs: [Option<FieldHeading>; 3] = [None, None, None];
+        for b in Band::ALL.into_iter().filter(|&b| colour.tiles.iter().flatten().any(|&t| t == b)) {
+            let cells = &mut self.band_cells[b.index()];
+            let (opts, scratch) = (&self.cfg.options, &mut self.scratch);
+            hs[b.index()] = Some(match second {
+                Some(s) => field::estimate_two_with(cells, ctx, s, opts, extractor, scratch),
+                None => field::estimate_with(cells, ctx, opts, extractor, scratch),
+            });
+        }
+        let present = hs.iter().flatten();
+        let first = present.clone().next().expect("a colour sensor has bands");
+        let mut refs = [first; 3];
+        let n = present.zip(refs.iter_mut()).map(|(h, r)| *r = h).count();
+        let mut fused = colour::fuse(extractor, &refs[..n]);
+        if fused.result.is_ok() {
+            fused.fitted_share = hs[Band::G.index()].as_ref().and_then(|h| h.fitted_share);
+        }
+        fused
+    }
+
+    /// Each band's cells of `frame` from its own pixels, every band's cloud tests given
+    /// the frame's red-to-blue ratio; the sensor's colour tiles.
+    fn fill_bands<T: RawDn>(&mut self, frame: &RawImage<T>) -> ColourTiles {
+        let colour = self.cfg.colour.clone().expect("a colour compass");
+        for b in Band::ALL.into_iter().filter(|&b| colour.tiles.iter().flatten().any(|&t| t == b)) {
             let (cells, classes) = (&mut self.band_cells[b.index()], colour.classes(b));
             match &self.band_analyzers[b.index()] {
                 Some(cal) => cells.fill_from_mosaic_band_calibrated(
@@ -336,19 +389,10 @@ impl Compass {
         // Every band's cloud tests see the frame's red-to-blue ratio (white clouds).
         let [r, _, bl] = &self.band_cells;
         Cells::tint_of(r, bl, &mut self.tint);
-        let mut bands = Vec::new();
-        for b in colour.bands() {
-            let cells = &mut self.band_cells[b.index()];
+        for cells in &mut self.band_cells {
             cells.tint.clone_from(&self.tint);
-            let (opts, scratch) = (&self.cfg.options, &mut self.scratch);
-            let hs = match second {
-                Some(s) => field::estimate_two(cells, ctx, s, opts, extractors, scratch),
-                None => field::estimate_many_with(cells, ctx, opts, extractors, scratch),
-            };
-            bands.push((b, hs));
         }
-        let fused = (0..extractors.len()).map(|i| colour::fuse_bands(extractors[i], &bands, i)).collect();
-        ColourFix { bands, fused }
+        colour
     }
 
     /// Whether `frame` is a buffer of the sensor's size: refused with its sizes if not.

@@ -404,8 +404,15 @@ fn a_colour_mixed_twilight_is_read_band_by_band_with_both_sources() {
         }
         let green = &fix.bands.iter().find(|(b, _)| *b == Band::G).unwrap().1[0];
         assert_eq!(fused.fitted_share, green.fitted_share);
-        // `heading` reads the same fused heading.
+        // `heading` reads the same fused heading, every field of it bit for bit (its
+        // bands on the stack, `Compass::band_heading`).
         let one = c.heading(RawImage::packed(&raw, w, w), clock, Attitude::default()).unwrap();
         assert_eq!(one.heading_deg(), Some(h));
+        assert_eq!(format!("{one:?}"), format!("{fused:?}"));
+        // So does a frame given by its sun's angles alone (one source, no twilight).
+        let sun = Sun::Angles { azimuth_deg: 250.0, elevation_deg: 30.0, sigma_deg: 0.1 };
+        let fix = c.colour_headings(RawImage::packed(&raw, w, w), sun, Attitude::default(), &[Extractor::SunVector]);
+        let one = c.heading(RawImage::packed(&raw, w, w), sun, Attitude::default()).unwrap();
+        assert_eq!(format!("{one:?}"), format!("{:?}", fix.unwrap().fused[0]));
     }
 }
