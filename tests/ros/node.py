@@ -139,6 +139,17 @@ def play(a):
             pubs[topic] = ROS2Publisher(topic, typ, **kw)
         return pubs[topic]
 
+    def routed(p, within_s):
+        """Whether the router routes publisher `p` to a subscriber within `within_s`
+        seconds: a message published before the node's subscription has reached the
+        router is lost, as in ROS 2 (Zenoh's matching status)."""
+        deadline = time.time() + within_s
+        while time.time() < deadline:
+            if p.pub is not None and p.pub.matching_status.matching:
+                return True
+            time.sleep(0.1)
+        return False
+
     def answers():
         return sum(1 for e in got if e["topic"] == "/bpins/heading"
                    or e.get("name") == "bpins heading")
@@ -196,6 +207,11 @@ def play(a):
                     time.sleep(0.2)
                 else:
                     sys.exit("the node or the SDK did not come back to the new router within 30 s")
+                # The tokens are back before the routes may be: the next image waits
+                # for the node's subscription on the new router (under load it came
+                # later than a fixed second, and the image was lost).
+                if not routed(image_pub, 30):
+                    sys.exit("the node's image subscription did not reach the new router within 30 s")
                 time.sleep(1.0)
     time.sleep(0.5)
     with lock:
