@@ -19,6 +19,12 @@
 //! the resident set from /proc/self/statm (Linux; "n/a" elsewhere). The resident set
 //! also holds the histogram's pages as far as the slowest frame reached (10 µs bins
 //! of 8 bytes: 0.8 MB per second of the worst latency); the heap is exact.
+//!
+//! The loop runs on a worker of a rayon pool of its own (`ThreadPool::install`), as a
+//! robot's loop that wants no allocation per frame does (docs/rust.md). With
+//! `--outside-pool` it runs on the main thread instead: each parallel step of a frame
+//! then goes through rayon's global job queue, whose crossbeam `Injector` allocates a
+//! 1520-byte block per 63 jobs (counted among the compass's allocations).
 
 use bpins_core::camera::{Intrinsics, Projection};
 use bpins_core::compass::{Attitude, Compass, CompassConfig, Sun};
@@ -101,6 +107,7 @@ impl Histogram {
 }
 
 struct Args {
+    outside_pool: bool,
     seconds: f64,
     rate_hz: f64,
     report_s: f64,
@@ -109,7 +116,8 @@ struct Args {
 }
 
 fn args() -> Result<Args, String> {
-    let mut a = Args { seconds: 60.0, rate_hz: 30.0, report_s: 60.0, width_px: 612, height_px: 512 };
+    let mut a =
+        Args { outside_pool: false, seconds: 60.0, rate_hz: 30.0, report_s: 60.0, width_px: 612, height_px: 512 };
     let mut it = std::env::args().skip(1);
     while let Some(k) = it.next() {
         let mut num = |name: &str| -> Result<f64, String> {
@@ -121,7 +129,12 @@ fn args() -> Result<Args, String> {
             "--rate-hz" => a.rate_hz = num("--rate-hz")?,
             "--report-s" => a.report_s = num("--report-s")?,
             "--full-size" => (a.width_px, a.height_px) = (2448, 2048),
-            _ => return Err(format!("unknown argument {k} (--seconds S, --rate-hz R, --report-s S, --full-size)")),
+            "--outside-pool" => a.outside_pool = true,
+            _ => {
+                return Err(format!(
+                    "unknown argument {k} (--seconds S, --rate-hz R, --report-s S, --full-size, --outside-pool)"
+                ))
+            }
         }
     }
     Ok(a)
@@ -142,7 +155,7 @@ fn heap_mb() -> f64 {
     HEAP_BYTES.load(Relaxed) as f64 / 1e6
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() -> Result<(), Error> {
     let a = args()?;
     let (w, h) = (a.width_px, a.height_px);
     let scale = w as f64 / 612.0;
@@ -169,10 +182,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             (raw, Attitude { tilt_x_deg: tx + imu.0, tilt_y_deg: ty + imu.1, sigma_deg: 0.1 }, heading)
         })
         .collect();
+    if a.outside_pool {
+        return soak(&a, &pool, lens);
+    }
+    eprintln!("the loop on a rayon pool's worker (--outside-pool: on the main thread)");
+    rayon::ThreadPoolBuilder::new().build()?.install(|| soak(&a, &pool, lens))
+}
+
+type Error = Box<dyn std::error::Error + Send + Sync>;
+
+/// The warm-up and the timed loop over `pool` (frame, attitude, true heading).
+fn soak(a: &Args, pool: &[(Vec<u16>, Attitude, f64)], lens: Intrinsics) -> Result<(), Error> {
+    let (w, h) = (a.width_px, a.height_px);
     let sun = Sun::Angles { azimuth_deg: 40.0, elevation_deg: 25.0, sigma_deg: 0.0 };
     let mut compass = Compass::new(CompassConfig::dofp(lens, w, h, 12, 64.0))?;
     // Warm-up: the compass sizes its buffers on the first frames.
-    for (raw, att, _) in &pool {
+    for (raw, att, _) in pool {
         compass.heading(RawImage::packed(raw, w, h), sun, *att)?;
     }
     let (mut all, mut window) = (Histogram::new(), Histogram::new());
