@@ -120,7 +120,12 @@ impl ColourTiles {
 
     /// The bands the superpixel holds, in R, G, B order.
     pub fn bands(&self) -> Vec<Band> {
-        Band::ALL.into_iter().filter(|b| self.tiles.iter().flatten().any(|t| t == b)).collect()
+        Band::ALL.into_iter().filter(|&b| self.has(b)).collect()
+    }
+
+    /// Whether band `b` lies over any tile of the superpixel (allocates nothing).
+    pub fn has(&self, b: Band) -> bool {
+        self.tiles.iter().flatten().any(|&t| t == b)
     }
 
     /// Which tiles of the superpixel band `b` covers, by tile row and column.

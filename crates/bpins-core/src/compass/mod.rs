@@ -341,7 +341,7 @@ impl Compass {
         let colour = self.fill_bands(frame);
         let extractor = self.cfg.extractor;
         let mut hs: [Option<FieldHeading>; 3] = [None, None, None];
-        for b in Band::ALL.into_iter().filter(|&b| colour.tiles.iter().flatten().any(|&t| t == b)) {
+        for b in Band::ALL.into_iter().filter(|&b| colour.has(b)) {
             let cells = &mut self.band_cells[b.index()];
             let (opts, scratch) = (&self.cfg.options, &mut self.scratch);
             hs[b.index()] = Some(match second {
@@ -364,7 +364,7 @@ impl Compass {
     /// the frame's red-to-blue ratio; the sensor's colour tiles.
     fn fill_bands<T: RawDn>(&mut self, frame: &RawImage<T>) -> ColourTiles {
         let colour = self.cfg.colour.clone().expect("a colour compass");
-        for b in Band::ALL.into_iter().filter(|&b| colour.tiles.iter().flatten().any(|&t| t == b)) {
+        for b in Band::ALL.into_iter().filter(|&b| colour.has(b)) {
             let (cells, classes) = (&mut self.band_cells[b.index()], colour.classes(b));
             match &self.band_analyzers[b.index()] {
                 Some(cal) => cells.fill_from_mosaic_band_calibrated(
